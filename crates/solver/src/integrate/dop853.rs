@@ -1,0 +1,1561 @@
+//! Dormand–Prince 8(5,3): the explicit Runge–Kutta method of Hairer, Nørsett & Wanner's `DOP853`.
+//!
+//! Twelve stages per attempted step (the first reused from the previous step, FSAL), an
+//! 8th-order solution, a combined 5th/3rd-order error estimate, the PI step-size controller with
+//! Hairer's defaults, and the 7th-order continuous extension (`CONTD8`), which costs three more
+//! right-hand-side evaluations per accepted step. The coefficients are those of `dop853.f`
+//! (identical to scipy's `dop853_coefficients.py`).
+//!
+//! DOP853 treats the `[x, v, q]` state as one plain first-order vector.
+
+// The coefficients are kept with all the digits Hairer published, more than an f64 holds.
+#![allow(clippy::excessive_precision)]
+// The stage kernels combine up to a dozen equal-length slices element by element; index loops
+// over slices re-sliced to a common length read more clearly than nested zips and let LLVM drop
+// the bounds checks.
+#![allow(clippy::needless_range_loop)]
+
+use super::{
+    all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
+    StepObserver,
+};
+
+/// Adaptive Dormand–Prince 8(5,3) integrator with 7th-order dense output (Hairer's `DOP853`).
+///
+/// The error of each step is measured component-wise against
+/// `atol_i + rtol * max(|y_old|, |y_new|)`, where `atol_i = atol * atol_scale[i]` (or `atol` without
+/// scales), and combined into an RMS norm; a step is accepted when that norm is at most one.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Dop853 {
+    /// Relative tolerance (must be positive).
+    pub rtol: f64,
+    /// Absolute tolerance (must be non-negative), multiplied by `atol_scale[i]` when scales are
+    /// given. A component whose absolute tolerance is zero and that is exactly zero at both ends
+    /// of a step is left out of the error norm.
+    pub atol: f64,
+    /// Optional per-component scales of the absolute tolerance (length `2 n_pos + n_quad`, each
+    /// finite and non-negative): component `i` gets the absolute tolerance `atol * atol_scale[i]`,
+    /// so `atol` can be given relative to the natural scale of each quantity.
+    pub atol_scale: Option<Vec<f64>>,
+    /// First step size to try. `None` uses Hairer's starting-step heuristic (one extra
+    /// right-hand-side evaluation). A given value is capped at `h_max`.
+    pub h_init: Option<f64>,
+    /// Largest step size. `None` means the whole interval `t_end - t0`. The last step may stretch
+    /// up to 1 % beyond it so as to land exactly on `t_end` (Hairer's rule).
+    pub h_max: Option<f64>,
+}
+
+impl Dop853 {
+    /// Integrator with the given tolerances, the automatic first step and no step-size cap.
+    pub fn new(rtol: f64, atol: f64) -> Self {
+        Dop853 {
+            rtol,
+            atol,
+            atol_scale: None,
+            h_init: None,
+            h_max: None,
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Coefficients (Hairer, dop853.f). Stage k_j is evaluated at t + C_j h.
+// ---------------------------------------------------------------------------------------------
+
+const C2: f64 = 0.526001519587677318785587544488e-01;
+const C3: f64 = 0.789002279381515978178381316732e-01;
+const C4: f64 = 0.118350341907227396726757197510e+00;
+const C5: f64 = 0.281649658092772603273242802490e+00;
+const C6: f64 = 0.333333333333333333333333333333e+00;
+const C7: f64 = 0.25e+00;
+const C8: f64 = 0.307692307692307692307692307692e+00;
+const C9: f64 = 0.651282051282051282051282051282e+00;
+const C10: f64 = 0.6e+00;
+const C11: f64 = 0.857142857142857142857142857142e+00;
+const C14: f64 = 0.1e+00;
+const C15: f64 = 0.2e+00;
+const C16: f64 = 0.777777777777777777777777777778e+00;
+
+const B1: f64 = 5.42937341165687622380535766363e-2;
+const B6: f64 = 4.45031289275240888144113950566e0;
+const B7: f64 = 1.89151789931450038304281599044e0;
+const B8: f64 = -5.8012039600105847814672114227e0;
+const B9: f64 = 3.1116436695781989440891606237e-1;
+const B10: f64 = -1.52160949662516078556178806805e-1;
+const B11: f64 = 2.01365400804030348374776537501e-1;
+const B12: f64 = 4.47106157277725905176885569043e-2;
+
+const BHH1: f64 = 0.244094488188976377952755905512e+00;
+const BHH2: f64 = 0.733846688281611857341361741547e+00;
+const BHH3: f64 = 0.220588235294117647058823529412e-01;
+
+const ER1: f64 = 0.1312004499419488073250102996e-01;
+const ER6: f64 = -0.1225156446376204440720569753e+01;
+const ER7: f64 = -0.4957589496572501915214079952e+00;
+const ER8: f64 = 0.1664377182454986536961530415e+01;
+const ER9: f64 = -0.3503288487499736816886487290e+00;
+const ER10: f64 = 0.3341791187130174790297318841e+00;
+const ER11: f64 = 0.8192320648511571246570742613e-01;
+const ER12: f64 = -0.2235530786388629525884427845e-01;
+
+const A21: f64 = 5.26001519587677318785587544488e-2;
+const A31: f64 = 1.97250569845378994544595329183e-2;
+const A32: f64 = 5.91751709536136983633785987549e-2;
+const A41: f64 = 2.95875854768068491816892993775e-2;
+const A43: f64 = 8.87627564304205475450678981324e-2;
+const A51: f64 = 2.41365134159266685502369798665e-1;
+const A53: f64 = -8.84549479328286085344864962717e-1;
+const A54: f64 = 9.24834003261792003115737966543e-1;
+const A61: f64 = 3.7037037037037037037037037037e-2;
+const A64: f64 = 1.70828608729473871279604482173e-1;
+const A65: f64 = 1.25467687566822425016691814123e-1;
+const A71: f64 = 3.7109375e-2;
+const A74: f64 = 1.70252211019544039314978060272e-1;
+const A75: f64 = 6.02165389804559606850219397283e-2;
+const A76: f64 = -1.7578125e-2;
+const A81: f64 = 3.70920001185047927108779319836e-2;
+const A84: f64 = 1.70383925712239993810214054705e-1;
+const A85: f64 = 1.07262030446373284651809199168e-1;
+const A86: f64 = -1.53194377486244017527936158236e-2;
+const A87: f64 = 8.27378916381402288758473766002e-3;
+const A91: f64 = 6.24110958716075717114429577812e-1;
+const A94: f64 = -3.36089262944694129406857109825e0;
+const A95: f64 = -8.68219346841726006818189891453e-1;
+const A96: f64 = 2.75920996994467083049415600797e1;
+const A97: f64 = 2.01540675504778934086186788979e1;
+const A98: f64 = -4.34898841810699588477366255144e1;
+const A101: f64 = 4.77662536438264365890433908527e-1;
+const A104: f64 = -2.48811461997166764192642586468e0;
+const A105: f64 = -5.90290826836842996371446475743e-1;
+const A106: f64 = 2.12300514481811942347288949897e1;
+const A107: f64 = 1.52792336328824235832596922938e1;
+const A108: f64 = -3.32882109689848629194453265587e1;
+const A109: f64 = -2.03312017085086261358222928593e-2;
+const A111: f64 = -9.3714243008598732571704021658e-1;
+const A114: f64 = 5.18637242884406370830023853209e0;
+const A115: f64 = 1.09143734899672957818500254654e0;
+const A116: f64 = -8.14978701074692612513997267357e0;
+const A117: f64 = -1.85200656599969598641566180701e1;
+const A118: f64 = 2.27394870993505042818970056734e1;
+const A119: f64 = 2.49360555267965238987089396762e0;
+const A1110: f64 = -3.0467644718982195003823669022e0;
+const A121: f64 = 2.27331014751653820792359768449e0;
+const A124: f64 = -1.05344954667372501984066689879e1;
+const A125: f64 = -2.00087205822486249909675718444e0;
+const A126: f64 = -1.79589318631187989172765950534e1;
+const A127: f64 = 2.79488845294199600508499808837e1;
+const A128: f64 = -2.85899827713502369474065508674e0;
+const A129: f64 = -8.87285693353062954433549289258e0;
+const A1210: f64 = 1.23605671757943030647266201528e1;
+const A1211: f64 = 6.43392746015763530355970484046e-1;
+
+const A141: f64 = 5.61675022830479523392909219681e-2;
+const A147: f64 = 2.53500210216624811088794765333e-1;
+const A148: f64 = -2.46239037470802489917441475441e-1;
+const A149: f64 = -1.24191423263816360469010140626e-1;
+const A1410: f64 = 1.5329179827876569731206322685e-1;
+const A1411: f64 = 8.20105229563468988491666602057e-3;
+const A1412: f64 = 7.56789766054569976138603589584e-3;
+const A1413: f64 = -8.298e-3;
+
+const A151: f64 = 3.18346481635021405060768473261e-2;
+const A156: f64 = 2.83009096723667755288322961402e-2;
+const A157: f64 = 5.35419883074385676223797384372e-2;
+const A158: f64 = -5.49237485713909884646569340306e-2;
+const A1511: f64 = -1.08347328697249322858509316994e-4;
+const A1512: f64 = 3.82571090835658412954920192323e-4;
+const A1513: f64 = -3.40465008687404560802977114492e-4;
+const A1514: f64 = 1.41312443674632500278074618366e-1;
+
+const A161: f64 = -4.28896301583791923408573538692e-1;
+const A166: f64 = -4.69762141536116384314449447206e0;
+const A167: f64 = 7.68342119606259904184240953878e0;
+const A168: f64 = 4.06898981839711007970213554331e0;
+const A169: f64 = 3.56727187455281109270669543021e-1;
+const A1613: f64 = -1.39902416515901462129418009734e-3;
+const A1614: f64 = 2.9475147891527723389556272149e0;
+const A1615: f64 = -9.15095847217987001081870187138e0;
+
+const D41: f64 = -0.84289382761090128651353491142e+01;
+const D46: f64 = 0.56671495351937776962531783590e+00;
+const D47: f64 = -0.30689499459498916912797304727e+01;
+const D48: f64 = 0.23846676565120698287728149680e+01;
+const D49: f64 = 0.21170345824450282767155149946e+01;
+const D410: f64 = -0.87139158377797299206789907490e+00;
+const D411: f64 = 0.22404374302607882758541771650e+01;
+const D412: f64 = 0.63157877876946881815570249290e+00;
+const D413: f64 = -0.88990336451333310820698117400e-01;
+const D414: f64 = 0.18148505520854727256656404962e+02;
+const D415: f64 = -0.91946323924783554000451984436e+01;
+const D416: f64 = -0.44360363875948939664310572000e+01;
+
+const D51: f64 = 0.10427508642579134603413151009e+02;
+const D56: f64 = 0.24228349177525818288430175319e+03;
+const D57: f64 = 0.16520045171727028198505394887e+03;
+const D58: f64 = -0.37454675472269020279518312152e+03;
+const D59: f64 = -0.22113666853125306036270938578e+02;
+const D510: f64 = 0.77334326684722638389603898808e+01;
+const D511: f64 = -0.30674084731089398182061213626e+02;
+const D512: f64 = -0.93321305264302278729567221706e+01;
+const D513: f64 = 0.15697238121770843886131091075e+02;
+const D514: f64 = -0.31139403219565177677282850411e+02;
+const D515: f64 = -0.93529243588444783865713862664e+01;
+const D516: f64 = 0.35816841486394083752465898540e+02;
+
+const D61: f64 = 0.19985053242002433820987653617e+02;
+const D66: f64 = -0.38703730874935176555105901742e+03;
+const D67: f64 = -0.18917813819516756882830838328e+03;
+const D68: f64 = 0.52780815920542364900561016686e+03;
+const D69: f64 = -0.11573902539959630126141871134e+02;
+const D610: f64 = 0.68812326946963000169666922661e+01;
+const D611: f64 = -0.10006050966910838403183860980e+01;
+const D612: f64 = 0.77771377980534432092869265740e+00;
+const D613: f64 = -0.27782057523535084065932004339e+01;
+const D614: f64 = -0.60196695231264120758267380846e+02;
+const D615: f64 = 0.84320405506677161018159903784e+02;
+const D616: f64 = 0.11992291136182789328035130030e+02;
+
+const D71: f64 = -0.25693933462703749003312586129e+02;
+const D76: f64 = -0.15418974869023643374053993627e+03;
+const D77: f64 = -0.23152937917604549567536039109e+03;
+const D78: f64 = 0.35763911791061412378285349910e+03;
+const D79: f64 = 0.93405324183624310003907691704e+02;
+const D710: f64 = -0.37458323136451633156875139351e+02;
+const D711: f64 = 0.10409964950896230045147246184e+03;
+const D712: f64 = 0.29840293426660503123344363579e+02;
+const D713: f64 = -0.43533456590011143754432175058e+02;
+const D714: f64 = 0.96324553959188282948394950600e+02;
+const D715: f64 = -0.39177261675615439165231486172e+02;
+const D716: f64 = -0.14972683625798562581422125276e+03;
+
+// ---------------------------------------------------------------------------------------------
+// Step-size control (Hairer's defaults for DOP853).
+// ---------------------------------------------------------------------------------------------
+
+/// Safety factor.
+const SAFE: f64 = 0.9;
+/// `1 / fac1`: the step shrinks at most by `fac1 = 0.333` per step.
+const FACC1: f64 = 1.0 / 0.333;
+/// `1 / fac2`: the step grows at most by `fac2 = 6` per step.
+const FACC2: f64 = 1.0 / 6.0;
+/// Lund stabilisation exponent (Hairer's default for DOP853 is 0: plain I controller).
+const BETA: f64 = 0.0;
+/// Exponent of the error in the step-size formula.
+const EXPO1: f64 = 1.0 / 8.0 - BETA * 0.2;
+/// Consecutive step failures with NaN/inf (each shrinking the step tenfold) before giving up.
+const MAX_NONFINITE_RETRIES: u32 = 6;
+
+// ---------------------------------------------------------------------------------------------
+// Work space.
+// ---------------------------------------------------------------------------------------------
+
+/// Every vector the step loop touches, allocated once per run.
+struct Work {
+    /// State at the start of the current step.
+    y: Vec<f64>,
+    /// 8th-order solution at the end of the current step.
+    y_new: Vec<f64>,
+    /// Argument of the stage being evaluated.
+    ys: Vec<f64>,
+    k1: Vec<f64>,
+    /// Stage 2; reused for dense stage 14 after the step is accepted.
+    k2: Vec<f64>,
+    /// Stage 3; reused for dense stage 15.
+    k3: Vec<f64>,
+    /// Stage 4; reused for dense stage 16.
+    k4: Vec<f64>,
+    k5: Vec<f64>,
+    k6: Vec<f64>,
+    k7: Vec<f64>,
+    k8: Vec<f64>,
+    k9: Vec<f64>,
+    k10: Vec<f64>,
+    k11: Vec<f64>,
+    k12: Vec<f64>,
+    /// `f(t + h, y_new)`: stage 13, which becomes stage 1 of the next step (FSAL).
+    k13: Vec<f64>,
+    /// Dense-output coefficients, interleaved: component `i` owns `cont[8 i .. 8 i + 8]`.
+    cont: Vec<f64>,
+    /// Absolute tolerance of every component.
+    atol: Vec<f64>,
+}
+
+impl Work {
+    fn new(y0: &[f64], atol: Vec<f64>) -> Self {
+        let n = y0.len();
+        debug_assert_eq!(atol.len(), n);
+        let z = || vec![0.0; n];
+        Work {
+            y: y0.to_vec(),
+            y_new: z(),
+            ys: z(),
+            k1: z(),
+            k2: z(),
+            k3: z(),
+            k4: z(),
+            k5: z(),
+            k6: z(),
+            k7: z(),
+            k8: z(),
+            k9: z(),
+            k10: z(),
+            k11: z(),
+            k12: z(),
+            k13: z(),
+            cont: vec![0.0; 8 * n],
+            atol,
+        }
+    }
+
+    /// Stages 2 to 12 of a step of size `h` from `(t, y)` (stage 1 is `k1`), the 8th-order
+    /// solution into `y_new`, and Hairer's combined 5th/3rd-order error norm. `t_new` is the end
+    /// of the step (`t + h`, or exactly `t_end` for the last step). Exactly 11 right-hand-side
+    /// evaluations. Returns `(err, y_new is finite)`.
+    fn attempt(
+        &mut self,
+        sys: &mut dyn OdeSystemDyn,
+        t: f64,
+        h: f64,
+        t_new: f64,
+        rtol: f64,
+    ) -> (f64, bool) {
+        let n = self.y.len();
+        let Work {
+            y,
+            y_new,
+            ys,
+            k1,
+            k2,
+            k3,
+            k4,
+            k5,
+            k6,
+            k7,
+            k8,
+            k9,
+            k10,
+            k11,
+            k12,
+            atol,
+            ..
+        } = self;
+        let y = &y[..n];
+        let atol = &atol[..n];
+        let k1 = &k1[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i] + h * (A21 * k1[i]);
+            }
+        }
+        sys.rhs(t + C2 * h, ys, k2);
+        let k2 = &k2[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
+            }
+        }
+        sys.rhs(t + C3 * h, ys, k3);
+        let k3 = &k3[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i] + h * (A41 * k1[i] + A43 * k3[i]);
+            }
+        }
+        sys.rhs(t + C4 * h, ys, k4);
+        let k4 = &k4[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i] + h * (A51 * k1[i] + A53 * k3[i] + A54 * k4[i]);
+            }
+        }
+        sys.rhs(t + C5 * h, ys, k5);
+        let k5 = &k5[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i] + h * (A61 * k1[i] + A64 * k4[i] + A65 * k5[i]);
+            }
+        }
+        sys.rhs(t + C6 * h, ys, k6);
+        let k6 = &k6[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i] + h * (A71 * k1[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+            }
+        }
+        sys.rhs(t + C7 * h, ys, k7);
+        let k7 = &k7[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A81 * k1[i] + A84 * k4[i] + A85 * k5[i] + A86 * k6[i] + A87 * k7[i]);
+            }
+        }
+        sys.rhs(t + C8 * h, ys, k8);
+        let k8 = &k8[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A91 * k1[i]
+                        + A94 * k4[i]
+                        + A95 * k5[i]
+                        + A96 * k6[i]
+                        + A97 * k7[i]
+                        + A98 * k8[i]);
+            }
+        }
+        sys.rhs(t + C9 * h, ys, k9);
+        let k9 = &k9[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A101 * k1[i]
+                        + A104 * k4[i]
+                        + A105 * k5[i]
+                        + A106 * k6[i]
+                        + A107 * k7[i]
+                        + A108 * k8[i]
+                        + A109 * k9[i]);
+            }
+        }
+        sys.rhs(t + C10 * h, ys, k10);
+        let k10 = &k10[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A111 * k1[i]
+                        + A114 * k4[i]
+                        + A115 * k5[i]
+                        + A116 * k6[i]
+                        + A117 * k7[i]
+                        + A118 * k8[i]
+                        + A119 * k9[i]
+                        + A1110 * k10[i]);
+            }
+        }
+        sys.rhs(t + C11 * h, ys, k11);
+        let k11 = &k11[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A121 * k1[i]
+                        + A124 * k4[i]
+                        + A125 * k5[i]
+                        + A126 * k6[i]
+                        + A127 * k7[i]
+                        + A128 * k8[i]
+                        + A129 * k9[i]
+                        + A1210 * k10[i]
+                        + A1211 * k11[i]);
+            }
+        }
+        sys.rhs(t_new, ys, k12);
+        let k12 = &k12[..n];
+
+        // 8th-order solution and the two error estimates in one pass.
+        let y_new = &mut y_new[..n];
+        let mut err5 = 0.0;
+        let mut err3 = 0.0;
+        let mut finite = true;
+        for i in 0..n {
+            let bk = B1 * k1[i]
+                + B6 * k6[i]
+                + B7 * k7[i]
+                + B8 * k8[i]
+                + B9 * k9[i]
+                + B10 * k10[i]
+                + B11 * k11[i]
+                + B12 * k12[i];
+            let yn = y[i] + h * bk;
+            y_new[i] = yn;
+            finite &= yn.is_finite();
+            let sk = atol[i] + rtol * y[i].abs().max(yn.abs());
+            if sk > 0.0 {
+                let inv = 1.0 / sk;
+                let e3 = (bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i]) * inv;
+                let e5 = (ER1 * k1[i]
+                    + ER6 * k6[i]
+                    + ER7 * k7[i]
+                    + ER8 * k8[i]
+                    + ER9 * k9[i]
+                    + ER10 * k10[i]
+                    + ER11 * k11[i]
+                    + ER12 * k12[i])
+                    * inv;
+                err3 += e3 * e3;
+                err5 += e5 * e5;
+            }
+        }
+        let mut deno = err5 + 0.01 * err3;
+        if deno <= 0.0 {
+            deno = 1.0;
+        }
+        let err = h.abs() * err5 * (1.0 / (n as f64 * deno)).sqrt();
+        (err, finite)
+    }
+
+    /// After a step has passed the error test: `k13 = f(t_new, y_new)` (the next step's first
+    /// stage), dense stages 14–16, and the eight dense-output coefficients of every component.
+    /// Exactly 4 right-hand-side evaluations. Returns whether all coefficients are finite.
+    fn prepare_dense(&mut self, sys: &mut dyn OdeSystemDyn, t: f64, h: f64, t_new: f64) -> bool {
+        let n = self.y.len();
+        let Work {
+            y,
+            y_new,
+            ys,
+            k1,
+            k2: k14,
+            k3: k15,
+            k4: k16,
+            k6,
+            k7,
+            k8,
+            k9,
+            k10,
+            k11,
+            k12,
+            k13,
+            cont,
+            ..
+        } = self;
+        let y = &y[..n];
+        let y_new = &y_new[..n];
+        let k1 = &k1[..n];
+        let k6 = &k6[..n];
+        let k7 = &k7[..n];
+        let k8 = &k8[..n];
+        let k9 = &k9[..n];
+        let k10 = &k10[..n];
+        let k11 = &k11[..n];
+        let k12 = &k12[..n];
+
+        sys.rhs(t_new, y_new, k13);
+        let k13 = &k13[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A141 * k1[i]
+                        + A147 * k7[i]
+                        + A148 * k8[i]
+                        + A149 * k9[i]
+                        + A1410 * k10[i]
+                        + A1411 * k11[i]
+                        + A1412 * k12[i]
+                        + A1413 * k13[i]);
+            }
+        }
+        sys.rhs(t + C14 * h, ys, k14);
+        let k14 = &k14[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A151 * k1[i]
+                        + A156 * k6[i]
+                        + A157 * k7[i]
+                        + A158 * k8[i]
+                        + A1511 * k11[i]
+                        + A1512 * k12[i]
+                        + A1513 * k13[i]
+                        + A1514 * k14[i]);
+            }
+        }
+        sys.rhs(t + C15 * h, ys, k15);
+        let k15 = &k15[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = y[i]
+                    + h * (A161 * k1[i]
+                        + A166 * k6[i]
+                        + A167 * k7[i]
+                        + A168 * k8[i]
+                        + A169 * k9[i]
+                        + A1613 * k13[i]
+                        + A1614 * k14[i]
+                        + A1615 * k15[i]);
+            }
+        }
+        sys.rhs(t + C16 * h, ys, k16);
+        let k16 = &k16[..n];
+
+        let mut finite = true;
+        for (i, c) in cont.chunks_exact_mut(8).take(n).enumerate() {
+            let ydiff = y_new[i] - y[i];
+            let bspl = h * k1[i] - ydiff;
+            c[0] = y[i];
+            c[1] = ydiff;
+            c[2] = bspl;
+            c[3] = ydiff - h * k13[i] - bspl;
+            c[4] = h
+                * (D41 * k1[i]
+                    + D46 * k6[i]
+                    + D47 * k7[i]
+                    + D48 * k8[i]
+                    + D49 * k9[i]
+                    + D410 * k10[i]
+                    + D411 * k11[i]
+                    + D412 * k12[i]
+                    + D413 * k13[i]
+                    + D414 * k14[i]
+                    + D415 * k15[i]
+                    + D416 * k16[i]);
+            c[5] = h
+                * (D51 * k1[i]
+                    + D56 * k6[i]
+                    + D57 * k7[i]
+                    + D58 * k8[i]
+                    + D59 * k9[i]
+                    + D510 * k10[i]
+                    + D511 * k11[i]
+                    + D512 * k12[i]
+                    + D513 * k13[i]
+                    + D514 * k14[i]
+                    + D515 * k15[i]
+                    + D516 * k16[i]);
+            c[6] = h
+                * (D61 * k1[i]
+                    + D66 * k6[i]
+                    + D67 * k7[i]
+                    + D68 * k8[i]
+                    + D69 * k9[i]
+                    + D610 * k10[i]
+                    + D611 * k11[i]
+                    + D612 * k12[i]
+                    + D613 * k13[i]
+                    + D614 * k14[i]
+                    + D615 * k15[i]
+                    + D616 * k16[i]);
+            c[7] = h
+                * (D71 * k1[i]
+                    + D76 * k6[i]
+                    + D77 * k7[i]
+                    + D78 * k8[i]
+                    + D79 * k9[i]
+                    + D710 * k10[i]
+                    + D711 * k11[i]
+                    + D712 * k12[i]
+                    + D713 * k13[i]
+                    + D714 * k14[i]
+                    + D715 * k15[i]
+                    + D716 * k16[i]);
+            finite &= c[3].is_finite()
+                & c[4].is_finite()
+                & c[5].is_finite()
+                & c[6].is_finite()
+                & c[7].is_finite();
+        }
+        finite
+    }
+}
+
+/// The interpolant handed to the observer: Hairer's `CONTD8` on one accepted step.
+struct Dop853Step<'a> {
+    t0: f64,
+    t1: f64,
+    h: f64,
+    y_end: &'a [f64],
+    cont: &'a [f64],
+}
+
+impl Dop853Step<'_> {
+    #[inline(always)]
+    fn contd8(c: &[f64], s: f64) -> f64 {
+        let s1 = 1.0 - s;
+        let conpar = c[4] + s * (c[5] + s1 * (c[6] + s * c[7]));
+        c[0] + s * (c[1] + s1 * (c[2] + s * (c[3] + s1 * conpar)))
+    }
+}
+
+impl DenseStep for Dop853Step<'_> {
+    fn t_start(&self) -> f64 {
+        self.t0
+    }
+    fn t_end(&self) -> f64 {
+        self.t1
+    }
+    fn y_end(&self) -> &[f64] {
+        self.y_end
+    }
+    fn eval_component(&self, t: f64, i: usize) -> f64 {
+        if t == self.t1 {
+            return self.y_end[i];
+        }
+        let s = (t - self.t0) / self.h;
+        Self::contd8(&self.cont[8 * i..8 * i + 8], s)
+    }
+    fn eval(&self, t: f64, out: &mut [f64]) {
+        if t == self.t1 {
+            out.copy_from_slice(self.y_end);
+            return;
+        }
+        let s = (t - self.t0) / self.h;
+        for (o, c) in out.iter_mut().zip(self.cont.chunks_exact(8)) {
+            *o = Self::contd8(c, s);
+        }
+    }
+}
+
+/// Hairer's `HINIT`: a first step such that an explicit Euler step changes the solution by about
+/// 1 % and `h^8 max(|f|, |f'|) ≈ 0.01` in the tolerance-weighted norm. One evaluation of `f`
+/// (into `f1`, with `y1` as scratch).
+#[allow(clippy::too_many_arguments)]
+fn initial_step(
+    sys: &mut dyn OdeSystemDyn,
+    t0: f64,
+    y: &[f64],
+    f0: &[f64],
+    y1: &mut [f64],
+    f1: &mut [f64],
+    (rtol, atol): (f64, &[f64]),
+    h_max: f64,
+) -> f64 {
+    let mut dnf = 0.0;
+    let mut dny = 0.0;
+    for ((yi, fi), ai) in y.iter().zip(f0).zip(atol) {
+        let sk = ai + rtol * yi.abs();
+        if sk > 0.0 {
+            dnf += (fi / sk) * (fi / sk);
+            dny += (yi / sk) * (yi / sk);
+        }
+    }
+    let mut h = if dnf <= 1e-10 || dny <= 1e-10 {
+        1e-6
+    } else {
+        (dny / dnf).sqrt() * 0.01
+    };
+    if !(h > 0.0 && h.is_finite()) {
+        h = 1e-6;
+    }
+    h = h.min(h_max);
+
+    for ((o, yi), fi) in y1.iter_mut().zip(y).zip(f0) {
+        *o = yi + h * fi;
+    }
+    sys.rhs(t0 + h, y1, f1);
+
+    let mut der2 = 0.0;
+    for (((yi, a), b), ai) in y.iter().zip(f0).zip(f1.iter()).zip(atol) {
+        let sk = ai + rtol * yi.abs();
+        if sk > 0.0 {
+            let d = (b - a) / sk;
+            der2 += d * d;
+        }
+    }
+    let der2 = der2.sqrt() / h;
+    // `f64::max` ignores a NaN from a non-finite trial derivative.
+    let der12 = der2.abs().max(dnf.sqrt());
+    let h1 = if der12 <= 1e-15 || !der12.is_finite() {
+        (h * 1e-3).max(1e-6)
+    } else {
+        (0.01 / der12).powf(1.0 / 8.0)
+    };
+    let h = (100.0 * h).min(h1).min(h_max);
+    if h > 0.0 && h.is_finite() {
+        h
+    } else {
+        1e-6_f64.min(h_max)
+    }
+}
+
+impl Integrator for Dop853 {
+    fn name(&self) -> &'static str {
+        "dop853"
+    }
+
+    /// Adaptive integration from `t0` to exactly `t_end`.
+    ///
+    /// Right-hand-side evaluations counted in [`IntegrationStats::rhs_evals`]: one at `t0`, one
+    /// more for the automatic first step (`h_init = None`), 11 per attempted step, and 4 per step
+    /// that passes the error test (the FSAL stage at the new point plus 3 dense-output stages).
+    /// Without non-finite values that is `1 + [h_init is None] + 15 steps + 11 rejected`.
+    fn integrate(
+        &self,
+        sys: &mut dyn OdeSystemDyn,
+        t0: f64,
+        y0: &[f64],
+        t_end: f64,
+        max_steps: u64,
+        obs: &mut dyn StepObserver,
+    ) -> Result<IntegrationStats, IntegrateError> {
+        let (rtol, atol) = (self.rtol, self.atol);
+        if !(rtol.is_finite() && rtol > 0.0) {
+            return Err(IntegrateError::InvalidSettings(format!(
+                "dop853: rtol must be positive and finite, got {rtol}"
+            )));
+        }
+        if !(atol.is_finite() && atol >= 0.0) {
+            return Err(IntegrateError::InvalidSettings(format!(
+                "dop853: atol must be non-negative and finite, got {atol}"
+            )));
+        }
+        if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
+            return Err(IntegrateError::InvalidSettings(format!(
+                "dop853: need finite t_end > t0, got t0 = {t0}, t_end = {t_end}"
+            )));
+        }
+        if let Some(hm) = self.h_max {
+            if !(hm.is_finite() && hm > 0.0) {
+                return Err(IntegrateError::InvalidSettings(format!(
+                    "dop853: h_max must be positive and finite, got {hm}"
+                )));
+            }
+        }
+        if let Some(h0) = self.h_init {
+            if !(h0.is_finite() && h0 > 0.0) {
+                return Err(IntegrateError::InvalidSettings(format!(
+                    "dop853: h_init must be positive and finite, got {h0}"
+                )));
+            }
+        }
+        let n = 2 * sys.n_pos() + sys.n_quad();
+        if y0.len() != n {
+            return Err(IntegrateError::InvalidSettings(format!(
+                "dop853: y0 has length {} but the system has dimension {n}",
+                y0.len()
+            )));
+        }
+        if !all_finite(y0) {
+            return Err(IntegrateError::InvalidSettings(
+                "dop853: initial state is not finite".to_string(),
+            ));
+        }
+        let atol_vec: Vec<f64> = match &self.atol_scale {
+            None => vec![atol; n],
+            Some(scale) => {
+                if scale.len() != n {
+                    return Err(IntegrateError::InvalidSettings(format!(
+                        "dop853: atol_scale has length {} but the system has dimension {n}",
+                        scale.len()
+                    )));
+                }
+                if !scale.iter().all(|s| s.is_finite() && *s >= 0.0) {
+                    return Err(IntegrateError::InvalidSettings(
+                        "dop853: atol_scale entries must be finite and non-negative".to_string(),
+                    ));
+                }
+                scale.iter().map(|s| atol * s).collect()
+            }
+        };
+
+        let h_max = self.h_max.unwrap_or(t_end - t0);
+        let mut stats = IntegrationStats::default();
+        let mut w = Work::new(y0, atol_vec);
+
+        obs.on_start(t0, y0);
+
+        sys.rhs(t0, &w.y, &mut w.k1);
+        stats.rhs_evals += 1;
+        if !all_finite(&w.k1) {
+            return Err(IntegrateError::NonFinite { t: t0 });
+        }
+
+        let mut h = match self.h_init {
+            Some(h0) => h0.min(h_max),
+            None => {
+                stats.rhs_evals += 1;
+                initial_step(
+                    sys,
+                    t0,
+                    &w.y,
+                    &w.k1,
+                    &mut w.ys,
+                    &mut w.k2,
+                    (rtol, &w.atol),
+                    h_max,
+                )
+            }
+        };
+
+        let mut t = t0;
+        let mut facold: f64 = 1e-4;
+        let mut reject = false;
+        let mut nonfinite_streak = 0u32;
+        let mut last_failure_nonfinite = false;
+
+        loop {
+            if stats.steps >= max_steps {
+                return Err(IntegrateError::StepBudget { max_steps, t });
+            }
+            if h < 10.0 * f64::EPSILON * t.abs() || h < f64::MIN_POSITIVE {
+                return Err(if last_failure_nonfinite {
+                    IntegrateError::NonFinite { t }
+                } else {
+                    IntegrateError::StepTooSmall { t, h }
+                });
+            }
+            // Land exactly on t_end, stretching the step by up to 1 % rather than leaving a
+            // sliver.
+            let (h_step, t_new, last) = if t + 1.01 * h >= t_end {
+                (t_end - t, t_end, true)
+            } else {
+                (h, t + h, false)
+            };
+
+            let (err, finite) = w.attempt(sys, t, h_step, t_new, rtol);
+            stats.rhs_evals += 11;
+
+            let mut nonfinite = !finite;
+            let mut accepted = false;
+            // A NaN error norm with a finite solution can only come from 0/0-type scaling; treat
+            // it as "too large".
+            let err = if err.is_nan() { f64::INFINITY } else { err };
+            let fac11 = err.powf(EXPO1);
+            if !nonfinite && err <= 1.0 {
+                nonfinite = !w.prepare_dense(sys, t, h_step, t_new);
+                stats.rhs_evals += 4;
+                accepted = !nonfinite;
+            }
+
+            if nonfinite {
+                stats.rejected += 1;
+                nonfinite_streak += 1;
+                last_failure_nonfinite = true;
+                if nonfinite_streak > MAX_NONFINITE_RETRIES {
+                    return Err(IntegrateError::NonFinite { t });
+                }
+                h = 0.1 * h_step;
+                reject = true;
+                continue;
+            }
+
+            if accepted {
+                // Lund stabilisation uses the previous accepted step's error.
+                let fac = if BETA > 0.0 {
+                    fac11 / facold.powf(BETA)
+                } else {
+                    fac11
+                };
+                let fac = (fac / SAFE).clamp(FACC2, FACC1);
+                let mut h_new = h_step / fac;
+                facold = err.max(1e-4);
+                stats.steps += 1;
+                nonfinite_streak = 0;
+                last_failure_nonfinite = false;
+
+                let control = obs.on_step(&Dop853Step {
+                    t0: t,
+                    t1: t_new,
+                    h: h_step,
+                    y_end: &w.y_new,
+                    cont: &w.cont,
+                });
+                std::mem::swap(&mut w.y, &mut w.y_new);
+                std::mem::swap(&mut w.k1, &mut w.k13);
+                t = t_new;
+                if last || control == Control::Stop {
+                    return Ok(stats);
+                }
+                h_new = h_new.min(h_max);
+                if reject {
+                    h_new = h_new.min(h_step);
+                }
+                reject = false;
+                h = h_new;
+            } else {
+                stats.rejected += 1;
+                last_failure_nonfinite = false;
+                h = h_step / FACC1.min(fac11 / SAFE);
+                reject = true;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::integrate::OdeSystem;
+
+    /// x'' = -x, optionally with the quadrature q' = x^2.
+    struct Osc {
+        quad: bool,
+    }
+    impl OdeSystem for Osc {
+        fn n_pos(&self) -> usize {
+            1
+        }
+        fn n_quad(&self) -> usize {
+            usize::from(self.quad)
+        }
+        fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = y[1];
+            dy[1] = -y[0];
+            if self.quad {
+                dy[2] = y[0] * y[0];
+            }
+        }
+    }
+
+    /// Counts its own right-hand-side calls; optionally returns NaN for t > `nan_after`.
+    struct Counted {
+        calls: u64,
+        nan_after: f64,
+    }
+    impl OdeSystem for Counted {
+        fn n_pos(&self) -> usize {
+            1
+        }
+        fn n_quad(&self) -> usize {
+            0
+        }
+        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+            self.calls += 1;
+            if t > self.nan_after {
+                dy[0] = f64::NAN;
+                dy[1] = f64::NAN;
+            } else {
+                dy[0] = y[1];
+                dy[1] = -y[0];
+            }
+        }
+    }
+
+    /// y' = -y + sin t (a lone "quadrature" component: DOP853 does not care about the layout).
+    struct Forced;
+    impl OdeSystem for Forced {
+        fn n_pos(&self) -> usize {
+            0
+        }
+        fn n_quad(&self) -> usize {
+            1
+        }
+        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+            dy[0] = -y[0] + t.sin();
+        }
+    }
+    fn forced_exact(t: f64) -> f64 {
+        1.5 * (-t).exp() + 0.5 * (t.sin() - t.cos())
+    }
+
+    /// Records the final state and every step interval.
+    #[derive(Default)]
+    struct Record {
+        started: bool,
+        t: f64,
+        y: Vec<f64>,
+        steps: Vec<(f64, f64)>,
+    }
+    impl StepObserver for Record {
+        fn on_start(&mut self, t0: f64, y0: &[f64]) {
+            self.started = true;
+            self.t = t0;
+            self.y = y0.to_vec();
+        }
+        fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+            assert!(self.started);
+            assert_eq!(step.t_start(), self.t, "steps must be contiguous");
+            self.t = step.t_end();
+            self.y.clear();
+            self.y.extend_from_slice(step.y_end());
+            self.steps.push((step.t_start(), step.t_end()));
+            Control::Continue
+        }
+    }
+
+    fn run(
+        solver: &Dop853,
+        sys: &mut dyn OdeSystemDyn,
+        y0: &[f64],
+        t_end: f64,
+    ) -> (Result<IntegrationStats, IntegrateError>, Record) {
+        let mut rec = Record::default();
+        let r = solver.integrate(sys, 0.0, y0, t_end, 1_000_000, &mut rec);
+        (r, rec)
+    }
+
+    fn osc_error(tol: f64, t_end: f64) -> (f64, IntegrationStats) {
+        let (r, rec) = run(
+            &Dop853::new(tol, tol),
+            &mut Osc { quad: false },
+            &[1.0, 0.0],
+            t_end,
+        );
+        let stats = r.unwrap();
+        assert_eq!(rec.t, t_end, "must land exactly on t_end");
+        let e = (rec.y[0] - t_end.cos())
+            .abs()
+            .max((rec.y[1] + t_end.sin()).abs());
+        (e, stats)
+    }
+
+    #[test]
+    fn dop853_coefficients_are_consistent() {
+        // Row sums equal the nodes.
+        let rows: [(f64, &[f64]); 14] = [
+            (C2, &[A21]),
+            (C3, &[A31, A32]),
+            (C4, &[A41, A43]),
+            (C5, &[A51, A53, A54]),
+            (C6, &[A61, A64, A65]),
+            (C7, &[A71, A74, A75, A76]),
+            (C8, &[A81, A84, A85, A86, A87]),
+            (C9, &[A91, A94, A95, A96, A97, A98]),
+            (C10, &[A101, A104, A105, A106, A107, A108, A109]),
+            (C11, &[A111, A114, A115, A116, A117, A118, A119, A1110]),
+            (
+                1.0,
+                &[A121, A124, A125, A126, A127, A128, A129, A1210, A1211],
+            ),
+            (C14, &[A141, A147, A148, A149, A1410, A1411, A1412, A1413]),
+            (C15, &[A151, A156, A157, A158, A1511, A1512, A1513, A1514]),
+            (C16, &[A161, A166, A167, A168, A169, A1613, A1614, A1615]),
+        ];
+        for (c, a) in rows {
+            let s: f64 = a.iter().sum();
+            assert!((s - c).abs() < 1e-14, "row sum {s} vs c {c}");
+        }
+        // Quadrature conditions sum b_i c_i^k = 1/(k+1), k = 0..7.
+        let b = [B1, B6, B7, B8, B9, B10, B11, B12];
+        let c = [0.0, C6, C7, C8, C9, C10, C11, 1.0];
+        for k in 0..8 {
+            let s: f64 = b.iter().zip(&c).map(|(b, c)| b * c.powi(k)).sum();
+            assert!((s - 1.0 / f64::from(k + 1)).abs() < 1e-13, "k = {k}: {s}");
+        }
+        // The 5th-order error weights integrate polynomials up to degree 4 exactly (sum to 0).
+        let er = [ER1, ER6, ER7, ER8, ER9, ER10, ER11, ER12];
+        for k in 0..5 {
+            let s: f64 = er.iter().zip(&c).map(|(e, c)| e * c.powi(k)).sum();
+            assert!(s.abs() < 1e-13, "er moment {k}: {s}");
+        }
+        // The 3rd-order comparison weights (bhh on stages 1, 9, 12) are exact up to degree 2.
+        let cb = [0.0, C9, 1.0];
+        let bhh = [BHH1, BHH2, BHH3];
+        for k in 0..3 {
+            let s: f64 = bhh.iter().zip(&cb).map(|(b, c)| b * c.powi(k)).sum();
+            assert!(
+                (s - 1.0 / f64::from(k + 1)).abs() < 1e-13,
+                "bhh moment {k}: {s}"
+            );
+        }
+    }
+
+    #[test]
+    fn dop853_harmonic_oscillator_accuracy() {
+        let (e, stats) = osc_error(1e-10, 20.0);
+        eprintln!("oscillator tol 1e-10: error {e:e}, {stats:?}");
+        assert!(e < 1e-8, "error {e:e}");
+        assert!(stats.steps > 10);
+    }
+
+    #[test]
+    fn dop853_error_scales_with_tolerance() {
+        let (e6, s6) = osc_error(1e-6, 20.0);
+        let (e9, s9) = osc_error(1e-9, 20.0);
+        eprintln!("e(1e-6) = {e6:e}, e(1e-9) = {e9:e}, ratio {}", e6 / e9);
+        assert!(e6 / e9 > 100.0, "e(1e-6) = {e6:e}, e(1e-9) = {e9:e}");
+        assert!(s9.steps > s6.steps);
+    }
+
+    #[test]
+    fn dop853_dense_output_accuracy() {
+        struct Dense {
+            grid: Vec<f64>,
+            next: usize,
+            max_err: f64,
+            buf: Vec<f64>,
+        }
+        impl StepObserver for Dense {
+            fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
+            fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+                while self.next < self.grid.len() && self.grid[self.next] <= step.t_end() {
+                    let t = self.grid[self.next];
+                    assert!(t >= step.t_start());
+                    let x = step.eval_component(t, 0);
+                    let v = step.eval_component(t, 1);
+                    step.eval(t, &mut self.buf);
+                    assert_eq!(self.buf, [x, v]);
+                    let e = (x - t.cos()).abs().max((v + t.sin()).abs());
+                    self.max_err = self.max_err.max(e);
+                    self.next += 1;
+                }
+                Control::Continue
+            }
+        }
+        let t_end = 20.0;
+        // 1000 points strictly inside (0, t_end), none on a grid that matches step ends.
+        let grid: Vec<f64> = (0..1000)
+            .map(|k| (k as f64 + 0.5) * t_end / 1000.0)
+            .collect();
+        let mut obs = Dense {
+            grid,
+            next: 0,
+            max_err: 0.0,
+            buf: vec![0.0; 2],
+        };
+        let stats = Dop853::new(1e-10, 1e-10)
+            .integrate(
+                &mut Osc { quad: false },
+                0.0,
+                &[1.0, 0.0],
+                t_end,
+                100_000,
+                &mut obs,
+            )
+            .unwrap();
+        assert_eq!(obs.next, 1000);
+        // Far fewer steps than samples: the samples really are interpolated.
+        assert!(stats.steps < 200, "{stats:?}");
+        eprintln!(
+            "dense: max error {:e} over 1000 points, {stats:?}",
+            obs.max_err
+        );
+        assert!(obs.max_err < 1e-8, "dense error {:e}", obs.max_err);
+    }
+
+    #[test]
+    fn dop853_quadrature_component() {
+        let t_end = 7.5;
+        let (r, rec) = run(
+            &Dop853::new(1e-10, 1e-10),
+            &mut Osc { quad: true },
+            &[1.0, 0.0, 0.0],
+            t_end,
+        );
+        r.unwrap();
+        // q = int_0^T cos^2 = T/2 + sin(2T)/4
+        let exact = t_end / 2.0 + (2.0 * t_end).sin() / 4.0;
+        let e = (rec.y[2] - exact).abs();
+        eprintln!("quadrature error {e:e}");
+        assert!(e < 1e-8, "quadrature error {e:e}");
+    }
+
+    #[test]
+    fn dop853_step_budget() {
+        let mut rec = Record::default();
+        let r = Dop853::new(1e-10, 1e-10).integrate(
+            &mut Osc { quad: false },
+            0.0,
+            &[1.0, 0.0],
+            20.0,
+            5,
+            &mut rec,
+        );
+        match r {
+            Err(IntegrateError::StepBudget { max_steps: 5, t }) => {
+                assert!(t > 0.0 && t < 20.0);
+                assert_eq!(t, rec.t);
+            }
+            other => panic!("expected StepBudget, got {other:?}"),
+        }
+        assert_eq!(rec.steps.len(), 5);
+    }
+
+    #[test]
+    fn dop853_nonfinite_rhs() {
+        let mut sys = Counted {
+            calls: 0,
+            nan_after: 1.0,
+        };
+        let mut rec = Record::default();
+        let r =
+            Dop853::new(1e-8, 1e-8).integrate(&mut sys, 0.0, &[1.0, 0.0], 5.0, 100_000, &mut rec);
+        match r {
+            Err(IntegrateError::NonFinite { t }) => {
+                eprintln!("NonFinite at t = {t}, last observed t = {}", rec.t);
+                assert!(t > 0.5 && t <= 1.0, "t = {t}");
+                // Everything handed to the observer is finite and before the wall.
+                assert!(rec.t <= 1.0);
+                assert!(all_finite(&rec.y));
+            }
+            other => panic!("expected NonFinite, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn dop853_recovers_from_transient_nonfinite() {
+        // y' = -10 y, with the right-hand side undefined for y < 0. A huge first step overshoots
+        // into y < 0; the step is shrunk and the run completes accurately.
+        struct Guarded;
+        impl OdeSystem for Guarded {
+            fn n_pos(&self) -> usize {
+                0
+            }
+            fn n_quad(&self) -> usize {
+                1
+            }
+            fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+                dy[0] = if y[0] < 0.0 { f64::NAN } else { -10.0 * y[0] };
+            }
+        }
+        let solver = Dop853 {
+            h_init: Some(1.0),
+            ..Dop853::new(1e-10, 1e-12)
+        };
+        let (r, rec) = run(&solver, &mut Guarded, &[1.0], 1.0);
+        let stats = r.unwrap();
+        eprintln!("transient NaN: {stats:?}");
+        assert!(stats.rejected >= 1);
+        let e = (rec.y[0] - (-10.0f64).exp()).abs();
+        assert!(e < 1e-9, "error {e:e}");
+    }
+
+    #[test]
+    fn dop853_rhs_eval_accounting() {
+        // Automatic first step: 1 (at t0) + 1 (HINIT) + 15 per accepted + 11 per rejected.
+        let mut sys = Counted {
+            calls: 0,
+            nan_after: f64::INFINITY,
+        };
+        let mut rec = Record::default();
+        let s = Dop853::new(1e-9, 1e-9)
+            .integrate(&mut sys, 0.0, &[1.0, 0.0], 10.0, 100_000, &mut rec)
+            .unwrap();
+        assert_eq!(s.rhs_evals, sys.calls);
+        assert_eq!(s.rhs_evals, 2 + 15 * s.steps + 11 * s.rejected);
+        assert_eq!(s.steps as usize, rec.steps.len());
+
+        // A far too large first step forces rejections; no HINIT evaluation.
+        let mut sys = Counted {
+            calls: 0,
+            nan_after: f64::INFINITY,
+        };
+        let solver = Dop853 {
+            h_init: Some(8.0),
+            ..Dop853::new(1e-9, 1e-9)
+        };
+        let s = solver
+            .integrate(
+                &mut sys,
+                0.0,
+                &[1.0, 0.0],
+                10.0,
+                100_000,
+                &mut Record::default(),
+            )
+            .unwrap();
+        eprintln!("forced rejections: {s:?}");
+        assert!(s.rejected >= 1, "{s:?}");
+        assert_eq!(s.rhs_evals, sys.calls);
+        assert_eq!(s.rhs_evals, 1 + 15 * s.steps + 11 * s.rejected);
+    }
+
+    /// Fixed steps: huge tolerances so the controller always wants to grow, capped at h_max.
+    fn fixed_step_error(
+        sys: &mut dyn OdeSystemDyn,
+        y0: &[f64],
+        t_end: f64,
+        n: u32,
+    ) -> (f64, Vec<f64>) {
+        let h = t_end / f64::from(n);
+        let solver = Dop853 {
+            h_init: Some(h),
+            h_max: Some(h),
+            ..Dop853::new(1e3, 1e3)
+        };
+        let (r, rec) = run(&solver, sys, y0, t_end);
+        let s = r.unwrap();
+        assert_eq!(s.steps, u64::from(n));
+        assert_eq!(s.rejected, 0);
+        for &(a, b) in &rec.steps {
+            assert!(((b - a) - h).abs() < 1e-12 * t_end);
+        }
+        (h, rec.y)
+    }
+
+    #[test]
+    fn dop853_convergence_order() {
+        // y' = -y + sin t on [0, 10].
+        let t_end = 10.0;
+        let (h1, y1) = fixed_step_error(&mut Forced, &[1.0], t_end, 10);
+        let (h2, y2) = fixed_step_error(&mut Forced, &[1.0], t_end, 20);
+        let e1 = (y1[0] - forced_exact(t_end)).abs();
+        let e2 = (y2[0] - forced_exact(t_end)).abs();
+        let p = (e1 / e2).ln() / (h1 / h2).ln();
+        eprintln!("forced decay: order {p} (e1 {e1:e}, e2 {e2:e})");
+        assert!(p > 7.5 && p < 9.0, "order {p} (e1 {e1:e}, e2 {e2:e})");
+
+        // Harmonic oscillator on [0, 10].
+        let (h1, y1) = fixed_step_error(&mut Osc { quad: false }, &[1.0, 0.0], t_end, 10);
+        let (h2, y2) = fixed_step_error(&mut Osc { quad: false }, &[1.0, 0.0], t_end, 20);
+        let err = |y: &[f64]| (y[0] - t_end.cos()).abs().max((y[1] + t_end.sin()).abs());
+        let (e1, e2) = (err(&y1), err(&y2));
+        let p = (e1 / e2).ln() / (h1 / h2).ln();
+        eprintln!("oscillator: order {p} (e1 {e1:e}, e2 {e2:e})");
+        assert!(p > 7.5 && p < 9.0, "order {p} (e1 {e1:e}, e2 {e2:e})");
+    }
+
+    #[test]
+    fn dop853_dense_output_order() {
+        // The continuous extension is 7th order: halving h divides the interpolation error of a
+        // single step by about 2^8 (local error O(h^8)).
+        struct Mid {
+            max_err: f64,
+        }
+        impl StepObserver for Mid {
+            fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
+            fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+                let (a, b) = (step.t_start(), step.t_end());
+                for j in 1..10 {
+                    let t = a + (b - a) * f64::from(j) / 10.0;
+                    // Compare with the exact solution through the step's own start value, so only
+                    // the local (interpolation) error counts.
+                    let e = (step.eval_component(t, 0) - forced_exact(t)).abs();
+                    self.max_err = self.max_err.max(e);
+                }
+                Control::Stop
+            }
+        }
+        let err_for = |h: f64| {
+            let solver = Dop853 {
+                h_init: Some(h),
+                h_max: Some(h),
+                ..Dop853::new(1e3, 1e3)
+            };
+            let mut obs = Mid { max_err: 0.0 };
+            solver
+                .integrate(&mut Forced, 0.0, &[1.0], 10.0, 10, &mut obs)
+                .unwrap();
+            obs.max_err
+        };
+        let (e1, e2) = (err_for(1.0), err_for(0.5));
+        let p = (e1 / e2).log2();
+        eprintln!("dense local order {p} (e1 {e1:e}, e2 {e2:e})");
+        assert!(
+            p > 7.0 && p < 9.5,
+            "local dense order {p} (e1 {e1:e}, e2 {e2:e})"
+        );
+    }
+
+    #[test]
+    fn dop853_stop_and_start() {
+        struct StopAfter(usize, usize, bool);
+        impl StepObserver for StopAfter {
+            fn on_start(&mut self, t0: f64, y0: &[f64]) {
+                assert_eq!(t0, 0.0);
+                assert_eq!(y0, [1.0, 0.0]);
+                self.2 = true;
+            }
+            fn on_step(&mut self, _step: &dyn DenseStep) -> Control {
+                self.1 += 1;
+                if self.1 == self.0 {
+                    Control::Stop
+                } else {
+                    Control::Continue
+                }
+            }
+        }
+        let mut obs = StopAfter(3, 0, false);
+        let s = Dop853::new(1e-10, 1e-10)
+            .integrate(
+                &mut Osc { quad: false },
+                0.0,
+                &[1.0, 0.0],
+                20.0,
+                1000,
+                &mut obs,
+            )
+            .unwrap();
+        assert!(obs.2);
+        assert_eq!(s.steps, 3);
+        assert_eq!(obs.1, 3);
+    }
+
+    #[test]
+    fn dop853_h_max_is_respected() {
+        let solver = Dop853 {
+            h_max: Some(0.1),
+            ..Dop853::new(1e-6, 1e-6)
+        };
+        let (r, rec) = run(&solver, &mut Osc { quad: false }, &[1.0, 0.0], 3.05);
+        r.unwrap();
+        for &(a, b) in &rec.steps {
+            assert!(b - a <= 0.1 * 1.01 + 1e-15, "step {}", b - a);
+        }
+        assert_eq!(rec.t, 3.05);
+    }
+
+    #[test]
+    fn dop853_atol_scale() {
+        // Pure absolute control (rtol tiny): scaling atol by 1e-3 on every component must give the
+        // same steps as atol / 1e3, and a wrong-length scale vector is rejected.
+        let base = Dop853::new(1e-14, 1e-9);
+        let scaled = Dop853 {
+            atol_scale: Some(vec![1e-3, 1e-3]),
+            ..Dop853::new(1e-14, 1e-6)
+        };
+        let (ra, a) = run(&base, &mut Osc { quad: false }, &[1.0, 0.0], 5.0);
+        let (rb, b) = run(&scaled, &mut Osc { quad: false }, &[1.0, 0.0], 5.0);
+        assert_eq!(ra.unwrap(), rb.unwrap());
+        assert_eq!(a.steps, b.steps);
+        // Loosening only the velocity tolerance takes fewer steps than the uniform one.
+        let loose_v = Dop853 {
+            atol_scale: Some(vec![1.0, 1e3]),
+            ..Dop853::new(1e-14, 1e-9)
+        };
+        let (rc, _) = run(&loose_v, &mut Osc { quad: false }, &[1.0, 0.0], 5.0);
+        assert!(rc.unwrap().steps <= a.steps.len() as u64);
+        let bad = Dop853 {
+            atol_scale: Some(vec![1.0]),
+            ..Dop853::new(1e-6, 1e-6)
+        };
+        let (r, _) = run(&bad, &mut Osc { quad: false }, &[1.0, 0.0], 1.0);
+        assert!(matches!(r, Err(IntegrateError::InvalidSettings(_))));
+        let bad = Dop853 {
+            atol_scale: Some(vec![1.0, f64::NAN]),
+            ..Dop853::new(1e-6, 1e-6)
+        };
+        let (r, _) = run(&bad, &mut Osc { quad: false }, &[1.0, 0.0], 1.0);
+        assert!(matches!(r, Err(IntegrateError::InvalidSettings(_))));
+    }
+
+    #[test]
+    fn dop853_invalid_settings() {
+        let mut sys = Osc { quad: false };
+        let y0 = [1.0, 0.0];
+        let bad = |s: Dop853, y0: &[f64], t_end: f64, sys: &mut Osc| {
+            let r = s.integrate(sys, 0.0, y0, t_end, 100, &mut Record::default());
+            assert!(
+                matches!(r, Err(IntegrateError::InvalidSettings(_))),
+                "{r:?}"
+            );
+        };
+        bad(Dop853::new(0.0, 1e-6), &y0, 1.0, &mut sys);
+        bad(Dop853::new(-1e-6, 1e-6), &y0, 1.0, &mut sys);
+        bad(Dop853::new(1e-6, -1e-6), &y0, 1.0, &mut sys);
+        bad(Dop853::new(0.0, 0.0), &y0, 1.0, &mut sys);
+        bad(Dop853::new(1e-6, 1e-6), &y0, 0.0, &mut sys);
+        bad(Dop853::new(1e-6, 1e-6), &y0, -1.0, &mut sys);
+        bad(Dop853::new(1e-6, 1e-6), &[f64::NAN, 0.0], 1.0, &mut sys);
+        bad(Dop853::new(1e-6, 1e-6), &[1.0], 1.0, &mut sys);
+        bad(
+            Dop853 {
+                h_max: Some(0.0),
+                ..Dop853::new(1e-6, 1e-6)
+            },
+            &y0,
+            1.0,
+            &mut sys,
+        );
+        // Pure relative tolerance is allowed.
+        let (r, _) = run(&Dop853::new(1e-8, 0.0), &mut sys, &y0, 1.0);
+        r.unwrap();
+        assert_eq!(Dop853::new(1e-6, 1e-6).name(), "dop853");
+    }
+}

@@ -1,0 +1,168 @@
+//! Time integrators behind one interface.
+//!
+//! Every integrator advances an [`OdeSystem`] whose state is laid out as
+//! `[x (n_pos), v (n_pos), q (n_quad)]`: positions, velocities and quadratures (quantities such as
+//! dissipated work that are integrated along with the motion but never feed back into it). After
+//! each accepted step the integrator hands the observer a [`DenseStep`], an interpolant valid on
+//! that step, so that probes are sampled at their own output times rather than at step ends.
+
+mod dop853;
+mod hermite;
+mod rk4;
+mod verlet;
+
+pub use dop853::Dop853;
+pub use rk4::Rk4;
+pub use verlet::VelocityVerlet;
+
+/// A first-order system `y' = f(t, y)` with the state layout `[x, v, q]` described in the module docs.
+pub trait OdeSystem {
+    /// Number of positions (equal to the number of velocities).
+    fn n_pos(&self) -> usize;
+    /// Number of quadrature components after the velocities.
+    fn n_quad(&self) -> usize;
+    /// Length of the state vector, `2 n_pos + n_quad`.
+    fn dim(&self) -> usize {
+        2 * self.n_pos() + self.n_quad()
+    }
+    /// Writes `f(t, y)` into `dy`. Must not allocate: it is the hot loop.
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]);
+}
+
+/// Interpolant over the last accepted step `[t_start, t_end]`.
+pub trait DenseStep {
+    /// Start of the step.
+    fn t_start(&self) -> f64;
+    /// End of the step.
+    fn t_end(&self) -> f64;
+    /// State at the end of the step (exact step result, not interpolated).
+    fn y_end(&self) -> &[f64];
+    /// Interpolated component `i` of the state at `t` in `[t_start, t_end]`.
+    fn eval_component(&self, t: f64, i: usize) -> f64;
+    /// Interpolated full state at `t`, written into `out` (length `dim`).
+    fn eval(&self, t: f64, out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.eval_component(t, i);
+        }
+    }
+}
+
+/// What an observer tells the integrator after a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Control {
+    /// Keep integrating.
+    Continue,
+    /// Stop now; the run ends successfully at the end of this step.
+    Stop,
+}
+
+/// Receives every accepted step.
+pub trait StepObserver {
+    /// Called once with the initial state before the first step.
+    fn on_start(&mut self, t0: f64, y0: &[f64]);
+    /// Called after every accepted step.
+    fn on_step(&mut self, step: &dyn DenseStep) -> Control;
+}
+
+/// Counters that make an integrator's work observable (for work-precision studies).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct IntegrationStats {
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected step attempts (adaptive methods only).
+    pub rejected: u64,
+    /// Evaluations of the right-hand side.
+    pub rhs_evals: u64,
+}
+
+/// Why an integration stopped before reaching its end time.
+#[derive(Debug, Clone, PartialEq)]
+pub enum IntegrateError {
+    /// The state or its derivative became NaN or infinite at time `t`.
+    NonFinite {
+        /// Time of the failed step.
+        t: f64,
+    },
+    /// More than `max_steps` steps were needed.
+    StepBudget {
+        /// The budget that was exceeded.
+        max_steps: u64,
+        /// Time reached.
+        t: f64,
+    },
+    /// An adaptive method's step size fell below what floating point can resolve.
+    StepTooSmall {
+        /// Time at which the step collapsed.
+        t: f64,
+        /// The step size tried.
+        h: f64,
+    },
+    /// Settings that cannot work (non-positive step, tolerance, or interval).
+    InvalidSettings(String),
+}
+
+impl std::fmt::Display for IntegrateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            IntegrateError::NonFinite { t } => {
+                write!(f, "state became NaN or infinite at t = {t:.6e} s")
+            }
+            IntegrateError::StepBudget { max_steps, t } => write!(
+                f,
+                "step budget of {max_steps} steps exhausted at t = {t:.6e} s"
+            ),
+            IntegrateError::StepTooSmall { t, h } => write!(
+                f,
+                "step size collapsed to {h:.3e} s at t = {t:.6e} s (problem too stiff or non-smooth for this method)"
+            ),
+            IntegrateError::InvalidSettings(s) => write!(f, "invalid integrator settings: {s}"),
+        }
+    }
+}
+
+impl std::error::Error for IntegrateError {}
+
+/// Common interface of all integrators.
+pub trait Integrator {
+    /// Short stable name (`"verlet"`, `"rk4"`, `"dop853"`).
+    fn name(&self) -> &'static str;
+    /// Integrates `sys` from `(t0, y0)` to `t_end`, calling `obs` after every accepted step.
+    /// `max_steps` bounds the number of accepted steps.
+    fn integrate(
+        &self,
+        sys: &mut dyn OdeSystemDyn,
+        t0: f64,
+        y0: &[f64],
+        t_end: f64,
+        max_steps: u64,
+        obs: &mut dyn StepObserver,
+    ) -> Result<IntegrationStats, IntegrateError>;
+}
+
+/// Object-safe alias of [`OdeSystem`] so integrators can be chosen at run time; the
+/// right-hand side itself stays monomorphised inside the concrete system.
+pub trait OdeSystemDyn {
+    /// See [`OdeSystem::n_pos`].
+    fn n_pos(&self) -> usize;
+    /// See [`OdeSystem::n_quad`].
+    fn n_quad(&self) -> usize;
+    /// See [`OdeSystem::rhs`].
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]);
+}
+
+impl<S: OdeSystem> OdeSystemDyn for S {
+    fn n_pos(&self) -> usize {
+        OdeSystem::n_pos(self)
+    }
+    fn n_quad(&self) -> usize {
+        OdeSystem::n_quad(self)
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        OdeSystem::rhs(self, t, y, dy)
+    }
+}
+
+pub(crate) fn all_finite(y: &[f64]) -> bool {
+    y.iter().all(|v| v.is_finite())
+}

@@ -1,0 +1,681 @@
+//! Probes: what a scene asks to observe, sampled at fixed output times through the integrators'
+//! dense output, and summaries computed on the fly without storing histories.
+
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+
+use crate::integrate::{Control, DenseStep, StepObserver};
+use crate::model::{spec_err, Chain, SpecError};
+use crate::system::{EnergyTerms, Ledger};
+
+/// One observable. Indices are 1-based as in the paper and `MODEL.md`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields))]
+pub enum Probe {
+    /// Force read by a gauge embedded in cylinder `k` (particle `2k+1`): the mean of the total
+    /// (elastic + viscous) forces at its two contacts, N.
+    GaugeForce {
+        /// Cylinder number, 1..=n.
+        cylinder: usize,
+    },
+    /// Total force of contact `j` (between particles `j` and `j+1`; `j = N` is the wall), N.
+    ContactForce {
+        /// Contact number, 1..=N (N only with a wall).
+        contact: usize,
+    },
+    /// Overlap δ of contact `j`, static part included, m.
+    Overlap {
+        /// Contact number, 1..=N (N only with a wall).
+        contact: usize,
+    },
+    /// Dynamic displacement of particle `i` (from its static-equilibrium position), m.
+    Displacement {
+        /// Particle number, 1..=N.
+        particle: usize,
+    },
+    /// Velocity of particle `i`, m/s.
+    Velocity {
+        /// Particle number, 1..=N.
+        particle: usize,
+    },
+    /// Total force on the wall, N.
+    WallForce,
+}
+
+impl Probe {
+    /// Short name used for dataset names, e.g. `gauge_force_21`.
+    pub fn name(&self) -> String {
+        match self {
+            Probe::GaugeForce { cylinder } => format!("gauge_force_cyl{cylinder}"),
+            Probe::ContactForce { contact } => format!("contact_force_{contact}"),
+            Probe::Overlap { contact } => format!("overlap_{contact}"),
+            Probe::Displacement { particle } => format!("displacement_p{particle}"),
+            Probe::Velocity { particle } => format!("velocity_p{particle}"),
+            Probe::WallForce => "wall_force".to_string(),
+        }
+    }
+
+    /// SI unit of the probe's values.
+    pub fn unit(&self) -> &'static str {
+        match self {
+            Probe::GaugeForce { .. } | Probe::ContactForce { .. } | Probe::WallForce => "N",
+            Probe::Overlap { .. } | Probe::Displacement { .. } => "m",
+            Probe::Velocity { .. } => "m/s",
+        }
+    }
+}
+
+/// Whether force probes include the static (gravitational) preload.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum Preload {
+    /// Total force, as the equations give it (default).
+    #[default]
+    Include,
+    /// Dynamic part only, as an AC-coupled piezo gauge reads it.
+    Subtract,
+}
+
+/// How the leading pulse is told apart from what follows it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct LeadingPulseSpec {
+    /// The pulse has arrived once the signal exceeds its initial value by this fraction of the
+    /// probe's reference scale (the two-body striker impact's peak force, the striker velocity, or
+    /// the two-body peak overlap).
+    pub arrival_fraction: f64,
+    /// The leading pulse has passed once the signal falls below this fraction of its peak (both
+    /// measured from the initial value).
+    pub release_fraction: f64,
+}
+
+impl Default for LeadingPulseSpec {
+    fn default() -> Self {
+        LeadingPulseSpec {
+            arrival_fraction: 0.01,
+            release_fraction: 0.5,
+        }
+    }
+}
+
+/// What a run records: nothing is computed or stored that is not asked for here.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct RecordSpec {
+    /// Probes to observe.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub probes: Vec<Probe>,
+    /// Store full histories of the probes at `history_interval_s`.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub history: bool,
+    /// Output interval of histories, s.
+    #[cfg_attr(feature = "serde", serde(default = "default_history_interval"))]
+    pub history_interval_s: f64,
+    /// Sampling interval of the on-the-fly peak summaries, s; peaks are refined between samples by a
+    /// local quartic fit.
+    #[cfg_attr(feature = "serde", serde(default = "default_summary_interval"))]
+    pub summary_interval_s: f64,
+    /// Track the minimum overlap of every contact (gaps open where it falls to zero or below).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub min_overlap: bool,
+    /// Static preload in force probes.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub preload: Preload,
+    /// Leading-pulse detection.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub leading_pulse: LeadingPulseSpec,
+    /// End the run as soon as every probe's leading pulse has passed (sweeps that need only
+    /// leading peaks); the ledger then covers the time simulated.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub stop_after_leading_pulses: bool,
+}
+
+#[cfg(feature = "serde")]
+fn default_history_interval() -> f64 {
+    1e-6
+}
+#[cfg(feature = "serde")]
+fn default_summary_interval() -> f64 {
+    2e-7
+}
+
+impl Default for RecordSpec {
+    fn default() -> Self {
+        RecordSpec {
+            probes: Vec::new(),
+            history: false,
+            history_interval_s: 1e-6,
+            summary_interval_s: 2e-7,
+            min_overlap: false,
+            preload: Preload::Include,
+            leading_pulse: LeadingPulseSpec::default(),
+            stop_after_leading_pulses: false,
+        }
+    }
+}
+
+impl RecordSpec {
+    /// Checks the record block against a built chain; errors name the field (relative to `record`).
+    pub fn validate(&self, chain: &Chain) -> Result<(), SpecError> {
+        let n_p = chain.n_particles();
+        let n_c = chain.n_contacts();
+        let n_cyl = (n_p - 2) / 2;
+        for (i, p) in self.probes.iter().enumerate() {
+            let field = format!("record.probes[{i}]");
+            match *p {
+                Probe::GaugeForce { cylinder } if cylinder == 0 || cylinder > n_cyl => {
+                    return Err(spec_err(
+                        &format!("{field}.cylinder"),
+                        format!("must lie in 1..={n_cyl} (the chain's cylinders), got {cylinder}"),
+                    ))
+                }
+                Probe::ContactForce { contact } | Probe::Overlap { contact } if contact == 0 || contact > n_c => {
+                    return Err(spec_err(
+                        &format!("{field}.contact"),
+                        format!("must lie in 1..={n_c} (the chain's contacts), got {contact}"),
+                    ))
+                }
+                Probe::Displacement { particle } | Probe::Velocity { particle } if particle == 0 || particle > n_p => {
+                    return Err(spec_err(
+                        &format!("{field}.particle"),
+                        format!("must lie in 1..={n_p} (the chain's particles), got {particle}"),
+                    ))
+                }
+                Probe::WallForce if !chain.wall => {
+                    return Err(spec_err(&format!("{field}.kind"), "wall_force needs physics.wall = true"))
+                }
+                _ => {}
+            }
+        }
+        for (name, v) in [
+            ("record.history_interval_s", self.history_interval_s),
+            ("record.summary_interval_s", self.summary_interval_s),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(spec_err(name, format!("must be a finite number > 0, got {v}")));
+            }
+        }
+        let lp = &self.leading_pulse;
+        if !(lp.arrival_fraction.is_finite() && lp.arrival_fraction > 0.0 && lp.arrival_fraction < 1.0) {
+            return Err(spec_err(
+                "record.leading_pulse.arrival_fraction",
+                format!("must lie in (0, 1), got {}", lp.arrival_fraction),
+            ));
+        }
+        if !(lp.release_fraction.is_finite() && lp.release_fraction > 0.0 && lp.release_fraction < 1.0) {
+            return Err(spec_err(
+                "record.leading_pulse.release_fraction",
+                format!("must lie in (0, 1), got {}", lp.release_fraction),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A probe compiled against a chain: state indices and constants.
+#[derive(Debug, Clone, Copy)]
+enum Compiled {
+    /// Mean of `n` contact forces starting at contact index `first` (n = 1 or 2).
+    Contacts { first: usize, count: usize, offset: f64 },
+    Overlap { contact: usize },
+    Displacement { index: usize, origin: f64 },
+    Velocity { index: usize },
+}
+
+/// Evaluates probes from a dense step or a state.
+#[derive(Debug, Clone)]
+pub(crate) struct ProbeSet {
+    compiled: Vec<Compiled>,
+    stiffness: Vec<f64>,
+    damping: Vec<f64>,
+    clip: bool,
+    n: usize,
+    /// Reference scale of each probe for leading-pulse detection.
+    pub scale: Vec<f64>,
+}
+
+impl ProbeSet {
+    pub fn new(chain: &Chain, probes: &[Probe], preload: Preload, force_scale: f64, velocity_scale: f64, length_scale: f64) -> Self {
+        let n = chain.n_particles();
+        let static_mean = |first: usize, count: usize| -> f64 {
+            (first..first + count).map(|c| chain.static_force(c)).sum::<f64>() / count as f64
+        };
+        let mut compiled = Vec::new();
+        let mut scale = Vec::new();
+        for p in probes {
+            let (c, s) = match *p {
+                Probe::GaugeForce { cylinder } => (2 * cylinder - 1, 2),
+                Probe::ContactForce { contact } => (contact - 1, 1),
+                Probe::WallForce => (n - 1, 1),
+                Probe::Overlap { contact } => {
+                    compiled.push(Compiled::Overlap { contact: contact - 1 });
+                    scale.push(length_scale);
+                    continue;
+                }
+                Probe::Displacement { particle } => {
+                    compiled.push(Compiled::Displacement {
+                        index: particle - 1,
+                        origin: chain.equilibrium_position[particle - 1],
+                    });
+                    scale.push(length_scale);
+                    continue;
+                }
+                Probe::Velocity { particle } => {
+                    compiled.push(Compiled::Velocity { index: n + particle - 1 });
+                    scale.push(velocity_scale);
+                    continue;
+                }
+            };
+            let offset = match preload {
+                Preload::Include => 0.0,
+                Preload::Subtract => static_mean(c, s),
+            };
+            compiled.push(Compiled::Contacts { first: c, count: s, offset });
+            scale.push(force_scale);
+        }
+        ProbeSet {
+            compiled,
+            stiffness: chain.stiffness.clone(),
+            damping: chain.damping.clone(),
+            clip: chain.clip_tensile,
+            n,
+            scale,
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        self.compiled.len()
+    }
+
+    #[inline]
+    fn contact_force(&self, c: usize, get: &impl Fn(usize) -> f64) -> f64 {
+        let n = self.n;
+        let (overlap, rel) = if c + 1 < n {
+            (get(c) - get(c + 1), get(n + c) - get(n + c + 1))
+        } else {
+            (get(c), get(n + c))
+        };
+        let d = overlap.max(0.0);
+        let mut f = self.stiffness[c] * d * d.sqrt();
+        if overlap > 0.0 {
+            f += self.damping[c] * rel;
+        }
+        if self.clip {
+            f = f.max(0.0);
+        }
+        f
+    }
+
+    /// Value of probe `k` with state components supplied by `get`.
+    #[inline]
+    pub fn value(&self, k: usize, get: &impl Fn(usize) -> f64) -> f64 {
+        match self.compiled[k] {
+            Compiled::Contacts { first, count, offset } => {
+                let mut s = 0.0;
+                for c in first..first + count {
+                    s += self.contact_force(c, get);
+                }
+                s / count as f64 - offset
+            }
+            Compiled::Overlap { contact } => {
+                if contact + 1 < self.n {
+                    get(contact) - get(contact + 1)
+                } else {
+                    get(contact)
+                }
+            }
+            Compiled::Displacement { index, origin } => get(index) - origin,
+            Compiled::Velocity { index } => get(index),
+        }
+    }
+}
+
+/// Summary of one probe over a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+pub struct ProbeSummary {
+    /// Peak of the leading pulse (first excursion), refined between samples; NaN if it never arrived.
+    pub leading_peak: f64,
+    /// Time of the leading peak, s; NaN if it never arrived.
+    pub leading_peak_time_s: f64,
+    /// Maximum over the whole record, refined between samples.
+    pub record_max: f64,
+    /// Time of the record maximum, s.
+    pub record_max_time_s: f64,
+}
+
+/// Peak of a sampled signal, refined by a quartic through five equally spaced samples around it.
+#[derive(Debug, Clone, Copy)]
+struct PeakWindow {
+    /// Samples `best-2 ..= best+2`; entries after `best` fill in as they arrive.
+    values: [f64; 5],
+    /// Time of the best sample.
+    time: f64,
+    /// How many samples after the best one have arrived (0..=2).
+    after: usize,
+    /// How many samples before the best one are known (0..=2).
+    before: usize,
+}
+
+impl PeakWindow {
+    fn empty() -> Self {
+        PeakWindow {
+            values: [f64::NEG_INFINITY; 5],
+            time: f64::NAN,
+            after: 0,
+            before: 0,
+        }
+    }
+
+    /// Offers a sample; `prev` holds the last two samples before it (oldest first) and how many exist.
+    #[inline]
+    fn offer(&mut self, t: f64, s: f64, prev: &[f64; 2], n_prev: usize) {
+        if s > self.values[2] {
+            self.values = [prev[0], prev[1], s, f64::NAN, f64::NAN];
+            self.time = t;
+            self.after = 0;
+            self.before = n_prev.min(2);
+        } else if self.after < 2 && self.time.is_finite() {
+            self.values[3 + self.after] = s;
+            self.after += 1;
+        }
+    }
+
+    /// Refined (value, time): the maximum of the interpolating quartic (or lower degree near the
+    /// ends of the record), kept within one sample of the best sample.
+    fn refined(&self, dt: f64) -> (f64, f64) {
+        if !self.time.is_finite() {
+            return (f64::NAN, f64::NAN);
+        }
+        let v = &self.values;
+        if self.before == 2 && self.after == 2 {
+            // Quartic through (-2..2) in units of dt: p(u) = c0 + c1 u + c2 u² + c3 u³ + c4 u⁴.
+            let c0 = v[2];
+            let c1 = (v[0] - 8.0 * v[1] + 8.0 * v[3] - v[4]) / 12.0;
+            let c2 = (-v[0] + 16.0 * v[1] - 30.0 * v[2] + 16.0 * v[3] - v[4]) / 24.0;
+            let c3 = (-v[0] + 2.0 * v[1] - 2.0 * v[3] + v[4]) / 12.0;
+            let c4 = (v[0] - 4.0 * v[1] + 6.0 * v[2] - 4.0 * v[3] + v[4]) / 24.0;
+            let p = |u: f64| c0 + u * (c1 + u * (c2 + u * (c3 + u * c4)));
+            let dp = |u: f64| c1 + u * (2.0 * c2 + u * (3.0 * c3 + u * 4.0 * c4));
+            let ddp = |u: f64| 2.0 * c2 + u * (6.0 * c3 + u * 12.0 * c4);
+            let mut u: f64 = 0.0;
+            for _ in 0..20 {
+                let h = ddp(u);
+                if h >= 0.0 {
+                    break;
+                }
+                let step = dp(u) / h;
+                u = (u - step).clamp(-1.0, 1.0);
+                if step.abs() < 1e-14 {
+                    break;
+                }
+            }
+            let pu = p(u);
+            if pu.is_finite() && pu >= v[2] {
+                return (pu, self.time + u * dt);
+            }
+            (v[2], self.time)
+        } else if self.before >= 1 && self.after >= 1 {
+            // Parabola through three samples.
+            let (a, b, c) = (v[1], v[2], v[3]);
+            let den = a - 2.0 * b + c;
+            if den < 0.0 {
+                let u = (0.5 * (a - c) / den).clamp(-1.0, 1.0);
+                let val = b - 0.25 * (a - c) * u;
+                return (val.max(b), self.time + u * dt);
+            }
+            (b, self.time)
+        } else {
+            (v[2], self.time)
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum PulsePhase {
+    Waiting,
+    InPulse,
+    Passed,
+}
+
+/// Per-probe on-the-fly tracker of the leading pulse and the record maximum.
+#[derive(Debug, Clone, Copy)]
+struct PeakTracker {
+    baseline: f64,
+    arrival: f64,
+    release_fraction: f64,
+    phase: PulsePhase,
+    leading: PeakWindow,
+    record: PeakWindow,
+    prev: [f64; 2],
+    n_prev: usize,
+}
+
+impl PeakTracker {
+    fn new(baseline: f64, arrival: f64, release_fraction: f64) -> Self {
+        PeakTracker {
+            baseline,
+            arrival,
+            release_fraction,
+            phase: PulsePhase::Waiting,
+            leading: PeakWindow::empty(),
+            record: PeakWindow::empty(),
+            prev: [f64::NAN; 2],
+            n_prev: 0,
+        }
+    }
+
+    #[inline]
+    fn sample(&mut self, t: f64, s: f64) {
+        self.record.offer(t, s, &self.prev, self.n_prev);
+        match self.phase {
+            PulsePhase::Waiting => {
+                if s - self.baseline > self.arrival {
+                    self.phase = PulsePhase::InPulse;
+                    self.leading.offer(t, s, &self.prev, self.n_prev);
+                }
+            }
+            PulsePhase::InPulse => {
+                self.leading.offer(t, s, &self.prev, self.n_prev);
+                let peak = self.leading.values[2] - self.baseline;
+                if s - self.baseline < self.release_fraction * peak && self.leading.after >= 2 {
+                    self.phase = PulsePhase::Passed;
+                }
+            }
+            PulsePhase::Passed => {}
+        }
+        self.prev = [self.prev[1], s];
+        self.n_prev += 1;
+    }
+}
+
+/// Options of the run observer.
+#[derive(Debug, Clone)]
+pub(crate) struct ObserverOptions {
+    pub history: bool,
+    pub history_interval: f64,
+    pub summary_interval: f64,
+    pub min_overlap: bool,
+    pub arrival_fraction: f64,
+    pub release_fraction: f64,
+    pub stop_after_leading_pulses: bool,
+    pub impact_energy: f64,
+    pub impact_momentum: f64,
+}
+
+/// Time histories of the probes.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+pub struct History {
+    /// Sample times, s.
+    pub time_s: Vec<f64>,
+    /// One series per probe, in the order of the record block.
+    pub values: Vec<Vec<f64>>,
+}
+
+/// The observer that feeds probes, summaries and the ledger from every accepted step.
+pub(crate) struct RunObserver {
+    probes: ProbeSet,
+    ledger: Ledger,
+    opts: ObserverOptions,
+    t0: f64,
+    t_end: f64,
+    e0: f64,
+    p0: f64,
+    trackers: Vec<PeakTracker>,
+    next_summary: u64,
+    next_history: u64,
+    pub history: Option<History>,
+    pub min_overlap: Option<Vec<f64>>,
+    pub energy_drift_max: f64,
+    pub energy_drift_final: f64,
+    pub momentum_residual_max: f64,
+    pub last_energy: Option<EnergyTerms>,
+    pub t_reached: f64,
+    n: usize,
+    n_contacts: usize,
+}
+
+impl RunObserver {
+    pub fn new(chain: &Chain, probes: ProbeSet, opts: ObserverOptions, t0: f64, t_end: f64) -> Self {
+        let n_probes = probes.len();
+        let history = opts.history.then(|| {
+            let cap = ((t_end - t0) / opts.history_interval).floor() as usize + 1;
+            History {
+                time_s: Vec::with_capacity(cap),
+                values: (0..n_probes).map(|_| Vec::with_capacity(cap)).collect(),
+            }
+        });
+        RunObserver {
+            ledger: Ledger::new(chain),
+            probes,
+            t0,
+            t_end,
+            e0: 0.0,
+            p0: 0.0,
+            trackers: Vec::new(),
+            next_summary: 0,
+            next_history: 0,
+            history,
+            min_overlap: opts.min_overlap.then(|| vec![f64::INFINITY; chain.n_contacts()]),
+            energy_drift_max: 0.0,
+            energy_drift_final: 0.0,
+            momentum_residual_max: 0.0,
+            last_energy: None,
+            t_reached: t0,
+            n: chain.n_particles(),
+            n_contacts: chain.n_contacts(),
+            opts,
+        }
+    }
+
+    pub fn summaries(&self) -> Vec<ProbeSummary> {
+        self.trackers
+            .iter()
+            .map(|tr| {
+                let (lv, lt) = tr.leading.refined(self.opts.summary_interval);
+                let (rv, rt) = tr.record.refined(self.opts.summary_interval);
+                ProbeSummary {
+                    leading_peak: lv,
+                    leading_peak_time_s: lt,
+                    record_max: rv,
+                    record_max_time_s: rt,
+                }
+            })
+            .collect()
+    }
+
+    fn update_ledger(&mut self, t: f64, y: &[f64]) {
+        let e = self.ledger.energy(y);
+        let drift = (e.total() - self.e0).abs() / self.opts.impact_energy;
+        self.energy_drift_max = self.energy_drift_max.max(drift);
+        self.energy_drift_final = drift;
+        let r = self.ledger.momentum_residual(y, t, self.t0, self.p0).abs() / self.opts.impact_momentum;
+        self.momentum_residual_max = self.momentum_residual_max.max(r);
+        self.last_energy = Some(e);
+        if let Some(mins) = &mut self.min_overlap {
+            for (c, m) in mins.iter_mut().enumerate().take(self.n_contacts) {
+                let d = if c + 1 < self.n { y[c] - y[c + 1] } else { y[c] };
+                *m = m.min(d);
+            }
+        }
+    }
+
+    fn all_leading_passed(&self) -> bool {
+        !self.trackers.is_empty() && self.trackers.iter().all(|t| t.phase == PulsePhase::Passed)
+    }
+}
+
+impl StepObserver for RunObserver {
+    fn on_start(&mut self, t0: f64, y0: &[f64]) {
+        self.e0 = self.ledger.energy(y0).total();
+        self.p0 = self.ledger.momentum(y0);
+        let get = |i: usize| y0[i];
+        self.trackers = (0..self.probes.len())
+            .map(|k| {
+                let base = self.probes.value(k, &get);
+                PeakTracker::new(
+                    base,
+                    self.opts.arrival_fraction * self.probes.scale[k],
+                    self.opts.release_fraction,
+                )
+            })
+            .collect();
+        self.update_ledger(t0, y0);
+        for (k, tr) in self.trackers.iter_mut().enumerate() {
+            tr.sample(t0, self.probes.value(k, &get));
+        }
+        self.next_summary = 1;
+        if let Some(h) = &mut self.history {
+            h.time_s.push(t0);
+            for (k, series) in h.values.iter_mut().enumerate() {
+                series.push(self.probes.value(k, &get));
+            }
+        }
+        self.next_history = 1;
+        self.t_reached = t0;
+    }
+
+    fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+        let t1 = step.t_end();
+        let n_probes = self.probes.len();
+        if n_probes > 0 {
+            loop {
+                let ts = self.t0 + self.next_summary as f64 * self.opts.summary_interval;
+                if ts > t1 || ts > self.t_end {
+                    break;
+                }
+                let g = |i: usize| step.eval_component(ts, i);
+                for k in 0..n_probes {
+                    let s = self.probes.value(k, &g);
+                    self.trackers[k].sample(ts, s);
+                }
+                self.next_summary += 1;
+            }
+            if let Some(h) = &mut self.history {
+                loop {
+                    let th = self.t0 + self.next_history as f64 * self.opts.history_interval;
+                    if th > t1 || th > self.t_end {
+                        break;
+                    }
+                    let g = |i: usize| step.eval_component(th, i);
+                    h.time_s.push(th);
+                    for (k, series) in h.values.iter_mut().enumerate() {
+                        series.push(self.probes.value(k, &g));
+                    }
+                    self.next_history += 1;
+                }
+            }
+        }
+        self.update_ledger(t1, step.y_end());
+        self.t_reached = t1;
+        if self.opts.stop_after_leading_pulses && self.all_leading_passed() {
+            return Control::Stop;
+        }
+        Control::Continue
+    }
+}

@@ -1,0 +1,270 @@
+//! The equations of motion (Eqs. 2–12) as an [`OdeSystem`], specialised at compile time on the
+//! physics a scene switches on, and the energy and momentum ledgers.
+
+use crate::integrate::OdeSystem;
+use crate::model::Chain;
+
+/// Right-hand side of the chain, specialised on gravity, damping, wall and tensile clipping so that
+/// what a scene switches off is compiled out of the hot loop.
+///
+/// State: `[x (N), v (N), q]` where `q` holds, in order, the dissipated work (J) when `DAMPING`
+/// and the wall impulse (N·s) when `WALL`.
+#[derive(Debug, Clone)]
+pub struct ChainSystem<const GRAVITY: bool, const DAMPING: bool, const WALL: bool, const CLIP: bool> {
+    inv_mass: Vec<f64>,
+    stiffness: Vec<f64>,
+    damping: Vec<f64>,
+    gravity: f64,
+    /// Net force of each interior contact, scratch for the accelerations.
+    force: Vec<f64>,
+}
+
+impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, D, W, C> {
+    /// Builds the system; panics if the chain's switches differ from the type's (a programming error:
+    /// use [`crate::dispatch_chain_system`] to pick the type from a chain).
+    pub fn new(chain: &Chain) -> Self {
+        assert_eq!(chain.wall, W, "wall switch mismatch");
+        assert_eq!(chain.clip_tensile, C, "clip switch mismatch");
+        assert_eq!(chain.gravity_m_s2 != 0.0, G, "gravity switch mismatch");
+        let n = chain.n_particles();
+        ChainSystem {
+            inv_mass: chain.mass.iter().map(|m| 1.0 / m).collect(),
+            stiffness: chain.stiffness.clone(),
+            damping: chain.damping.clone(),
+            gravity: chain.gravity_m_s2,
+            force: vec![0.0; n],
+        }
+    }
+
+    /// Index of the dissipated-work quadrature in the state, if any.
+    pub const fn work_index(n: usize) -> Option<usize> {
+        if D {
+            Some(2 * n)
+        } else {
+            None
+        }
+    }
+
+    /// Index of the wall-impulse quadrature in the state, if any.
+    pub const fn wall_impulse_index(n: usize) -> Option<usize> {
+        if W {
+            Some(2 * n + D as usize)
+        } else {
+            None
+        }
+    }
+}
+
+/// Net force of one contact and the power it dissipates.
+#[inline(always)]
+fn contact_force<const D: bool, const C: bool>(a: f64, mu: f64, overlap: f64, rel_velocity: f64) -> (f64, f64) {
+    let d = overlap.max(0.0);
+    let elastic = a * d * d.sqrt();
+    if !D {
+        let f = if C { elastic.max(0.0) } else { elastic };
+        return (f, 0.0);
+    }
+    // The viscous term acts only while the contact is compressed (paper, after Eq. 12).
+    let c = if overlap > 0.0 { mu } else { 0.0 };
+    let mut f = elastic + c * rel_velocity;
+    if C {
+        f = f.max(0.0);
+    }
+    (f, (f - elastic) * rel_velocity)
+}
+
+impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem for ChainSystem<G, D, W, C> {
+    fn n_pos(&self) -> usize {
+        self.inv_mass.len()
+    }
+
+    fn n_quad(&self) -> usize {
+        D as usize + W as usize
+    }
+
+    #[inline]
+    fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        let n = self.inv_mass.len();
+        let (x, rest) = y.split_at(n);
+        let v = &rest[..n];
+        let (dx, rest) = dy.split_at_mut(n);
+        let (dv, dq) = rest.split_at_mut(n);
+        dx.copy_from_slice(v);
+
+        // Interior contacts 0..n-1, contact c between particles c and c+1, in fixed-width lanes so
+        // that the loop (square roots, selects and the dissipated-power sum) vectorises.
+        const LANES: usize = 8;
+        let m = n - 1;
+        let force = &mut self.force[..m];
+        let a = &self.stiffness[..m];
+        let mu = &self.damping[..m];
+        let mut power = [0.0f64; LANES];
+        let full = m - m % LANES;
+        let mut c = 0;
+        while c < full {
+            let xa: &[f64; LANES] = x[c..c + LANES].try_into().unwrap();
+            let xb: &[f64; LANES] = x[c + 1..c + 1 + LANES].try_into().unwrap();
+            let va: &[f64; LANES] = v[c..c + LANES].try_into().unwrap();
+            let vb: &[f64; LANES] = v[c + 1..c + 1 + LANES].try_into().unwrap();
+            let ac: &[f64; LANES] = a[c..c + LANES].try_into().unwrap();
+            let muc: &[f64; LANES] = mu[c..c + LANES].try_into().unwrap();
+            let fc: &mut [f64; LANES] = (&mut force[c..c + LANES]).try_into().unwrap();
+            for k in 0..LANES {
+                let (f, p) = contact_force::<D, C>(ac[k], muc[k], xa[k] - xb[k], va[k] - vb[k]);
+                fc[k] = f;
+                if D {
+                    power[k] += p;
+                }
+            }
+            c += LANES;
+        }
+        for c in full..m {
+            let (f, p) = contact_force::<D, C>(a[c], mu[c], x[c] - x[c + 1], v[c] - v[c + 1]);
+            force[c] = f;
+            if D {
+                power[0] += p;
+            }
+        }
+        let (wall_force, wall_power) = if W {
+            contact_force::<D, C>(self.stiffness[n - 1], self.damping[n - 1], x[n - 1], v[n - 1])
+        } else {
+            (0.0, 0.0)
+        };
+
+        let g = if G { self.gravity } else { 0.0 };
+        let im = &self.inv_mass[..n];
+        dv[0] = g - force[0] * im[0];
+        for i in 1..n - 1 {
+            dv[i] = g + (force[i - 1] - force[i]) * im[i];
+        }
+        dv[n - 1] = g + (force[n - 2] - wall_force) * im[n - 1];
+
+        let mut k = 0;
+        if D {
+            dq[k] = power.iter().sum::<f64>() + wall_power;
+            k += 1;
+        }
+        if W {
+            dq[k] = wall_force;
+        }
+    }
+}
+
+/// Energy and momentum bookkeeping for a chain state, independent of the integrator.
+#[derive(Debug, Clone)]
+pub struct Ledger {
+    mass: Vec<f64>,
+    stiffness: Vec<f64>,
+    gravity: f64,
+    wall: bool,
+    work_index: Option<usize>,
+    wall_impulse_index: Option<usize>,
+}
+
+/// Energy terms of a state, J.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EnergyTerms {
+    /// Kinetic energy.
+    pub kinetic: f64,
+    /// Hertz potential `Σ (2/5) A δ^{5/2}` over compressed contacts.
+    pub elastic: f64,
+    /// Gravitational potential `-g Σ m x` (x positive downwards).
+    pub gravitational: f64,
+    /// Work dissipated by the viscous terms so far.
+    pub dissipated: f64,
+}
+
+impl EnergyTerms {
+    /// The conserved total.
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.elastic + self.gravitational + self.dissipated
+    }
+}
+
+impl Ledger {
+    /// Ledger for a chain.
+    pub fn new(chain: &Chain) -> Self {
+        let n = chain.n_particles();
+        let d = chain.has_damping();
+        Ledger {
+            mass: chain.mass.clone(),
+            stiffness: chain.stiffness.clone(),
+            gravity: chain.gravity_m_s2,
+            wall: chain.wall,
+            work_index: d.then_some(2 * n),
+            wall_impulse_index: chain.wall.then_some(2 * n + d as usize),
+        }
+    }
+
+    /// Energy terms of state `y`.
+    pub fn energy(&self, y: &[f64]) -> EnergyTerms {
+        let n = self.mass.len();
+        let (x, v) = (&y[..n], &y[n..2 * n]);
+        let mut kinetic = 0.0;
+        let mut gravitational = 0.0;
+        for i in 0..n {
+            kinetic += 0.5 * self.mass[i] * v[i] * v[i];
+            gravitational -= self.gravity * self.mass[i] * x[i];
+        }
+        let mut elastic = 0.0;
+        for c in 0..self.stiffness.len() {
+            let overlap = if c + 1 < n { x[c] - x[c + 1] } else { x[c] };
+            if overlap > 0.0 {
+                elastic += 0.4 * self.stiffness[c] * overlap * overlap * overlap.sqrt();
+            }
+        }
+        let dissipated = self.work_index.map_or(0.0, |k| y[k]);
+        EnergyTerms {
+            kinetic,
+            elastic,
+            gravitational,
+            dissipated,
+        }
+    }
+
+    /// Momentum balance residual `P(t) - P(0) - M g t + J_wall(t)`, N·s, which is zero for the
+    /// exact solution (`J_wall` is the impulse the wall has taken).
+    pub fn momentum_residual(&self, y: &[f64], t: f64, t0: f64, p0: f64) -> f64 {
+        let n = self.mass.len();
+        let p: f64 = (0..n).map(|i| self.mass[i] * y[n + i]).sum();
+        let m_total: f64 = self.mass.iter().sum();
+        let j = self.wall_impulse_index.map_or(0.0, |k| y[k]);
+        debug_assert!(self.wall || j == 0.0);
+        p - p0 - m_total * self.gravity * (t - t0) + j
+    }
+
+    /// Total momentum of state `y`, kg·m/s.
+    pub fn momentum(&self, y: &[f64]) -> f64 {
+        let n = self.mass.len();
+        (0..n).map(|i| self.mass[i] * y[n + i]).sum()
+    }
+}
+
+/// Calls `$body` with `$sys` bound to a [`ChainSystem`] whose const parameters match `$chain`'s
+/// switches; this is the one place where run-time switches become compile-time ones.
+#[macro_export]
+macro_rules! dispatch_chain_system {
+    ($chain:expr, |$sys:ident| $body:expr) => {{
+        let chain: &$crate::model::Chain = $chain;
+        let g = chain.gravity_m_s2 != 0.0;
+        let d = chain.has_damping();
+        match (g, d, chain.wall, chain.clip_tensile) {
+            (false, false, false, false) => { let mut $sys = $crate::system::ChainSystem::<false, false, false, false>::new(chain); $body }
+            (false, false, false, true) => { let mut $sys = $crate::system::ChainSystem::<false, false, false, true>::new(chain); $body }
+            (false, false, true, false) => { let mut $sys = $crate::system::ChainSystem::<false, false, true, false>::new(chain); $body }
+            (false, false, true, true) => { let mut $sys = $crate::system::ChainSystem::<false, false, true, true>::new(chain); $body }
+            (false, true, false, false) => { let mut $sys = $crate::system::ChainSystem::<false, true, false, false>::new(chain); $body }
+            (false, true, false, true) => { let mut $sys = $crate::system::ChainSystem::<false, true, false, true>::new(chain); $body }
+            (false, true, true, false) => { let mut $sys = $crate::system::ChainSystem::<false, true, true, false>::new(chain); $body }
+            (false, true, true, true) => { let mut $sys = $crate::system::ChainSystem::<false, true, true, true>::new(chain); $body }
+            (true, false, false, false) => { let mut $sys = $crate::system::ChainSystem::<true, false, false, false>::new(chain); $body }
+            (true, false, false, true) => { let mut $sys = $crate::system::ChainSystem::<true, false, false, true>::new(chain); $body }
+            (true, false, true, false) => { let mut $sys = $crate::system::ChainSystem::<true, false, true, false>::new(chain); $body }
+            (true, false, true, true) => { let mut $sys = $crate::system::ChainSystem::<true, false, true, true>::new(chain); $body }
+            (true, true, false, false) => { let mut $sys = $crate::system::ChainSystem::<true, true, false, false>::new(chain); $body }
+            (true, true, false, true) => { let mut $sys = $crate::system::ChainSystem::<true, true, false, true>::new(chain); $body }
+            (true, true, true, false) => { let mut $sys = $crate::system::ChainSystem::<true, true, true, false>::new(chain); $body }
+            (true, true, true, true) => { let mut $sys = $crate::system::ChainSystem::<true, true, true, true>::new(chain); $body }
+        }
+    }};
+}
