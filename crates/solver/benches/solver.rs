@@ -33,7 +33,10 @@ fn mid_pulse_state(chain: &Chain) -> Vec<f64> {
 fn bench_rhs(c: &mut Criterion) {
     let spec = ChainSpec::chain_055(50);
     let mut group = c.benchmark_group("rhs");
-    let cases: [(&str, bool, f64); 2] = [("full_physics", true, 6.0), ("no_gravity_no_damping", false, 0.0)];
+    let cases: [(&str, bool, f64); 2] = [
+        ("full_physics", true, 6.0),
+        ("no_gravity_no_damping", false, 0.0),
+    ];
     for (name, gravity, mu) in cases {
         let physics = PhysicsSpec {
             gravity,
@@ -48,12 +51,16 @@ fn bench_rhs(c: &mut Criterion) {
             let mut sys = ChainSystem::<true, true, true, false>::new(&chain);
             let mut dy = vec![0.0; OdeSystem::dim(&sys)];
             y.truncate(OdeSystem::dim(&sys));
-            group.bench_function(name, |b| b.iter(|| sys.rhs(0.0, black_box(&y), black_box(&mut dy))));
+            group.bench_function(name, |b| {
+                b.iter(|| sys.rhs(0.0, black_box(&y), black_box(&mut dy)))
+            });
         } else {
             let mut sys = ChainSystem::<false, false, true, false>::new(&chain);
             let mut dy = vec![0.0; OdeSystem::dim(&sys)];
             y.truncate(OdeSystem::dim(&sys));
-            group.bench_function(name, |b| b.iter(|| sys.rhs(0.0, black_box(&y), black_box(&mut dy))));
+            group.bench_function(name, |b| {
+                b.iter(|| sys.rhs(0.0, black_box(&y), black_box(&mut dy)))
+            });
         }
     }
     group.finish();
@@ -66,8 +73,12 @@ fn reference_scene() -> Scene {
         rtol: REFERENCE_RTOL,
         atol: None,
         max_step_s: None,
+        locate_events: true,
     };
-    scene.record.probes = vec![Probe::GaugeForce { cylinder: 4 }, Probe::GaugeForce { cylinder: 21 }];
+    scene.record.probes = vec![
+        Probe::GaugeForce { cylinder: 4 },
+        Probe::GaugeForce { cylinder: 21 },
+    ];
     scene
 }
 
@@ -80,7 +91,9 @@ fn bench_run(c: &mut Criterion) {
     );
     let mut group = c.benchmark_group("run");
     group.sample_size(30);
-    group.bench_function("chain055_50cyl_mu6_1ms", |b| b.iter(|| run(black_box(&scene)).unwrap()));
+    group.bench_function("chain055_50cyl_mu6_1ms", |b| {
+        b.iter(|| run(black_box(&scene)).unwrap())
+    });
     group.finish();
 }
 

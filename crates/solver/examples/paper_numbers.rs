@@ -13,18 +13,34 @@ fn main() {
     ];
     println!(
         "{:<11} {:>4} {:>9} {:>9} {:>9} {:>8} {:>10} {:>10} {:>9} {:>11}",
-        "chain", "mu", "F4 (N)", "F5 (N)", "F21 (N)", "A21/A4", "c4-5 (m/s)", "c4-21(m/s)", "vmax(m/s)", "drift"
+        "chain",
+        "mu",
+        "F4 (N)",
+        "F5 (N)",
+        "F21 (N)",
+        "A21/A4",
+        "c4-5 (m/s)",
+        "c4-21(m/s)",
+        "vmax(m/s)",
+        "drift"
     );
     for (name, spec, v0) in cases {
         for mu in [0.0, 4.0, 6.0] {
             let mut scene = Scene::new(spec.clone(), v0, 1e-3);
             scene.physics.damping_kg_s = mu;
-            scene.integrator = IntegratorSpec::Dop853 { rtol: 1e-10, atol: None, max_step_s: None };
+            scene.integrator = IntegratorSpec::Dop853 {
+                rtol: 1e-10,
+                atol: None,
+                max_step_s: None,
+                locate_events: true,
+            };
             scene.record.probes = vec![
                 Probe::GaugeForce { cylinder: 4 },
                 Probe::GaugeForce { cylinder: 5 },
                 Probe::GaugeForce { cylinder: 21 },
-                Probe::Velocity { particle: 2 * 21 + 1 },
+                Probe::Velocity {
+                    particle: 2 * 21 + 1,
+                },
             ];
             let t = std::time::Instant::now();
             let out = run(&scene).expect("run");

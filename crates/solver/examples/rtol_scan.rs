@@ -10,7 +10,10 @@ fn scene(integrator: IntegratorSpec) -> Scene {
     let mut s = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
     s.physics.damping_kg_s = 6.0;
     s.integrator = integrator;
-    s.record.probes = vec![Probe::GaugeForce { cylinder: 4 }, Probe::GaugeForce { cylinder: 21 }];
+    s.record.probes = vec![
+        Probe::GaugeForce { cylinder: 4 },
+        Probe::GaugeForce { cylinder: 21 },
+    ];
     s
 }
 
@@ -27,14 +30,38 @@ fn time_run(s: &Scene) -> (chainsweep_solver::RunOutput, f64) {
 }
 
 fn main() {
-    let reference = run(&scene(IntegratorSpec::Dop853 { rtol: 1e-13, atol: None, max_step_s: None })).unwrap();
+    let reference = run(&scene(IntegratorSpec::Dop853 {
+        rtol: 1e-13,
+        atol: None,
+        max_step_s: None,
+        locate_events: true,
+    }))
+    .unwrap();
     let f_ref = reference.probes[1].leading_peak;
     let t_ref = reference.probes[1].leading_peak_time_s;
-    println!("reference F21 = {f_ref:.12} N at {t_ref:.12e} s (dop853 rtol 1e-13, drift {:.1e})", reference.energy_drift_max);
-    println!("{:<8} {:>10} {:>12} {:>12} {:>10} {:>9} {:>10} {:>9}", "method", "setting", "rel err F21", "err t21 (s)", "drift", "steps", "rhs evals", "ms (min)");
+    println!(
+        "reference F21 = {f_ref:.12} N at {t_ref:.12e} s (dop853 rtol 1e-13, drift {:.1e})",
+        reference.energy_drift_max
+    );
+    println!(
+        "{:<8} {:>10} {:>12} {:>12} {:>10} {:>9} {:>10} {:>9}",
+        "method",
+        "setting",
+        "rel err F21",
+        "err t21 (s)",
+        "drift",
+        "steps",
+        "rhs evals",
+        "ms (min)"
+    );
     let mut ladder: Vec<IntegratorSpec> = Vec::new();
     for rtol in [1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11] {
-        ladder.push(IntegratorSpec::Dop853 { rtol, atol: None, max_step_s: None });
+        ladder.push(IntegratorSpec::Dop853 {
+            rtol,
+            atol: None,
+            max_step_s: None,
+            locate_events: true,
+        });
     }
     for dt in [4e-7, 2e-7, 1e-7, 5e-8] {
         ladder.push(IntegratorSpec::Rk4 { dt_s: dt });
@@ -45,14 +72,22 @@ fn main() {
     for ig in ladder {
         let setting = match ig {
             IntegratorSpec::Dop853 { rtol, .. } => format!("rtol {rtol:.0e}"),
-            IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => format!("dt {dt_s:.0e}"),
+            IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => {
+                format!("dt {dt_s:.0e}")
+            }
         };
         let (o, secs) = time_run(&scene(ig));
         let p = &o.probes[1];
         println!(
             "{:<8} {:>10} {:>12.2e} {:>12.2e} {:>10.2e} {:>9} {:>10} {:>9.3}",
-            o.method, setting, (p.leading_peak - f_ref).abs() / f_ref, (p.leading_peak_time_s - t_ref).abs(),
-            o.energy_drift_max, o.stats.steps, o.stats.rhs_evals, secs * 1e3
+            o.method,
+            setting,
+            (p.leading_peak - f_ref).abs() / f_ref,
+            (p.leading_peak_time_s - t_ref).abs(),
+            o.energy_drift_max,
+            o.stats.steps,
+            o.stats.rhs_evals,
+            secs * 1e3
         );
     }
 }

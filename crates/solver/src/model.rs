@@ -62,7 +62,10 @@ impl SphereSpec {
 /// How the cylinder mass is given.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "snake_case", deny_unknown_fields))]
+#[cfg_attr(
+    feature = "serde",
+    serde(rename_all = "snake_case", deny_unknown_fields)
+)]
 pub enum CylinderMass {
     /// An explicit mass, kg.
     Explicit {
@@ -289,7 +292,10 @@ fn check_positive(field: &str, v: f64) -> Result<(), SpecError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
-        Err(spec_err(field, format!("must be a finite number > 0, got {v}")))
+        Err(spec_err(
+            field,
+            format!("must be a finite number > 0, got {v}"),
+        ))
     }
 }
 
@@ -324,7 +330,8 @@ impl ChainSpec {
             CylinderMass::Explicit { mass_kg } => {
                 check_positive("chain.cylinder.mass.explicit.mass_kg", mass_kg)?
             }
-            CylinderMass::HeavyCylinders { mass_ratio } | CylinderMass::LightCylinders { mass_ratio } => {
+            CylinderMass::HeavyCylinders { mass_ratio }
+            | CylinderMass::LightCylinders { mass_ratio } => {
                 if !(mass_ratio.is_finite() && mass_ratio > 0.0 && mass_ratio <= 1.0) {
                     let which = if matches!(c.mass, CylinderMass::HeavyCylinders { .. }) {
                         "heavy_cylinders"
@@ -433,10 +440,24 @@ impl Chain {
             kind.push(k);
         }
 
-        let a_striker = hertz_coefficient(spec.striker.material, Some(r_imp), spec.sphere.material, Some(r_s));
-        let a_chain = hertz_coefficient(spec.cylinder.material, None, spec.sphere.material, Some(r_s));
+        let a_striker = hertz_coefficient(
+            spec.striker.material,
+            Some(r_imp),
+            spec.sphere.material,
+            Some(r_s),
+        );
+        let a_chain = hertz_coefficient(
+            spec.cylinder.material,
+            None,
+            spec.sphere.material,
+            Some(r_s),
+        );
         let a_wall = hertz_coefficient(spec.wall_material, None, spec.sphere.material, Some(r_s));
-        let n_contacts = if physics.wall { n_particles } else { n_particles - 1 };
+        let n_contacts = if physics.wall {
+            n_particles
+        } else {
+            n_particles - 1
+        };
         let mut stiffness = vec![a_chain; n_contacts];
         stiffness[0] = a_striker;
         if physics.wall {
@@ -448,7 +469,11 @@ impl Chain {
         let mut damping = vec![mu; n_contacts];
         damping[0] = mu1;
 
-        let g = if physics.gravity { physics.gravity_m_s2 } else { 0.0 };
+        let g = if physics.gravity {
+            physics.gravity_m_s2
+        } else {
+            0.0
+        };
         // Static equilibrium (MODEL.md): contact j carries the weight of particles 2..j. Without a
         // wall nothing supports the chain, it falls freely and no contact is preloaded.
         let mut static_overlap = vec![0.0; n_contacts];

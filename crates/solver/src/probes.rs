@@ -11,7 +11,10 @@ use crate::system::{EnergyTerms, Ledger};
 /// One observable. Indices are 1-based as in the paper and `MODEL.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields))]
+#[cfg_attr(
+    feature = "serde",
+    serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)
+)]
 pub enum Probe {
     /// Force read by a gauge embedded in cylinder `k` (particle `2k+1`): the mean of the total
     /// (elastic + viscous) forces at its two contacts, N.
@@ -173,20 +176,27 @@ impl RecordSpec {
                         format!("must lie in 1..={n_cyl} (the chain's cylinders), got {cylinder}"),
                     ))
                 }
-                Probe::ContactForce { contact } | Probe::Overlap { contact } if contact == 0 || contact > n_c => {
+                Probe::ContactForce { contact } | Probe::Overlap { contact }
+                    if contact == 0 || contact > n_c =>
+                {
                     return Err(spec_err(
                         &format!("{field}.contact"),
                         format!("must lie in 1..={n_c} (the chain's contacts), got {contact}"),
                     ))
                 }
-                Probe::Displacement { particle } | Probe::Velocity { particle } if particle == 0 || particle > n_p => {
+                Probe::Displacement { particle } | Probe::Velocity { particle }
+                    if particle == 0 || particle > n_p =>
+                {
                     return Err(spec_err(
                         &format!("{field}.particle"),
                         format!("must lie in 1..={n_p} (the chain's particles), got {particle}"),
                     ))
                 }
                 Probe::WallForce if !chain.wall => {
-                    return Err(spec_err(&format!("{field}.kind"), "wall_force needs physics.wall = true"))
+                    return Err(spec_err(
+                        &format!("{field}.kind"),
+                        "wall_force needs physics.wall = true",
+                    ))
                 }
                 _ => {}
             }
@@ -196,17 +206,26 @@ impl RecordSpec {
             ("record.summary_interval_s", self.summary_interval_s),
         ] {
             if !(v.is_finite() && v > 0.0) {
-                return Err(spec_err(name, format!("must be a finite number > 0, got {v}")));
+                return Err(spec_err(
+                    name,
+                    format!("must be a finite number > 0, got {v}"),
+                ));
             }
         }
         let lp = &self.leading_pulse;
-        if !(lp.arrival_fraction.is_finite() && lp.arrival_fraction > 0.0 && lp.arrival_fraction < 1.0) {
+        if !(lp.arrival_fraction.is_finite()
+            && lp.arrival_fraction > 0.0
+            && lp.arrival_fraction < 1.0)
+        {
             return Err(spec_err(
                 "record.leading_pulse.arrival_fraction",
                 format!("must lie in (0, 1), got {}", lp.arrival_fraction),
             ));
         }
-        if !(lp.release_fraction.is_finite() && lp.release_fraction > 0.0 && lp.release_fraction < 1.0) {
+        if !(lp.release_fraction.is_finite()
+            && lp.release_fraction > 0.0
+            && lp.release_fraction < 1.0)
+        {
             return Err(spec_err(
                 "record.leading_pulse.release_fraction",
                 format!("must lie in (0, 1), got {}", lp.release_fraction),
@@ -220,10 +239,21 @@ impl RecordSpec {
 #[derive(Debug, Clone, Copy)]
 enum Compiled {
     /// Mean of `n` contact forces starting at contact index `first` (n = 1 or 2).
-    Contacts { first: usize, count: usize, offset: f64 },
-    Overlap { contact: usize },
-    Displacement { index: usize, origin: f64 },
-    Velocity { index: usize },
+    Contacts {
+        first: usize,
+        count: usize,
+        offset: f64,
+    },
+    Overlap {
+        contact: usize,
+    },
+    Displacement {
+        index: usize,
+        origin: f64,
+    },
+    Velocity {
+        index: usize,
+    },
 }
 
 /// Evaluates probes from a dense step or a state.
@@ -239,10 +269,20 @@ pub(crate) struct ProbeSet {
 }
 
 impl ProbeSet {
-    pub fn new(chain: &Chain, probes: &[Probe], preload: Preload, force_scale: f64, velocity_scale: f64, length_scale: f64) -> Self {
+    pub fn new(
+        chain: &Chain,
+        probes: &[Probe],
+        preload: Preload,
+        force_scale: f64,
+        velocity_scale: f64,
+        length_scale: f64,
+    ) -> Self {
         let n = chain.n_particles();
         let static_mean = |first: usize, count: usize| -> f64 {
-            (first..first + count).map(|c| chain.static_force(c)).sum::<f64>() / count as f64
+            (first..first + count)
+                .map(|c| chain.static_force(c))
+                .sum::<f64>()
+                / count as f64
         };
         let mut compiled = Vec::new();
         let mut scale = Vec::new();
@@ -252,7 +292,9 @@ impl ProbeSet {
                 Probe::ContactForce { contact } => (contact - 1, 1),
                 Probe::WallForce => (n - 1, 1),
                 Probe::Overlap { contact } => {
-                    compiled.push(Compiled::Overlap { contact: contact - 1 });
+                    compiled.push(Compiled::Overlap {
+                        contact: contact - 1,
+                    });
                     scale.push(length_scale);
                     continue;
                 }
@@ -265,7 +307,9 @@ impl ProbeSet {
                     continue;
                 }
                 Probe::Velocity { particle } => {
-                    compiled.push(Compiled::Velocity { index: n + particle - 1 });
+                    compiled.push(Compiled::Velocity {
+                        index: n + particle - 1,
+                    });
                     scale.push(velocity_scale);
                     continue;
                 }
@@ -274,7 +318,11 @@ impl ProbeSet {
                 Preload::Include => 0.0,
                 Preload::Subtract => static_mean(c, s),
             };
-            compiled.push(Compiled::Contacts { first: c, count: s, offset });
+            compiled.push(Compiled::Contacts {
+                first: c,
+                count: s,
+                offset,
+            });
             scale.push(force_scale);
         }
         ProbeSet {
@@ -314,7 +362,11 @@ impl ProbeSet {
     #[inline]
     pub fn value(&self, k: usize, get: &impl Fn(usize) -> f64) -> f64 {
         match self.compiled[k] {
-            Compiled::Contacts { first, count, offset } => {
+            Compiled::Contacts {
+                first,
+                count,
+                offset,
+            } => {
                 let mut s = 0.0;
                 for c in first..first + count {
                     s += self.contact_force(c, get);
@@ -338,7 +390,8 @@ impl ProbeSet {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 pub struct ProbeSummary {
-    /// Peak of the leading pulse (first excursion), refined between samples; NaN if it never arrived.
+    /// Peak of the leading pulse (first excursion), refined between samples; NaN if the pulse never
+    /// arrived or was still rising when the run ended.
     pub leading_peak: f64,
     /// Time of the leading peak, s; NaN if it never arrived.
     pub leading_peak_time_s: f64,
@@ -415,7 +468,10 @@ impl PeakWindow {
                 }
             }
             let pu = p(u);
-            if pu.is_finite() && pu >= v[2] {
+            // A smooth maximum sampled near its top rises above the best sample by less than the
+            // drop to either neighbour; anything else (a plateau, a kink) keeps the sample.
+            let drop = (v[2] - v[1]).min(v[2] - v[3]);
+            if pu.is_finite() && pu >= v[2] && pu - v[2] <= drop && ddp(u) < 0.0 {
                 return (pu, self.time + u * dt);
             }
             (v[2], self.time)
@@ -426,7 +482,9 @@ impl PeakWindow {
             if den < 0.0 {
                 let u = (0.5 * (a - c) / den).clamp(-1.0, 1.0);
                 let val = b - 0.25 * (a - c) * u;
-                return (val.max(b), self.time + u * dt);
+                if val - b <= (b - a).min(b - c) {
+                    return (val.max(b), self.time + u * dt);
+                }
             }
             (b, self.time)
         } else {
@@ -541,7 +599,13 @@ pub(crate) struct RunObserver {
 }
 
 impl RunObserver {
-    pub fn new(chain: &Chain, probes: ProbeSet, opts: ObserverOptions, t0: f64, t_end: f64) -> Self {
+    pub fn new(
+        chain: &Chain,
+        probes: ProbeSet,
+        opts: ObserverOptions,
+        t0: f64,
+        t_end: f64,
+    ) -> Self {
         let n_probes = probes.len();
         let history = opts.history.then(|| {
             let cap = ((t_end - t0) / opts.history_interval).floor() as usize + 1;
@@ -561,7 +625,9 @@ impl RunObserver {
             next_summary: 0,
             next_history: 0,
             history,
-            min_overlap: opts.min_overlap.then(|| vec![f64::INFINITY; chain.n_contacts()]),
+            min_overlap: opts
+                .min_overlap
+                .then(|| vec![f64::INFINITY; chain.n_contacts()]),
             energy_drift_max: 0.0,
             energy_drift_final: 0.0,
             momentum_residual_max: 0.0,
@@ -577,7 +643,13 @@ impl RunObserver {
         self.trackers
             .iter()
             .map(|tr| {
-                let (lv, lt) = tr.leading.refined(self.opts.summary_interval);
+                // A leading peak counts only once the signal has fallen after it: a run that ends
+                // while the pulse is still rising has no leading peak yet.
+                let (lv, lt) = if tr.leading.after >= 1 {
+                    tr.leading.refined(self.opts.summary_interval)
+                } else {
+                    (f64::NAN, f64::NAN)
+                };
                 let (rv, rt) = tr.record.refined(self.opts.summary_interval);
                 ProbeSummary {
                     leading_peak: lv,
@@ -594,12 +666,17 @@ impl RunObserver {
         let drift = (e.total() - self.e0).abs() / self.opts.impact_energy;
         self.energy_drift_max = self.energy_drift_max.max(drift);
         self.energy_drift_final = drift;
-        let r = self.ledger.momentum_residual(y, t, self.t0, self.p0).abs() / self.opts.impact_momentum;
+        let r =
+            self.ledger.momentum_residual(y, t, self.t0, self.p0).abs() / self.opts.impact_momentum;
         self.momentum_residual_max = self.momentum_residual_max.max(r);
         self.last_energy = Some(e);
         if let Some(mins) = &mut self.min_overlap {
             for (c, m) in mins.iter_mut().enumerate().take(self.n_contacts) {
-                let d = if c + 1 < self.n { y[c] - y[c + 1] } else { y[c] };
+                let d = if c + 1 < self.n {
+                    y[c] - y[c + 1]
+                } else {
+                    y[c]
+                };
                 *m = m.min(d);
             }
         }

@@ -11,7 +11,10 @@ use crate::system::EnergyTerms;
 /// Integrator and its accuracy settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(tag = "method", rename_all = "snake_case", deny_unknown_fields))]
+#[cfg_attr(
+    feature = "serde",
+    serde(tag = "method", rename_all = "snake_case", deny_unknown_fields)
+)]
 pub enum IntegratorSpec {
     /// Velocity Verlet, fixed step (second order).
     Verlet {
@@ -35,7 +38,15 @@ pub enum IntegratorSpec {
         /// Largest step, s. Absent: no bound.
         #[cfg_attr(feature = "serde", serde(default))]
         max_step_s: Option<f64>,
+        /// End steps on contacts opening and closing, where the forces are not smooth (default).
+        #[cfg_attr(feature = "serde", serde(default = "default_true"))]
+        locate_events: bool,
     },
+}
+
+#[cfg(feature = "serde")]
+fn default_true() -> bool {
+    true
 }
 
 impl Default for IntegratorSpec {
@@ -44,6 +55,7 @@ impl Default for IntegratorSpec {
             rtol: 1e-9,
             atol: None,
             max_step_s: None,
+            locate_events: true,
         }
     }
 }
@@ -64,18 +76,34 @@ impl IntegratorSpec {
             if v.is_finite() && v > 0.0 {
                 Ok(())
             } else {
-                Err(spec_err(name, format!("must be a finite number > 0, got {v}")))
+                Err(spec_err(
+                    name,
+                    format!("must be a finite number > 0, got {v}"),
+                ))
             }
         };
         match *self {
-            IntegratorSpec::Verlet { dt_s } | IntegratorSpec::Rk4 { dt_s } => pos("integrator.dt_s", dt_s),
-            IntegratorSpec::Dop853 { rtol, atol, max_step_s } => {
+            IntegratorSpec::Verlet { dt_s } | IntegratorSpec::Rk4 { dt_s } => {
+                pos("integrator.dt_s", dt_s)
+            }
+            IntegratorSpec::Dop853 {
+                rtol,
+                atol,
+                max_step_s,
+                ..
+            } => {
                 if !(rtol.is_finite() && (1e-15..=1e-1).contains(&rtol)) {
-                    return Err(spec_err("integrator.rtol", format!("must lie in [1e-15, 0.1], got {rtol}")));
+                    return Err(spec_err(
+                        "integrator.rtol",
+                        format!("must lie in [1e-15, 0.1], got {rtol}"),
+                    ));
                 }
                 if let Some(a) = atol {
                     if !(a.is_finite() && (1e-18..=1e-1).contains(&a)) {
-                        return Err(spec_err("integrator.atol", format!("must lie in [1e-18, 0.1], got {a}")));
+                        return Err(spec_err(
+                            "integrator.atol",
+                            format!("must lie in [1e-18, 0.1], got {a}"),
+                        ));
                     }
                 }
                 if let Some(h) = max_step_s {
@@ -139,11 +167,17 @@ impl Scene {
         let chain = Chain::build(&self.chain, &self.physics)?;
         let v0 = self.striker_velocity_m_s;
         if !(v0.is_finite() && v0 > 0.0) {
-            return Err(spec_err("striker_velocity_m_s", format!("must be a finite number > 0, got {v0}")));
+            return Err(spec_err(
+                "striker_velocity_m_s",
+                format!("must be a finite number > 0, got {v0}"),
+            ));
         }
         let d = self.duration_s;
         if !(d.is_finite() && d > 0.0) {
-            return Err(spec_err("duration_s", format!("must be a finite number > 0, got {d}")));
+            return Err(spec_err(
+                "duration_s",
+                format!("must be a finite number > 0, got {d}"),
+            ));
         }
         if self.max_steps == 0 {
             return Err(spec_err("max_steps", "must be at least 1"));
@@ -299,9 +333,15 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
     let integrator: Box<dyn Integrator> = match scene.integrator {
         IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
         IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
-        IntegratorSpec::Dop853 { rtol, atol, max_step_s } => {
+        IntegratorSpec::Dop853 {
+            rtol,
+            atol,
+            max_step_s,
+            locate_events,
+        } => {
             let mut d = Dop853::new(rtol, atol.unwrap_or(rtol));
             d.h_max = max_step_s;
+            d.locate_events = locate_events;
             d.atol_scale = Some(state_scales(&chain, &scales));
             Box::new(d)
         }
@@ -323,7 +363,9 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
         energy_drift_max: observer.energy_drift_max,
         energy_drift_final: observer.energy_drift_final,
         momentum_residual_max: observer.momentum_residual_max,
-        final_energy: observer.last_energy.expect("observer saw the initial state"),
+        final_energy: observer
+            .last_energy
+            .expect("observer saw the initial state"),
         impact_energy_j: scales.energy_j,
         min_overlap_m: observer.min_overlap.take(),
         history: observer.history.take(),

@@ -1,7 +1,7 @@
 //! The equations of motion (Eqs. 2–12) as an [`OdeSystem`], specialised at compile time on the
 //! physics a scene switches on, and the energy and momentum ledgers.
 
-use crate::integrate::OdeSystem;
+use crate::integrate::{OdeSystem, Switch};
 use crate::model::Chain;
 
 /// Right-hand side of the chain, specialised on gravity, damping, wall and tensile clipping so that
@@ -10,13 +10,16 @@ use crate::model::Chain;
 /// State: `[x (N), v (N), q]` where `q` holds, in order, the dissipated work (J) when `DAMPING`
 /// and the wall impulse (N·s) when `WALL`.
 #[derive(Debug, Clone)]
-pub struct ChainSystem<const GRAVITY: bool, const DAMPING: bool, const WALL: bool, const CLIP: bool> {
+pub struct ChainSystem<const GRAVITY: bool, const DAMPING: bool, const WALL: bool, const CLIP: bool>
+{
     inv_mass: Vec<f64>,
     stiffness: Vec<f64>,
     damping: Vec<f64>,
     gravity: f64,
     /// Net force of each interior contact, scratch for the accelerations.
     force: Vec<f64>,
+    /// Overlap of every contact as a switching function: the force is not smooth where it vanishes.
+    switches: Vec<Switch>,
 }
 
 impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, D, W, C> {
@@ -33,6 +36,12 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
             damping: chain.damping.clone(),
             gravity: chain.gravity_m_s2,
             force: vec![0.0; n],
+            switches: (0..chain.n_contacts())
+                .map(|c| Switch {
+                    plus: c,
+                    minus: (c + 1 < n).then_some(c + 1),
+                })
+                .collect(),
         }
     }
 
@@ -57,7 +66,12 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
 
 /// Net force of one contact and the power it dissipates.
 #[inline(always)]
-fn contact_force<const D: bool, const C: bool>(a: f64, mu: f64, overlap: f64, rel_velocity: f64) -> (f64, f64) {
+fn contact_force<const D: bool, const C: bool>(
+    a: f64,
+    mu: f64,
+    overlap: f64,
+    rel_velocity: f64,
+) -> (f64, f64) {
     let d = overlap.max(0.0);
     let elastic = a * d * d.sqrt();
     if !D {
@@ -73,13 +87,19 @@ fn contact_force<const D: bool, const C: bool>(a: f64, mu: f64, overlap: f64, re
     (f, (f - elastic) * rel_velocity)
 }
 
-impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem for ChainSystem<G, D, W, C> {
+impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem
+    for ChainSystem<G, D, W, C>
+{
     fn n_pos(&self) -> usize {
         self.inv_mass.len()
     }
 
     fn n_quad(&self) -> usize {
         D as usize + W as usize
+    }
+
+    fn switches(&self) -> &[Switch] {
+        &self.switches
     }
 
     #[inline]
@@ -126,7 +146,12 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem for C
             }
         }
         let (wall_force, wall_power) = if W {
-            contact_force::<D, C>(self.stiffness[n - 1], self.damping[n - 1], x[n - 1], v[n - 1])
+            contact_force::<D, C>(
+                self.stiffness[n - 1],
+                self.damping[n - 1],
+                x[n - 1],
+                v[n - 1],
+            )
         } else {
             (0.0, 0.0)
         };
@@ -249,22 +274,71 @@ macro_rules! dispatch_chain_system {
         let g = chain.gravity_m_s2 != 0.0;
         let d = chain.has_damping();
         match (g, d, chain.wall, chain.clip_tensile) {
-            (false, false, false, false) => { let mut $sys = $crate::system::ChainSystem::<false, false, false, false>::new(chain); $body }
-            (false, false, false, true) => { let mut $sys = $crate::system::ChainSystem::<false, false, false, true>::new(chain); $body }
-            (false, false, true, false) => { let mut $sys = $crate::system::ChainSystem::<false, false, true, false>::new(chain); $body }
-            (false, false, true, true) => { let mut $sys = $crate::system::ChainSystem::<false, false, true, true>::new(chain); $body }
-            (false, true, false, false) => { let mut $sys = $crate::system::ChainSystem::<false, true, false, false>::new(chain); $body }
-            (false, true, false, true) => { let mut $sys = $crate::system::ChainSystem::<false, true, false, true>::new(chain); $body }
-            (false, true, true, false) => { let mut $sys = $crate::system::ChainSystem::<false, true, true, false>::new(chain); $body }
-            (false, true, true, true) => { let mut $sys = $crate::system::ChainSystem::<false, true, true, true>::new(chain); $body }
-            (true, false, false, false) => { let mut $sys = $crate::system::ChainSystem::<true, false, false, false>::new(chain); $body }
-            (true, false, false, true) => { let mut $sys = $crate::system::ChainSystem::<true, false, false, true>::new(chain); $body }
-            (true, false, true, false) => { let mut $sys = $crate::system::ChainSystem::<true, false, true, false>::new(chain); $body }
-            (true, false, true, true) => { let mut $sys = $crate::system::ChainSystem::<true, false, true, true>::new(chain); $body }
-            (true, true, false, false) => { let mut $sys = $crate::system::ChainSystem::<true, true, false, false>::new(chain); $body }
-            (true, true, false, true) => { let mut $sys = $crate::system::ChainSystem::<true, true, false, true>::new(chain); $body }
-            (true, true, true, false) => { let mut $sys = $crate::system::ChainSystem::<true, true, true, false>::new(chain); $body }
-            (true, true, true, true) => { let mut $sys = $crate::system::ChainSystem::<true, true, true, true>::new(chain); $body }
+            (false, false, false, false) => {
+                let mut $sys =
+                    $crate::system::ChainSystem::<false, false, false, false>::new(chain);
+                $body
+            }
+            (false, false, false, true) => {
+                let mut $sys = $crate::system::ChainSystem::<false, false, false, true>::new(chain);
+                $body
+            }
+            (false, false, true, false) => {
+                let mut $sys = $crate::system::ChainSystem::<false, false, true, false>::new(chain);
+                $body
+            }
+            (false, false, true, true) => {
+                let mut $sys = $crate::system::ChainSystem::<false, false, true, true>::new(chain);
+                $body
+            }
+            (false, true, false, false) => {
+                let mut $sys = $crate::system::ChainSystem::<false, true, false, false>::new(chain);
+                $body
+            }
+            (false, true, false, true) => {
+                let mut $sys = $crate::system::ChainSystem::<false, true, false, true>::new(chain);
+                $body
+            }
+            (false, true, true, false) => {
+                let mut $sys = $crate::system::ChainSystem::<false, true, true, false>::new(chain);
+                $body
+            }
+            (false, true, true, true) => {
+                let mut $sys = $crate::system::ChainSystem::<false, true, true, true>::new(chain);
+                $body
+            }
+            (true, false, false, false) => {
+                let mut $sys = $crate::system::ChainSystem::<true, false, false, false>::new(chain);
+                $body
+            }
+            (true, false, false, true) => {
+                let mut $sys = $crate::system::ChainSystem::<true, false, false, true>::new(chain);
+                $body
+            }
+            (true, false, true, false) => {
+                let mut $sys = $crate::system::ChainSystem::<true, false, true, false>::new(chain);
+                $body
+            }
+            (true, false, true, true) => {
+                let mut $sys = $crate::system::ChainSystem::<true, false, true, true>::new(chain);
+                $body
+            }
+            (true, true, false, false) => {
+                let mut $sys = $crate::system::ChainSystem::<true, true, false, false>::new(chain);
+                $body
+            }
+            (true, true, false, true) => {
+                let mut $sys = $crate::system::ChainSystem::<true, true, false, true>::new(chain);
+                $body
+            }
+            (true, true, true, false) => {
+                let mut $sys = $crate::system::ChainSystem::<true, true, true, false>::new(chain);
+                $body
+            }
+            (true, true, true, true) => {
+                let mut $sys = $crate::system::ChainSystem::<true, true, true, true>::new(chain);
+                $body
+            }
         }
     }};
 }

@@ -72,7 +72,9 @@ fn paper_accelerations(
     // Eq. (5) with Eq. (8): the impactor.
     acc[0] = (-a1 * pos(u(1) - u(2)).powf(1.5) + m_imp * g - visc(1, mu1)) / m_imp;
     // Eq. (6) with Eq. (9): the first sphere.
-    acc[1] = (a1 * pos(u(1) - u(2)).powf(1.5) - a * pos(total(2) - total(3)).powf(1.5) + m_s * g + visc(1, mu1)
+    acc[1] = (a1 * pos(u(1) - u(2)).powf(1.5) - a * pos(total(2) - total(3)).powf(1.5)
+        + m_s * g
+        + visc(1, mu1)
         - visc(2, mu))
         / m_s;
     // Eqs. (2), (3) with (10), (11): cylinders 2i−1 and spheres 2i inside the chain.
@@ -96,8 +98,16 @@ fn fast_rhs_matches_literal_transcription_of_eqs_2_to_12() {
     let mut rng = Rng(0x9e3779b97f4a7c15);
     for trial in 0..200 {
         let cylinders = 1 + (rng.next() * 30.0) as usize;
-        let mu = if trial % 3 == 0 { 0.0 } else { rng.range(0.5, 100.0) };
-        let mu1 = if trial % 5 == 0 { mu } else { rng.range(0.0, 20.0) };
+        let mu = if trial % 3 == 0 {
+            0.0
+        } else {
+            rng.range(0.5, 100.0)
+        };
+        let mu1 = if trial % 5 == 0 {
+            mu
+        } else {
+            rng.range(0.0, 20.0)
+        };
         let spec = if trial % 2 == 0 {
             ChainSpec::chain_098(cylinders)
         } else {
@@ -114,7 +124,9 @@ fn fast_rhs_matches_literal_transcription_of_eqs_2_to_12() {
         // beyond the preload, some opened.
         let dynamic: Vec<f64> = (0..n).map(|_| rng.range(-8e-6, 8e-6)).collect();
         let vel: Vec<f64> = (0..n).map(|_| rng.range(-1.5, 1.5)).collect();
-        let mut y: Vec<f64> = (0..n).map(|i| chain.equilibrium_position[i] + dynamic[i]).collect();
+        let mut y: Vec<f64> = (0..n)
+            .map(|i| chain.equilibrium_position[i] + dynamic[i])
+            .collect();
         y.extend(&vel);
         let damped = mu != 0.0 || mu1 != 0.0;
         y.extend(if damped { vec![0.0, 0.0] } else { vec![0.0] });
@@ -185,7 +197,8 @@ fn hertz_coefficients_follow_eqs_1_4_5() {
     let a = hertz_coefficient(Material::STEEL_SS304, None, Material::STEEL_440C, Some(r));
     assert!((a - a4).abs() < 1e-12 * a4);
     // Eq. (5): two equal spheres, (1/R + 1/R)^{-1/2} = (R/2)^{1/2}.
-    let a5 = 4.0 * es * es * (2.0 / r).powf(-0.5) / (3.0 * (es * (1.0 - ns * ns) + es * (1.0 - ns * ns)));
+    let a5 = 4.0 * es * es * (2.0 / r).powf(-0.5)
+        / (3.0 * (es * (1.0 - ns * ns) + es * (1.0 - ns * ns)));
     let a1 = hertz_coefficient(Material::STEEL_440C, Some(r), Material::STEEL_440C, Some(r));
     assert!((a1 - a5).abs() < 1e-12 * a5);
     // Against a hand computation for 440C on SS304, R = 4 mm: 9.01551e9 N/m^1.5.
@@ -206,7 +219,12 @@ fn static_equilibrium_balances_gravity_exactly() {
     // balanced to round-off.
     assert!((dy[n] - 9.81).abs() < 1e-12);
     for i in 1..n {
-        assert!(dy[n + i].abs() < 1e-9 * 9.81, "particle {} accelerates at {}", i + 1, dy[n + i]);
+        assert!(
+            dy[n + i].abs() < 1e-9 * 9.81,
+            "particle {} accelerates at {}",
+            i + 1,
+            dy[n + i]
+        );
     }
     // The wall carries the weight of the chain (particles 2..N).
     let weight: f64 = chain.mass[1..].iter().sum::<f64>() * 9.81;

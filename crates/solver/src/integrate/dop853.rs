@@ -44,6 +44,11 @@ pub struct Dop853 {
     /// Largest step size. `None` means the whole interval `t_end - t0`. The last step may stretch
     /// up to 1 % beyond it so as to land exactly on `t_end` (Hairer's rule).
     pub h_max: Option<f64>,
+    /// Place step boundaries on the zeros of the system's switching functions (contacts opening
+    /// and closing), where the right-hand side is not smooth. A step that passes the error test
+    /// but crosses a switch is retaken to end just past the earliest crossing, located on the
+    /// dense output; the retaken step is accepted.
+    pub locate_events: bool,
 }
 
 impl Dop853 {
@@ -55,8 +60,101 @@ impl Dop853 {
             atol_scale: None,
             h_init: None,
             h_max: None,
+            locate_events: true,
         }
     }
+}
+
+/// Earliest crossing of a switch over a rejected attempt of length `h`, predicted from the values
+/// at both ends and the slope at the start (a quadratic in time); `None` if no switch changes sign.
+fn predicted_event(
+    switches: &[super::Switch],
+    y0: &[f64],
+    f0: &[f64],
+    y1: &[f64],
+    h: f64,
+) -> Option<f64> {
+    let mut earliest: Option<f64> = None;
+    for sw in switches {
+        let g0 = sw.value(|i| y0[i]);
+        let g1 = sw.value(|i| y1[i]);
+        if (g0 > 0.0) == (g1 > 0.0) || !g1.is_finite() {
+            continue;
+        }
+        // g(s) = g0 + b s + c s², s in [0, 1].
+        let b = sw.value(|i| f0[i]) * h;
+        let c = g1 - g0 - b;
+        let linear = g0 / (g0 - g1);
+        let s = if c.abs() > 1e-12 * (g0.abs() + g1.abs()) {
+            let disc = b * b - 4.0 * c * g0;
+            if disc >= 0.0 {
+                let q = -0.5 * (b + b.signum() * disc.sqrt());
+                let roots = [q / c, if q != 0.0 { g0 / q } else { f64::NAN }];
+                roots
+                    .into_iter()
+                    .filter(|r| r.is_finite() && *r > 0.0 && *r <= 1.0)
+                    .fold(f64::NAN, f64::min)
+            } else {
+                linear
+            }
+        } else {
+            linear
+        };
+        let s = if s.is_finite() { s } else { linear };
+        let tau = s * h;
+        earliest = Some(earliest.map_or(tau, |e: f64| e.min(tau)));
+    }
+    earliest
+}
+
+/// Earliest zero of a switching function inside an accepted step, located on the dense output by
+/// the Illinois variant of regula falsi. `None` if no switch changes sign over the step.
+fn earliest_event(switches: &[super::Switch], y0: &[f64], step: &Dop853Step<'_>) -> Option<f64> {
+    let mut earliest: Option<f64> = None;
+    for sw in switches {
+        let g0 = sw.value(|i| y0[i]);
+        let g1 = sw.value(|i| step.y_end[i]);
+        if (g0 > 0.0) == (g1 > 0.0) {
+            continue;
+        }
+        let g = |t: f64| sw.value(|i| step.eval_component(t, i));
+        let (mut a, mut b) = (step.t0, earliest.unwrap_or(step.t1));
+        let (mut ga, mut gb) = (g0, g(b));
+        if (ga > 0.0) == (gb > 0.0) {
+            // This switch crosses only after an earlier event already found.
+            continue;
+        }
+        let mut side = 0i8;
+        for _ in 0..100 {
+            let m = (a * gb - b * ga) / (gb - ga);
+            let m = if m.is_finite() && m > a && m < b {
+                m
+            } else {
+                0.5 * (a + b)
+            };
+            let gm = g(m);
+            if (gm > 0.0) == (ga > 0.0) {
+                a = m;
+                ga = gm;
+                if side == -1 {
+                    gb *= 0.5;
+                }
+                side = -1;
+            } else {
+                b = m;
+                gb = gm;
+                if side == 1 {
+                    ga *= 0.5;
+                }
+                side = 1;
+            }
+            if b - a <= 1e-12 * step.h {
+                break;
+            }
+        }
+        earliest = Some(b);
+    }
+    earliest
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -897,6 +995,11 @@ impl Integrator for Dop853 {
         let mut facold: f64 = 1e-4;
         let mut reject = false;
         let mut nonfinite_streak = 0u32;
+        let switches = sys.switches();
+        let switches = switches.to_vec();
+        let switches = switches.as_slice();
+        // The current attempt ends on a located event: accept it even if it still crosses one.
+        let mut landing = false;
         let mut last_failure_nonfinite = false;
 
         loop {
@@ -945,7 +1048,31 @@ impl Integrator for Dop853 {
                 continue;
             }
 
+            if accepted && self.locate_events && !landing && !switches.is_empty() {
+                let dense = Dop853Step {
+                    t0: t,
+                    t1: t_new,
+                    h: h_step,
+                    y_end: &w.y_new,
+                    cont: &w.cont,
+                };
+                if let Some(t_event) = earliest_event(switches, &w.y, &dense) {
+                    // Land a hair past the crossing so the next step starts in the new regime.
+                    let h_event = (t_event - t) * (1.0 + 1e-6);
+                    if h_event < h_step * (1.0 - 1e-6)
+                        && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step)
+                    {
+                        stats.rejected += 1;
+                        stats.events += 1;
+                        landing = true;
+                        h = h_event;
+                        continue;
+                    }
+                }
+            }
+
             if accepted {
+                landing = false;
                 // Lund stabilisation uses the previous accepted step's error.
                 let fac = if BETA > 0.0 {
                     fac11 / facold.powf(BETA)
@@ -980,8 +1107,19 @@ impl Integrator for Dop853 {
                 h = h_new;
             } else {
                 stats.rejected += 1;
+                landing = false;
                 last_failure_nonfinite = false;
                 h = h_step / FACC1.min(fac11 / SAFE);
+                // A step that fails because it crosses a switch (a re-collision, say) would shrink
+                // by at most a factor 3 per try; aim the next try at the predicted crossing instead.
+                if self.locate_events && !switches.is_empty() {
+                    if let Some(tau) = predicted_event(switches, &w.y, &w.k1, &w.y_new, h_step) {
+                        let h_event = tau * (1.0 + 1e-6);
+                        if h_event < h && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step) {
+                            h = h_event;
+                        }
+                    }
+                }
                 reject = true;
             }
         }

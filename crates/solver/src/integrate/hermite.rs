@@ -37,7 +37,11 @@ impl DenseStep for HermiteStep<'_> {
 }
 
 /// Number of equal steps of at most `dt` covering `[t0, t_end]`, and the step used.
-pub(crate) fn fixed_steps(t0: f64, t_end: f64, dt: f64) -> Result<(u64, f64), super::IntegrateError> {
+pub(crate) fn fixed_steps(
+    t0: f64,
+    t_end: f64,
+    dt: f64,
+) -> Result<(u64, f64), super::IntegrateError> {
     if !(dt.is_finite() && dt > 0.0) {
         return Err(super::IntegrateError::InvalidSettings(format!(
             "time step must be a finite number > 0, got {dt}"

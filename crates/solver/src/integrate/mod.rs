@@ -27,6 +27,33 @@ pub trait OdeSystem {
     }
     /// Writes `f(t, y)` into `dy`. Must not allocate: it is the hot loop.
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]);
+    /// Switching functions across whose zeros `f` is not smooth (contacts opening and closing).
+    /// Integrators that locate events put step boundaries on them. None by default.
+    fn switches(&self) -> &[Switch] {
+        &[]
+    }
+}
+
+/// A switching function `g(y) = y[plus] − y[minus]` (or `y[plus]` alone), linear in the state so
+/// that it can be evaluated on any interpolant. The right-hand side is smooth while `g > 0` and
+/// while `g <= 0`, but not across `g = 0`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Switch {
+    /// Component entering with a plus sign.
+    pub plus: usize,
+    /// Component entering with a minus sign, if any.
+    pub minus: Option<usize>,
+}
+
+impl Switch {
+    /// Value of the switching function for a component accessor.
+    #[inline]
+    pub fn value(&self, y: impl Fn(usize) -> f64) -> f64 {
+        match self.minus {
+            Some(m) => y(self.plus) - y(m),
+            None => y(self.plus),
+        }
+    }
 }
 
 /// Interpolant over the last accepted step `[t_start, t_end]`.
@@ -70,8 +97,10 @@ pub trait StepObserver {
 pub struct IntegrationStats {
     /// Accepted steps.
     pub steps: u64,
-    /// Rejected step attempts (adaptive methods only).
+    /// Rejected step attempts (adaptive methods only), event retakes included.
     pub rejected: u64,
+    /// Steps retaken to end on a located event (a contact opening or closing).
+    pub events: u64,
     /// Evaluations of the right-hand side.
     pub rhs_evals: u64,
 }
@@ -149,6 +178,8 @@ pub trait OdeSystemDyn {
     fn n_quad(&self) -> usize;
     /// See [`OdeSystem::rhs`].
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]);
+    /// See [`OdeSystem::switches`].
+    fn switches(&self) -> &[Switch];
 }
 
 impl<S: OdeSystem> OdeSystemDyn for S {
@@ -160,6 +191,9 @@ impl<S: OdeSystem> OdeSystemDyn for S {
     }
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
         OdeSystem::rhs(self, t, y, dy)
+    }
+    fn switches(&self) -> &[Switch] {
+        OdeSystem::switches(self)
     }
 }
 

@@ -1,7 +1,9 @@
 //! Classic fourth-order Runge–Kutta, fixed step.
 
 use super::hermite::{fixed_steps, HermiteStep};
-use super::{all_finite, Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver};
+use super::{
+    all_finite, Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver,
+};
 
 /// Classic RK4 with a fixed step; four right-hand-side evaluations per step (the derivative at the
 /// end of a step is reused as the first stage of the next, and for the dense output).
@@ -28,7 +30,9 @@ impl Integrator for Rk4 {
         let (n_steps, h) = fixed_steps(t0, t_end, self.dt)?;
         let dim = 2 * sys.n_pos() + sys.n_quad();
         if y0.len() != dim || !all_finite(y0) {
-            return Err(IntegrateError::InvalidSettings("initial state has the wrong length or is not finite".into()));
+            return Err(IntegrateError::InvalidSettings(
+                "initial state has the wrong length or is not finite".into(),
+            ));
         }
         let mut y = y0.to_vec();
         let mut y_new = vec![0.0; dim];
@@ -43,10 +47,17 @@ impl Integrator for Rk4 {
         obs.on_start(t0, &y);
         for k in 0..n_steps {
             if stats.steps >= max_steps {
-                return Err(IntegrateError::StepBudget { max_steps, t: t0 + k as f64 * h });
+                return Err(IntegrateError::StepBudget {
+                    max_steps,
+                    t: t0 + k as f64 * h,
+                });
             }
             let t = t0 + k as f64 * h;
-            let t_next = if k + 1 == n_steps { t_end } else { t0 + (k + 1) as f64 * h };
+            let t_next = if k + 1 == n_steps {
+                t_end
+            } else {
+                t0 + (k + 1) as f64 * h
+            };
             for i in 0..dim {
                 tmp[i] = y[i] + 0.5 * h * k1[i];
             }
@@ -69,7 +80,14 @@ impl Integrator for Rk4 {
             if !all_finite(&y_new) {
                 return Err(IntegrateError::NonFinite { t: t_next });
             }
-            let control = obs.on_step(&HermiteStep { t0: t, t1: t_next, y0: &y, y1: &y_new, f0: &k1, f1: &k4 });
+            let control = obs.on_step(&HermiteStep {
+                t0: t,
+                t1: t_next,
+                y0: &y,
+                y1: &y_new,
+                f0: &k1,
+                f1: &k4,
+            });
             std::mem::swap(&mut y, &mut y_new);
             std::mem::swap(&mut k1, &mut k4);
             if control == Control::Stop {

@@ -1,7 +1,9 @@
 //! Velocity Verlet, fixed step, second order; symplectic when no force depends on velocity.
 
 use super::hermite::{fixed_steps, HermiteStep};
-use super::{all_finite, Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver};
+use super::{
+    all_finite, Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver,
+};
 
 /// Velocity Verlet with a fixed step.
 ///
@@ -32,7 +34,9 @@ impl Integrator for VelocityVerlet {
         let n = sys.n_pos();
         let dim = 2 * n + sys.n_quad();
         if y0.len() != dim || !all_finite(y0) {
-            return Err(IntegrateError::InvalidSettings("initial state has the wrong length or is not finite".into()));
+            return Err(IntegrateError::InvalidSettings(
+                "initial state has the wrong length or is not finite".into(),
+            ));
         }
         let mut y = y0.to_vec();
         let mut y_new = vec![0.0; dim];
@@ -44,10 +48,17 @@ impl Integrator for VelocityVerlet {
         obs.on_start(t0, &y);
         for k in 0..n_steps {
             if stats.steps >= max_steps {
-                return Err(IntegrateError::StepBudget { max_steps, t: t0 + k as f64 * h });
+                return Err(IntegrateError::StepBudget {
+                    max_steps,
+                    t: t0 + k as f64 * h,
+                });
             }
             let t = t0 + k as f64 * h;
-            let t_next = if k + 1 == n_steps { t_end } else { t0 + (k + 1) as f64 * h };
+            let t_next = if k + 1 == n_steps {
+                t_end
+            } else {
+                t0 + (k + 1) as f64 * h
+            };
             {
                 let (x, rest) = y.split_at(n);
                 let v = &rest[..n];
@@ -74,7 +85,14 @@ impl Integrator for VelocityVerlet {
             if !all_finite(&y_new) {
                 return Err(IntegrateError::NonFinite { t: t_next });
             }
-            let control = obs.on_step(&HermiteStep { t0: t, t1: t_next, y0: &y, y1: &y_new, f0: &f, f1: &f_new });
+            let control = obs.on_step(&HermiteStep {
+                t0: t,
+                t1: t_next,
+                y0: &y,
+                y1: &y_new,
+                f0: &f,
+                f1: &f_new,
+            });
             std::mem::swap(&mut y, &mut y_new);
             std::mem::swap(&mut f, &mut f_new);
             if control == Control::Stop {
