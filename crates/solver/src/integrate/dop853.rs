@@ -15,6 +15,8 @@
 // the bounds checks.
 #![allow(clippy::needless_range_loop)]
 
+use std::cell::Cell;
+
 use super::{
     all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
     StepObserver,
@@ -109,11 +111,12 @@ fn predicted_event(
 
 /// Earliest zero of a switching function inside an accepted step, located on the dense output by
 /// the Illinois variant of regula falsi. `None` if no switch changes sign over the step.
-fn earliest_event(switches: &[super::Switch], y0: &[f64], step: &Dop853Step<'_>) -> Option<f64> {
+fn earliest_event(switches: &[super::Switch], step: &Dop853Step<'_>) -> Option<f64> {
+    let y0 = &step.w.y;
     let mut earliest: Option<f64> = None;
     for sw in switches {
         let g0 = sw.value(|i| y0[i]);
-        let g1 = sw.value(|i| step.y_end[i]);
+        let g1 = sw.value(|i| step.w.y_new[i]);
         if (g0 > 0.0) == (g1 > 0.0) {
             continue;
         }
@@ -373,8 +376,14 @@ struct Work {
     k12: Vec<f64>,
     /// `f(t + h, y_new)`: stage 13, which becomes stage 1 of the next step (FSAL).
     k13: Vec<f64>,
-    /// Dense-output coefficients, interleaved: component `i` owns `cont[8 i .. 8 i + 8]`.
-    cont: Vec<f64>,
+    /// Dense-output coefficients of each component, computed on first use in a step: probes and
+    /// event location read a handful of components, so building all of them every step would
+    /// cost more than the stages themselves.
+    cont: Vec<Cell<[f64; 8]>>,
+    /// Step number for which `cont[i]` holds the coefficients.
+    cont_epoch: Vec<Cell<u64>>,
+    /// Number of the current dense step (starts at 1 so that no coefficient is valid initially).
+    epoch: u64,
     /// Absolute tolerance of every component.
     atol: Vec<f64>,
 }
@@ -401,7 +410,9 @@ impl Work {
             k11: z(),
             k12: z(),
             k13: z(),
-            cont: vec![0.0; 8 * n],
+            cont: vec![Cell::new([0.0; 8]); n],
+            cont_epoch: vec![Cell::new(0); n],
+            epoch: 0,
             atol,
         }
     }
@@ -445,7 +456,7 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i] + h * (A21 * k1[i]);
+                s[i] = h.mul_add(A21 * k1[i], y[i]);
             }
         }
         sys.rhs(t + C2 * h, ys, k2);
@@ -454,7 +465,7 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i] + h * (A31 * k1[i] + A32 * k2[i]);
+                s[i] = h.mul_add(A32.mul_add(k2[i], A31 * k1[i]), y[i]);
             }
         }
         sys.rhs(t + C3 * h, ys, k3);
@@ -463,7 +474,7 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i] + h * (A41 * k1[i] + A43 * k3[i]);
+                s[i] = h.mul_add(A43.mul_add(k3[i], A41 * k1[i]), y[i]);
             }
         }
         sys.rhs(t + C4 * h, ys, k4);
@@ -472,7 +483,7 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i] + h * (A51 * k1[i] + A53 * k3[i] + A54 * k4[i]);
+                s[i] = h.mul_add(A54.mul_add(k4[i], A53.mul_add(k3[i], A51 * k1[i])), y[i]);
             }
         }
         sys.rhs(t + C5 * h, ys, k5);
@@ -481,7 +492,7 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i] + h * (A61 * k1[i] + A64 * k4[i] + A65 * k5[i]);
+                s[i] = h.mul_add(A65.mul_add(k5[i], A64.mul_add(k4[i], A61 * k1[i])), y[i]);
             }
         }
         sys.rhs(t + C6 * h, ys, k6);
@@ -490,7 +501,10 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i] + h * (A71 * k1[i] + A74 * k4[i] + A75 * k5[i] + A76 * k6[i]);
+                s[i] = h.mul_add(
+                    A76.mul_add(k6[i], A75.mul_add(k5[i], A74.mul_add(k4[i], A71 * k1[i]))),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C7 * h, ys, k7);
@@ -499,8 +513,13 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A81 * k1[i] + A84 * k4[i] + A85 * k5[i] + A86 * k6[i] + A87 * k7[i]);
+                s[i] = h.mul_add(
+                    A87.mul_add(
+                        k7[i],
+                        A86.mul_add(k6[i], A85.mul_add(k5[i], A84.mul_add(k4[i], A81 * k1[i]))),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C8 * h, ys, k8);
@@ -509,13 +528,16 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A91 * k1[i]
-                        + A94 * k4[i]
-                        + A95 * k5[i]
-                        + A96 * k6[i]
-                        + A97 * k7[i]
-                        + A98 * k8[i]);
+                s[i] = h.mul_add(
+                    A98.mul_add(
+                        k8[i],
+                        A97.mul_add(
+                            k7[i],
+                            A96.mul_add(k6[i], A95.mul_add(k5[i], A94.mul_add(k4[i], A91 * k1[i]))),
+                        ),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C9 * h, ys, k9);
@@ -524,14 +546,22 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A101 * k1[i]
-                        + A104 * k4[i]
-                        + A105 * k5[i]
-                        + A106 * k6[i]
-                        + A107 * k7[i]
-                        + A108 * k8[i]
-                        + A109 * k9[i]);
+                s[i] = h.mul_add(
+                    A109.mul_add(
+                        k9[i],
+                        A108.mul_add(
+                            k8[i],
+                            A107.mul_add(
+                                k7[i],
+                                A106.mul_add(
+                                    k6[i],
+                                    A105.mul_add(k5[i], A104.mul_add(k4[i], A101 * k1[i])),
+                                ),
+                            ),
+                        ),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C10 * h, ys, k10);
@@ -540,15 +570,25 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A111 * k1[i]
-                        + A114 * k4[i]
-                        + A115 * k5[i]
-                        + A116 * k6[i]
-                        + A117 * k7[i]
-                        + A118 * k8[i]
-                        + A119 * k9[i]
-                        + A1110 * k10[i]);
+                s[i] = h.mul_add(
+                    A1110.mul_add(
+                        k10[i],
+                        A119.mul_add(
+                            k9[i],
+                            A118.mul_add(
+                                k8[i],
+                                A117.mul_add(
+                                    k7[i],
+                                    A116.mul_add(
+                                        k6[i],
+                                        A115.mul_add(k5[i], A114.mul_add(k4[i], A111 * k1[i])),
+                                    ),
+                                ),
+                            ),
+                        ),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C11 * h, ys, k11);
@@ -557,16 +597,28 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A121 * k1[i]
-                        + A124 * k4[i]
-                        + A125 * k5[i]
-                        + A126 * k6[i]
-                        + A127 * k7[i]
-                        + A128 * k8[i]
-                        + A129 * k9[i]
-                        + A1210 * k10[i]
-                        + A1211 * k11[i]);
+                s[i] = h.mul_add(
+                    A1211.mul_add(
+                        k11[i],
+                        A1210.mul_add(
+                            k10[i],
+                            A129.mul_add(
+                                k9[i],
+                                A128.mul_add(
+                                    k8[i],
+                                    A127.mul_add(
+                                        k7[i],
+                                        A126.mul_add(
+                                            k6[i],
+                                            A125.mul_add(k5[i], A124.mul_add(k4[i], A121 * k1[i])),
+                                        ),
+                                    ),
+                                ),
+                            ),
+                        ),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t_new, ys, k12);
@@ -635,7 +687,7 @@ impl Work {
             k11,
             k12,
             k13,
-            cont,
+            epoch,
             ..
         } = self;
         let y = &y[..n];
@@ -655,15 +707,25 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A141 * k1[i]
-                        + A147 * k7[i]
-                        + A148 * k8[i]
-                        + A149 * k9[i]
-                        + A1410 * k10[i]
-                        + A1411 * k11[i]
-                        + A1412 * k12[i]
-                        + A1413 * k13[i]);
+                s[i] = h.mul_add(
+                    A1413.mul_add(
+                        k13[i],
+                        A1412.mul_add(
+                            k12[i],
+                            A1411.mul_add(
+                                k11[i],
+                                A1410.mul_add(
+                                    k10[i],
+                                    A149.mul_add(
+                                        k9[i],
+                                        A148.mul_add(k8[i], A147.mul_add(k7[i], A141 * k1[i])),
+                                    ),
+                                ),
+                            ),
+                        ),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C14 * h, ys, k14);
@@ -672,15 +734,25 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A151 * k1[i]
-                        + A156 * k6[i]
-                        + A157 * k7[i]
-                        + A158 * k8[i]
-                        + A1511 * k11[i]
-                        + A1512 * k12[i]
-                        + A1513 * k13[i]
-                        + A1514 * k14[i]);
+                s[i] = h.mul_add(
+                    A1514.mul_add(
+                        k14[i],
+                        A1513.mul_add(
+                            k13[i],
+                            A1512.mul_add(
+                                k12[i],
+                                A1511.mul_add(
+                                    k11[i],
+                                    A158.mul_add(
+                                        k8[i],
+                                        A157.mul_add(k7[i], A156.mul_add(k6[i], A151 * k1[i])),
+                                    ),
+                                ),
+                            ),
+                        ),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C15 * h, ys, k15);
@@ -689,87 +761,32 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = y[i]
-                    + h * (A161 * k1[i]
-                        + A166 * k6[i]
-                        + A167 * k7[i]
-                        + A168 * k8[i]
-                        + A169 * k9[i]
-                        + A1613 * k13[i]
-                        + A1614 * k14[i]
-                        + A1615 * k15[i]);
+                s[i] = h.mul_add(
+                    A1615.mul_add(
+                        k15[i],
+                        A1614.mul_add(
+                            k14[i],
+                            A1613.mul_add(
+                                k13[i],
+                                A169.mul_add(
+                                    k9[i],
+                                    A168.mul_add(
+                                        k8[i],
+                                        A167.mul_add(k7[i], A166.mul_add(k6[i], A161 * k1[i])),
+                                    ),
+                                ),
+                            ),
+                        ),
+                    ),
+                    y[i],
+                );
             }
         }
         sys.rhs(t + C16 * h, ys, k16);
         let k16 = &k16[..n];
 
-        let mut finite = true;
-        for (i, c) in cont.chunks_exact_mut(8).take(n).enumerate() {
-            let ydiff = y_new[i] - y[i];
-            let bspl = h * k1[i] - ydiff;
-            c[0] = y[i];
-            c[1] = ydiff;
-            c[2] = bspl;
-            c[3] = ydiff - h * k13[i] - bspl;
-            c[4] = h
-                * (D41 * k1[i]
-                    + D46 * k6[i]
-                    + D47 * k7[i]
-                    + D48 * k8[i]
-                    + D49 * k9[i]
-                    + D410 * k10[i]
-                    + D411 * k11[i]
-                    + D412 * k12[i]
-                    + D413 * k13[i]
-                    + D414 * k14[i]
-                    + D415 * k15[i]
-                    + D416 * k16[i]);
-            c[5] = h
-                * (D51 * k1[i]
-                    + D56 * k6[i]
-                    + D57 * k7[i]
-                    + D58 * k8[i]
-                    + D59 * k9[i]
-                    + D510 * k10[i]
-                    + D511 * k11[i]
-                    + D512 * k12[i]
-                    + D513 * k13[i]
-                    + D514 * k14[i]
-                    + D515 * k15[i]
-                    + D516 * k16[i]);
-            c[6] = h
-                * (D61 * k1[i]
-                    + D66 * k6[i]
-                    + D67 * k7[i]
-                    + D68 * k8[i]
-                    + D69 * k9[i]
-                    + D610 * k10[i]
-                    + D611 * k11[i]
-                    + D612 * k12[i]
-                    + D613 * k13[i]
-                    + D614 * k14[i]
-                    + D615 * k15[i]
-                    + D616 * k16[i]);
-            c[7] = h
-                * (D71 * k1[i]
-                    + D76 * k6[i]
-                    + D77 * k7[i]
-                    + D78 * k8[i]
-                    + D79 * k9[i]
-                    + D710 * k10[i]
-                    + D711 * k11[i]
-                    + D712 * k12[i]
-                    + D713 * k13[i]
-                    + D714 * k14[i]
-                    + D715 * k15[i]
-                    + D716 * k16[i]);
-            finite &= c[3].is_finite()
-                & c[4].is_finite()
-                & c[5].is_finite()
-                & c[6].is_finite()
-                & c[7].is_finite();
-        }
-        finite
+        *epoch += 1;
+        all_finite(k13) && all_finite(k14) && all_finite(k16) && all_finite(&k15[..n])
     }
 }
 
@@ -778,13 +795,86 @@ struct Dop853Step<'a> {
     t0: f64,
     t1: f64,
     h: f64,
-    y_end: &'a [f64],
-    cont: &'a [f64],
+    w: &'a Work,
 }
 
 impl Dop853Step<'_> {
+    /// The eight dense-output coefficients of component `i` (Hairer's `rcont1..8`), computed
+    /// from the stages of this step on first use and cached until the next step.
+    #[inline]
+    fn coefficients(&self, i: usize) -> [f64; 8] {
+        let w = self.w;
+        if w.cont_epoch[i].get() == w.epoch {
+            return w.cont[i].get();
+        }
+        let h = self.h;
+        let (k1, k6, k7, k8, k9) = (w.k1[i], w.k6[i], w.k7[i], w.k8[i], w.k9[i]);
+        let (k10, k11, k12, k13) = (w.k10[i], w.k11[i], w.k12[i], w.k13[i]);
+        // Dense stages 14-16 live in the buffers of stages 2-4.
+        let (k14, k15, k16) = (w.k2[i], w.k3[i], w.k4[i]);
+        let ydiff = w.y_new[i] - w.y[i];
+        let bspl = h * k1 - ydiff;
+        let c = [
+            w.y[i],
+            ydiff,
+            bspl,
+            ydiff - h * k13 - bspl,
+            h * (D41 * k1
+                + D46 * k6
+                + D47 * k7
+                + D48 * k8
+                + D49 * k9
+                + D410 * k10
+                + D411 * k11
+                + D412 * k12
+                + D413 * k13
+                + D414 * k14
+                + D415 * k15
+                + D416 * k16),
+            h * (D51 * k1
+                + D56 * k6
+                + D57 * k7
+                + D58 * k8
+                + D59 * k9
+                + D510 * k10
+                + D511 * k11
+                + D512 * k12
+                + D513 * k13
+                + D514 * k14
+                + D515 * k15
+                + D516 * k16),
+            h * (D61 * k1
+                + D66 * k6
+                + D67 * k7
+                + D68 * k8
+                + D69 * k9
+                + D610 * k10
+                + D611 * k11
+                + D612 * k12
+                + D613 * k13
+                + D614 * k14
+                + D615 * k15
+                + D616 * k16),
+            h * (D71 * k1
+                + D76 * k6
+                + D77 * k7
+                + D78 * k8
+                + D79 * k9
+                + D710 * k10
+                + D711 * k11
+                + D712 * k12
+                + D713 * k13
+                + D714 * k14
+                + D715 * k15
+                + D716 * k16),
+        ];
+        w.cont[i].set(c);
+        w.cont_epoch[i].set(w.epoch);
+        c
+    }
+
     #[inline(always)]
-    fn contd8(c: &[f64], s: f64) -> f64 {
+    fn contd8(c: &[f64; 8], s: f64) -> f64 {
         let s1 = 1.0 - s;
         let conpar = c[4] + s * (c[5] + s1 * (c[6] + s * c[7]));
         c[0] + s * (c[1] + s1 * (c[2] + s * (c[3] + s1 * conpar)))
@@ -799,24 +889,14 @@ impl DenseStep for Dop853Step<'_> {
         self.t1
     }
     fn y_end(&self) -> &[f64] {
-        self.y_end
+        &self.w.y_new
     }
     fn eval_component(&self, t: f64, i: usize) -> f64 {
         if t == self.t1 {
-            return self.y_end[i];
+            return self.w.y_new[i];
         }
         let s = (t - self.t0) / self.h;
-        Self::contd8(&self.cont[8 * i..8 * i + 8], s)
-    }
-    fn eval(&self, t: f64, out: &mut [f64]) {
-        if t == self.t1 {
-            out.copy_from_slice(self.y_end);
-            return;
-        }
-        let s = (t - self.t0) / self.h;
-        for (o, c) in out.iter_mut().zip(self.cont.chunks_exact(8)) {
-            *o = Self::contd8(c, s);
-        }
+        Self::contd8(&self.coefficients(i), s)
     }
 }
 
@@ -1053,10 +1133,9 @@ impl Integrator for Dop853 {
                     t0: t,
                     t1: t_new,
                     h: h_step,
-                    y_end: &w.y_new,
-                    cont: &w.cont,
+                    w: &w,
                 };
-                if let Some(t_event) = earliest_event(switches, &w.y, &dense) {
+                if let Some(t_event) = earliest_event(switches, &dense) {
                     // Land a hair past the crossing so the next step starts in the new regime.
                     let h_event = (t_event - t) * (1.0 + 1e-6);
                     if h_event < h_step * (1.0 - 1e-6)
@@ -1090,8 +1169,7 @@ impl Integrator for Dop853 {
                     t0: t,
                     t1: t_new,
                     h: h_step,
-                    y_end: &w.y_new,
-                    cont: &w.cont,
+                    w: &w,
                 });
                 std::mem::swap(&mut w.y, &mut w.y_new);
                 std::mem::swap(&mut w.k1, &mut w.k13);

@@ -1,0 +1,38 @@
+//! One reference run (0.55 chain, 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s, 1 ms) repeated, for
+//! profiling: `cargo run --release -p chainsweep-solver --example refrun -- RTOL REPEATS`.
+use chainsweep_solver::model::ChainSpec;
+use chainsweep_solver::probes::Probe;
+use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let rtol: f64 = args.get(1).map_or(1e-6, |s| s.parse().unwrap());
+    let repeats: usize = args.get(2).map_or(20, |s| s.parse().unwrap());
+    let mut s = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
+    s.physics.damping_kg_s = 6.0;
+    s.integrator = IntegratorSpec::Dop853 {
+        rtol,
+        atol: None,
+        max_step_s: None,
+        locate_events: true,
+    };
+    s.record.probes = vec![
+        Probe::GaugeForce { cylinder: 4 },
+        Probe::GaugeForce { cylinder: 21 },
+    ];
+    let mut times = Vec::new();
+    let mut out = None;
+    for _ in 0..repeats {
+        let t = std::time::Instant::now();
+        out = Some(run(&s).unwrap());
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let o = out.unwrap();
+    println!(
+        "rtol {rtol:e}: median {:.3} ms, min {:.3} ms; {:?}; F21 {:.9}",
+        times[times.len() / 2],
+        times[0],
+        o.stats,
+        o.probes[1].leading_peak
+    );
+}
