@@ -6,13 +6,12 @@
 
 use chainsweep_solver::integrate::OdeSystem;
 use chainsweep_solver::model::{Chain, ChainSpec, PhysicsSpec};
-use chainsweep_solver::probes::Probe;
-use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::scene::run;
 use chainsweep_solver::system::ChainSystem;
 use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
 
-/// Tolerance of the reference run (see `tests/accuracy.rs::reference_run_tolerance_gives_1e6`).
-pub const REFERENCE_RTOL: f64 = 1e-7;
+mod reference;
+use reference::{reference_scene, REFERENCE_RTOL};
 
 fn mid_pulse_state(chain: &Chain) -> Vec<f64> {
     // A state with every contact compressed or open in a realistic pattern: a travelling bump of
@@ -66,24 +65,8 @@ fn bench_rhs(c: &mut Criterion) {
     group.finish();
 }
 
-fn reference_scene() -> Scene {
-    let mut scene = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
-    scene.physics.damping_kg_s = 6.0;
-    scene.integrator = IntegratorSpec::Dop853 {
-        rtol: REFERENCE_RTOL,
-        atol: None,
-        max_step_s: None,
-        locate_events: true,
-    };
-    scene.record.probes = vec![
-        Probe::GaugeForce { cylinder: 4 },
-        Probe::GaugeForce { cylinder: 21 },
-    ];
-    scene
-}
-
 fn bench_run(c: &mut Criterion) {
-    let scene = reference_scene();
+    let scene = reference_scene(REFERENCE_RTOL);
     let out = run(&scene).unwrap();
     eprintln!(
         "reference run: {} steps, {} rhs evals, peak F21 = {:.9} N, energy drift {:.2e}",

@@ -55,7 +55,9 @@ fn main() {
         "ms (min)"
     );
     let mut ladder: Vec<IntegratorSpec> = Vec::new();
-    for rtol in [1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11] {
+    for rtol in [
+        1e-5, 3e-6, 1e-6, 5e-7, 3e-7, 2e-7, 1e-7, 5e-8, 1e-8, 1e-9, 1e-10, 1e-11,
+    ] {
         ladder.push(IntegratorSpec::Dop853 {
             rtol,
             atol: None,

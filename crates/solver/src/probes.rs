@@ -414,6 +414,24 @@ struct PeakWindow {
     before: usize,
 }
 
+/// Whether five equally spaced samples around a maximum look like a smooth peak: the curvature
+/// (second difference) is negative at all three interior points and nearly the same, as it is for
+/// any smooth signal sampled finely. A kink (a signal reaching a plateau, a contact opening) puts
+/// all the curvature at one point, and extrapolating there would invent a peak.
+fn smooth_peak(v: &[f64; 5]) -> bool {
+    let d = [
+        v[0] - 2.0 * v[1] + v[2],
+        v[1] - 2.0 * v[2] + v[3],
+        v[2] - 2.0 * v[3] + v[4],
+    ];
+    let (lo, hi) = d
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
+            (lo.min(x), hi.max(x))
+        });
+    hi < 0.0 && lo >= 3.0 * hi
+}
+
 impl PeakWindow {
     fn empty() -> Self {
         PeakWindow {
@@ -468,23 +486,19 @@ impl PeakWindow {
                 }
             }
             let pu = p(u);
-            // A smooth maximum sampled near its top rises above the best sample by less than the
-            // drop to either neighbour; anything else (a plateau, a kink) keeps the sample.
-            let drop = (v[2] - v[1]).min(v[2] - v[3]);
-            if pu.is_finite() && pu >= v[2] && pu - v[2] <= drop && ddp(u) < 0.0 {
+            if pu.is_finite() && pu >= v[2] && ddp(u) < 0.0 && smooth_peak(v) {
                 return (pu, self.time + u * dt);
             }
             (v[2], self.time)
         } else if self.before >= 1 && self.after >= 1 {
-            // Parabola through three samples.
+            // Parabola through three samples (next to the ends of the record, where five are not
+            // available and smoothness cannot be checked).
             let (a, b, c) = (v[1], v[2], v[3]);
             let den = a - 2.0 * b + c;
             if den < 0.0 {
                 let u = (0.5 * (a - c) / den).clamp(-1.0, 1.0);
                 let val = b - 0.25 * (a - c) * u;
-                if val - b <= (b - a).min(b - c) {
-                    return (val.max(b), self.time + u * dt);
-                }
+                return (val.max(b), self.time + u * dt);
             }
             (b, self.time)
         } else {

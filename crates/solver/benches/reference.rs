@@ -1,0 +1,28 @@
+//! The reference run of issue 2, shared by `benches/solver.rs` and `tests/accuracy.rs`: the 0.55
+//! chain (3.77 g cylinders, 50 cylinders), μ = 6 kg/s, v0 = 1.3 m/s, 1 ms simulated, with the
+//! leading peaks in cylinders 4 and 21 recorded.
+
+use chainsweep_solver::model::ChainSpec;
+use chainsweep_solver::probes::Probe;
+use chainsweep_solver::scene::{IntegratorSpec, Scene};
+
+/// DOP853 tolerance at which the leading peak in cylinder 21 is within 1e-6 (relative) of a tight
+/// reference; `tests/accuracy.rs` checks it.
+pub const REFERENCE_RTOL: f64 = 5e-8;
+
+/// The reference scene at a given DOP853 tolerance.
+pub fn reference_scene(rtol: f64) -> Scene {
+    let mut scene = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
+    scene.physics.damping_kg_s = 6.0;
+    scene.integrator = IntegratorSpec::Dop853 {
+        rtol,
+        atol: None,
+        max_step_s: None,
+        locate_events: true,
+    };
+    scene.record.probes = vec![
+        Probe::GaugeForce { cylinder: 4 },
+        Probe::GaugeForce { cylinder: 21 },
+    ];
+    scene
+}
