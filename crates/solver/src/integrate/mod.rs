@@ -32,6 +32,41 @@ pub trait OdeSystem {
     fn switches(&self) -> &[Switch] {
         &[]
     }
+    /// Jacobian of the accelerations `a(x, v)` at state `y`, for implicit methods: `kx = ∂a/∂x` and
+    /// `kv = ∂a/∂v`, both tridiagonal for a chain (particle `i` feels only its neighbours).
+    /// Returns `false` when the system does not provide one (the default).
+    fn acceleration_jacobian(
+        &self,
+        _t: f64,
+        _y: &[f64],
+        _kx: &mut Tridiagonal,
+        _kv: &mut Tridiagonal,
+    ) -> bool {
+        false
+    }
+}
+
+/// A tridiagonal matrix of order `n`: `lower[i] = M[i+1][i]`, `diag[i] = M[i][i]`,
+/// `upper[i] = M[i][i+1]` (`lower` and `upper` have `n-1` entries).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Tridiagonal {
+    /// Sub-diagonal, `n-1` entries.
+    pub lower: Vec<f64>,
+    /// Diagonal, `n` entries.
+    pub diag: Vec<f64>,
+    /// Super-diagonal, `n-1` entries.
+    pub upper: Vec<f64>,
+}
+
+impl Tridiagonal {
+    /// The zero matrix of order `n`.
+    pub fn zeros(n: usize) -> Self {
+        Tridiagonal {
+            lower: vec![0.0; n.saturating_sub(1)],
+            diag: vec![0.0; n],
+            upper: vec![0.0; n.saturating_sub(1)],
+        }
+    }
 }
 
 /// A switching function `g(y) = y[plus] − y[minus]` (or `y[plus]` alone), linear in the state so
@@ -180,6 +215,14 @@ pub trait OdeSystemDyn {
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]);
     /// See [`OdeSystem::switches`].
     fn switches(&self) -> &[Switch];
+    /// See [`OdeSystem::acceleration_jacobian`].
+    fn acceleration_jacobian(
+        &self,
+        t: f64,
+        y: &[f64],
+        kx: &mut Tridiagonal,
+        kv: &mut Tridiagonal,
+    ) -> bool;
 }
 
 impl<S: OdeSystem> OdeSystemDyn for S {
@@ -194,6 +237,15 @@ impl<S: OdeSystem> OdeSystemDyn for S {
     }
     fn switches(&self) -> &[Switch] {
         OdeSystem::switches(self)
+    }
+    fn acceleration_jacobian(
+        &self,
+        t: f64,
+        y: &[f64],
+        kx: &mut Tridiagonal,
+        kv: &mut Tridiagonal,
+    ) -> bool {
+        OdeSystem::acceleration_jacobian(self, t, y, kx, kv)
     }
 }
 
