@@ -71,9 +71,19 @@ fn main() {
     for dt in [1e-7, 5e-8, 2e-8, 1e-8] {
         ladder.push(IntegratorSpec::Verlet { dt_s: dt });
     }
+    for rtol in [1e-6, 1e-7, 1e-8] {
+        ladder.push(IntegratorSpec::Ros34pw2 {
+            rtol,
+            atol: None,
+            max_step_s: None,
+            locate_events: true,
+        });
+    }
     for ig in ladder {
         let setting = match ig {
-            IntegratorSpec::Dop853 { rtol, .. } => format!("rtol {rtol:.0e}"),
+            IntegratorSpec::Dop853 { rtol, .. } | IntegratorSpec::Ros34pw2 { rtol, .. } => {
+                format!("rtol {rtol:.0e}")
+            }
             IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => {
                 format!("dt {dt_s:.0e}")
             }

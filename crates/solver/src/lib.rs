@@ -24,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod integrate;
+mod jacobian;
 pub mod model;
 pub mod probes;
 pub mod scene;

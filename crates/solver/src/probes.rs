@@ -606,6 +606,7 @@ pub(crate) struct RunObserver {
     pub energy_drift_max: f64,
     pub energy_drift_final: f64,
     pub momentum_residual_max: f64,
+    pub max_overlap: f64,
     pub last_energy: Option<EnergyTerms>,
     pub t_reached: f64,
     n: usize,
@@ -645,6 +646,7 @@ impl RunObserver {
             energy_drift_max: 0.0,
             energy_drift_final: 0.0,
             momentum_residual_max: 0.0,
+            max_overlap: 0.0,
             last_energy: None,
             t_reached: t0,
             n: chain.n_particles(),
@@ -684,6 +686,7 @@ impl RunObserver {
             self.ledger.momentum_residual(y, t, self.t0, self.p0).abs() / self.opts.impact_momentum;
         self.momentum_residual_max = self.momentum_residual_max.max(r);
         self.last_energy = Some(e);
+        self.max_overlap = self.max_overlap.max(e.max_overlap);
         if let Some(mins) = &mut self.min_overlap {
             for (c, m) in mins.iter_mut().enumerate().take(self.n_contacts) {
                 let d = if c + 1 < self.n {

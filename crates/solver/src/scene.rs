@@ -3,7 +3,9 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use crate::integrate::{Dop853, IntegrateError, IntegrationStats, Integrator, Rk4, VelocityVerlet};
+use crate::integrate::{
+    Dop853, IntegrateError, IntegrationStats, Integrator, Rk4, Ros34pw2, VelocityVerlet,
+};
 use crate::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RecordSpec, RunObserver};
 use crate::system::EnergyTerms;
@@ -42,6 +44,22 @@ pub enum IntegratorSpec {
         #[cfg_attr(feature = "serde", serde(default = "default_true"))]
         locate_events: bool,
     },
+    /// ROS34PW2, a linearly implicit (Rosenbrock-W) method of order 3, L-stable, with the chain's
+    /// tridiagonal Jacobian: for damping-dominated chains (μ ≳ 1000 kg/s with light particles),
+    /// where explicit methods are held to steps of order m/μ.
+    Ros34pw2 {
+        /// Relative tolerance.
+        rtol: f64,
+        /// Absolute tolerance relative to each component's natural scale, as for DOP853.
+        #[cfg_attr(feature = "serde", serde(default))]
+        atol: Option<f64>,
+        /// Largest step, s.
+        #[cfg_attr(feature = "serde", serde(default))]
+        max_step_s: Option<f64>,
+        /// End steps on contacts opening and closing (default).
+        #[cfg_attr(feature = "serde", serde(default = "default_true"))]
+        locate_events: bool,
+    },
 }
 
 #[cfg(feature = "serde")]
@@ -67,6 +85,7 @@ impl IntegratorSpec {
             IntegratorSpec::Verlet { .. } => "verlet",
             IntegratorSpec::Rk4 { .. } => "rk4",
             IntegratorSpec::Dop853 { .. } => "dop853",
+            IntegratorSpec::Ros34pw2 { .. } => "ros34pw2",
         }
     }
 
@@ -87,6 +106,12 @@ impl IntegratorSpec {
                 pos("integrator.dt_s", dt_s)
             }
             IntegratorSpec::Dop853 {
+                rtol,
+                atol,
+                max_step_s,
+                ..
+            }
+            | IntegratorSpec::Ros34pw2 {
                 rtol,
                 atol,
                 max_step_s,
@@ -280,6 +305,64 @@ pub struct RunOutput {
     pub final_energy: EnergyTerms,
     /// Striker kinetic energy, J.
     pub impact_energy_j: f64,
+    /// Largest contact overlap over the run (at step ends), m.
+    pub max_overlap_m: f64,
+    /// Where the run leaves the model's own assumptions (not fatal): overlaps too large for
+    /// Hertz's small-strain law, or an impact pulse not much longer than the time sound takes to
+    /// cross a particle (the paper's condition for using the static Hertz law, Sec. III).
+    pub warnings: Vec<String>,
+}
+
+/// Largest overlap-to-radius ratio for which Hertz's law is taken as valid: the contact radius
+/// `√(Rδ)` is then at most a tenth of the sphere's radius.
+pub const MAX_HERTZ_OVERLAP_RATIO: f64 = 0.01;
+
+/// Smallest ratio of the impact pulse duration to the longest sound transit time through a
+/// particle for which the static Hertz law is taken as valid ("much longer", Sec. III).
+pub const MIN_PULSE_TO_TRANSIT_RATIO: f64 = 10.0;
+
+/// Longitudinal wave speed of a material of density `rho`, m/s.
+fn longitudinal_speed(m: &crate::model::Material, rho: f64) -> f64 {
+    let (e, nu) = (m.youngs_modulus_pa, m.poisson_ratio);
+    (e * (1.0 - nu) / (rho * (1.0 + nu) * (1.0 - 2.0 * nu))).sqrt()
+}
+
+/// Physical-validity warnings for a scene and its largest overlap.
+fn validity_warnings(
+    scene: &Scene,
+    chain: &Chain,
+    scales: &ImpactScales,
+    max_overlap: f64,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let radius = 0.5
+        * scene
+            .chain
+            .sphere
+            .diameter_m
+            .min(scene.chain.striker.diameter_m);
+    let ratio = max_overlap / radius;
+    if ratio > MAX_HERTZ_OVERLAP_RATIO {
+        warnings.push(format!(
+            "largest overlap {max_overlap:.3e} m is {ratio:.3} of the sphere radius (> {MAX_HERTZ_OVERLAP_RATIO}): Hertz's small-strain contact law is stretched"
+        ));
+    }
+    // Two-body striker impact duration, 2.943 δm / v0, against the slowest crossing of a particle.
+    let duration = 2.943 * scales.overlap_m / scales.velocity_m_s;
+    let sphere = &scene.chain.sphere;
+    let sphere_rho = sphere.mass_kg / (std::f64::consts::PI / 6.0 * sphere.diameter_m.powi(3));
+    let cyl = &scene.chain.cylinder;
+    let cyl_rho = chain.cylinder_mass_kg
+        / (0.25 * std::f64::consts::PI * cyl.diameter_m * cyl.diameter_m * chain.cylinder_height_m);
+    let transit = (sphere.diameter_m / longitudinal_speed(&sphere.material, sphere_rho))
+        .max(chain.cylinder_height_m / longitudinal_speed(&cyl.material, cyl_rho));
+    if duration < MIN_PULSE_TO_TRANSIT_RATIO * transit {
+        warnings.push(format!(
+            "impact pulse of {duration:.3e} s is only {:.1} times the sound transit time through a particle ({transit:.3e} s; want > {MIN_PULSE_TO_TRANSIT_RATIO}): the static Hertz law assumes a much longer pulse",
+            duration / transit
+        ));
+    }
+    warnings
 }
 
 /// Per-component absolute-tolerance scales for the state `[x, v, q]`.
@@ -345,6 +428,18 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
             d.atol_scale = Some(state_scales(&chain, &scales));
             Box::new(d)
         }
+        IntegratorSpec::Ros34pw2 {
+            rtol,
+            atol,
+            max_step_s,
+            locate_events,
+        } => {
+            let mut r = Ros34pw2::new(rtol, atol.unwrap_or(rtol));
+            r.h_max = max_step_s;
+            r.locate_events = locate_events;
+            r.atol_scale = Some(state_scales(&chain, &scales));
+            Box::new(r)
+        }
     };
     let stats = crate::dispatch_chain_system!(&chain, |sys| integrator.integrate(
         &mut sys,
@@ -355,8 +450,11 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
         &mut observer
     ))?;
 
+    let warnings = validity_warnings(scene, &chain, &scales, observer.max_overlap);
     Ok(RunOutput {
         method: integrator.name(),
+        max_overlap_m: observer.max_overlap,
+        warnings,
         stats,
         t_end_s: observer.t_reached,
         probes: observer.summaries(),

@@ -1,7 +1,7 @@
 //! The equations of motion (Eqs. 2–12) as an [`OdeSystem`], specialised at compile time on the
 //! physics a scene switches on, and the energy and momentum ledgers.
 
-use crate::integrate::{OdeSystem, Switch};
+use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 use crate::model::Chain;
 
 /// Right-hand side of the chain, specialised on gravity, damping, wall and tensile clipping so that
@@ -43,6 +43,16 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
                 })
                 .collect(),
         }
+    }
+
+    /// Stiffness of contact `c` (Hertz plus damper), N/m^{3/2} and kg/s, for the Jacobian.
+    pub(crate) fn contact_parameters(&self, c: usize) -> (f64, f64) {
+        (self.stiffness[c], self.damping[c])
+    }
+
+    /// Inverse masses, 1/kg.
+    pub(crate) fn inverse_masses(&self) -> &[f64] {
+        &self.inv_mass
     }
 
     /// Index of the dissipated-work quadrature in the state, if any.
@@ -100,6 +110,17 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem
 
     fn switches(&self) -> &[Switch] {
         &self.switches
+    }
+
+    fn acceleration_jacobian(
+        &self,
+        t: f64,
+        y: &[f64],
+        kx: &mut Tridiagonal,
+        kv: &mut Tridiagonal,
+    ) -> bool {
+        self.jacobian(t, y, kx, kv);
+        true
     }
 
     #[inline]
@@ -197,6 +218,8 @@ pub struct EnergyTerms {
     pub gravitational: f64,
     /// Work dissipated by the viscous terms so far.
     pub dissipated: f64,
+    /// Largest contact overlap in the state, m (not an energy; computed in the same pass).
+    pub max_overlap: f64,
 }
 
 impl EnergyTerms {
@@ -232,10 +255,12 @@ impl Ledger {
             gravitational -= self.gravity * self.mass[i] * x[i];
         }
         let mut elastic = 0.0;
+        let mut max_overlap: f64 = 0.0;
         for c in 0..self.stiffness.len() {
             let overlap = if c + 1 < n { x[c] - x[c + 1] } else { x[c] };
             if overlap > 0.0 {
                 elastic += 0.4 * self.stiffness[c] * overlap * overlap * overlap.sqrt();
+                max_overlap = max_overlap.max(overlap);
             }
         }
         let dissipated = self.work_index.map_or(0.0, |k| y[k]);
@@ -244,6 +269,7 @@ impl Ledger {
             elastic,
             gravitational,
             dissipated,
+            max_overlap,
         }
     }
 

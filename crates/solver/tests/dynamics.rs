@@ -568,3 +568,39 @@ fn disabled_physics_changes_the_state_layout_only_where_needed() {
         2
     );
 }
+
+#[test]
+fn validity_warnings_flag_extreme_impacts_only() {
+    let base = |v0: f64| {
+        let mut s = Scene::new(ChainSpec::chain_055(5), v0, 1e-4);
+        s.integrator = dop(1e-8);
+        run(&s).unwrap()
+    };
+    let paper = base(1.3);
+    assert!(paper.warnings.is_empty(), "{:?}", paper.warnings);
+    // δ/R at 1.3 m/s: about 10 µm (the striker contact) over 4 mm.
+    assert!(
+        paper.max_overlap_m > 5e-6 && paper.max_overlap_m < 2e-5,
+        "{}",
+        paper.max_overlap_m
+    );
+    // 200 m/s: overlaps of ~0.2 mm (δ/R ≈ 0.05), beyond small strain.
+    let fast = base(200.0);
+    assert!(
+        fast.warnings.iter().any(|w| w.contains("small-strain")),
+        "{:?}",
+        fast.warnings
+    );
+    // Cylinders 30 mm tall: sound needs ~5 µs to cross one, while the impact pulse (~23 µs at
+    // 1.3 m/s) is set by the striker and the first sphere alone.
+    let mut s = Scene::new(ChainSpec::chain_055(5), 1.3, 1e-4);
+    s.chain.cylinder.height_m = Some(30e-3);
+    s.integrator = dop(1e-8);
+    let tall = run(&s).unwrap();
+    assert_eq!(tall.warnings.len(), 1, "{:?}", tall.warnings);
+    assert!(
+        tall.warnings[0].contains("transit time"),
+        "{:?}",
+        tall.warnings
+    );
+}

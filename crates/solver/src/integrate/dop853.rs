@@ -80,7 +80,7 @@ fn predicted_event(
     for sw in switches {
         let g0 = sw.value(|i| y0[i]);
         let g1 = sw.value(|i| y1[i]);
-        if (g0 > 0.0) == (g1 > 0.0) || !g1.is_finite() {
+        if g0 == 0.0 || (g0 > 0.0) == (g1 > 0.0) || !g1.is_finite() {
             continue;
         }
         // g(s) = g0 + b s + c s², s in [0, 1].
@@ -117,7 +117,9 @@ fn earliest_event(switches: &[super::Switch], step: &Dop853Step<'_>) -> Option<f
     for sw in switches {
         let g0 = sw.value(|i| y0[i]);
         let g1 = sw.value(|i| step.w.y_new[i]);
-        if (g0 > 0.0) == (g1 > 0.0) {
+        // A switch exactly at zero at the start (the striker touching at t = 0, or a step that
+        // just landed on an event) is where the step already begins; it is no event inside it.
+        if g0 == 0.0 || (g0 > 0.0) == (g1 > 0.0) {
             continue;
         }
         let g = |t: f64| sw.value(|i| step.eval_component(t, i));

@@ -9,10 +9,12 @@
 mod dop853;
 mod hermite;
 mod rk4;
+mod rosenbrock;
 mod verlet;
 
 pub use dop853::Dop853;
 pub use rk4::Rk4;
+pub use rosenbrock::Ros34pw2;
 pub use verlet::VelocityVerlet;
 
 /// A first-order system `y' = f(t, y)` with the state layout `[x, v, q]` described in the module docs.
