@@ -1,0 +1,58 @@
+//! Records the git revision the binary is built from.
+
+use std::process::Command;
+
+fn main() {
+    let rev = Command::new("git")
+        .args(["describe", "--always", "--dirty", "--abbrev=12"])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "unknown".to_string());
+    println!("cargo:rustc-env=CHAINSWEEP_GIT_REVISION={rev}");
+    for p in ["../../.git/HEAD", "../../.git/refs/heads"] {
+        if std::path::Path::new(p).exists() {
+            println!("cargo:rerun-if-changed={p}");
+        }
+    }
+    println!(
+        "cargo:rustc-env=CHAINSWEEP_SOLVER_VERSION={}",
+        solver_version()
+    );
+    println!("cargo:rerun-if-changed=../solver/Cargo.toml");
+    println!("cargo:rerun-if-changed=../../Cargo.toml");
+    println!("cargo:rerun-if-changed=build.rs");
+}
+
+/// The solver crate's version: its own `version = "…"`, or the workspace's when it inherits it.
+fn solver_version() -> String {
+    let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
+    let version_in = |text: &str, section: &str| -> Option<String> {
+        let mut in_section = false;
+        for line in text.lines() {
+            let l = line.trim();
+            if l.starts_with('[') {
+                in_section = l == section;
+                continue;
+            }
+            if in_section {
+                if let Some(rest) = l.strip_prefix("version") {
+                    let rest = rest.trim_start();
+                    if let Some(v) = rest.strip_prefix('=') {
+                        let v = v.trim().trim_matches('"');
+                        if !v.is_empty() {
+                            return Some(v.to_string());
+                        }
+                    }
+                }
+            }
+        }
+        None
+    };
+    let solver = read("../solver/Cargo.toml");
+    version_in(&solver, "[package]")
+        .or_else(|| version_in(&read("../../Cargo.toml"), "[workspace.package]"))
+        .unwrap_or_else(|| "unknown".to_string())
+}

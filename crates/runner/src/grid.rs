@@ -1,0 +1,223 @@
+//! Grid expansion: the product of the sweep's dimensions, each point a complete scene with its
+//! run hash.
+//!
+//! Points are numbered in row-major (C) order: the last dimension varies fastest. A point's run
+//! hash is the SHA-256 of the runner's numerics version, the solver's version, the failure limits
+//! and the point's full scene as canonical JSON, so any change to a parameter that enters a run
+//! changes its hash, and nothing else does.
+
+use serde_json::Value;
+use sha2::{Digest, Sha256};
+
+use chainsweep_solver::{Probe, Scene};
+
+use crate::error::{Error, Result};
+use crate::sweep::{from_value_at, set_path, split_path, Sweep};
+
+/// SHA-256 identity of a run.
+pub type RunHash = [u8; 32];
+
+/// Lower-case hex of a run hash.
+pub fn hex(hash: &RunHash) -> String {
+    hash.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The expanded grid of a sweep.
+#[derive(Debug, Clone)]
+pub struct Grid {
+    /// Shape, outermost dimension first.
+    pub shape: Vec<usize>,
+    /// Run hash of every point, in row-major order.
+    pub hashes: Vec<RunHash>,
+    /// The probes every point records (the same for all points).
+    pub probes: Vec<Probe>,
+    /// Whether points record full histories.
+    pub history: bool,
+    /// Whether points record minimum overlaps.
+    pub min_overlap: bool,
+    /// Largest number of history samples any point records (0 without histories).
+    pub max_history_samples: usize,
+    /// Largest number of contacts of any point (for minimum overlaps).
+    pub max_contacts: usize,
+}
+
+/// Identity of a run: its hash.
+pub fn run_hash(scene: &Scene, sweep: &Sweep) -> RunHash {
+    let scene_json = serde_json::to_string(scene).expect("Scene serialises");
+    let limit = match sweep.limits.energy_drift_max {
+        Some(x) => serde_json::to_string(&x).expect("f64 serialises"),
+        None => "null".to_string(),
+    };
+    let mut h = Sha256::new();
+    h.update(b"chainsweep run identity v1\n");
+    h.update(format!("numerics_version={}\n", crate::NUMERICS_VERSION).as_bytes());
+    h.update(format!("solver_version={}\n", crate::SOLVER_VERSION).as_bytes());
+    h.update(format!("energy_drift_max={limit}\n").as_bytes());
+    h.update(b"scene=");
+    h.update(scene_json.as_bytes());
+    h.finalize().into()
+}
+
+/// Multi-index of flat point `index` in a grid of `shape`.
+pub fn multi_index(shape: &[usize], mut index: usize) -> Vec<usize> {
+    let mut out = vec![0; shape.len()];
+    for (d, &n) in shape.iter().enumerate().rev() {
+        out[d] = index % n;
+        index /= n;
+    }
+    out
+}
+
+/// Maps an error at scene field `field` of point `index` to the axis that set it, if any.
+fn locate(sweep: &Sweep, shape: &[usize], index: usize, field: &str, message: &str) -> Error {
+    let segs = split_path(field);
+    let mi = multi_index(shape, index);
+    for (d, dim) in sweep.dims.iter().enumerate() {
+        for axis in &dim.axes {
+            let a = split_path(&axis.field);
+            let n = a.len().min(segs.len());
+            if a[..n] == segs[..n] {
+                let j = mi[d];
+                return Error::input(
+                    format!("{}.values[{j}]", axis.origin),
+                    format!(
+                        "sets `{}` to {}: `{field}` {message}",
+                        axis.field, axis.values[j]
+                    ),
+                );
+            }
+        }
+    }
+    // Not set by an axis: a base field (the record block is given at the top level), invalid at
+    // this point because of the other axis values, which the message lists.
+    let name = if field == "record" || field.starts_with("record.") || field.starts_with("record[")
+    {
+        field.to_string()
+    } else {
+        format!("base.{field}")
+    };
+    let mut labels = Vec::new();
+    for (d, dim) in sweep.dims.iter().enumerate() {
+        for axis in &dim.axes {
+            labels.push(format!("{}={}", axis.name, axis.values[mi[d]]));
+        }
+    }
+    Error::input(
+        name,
+        format!("{message} (at grid point {index}: {})", labels.join(", ")),
+    )
+}
+
+impl Grid {
+    /// Expands and validates every point of the sweep: an invalid point is an input error naming
+    /// the field and the axis value that made it.
+    pub fn new(sweep: &Sweep) -> Result<Grid> {
+        let shape = sweep.shape();
+        let n = shape.iter().try_fold(1usize, |acc, &x| acc.checked_mul(x));
+        let n = match n {
+            Some(n) if n <= crate::sweep::MAX_GRID_POINTS => n,
+            _ => {
+                return Err(Error::input(
+                    "axes",
+                    format!(
+                        "the grid {shape:?} has more than {} points",
+                        crate::sweep::MAX_GRID_POINTS
+                    ),
+                ))
+            }
+        };
+        let mut grid = Grid {
+            shape,
+            hashes: Vec::with_capacity(n),
+            probes: Vec::new(),
+            history: false,
+            min_overlap: false,
+            max_history_samples: 0,
+            max_contacts: 0,
+        };
+        for i in 0..n {
+            let scene = grid.build(sweep, i)?;
+            let chain = scene
+                .validate()
+                .map_err(|e| locate(sweep, &grid.shape, i, &e.field, &e.message))?;
+            if i == 0 {
+                grid.probes = scene.record.probes.clone();
+                grid.history = scene.record.history;
+                grid.min_overlap = scene.record.min_overlap;
+            } else if scene.record.probes != grid.probes
+                || scene.record.history != grid.history
+                || scene.record.min_overlap != grid.min_overlap
+            {
+                return Err(locate(
+                    sweep,
+                    &grid.shape,
+                    i,
+                    "record",
+                    "must be the same at every grid point (probes, history, min_overlap): the stored arrays share one layout",
+                ));
+            }
+            if scene.record.history {
+                let samples =
+                    (scene.duration_s / scene.record.history_interval_s).floor() as usize + 1;
+                grid.max_history_samples = grid.max_history_samples.max(samples);
+            }
+            grid.max_contacts = grid.max_contacts.max(chain.n_contacts());
+            grid.hashes.push(run_hash(&scene, sweep));
+        }
+        Ok(grid)
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.hashes.len()
+    }
+
+    /// Whether the grid has no points (never true for a parsed sweep).
+    pub fn is_empty(&self) -> bool {
+        self.hashes.is_empty()
+    }
+
+    /// The scene JSON of point `index`: the base with every axis value applied.
+    pub fn point_value(&self, sweep: &Sweep, index: usize) -> Value {
+        let mi = multi_index(&self.shape, index);
+        let mut v = sweep.base.clone();
+        for (d, dim) in sweep.dims.iter().enumerate() {
+            for axis in &dim.axes {
+                set_path(&mut v, &axis.field, axis.values[mi[d]].clone());
+            }
+        }
+        v
+    }
+
+    /// The scene of point `index`.
+    pub fn build(&self, sweep: &Sweep, index: usize) -> Result<Scene> {
+        let v = self.point_value(sweep, index);
+        from_value_at::<Scene>(v, "").map_err(|e| match e {
+            Error::Input { field, message, .. } => {
+                locate(sweep, &self.shape, index, &field, &message)
+            }
+            other => other,
+        })
+    }
+
+    /// Indices of the points in shard `k` of `n` (1-based `k`): every `n`-th point from `k-1`.
+    pub fn shard_points(&self, shard: Option<(usize, usize)>) -> Vec<usize> {
+        match shard {
+            None => (0..self.len()).collect(),
+            Some((k, n)) => (0..self.len()).filter(|i| i % n == k - 1).collect(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn multi_index_is_row_major() {
+        assert_eq!(multi_index(&[2, 3], 0), vec![0, 0]);
+        assert_eq!(multi_index(&[2, 3], 1), vec![0, 1]);
+        assert_eq!(multi_index(&[2, 3], 3), vec![1, 0]);
+        assert_eq!(multi_index(&[2, 3], 5), vec![1, 2]);
+    }
+}

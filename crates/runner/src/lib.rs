@@ -1,0 +1,48 @@
+//! # chainsweep — the sweep runner
+//!
+//! Runs grids of [`chainsweep_solver`] scenes described by a sweep file, in parallel, into an HDF5
+//! file that h5py and xarray read, and resumes after any interruption.
+//!
+//! The data flow has one module per stage:
+//!
+//! - [`sweep`]: parse and validate a sweep file (base scene, record block, axes, limits);
+//! - [`grid`]: expand the axes into grid points, each a complete [`chainsweep_solver::Scene`] with
+//!   its run hash;
+//! - [`exec`]: run one scene under `catch_unwind` and turn its output into a [`store::RunRecord`];
+//! - [`store`]: crash-safe segment files (one per finished run), the lock on the work directory,
+//!   and the HDF5 file assembled from the segments in grid order;
+//! - [`progress`]: the progress bar or the plain progress line;
+//! - [`cli`]: the `chainsweep` command line.
+//!
+//! Exit codes: [`EXIT_OK`], [`EXIT_ERROR`], [`EXIT_BAD_INPUT`], [`EXIT_PARTIAL`].
+#![warn(missing_docs)]
+
+pub mod cli;
+pub mod error;
+pub mod exec;
+pub mod grid;
+pub mod progress;
+pub mod store;
+pub mod sweep;
+
+/// Every run finished successfully.
+pub const EXIT_OK: i32 = 0;
+/// Something other than the input went wrong (I/O, a second process holding the lock, …).
+pub const EXIT_ERROR: i32 = 1;
+/// Bad input or usage: nothing was run, nothing was created or modified.
+pub const EXIT_BAD_INPUT: i32 = 2;
+/// The sweep is partial: some runs failed (or, after a merge, some grid points are missing).
+pub const EXIT_PARTIAL: i32 = 3;
+
+/// Version of the runner's numerics: bump it whenever a change in the runner or the solver changes
+/// the numbers a scene produces, so that resumed sweeps recompute every run.
+pub const NUMERICS_VERSION: u32 = 1;
+
+/// Version of this crate.
+pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");
+
+/// Version of the solver crate this runner is built against (part of every run's identity).
+pub const SOLVER_VERSION: &str = env!("CHAINSWEEP_SOLVER_VERSION");
+
+/// Git revision the binary was built from (`unknown` outside a git checkout).
+pub const GIT_REVISION: &str = env!("CHAINSWEEP_GIT_REVISION");

@@ -1,0 +1,133 @@
+//! Progress display: an indicatif bar on a terminal, a plain line every few seconds otherwise
+//! (nohup, SLURM, CI logs), nothing with `--quiet`.
+
+use std::io::IsTerminal;
+use std::time::{Duration, Instant};
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+enum Mode {
+    Quiet,
+    Bar(ProgressBar),
+    Plain { every: Duration, last: Instant },
+}
+
+/// Progress of a sweep.
+pub struct Progress {
+    mode: Mode,
+    total: usize,
+    done: usize,
+    failed: usize,
+    at_start: usize,
+    start: Instant,
+}
+
+fn fmt_duration(secs: f64) -> String {
+    if !secs.is_finite() {
+        return "?".to_string();
+    }
+    let s = secs.round() as u64;
+    format!("{}:{:02}:{:02}", s / 3600, (s / 60) % 60, s % 60)
+}
+
+impl Progress {
+    /// Progress over `total` runs of which `done` (`failed` of them failed) are already finished.
+    /// `plain_every` is the interval of plain progress lines.
+    pub fn new(
+        total: usize,
+        done: usize,
+        failed: usize,
+        quiet: bool,
+        plain_every: Duration,
+    ) -> Self {
+        let mode = if quiet {
+            Mode::Quiet
+        } else if std::io::stderr().is_terminal() {
+            let bar =
+                ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::stderr());
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} runs, {msg}, {per_sec}, ETA {eta}",
+                )
+                .expect("valid template")
+                .progress_chars("=> "),
+            );
+            bar.set_position(done as u64);
+            bar.reset_eta();
+            bar.set_message(format!("{failed} failed"));
+            bar.enable_steady_tick(Duration::from_millis(200));
+            Mode::Bar(bar)
+        } else {
+            Mode::Plain {
+                every: plain_every,
+                last: Instant::now(),
+            }
+        };
+        Progress {
+            mode,
+            total,
+            done,
+            failed,
+            at_start: done,
+            start: Instant::now(),
+        }
+    }
+
+    /// Records a finished run.
+    pub fn finish_run(&mut self, failed: bool) {
+        self.done += 1;
+        if failed {
+            self.failed += 1;
+        }
+        if let Mode::Bar(bar) = &self.mode {
+            bar.inc(1);
+            bar.set_message(format!("{} failed", self.failed));
+        }
+        self.tick();
+    }
+
+    /// Prints a plain line if one is due.
+    pub fn tick(&mut self) {
+        if let Mode::Plain { every, last } = &mut self.mode {
+            if last.elapsed() >= *every {
+                *last = Instant::now();
+                eprintln!("{}", self.line_text());
+            }
+        }
+    }
+
+    fn line_text(&self) -> String {
+        let el = self.start.elapsed().as_secs_f64();
+        let new = (self.done - self.at_start) as f64;
+        let rate = if el > 0.0 { new / el } else { 0.0 };
+        let left = (self.total - self.done) as f64;
+        let eta = if rate > 0.0 { left / rate } else { f64::NAN };
+        format!(
+            "chainsweep: {}/{} runs done, {} failed, {:.1} runs/s, elapsed {}, ETA {}",
+            self.done,
+            self.total,
+            self.failed,
+            rate,
+            fmt_duration(el),
+            fmt_duration(eta)
+        )
+    }
+
+    /// Ends the display.
+    pub fn finish(&mut self) {
+        match &self.mode {
+            Mode::Bar(bar) => bar.finish_and_clear(),
+            Mode::Plain { .. } => eprintln!("{}", self.line_text()),
+            Mode::Quiet => {}
+        }
+    }
+
+    /// Prints a line without garbling the bar.
+    pub fn println(&self, line: &str) {
+        match &self.mode {
+            Mode::Bar(bar) => bar.println(line),
+            Mode::Plain { .. } => eprintln!("{line}"),
+            Mode::Quiet => {}
+        }
+    }
+}

@@ -1,0 +1,227 @@
+//! Storage: crash-safe segments in a work directory, and the HDF5 file assembled from them.
+//!
+//! An output `X.h5` has a sibling work directory `X.h5.d/`:
+//!
+//! - `X.h5.d/lock`: held with an exclusive `flock` by the process working on `X.h5`; a second
+//!   process is refused. The kernel drops the lock when its holder dies, even by `kill -9`.
+//! - `X.h5.d/segments/<runhash>.seg`: one file per finished run (see [`segment`]), written to
+//!   `X.h5.d/tmp/`, `fsync`ed, renamed into place and the directory `fsync`ed; a segment either
+//!   exists whole or not at all.
+//! - `X.h5.d/tmp/`: temporary files, emptied by the next process that takes the lock.
+//!
+//! `X.h5` itself is only ever replaced by renaming a completely written and `fsync`ed file over it
+//! ([`hdf5file::assemble`]), so it is always either the previous complete version or the new one.
+
+pub mod hdf5file;
+pub mod segment;
+
+use std::collections::HashMap;
+use std::fs::{self, File, OpenOptions};
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use fs4::fs_std::FileExt;
+
+use crate::error::{io_ctx, Error, Result};
+use crate::grid::{hex, RunHash};
+pub use segment::RunRecord;
+
+/// Path of the work directory of an output file: `X.h5` → `X.h5.d`.
+pub fn work_dir_of(output: &Path) -> PathBuf {
+    let mut s = output.as_os_str().to_owned();
+    s.push(".d");
+    PathBuf::from(s)
+}
+
+/// What a work directory holds: status of every segment, by run hash.
+pub type SegmentIndex = HashMap<RunHash, bool>;
+
+fn parse_hex(name: &str) -> Option<RunHash> {
+    let stem = name.strip_suffix(".seg")?;
+    if stem.len() != 64 {
+        return None;
+    }
+    let mut out = [0u8; 32];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = u8::from_str_radix(&stem[2 * i..2 * i + 2], 16).ok()?;
+    }
+    Some(out)
+}
+
+/// Lists the segments under `dir/segments` with their status (ok or failed), reading only their
+/// headers. A missing directory is an empty index.
+pub fn scan_segments(dir: &Path) -> Result<SegmentIndex> {
+    let mut index = SegmentIndex::new();
+    let seg_dir = dir.join("segments");
+    let entries = match fs::read_dir(&seg_dir) {
+        Ok(e) => e,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(index),
+        Err(e) => {
+            return Err(Error::Other(format!(
+                "cannot list {}: {e}",
+                seg_dir.display()
+            )))
+        }
+    };
+    for entry in entries {
+        let entry = entry?;
+        let name = entry.file_name();
+        let Some(hash) = name.to_str().and_then(parse_hex) else {
+            continue;
+        };
+        let mut head = Vec::new();
+        let mut f = match File::open(entry.path()) {
+            Ok(f) => f,
+            Err(_) => continue,
+        };
+        Read::by_ref(&mut f).take(4096).read_to_end(&mut head)?;
+        if let Some((ok, _)) = RunRecord::peek_status(&head) {
+            index.insert(hash, ok);
+        }
+    }
+    Ok(index)
+}
+
+/// A locked work directory.
+#[derive(Debug)]
+pub struct WorkDir {
+    /// The output file.
+    pub output: PathBuf,
+    /// The work directory (`output` + `.d`).
+    pub dir: PathBuf,
+    _lock: File,
+    counter: AtomicU64,
+}
+
+fn fsync_dir(dir: &Path) -> Result<()> {
+    let d = io_ctx(File::open(dir), || {
+        format!("cannot open directory {}", dir.display())
+    })?;
+    io_ctx(d.sync_all(), || {
+        format!("cannot sync directory {}", dir.display())
+    })
+}
+
+impl WorkDir {
+    /// Creates (if needed) and locks the work directory of `output`, and clears its `tmp/`.
+    /// Fails with a clear message when another process holds the lock.
+    pub fn open(output: &Path) -> Result<WorkDir> {
+        let dir = work_dir_of(output);
+        io_ctx(fs::create_dir_all(dir.join("segments")), || {
+            format!("cannot create {}", dir.display())
+        })?;
+        io_ctx(fs::create_dir_all(dir.join("tmp")), || {
+            format!("cannot create {}", dir.display())
+        })?;
+        let lock_path = dir.join("lock");
+        let mut lock = io_ctx(
+            OpenOptions::new()
+                .read(true)
+                .write(true)
+                .create(true)
+                .truncate(false)
+                .open(&lock_path),
+            || format!("cannot open {}", lock_path.display()),
+        )?;
+        let got = io_ctx(lock.try_lock_exclusive(), || {
+            format!("cannot lock {}", lock_path.display())
+        })?;
+        if !got {
+            let mut holder = String::new();
+            let _ = lock.read_to_string(&mut holder);
+            let holder = holder.trim();
+            let who = if holder.is_empty() {
+                String::new()
+            } else {
+                format!(" (pid {holder})")
+            };
+            return Err(Error::Other(format!(
+                "another chainsweep process{who} is working on {}: its lock {} is held; wait for it to finish or stop it, then run the same command again",
+                output.display(),
+                lock_path.display()
+            )));
+        }
+        lock.set_len(0)?;
+        write!(lock, "{}", std::process::id())?;
+        lock.flush()?;
+        // Nobody else can be writing: leftovers in tmp/ are from a process that died.
+        for entry in fs::read_dir(dir.join("tmp"))? {
+            let _ = fs::remove_file(entry?.path());
+        }
+        Ok(WorkDir {
+            output: output.to_path_buf(),
+            dir,
+            _lock: lock,
+            counter: AtomicU64::new(0),
+        })
+    }
+
+    /// Path of the segment of a run.
+    pub fn segment_path(&self, hash: &RunHash) -> PathBuf {
+        self.dir.join("segments").join(format!("{}.seg", hex(hash)))
+    }
+
+    /// A fresh temporary path in `tmp/`.
+    pub fn tmp_path(&self, what: &str) -> PathBuf {
+        let n = self.counter.fetch_add(1, Ordering::Relaxed);
+        self.dir
+            .join("tmp")
+            .join(format!("{what}.{}.{n}.tmp", std::process::id()))
+    }
+
+    /// Writes a run's segment atomically: temporary file, fsync, rename, fsync of the directory.
+    pub fn write_segment(&self, rec: &RunRecord) -> Result<()> {
+        let bytes = rec.encode();
+        let tmp = self.tmp_path(&hex(&rec.hash));
+        {
+            let mut f = io_ctx(File::create(&tmp), || {
+                format!("cannot create {}", tmp.display())
+            })?;
+            io_ctx(f.write_all(&bytes), || {
+                format!("cannot write {}", tmp.display())
+            })?;
+            io_ctx(f.sync_all(), || format!("cannot sync {}", tmp.display()))?;
+        }
+        let dest = self.segment_path(&rec.hash);
+        io_ctx(fs::rename(&tmp, &dest), || {
+            format!("cannot rename {} to {}", tmp.display(), dest.display())
+        })?;
+        fsync_dir(&self.dir.join("segments"))
+    }
+
+    /// Reads a run's segment; `None` when it is missing or corrupt.
+    pub fn read_segment(&self, hash: &RunHash) -> Result<Option<RunRecord>> {
+        read_segment_in(&self.dir, hash)
+    }
+
+    /// Replaces the output file by the finished file at `tmp` (fsync, rename, fsync of the directory).
+    pub fn publish(&self, tmp: &Path) -> Result<()> {
+        {
+            let f = io_ctx(File::open(tmp), || format!("cannot open {}", tmp.display()))?;
+            io_ctx(f.sync_all(), || format!("cannot sync {}", tmp.display()))?;
+        }
+        io_ctx(fs::rename(tmp, &self.output), || {
+            format!(
+                "cannot rename {} to {}",
+                tmp.display(),
+                self.output.display()
+            )
+        })?;
+        let parent = match self.output.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        fsync_dir(&parent)
+    }
+}
+
+/// Reads the segment of `hash` under work directory `dir`; `None` when missing or corrupt.
+pub fn read_segment_in(dir: &Path, hash: &RunHash) -> Result<Option<RunRecord>> {
+    let path = dir.join("segments").join(format!("{}.seg", hex(hash)));
+    match fs::read(&path) {
+        Ok(bytes) => Ok(RunRecord::decode(&bytes).filter(|r| &r.hash == hash)),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(Error::Other(format!("cannot read {}: {e}", path.display()))),
+    }
+}

@@ -1,0 +1,310 @@
+//! Run records and their segment files.
+//!
+//! A segment holds one finished run (successful or failed) in a small binary format, little
+//! endian, ending in the SHA-256 of everything before it:
+//!
+//! ```text
+//! magic "CSWSEG\0\1" | run hash (32) | ok (u8) | reason (u32 length + UTF-8)
+//! steps, rejected, rhs_evals (u64 ×3)
+//! t_end_s, energy_drift_max, energy_drift_final, momentum_residual_max, impact_energy_j, wall_time_s (f64 ×6)
+//! n_probes (u32) | per probe: leading_peak, leading_peak_time_s, record_max, record_max_time_s (f64 ×4)
+//! has_min_overlap (u8) [n (u32) | f64 ×n]
+//! has_history (u8) [n_series (u32) | n_samples (u64) | time_s f64 ×n_samples | series f64 ×n_samples each]
+//! checksum (32)
+//! ```
+//!
+//! Floats are stored as their bits, so a record read back is bitwise the record written.
+
+use chainsweep_solver::probes::{History, ProbeSummary};
+use sha2::{Digest, Sha256};
+
+use crate::grid::RunHash;
+
+const MAGIC: &[u8; 8] = b"CSWSEG\x00\x01";
+
+/// One finished run, as stored in a segment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRecord {
+    /// Run hash.
+    pub hash: RunHash,
+    /// Whether the run succeeded.
+    pub ok: bool,
+    /// Why it failed (empty when it succeeded).
+    pub reason: String,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected steps.
+    pub rejected: u64,
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// Time reached, s.
+    pub t_end_s: f64,
+    /// Largest relative energy drift.
+    pub energy_drift_max: f64,
+    /// Final relative energy drift.
+    pub energy_drift_final: f64,
+    /// Largest relative momentum residual.
+    pub momentum_residual_max: f64,
+    /// Striker kinetic energy, J.
+    pub impact_energy_j: f64,
+    /// Wall time of the run, s.
+    pub wall_time_s: f64,
+    /// Summary of each probe (empty for failed runs).
+    pub probes: Vec<ProbeSummary>,
+    /// Minimum overlap of every contact, m, when recorded.
+    pub min_overlap_m: Option<Vec<f64>>,
+    /// Histories, when recorded.
+    pub history: Option<History>,
+}
+
+impl RunRecord {
+    /// A failed run: only its reason and wall time are kept.
+    pub fn failed(hash: RunHash, reason: String, wall_time_s: f64) -> Self {
+        RunRecord {
+            hash,
+            ok: false,
+            reason,
+            steps: 0,
+            rejected: 0,
+            rhs_evals: 0,
+            t_end_s: f64::NAN,
+            energy_drift_max: f64::NAN,
+            energy_drift_final: f64::NAN,
+            momentum_residual_max: f64::NAN,
+            impact_energy_j: f64::NAN,
+            wall_time_s,
+            probes: Vec::new(),
+            min_overlap_m: None,
+            history: None,
+        }
+    }
+
+    /// Encodes the record as segment bytes.
+    pub fn encode(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(256);
+        b.extend_from_slice(MAGIC);
+        b.extend_from_slice(&self.hash);
+        b.push(self.ok as u8);
+        put_u32(&mut b, self.reason.len() as u32);
+        b.extend_from_slice(self.reason.as_bytes());
+        for x in [self.steps, self.rejected, self.rhs_evals] {
+            b.extend_from_slice(&x.to_le_bytes());
+        }
+        for x in [
+            self.t_end_s,
+            self.energy_drift_max,
+            self.energy_drift_final,
+            self.momentum_residual_max,
+            self.impact_energy_j,
+            self.wall_time_s,
+        ] {
+            put_f64(&mut b, x);
+        }
+        put_u32(&mut b, self.probes.len() as u32);
+        for p in &self.probes {
+            for x in [
+                p.leading_peak,
+                p.leading_peak_time_s,
+                p.record_max,
+                p.record_max_time_s,
+            ] {
+                put_f64(&mut b, x);
+            }
+        }
+        match &self.min_overlap_m {
+            None => b.push(0),
+            Some(v) => {
+                b.push(1);
+                put_u32(&mut b, v.len() as u32);
+                v.iter().for_each(|&x| put_f64(&mut b, x));
+            }
+        }
+        match &self.history {
+            None => b.push(0),
+            Some(h) => {
+                b.push(1);
+                put_u32(&mut b, h.values.len() as u32);
+                b.extend_from_slice(&(h.time_s.len() as u64).to_le_bytes());
+                h.time_s.iter().for_each(|&x| put_f64(&mut b, x));
+                for s in &h.values {
+                    s.iter().for_each(|&x| put_f64(&mut b, x));
+                }
+            }
+        }
+        let sum: [u8; 32] = Sha256::digest(&b).into();
+        b.extend_from_slice(&sum);
+        b
+    }
+
+    /// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
+    pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
+        if bytes.len() < MAGIC.len() + 32 + 32 {
+            return None;
+        }
+        let (body, sum) = bytes.split_at(bytes.len() - 32);
+        let check: [u8; 32] = Sha256::digest(body).into();
+        if check != sum {
+            return None;
+        }
+        let mut r = Reader { b: body, at: 0 };
+        if r.take(8)? != MAGIC {
+            return None;
+        }
+        let hash: RunHash = r.take(32)?.try_into().ok()?;
+        let ok = r.take(1)?[0] == 1;
+        let n = r.u32()? as usize;
+        let reason = String::from_utf8(r.take(n)?.to_vec()).ok()?;
+        let steps = r.u64()?;
+        let rejected = r.u64()?;
+        let rhs_evals = r.u64()?;
+        let mut f = [0.0; 6];
+        for x in &mut f {
+            *x = r.f64()?;
+        }
+        let n_probes = r.u32()? as usize;
+        let mut probes = Vec::with_capacity(n_probes);
+        for _ in 0..n_probes {
+            probes.push(ProbeSummary {
+                leading_peak: r.f64()?,
+                leading_peak_time_s: r.f64()?,
+                record_max: r.f64()?,
+                record_max_time_s: r.f64()?,
+            });
+        }
+        let min_overlap_m = if r.take(1)?[0] == 1 {
+            let n = r.u32()? as usize;
+            Some(r.f64s(n)?)
+        } else {
+            None
+        };
+        let history = if r.take(1)?[0] == 1 {
+            let series = r.u32()? as usize;
+            let samples = r.u64()? as usize;
+            let time_s = r.f64s(samples)?;
+            let mut values = Vec::with_capacity(series);
+            for _ in 0..series {
+                values.push(r.f64s(samples)?);
+            }
+            Some(History { time_s, values })
+        } else {
+            None
+        };
+        if r.at != body.len() {
+            return None;
+        }
+        Some(RunRecord {
+            hash,
+            ok,
+            reason,
+            steps,
+            rejected,
+            rhs_evals,
+            t_end_s: f[0],
+            energy_drift_max: f[1],
+            energy_drift_final: f[2],
+            momentum_residual_max: f[3],
+            impact_energy_j: f[4],
+            wall_time_s: f[5],
+            probes,
+            min_overlap_m,
+            history,
+        })
+    }
+
+    /// Reads only the status part of segment bytes (no checksum check): `(ok, reason)`.
+    pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
+        let mut r = Reader { b: bytes, at: 0 };
+        if r.take(8)? != MAGIC {
+            return None;
+        }
+        r.take(32)?;
+        let ok = r.take(1)?[0] == 1;
+        let n = r.u32()? as usize;
+        let reason = String::from_utf8_lossy(r.take(n)?).into_owned();
+        Some((ok, reason))
+    }
+}
+
+fn put_u32(b: &mut Vec<u8>, x: u32) {
+    b.extend_from_slice(&x.to_le_bytes());
+}
+
+fn put_f64(b: &mut Vec<u8>, x: f64) {
+    b.extend_from_slice(&x.to_bits().to_le_bytes());
+}
+
+struct Reader<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(n)?;
+        let s = self.b.get(self.at..end)?;
+        self.at = end;
+        Some(s)
+    }
+    fn u32(&mut self) -> Option<u32> {
+        Some(u32::from_le_bytes(self.take(4)?.try_into().ok()?))
+    }
+    fn u64(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    fn f64(&mut self) -> Option<f64> {
+        Some(f64::from_bits(self.u64()?))
+    }
+    fn f64s(&mut self, n: usize) -> Option<Vec<f64>> {
+        let bytes = self.take(n.checked_mul(8)?)?;
+        Some(
+            bytes
+                .chunks_exact(8)
+                .map(|c| f64::from_bits(u64::from_le_bytes(c.try_into().expect("8 bytes"))))
+                .collect(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_is_bitwise() {
+        let rec = RunRecord {
+            hash: [7; 32],
+            ok: true,
+            reason: String::new(),
+            steps: 10,
+            rejected: 2,
+            rhs_evals: 130,
+            t_end_s: 1e-3,
+            energy_drift_max: 1e-9,
+            energy_drift_final: 5e-10,
+            momentum_residual_max: 1e-12,
+            impact_energy_j: 0.0017,
+            wall_time_s: 0.01,
+            probes: vec![ProbeSummary {
+                leading_peak: 100.0,
+                leading_peak_time_s: f64::NAN,
+                record_max: 110.5,
+                record_max_time_s: 2e-5,
+            }],
+            min_overlap_m: Some(vec![-1e-7, 3e-6]),
+            history: Some(History {
+                time_s: vec![0.0, 1e-6],
+                values: vec![vec![1.0, 2.0]],
+            }),
+        };
+        let bytes = rec.encode();
+        let back = RunRecord::decode(&bytes).unwrap();
+        assert_eq!(back.encode(), bytes);
+        assert!(back.probes[0].leading_peak_time_s.is_nan());
+        assert_eq!(RunRecord::peek_status(&bytes), Some((true, String::new())));
+        // Any truncation or flipped byte is detected.
+        assert!(RunRecord::decode(&bytes[..bytes.len() - 1]).is_none());
+        let mut bad = bytes.clone();
+        bad[50] ^= 1;
+        assert!(RunRecord::decode(&bad).is_none());
+    }
+}

@@ -1,0 +1,756 @@
+//! Sweep files: parsing and validation.
+//!
+//! A sweep file is JSON with these top-level fields (unknown fields are refused):
+//!
+//! - `description` (optional string);
+//! - `base`: a scene as the solver reads it (`chain`, `physics`, `striker_velocity_m_s`,
+//!   `duration_s`, `integrator`, `max_steps`); `chain` may start from a preset,
+//!   `{"preset": "chain_055", "cylinders": 50, …overrides}`;
+//! - `record`: the solver's record block (probes, histories, intervals, …): exactly what is stored;
+//! - `axes`: the grid dimensions; each is an axis `{"field": "physics.damping_kg_s", "values": […]}`
+//!   or `{"field": …, "range": {"start": …, "stop": …, "step": …}}` (or `"num"` instead of `"step"`),
+//!   with an optional `"name"`, or a zipped group `{"zip": [axis, axis, …]}` whose axes advance
+//!   together;
+//! - `limits`: `{"energy_drift_max": 1e-3}`, the largest relative energy drift a run may have
+//!   before it counts as failed (`null`: no limit).
+//!
+//! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
+//! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
+
+use serde::Deserialize;
+use serde_json::{Map, Value};
+
+use chainsweep_solver::{ChainSpec, Scene};
+
+use crate::error::{Error, Result};
+
+/// Names of the datasets the HDF5 layout uses at the root; axes may not take them.
+pub const RESERVED_NAMES: &[&str] = &[
+    "probe",
+    "probe_units",
+    "leading_peak",
+    "leading_peak_time_s",
+    "record_max",
+    "record_max_time_s",
+    "t_end_s",
+    "energy_drift_max",
+    "energy_drift_final",
+    "momentum_residual_max",
+    "impact_energy_j",
+    "wall_time_s",
+    "steps",
+    "rejected_steps",
+    "rhs_evals",
+    "status",
+    "reason",
+    "run_hash",
+    "runs",
+];
+
+/// Largest number of grid points a sweep may have.
+pub const MAX_GRID_POINTS: usize = 10_000_000;
+
+/// Default limit on the relative energy drift of a run.
+pub const DEFAULT_ENERGY_DRIFT_MAX: f64 = 1e-3;
+
+/// One axis: a scene field and the values it takes.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Axis {
+    /// Coordinate name (dataset name in the HDF5 file).
+    pub name: String,
+    /// Dotted path of the scene field the axis sets, e.g. `physics.damping_kg_s`.
+    pub field: String,
+    /// Values, in order.
+    pub values: Vec<Value>,
+    /// Unit, derived from the field name's suffix (`kg/s` for `…_kg_s`, `1` when none).
+    pub units: String,
+    /// Path of the axis in the sweep file, e.g. `axes[1]` or `axes[2].zip[0]`.
+    pub origin: String,
+}
+
+/// One grid dimension: one axis, or several zipped axes of equal length.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dim {
+    /// Dimension name (the first axis's name).
+    pub name: String,
+    /// The axes advancing along this dimension.
+    pub axes: Vec<Axis>,
+}
+
+impl Dim {
+    /// Number of points along this dimension.
+    pub fn len(&self) -> usize {
+        self.axes[0].values.len()
+    }
+
+    /// Whether the dimension has no points (never true for a parsed sweep).
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Limits that decide whether a finished run counts as failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Limits {
+    /// Largest relative energy drift; `None`: no limit.
+    pub energy_drift_max: Option<f64>,
+}
+
+/// A parsed, validated sweep.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    /// The sweep file's text, exactly as read.
+    pub text: String,
+    /// Description.
+    pub description: String,
+    /// The base scene, normalised (every default filled in), record block included.
+    pub base: Value,
+    /// Grid dimensions, outermost first.
+    pub dims: Vec<Dim>,
+    /// Failure limits.
+    pub limits: Limits,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SweepFile {
+    #[serde(default)]
+    description: String,
+    base: Map<String, Value>,
+    #[serde(default)]
+    record: Option<Map<String, Value>>,
+    axes: Vec<AxisFile>,
+    #[serde(default)]
+    limits: Option<LimitsFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LimitsFile {
+    #[serde(default = "default_drift")]
+    energy_drift_max: Option<f64>,
+}
+
+fn default_drift() -> Option<f64> {
+    Some(DEFAULT_ENERGY_DRIFT_MAX)
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisFile {
+    #[serde(default)]
+    name: Option<String>,
+    #[serde(default)]
+    field: Option<String>,
+    #[serde(default)]
+    values: Option<Vec<Value>>,
+    #[serde(default)]
+    range: Option<RangeFile>,
+    #[serde(default)]
+    zip: Option<Vec<AxisFile>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RangeFile {
+    start: serde_json::Number,
+    stop: serde_json::Number,
+    #[serde(default)]
+    step: Option<serde_json::Number>,
+    #[serde(default)]
+    num: Option<u64>,
+}
+
+/// Deserialises `value` as `T`, naming the failing field (prefixed by `prefix`) on error.
+pub fn from_value_at<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T> {
+    serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
+        let path = e.path().to_string();
+        let field = join_path(prefix, if path == "." { "" } else { &path });
+        Error::input(field, e.into_inner().to_string())
+    })
+}
+
+fn join_path(prefix: &str, path: &str) -> String {
+    match (prefix.is_empty(), path.is_empty()) {
+        (true, _) => path.to_string(),
+        (false, true) => prefix.to_string(),
+        (false, false) if path.starts_with('[') => format!("{prefix}{path}"),
+        (false, false) => format!("{prefix}.{path}"),
+    }
+}
+
+/// Unit of a field from its name's suffix (`damping_kg_s` → `kg/s`).
+pub fn units_of(field: &str) -> String {
+    let last = field.rsplit('.').next().unwrap_or(field);
+    const SUFFIXES: &[(&str, &str)] = &[
+        ("_kg_m3", "kg/m^3"),
+        ("_m_s2", "m/s^2"),
+        ("_kg_s", "kg/s"),
+        ("_m_s", "m/s"),
+        ("_pa", "Pa"),
+        ("_kg", "kg"),
+        ("_s", "s"),
+        ("_m", "m"),
+        ("_n", "N"),
+        ("_j", "J"),
+    ];
+    for (suffix, unit) in SUFFIXES {
+        if last.ends_with(suffix) {
+            return unit.to_string();
+        }
+    }
+    "1".to_string()
+}
+
+/// Splits a dotted field path into segments; `a.b[2].c` and `a.b.2.c` are the same path.
+pub fn split_path(path: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for part in path.split('.') {
+        let mut rest = part;
+        if let Some(i) = rest.find('[') {
+            out.push(rest[..i].to_string());
+            rest = &rest[i..];
+            while let Some(stripped) = rest.strip_prefix('[') {
+                match stripped.find(']') {
+                    Some(j) => {
+                        out.push(stripped[..j].to_string());
+                        rest = &stripped[j + 1..];
+                    }
+                    None => {
+                        out.push(stripped.to_string());
+                        rest = "";
+                    }
+                }
+            }
+            if !rest.is_empty() {
+                out.push(rest.to_string());
+            }
+        } else {
+            out.push(rest.to_string());
+        }
+    }
+    out
+}
+
+fn describe_keys(v: &Value) -> String {
+    match v {
+        Value::Object(m) => {
+            let keys: Vec<&str> = m.keys().map(|k| k.as_str()).collect();
+            format!("the fields there are: {}", keys.join(", "))
+        }
+        Value::Array(a) => format!(
+            "it is a list of {} entries (indices 0..{})",
+            a.len(),
+            a.len()
+        ),
+        _ => "it is a plain value with no fields".to_string(),
+    }
+}
+
+/// Finds the value at `path` in `root`, or explains where the path stops existing.
+pub fn lookup<'a>(root: &'a Value, path: &str) -> std::result::Result<&'a Value, String> {
+    let mut cur = root;
+    let mut walked = String::new();
+    for seg in split_path(path) {
+        let next = match cur {
+            Value::Object(m) => m.get(&seg),
+            Value::Array(a) => seg.parse::<usize>().ok().and_then(|i| a.get(i)),
+            _ => None,
+        };
+        match next {
+            Some(n) => {
+                cur = n;
+                if !walked.is_empty() {
+                    walked.push('.');
+                }
+                walked.push_str(&seg);
+            }
+            None => {
+                let at = if walked.is_empty() {
+                    "the scene".to_string()
+                } else {
+                    format!("`{walked}`")
+                };
+                return Err(format!(
+                    "`{path}` is not a field of the base scene: `{seg}` does not exist in {at}; {}",
+                    describe_keys(cur)
+                ));
+            }
+        }
+    }
+    Ok(cur)
+}
+
+/// Sets the value at `path` (which must exist) in `root`.
+pub fn set_path(root: &mut Value, path: &str, value: Value) {
+    let mut cur = root;
+    for seg in split_path(path) {
+        cur = match cur {
+            Value::Object(m) => m.get_mut(&seg).expect("path checked at parse time"),
+            Value::Array(a) => {
+                let i: usize = seg.parse().expect("path checked at parse time");
+                &mut a[i]
+            }
+            _ => unreachable!("path checked at parse time"),
+        };
+    }
+    *cur = value;
+}
+
+/// Overlays `over` onto `base`: objects merge key by key, anything else replaces. An object with a
+/// single key replacing an object with a different single key (an enum variant) replaces it whole.
+fn merge(base: &mut Value, over: Value) {
+    match (base, over) {
+        (Value::Object(b), Value::Object(o)) => {
+            let variant_swap = b.len() == 1 && o.len() == 1 && b.keys().next() != o.keys().next();
+            if variant_swap {
+                *b = o;
+                return;
+            }
+            for (k, v) in o {
+                match b.get_mut(&k) {
+                    Some(slot) => merge(slot, v),
+                    None => {
+                        b.insert(k, v);
+                    }
+                }
+            }
+        }
+        (b, o) => *b = o,
+    }
+}
+
+/// Chain presets a sweep's `base.chain.preset` may name.
+pub const CHAIN_PRESETS: &[&str] = &["chain_055", "chain_098"];
+
+fn expand_chain_preset(chain: &mut Value) -> Result<()> {
+    let Value::Object(m) = chain else {
+        return Ok(());
+    };
+    let Some(preset) = m.remove("preset") else {
+        return Ok(());
+    };
+    let cylinders = match m.get("cylinders") {
+        None => 50,
+        Some(v) => v.as_u64().map(|c| c as usize).ok_or_else(|| {
+            Error::input(
+                "base.chain.cylinders",
+                format!("must be a non-negative integer, got {v}"),
+            )
+        })?,
+    };
+    let spec = match preset.as_str() {
+        Some("chain_055") => ChainSpec::chain_055(cylinders),
+        Some("chain_098") => ChainSpec::chain_098(cylinders),
+        _ => {
+            return Err(Error::input(
+                "base.chain.preset",
+                format!(
+                    "unknown preset {preset}; allowed values: {}",
+                    CHAIN_PRESETS.join(", ")
+                ),
+            ))
+        }
+    };
+    let mut expanded = serde_json::to_value(spec).expect("ChainSpec serialises");
+    merge(&mut expanded, Value::Object(std::mem::take(m)));
+    *chain = expanded;
+    Ok(())
+}
+
+/// A range value: integers stay integers; floats are rounded to 15 significant digits, so that
+/// `0.1 + 2 × 0.1` is 0.3 and not 0.30000000000000004.
+fn num_to_value(x: f64, as_int: bool) -> Value {
+    if as_int {
+        Value::from(x.round() as i64)
+    } else {
+        let rounded: f64 = format!("{x:.14e}").parse().unwrap_or(x);
+        Value::from(rounded)
+    }
+}
+
+fn expand_range(r: &RangeFile, origin: &str) -> Result<Vec<Value>> {
+    let start = r.start.as_f64().unwrap_or(f64::NAN);
+    let stop = r.stop.as_f64().unwrap_or(f64::NAN);
+    for (name, v) in [("start", start), ("stop", stop)] {
+        if !v.is_finite() {
+            return Err(Error::input(
+                format!("{origin}.range.{name}"),
+                "must be a finite number",
+            ));
+        }
+    }
+    let ints = r.start.is_i64() && r.stop.is_i64();
+    match (&r.step, r.num) {
+        (Some(_), Some(_)) | (None, None) => Err(Error::input(
+            format!("{origin}.range"),
+            "give exactly one of `step` (spacing, stop included when reached) or `num` (number of evenly spaced values, both ends included)",
+        )),
+        (Some(step_n), None) => {
+            let step = step_n.as_f64().unwrap_or(f64::NAN);
+            if !(step.is_finite() && step != 0.0) || (stop - start) * step < 0.0 {
+                return Err(Error::input(
+                    format!("{origin}.range.step"),
+                    format!("must be a finite non-zero number with the sign of stop - start, got {step_n}"),
+                ));
+            }
+            let ints = ints && step_n.is_i64();
+            let span = (stop - start) / step;
+            let n = (span + 1e-9 * span.abs().max(1.0)).floor() as u64 + 1;
+            if n as usize > MAX_GRID_POINTS {
+                return Err(Error::input(
+                    format!("{origin}.range"),
+                    format!("gives {n} values, at most {MAX_GRID_POINTS} allowed"),
+                ));
+            }
+            Ok((0..n).map(|i| num_to_value(start + i as f64 * step, ints)).collect())
+        }
+        (None, Some(num)) => {
+            if num == 0 || num as usize > MAX_GRID_POINTS {
+                return Err(Error::input(
+                    format!("{origin}.range.num"),
+                    format!("must lie in 1..={MAX_GRID_POINTS}, got {num}"),
+                ));
+            }
+            if num == 1 {
+                return Ok(vec![num_to_value(start, ints)]);
+            }
+            let ints = ints && (r.stop.as_i64().unwrap_or(0) - r.start.as_i64().unwrap_or(0)) % (num as i64 - 1) == 0;
+            let last = (num - 1) as f64;
+            Ok((0..num)
+                .map(|i| {
+                    let x = if i == num - 1 {
+                        stop
+                    } else {
+                        start + (stop - start) * (i as f64 / last)
+                    };
+                    num_to_value(x, ints)
+                })
+                .collect())
+        }
+    }
+}
+
+fn parse_axis(a: AxisFile, origin: &str, base: &Value) -> Result<Axis> {
+    if a.zip.is_some() {
+        return Err(Error::input(
+            format!("{origin}.zip"),
+            "zipped groups cannot be nested",
+        ));
+    }
+    let field = a.field.ok_or_else(|| {
+        Error::input(
+            format!("{origin}.field"),
+            "missing: an axis needs `field` (the dotted path of a scene field, e.g. physics.damping_kg_s)",
+        )
+    })?;
+    lookup(base, &field).map_err(|m| Error::input(format!("{origin}.field"), m))?;
+    let values = match (a.values, a.range) {
+        (Some(v), None) => {
+            if v.is_empty() {
+                return Err(Error::input(format!("{origin}.values"), "must hold at least one value"));
+            }
+            v
+        }
+        (None, Some(r)) => expand_range(&r, origin)?,
+        _ => {
+            return Err(Error::input(
+                origin.to_string(),
+                "give exactly one of `values` (a list) or `range` ({start, stop, step} or {start, stop, num})",
+            ))
+        }
+    };
+    let name = a
+        .name
+        .unwrap_or_else(|| split_path(&field).last().cloned().unwrap_or_default());
+    Ok(Axis {
+        units: units_of(&field),
+        name,
+        field,
+        values,
+        origin: origin.to_string(),
+    })
+}
+
+/// The key of the innermost `"key": value` pair that starts before line `line`, column `column`
+/// (1-based): names the field where a syntax error sits.
+fn field_near(text: &str, line: usize, column: usize) -> Option<String> {
+    let mut offset = 0;
+    for (i, l) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == line {
+            offset += column.min(l.len());
+            break;
+        }
+        offset += l.len();
+    }
+    let mut prefix = &text[..offset.min(text.len())];
+    while let Some(colon) = prefix.rfind(':') {
+        let before = prefix[..colon].trim_end();
+        if let Some(body) = before.strip_suffix('"') {
+            if let Some(start) = body.rfind('"') {
+                return Some(body[start + 1..].to_string());
+            }
+        }
+        prefix = &prefix[..colon];
+    }
+    None
+}
+
+fn valid_name(name: &str) -> bool {
+    !name.is_empty()
+        && name.len() <= 64
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        && !name.starts_with(|c: char| c.is_ascii_digit())
+}
+
+impl Sweep {
+    /// Parses and checks a sweep file's text: syntax, unknown fields, types, axes. Grid points
+    /// are checked by [`crate::grid::Grid::new`].
+    pub fn parse(text: &str) -> Result<Sweep> {
+        let raw: Value = serde_json::from_str(text).map_err(|e| {
+            let field = field_near(text, e.line(), e.column()).unwrap_or_default();
+            Error::input(
+                field,
+                format!(
+                    "not valid JSON: {e} (numbers must be finite: NaN and infinities are not JSON)"
+                ),
+            )
+        })?;
+        let file: SweepFile = from_value_at(raw, "")?;
+
+        // Base scene: presets, then the record block, then every default filled in by the solver.
+        let mut base = Value::Object(file.base);
+        if let Some(chain) = base.get_mut("chain") {
+            expand_chain_preset(chain)?;
+        }
+        if let Some(record) = file.record {
+            if base.get("record").is_some() {
+                return Err(Error::input(
+                    "base.record",
+                    "give the record block once, at the top level (`record`), not inside `base`",
+                ));
+            }
+            base.as_object_mut()
+                .expect("object")
+                .insert("record".into(), Value::Object(record));
+        }
+        let scene: Scene = from_value_at(base, "base").map_err(|e| match e {
+            Error::Input {
+                file,
+                field,
+                message,
+            } => Error::Input {
+                file,
+                field: match field.strip_prefix("base.record") {
+                    Some(rest) => format!("record{rest}"),
+                    None => field,
+                },
+                message,
+            },
+            other => other,
+        })?;
+        let base = serde_json::to_value(&scene).expect("Scene serialises");
+
+        let limits = match file.limits {
+            None => Limits {
+                energy_drift_max: Some(DEFAULT_ENERGY_DRIFT_MAX),
+            },
+            Some(l) => {
+                if let Some(x) = l.energy_drift_max {
+                    if !(x.is_finite() && x > 0.0) {
+                        return Err(Error::input(
+                            "limits.energy_drift_max",
+                            format!("must be a finite number > 0 or null (no limit), got {x}"),
+                        ));
+                    }
+                }
+                Limits {
+                    energy_drift_max: l.energy_drift_max,
+                }
+            }
+        };
+
+        if file.axes.is_empty() {
+            return Err(Error::input(
+                "axes",
+                "at least one axis is required (a single run is an axis with one value)",
+            ));
+        }
+        let mut dims = Vec::new();
+        for (i, a) in file.axes.into_iter().enumerate() {
+            let origin = format!("axes[{i}]");
+            if let Some(zip) = a.zip {
+                if a.field.is_some() || a.values.is_some() || a.range.is_some() {
+                    return Err(Error::input(
+                        origin,
+                        "a zipped group holds only `zip` (a list of axes) and an optional `name`",
+                    ));
+                }
+                if zip.is_empty() {
+                    return Err(Error::input(
+                        format!("{origin}.zip"),
+                        "must hold at least one axis",
+                    ));
+                }
+                let mut axes = Vec::new();
+                for (j, z) in zip.into_iter().enumerate() {
+                    axes.push(parse_axis(z, &format!("{origin}.zip[{j}]"), &base)?);
+                }
+                let n = axes[0].values.len();
+                for ax in &axes[1..] {
+                    if ax.values.len() != n {
+                        return Err(Error::input(
+                            format!("{}.values", ax.origin),
+                            format!(
+                                "zipped axes advance together and need equal lengths: this one has {}, `{}` has {n}",
+                                ax.values.len(),
+                                axes[0].name
+                            ),
+                        ));
+                    }
+                }
+                let name = a.name.unwrap_or_else(|| axes[0].name.clone());
+                dims.push(Dim { name, axes });
+            } else {
+                let axis = parse_axis(a, &origin, &base)?;
+                dims.push(Dim {
+                    name: axis.name.clone(),
+                    axes: vec![axis],
+                });
+            }
+        }
+
+        // Names and fields must be distinct and usable as dataset names.
+        let mut names: Vec<(&str, &str)> = Vec::new();
+        let mut fields: Vec<(&str, &str)> = Vec::new();
+        for d in &dims {
+            let mut all: Vec<(&str, &str)> = d
+                .axes
+                .iter()
+                .map(|a| (a.name.as_str(), a.origin.as_str()))
+                .collect();
+            if d.axes.len() > 1 && !d.axes.iter().any(|a| a.name == d.name) {
+                all.push((d.name.as_str(), ""));
+            }
+            for (name, origin) in all {
+                let at = if origin.is_empty() {
+                    "axes".to_string()
+                } else {
+                    format!("{origin}.name")
+                };
+                if !valid_name(name) {
+                    return Err(Error::input(
+                        at,
+                        format!("`{name}` is not a usable name: letters, digits, `_` and `-`, not starting with a digit, at most 64 characters"),
+                    ));
+                }
+                if RESERVED_NAMES.contains(&name) {
+                    return Err(Error::input(
+                        at,
+                        format!(
+                            "`{name}` is a reserved dataset name; reserved: {}",
+                            RESERVED_NAMES.join(", ")
+                        ),
+                    ));
+                }
+                if let Some((_, other)) = names.iter().find(|(n, _)| *n == name) {
+                    return Err(Error::input(
+                        at,
+                        format!("name `{name}` is already used by {other}"),
+                    ));
+                }
+                names.push((name, origin));
+            }
+            for a in &d.axes {
+                let segs = split_path(&a.field);
+                for (f, other) in &fields {
+                    let o = split_path(f);
+                    let overlap = segs.len().min(o.len());
+                    if segs[..overlap] == o[..overlap] {
+                        return Err(Error::input(
+                            format!("{}.field", a.origin),
+                            format!("`{}` overlaps `{f}` set by {other}; each field may be set by one axis only", a.field),
+                        ));
+                    }
+                }
+                fields.push((a.field.as_str(), a.origin.as_str()));
+            }
+        }
+
+        Ok(Sweep {
+            text: text.to_string(),
+            description: file.description,
+            base,
+            dims,
+            limits,
+        })
+    }
+
+    /// Reads and parses a sweep file.
+    pub fn load(path: &str) -> Result<Sweep> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Input {
+            file: Some(path.to_string()),
+            field: String::new(),
+            message: format!("cannot read the sweep file: {e}"),
+        })?;
+        Sweep::parse(&text).map_err(|e| e.in_file(path))
+    }
+
+    /// Shape of the grid, outermost dimension first.
+    pub fn shape(&self) -> Vec<usize> {
+        self.dims.iter().map(|d| d.len()).collect()
+    }
+
+    /// Number of grid points.
+    pub fn n_points(&self) -> usize {
+        self.shape().iter().product()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn units_follow_suffixes() {
+        assert_eq!(units_of("physics.damping_kg_s"), "kg/s");
+        assert_eq!(units_of("striker_velocity_m_s"), "m/s");
+        assert_eq!(units_of("duration_s"), "s");
+        assert_eq!(units_of("chain.cylinders"), "1");
+        assert_eq!(units_of("chain.cylinder.density_kg_m3"), "kg/m^3");
+    }
+
+    #[test]
+    fn paths_split_on_dots_and_brackets() {
+        assert_eq!(
+            split_path("record.probes[1].cylinder"),
+            vec!["record", "probes", "1", "cylinder"]
+        );
+        assert_eq!(split_path("a.b"), vec!["a", "b"]);
+    }
+
+    #[test]
+    fn ranges_include_their_ends() {
+        let r = RangeFile {
+            start: 0.into(),
+            stop: 100.into(),
+            step: Some(10.into()),
+            num: None,
+        };
+        let v = expand_range(&r, "axes[0]").unwrap();
+        assert_eq!(v.len(), 11);
+        assert_eq!(v[10], Value::from(100));
+        let r = RangeFile {
+            start: serde_json::Number::from_f64(0.1).unwrap(),
+            stop: serde_json::Number::from_f64(1.0).unwrap(),
+            step: None,
+            num: Some(10),
+        };
+        let v = expand_range(&r, "axes[0]").unwrap();
+        assert_eq!(v.len(), 10);
+        assert_eq!(v[9].as_f64(), Some(1.0));
+        assert_eq!(v[0].as_f64(), Some(0.1));
+    }
+}

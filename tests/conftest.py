@@ -1,0 +1,139 @@
+"""Shared helpers for the chainsweep Python tests.
+
+The binary is `target/release/chainsweep` (built by `make build`), or `$CHAINSWEEP_BIN`.
+"""
+
+import copy
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+BIN = Path(os.environ.get("CHAINSWEEP_BIN", REPO / "target" / "release" / "chainsweep")).resolve()
+
+# Root attributes and datasets that legitimately differ between two runs of the same sweep.
+VOLATILE_ATTRS = {"created_utc", "command_line"}
+VOLATILE_DATASETS = {"wall_time_s"}
+# HDF5 bookkeeping attributes holding object references (compared through the scale names).
+REFERENCE_ATTRS = {"DIMENSION_LIST", "REFERENCE_LIST"}
+
+
+def base_sweep(cylinders=10, duration_s=2e-4, history=False, probes=(2, 8)):
+    """A small, fast sweep: 10-cylinder 0.55 chain, 0.2 ms, gauge forces."""
+    return {
+        "description": "test sweep",
+        "base": {
+            "chain": {
+                "preset": "chain_055",
+                "cylinders": cylinders,
+                "cylinder": {"mass": {"heavy_cylinders": {"mass_ratio": 0.55}}, "height_m": None},
+            },
+            "physics": {"gravity": True, "damping_kg_s": 0.0, "wall": True},
+            "striker_velocity_m_s": 1.3,
+            "duration_s": duration_s,
+            "integrator": {"method": "dop853", "rtol": 1e-9},
+        },
+        "record": {
+            "probes": [{"kind": "gauge_force", "cylinder": c} for c in probes],
+            "history": history,
+            "history_interval_s": 1e-6,
+        },
+        "axes": [
+            {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "values": [0.3, 0.55, 1.0]},
+            {"field": "physics.damping_kg_s", "values": [0, 6]},
+        ],
+    }
+
+
+def with_axes(sweep, axes):
+    s = copy.deepcopy(sweep)
+    s["axes"] = axes
+    return s
+
+
+def write_sweep(path, sweep):
+    path = Path(path)
+    path.write_text(json.dumps(sweep, indent=2))
+    return path
+
+
+def run(*args, cwd=None, env=None, timeout=300):
+    """Runs the binary; returns the CompletedProcess (text mode)."""
+    full_env = dict(os.environ)
+    full_env.pop(
+        "CHAINSWEEP_INJECT_PANIC", None
+    )
+    if env:
+        full_env.update(env)
+    return subprocess.run(
+        [str(BIN), *map(str, args)],
+        cwd=cwd,
+        env=full_env,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def read_all(path):
+    """Every dataset (name -> numpy array) and attribute ((object, name) -> value) of a file."""
+    data, attrs = {}, {}
+    with h5py.File(path, "r") as f:
+        for k, v in f.attrs.items():
+            attrs[("/", k)] = v
+
+        def visit(name, obj):
+            for k, v in obj.attrs.items():
+                if k in REFERENCE_ATTRS:
+                    continue
+                attrs[(name, k)] = v
+            if isinstance(obj, h5py.Dataset):
+                data[name] = (obj.dtype, obj[()])
+                for i, dim in enumerate(obj.dims):
+                    attrs[(name, f"dim{i}_scales")] = tuple(s.name for s in dim.values())
+
+        f.visititems(visit)
+    return data, attrs
+
+
+def _bits(a):
+    a = np.ascontiguousarray(a)
+    if a.dtype.kind == "O":
+        return [x.decode() if isinstance(x, bytes) else x for x in a.ravel().tolist()]
+    return a.tobytes()
+
+
+def assert_files_equal(a, b, skip_datasets=VOLATILE_DATASETS, skip_attrs=VOLATILE_ATTRS):
+    """Asserts two chainsweep files hold bitwise-equal datasets and equal attributes."""
+    da, aa = read_all(a)
+    db, ab = read_all(b)
+    assert sorted(da) == sorted(db), "dataset names differ"
+    for name in da:
+        if name.split("/")[-1] in skip_datasets and "/" not in name:
+            continue
+        (ta, va), (tb, vb) = da[name], db[name]
+        assert ta == tb, f"{name}: dtype {ta} != {tb}"
+        assert np.shape(va) == np.shape(vb), f"{name}: shape differs"
+        assert _bits(va) == _bits(vb), f"{name}: values differ"
+    keys_a = {k for k in aa if not (k[0] == "/" and k[1] in skip_attrs)}
+    keys_b = {k for k in ab if not (k[0] == "/" and k[1] in skip_attrs)}
+    assert keys_a == keys_b, f"attributes differ: {keys_a ^ keys_b}"
+    for k in keys_a:
+        va, vb = aa[k], ab[k]
+        if isinstance(va, np.ndarray):
+            assert _bits(va) == _bits(vb), f"attribute {k} differs"
+        elif isinstance(va, float) and np.isnan(va):
+            assert np.isnan(vb), f"attribute {k} differs"
+        else:
+            assert va == vb, f"attribute {k} differs: {va!r} != {vb!r}"
+
+
+@pytest.fixture(scope="session")
+def binary():
+    assert BIN.exists(), f"chainsweep binary not found at {BIN}; run `make build` or set CHAINSWEEP_BIN"
+    return BIN

@@ -1,0 +1,262 @@
+"""The HDF5 file as h5py users see it: names, shapes, dtypes, `str` attributes, dimension scales,
+histories, failed runs — and values equal to what the Rust side computes for each point."""
+
+import json
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import base_sweep, run, write_sweep
+
+SUMMARY_GRID = [
+    "t_end_s",
+    "energy_drift_max",
+    "energy_drift_final",
+    "momentum_residual_max",
+    "impact_energy_j",
+    "wall_time_s",
+]
+INT_GRID = ["steps", "rejected_steps", "rhs_evals"]
+PROBE_GRID = ["leading_peak", "leading_peak_time_s", "record_max", "record_max_time_s"]
+
+
+@pytest.fixture(scope="module")
+def produced(tmp_path_factory, binary):
+    d = tmp_path_factory.mktemp("layout")
+    sweep = base_sweep(history=True)
+    sweep["record"]["probes"].append({"kind": "velocity", "particle": 5})
+    sweep["record"]["min_overlap"] = True
+    path = write_sweep(d / "layout.json", sweep)
+    out = d / "layout.h5"
+    r = run("run", path, "-o", out, "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    return sweep, path, out
+
+
+def test_root_attributes_are_str(produced):
+    sweep, path, out = produced
+    with h5py.File(out, "r") as f:
+        for name in [
+            "sweep",
+            "description",
+            "base_scene",
+            "engine",
+            "engine_version",
+            "solver_version",
+            "git_revision",
+            "created_utc",
+            "command_line",
+            "shard",
+            "dimensions",
+        ]:
+            assert isinstance(f.attrs[name], str), name
+        assert json.loads(f.attrs["sweep"]) == sweep
+        assert f.attrs["sweep"] == path.read_text()
+        assert json.loads(f.attrs["dimensions"]) == ["mass_ratio", "damping_kg_s"]
+        assert f.attrs["shard"] == "1/1"
+        assert f.attrs["created_utc"].endswith("Z")
+        assert "run" in f.attrs["command_line"]
+        assert int(f.attrs["numerics_version"]) >= 1
+        assert list(f.attrs["grid_shape"]) == [3, 2]
+        assert int(f.attrs["n_ok"]) == 6 and int(f.attrs["n_failed"]) == 0
+        base = json.loads(f.attrs["base_scene"])
+        assert base["chain"]["cylinders"] == 10
+
+
+def test_names_shapes_dtypes(produced):
+    _, _, out = produced
+    with h5py.File(out, "r") as f:
+        expected = set(SUMMARY_GRID + INT_GRID + PROBE_GRID) | {
+            "mass_ratio",
+            "damping_kg_s",
+            "probe",
+            "probe_units",
+            "status",
+            "reason",
+            "run_hash",
+            "runs",
+        }
+        assert set(f.keys()) == expected
+        assert f["mass_ratio"].shape == (3,) and f["mass_ratio"].dtype == np.float64
+        assert f["damping_kg_s"].shape == (2,) and f["damping_kg_s"].dtype == np.int64
+        np.testing.assert_array_equal(f["mass_ratio"][:], [0.3, 0.55, 1.0])
+        np.testing.assert_array_equal(f["damping_kg_s"][:], [0, 6])
+        assert f["damping_kg_s"].attrs["units"] == "kg/s"
+        assert f["mass_ratio"].attrs["units"] == "1"
+        assert f["mass_ratio"].attrs["field"] == "chain.cylinder.mass.heavy_cylinders.mass_ratio"
+        probes = [p.decode() if isinstance(p, bytes) else p for p in f["probe"].asstr()[:]]
+        assert probes == ["gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5"]
+        assert list(f["probe_units"].asstr()[:]) == ["N", "N", "m/s"]
+        for name in SUMMARY_GRID:
+            assert f[name].shape == (3, 2) and f[name].dtype == np.float64, name
+            assert isinstance(f[name].attrs["units"], str)
+        for name in INT_GRID:
+            assert f[name].shape == (3, 2) and f[name].dtype == np.int64, name
+        for name in PROBE_GRID:
+            assert f[name].shape == (3, 2, 3) and f[name].dtype == np.float64, name
+        assert f["leading_peak"].attrs["units"] == "see probe_units"
+        assert f["leading_peak_time_s"].attrs["units"] == "s"
+        assert f["status"].dtype == np.uint8
+        assert list(f["status"].attrs["flag_values"]) == [0, 1, 2]
+        assert f["status"].attrs["flag_meanings"] == "pending ok failed"
+        assert h5py.check_string_dtype(f["reason"].dtype).encoding == "utf-8"
+        assert all(len(h) == 64 for h in f["run_hash"].asstr()[...].ravel())
+        assert (f["status"][...] == 1).all()
+        assert (f["reason"].asstr()[...] == "").all()
+
+
+def test_dimension_scales(produced):
+    _, _, out = produced
+    with h5py.File(out, "r") as f:
+        for name in ["mass_ratio", "damping_kg_s", "probe"]:
+            assert h5py.h5ds.is_scale(f[name].id), name
+        for name in SUMMARY_GRID + INT_GRID + ["status", "reason", "run_hash"]:
+            ds = f[name]
+            assert [d.label for d in ds.dims] == ["mass_ratio", "damping_kg_s"]
+            assert ds.dims[0][0].name == "/mass_ratio"
+            assert ds.dims[1][0].name == "/damping_kg_s"
+        for name in PROBE_GRID:
+            ds = f[name]
+            assert [d.label for d in ds.dims] == ["mass_ratio", "damping_kg_s", "probe"]
+            assert ds.dims[2][0].name == "/probe"
+            np.testing.assert_array_equal(ds.dims[0][0][:], [0.3, 0.55, 1.0])
+
+
+def test_histories(produced):
+    _, _, out = produced
+    with h5py.File(out, "r") as f:
+        assert sorted(f["runs"].keys()) == [str(i) for i in range(6)]
+        for i in range(6):
+            g = f["runs"][str(i)]
+            assert g.attrs["run_hash"] == f["run_hash"].asstr()[np.unravel_index(i, (3, 2))]
+            assert list(g.attrs["grid_index"]) == list(np.unravel_index(i, (3, 2)))
+            assert set(g.keys()) == {"time_s", "gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5", "min_overlap_m"}
+            t = g["time_s"]
+            assert t.attrs["units"] == "s"
+            assert h5py.h5ds.is_scale(t.id)
+            assert t.shape == (201,)
+            assert t[0] == 0.0 and math.isclose(t[1], 1e-6)
+            for name, unit in [("gauge_force_cyl2", "N"), ("gauge_force_cyl8", "N"), ("velocity_p5", "m/s")]:
+                ds = g[name]
+                assert ds.shape == (201,) and ds.dtype == np.float64
+                assert ds.chunks is not None and ds.compression == "gzip" and ds.shuffle
+                assert ds.attrs["units"] == unit
+                assert ds.dims[0][0].name == t.name
+                assert np.isfinite(ds[:]).all()
+            # The history's maximum agrees with the refined record maximum.
+            mi = np.unravel_index(i, (3, 2))
+            peak = f["record_max"][mi + (0,)]
+            assert g["gauge_force_cyl2"][:].max() <= peak * (1 + 1e-9)
+            assert g["gauge_force_cyl2"][:].max() >= 0.9 * peak
+            assert g["min_overlap_m"].shape == (22,)
+
+
+def test_values_match_rust(produced):
+    """Every stored number equals, bit for bit, what `chainsweep point` computes for that point."""
+    _, path, out = produced
+    with h5py.File(out, "r") as f:
+        for i in range(6):
+            r = run("point", path, i)
+            assert r.returncode == 0, r.stderr
+            p = json.loads(r.stdout)
+            res = p["result"]
+            mi = tuple(p["grid_index"])
+            assert f["run_hash"].asstr()[mi] == p["run_hash"]
+            assert res["ok"]
+            for name in SUMMARY_GRID[:-1]:
+                assert f[name][mi] == res[name], name
+            for name in INT_GRID:
+                assert f[name][mi] == res[name], name
+            for k, pr in enumerate(res["probes"]):
+                for name in PROBE_GRID:
+                    v = pr[name]
+                    stored = f[name][mi + (k,)]
+                    if v is None:
+                        assert np.isnan(stored)
+                    else:
+                        assert stored == v, (name, k)
+            assert res["history_samples"] == f["runs"][str(i)]["time_s"].shape[0]
+            scene = p["scene"]
+            assert scene["physics"]["damping_kg_s"] == f["damping_kg_s"][mi[1]]
+            assert scene["chain"]["cylinder"]["mass"]["heavy_cylinders"]["mass_ratio"] == f["mass_ratio"][mi[0]]
+
+
+def test_summaries_only_writes_no_runs_group(tmp_path, binary):
+    path = write_sweep(tmp_path / "s.json", base_sweep(history=False))
+    out = tmp_path / "s.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    with h5py.File(out, "r") as f:
+        assert "runs" not in f
+
+
+def failing_sweep():
+    s = base_sweep(history=True)
+    s["axes"] = [
+        {
+            "field": "integrator",
+            "values": [
+                {"method": "dop853", "rtol": 1e-9},
+                {"method": "dop853", "rtol": 1e-8},
+                {"method": "rk4", "dt_s": 2e-6},
+                {"method": "verlet", "dt_s": 1e-5},
+            ],
+        },
+        {"field": "max_steps", "values": [100000000, 20]},
+    ]
+    s["limits"] = {"energy_drift_max": 1e-5}
+    return s
+
+
+def test_failed_runs_are_isolated_and_recorded(tmp_path, binary):
+    path = write_sweep(tmp_path / "fail.json", failing_sweep())
+    out = tmp_path / "fail.h5"
+    # Point 0 panics on purpose (testing aid), 2 is fine, 4 drifts, 6 and 7 blow up, 1, 3, 5 run
+    # out of steps.
+    r = run("run", path, "-o", out, "--jobs", "2", env={"CHAINSWEEP_INJECT_PANIC": "0"})
+    assert r.returncode == 3, r.stderr
+    assert "7 failed run(s)" in r.stderr
+    assert "point 0" in r.stderr and "panic" in r.stderr
+    with h5py.File(out, "r") as f:
+        status = f["status"][...]
+        reason = f["reason"].asstr()[...]
+        assert status.shape == (4, 2)
+        expected = np.full((4, 2), 2, dtype=np.uint8)
+        expected[1, 0] = 1
+        np.testing.assert_array_equal(status, expected)
+        assert "panic" in reason[0, 0]
+        assert reason[1, 0] == ""
+        assert "energy drift" in reason[2, 0] and "limit" in reason[2, 0]
+        assert "NaN or infinite" in reason[3, 0]
+        for k in range(3):
+            assert "step budget" in reason[k, 1]
+        assert "NaN or infinite" in reason[3, 1]  # 20 Verlet steps reach the end
+        failed = status == 2
+        for name in PROBE_GRID:
+            assert np.isnan(f[name][...][failed]).all()
+            assert np.isfinite(f[name][1, 0, :2]).all()
+        for name in SUMMARY_GRID[:-1]:
+            assert np.isnan(f[name][...][failed]).all()
+        assert np.isfinite(f["wall_time_s"][...]).all()
+        assert (f["steps"][...][failed] == -1).all()
+        assert f["steps"][1, 0] > 0
+        # Only the successful run has a history.
+        assert list(f["runs"].keys()) == ["2"]
+        assert int(f.attrs["n_failed"]) == 7
+    r = run("status", out)
+    assert r.returncode == 3
+    assert "7 failed" in r.stdout and "panic" in r.stdout
+
+    # Resuming keeps recorded failures; --retry-failed runs them again (the panic is gone now).
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 3
+    with h5py.File(out, "r") as f:
+        assert f["status"][0, 0] == 2
+    r = run("run", path, "-o", out, "--quiet", "--retry-failed")
+    assert r.returncode == 3
+    with h5py.File(out, "r") as f:
+        assert f["status"][0, 0] == 1
+        assert int(f.attrs["n_failed"]) == 6
+        assert sorted(f["runs"].keys()) == ["0", "2"]

@@ -1,0 +1,108 @@
+"""Bitwise identity: `--jobs 1` vs `--jobs 2`, and sharded-then-merged vs a single run.
+
+Compared: every dataset bit for bit and every attribute, except `wall_time_s` (measured) and the
+root attributes `created_utc` and `command_line`."""
+
+import h5py
+import numpy as np
+import pytest
+
+from conftest import assert_files_equal, base_sweep, run, write_sweep
+
+
+def sweep():
+    s = base_sweep(history=True)
+    s["axes"] = [
+        {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.2, "stop": 1.0, "num": 5}},
+        {
+            "zip": [
+                {"field": "physics.damping_kg_s", "values": [0, 6, 15]},
+                {"field": "striker_velocity_m_s", "name": "velocity_m_s", "values": [1.06, 1.3, 1.45]},
+            ]
+        },
+    ]
+    return s
+
+
+@pytest.fixture(scope="module")
+def single(tmp_path_factory, binary):
+    d = tmp_path_factory.mktemp("single")
+    path = write_sweep(d / "grid.json", sweep())
+    out = d / "jobs1.h5"
+    r = run("run", path, "-o", out, "--jobs", "1", "--quiet")
+    assert r.returncode == 0, r.stderr
+    return path, out
+
+
+def test_jobs_1_vs_jobs_2(single, tmp_path):
+    path, ref = single
+    out = tmp_path / "jobs2.h5"
+    r = run("run", path, "-o", out, "--jobs", "2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(ref, out)
+
+
+def test_zip_axes_share_a_dimension(single):
+    _, ref = single
+    with h5py.File(ref, "r") as f:
+        assert f["leading_peak"].shape == (5, 3, 2)
+        scales = [s.name for s in f["leading_peak"].dims[1].values()]
+        assert scales == ["/damping_kg_s", "/velocity_m_s"]
+        np.testing.assert_array_equal(f["velocity_m_s"][:], [1.06, 1.3, 1.45])
+        assert f["velocity_m_s"].attrs["units"] == "m/s"
+        assert f["velocity_m_s"].attrs["dimension"] == "damping_kg_s"
+
+
+def test_shards_then_merge_equals_single(single, tmp_path):
+    path, ref = single
+    parts = []
+    for k in (1, 2, 3):
+        part = tmp_path / f"part-{k}.h5"
+        r = run("run", path, "--shard", f"{k}/3", "-o", part, "--jobs", "2", "--quiet")
+        assert r.returncode == 0, r.stderr
+        with h5py.File(part, "r") as f:
+            assert f.attrs["shard"] == f"{k}/3"
+            status = f["status"][...].ravel()
+            idx = np.arange(status.size)
+            assert (status[idx % 3 == k - 1] == 1).all()
+            assert (status[idx % 3 != k - 1] == 0).all()
+        r = run("status", part)
+        assert r.returncode == 0, r.stdout
+        parts.append(part)
+
+    # A merge of some of the shards is partial (exit 3) and says what is pending.
+    partial = tmp_path / "partial.h5"
+    r = run("merge", "-o", partial, parts[0], parts[2])
+    assert r.returncode == 3, r.stderr
+    assert "5 pending" in r.stderr
+
+    merged = tmp_path / "merged.h5"
+    r = run("merge", "-o", merged, *reversed(parts))
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(ref, merged)
+    # Wall times travel with the runs from the shards.
+    with h5py.File(merged, "r") as m:
+        wall = m["wall_time_s"][...].ravel()
+        for k, part in enumerate(parts, start=1):
+            with h5py.File(part, "r") as f:
+                w = f["wall_time_s"][...].ravel()
+                sel = np.arange(w.size) % 3 == k - 1
+                assert w[sel].tobytes() == wall[sel].tobytes()
+    # The merged file is resumable like any run's output: nothing is left to run.
+    r = run("run", path, "-o", merged, "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    assert "15 of 15 runs already done" in r.stderr
+    assert_files_equal(ref, merged)
+
+
+def test_merge_refuses_shards_of_different_sweeps(single, tmp_path):
+    path, ref = single
+    other = base_sweep()
+    other_path = write_sweep(tmp_path / "other.json", other)
+    other_out = tmp_path / "other.h5"
+    assert run("run", other_path, "-o", other_out, "--quiet").returncode == 0
+    out = tmp_path / "m.h5"
+    r = run("merge", "-o", out, ref, other_out)
+    assert r.returncode == 2
+    assert "different sweep" in r.stderr
+    assert not out.exists()
