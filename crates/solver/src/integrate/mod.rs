@@ -6,6 +6,7 @@
 //! each accepted step the integrator hands the observer a [`DenseStep`], an interpolant valid on
 //! that step, so that probes are sampled at their own output times rather than at step ends.
 
+mod adaptive;
 mod dop853;
 mod hermite;
 mod rk4;

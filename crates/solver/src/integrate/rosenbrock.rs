@@ -70,10 +70,14 @@
 // Index loops over equal-length slices read more clearly here than nested zips.
 #![allow(clippy::needless_range_loop)]
 
+use super::adaptive::{earliest_event, initial_step, predicted_event, AdaptiveSettings};
 use super::{
     all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
-    StepObserver, Switch, Tridiagonal,
+    StepObserver, Tridiagonal,
 };
+
+/// Order of the method, for the starting-step estimate.
+const ORDER: i32 = 3;
 
 /// Adaptive, L-stable Rosenbrock-W integrator ROS34PW2 (order 3, embedded order 2, third-order
 /// dense output) using the system's tridiagonal acceleration Jacobian.
@@ -563,153 +567,6 @@ impl DenseStep for RosStep<'_> {
     }
 }
 
-/// Earliest crossing of a switch over a rejected attempt of length `h`, predicted from the values
-/// at both ends and the slope at the start (a quadratic in time); `None` if no switch changes sign.
-fn predicted_event(switches: &[Switch], y0: &[f64], f0: &[f64], y1: &[f64], h: f64) -> Option<f64> {
-    let mut earliest: Option<f64> = None;
-    for sw in switches {
-        let g0 = sw.value(|i| y0[i]);
-        let g1 = sw.value(|i| y1[i]);
-        // A step that starts exactly on a switch (a contact just touching, as the striker's does
-        // at t0, or one whose overlap is below the resolution of the positions) has no crossing
-        // to locate: it starts in whichever regime it moves into.
-        if g0 == 0.0 || (g0 > 0.0) == (g1 > 0.0) || !g1.is_finite() {
-            continue;
-        }
-        // g(s) = g0 + b s + c s², s in [0, 1].
-        let b = sw.value(|i| f0[i]) * h;
-        let c = g1 - g0 - b;
-        let linear = g0 / (g0 - g1);
-        let s = if c.abs() > 1e-12 * (g0.abs() + g1.abs()) {
-            let disc = b * b - 4.0 * c * g0;
-            if disc >= 0.0 {
-                let q = -0.5 * (b + b.signum() * disc.sqrt());
-                [q / c, if q != 0.0 { g0 / q } else { f64::NAN }]
-                    .into_iter()
-                    .filter(|r| r.is_finite() && *r > 0.0 && *r <= 1.0)
-                    .fold(f64::NAN, f64::min)
-            } else {
-                linear
-            }
-        } else {
-            linear
-        };
-        let s = if s.is_finite() { s } else { linear };
-        let tau = s * h;
-        earliest = Some(earliest.map_or(tau, |e: f64| e.min(tau)));
-    }
-    earliest
-}
-
-/// Earliest zero of a switching function inside an accepted step, located on the dense output by
-/// the Illinois variant of regula falsi. `None` if no switch changes sign over the step.
-fn earliest_event(switches: &[Switch], step: &RosStep<'_>) -> Option<f64> {
-    let y0 = &step.w.y;
-    let mut earliest: Option<f64> = None;
-    for sw in switches {
-        let g0 = sw.value(|i| y0[i]);
-        let g1 = sw.value(|i| step.w.y_new[i]);
-        if g0 == 0.0 || (g0 > 0.0) == (g1 > 0.0) {
-            continue;
-        }
-        let g = |t: f64| sw.value(|i| step.eval_component(t, i));
-        let (mut a, mut b) = (step.t0, earliest.unwrap_or(step.t1));
-        let (mut ga, mut gb) = (g0, g(b));
-        if (ga > 0.0) == (gb > 0.0) {
-            continue;
-        }
-        let mut side = 0i8;
-        for _ in 0..100 {
-            let m = (a * gb - b * ga) / (gb - ga);
-            let m = if m.is_finite() && m > a && m < b {
-                m
-            } else {
-                0.5 * (a + b)
-            };
-            let gm = g(m);
-            if (gm > 0.0) == (ga > 0.0) {
-                a = m;
-                ga = gm;
-                if side == -1 {
-                    gb *= 0.5;
-                }
-                side = -1;
-            } else {
-                b = m;
-                gb = gm;
-                if side == 1 {
-                    ga *= 0.5;
-                }
-                side = 1;
-            }
-            if b - a <= 1e-12 * step.h {
-                break;
-            }
-        }
-        earliest = Some(b);
-    }
-    earliest
-}
-
-/// Hairer's `HINIT` for a method of order 3: a first step such that an explicit Euler step
-/// changes the solution by about 1 % and `h³ max(|f|, |f'|) ≈ 0.01` in the tolerance-weighted
-/// norm. One evaluation of `f` (into `f1`, with `y1` as scratch).
-#[allow(clippy::too_many_arguments)]
-fn initial_step(
-    sys: &mut dyn OdeSystemDyn,
-    t0: f64,
-    y: &[f64],
-    f0: &[f64],
-    y1: &mut [f64],
-    f1: &mut [f64],
-    (rtol, atol): (f64, &[f64]),
-    h_max: f64,
-) -> f64 {
-    let mut dnf = 0.0;
-    let mut dny = 0.0;
-    for ((yi, fi), ai) in y.iter().zip(f0).zip(atol) {
-        let sk = ai + rtol * yi.abs();
-        if sk > 0.0 {
-            dnf += (fi / sk) * (fi / sk);
-            dny += (yi / sk) * (yi / sk);
-        }
-    }
-    let mut h = if dnf <= 1e-10 || dny <= 1e-10 {
-        1e-6
-    } else {
-        (dny / dnf).sqrt() * 0.01
-    };
-    if !(h > 0.0 && h.is_finite()) {
-        h = 1e-6;
-    }
-    h = h.min(h_max);
-    for ((o, yi), fi) in y1.iter_mut().zip(y).zip(f0) {
-        *o = yi + h * fi;
-    }
-    sys.rhs(t0 + h, y1, f1);
-    let mut der2 = 0.0;
-    for (((yi, a), b), ai) in y.iter().zip(f0).zip(f1.iter()).zip(atol) {
-        let sk = ai + rtol * yi.abs();
-        if sk > 0.0 {
-            let d = (b - a) / sk;
-            der2 += d * d;
-        }
-    }
-    let der2 = der2.sqrt() / h;
-    let der12 = der2.abs().max(dnf.sqrt());
-    let h1 = if der12 <= 1e-15 || !der12.is_finite() {
-        (h * 1e-3).max(1e-6)
-    } else {
-        (0.01 / der12).powf(1.0 / 3.0)
-    };
-    let h = (100.0 * h).min(h1).min(h_max);
-    if h > 0.0 && h.is_finite() {
-        h
-    } else {
-        1e-6_f64.min(h_max)
-    }
-}
-
 impl Integrator for Ros34pw2 {
     fn name(&self) -> &'static str {
         "ros34pw2"
@@ -728,54 +585,16 @@ impl Integrator for Ros34pw2 {
         obs: &mut dyn StepObserver,
     ) -> Result<IntegrationStats, IntegrateError> {
         let (rtol, atol) = (self.rtol, self.atol);
-        let bad = |s: String| Err(IntegrateError::InvalidSettings(format!("ros34pw2: {s}")));
-        if !(rtol.is_finite() && rtol > 0.0) {
-            return bad(format!("rtol must be positive and finite, got {rtol}"));
+        let atol_vec = AdaptiveSettings {
+            name: "ros34pw2",
+            rtol,
+            atol,
+            atol_scale: self.atol_scale.as_deref(),
+            h_init: self.h_init,
+            h_max: self.h_max,
         }
-        if !(atol.is_finite() && atol >= 0.0) {
-            return bad(format!("atol must be non-negative and finite, got {atol}"));
-        }
-        if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
-            return bad(format!(
-                "need finite t_end > t0, got t0 = {t0}, t_end = {t_end}"
-            ));
-        }
-        if let Some(hm) = self.h_max {
-            if !(hm.is_finite() && hm > 0.0) {
-                return bad(format!("h_max must be positive and finite, got {hm}"));
-            }
-        }
-        if let Some(h0) = self.h_init {
-            if !(h0.is_finite() && h0 > 0.0) {
-                return bad(format!("h_init must be positive and finite, got {h0}"));
-            }
-        }
+        .validate(sys, t0, y0, t_end)?;
         let np = sys.n_pos();
-        let n = 2 * np + sys.n_quad();
-        if y0.len() != n {
-            return bad(format!(
-                "y0 has length {} but the system has dimension {n}",
-                y0.len()
-            ));
-        }
-        if !all_finite(y0) {
-            return bad("initial state is not finite".to_string());
-        }
-        let atol_vec: Vec<f64> = match &self.atol_scale {
-            None => vec![atol; n],
-            Some(scale) => {
-                if scale.len() != n {
-                    return bad(format!(
-                        "atol_scale has length {} but the system has dimension {n}",
-                        scale.len()
-                    ));
-                }
-                if !scale.iter().all(|s| s.is_finite() && *s >= 0.0) {
-                    return bad("atol_scale entries must be finite and non-negative".to_string());
-                }
-                scale.iter().map(|s| atol * s).collect()
-            }
-        };
 
         let tab = Tableau::new();
         let h_max = self.h_max.unwrap_or(t_end - t0);
@@ -795,6 +614,7 @@ impl Integrator for Ros34pw2 {
             None => {
                 stats.rhs_evals += 1;
                 initial_step(
+                    ORDER,
                     sys,
                     t0,
                     &w.y,
@@ -867,7 +687,7 @@ impl Integrator for Ros34pw2 {
                         w: &w,
                         tab: &tab,
                     };
-                    if let Some(t_event) = earliest_event(switches, &dense) {
+                    if let Some(t_event) = earliest_event(switches, &w.y, &dense) {
                         // Land a hair past the crossing so the next step starts in the new regime.
                         let h_event = (t_event - t) * (1.0 + 1e-6);
                         if h_event < h_step * (1.0 - 1e-6)
