@@ -62,3 +62,35 @@ bench: venv
 clean:
 	$(CARGO) clean
 	rm -rf $(VENV)
+
+# ---------------------------------------------------------------------------------------------
+# The paper's figures and numbers (issue 4). Every sweep file below runs into results/NAME.h5;
+# a finished sweep resumes instantly, so both targets can be run again at no cost. A sweep with
+# failed runs (exit 3) is reported and the plots still drawn; the target then fails at the end.
+# SWEEP_JOBS sets the parallel runs per sweep (default: 2).
+SWEEP_JOBS ?= 2
+PAPER_SWEEPS := fig08 fig08-literal fig08-choices fig08-light fig15 fig17 fig18 fig19 \
+	critical-damping text-098 text-098-variants text-055 preload fig07 fig14 fig16 long-chain
+PAPER_PLOTS := fig08.py "fig_compare.py fig15 fig17 fig18 fig19" fig07.py fig14.py fig16.py long_chain.py
+
+# (one shell: `partial` collects the sweeps whose runs partly failed)
+RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
+	for s in $(PAPER_SWEEPS); do \
+	  echo "sweep $$s"; \
+	  $(CHAINSWEEP_BIN) run sweeps/$$s.json -o results/$$s.h5 --jobs $(SWEEP_JOBS) --quiet; rc=$$?; \
+	  if [ $$rc -eq 3 ]; then echo "WARNING: sweep $$s: some runs failed (chainsweep status results/$$s.h5)"; \
+	    partial="$$partial $$s"; \
+	  elif [ $$rc -ne 0 ]; then echo "ERROR: sweep $$s failed (exit $$rc)"; exit $$rc; fi; \
+	done
+
+.PHONY: paper-check
+
+figures: build
+	@$(RUN_PAPER_SWEEPS); \
+	cd scripts && for p in $(PAPER_PLOTS); do ../$(PY) $$p || exit 1; done; \
+	if [ -n "$$partial" ]; then echo "ERROR: sweeps with failed runs:$$partial (plots drawn from the runs that succeeded)"; exit 3; fi
+
+paper-check: build
+	@$(RUN_PAPER_SWEEPS); \
+	cd scripts && ../$(PY) paper_check.py || exit 1; \
+	if [ -n "$$partial" ]; then echo "ERROR: sweeps with failed runs:$$partial"; exit 3; fi

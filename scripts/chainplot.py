@@ -1,0 +1,280 @@
+"""Shared helpers for the figure and paper-check scripts: reading chainsweep HDF5 files by axis name.
+
+Every sweep file `sweeps/NAME.json` is run into `results/NAME.h5` (see the Makefile's `figures`
+target). The helpers here find axes through the HDF5 dimension scales attached to each dataset, so
+the scripts never depend on the order of the axes in a sweep file, and they are NaN-aware: a failed
+run (status 2) has NaN in every float summary and no history.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+REPO = Path(__file__).resolve().parent.parent
+RESULTS = Path(os.environ.get("CHAINSWEEP_RESULTS", REPO / "results"))
+
+DPI = 120
+# One colour per chain throughout (the paper's Figs. 15-19: 0.98 blue, 0.55 red).
+COLOR_098 = "tab:blue"
+COLOR_055 = "tab:red"
+MU_COLORS = {0: "black", 4: "tab:green", 6: "tab:red", 10: "tab:orange", 15: "tab:purple", 100: "tab:brown"}
+
+
+def mu_label(mu: float) -> str:
+    """Legend text for a damping coefficient, as the paper writes it."""
+    return f"μ = {mu:g} kg/s" if mu else "μ = 0"
+
+
+class Sweep:
+    """A chainsweep result file, with selection of grid points by axis name and value."""
+
+    def __init__(self, name_or_path: str | Path):
+        p = Path(name_or_path)
+        if p.suffix != ".h5":
+            p = RESULTS / f"{p.name}.h5"
+        if not p.exists():
+            raise FileNotFoundError(f"{p}: run `make figures` first (it runs sweeps/{p.stem}.json)")
+        self.path = p
+        self.f = h5py.File(p, "r")
+        self.dims: list[str] = json.loads(self.f.attrs["dimensions"])
+        self.shape = tuple(int(n) for n in self.f.attrs["grid_shape"])
+        self.probes: list[str] = list(self.f["probe"].asstr()[:])
+        self.base = json.loads(self.f.attrs["base_scene"])
+        self.status = self.f["status"][...]
+        # every coordinate (zipped ones included) -> its dimension index
+        self._coord_dim: dict[str, int] = {}
+        lp = self.f["status"]
+        for i in range(len(self.dims)):
+            for name in lp.dims[i].keys():
+                self._coord_dim[name] = i
+
+    def close(self):
+        self.f.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    # ------------------------------------------------------------------ coordinates
+    def coord(self, name: str) -> np.ndarray:
+        """Values of a coordinate (axis) by name; strings decoded."""
+        ds = self.f[name]
+        if h5py.check_string_dtype(ds.dtype) is not None:
+            return np.array(ds.asstr()[...], dtype=object)
+        return ds[...]
+
+    def index(self, name: str, value) -> int:
+        """Grid index of `value` along the axis that carries coordinate `name`."""
+        c = self.coord(name)
+        if c.dtype == object:
+            hits = [i for i, v in enumerate(c) if v == value]
+        elif c.dtype == bool:
+            hits = [i for i, v in enumerate(c) if bool(v) == bool(value)]
+        else:
+            hits = list(np.nonzero(np.isclose(c.astype(float), float(value), rtol=1e-9, atol=1e-12))[0])
+        if not hits:
+            raise KeyError(f"{self.path.name}: {name} has no value {value!r} (values: {list(c)})")
+        return int(hits[0])
+
+    def sel_index(self, **sel) -> tuple:
+        """Index tuple into the grid: selected axes fixed, the others left whole."""
+        idx: list = [slice(None)] * len(self.dims)
+        for name, value in sel.items():
+            d = self._coord_dim[name]
+            idx[d] = self.index(name, value)
+        return tuple(idx)
+
+    # ------------------------------------------------------------------ summaries
+    def summary(self, dataset: str, probe: str | None = None, **sel) -> np.ndarray:
+        """A grid dataset (leading_peak, record_max, t_end_s, …) at the selected grid points,
+        for one probe where the dataset has a probe dimension. Failed runs give NaN."""
+        ds = self.f[dataset]
+        idx = self.sel_index(**sel)
+        if ds.ndim == len(self.dims) + 1:
+            if probe is None:
+                return ds[idx + (slice(None),)]
+            return ds[idx + (self.probes.index(probe),)]
+        return ds[idx]
+
+    def peaks(self, probes: list[str], dataset: str = "leading_peak", **sel) -> np.ndarray:
+        """Peaks of several probes at one grid point: shape (len(probes),)."""
+        v = self.summary(dataset, **sel)
+        return np.array([v[..., self.probes.index(p)] for p in probes], dtype=float)
+
+    # ------------------------------------------------------------------ histories
+    def history(self, **sel) -> dict[str, np.ndarray] | None:
+        """Full histories of one grid point (every axis selected): {'time_s': …, probe: …,
+        'min_overlap_m': …}; None when the run failed or recorded none."""
+        idx = self.sel_index(**sel)
+        if any(isinstance(i, slice) for i in idx):
+            raise ValueError(f"select every axis of {self.dims} for a history")
+        if self.status[idx] != 1 or "runs" not in self.f:
+            return None
+        flat = int(np.ravel_multi_index(idx, self.shape))
+        for key, g in self.f["runs"].items():
+            if int(key) == flat:
+                return {k: g[k][...] for k in g.keys()}
+        return None
+
+    def failures(self) -> list[str]:
+        bad = np.argwhere(self.status == 2)
+        reasons = self.f["reason"].asstr()
+        return [f"{tuple(int(i) for i in b)}: {reasons[tuple(b)]}" for b in bad]
+
+
+# ---------------------------------------------------------------------- chains and masses
+def sphere_mass(sw: Sweep) -> float:
+    return float(sw.base["chain"]["sphere"]["mass_kg"])
+
+
+def cylinder_mass(spec, m_s: float) -> float:
+    """Cylinder mass, kg, from a `chain.cylinder.mass` value (dict or JSON string)."""
+    if isinstance(spec, str):
+        spec = json.loads(spec)
+    (kind, v), = spec.items()
+    if kind == "explicit":
+        return float(v["mass_kg"])
+    if kind == "heavy_cylinders":
+        return m_s / float(v["mass_ratio"])
+    if kind == "light_cylinders":
+        return m_s * float(v["mass_ratio"])
+    raise ValueError(f"unknown cylinder mass {spec}")
+
+
+def chain_label(m_c: float, m_s: float) -> str:
+    eps = min(m_c, m_s) / max(m_c, m_s)
+    if abs(eps - 0.98) < 0.01:
+        return "0.98"
+    kind = "heavy cylinders" if m_c > m_s else "light cylinders"
+    return f"{eps:.2f} ({kind})"
+
+
+def chains(sw: Sweep) -> list[dict]:
+    """The chains of a sweep with a zipped `cylinder_mass` axis: value, masses, label, colour."""
+    m_s = sphere_mass(sw)
+    out = []
+    for v in sw.coord("cylinder_mass"):
+        m_c = cylinder_mass(v, m_s)
+        lab = chain_label(m_c, m_s)
+        out.append({"value": v, "m_c": m_c, "m_s": m_s, "label": lab,
+                    "color": COLOR_098 if lab == "0.98" else COLOR_055})
+    return out
+
+
+def mass_crossed(k: np.ndarray, m_c: float, m_s: float) -> np.ndarray:
+    """Mass of chain the pulse has crossed when it peaks in cylinder k, g: spheres 2..2k and
+    cylinders 1..k, M(k) = k (m_s + m_c)."""
+    return np.asarray(k, dtype=float) * (m_s + m_c) * 1e3
+
+
+def cylinder_numbers(probes: list[str]) -> np.ndarray:
+    return np.array([int(p.removeprefix("gauge_force_cyl")) for p in probes if p.startswith("gauge_force_cyl")])
+
+
+def relative_amplitudes(sw: Sweep, ref: int = 4, **sel) -> tuple[np.ndarray, np.ndarray]:
+    """(cylinder numbers k, A_k/A_ref) from the leading peaks of every gauge probe of a grid point."""
+    ks = cylinder_numbers(sw.probes)
+    a = sw.peaks([f"gauge_force_cyl{k}" for k in ks], **sel)
+    return ks, a / a[list(ks).index(ref)]
+
+
+# ---------------------------------------------------------------------- signal analysis
+def parabola_min(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """Minimum of a sampled curve refined by a parabola through the lowest sample and its
+    neighbours (NaNs ignored)."""
+    ok = np.isfinite(y)
+    x, y = x[ok], y[ok]
+    i = int(np.argmin(y))
+    i = min(max(i, 1), len(x) - 2)
+    c = np.polyfit(x[i - 1:i + 2], y[i - 1:i + 2], 2)
+    if c[0] <= 0:
+        return float(x[i]), float(y[i])
+    xm = -c[1] / (2 * c[0])
+    return float(xm), float(np.polyval(c, xm))
+
+
+def leading_window(t: np.ndarray, y: np.ndarray, arrival: float, end_fraction: float = 0.1,
+                   gap_s: float | None = None) -> tuple[int, int]:
+    """Index range [i0, i1) of the leading pulse of a signal (baseline already removed): from the
+    first sample above `arrival` to the first sample, after the pulse's largest value so far, where
+    the signal falls below `end_fraction` of it (or `gap_s` after arrival, whichever comes first)."""
+    above = np.nonzero(y > arrival)[0]
+    if len(above) == 0:
+        return 0, 0
+    i0 = int(above[0])
+    peak = -np.inf
+    for i in range(i0, len(y)):
+        peak = max(peak, y[i])
+        if y[i] < end_fraction * peak:
+            return i0, i
+        if gap_s is not None and t[i] - t[i0] > gap_s:
+            return i0, i
+    return i0, len(y)
+
+
+def local_maxima(y: np.ndarray, prominence: float) -> list[int]:
+    """Indices of local maxima of y that stand out by at least `prominence` above the deeper of
+    the two minima separating them from their higher neighbours (a simple topographic prominence)."""
+    n = len(y)
+    idx = [i for i in range(1, n - 1) if y[i] > y[i - 1] and y[i] >= y[i + 1]]
+    out = []
+    for i in idx:
+        # walk left until a higher point, tracking the minimum
+        lmin = y[i]
+        j = i - 1
+        while j >= 0 and y[j] <= y[i]:
+            lmin = min(lmin, y[j])
+            j -= 1
+        left = y[i] - lmin if j >= 0 else y[i] - min(lmin, y[0])
+        rmin = y[i]
+        j = i + 1
+        while j < n and y[j] <= y[i]:
+            rmin = min(rmin, y[j])
+            j += 1
+        right = y[i] - rmin if j < n else y[i] - min(rmin, y[-1])
+        if min(left, right) >= prominence:
+            out.append(i)
+    return out
+
+
+def savefig(fig, name: str, dpi: int = DPI):
+    out = RESULTS / f"{name}.png"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=dpi)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    print(f"wrote {out.relative_to(REPO) if out.is_relative_to(REPO) else out}")
+
+
+def two_wave(y: np.ndarray, min_fraction: float = 0.1) -> tuple[int, float, float]:
+    """Two-wave test of a force history (Fig. 7): the local maxima above `min_fraction` of the
+    peak; returns (number of such maxima with a 1 % prominence, value of the second one relative
+    to the first, depth of the dip between the first two relative to the peak, i.e. the
+    prominence of the smaller of the two). One wave: (1, nan, 0)."""
+    pk = float(np.nanmax(y))
+    mx = [i for i in local_maxima(y, 0.01 * pk) if y[i] > min_fraction * pk]
+    if len(mx) < 2:
+        return len(mx), float("nan"), 0.0
+    a, b = mx[0], mx[1]
+    dip = float(np.min(y[a:b + 1]))
+    return len(mx), float(y[b] / y[a]), (min(y[a], y[b]) - dip) / pk
+
+
+def count_leading_peaks(t: np.ndarray, y: np.ndarray, arrival: float, end_fraction: float = 0.25,
+                        prominence: float = 0.1) -> int:
+    """Number of peaks in the leading pulse of a history (baseline removed): the pulse runs from
+    the arrival until the signal falls below `end_fraction` of its running maximum; a peak counts
+    when its prominence is at least `prominence` of the pulse's maximum."""
+    i0, i1 = leading_window(t, y, arrival, end_fraction=end_fraction)
+    if i1 <= i0 + 2:
+        return 0
+    seg = y[max(i0 - 1, 0):i1 + 1]
+    return len(local_maxima(seg, prominence * float(np.max(seg))))
