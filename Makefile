@@ -94,3 +94,16 @@ paper-check: build
 	@$(RUN_PAPER_SWEEPS); \
 	cd scripts && ../$(PY) paper_check.py || exit 1; \
 	if [ -n "$$partial" ]; then echo "ERROR: sweeps with failed runs:$$partial"; exit 3; fi
+
+# Work-precision studies (issue 5): every integrator over a ladder of settings on the Fig. 8 and
+# Fig. 15 scenes and on damping-dominated light chains. HDF5, tables and logs go to
+# results/accuracy/, plots to results/work_precision_*.png. See docs/NUMERICS.md.
+ACCURACY_SCENES := fig08 fig15 stiff-100 stiff-1000 stiff-10000
+.PHONY: accuracy
+accuracy: build
+	@mkdir -p results/accuracy
+	for s in $(ACCURACY_SCENES); do \
+	  $(CHAINSWEEP_BIN) accuracy sweeps/stress/work-precision/$$s.json -o results/accuracy/work_precision_$$s.h5 \
+	    2> results/accuracy/work_precision_$$s.log | tee results/accuracy/work_precision_$$s.txt || exit 1; \
+	  $(PY) scripts/plot_work_precision.py results/accuracy/work_precision_$$s.h5 -o results/work_precision_$$s.png || exit 1; \
+	done

@@ -17,9 +17,17 @@ SUMMARY_GRID = [
     "momentum_residual_max",
     "impact_energy_j",
     "wall_time_s",
+    "max_overlap_m",
 ]
-INT_GRID = ["steps", "rejected_steps", "rhs_evals"]
+INT_GRID = ["steps", "rejected_steps", "rhs_evals", "events"]
 PROBE_GRID = ["leading_peak", "leading_peak_time_s", "record_max", "record_max_time_s"]
+# Numerics version 2: verification by `run --verify` (NaN / 0 when not requested).
+VERIFY_GRID = ["verify_rel_error_max"]
+VERIFY_PROBE_GRID = [
+    "verify_rel_error_leading_peak",
+    "verify_rel_error_leading_peak_time",
+    "verify_rel_error_record_max",
+]
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +76,9 @@ def test_root_attributes_are_str(produced):
 def test_names_shapes_dtypes(produced):
     _, _, out = produced
     with h5py.File(out, "r") as f:
-        expected = set(SUMMARY_GRID + INT_GRID + PROBE_GRID) | {
+        expected = set(SUMMARY_GRID + INT_GRID + PROBE_GRID + VERIFY_GRID + VERIFY_PROBE_GRID) | {
+            "warnings",
+            "verified",
             "mass_ratio",
             "damping_kg_s",
             "probe",
@@ -105,6 +115,19 @@ def test_names_shapes_dtypes(produced):
         assert all(len(h) == 64 for h in f["run_hash"].asstr()[...].ravel())
         assert (f["status"][...] == 1).all()
         assert (f["reason"].asstr()[...] == "").all()
+        assert h5py.check_string_dtype(f["warnings"].dtype).encoding == "utf-8"
+        assert f["warnings"].shape == (3, 2)
+        assert all(isinstance(w, str) for w in f["warnings"].asstr()[...].ravel())
+        assert f["max_overlap_m"].attrs["units"] == "m"
+        assert (f["max_overlap_m"][...] > 0).all()
+        assert (f["events"][...] >= 0).all()
+        assert f["verified"].dtype == np.uint8 and (f["verified"][...] == 0).all()
+        assert f["verified"].attrs["flag_meanings"] == "not_verified verified verification_failed"
+        for name in VERIFY_PROBE_GRID:
+            assert f[name].shape == (3, 2, 3) and np.isnan(f[name][...]).all(), name
+        assert np.isnan(f["verify_rel_error_max"][...]).all()
+        assert float(f.attrs["verify_fraction"]) == 0.0 and int(f.attrs["n_verified"]) == 0
+        assert isinstance(f.attrs["verify_tightening"], str)
 
 
 def test_dimension_scales(produced):
@@ -112,12 +135,12 @@ def test_dimension_scales(produced):
     with h5py.File(out, "r") as f:
         for name in ["mass_ratio", "damping_kg_s", "probe"]:
             assert h5py.h5ds.is_scale(f[name].id), name
-        for name in SUMMARY_GRID + INT_GRID + ["status", "reason", "run_hash"]:
+        for name in SUMMARY_GRID + INT_GRID + VERIFY_GRID + ["status", "reason", "run_hash", "warnings", "verified"]:
             ds = f[name]
             assert [d.label for d in ds.dims] == ["mass_ratio", "damping_kg_s"]
             assert ds.dims[0][0].name == "/mass_ratio"
             assert ds.dims[1][0].name == "/damping_kg_s"
-        for name in PROBE_GRID:
+        for name in PROBE_GRID + VERIFY_PROBE_GRID:
             ds = f[name]
             assert [d.label for d in ds.dims] == ["mass_ratio", "damping_kg_s", "probe"]
             assert ds.dims[2][0].name == "/probe"
@@ -165,10 +188,11 @@ def test_values_match_rust(produced):
             mi = tuple(p["grid_index"])
             assert f["run_hash"].asstr()[mi] == p["run_hash"]
             assert res["ok"]
-            for name in SUMMARY_GRID[:-1]:
+            for name in [n for n in SUMMARY_GRID if n != "wall_time_s"]:
                 assert f[name][mi] == res[name], name
             for name in INT_GRID:
                 assert f[name][mi] == res[name], name
+            assert "\n".join(res["warnings"]) == f["warnings"].asstr()[mi]
             for k, pr in enumerate(res["probes"]):
                 for name in PROBE_GRID:
                     v = pr[name]
@@ -237,7 +261,7 @@ def test_failed_runs_are_isolated_and_recorded(tmp_path, binary):
         for name in PROBE_GRID:
             assert np.isnan(f[name][...][failed]).all()
             assert np.isfinite(f[name][1, 0, :2]).all()
-        for name in SUMMARY_GRID[:-1]:
+        for name in [n for n in SUMMARY_GRID if n != "wall_time_s"]:
             assert np.isnan(f[name][...][failed]).all()
         assert np.isfinite(f["wall_time_s"][...]).all()
         assert (f["steps"][...][failed] == -1).all()

@@ -16,8 +16,9 @@ use crate::progress::Progress;
 use crate::store::hdf5file::{
     self, Counts, FileRecords, Provenance, STATUS_FAILED, STATUS_OK, STATUS_PENDING,
 };
-use crate::store::{read_segment_in, scan_segments, work_dir_of, WorkDir};
+use crate::store::{read_segment_in, scan_segments, work_dir_of, RunRecord, WorkDir};
 use crate::sweep::Sweep;
+use crate::verify::{self, VerifyInfo};
 use crate::{EXIT_OK, EXIT_PARTIAL};
 
 const EXAMPLES: &str = "\
@@ -83,6 +84,12 @@ pub enum Command {
         #[arg(long)]
         scene_only: bool,
     },
+    /// Work-precision study of one scene: every integrator over a ladder of settings, errors
+    /// against a confirmed reference, median wall time, RHS evaluations; written to HDF5.
+    #[command(
+        after_help = "Examples:\n  chainsweep accuracy sweeps/mass-damping.json -o results/work_precision_fig08.h5\n  chainsweep accuracy sweeps/mass-damping.json --point 17 --methods dop853,ros34pw2\n  python scripts/plot_work_precision.py results/work_precision_fig08.h5"
+    )]
+    Accuracy(AccuracyArgs),
     /// Assemble shard files into one file, identical to a single-machine run.
     #[command(
         after_help = "Example:\n  chainsweep merge -o results/sweep.h5 part-1.h5 part-2.h5 part-3.h5"
@@ -130,6 +137,41 @@ pub struct RunArgs {
     /// Replace an existing output file that has no work directory (not made by `chainsweep run`).
     #[arg(long)]
     pub overwrite: bool,
+    /// Re-run a deterministic sample of this fraction of the grid points (in [0, 1], at least one
+    /// point when > 0) at a tighter setting (rtol/100, dt/4) and store the observed relative error
+    /// of every summary (`verified`, `verify_rel_error_*`).
+    #[arg(long, value_name = "FRACTION")]
+    pub verify: Option<f64>,
+}
+
+/// Arguments of `chainsweep accuracy`.
+#[derive(Debug, Args)]
+pub struct AccuracyArgs {
+    /// Sweep file (JSON): its base scene is studied, or grid point `--point`.
+    pub file: PathBuf,
+    /// Study this grid point (flat index) instead of the base scene.
+    #[arg(long)]
+    pub point: Option<usize>,
+    /// Output HDF5 file [default: NAME.accuracy.h5 in the current directory].
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+    /// Repeats of every setting; the wall time is their median.
+    #[arg(long, default_value_t = 3)]
+    pub repeats: usize,
+    /// Skip fixed-step settings estimated to take longer than this per run, and stop an adaptive
+    /// ladder after a run that did.
+    #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
+    pub max_run_seconds: f64,
+    /// Methods to study, comma separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "dop853,ros34pw2,rk4,verlet"
+    )]
+    pub methods: Vec<String>,
+    /// No progress lines.
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 /// Parses the command line, runs the command, and returns the process exit code.
@@ -166,6 +208,7 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
             shard,
         } => cmd_status(&file, output, shard.as_deref()),
         Command::Merge { output, shards } => cmd_merge(&output, &shards),
+        Command::Accuracy(args) => cmd_accuracy(&args),
         Command::Point {
             file,
             index,
@@ -336,7 +379,46 @@ fn check_output(output: &Path, overwrite: bool) -> Result<()> {
     Ok(())
 }
 
+/// Where the verification outcome of each point comes from when a file is assembled.
+struct VerifySource {
+    /// The `--verify` fraction (recorded as an attribute).
+    fraction: f64,
+    /// Verification hash of each grid point (computed for the points of this shard).
+    hashes: HashMap<usize, RunHash>,
+    /// Verification segments known to exist (ok or failed), by hash.
+    done: HashMap<RunHash, bool>,
+    /// Outcomes taken as they are (from merged shard files), by point.
+    given: HashMap<usize, VerifyInfo>,
+}
+
+impl VerifySource {
+    fn empty(fraction: f64) -> Self {
+        VerifySource {
+            fraction,
+            hashes: HashMap::new(),
+            done: HashMap::new(),
+            given: HashMap::new(),
+        }
+    }
+
+    fn info(&self, work: &WorkDir, grid: &Grid, i: usize, rec: &RunRecord) -> Result<VerifyInfo> {
+        let np = grid.probes.len();
+        if let Some(v) = self.given.get(&i) {
+            return Ok(v.clone());
+        }
+        let Some(h) = self.hashes.get(&i) else {
+            return Ok(VerifyInfo::none(np));
+        };
+        if !self.done.contains_key(h) {
+            return Ok(VerifyInfo::none(np));
+        }
+        let tight = work.read_segment(h)?;
+        Ok(verify::compare(rec, tight.as_ref(), np))
+    }
+}
+
 /// Assembles the output file from the segments of the finished runs in `done`.
+#[allow(clippy::too_many_arguments)]
 fn assemble(
     work: &WorkDir,
     sweep: &Sweep,
@@ -345,16 +427,27 @@ fn assemble(
     shard: Option<(usize, usize)>,
     done: &HashMap<RunHash, bool>,
     prov: &Provenance,
+    vsrc: &VerifySource,
 ) -> Result<Counts> {
     let tmp = work.tmp_path("assemble.h5");
-    let counts = hdf5file::write_file(&tmp, sweep, grid, points, shard, prov, |i| {
-        let h = grid.hashes[i];
-        if done.contains_key(&h) {
-            work.read_segment(&h)
-        } else {
-            Ok(None)
-        }
-    });
+    let counts = hdf5file::write_file(
+        &tmp,
+        sweep,
+        grid,
+        points,
+        shard,
+        prov,
+        vsrc.fraction,
+        |i| {
+            let h = grid.hashes[i];
+            if done.contains_key(&h) {
+                work.read_segment(&h)
+            } else {
+                Ok(None)
+            }
+        },
+        |i, rec| vsrc.info(work, grid, i, rec),
+    );
     let counts = match counts {
         Ok(c) => c,
         Err(e) => {
@@ -369,7 +462,15 @@ fn assemble(
 struct Finished {
     hash: RunHash,
     ok: bool,
+    verification: bool,
     write: Result<()>,
+}
+
+/// One unit of work of `run`: a grid point's run or its verification run.
+#[derive(Debug, Clone, Copy)]
+enum Task {
+    Run(usize),
+    Verify(usize),
 }
 
 fn print_failures(
@@ -410,10 +511,71 @@ fn print_failures(
     }
 }
 
+/// Prints the failed verification runs and, unless quiet, the largest verified errors.
+fn print_verification(
+    sweep: &Sweep,
+    grid: &Grid,
+    points: &[usize],
+    work: &WorkDir,
+    vsrc: &VerifySource,
+    chosen: &[bool],
+    quiet: bool,
+) -> Result<()> {
+    let mut n_ok = 0usize;
+    let mut worst: Option<(f64, usize)> = None;
+    let mut failed = Vec::new();
+    for &i in points {
+        let Some(h) = vsrc.hashes.get(&i) else {
+            continue;
+        };
+        match vsrc.done.get(h) {
+            Some(false) => failed.push(i),
+            Some(true) => {
+                let Some(rec) = work.read_segment(&grid.hashes[i])? else {
+                    continue;
+                };
+                let info = vsrc.info(work, grid, i, &rec)?;
+                if info.status == verify::VERIFY_OK {
+                    n_ok += 1;
+                    let e = info.max_error();
+                    if !e.is_nan() && worst.map_or(true, |(w, _)| e > w) {
+                        worst = Some((e, i));
+                    }
+                }
+            }
+            None => {}
+        }
+    }
+    if !failed.is_empty() {
+        eprintln!(
+            "chainsweep: {} verification run(s) failed (`verified` = 2):",
+            failed.len()
+        );
+        for &i in failed.iter().take(20) {
+            let reason = work
+                .read_segment(&vsrc.hashes[&i])?
+                .map(|r| r.reason)
+                .unwrap_or_default();
+            eprintln!("  point {i} ({}): {reason}", point_label(sweep, grid, i));
+        }
+    }
+    let requested = points.iter().filter(|&&i| chosen[i]).count();
+    if !quiet && (requested > 0 || n_ok > 0) {
+        match worst {
+            Some((e, i)) => eprintln!(
+                "chainsweep: {n_ok} point(s) verified at a tighter setting; largest relative error {e:.2e} at point {i} ({})",
+                point_label(sweep, grid, i)
+            ),
+            None => eprintln!("chainsweep: {n_ok} point(s) verified at a tighter setting"),
+        }
+    }
+    Ok(())
+}
+
 fn estimate_bytes(grid: &Grid) -> (f64, f64) {
     let np = grid.probes.len() as f64;
-    // Summaries: 6 f64, 3 i64, 1 status byte, 4 f64 per probe, hash and reason strings.
-    let summary = 6.0 * 8.0 + 3.0 * 8.0 + 1.0 + np * 4.0 * 8.0 + 64.0 + 16.0 + 32.0;
+    // Summaries: 8 f64, 4 i64, 2 flag bytes, 7 f64 per probe, hash, reason and warning strings.
+    let summary = 8.0 * 8.0 + 4.0 * 8.0 + 2.0 + np * 7.0 * 8.0 + 64.0 + 16.0 + 48.0;
     let mut per_run_history = 0.0;
     if grid.history || grid.min_overlap {
         per_run_history += 2500.0; // group, attributes
@@ -552,6 +714,13 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
             "must be a number of seconds >= 0",
         ));
     }
+    let fraction = args.verify.unwrap_or(0.0);
+    if !(0.0..=1.0).contains(&fraction) {
+        return Err(Error::input(
+            "--verify",
+            format!("must be a fraction in [0, 1], got {fraction}"),
+        ));
+    }
     let output = args
         .output
         .clone()
@@ -592,6 +761,46 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
             _ => pending.push(i),
         }
     }
+    // Verification: the hash of every point's verification run, those already done, and the
+    // sampled points of this shard still to verify.
+    let mut vsrc = VerifySource::empty(fraction);
+    let seg_index = scan_segments(&work.dir)?;
+    let chosen = verify::sample(&grid, fraction);
+    let mut vpending: Vec<usize> = Vec::new();
+    let mut vseen: std::collections::HashSet<RunHash> = std::collections::HashSet::new();
+    let mut v_total = 0usize;
+    let mut v_done = 0usize;
+    let mut v_failed = 0usize;
+    for &i in &points {
+        let (_, vh) = verify::point_verification(&sweep, &grid, i);
+        vsrc.hashes.insert(i, vh);
+        let state = seg_index.get(&vh).copied();
+        if let Some(ok) = state {
+            vsrc.done.insert(vh, ok);
+        }
+        if !chosen[i] {
+            continue;
+        }
+        v_total += 1;
+        match state {
+            Some(ok) if ok || !args.retry_failed => {
+                v_done += 1;
+                v_failed += (!ok) as usize;
+            }
+            _ => {
+                if vseen.insert(vh) {
+                    vpending.push(i);
+                } else {
+                    v_total -= 1;
+                }
+            }
+        }
+    }
+    let tasks: Vec<Task> = pending
+        .iter()
+        .map(|&i| Task::Run(i))
+        .chain(vpending.iter().map(|&i| Task::Verify(i)))
+        .collect();
     let done_points = points
         .iter()
         .filter(|&&i| done.contains_key(&grid.hashes[i]))
@@ -601,9 +810,9 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         .filter(|&&i| done.get(&grid.hashes[i]) == Some(&false))
         .count();
     let mut progress = Progress::new(
-        points.len(),
-        done_points,
-        failed_points,
+        points.len() + v_total,
+        done_points + v_done,
+        failed_points + v_failed,
         args.quiet,
         Duration::from_secs_f64(args.progress_interval),
     );
@@ -620,35 +829,52 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
     let mut write_error: Option<Error> = None;
     let checkpoint = Duration::from_secs_f64(args.checkpoint_interval);
     let mut last_checkpoint = Instant::now();
+    let mut vfinished_all: Vec<(RunHash, bool)> = Vec::new();
     std::thread::scope(|s| -> Result<()> {
         let (tx, rx) = mpsc::channel::<Finished>();
         let sweep_r = &sweep;
         let grid_r = &grid;
         let work_r = &work;
         let stop_r = &stop;
-        let pending_r = &pending;
+        let tasks_r = &tasks;
         let pool_r = &pool;
+        let vsrc_r = &vsrc;
         s.spawn(move || {
             pool_r.install(|| {
-                pending_r.par_iter().for_each_with(tx, |tx, &i| {
+                tasks_r.par_iter().for_each_with(tx, |tx, &task| {
                     if stop_r.load(Ordering::Relaxed) {
                         return;
                     }
-                    let hash = grid_r.hashes[i];
-                    let scene = grid_r.build(sweep_r, i).expect("every point was validated");
-                    let rec = exec::execute(&scene, hash, &sweep_r.limits, i);
+                    let (rec, verification) = match task {
+                        Task::Run(i) => {
+                            let hash = grid_r.hashes[i];
+                            let scene =
+                                grid_r.build(sweep_r, i).expect("every point was validated");
+                            (exec::execute(&scene, hash, &sweep_r.limits, i), false)
+                        }
+                        Task::Verify(i) => {
+                            let (tight, vh) = verify::point_verification(sweep_r, grid_r, i);
+                            debug_assert_eq!(Some(&vh), vsrc_r.hashes.get(&i));
+                            (
+                                exec::execute_verification(&tight, vh, &sweep_r.limits),
+                                true,
+                            )
+                        }
+                    };
                     let write = work_r.write_segment(&rec);
                     if write.is_err() {
                         stop_r.store(true, Ordering::Relaxed);
                     }
                     let _ = tx.send(Finished {
-                        hash,
+                        hash: rec.hash,
                         ok: rec.ok,
+                        verification,
                         write,
                     });
                 });
             });
         });
+        let mut vfinished: Vec<(RunHash, bool)> = Vec::new();
         loop {
             match rx.recv_timeout(Duration::from_millis(250)) {
                 Ok(f) => {
@@ -656,9 +882,14 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
                         write_error.get_or_insert(e);
                         continue;
                     }
-                    done.insert(f.hash, f.ok);
-                    for _ in 0..points_of[&f.hash] {
+                    if f.verification {
+                        vfinished.push((f.hash, f.ok));
                         progress.finish_run(!f.ok);
+                    } else {
+                        done.insert(f.hash, f.ok);
+                        for _ in 0..points_of[&f.hash] {
+                            progress.finish_run(!f.ok);
+                        }
                     }
                 }
                 Err(mpsc::RecvTimeoutError::Timeout) => progress.tick(),
@@ -668,18 +899,25 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
                 && last_checkpoint.elapsed() >= checkpoint
                 && write_error.is_none()
             {
-                assemble(&work, &sweep, &grid, &points, shard, &done, &prov)?;
+                let mut v = VerifySource::empty(vsrc_r.fraction);
+                v.hashes.clone_from(&vsrc_r.hashes);
+                v.done.clone_from(&vsrc_r.done);
+                v.done.extend(vfinished.iter().copied());
+                assemble(&work, &sweep, &grid, &points, shard, &done, &prov, &v)?;
                 last_checkpoint = Instant::now();
             }
         }
+        vfinished_all = vfinished;
         Ok(())
     })?;
     progress.finish();
     if let Some(e) = write_error {
         return Err(e);
     }
-    let counts = assemble(&work, &sweep, &grid, &points, shard, &done, &prov)?;
+    vsrc.done.extend(vfinished_all.iter().copied());
+    let counts = assemble(&work, &sweep, &grid, &points, shard, &done, &prov, &vsrc)?;
     print_failures(&sweep, &grid, &points, &work.dir, &done);
+    print_verification(&sweep, &grid, &points, &work, &vsrc, &chosen, args.quiet)?;
     if !args.quiet {
         eprintln!(
             "chainsweep: {} runs: {} ok, {} failed, {} pending → {}",
@@ -862,8 +1100,10 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
     }
     let work = WorkDir::open(output)?;
     let mut done: HashMap<RunHash, bool> = HashMap::new();
+    let mut vsrc = VerifySource::empty(0.0);
     for s in shards {
         let recs = FileRecords::open(s)?;
+        vsrc.fraction = vsrc.fraction.max(recs.verify_fraction);
         if recs.len() != grid.len() {
             return Err(Error::Other(format!(
                 "{}: holds {} grid points, the sweep has {}",
@@ -890,6 +1130,7 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
                     work.write_segment(&rec)?;
                 }
                 done.insert(h, rec.ok);
+                vsrc.given.insert(i, recs.verify_info(i, grid.probes.len()));
             }
         }
     }
@@ -902,7 +1143,28 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
         }
     }
     let points: Vec<usize> = (0..grid.len()).collect();
-    let counts = assemble(&work, &sweep, &grid, &points, None, &done, &provenance())?;
+    // Points whose run was already in the output's work directory: their verification runs too.
+    let seg_index = scan_segments(&work.dir)?;
+    for &i in &points {
+        if vsrc.given.contains_key(&i) {
+            continue;
+        }
+        let (_, vh) = verify::point_verification(&sweep, &grid, i);
+        if let Some(&ok) = seg_index.get(&vh) {
+            vsrc.done.insert(vh, ok);
+        }
+        vsrc.hashes.insert(i, vh);
+    }
+    let counts = assemble(
+        &work,
+        &sweep,
+        &grid,
+        &points,
+        None,
+        &done,
+        &provenance(),
+        &vsrc,
+    )?;
     eprintln!(
         "chainsweep: merged {} shard file(s): {} runs: {} ok, {} failed, {} pending → {}",
         shards.len(),
@@ -964,6 +1226,9 @@ fn cmd_point(file: &Path, index: usize, scene_only: bool) -> Result<i32> {
             "steps": rec.steps,
             "rejected_steps": rec.rejected,
             "rhs_evals": rec.rhs_evals,
+            "events": rec.events,
+            "max_overlap_m": num(rec.max_overlap_m),
+            "warnings": rec.warnings.lines().collect::<Vec<_>>(),
             "t_end_s": num(rec.t_end_s),
             "energy_drift_max": num(rec.energy_drift_max),
             "energy_drift_final": num(rec.energy_drift_final),
@@ -974,5 +1239,94 @@ fn cmd_point(file: &Path, index: usize, scene_only: bool) -> Result<i32> {
         });
     }
     println!("{}", serde_json::to_string_pretty(&out).expect("json"));
+    Ok(EXIT_OK)
+}
+
+fn cmd_accuracy(args: &AccuracyArgs) -> Result<i32> {
+    use crate::accuracy;
+    let (sweep, grid) = load(&args.file)?;
+    if args.repeats == 0 {
+        return Err(Error::input("--repeats", "must be at least 1"));
+    }
+    if !(args.max_run_seconds.is_finite() && args.max_run_seconds > 0.0) {
+        return Err(Error::input(
+            "--max-run-seconds",
+            "must be a number of seconds > 0",
+        ));
+    }
+    let (scene, what) = match args.point {
+        Some(i) if i >= grid.len() => {
+            return Err(Error::input(
+                "--point",
+                format!("must lie in 0..{} (the grid's points), got {i}", grid.len()),
+            ))
+        }
+        Some(i) => (
+            grid.build(&sweep, i)?,
+            format!("grid point {i} ({})", point_label(&sweep, &grid, i)),
+        ),
+        None => (
+            crate::sweep::from_value_at::<chainsweep_solver::Scene>(sweep.base.clone(), "base")?,
+            "base scene".to_string(),
+        ),
+    };
+    let output = args.output.clone().unwrap_or_else(|| {
+        let stem = args
+            .file
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "sweep".into());
+        PathBuf::from(format!("{stem}.accuracy.h5"))
+    });
+    let opts = accuracy::StudyOptions {
+        repeats: args.repeats,
+        max_run_s: args.max_run_seconds,
+        methods: args.methods.clone(),
+    };
+    exec::install_panic_hook();
+    let quiet = args.quiet;
+    if !quiet {
+        eprintln!("chainsweep accuracy: {} of {}", what, args.file.display());
+    }
+    let st = accuracy::study(&scene, &opts, |l| {
+        if !quiet {
+            eprintln!("  {l}");
+        }
+    })?;
+    let probe_names: Vec<String> = scene.record.probes.iter().map(|p| p.name()).collect();
+    let source = format!("{} {}", path_str(&args.file), what);
+    let tmp = output.with_extension("h5.tmp");
+    accuracy::write_study(&tmp, &st, &probe_names, &source)?;
+    crate::error::io_ctx(std::fs::rename(&tmp, &output), || {
+        format!("cannot rename {} to {}", tmp.display(), output.display())
+    })?;
+    let reference = st.reference.out.as_ref().expect("reference ran");
+    println!(
+        "reference {} (confirmed by {} to {:.1e}); cost of a leading-peak relative error:",
+        st.reference.spec.method_name(),
+        st.confirmation.spec.method_name(),
+        st.agreement
+    );
+    println!(
+        "{:<9} {:>22} {:>22} {:>22}",
+        "method", "<= 1e-4", "<= 1e-6", "<= 1e-8"
+    );
+    for m in &st.methods {
+        let cell = |target: f64| match accuracy::cost_of(m, reference, target) {
+            Some((w, e, x)) => format!("{:.2} ms/{}@{x:.0e}", w * 1e3, e),
+            None => "not reached".to_string(),
+        };
+        println!(
+            "{:<9} {:>22} {:>22} {:>22}",
+            m.method,
+            cell(1e-4),
+            cell(1e-6),
+            cell(1e-8)
+        );
+    }
+    println!(
+        "(wall time per run / RHS evaluations @ setting) → {}",
+        output.display()
+    );
     Ok(EXIT_OK)
 }

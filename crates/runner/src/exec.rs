@@ -67,10 +67,19 @@ fn injected_panic(index: usize) -> bool {
 
 /// Runs the scene of grid point `index` and records the outcome.
 pub fn execute(scene: &Scene, hash: RunHash, limits: &Limits, index: usize) -> RunRecord {
+    execute_inner(scene, hash, limits, Some(index))
+}
+
+/// Runs a verification scene (see [`crate::verify`]) and records the outcome under `hash`.
+pub fn execute_verification(scene: &Scene, hash: RunHash, limits: &Limits) -> RunRecord {
+    execute_inner(scene, hash, limits, None)
+}
+
+fn execute_inner(scene: &Scene, hash: RunHash, limits: &Limits, index: Option<usize>) -> RunRecord {
     let start = Instant::now();
     LAST_PANIC.with(|p| *p.borrow_mut() = Some(String::new()));
     let result = panic::catch_unwind(AssertUnwindSafe(|| {
-        if injected_panic(index) {
+        if let Some(index) = index.filter(|&i| injected_panic(i)) {
             panic!("injected panic for grid point {index} ({INJECT_PANIC_ENV})");
         }
         run(scene)
@@ -102,6 +111,7 @@ pub fn execute(scene: &Scene, hash: RunHash, limits: &Limits, index: usize) -> R
         ("energy_drift_max", out.energy_drift_max),
         ("energy_drift_final", out.energy_drift_final),
         ("momentum_residual_max", out.momentum_residual_max),
+        ("max_overlap_m", out.max_overlap_m),
     ] {
         if !x.is_finite() {
             bad.push(format!("{name} = {x}"));
@@ -146,12 +156,15 @@ pub fn execute(scene: &Scene, hash: RunHash, limits: &Limits, index: usize) -> R
         steps: out.stats.steps,
         rejected: out.stats.rejected,
         rhs_evals: out.stats.rhs_evals,
+        events: out.stats.events,
         t_end_s: out.t_end_s,
         energy_drift_max: out.energy_drift_max,
         energy_drift_final: out.energy_drift_final,
         momentum_residual_max: out.momentum_residual_max,
         impact_energy_j: out.impact_energy_j,
         wall_time_s: wall,
+        max_overlap_m: out.max_overlap_m,
+        warnings: out.warnings.join("\n"),
         probes: out.probes,
         min_overlap_m: out.min_overlap_m,
         history: out.history,

@@ -11,12 +11,15 @@
 //! - [`exec`]: run one scene under `catch_unwind` and turn its output into a [`store::RunRecord`];
 //! - [`store`]: crash-safe segment files (one per finished run), the lock on the work directory,
 //!   and the HDF5 file assembled from the segments in grid order;
+//! - [`verify`]: `run --verify`: the sample of grid points re-run at a tighter setting;
+//! - [`accuracy`]: work-precision studies (`chainsweep accuracy`) and `integrator: auto`;
 //! - [`progress`]: the progress bar or the plain progress line;
 //! - [`cli`]: the `chainsweep` command line.
 //!
 //! Exit codes: [`EXIT_OK`], [`EXIT_ERROR`], [`EXIT_BAD_INPUT`], [`EXIT_PARTIAL`].
 #![warn(missing_docs)]
 
+pub mod accuracy;
 pub mod cli;
 pub mod error;
 pub mod exec;
@@ -24,6 +27,7 @@ pub mod grid;
 pub mod progress;
 pub mod store;
 pub mod sweep;
+pub mod verify;
 
 /// Every run finished successfully.
 pub const EXIT_OK: i32 = 0;
@@ -35,8 +39,9 @@ pub const EXIT_BAD_INPUT: i32 = 2;
 pub const EXIT_PARTIAL: i32 = 3;
 
 /// Version of the runner's numerics: bump it whenever a change in the runner or the solver changes
-/// the numbers a scene produces, so that resumed sweeps recompute every run.
-pub const NUMERICS_VERSION: u32 = 1;
+/// the numbers a scene produces (or what a run records), so that resumed sweeps recompute every run.
+/// Version 2: runs record `events`, `max_overlap_m` and `warnings` (segment format 2).
+pub const NUMERICS_VERSION: u32 = 2;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -5,6 +5,7 @@ use chainsweep::grid::Grid;
 use chainsweep::store::hdf5file::{write_file, FileRecords, Provenance};
 use chainsweep::store::{scan_segments, WorkDir};
 use chainsweep::sweep::Sweep;
+use chainsweep::verify::{VerifyInfo, VERIFY_NONE, VERIFY_OK};
 
 const SWEEP: &str = r#"{
   "base": {
@@ -56,9 +57,28 @@ fn records_survive_segments_and_hdf5_bitwise() {
     assert!(!index[&grid.hashes[1]]);
 
     let points: Vec<usize> = (0..grid.len()).collect();
-    let counts = write_file(&out, &sweep, &grid, &points, None, &prov(), |i| {
-        Ok(Some(records[i].clone()))
-    })
+    // Point 0 carries a verification outcome, the others none.
+    let verified = VerifyInfo {
+        status: VERIFY_OK,
+        errors: vec![[1e-9, 2e-10, f64::NAN]],
+    };
+    let counts = write_file(
+        &out,
+        &sweep,
+        &grid,
+        &points,
+        None,
+        &prov(),
+        0.5,
+        |i| Ok(Some(records[i].clone())),
+        |i, _| {
+            Ok(if i == 0 {
+                verified.clone()
+            } else {
+                VerifyInfo::none(1)
+            })
+        },
+    )
     .unwrap();
     assert_eq!((counts.ok, counts.failed, counts.pending), (2, 2, 0));
     let back = FileRecords::open(&out).unwrap();
@@ -67,6 +87,12 @@ fn records_survive_segments_and_hdf5_bitwise() {
         let r = back.record(i, grid.hashes[i], &grid).unwrap().unwrap();
         assert_eq!(r.encode(), rec.encode(), "point {i}");
     }
+    assert_eq!(back.verify_fraction, 0.5);
+    let v = back.verify_info(0, 1);
+    assert_eq!(v.status, VERIFY_OK);
+    assert_eq!(&v.errors[0][..2], &[1e-9, 2e-10]);
+    assert!(v.errors[0][2].is_nan());
+    assert_eq!(back.verify_info(1, 1).status, VERIFY_NONE);
 }
 
 #[test]

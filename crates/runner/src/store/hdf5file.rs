@@ -21,6 +21,7 @@ use crate::error::{Error, Result};
 use crate::grid::{hex, multi_index, Grid, RunHash};
 use crate::store::RunRecord;
 use crate::sweep::Sweep;
+use crate::verify::{VerifyInfo, TIGHTENING, VERIFY_FAILED, VERIFY_NONE, VERIFY_OK};
 
 /// Status code of a pending grid point (not run, or not in this shard).
 pub const STATUS_PENDING: u8 = 0;
@@ -78,32 +79,37 @@ fn attach_scale(data: &Dataset, scale: &Dataset, dim: usize, label: &str) -> Res
     Ok(())
 }
 
-fn vlen(s: &str) -> Result<VarLenUnicode> {
+pub(crate) fn vlen(s: &str) -> Result<VarLenUnicode> {
     s.replace('\0', "\u{FFFD}")
         .parse::<VarLenUnicode>()
         .map_err(|e| Error::Other(format!("string not storable in HDF5: {e}")))
 }
 
 /// Writes a scalar variable-length UTF-8 string attribute (h5py returns `str`).
-fn attr_str(loc: &Location, name: &str, value: &str) -> Result<()> {
+pub(crate) fn attr_str(loc: &Location, name: &str, value: &str) -> Result<()> {
     let a = loc.new_attr::<VarLenUnicode>().shape(()).create(name)?;
     a.write_scalar(&vlen(value)?)?;
     Ok(())
 }
 
-fn attr_scalar<T: H5Type>(loc: &Location, name: &str, value: T) -> Result<()> {
+pub(crate) fn attr_scalar<T: H5Type>(loc: &Location, name: &str, value: T) -> Result<()> {
     let a = loc.new_attr::<T>().shape(()).create(name)?;
     a.write_scalar(&value)?;
     Ok(())
 }
 
-fn attr_vec<T: H5Type>(loc: &Location, name: &str, values: &[T]) -> Result<()> {
+pub(crate) fn attr_vec<T: H5Type>(loc: &Location, name: &str, values: &[T]) -> Result<()> {
     let a = loc.new_attr::<T>().shape(values.len()).create(name)?;
     a.write_raw(values)?;
     Ok(())
 }
 
-fn dataset<T: H5Type>(group: &Group, name: &str, shape: &[usize], data: &[T]) -> Result<Dataset> {
+pub(crate) fn dataset<T: H5Type>(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[T],
+) -> Result<Dataset> {
     let d = group
         .new_dataset::<T>()
         .shape(shape.to_vec())
@@ -114,7 +120,12 @@ fn dataset<T: H5Type>(group: &Group, name: &str, shape: &[usize], data: &[T]) ->
     Ok(d)
 }
 
-fn str_dataset(group: &Group, name: &str, shape: &[usize], data: &[String]) -> Result<Dataset> {
+pub(crate) fn str_dataset(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[String],
+) -> Result<Dataset> {
     let v = data.iter().map(|s| vlen(s)).collect::<Result<Vec<_>>>()?;
     dataset(group, name, shape, &v)
 }
@@ -243,7 +254,10 @@ fn write_run_group(
 }
 
 /// Writes the HDF5 file of a sweep to `path` from the records `get(index)` returns for the points
-/// in `points` (others are pending), in grid order. `shard` is recorded as an attribute.
+/// in `points` (others are pending), in grid order, with the verification outcome
+/// `get_verify(index, record)` of each finished point. `shard` and `verify_fraction` (0 when
+/// `--verify` was not given) are recorded as attributes.
+#[allow(clippy::too_many_arguments)]
 pub fn write_file(
     path: &Path,
     sweep: &Sweep,
@@ -251,7 +265,9 @@ pub fn write_file(
     points: &[usize],
     shard: Option<(usize, usize)>,
     prov: &Provenance,
+    verify_fraction: f64,
     mut get: impl FnMut(usize) -> Result<Option<RunRecord>>,
+    mut get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
 ) -> Result<Counts> {
     let n = grid.len();
     let np = grid.probes.len();
@@ -295,9 +311,14 @@ pub fn write_file(
     let mut status = vec![STATUS_PENDING; n];
     let mut reason = vec![String::new(); n];
     let mut run_hash = vec![String::new(); n];
-    let mut scal: Vec<Vec<f64>> = vec![vec![nan; n]; 6];
-    let mut ints: Vec<Vec<i64>> = vec![vec![INT_FILL; n]; 3];
+    let mut scal: Vec<Vec<f64>> = vec![vec![nan; n]; 7];
+    let mut ints: Vec<Vec<i64>> = vec![vec![INT_FILL; n]; 4];
     let mut psum: Vec<Vec<f64>> = vec![vec![nan; n * np]; 4];
+    let mut warnings = vec![String::new(); n];
+    let mut verified = vec![VERIFY_NONE; n];
+    let mut verr: Vec<Vec<f64>> = vec![vec![nan; n * np]; 3];
+    let mut verr_max = vec![nan; n];
+    let mut n_verified = 0usize;
     for (i, h) in grid.hashes.iter().enumerate() {
         run_hash[i] = hex(h);
     }
@@ -326,6 +347,17 @@ pub fn write_file(
             )));
         }
         scal[5][i] = rec.wall_time_s;
+        let v = get_verify(i, &rec)?;
+        verified[i] = v.status;
+        if v.status == VERIFY_OK {
+            n_verified += 1;
+            verr_max[i] = v.max_error();
+            for (p, e) in v.errors.iter().enumerate().take(np) {
+                for k in 0..3 {
+                    verr[k][i * np + p] = e[k];
+                }
+            }
+        }
         if !rec.ok {
             status[i] = STATUS_FAILED;
             reason[i] = rec.reason.clone();
@@ -346,9 +378,12 @@ pub fn write_file(
         {
             scal[k][i] = x;
         }
+        scal[6][i] = rec.max_overlap_m;
+        warnings[i] = rec.warnings.clone();
         ints[0][i] = rec.steps as i64;
         ints[1][i] = rec.rejected as i64;
         ints[2][i] = rec.rhs_evals as i64;
+        ints[3][i] = rec.events as i64;
         for (p, s) in rec.probes.iter().enumerate().take(np) {
             for (k, x) in [
                 s.leading_peak,
@@ -370,6 +405,9 @@ pub fn write_file(
     attr_scalar(&file, "n_ok", counts.ok as i64)?;
     attr_scalar(&file, "n_failed", counts.failed as i64)?;
     attr_scalar(&file, "n_pending", counts.pending as i64)?;
+    attr_scalar(&file, "verify_fraction", verify_fraction)?;
+    attr_str(&file, "verify_tightening", TIGHTENING)?;
+    attr_scalar(&file, "n_verified", n_verified as i64)?;
 
     // Coordinates (dimension scales).
     let mut scales: Vec<Vec<(Dataset, String)>> = Vec::new();
@@ -419,7 +457,7 @@ pub fn write_file(
         Ok(())
     };
     let shape = grid.shape.clone();
-    let scalar_names: [(&str, &str, &str); 6] = [
+    let scalar_names: [(&str, &str, &str); 7] = [
         ("t_end_s", "s", "time the run reached"),
         (
             "energy_drift_max",
@@ -442,6 +480,11 @@ pub fn write_file(
             "s",
             "wall-clock time of the run (kept for failed runs)",
         ),
+        (
+            "max_overlap_m",
+            "m",
+            "largest contact overlap over the run (at step ends)",
+        ),
     ];
     for ((name, units, long), data) in scalar_names.iter().zip(&scal) {
         let d = dataset(&file, name, &shape, data)?;
@@ -449,10 +492,14 @@ pub fn write_file(
         attr_str(&d, "long_name", long)?;
         attach_grid(&d)?;
     }
-    let int_names: [(&str, &str); 3] = [
+    let int_names: [(&str, &str); 4] = [
         ("steps", "accepted integrator steps"),
         ("rejected_steps", "rejected step attempts"),
         ("rhs_evals", "right-hand-side evaluations"),
+        (
+            "events",
+            "steps retaken to end on a contact opening or closing (located events)",
+        ),
     ];
     for ((name, long), data) in int_names.iter().zip(&ints) {
         let d = dataset(&file, name, &shape, data)?;
@@ -474,6 +521,34 @@ pub fn write_file(
         &d,
         "long_name",
         "why the run failed (empty unless status == 2)",
+    )?;
+    attach_grid(&d)?;
+    let d = str_dataset(&file, "warnings", &shape, &warnings)?;
+    attr_str(
+        &d,
+        "long_name",
+        "physical-validity warnings of the run, one per line (empty when none)",
+    )?;
+    attach_grid(&d)?;
+    let d = dataset(&file, "verified", &shape, &verified)?;
+    attr_vec(&d, "flag_values", &[VERIFY_NONE, VERIFY_OK, VERIFY_FAILED])?;
+    attr_str(
+        &d,
+        "flag_meanings",
+        "not_verified verified verification_failed",
+    )?;
+    attr_str(
+        &d,
+        "long_name",
+        "whether the point was re-run at a tighter setting (run --verify)",
+    )?;
+    attach_grid(&d)?;
+    let d = dataset(&file, "verify_rel_error_max", &shape, &verr_max)?;
+    attr_str(&d, "units", "1")?;
+    attr_str(
+        &d,
+        "long_name",
+        "largest verify_rel_error_* over the probes (NaN where not verified)",
     )?;
     attach_grid(&d)?;
     let d = str_dataset(&file, "run_hash", &shape, &run_hash)?;
@@ -516,6 +591,27 @@ pub fn write_file(
             attach_grid(&d)?;
             attach_scale(&d, pscale, shape.len(), "probe")?;
         }
+        let vnames: [(&str, &str); 3] = [
+            (
+                "verify_rel_error_leading_peak",
+                "relative error of leading_peak against the verification run",
+            ),
+            (
+                "verify_rel_error_leading_peak_time",
+                "relative error of leading_peak_time_s against the verification run",
+            ),
+            (
+                "verify_rel_error_record_max",
+                "relative error of record_max against the verification run",
+            ),
+        ];
+        for ((name, long), data) in vnames.iter().zip(&verr) {
+            let d = dataset(&file, name, &pshape, data)?;
+            attr_str(&d, "units", "1")?;
+            attr_str(&d, "long_name", long)?;
+            attach_grid(&d)?;
+            attach_scale(&d, pscale, shape.len(), "probe")?;
+        }
     }
     file.flush()?;
     drop(scales);
@@ -537,6 +633,11 @@ pub struct FileRecords {
     scal: Vec<Vec<f64>>,
     ints: Vec<Vec<i64>>,
     psum: Vec<Vec<f64>>,
+    warnings: Vec<String>,
+    verified: Vec<u8>,
+    verr: Vec<Vec<f64>>,
+    /// The `verify_fraction` root attribute (0 in files without it).
+    pub verify_fraction: f64,
     n: usize,
 }
 
@@ -576,10 +677,46 @@ impl FileRecords {
         ] {
             scal.push(file.dataset(name)?.read_raw::<f64>()?);
         }
+        // Fields added with numerics version 2 (absent from older files).
+        scal.push(if file.link_exists("max_overlap_m") {
+            file.dataset("max_overlap_m")?.read_raw::<f64>()?
+        } else {
+            vec![f64::NAN; n]
+        });
         let mut ints = Vec::new();
         for name in ["steps", "rejected_steps", "rhs_evals"] {
             ints.push(file.dataset(name)?.read_raw::<i64>()?);
         }
+        ints.push(if file.link_exists("events") {
+            file.dataset("events")?.read_raw::<i64>()?
+        } else {
+            vec![0; n]
+        });
+        let warnings = if file.link_exists("warnings") {
+            read_strs(&file, "warnings")?
+        } else {
+            vec![String::new(); n]
+        };
+        let verified: Vec<u8> = if file.link_exists("verified") {
+            file.dataset("verified")?.read_raw()?
+        } else {
+            vec![VERIFY_NONE; n]
+        };
+        let mut verr = Vec::new();
+        if file.link_exists("verify_rel_error_leading_peak") {
+            for name in [
+                "verify_rel_error_leading_peak",
+                "verify_rel_error_leading_peak_time",
+                "verify_rel_error_record_max",
+            ] {
+                verr.push(file.dataset(name)?.read_raw::<f64>()?);
+            }
+        }
+        let verify_fraction = if file.attr_names()?.iter().any(|a| a == "verify_fraction") {
+            file.attr("verify_fraction")?.read_scalar::<f64>()?
+        } else {
+            0.0
+        };
         let mut psum = Vec::new();
         if file.link_exists("leading_peak") {
             for name in [
@@ -600,8 +737,35 @@ impl FileRecords {
             scal,
             ints,
             psum,
+            warnings,
+            verified,
+            verr,
+            verify_fraction,
             n,
         })
+    }
+
+    /// The verification outcome stored for point `i` (`np` probes).
+    pub fn verify_info(&self, i: usize, np: usize) -> VerifyInfo {
+        let status = self.verified[i];
+        if status != VERIFY_OK || self.verr.len() < 3 {
+            return VerifyInfo {
+                status,
+                errors: vec![[f64::NAN; 3]; np],
+            };
+        }
+        VerifyInfo {
+            status,
+            errors: (0..np)
+                .map(|p| {
+                    [
+                        self.verr[0][i * np + p],
+                        self.verr[1][i * np + p],
+                        self.verr[2][i * np + p],
+                    ]
+                })
+                .collect(),
+        }
     }
 
     /// Number of grid points in the file.
@@ -663,12 +827,15 @@ impl FileRecords {
             steps: self.ints[0][i] as u64,
             rejected: self.ints[1][i] as u64,
             rhs_evals: self.ints[2][i] as u64,
+            events: self.ints[3][i] as u64,
             t_end_s: self.scal[0][i],
             energy_drift_max: self.scal[1][i],
             energy_drift_final: self.scal[2][i],
             momentum_residual_max: self.scal[3][i],
             impact_energy_j: self.scal[4][i],
             wall_time_s: wall,
+            max_overlap_m: self.scal[6][i],
+            warnings: self.warnings[i].clone(),
             probes,
             min_overlap_m,
             history,

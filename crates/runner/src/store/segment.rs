@@ -4,9 +4,11 @@
 //! endian, ending in the SHA-256 of everything before it:
 //!
 //! ```text
-//! magic "CSWSEG\0\1" | run hash (32) | ok (u8) | reason (u32 length + UTF-8)
-//! steps, rejected, rhs_evals (u64 ×3)
-//! t_end_s, energy_drift_max, energy_drift_final, momentum_residual_max, impact_energy_j, wall_time_s (f64 ×6)
+//! magic "CSWSEG\0\2" | run hash (32) | ok (u8) | reason (u32 length + UTF-8)
+//! steps, rejected, rhs_evals, events (u64 ×4)
+//! t_end_s, energy_drift_max, energy_drift_final, momentum_residual_max, impact_energy_j, wall_time_s,
+//!   max_overlap_m (f64 ×7)
+//! warnings (u32 length + UTF-8, one warning per line)
 //! n_probes (u32) | per probe: leading_peak, leading_peak_time_s, record_max, record_max_time_s (f64 ×4)
 //! has_min_overlap (u8) [n (u32) | f64 ×n]
 //! has_history (u8) [n_series (u32) | n_samples (u64) | time_s f64 ×n_samples | series f64 ×n_samples each]
@@ -14,13 +16,19 @@
 //! ```
 //!
 //! Floats are stored as their bits, so a record read back is bitwise the record written.
+//!
+//! Format 2 (this one) added `events`, `max_overlap_m` and `warnings`. Segments of format 1 are not
+//! decoded (they read as missing); they cannot be looked up anyway, since their runs were hashed
+//! with numerics version 1 and are recomputed.
 
 use chainsweep_solver::probes::{History, ProbeSummary};
 use sha2::{Digest, Sha256};
 
 use crate::grid::RunHash;
 
-const MAGIC: &[u8; 8] = b"CSWSEG\x00\x01";
+const MAGIC: &[u8; 8] = b"CSWSEG\x00\x02";
+/// Magic of the previous segment format (read only by [`RunRecord::peek_status`]).
+const MAGIC_V1: &[u8; 8] = b"CSWSEG\x00\x01";
 
 /// One finished run, as stored in a segment.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,6 +45,8 @@ pub struct RunRecord {
     pub rejected: u64,
     /// Right-hand-side evaluations.
     pub rhs_evals: u64,
+    /// Steps retaken to end on a located event (a contact opening or closing).
+    pub events: u64,
     /// Time reached, s.
     pub t_end_s: f64,
     /// Largest relative energy drift.
@@ -49,6 +59,10 @@ pub struct RunRecord {
     pub impact_energy_j: f64,
     /// Wall time of the run, s.
     pub wall_time_s: f64,
+    /// Largest contact overlap over the run (at step ends), m (NaN for failed runs).
+    pub max_overlap_m: f64,
+    /// Physical-validity warnings of the solver, one per line (empty when none).
+    pub warnings: String,
     /// Summary of each probe (empty for failed runs).
     pub probes: Vec<ProbeSummary>,
     /// Minimum overlap of every contact, m, when recorded.
@@ -67,12 +81,15 @@ impl RunRecord {
             steps: 0,
             rejected: 0,
             rhs_evals: 0,
+            events: 0,
             t_end_s: f64::NAN,
             energy_drift_max: f64::NAN,
             energy_drift_final: f64::NAN,
             momentum_residual_max: f64::NAN,
             impact_energy_j: f64::NAN,
             wall_time_s,
+            max_overlap_m: f64::NAN,
+            warnings: String::new(),
             probes: Vec::new(),
             min_overlap_m: None,
             history: None,
@@ -87,7 +104,7 @@ impl RunRecord {
         b.push(self.ok as u8);
         put_u32(&mut b, self.reason.len() as u32);
         b.extend_from_slice(self.reason.as_bytes());
-        for x in [self.steps, self.rejected, self.rhs_evals] {
+        for x in [self.steps, self.rejected, self.rhs_evals, self.events] {
             b.extend_from_slice(&x.to_le_bytes());
         }
         for x in [
@@ -97,9 +114,12 @@ impl RunRecord {
             self.momentum_residual_max,
             self.impact_energy_j,
             self.wall_time_s,
+            self.max_overlap_m,
         ] {
             put_f64(&mut b, x);
         }
+        put_u32(&mut b, self.warnings.len() as u32);
+        b.extend_from_slice(self.warnings.as_bytes());
         put_u32(&mut b, self.probes.len() as u32);
         for p in &self.probes {
             for x in [
@@ -157,10 +177,13 @@ impl RunRecord {
         let steps = r.u64()?;
         let rejected = r.u64()?;
         let rhs_evals = r.u64()?;
-        let mut f = [0.0; 6];
+        let events = r.u64()?;
+        let mut f = [0.0; 7];
         for x in &mut f {
             *x = r.f64()?;
         }
+        let n = r.u32()? as usize;
+        let warnings = String::from_utf8(r.take(n)?.to_vec()).ok()?;
         let n_probes = r.u32()? as usize;
         let mut probes = Vec::with_capacity(n_probes);
         for _ in 0..n_probes {
@@ -199,12 +222,15 @@ impl RunRecord {
             steps,
             rejected,
             rhs_evals,
+            events,
             t_end_s: f[0],
             energy_drift_max: f[1],
             energy_drift_final: f[2],
             momentum_residual_max: f[3],
             impact_energy_j: f[4],
             wall_time_s: f[5],
+            max_overlap_m: f[6],
+            warnings,
             probes,
             min_overlap_m,
             history,
@@ -214,7 +240,8 @@ impl RunRecord {
     /// Reads only the status part of segment bytes (no checksum check): `(ok, reason)`.
     pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
         let mut r = Reader { b: bytes, at: 0 };
-        if r.take(8)? != MAGIC {
+        let magic = r.take(8)?;
+        if magic != MAGIC && magic != MAGIC_V1 {
             return None;
         }
         r.take(32)?;
@@ -278,12 +305,15 @@ mod tests {
             steps: 10,
             rejected: 2,
             rhs_evals: 130,
+            events: 12,
             t_end_s: 1e-3,
             energy_drift_max: 1e-9,
             energy_drift_final: 5e-10,
             momentum_residual_max: 1e-12,
             impact_energy_j: 0.0017,
             wall_time_s: 0.01,
+            max_overlap_m: 2.5e-6,
+            warnings: "first\nsecond ü".to_string(),
             probes: vec![ProbeSummary {
                 leading_peak: 100.0,
                 leading_peak_time_s: f64::NAN,
@@ -300,6 +330,11 @@ mod tests {
         let back = RunRecord::decode(&bytes).unwrap();
         assert_eq!(back.encode(), bytes);
         assert!(back.probes[0].leading_peak_time_s.is_nan());
+        assert_eq!(
+            (back.events, back.max_overlap_m.to_bits()),
+            (12, 2.5e-6f64.to_bits())
+        );
+        assert_eq!(back.warnings, "first\nsecond ü");
         assert_eq!(RunRecord::peek_status(&bytes), Some((true, String::new())));
         // Any truncation or flipped byte is detected.
         assert!(RunRecord::decode(&bytes[..bytes.len() - 1]).is_none());

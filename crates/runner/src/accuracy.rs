@@ -1,0 +1,518 @@
+//! Work-precision studies (`chainsweep accuracy`) and the measurements `integrator: auto` shares
+//! with them.
+//!
+//! A study runs one scene with every integrator over a ladder of settings (DOP853 and ROS34PW2:
+//! `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds`), and compares the
+//! leading-peak force and time at every probe with a reference solution: DOP853 at rtol 1e-12, or
+//! ROS34PW2 at rtol 1e-10 when damping dominates (the stiffness ratio `μ τ / m_min` of the
+//! largest damping coefficient, the contact duration and the lightest particle exceeds
+//! [`STIFF_RATIO`]). The reference is confirmed by the tightest setting of the other adaptive
+//! method; their agreement is reported. Each setting's wall time is the median of repeats.
+
+use std::path::Path;
+use std::time::Instant;
+
+use chainsweep_solver::scene::ImpactScales;
+use chainsweep_solver::{run, IntegratorSpec, RunOutput, Scene};
+use hdf5::File;
+
+use crate::error::{Error, Result};
+use crate::store::hdf5file::{attr_scalar, attr_str, dataset, str_dataset};
+use crate::verify::rel_error;
+
+/// Above this stiffness ratio `μ τ / m_min` a scene counts as damping-dominated: the reference
+/// is ROS34PW2 and `auto` tries ROS34PW2 first.
+pub const STIFF_RATIO: f64 = 100.0;
+
+/// Natural scales of a scene that the ladders and the choice of methods are built from.
+#[derive(Debug, Clone, Copy)]
+pub struct SceneScales {
+    /// Two-body contact duration of the striker on the first sphere, s.
+    pub contact_time_s: f64,
+    /// `μ_max τ / m_min`: how strongly damping dominates the lightest particle within a contact.
+    pub stiffness_ratio: f64,
+}
+
+/// The natural scales of a (valid) scene.
+pub fn scene_scales(scene: &Scene) -> Result<SceneScales> {
+    let chain = scene
+        .validate()
+        .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;
+    let s = ImpactScales::new(&chain, scene.striker_velocity_m_s);
+    let tau = 2.943 * s.overlap_m / s.velocity_m_s;
+    let m_min = chain.mass.iter().cloned().fold(f64::INFINITY, f64::min);
+    let mu = chain.damping.iter().cloned().fold(0.0, f64::max);
+    Ok(SceneScales {
+        contact_time_s: tau,
+        stiffness_ratio: mu * tau / m_min,
+    })
+}
+
+/// One measured run.
+#[derive(Debug, Clone)]
+pub struct Measurement {
+    /// The integrator.
+    pub spec: IntegratorSpec,
+    /// The output (None when the run failed).
+    pub out: Option<RunOutput>,
+    /// Why it failed.
+    pub reason: String,
+    /// Wall time of each repeat, s.
+    pub walls: Vec<f64>,
+}
+
+impl Measurement {
+    /// Median wall time, s.
+    pub fn wall_median(&self) -> f64 {
+        let mut w = self.walls.clone();
+        w.sort_by(|a, b| a.total_cmp(b));
+        if w.is_empty() {
+            f64::NAN
+        } else if w.len() % 2 == 1 {
+            w[w.len() / 2]
+        } else {
+            0.5 * (w[w.len() / 2 - 1] + w[w.len() / 2])
+        }
+    }
+}
+
+/// Runs `scene` with `spec` `repeats` times (at least once; failures are not repeated).
+pub fn measure(scene: &Scene, spec: IntegratorSpec, repeats: usize) -> Measurement {
+    let mut s = scene.clone();
+    s.integrator = spec;
+    s.record.history = false;
+    s.record.min_overlap = false;
+    let mut walls = Vec::new();
+    let mut out = None;
+    let mut reason = String::new();
+    for _ in 0..repeats.max(1) {
+        let t = Instant::now();
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&s)));
+        walls.push(t.elapsed().as_secs_f64());
+        match r {
+            Ok(Ok(o)) => out = Some(o),
+            Ok(Err(e)) => {
+                reason = e.to_string();
+                break;
+            }
+            Err(_) => {
+                reason = "panic".to_string();
+                break;
+            }
+        }
+    }
+    if !reason.is_empty() {
+        out = None;
+    }
+    Measurement {
+        spec,
+        out,
+        reason,
+        walls,
+    }
+}
+
+/// Relative errors of a run against a reference, per probe: leading peak, its time, record max.
+pub fn errors_against(out: &RunOutput, reference: &RunOutput) -> Vec<[f64; 3]> {
+    out.probes
+        .iter()
+        .zip(&reference.probes)
+        .map(|(a, r)| {
+            [
+                rel_error(a.leading_peak, r.leading_peak),
+                rel_error(a.leading_peak_time_s, r.leading_peak_time_s),
+                rel_error(a.record_max, r.record_max),
+            ]
+        })
+        .collect()
+}
+
+/// Largest of a set of errors, ignoring NaN (values neither run has); NaN when all are NaN.
+pub fn max_ignoring_nan(xs: impl IntoIterator<Item = f64>) -> f64 {
+    let mut m = f64::NAN;
+    for x in xs {
+        if !x.is_nan() && (m.is_nan() || x > m) {
+            m = x;
+        }
+    }
+    m
+}
+
+/// An adaptive method at `rtol` with defaults otherwise.
+pub fn adaptive(method: &str, rtol: f64) -> IntegratorSpec {
+    match method {
+        "ros34pw2" => IntegratorSpec::Ros34pw2 {
+            rtol,
+            atol: None,
+            max_step_s: None,
+            locate_events: true,
+        },
+        _ => IntegratorSpec::Dop853 {
+            rtol,
+            atol: None,
+            max_step_s: None,
+            locate_events: true,
+        },
+    }
+}
+
+/// The setting of an integrator as a number (rtol or dt_s) and its name.
+pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
+    match *spec {
+        IntegratorSpec::Dop853 { rtol, .. } | IntegratorSpec::Ros34pw2 { rtol, .. } => {
+            (rtol, "rtol")
+        }
+        IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => (dt_s, "dt_s"),
+    }
+}
+
+/// Options of a study.
+#[derive(Debug, Clone)]
+pub struct StudyOptions {
+    /// Repeats per setting (wall time = median).
+    pub repeats: usize,
+    /// Settings whose estimated run time exceeds this are skipped, s.
+    pub max_run_s: f64,
+    /// Methods to study.
+    pub methods: Vec<String>,
+}
+
+/// Result of one method's ladder.
+pub struct MethodResult {
+    /// Method name.
+    pub method: String,
+    /// Name of the setting (`rtol` or `dt_s`).
+    pub setting_name: &'static str,
+    /// Measurements, one per setting.
+    pub runs: Vec<Measurement>,
+    /// Settings skipped as too expensive.
+    pub skipped: Vec<f64>,
+}
+
+/// A finished study.
+pub struct Study {
+    /// The scene studied.
+    pub scene: Scene,
+    /// Its scales.
+    pub scales: SceneScales,
+    /// The reference run.
+    pub reference: Measurement,
+    /// The run confirming the reference (another method).
+    pub confirmation: Measurement,
+    /// Largest relative difference of the confirmation's summaries from the reference's.
+    pub agreement: f64,
+    /// One result per method.
+    pub methods: Vec<MethodResult>,
+}
+
+/// Rungs of the adaptive ladders.
+pub const DOP853_LADDER: &[f64] = &[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
+/// Rungs of the ROS34PW2 ladder.
+pub const ROS34PW2_LADDER: &[f64] = &[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9];
+/// Fixed steps as fractions of the contact duration.
+pub const DT_DIVISORS: &[f64] = &[
+    10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0, 100000.0,
+];
+
+/// Runs a work-precision study of `scene`; `log` receives progress lines.
+pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> Result<Study> {
+    let scales = scene_scales(scene)?;
+    let stiff = scales.stiffness_ratio > STIFF_RATIO;
+    let mut scene = scene.clone();
+    scene.record.history = false;
+    scene.record.min_overlap = false;
+    // Generous budget: the ladders decide the cost, not the step budget.
+    scene.max_steps = scene.max_steps.max(1_000_000_000);
+    let (ref_spec, conf_spec) = if stiff {
+        (adaptive("ros34pw2", 1e-10), adaptive("dop853", 1e-12))
+    } else {
+        (adaptive("dop853", 1e-12), adaptive("ros34pw2", 1e-9))
+    };
+    log(&format!(
+        "contact time {:.3e} s, stiffness ratio mu*tau/m_min = {:.3e} ({}): reference {} rtol {:.0e}, confirmed by {} rtol {:.0e}",
+        scales.contact_time_s,
+        scales.stiffness_ratio,
+        if stiff { "damping-dominated" } else { "not stiff" },
+        ref_spec.method_name(),
+        setting_of(&ref_spec).0,
+        conf_spec.method_name(),
+        setting_of(&conf_spec).0
+    ));
+    let reference = measure(&scene, ref_spec, 1);
+    let Some(ref_out) = reference.out.clone() else {
+        return Err(Error::Other(format!(
+            "the reference run failed: {}",
+            reference.reason
+        )));
+    };
+    let confirmation = measure(&scene, conf_spec, 1);
+    let agreement = match &confirmation.out {
+        Some(o) => max_ignoring_nan(errors_against(o, &ref_out).into_iter().flatten()),
+        None => f64::NAN,
+    };
+    log(&format!(
+        "reference: {} RHS evals, {:.3} s; confirmation differs by {agreement:.2e} (largest relative difference of the probe summaries)",
+        ref_out.stats.rhs_evals,
+        reference.wall_median(),
+    ));
+    let t_rhs = reference.wall_median() / ref_out.stats.rhs_evals.max(1) as f64;
+    let mut methods = Vec::new();
+    for m in &opts.methods {
+        let mut runs = Vec::new();
+        let mut skipped = Vec::new();
+        let (settings, setting_name): (Vec<IntegratorSpec>, &'static str) = match m.as_str() {
+            "dop853" | "ros34pw2" => (
+                if m == "dop853" {
+                    DOP853_LADDER
+                } else {
+                    ROS34PW2_LADDER
+                }
+                .iter()
+                .map(|&r| adaptive(m, r))
+                .collect(),
+                "rtol",
+            ),
+            "rk4" | "verlet" => (
+                DT_DIVISORS
+                    .iter()
+                    .map(|&k| {
+                        let dt = round3(scales.contact_time_s / k);
+                        if m == "rk4" {
+                            IntegratorSpec::Rk4 { dt_s: dt }
+                        } else {
+                            IntegratorSpec::Verlet { dt_s: dt }
+                        }
+                    })
+                    .collect(),
+                "dt_s",
+            ),
+            other => {
+                return Err(Error::input(
+                    "--methods",
+                    format!("unknown method `{other}`; allowed: dop853, ros34pw2, rk4, verlet"),
+                ))
+            }
+        };
+        for spec in settings {
+            let (x, _) = setting_of(&spec);
+            if setting_name == "dt_s" {
+                let evals_per_step = if m == "rk4" { 4.0 } else { 1.0 };
+                let est = scene.duration_s / x * evals_per_step * t_rhs;
+                if est > opts.max_run_s {
+                    log(&format!(
+                        "{m} dt {x:.3e} s: skipped (estimated {est:.1} s per run > --max-run-seconds)"
+                    ));
+                    skipped.push(x);
+                    continue;
+                }
+            }
+            let meas = measure(&scene, spec, opts.repeats);
+            match &meas.out {
+                Some(o) => {
+                    let e = errors_against(o, &ref_out);
+                    log(&format!(
+                        "{m:<8} {setting_name} {x:.3e}: leading-peak error {:.2e}, time error {:.2e}, drift {:.2e}, {} RHS evals, {:.4} s",
+                        max_ignoring_nan(e.iter().map(|v| v[0])),
+                        max_ignoring_nan(e.iter().map(|v| v[1])),
+                        o.energy_drift_max,
+                        o.stats.rhs_evals,
+                        meas.wall_median()
+                    ));
+                }
+                None => log(&format!(
+                    "{m:<8} {setting_name} {x:.3e}: failed: {}",
+                    meas.reason
+                )),
+            }
+            // An adaptive ladder that takes too long stops there.
+            let slow = meas.wall_median() > opts.max_run_s;
+            runs.push(meas);
+            if slow {
+                log(&format!(
+                    "{m}: stopping the ladder (a run took more than --max-run-seconds)"
+                ));
+                break;
+            }
+        }
+        methods.push(MethodResult {
+            method: m.clone(),
+            setting_name,
+            runs,
+            skipped,
+        });
+    }
+    Ok(Study {
+        scene,
+        scales,
+        reference,
+        confirmation,
+        agreement,
+        methods,
+    })
+}
+
+/// Rounds to 3 significant digits (readable step sizes).
+fn round3(x: f64) -> f64 {
+    format!("{x:.2e}").parse().unwrap_or(x)
+}
+
+/// Writes a study to HDF5: root attributes describing the scene, the reference and its
+/// confirmation; one group per method with `setting`, `error`, `error_leading_peak`,
+/// `error_leading_peak_time`, `energy_drift`, `wall_time`, `wall_times`, `rhs_evals`, `steps`,
+/// `ok` and `reason`.
+pub fn write_study(path: &Path, st: &Study, probe_names: &[String], source: &str) -> Result<()> {
+    let f = File::create(path)?;
+    attr_str(&f, "engine", "chainsweep accuracy")?;
+    attr_str(&f, "engine_version", crate::ENGINE_VERSION)?;
+    attr_str(&f, "git_revision", crate::GIT_REVISION)?;
+    attr_str(&f, "source", source)?;
+    attr_str(
+        &f,
+        "scene",
+        &serde_json::to_string(&st.scene).expect("Scene serialises"),
+    )?;
+    attr_scalar(&f, "contact_time_s", st.scales.contact_time_s)?;
+    attr_scalar(&f, "stiffness_ratio", st.scales.stiffness_ratio)?;
+    let ref_out = st.reference.out.as_ref().expect("reference ran");
+    let (rs, rn) = setting_of(&st.reference.spec);
+    attr_str(
+        &f,
+        "reference",
+        &format!("{} {rn} {rs:.0e}", st.reference.spec.method_name()),
+    )?;
+    let (cs, cn) = setting_of(&st.confirmation.spec);
+    attr_str(
+        &f,
+        "confirmation",
+        &format!("{} {cn} {cs:.0e}", st.confirmation.spec.method_name()),
+    )?;
+    attr_scalar(&f, "reference_agreement", st.agreement)?;
+    attr_scalar(&f, "reference_wall_time_s", st.reference.wall_median())?;
+    attr_scalar(&f, "reference_rhs_evals", ref_out.stats.rhs_evals as i64)?;
+    attr_scalar(&f, "reference_energy_drift", ref_out.energy_drift_max)?;
+    attr_str(
+        &f,
+        "probes",
+        &serde_json::to_string(probe_names).expect("json"),
+    )?;
+    let lp: Vec<f64> = ref_out.probes.iter().map(|p| p.leading_peak).collect();
+    let lpt: Vec<f64> = ref_out
+        .probes
+        .iter()
+        .map(|p| p.leading_peak_time_s)
+        .collect();
+    let np = lp.len();
+    let d = dataset(&f, "reference_leading_peak", &[np], &lp)?;
+    attr_str(&d, "units", "see probes")?;
+    let d = dataset(&f, "reference_leading_peak_time_s", &[np], &lpt)?;
+    attr_str(&d, "units", "s")?;
+    attr_str(
+        &f,
+        "error_definition",
+        "error: largest relative error of the leading-peak force over the probes, against the reference",
+    )?;
+    for m in &st.methods {
+        let g = f.create_group(&m.method)?;
+        attr_str(&g, "setting_name", m.setting_name)?;
+        attr_str(
+            &g,
+            "setting_units",
+            if m.setting_name == "rtol" { "1" } else { "s" },
+        )?;
+        let n = m.runs.len();
+        let mut setting = Vec::with_capacity(n);
+        let mut error = Vec::with_capacity(n);
+        let mut e_lp = Vec::with_capacity(n * np);
+        let mut e_lpt = Vec::with_capacity(n * np);
+        let mut drift = Vec::with_capacity(n);
+        let mut wall = Vec::with_capacity(n);
+        let reps = m.runs.iter().map(|r| r.walls.len()).max().unwrap_or(1);
+        let mut walls = Vec::with_capacity(n * reps);
+        let mut rhs = Vec::with_capacity(n);
+        let mut steps = Vec::with_capacity(n);
+        let mut ok = Vec::with_capacity(n);
+        let mut reason = Vec::with_capacity(n);
+        for r in &m.runs {
+            setting.push(setting_of(&r.spec).0);
+            wall.push(r.wall_median());
+            for k in 0..reps {
+                walls.push(r.walls.get(k).copied().unwrap_or(f64::NAN));
+            }
+            match &r.out {
+                Some(o) => {
+                    let e = errors_against(o, ref_out);
+                    error.push(max_ignoring_nan(e.iter().map(|v| v[0])));
+                    e_lp.extend(e.iter().map(|v| v[0]));
+                    e_lpt.extend(e.iter().map(|v| v[1]));
+                    drift.push(o.energy_drift_max);
+                    rhs.push(o.stats.rhs_evals as i64);
+                    steps.push(o.stats.steps as i64);
+                    ok.push(1u8);
+                    reason.push(String::new());
+                }
+                None => {
+                    error.push(f64::NAN);
+                    e_lp.extend(std::iter::repeat(f64::NAN).take(np));
+                    e_lpt.extend(std::iter::repeat(f64::NAN).take(np));
+                    drift.push(f64::NAN);
+                    rhs.push(-1);
+                    steps.push(-1);
+                    ok.push(0u8);
+                    reason.push(r.reason.clone());
+                }
+            }
+        }
+        let d = dataset(&g, "setting", &[n], &setting)?;
+        attr_str(
+            &d,
+            "units",
+            if m.setting_name == "rtol" { "1" } else { "s" },
+        )?;
+        let d = dataset(&g, "error", &[n], &error)?;
+        attr_str(&d, "units", "1")?;
+        attr_str(
+            &d,
+            "long_name",
+            "largest relative error of the leading-peak force over the probes",
+        )?;
+        let d = dataset(&g, "error_leading_peak", &[n, np], &e_lp)?;
+        attr_str(&d, "units", "1")?;
+        let d = dataset(&g, "error_leading_peak_time", &[n, np], &e_lpt)?;
+        attr_str(&d, "units", "1")?;
+        attr_str(&d, "long_name", "relative error of the leading-peak time")?;
+        let d = dataset(&g, "energy_drift", &[n], &drift)?;
+        attr_str(&d, "units", "1")?;
+        attr_str(
+            &d,
+            "long_name",
+            "largest energy-ledger drift relative to the impact energy",
+        )?;
+        let d = dataset(&g, "wall_time", &[n], &wall)?;
+        attr_str(&d, "units", "s")?;
+        attr_str(&d, "long_name", "median wall time of the repeats")?;
+        let d = dataset(&g, "wall_times", &[n, reps], &walls)?;
+        attr_str(&d, "units", "s")?;
+        let d = dataset(&g, "rhs_evals", &[n], &rhs)?;
+        attr_str(&d, "units", "1")?;
+        let d = dataset(&g, "steps", &[n], &steps)?;
+        attr_str(&d, "units", "1")?;
+        dataset(&g, "ok", &[n], &ok)?;
+        str_dataset(&g, "reason", &[n], &reason)?;
+        dataset(&g, "skipped_settings", &[m.skipped.len()], &m.skipped)?;
+    }
+    f.close()?;
+    Ok(())
+}
+
+/// Cost of reaching `target` relative error with one method: the cheapest run of its ladder
+/// whose error is at most `target` (wall time s, RHS evals, setting), if any.
+pub fn cost_of(m: &MethodResult, reference: &RunOutput, target: f64) -> Option<(f64, u64, f64)> {
+    m.runs
+        .iter()
+        .filter_map(|r| {
+            let o = r.out.as_ref()?;
+            let e = max_ignoring_nan(errors_against(o, reference).iter().map(|v| v[0]));
+            (e <= target).then(|| (r.wall_median(), o.stats.rhs_evals, setting_of(&r.spec).0))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}

@@ -1,0 +1,243 @@
+//! `run --verify FRACTION`: a deterministic sample of grid points is run again at a tighter
+//! setting, and the observed relative error of each summary is stored with the sweep.
+//!
+//! - The sample is a pure function of the grid: the points are ordered by the SHA-256 of the
+//!   sweep key (the SHA-256 of every run hash, in grid order) and the point's flat index, and the
+//!   first `ceil(FRACTION × n)` are taken. Every shard computes the same sample and runs the
+//!   verifications of its own points, so a merge of shards equals a single-machine run.
+//! - The tighter setting: DOP853 and ROS34PW2 at `rtol / 100` (and `atol / 100` when given),
+//!   RK4 and Verlet at `dt / 4`; the step budget is multiplied by 4 (fixed-step methods need four
+//!   times the steps); histories and minimum overlaps are not recorded by verification runs.
+//! - A verification run is a run like any other: its record is a segment in the work directory,
+//!   under the hash of the tightened scene with a marker ([`verify_hash`]), so an interrupted
+//!   verification resumes, and a point once verified stays verified in later assemblies.
+
+use chainsweep_solver::{IntegratorSpec, Scene};
+use sha2::{Digest, Sha256};
+
+use crate::grid::{hex, Grid, RunHash};
+use crate::store::RunRecord;
+use crate::sweep::Sweep;
+
+/// `verified` flag: the point was not verified.
+pub const VERIFY_NONE: u8 = 0;
+/// `verified` flag: verified; the errors are stored.
+pub const VERIFY_OK: u8 = 1;
+/// `verified` flag: the verification run itself failed (its reason is printed by `run`).
+pub const VERIFY_FAILED: u8 = 2;
+
+/// How the tighter setting is made, as recorded in the file.
+pub const TIGHTENING: &str =
+    "dop853/ros34pw2: rtol/100 (atol/100 when given); rk4/verlet: dt_s/4; max_steps x4";
+
+/// The verification outcome of one grid point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VerifyInfo {
+    /// [`VERIFY_NONE`], [`VERIFY_OK`] or [`VERIFY_FAILED`].
+    pub status: u8,
+    /// Per probe: relative error of the leading peak, its time and the record maximum (NaN
+    /// where not verified, or where neither run has the value).
+    pub errors: Vec<[f64; 3]>,
+}
+
+impl VerifyInfo {
+    /// Not verified: NaN errors for `n_probes` probes.
+    pub fn none(n_probes: usize) -> Self {
+        VerifyInfo {
+            status: VERIFY_NONE,
+            errors: vec![[f64::NAN; 3]; n_probes],
+        }
+    }
+
+    /// The largest error over probes and summaries, NaN where there is none.
+    pub fn max_error(&self) -> f64 {
+        let mut m = f64::NAN;
+        for e in self.errors.iter().flatten() {
+            if !e.is_nan() && (m.is_nan() || *e > m) {
+                m = *e;
+            }
+        }
+        m
+    }
+}
+
+/// The integrator one notch tighter (see the module docs).
+pub fn tighten(spec: IntegratorSpec) -> IntegratorSpec {
+    match spec {
+        IntegratorSpec::Verlet { dt_s } => IntegratorSpec::Verlet { dt_s: dt_s / 4.0 },
+        IntegratorSpec::Rk4 { dt_s } => IntegratorSpec::Rk4 { dt_s: dt_s / 4.0 },
+        IntegratorSpec::Dop853 {
+            rtol,
+            atol,
+            max_step_s,
+            locate_events,
+        } => IntegratorSpec::Dop853 {
+            rtol: (rtol / 100.0).max(1e-15),
+            atol: atol.map(|a| (a / 100.0).max(1e-18)),
+            max_step_s,
+            locate_events,
+        },
+        IntegratorSpec::Ros34pw2 {
+            rtol,
+            atol,
+            max_step_s,
+            locate_events,
+        } => IntegratorSpec::Ros34pw2 {
+            rtol: (rtol / 100.0).max(1e-15),
+            atol: atol.map(|a| (a / 100.0).max(1e-18)),
+            max_step_s,
+            locate_events,
+        },
+    }
+}
+
+/// The verification scene of a grid point's scene.
+pub fn tight_scene(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    s.integrator = tighten(scene.integrator);
+    s.max_steps = scene.max_steps.saturating_mul(4);
+    s.record.history = false;
+    s.record.min_overlap = false;
+    s
+}
+
+/// Identity of the verification run of the point whose run hash is `base` and whose verification
+/// scene is `tight`: a different marker than run hashes, so the two never collide.
+pub fn verify_hash(base: &RunHash, tight: &Scene) -> RunHash {
+    let mut h = Sha256::new();
+    h.update(b"chainsweep verification run v1\n");
+    h.update(format!("base_run={}\n", hex(base)).as_bytes());
+    h.update(b"tightening=");
+    h.update(TIGHTENING.as_bytes());
+    h.update(b"\nscene=");
+    h.update(
+        serde_json::to_string(tight)
+            .expect("Scene serialises")
+            .as_bytes(),
+    );
+    h.finalize().into()
+}
+
+/// The key of a sweep for sampling: the SHA-256 of every run hash in grid order.
+pub fn sweep_key(grid: &Grid) -> [u8; 32] {
+    let mut h = Sha256::new();
+    h.update(b"chainsweep verification sample v1\n");
+    for x in &grid.hashes {
+        h.update(x);
+    }
+    h.finalize().into()
+}
+
+/// Which grid points are verified at `fraction` (in [0, 1]): exactly `ceil(fraction × n)` of
+/// them, a deterministic pseudo-random sample seeded by the sweep key.
+pub fn sample(grid: &Grid, fraction: f64) -> Vec<bool> {
+    let n = grid.len();
+    let mut chosen = vec![false; n];
+    if fraction.is_nan() || fraction <= 0.0 {
+        return chosen;
+    }
+    let k = ((fraction.min(1.0) * n as f64).ceil() as usize).min(n);
+    let key = sweep_key(grid);
+    let mut order: Vec<(u64, usize)> = (0..n)
+        .map(|i| {
+            let mut h = Sha256::new();
+            h.update(key);
+            h.update((i as u64).to_le_bytes());
+            let d: [u8; 32] = h.finalize().into();
+            (u64::from_le_bytes(d[..8].try_into().expect("8 bytes")), i)
+        })
+        .collect();
+    order.sort_unstable();
+    for &(_, i) in &order[..k] {
+        chosen[i] = true;
+    }
+    chosen
+}
+
+/// Relative error of `x` against the reference `r`: NaN when both are NaN (neither run has the
+/// value), infinite when only one is (the runs disagree on whether it exists) or when `r` is 0 and
+/// `x` is not.
+pub fn rel_error(x: f64, r: f64) -> f64 {
+    match (x.is_nan(), r.is_nan()) {
+        (true, true) => f64::NAN,
+        (true, false) | (false, true) => f64::INFINITY,
+        _ => {
+            if x == r {
+                0.0
+            } else if r == 0.0 {
+                f64::INFINITY
+            } else {
+                ((x - r) / r).abs()
+            }
+        }
+    }
+}
+
+/// The verification outcome of a point from its run and its verification run.
+pub fn compare(base: &RunRecord, tight: Option<&RunRecord>, n_probes: usize) -> VerifyInfo {
+    let Some(tight) = tight else {
+        return VerifyInfo::none(n_probes);
+    };
+    if !tight.ok {
+        return VerifyInfo {
+            status: VERIFY_FAILED,
+            errors: vec![[f64::NAN; 3]; n_probes],
+        };
+    }
+    if !base.ok {
+        return VerifyInfo::none(n_probes);
+    }
+    let errors = base
+        .probes
+        .iter()
+        .zip(&tight.probes)
+        .map(|(b, t)| {
+            [
+                rel_error(b.leading_peak, t.leading_peak),
+                rel_error(b.leading_peak_time_s, t.leading_peak_time_s),
+                rel_error(b.record_max, t.record_max),
+            ]
+        })
+        .collect();
+    VerifyInfo {
+        status: VERIFY_OK,
+        errors,
+    }
+}
+
+/// The verification scene and hash of point `i`.
+pub fn point_verification(sweep: &Sweep, grid: &Grid, i: usize) -> (Scene, RunHash) {
+    let scene = grid.build(sweep, i).expect("every point was validated");
+    let tight = tight_scene(&scene);
+    let h = verify_hash(&grid.hashes[i], &tight);
+    (tight, h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn relative_errors() {
+        assert_eq!(rel_error(1.0, 1.0), 0.0);
+        assert!((rel_error(1.01, 1.0) - 0.01).abs() < 1e-12);
+        assert!(rel_error(f64::NAN, f64::NAN).is_nan());
+        assert!(rel_error(f64::NAN, 1.0).is_infinite());
+        assert!(rel_error(1.0, 0.0).is_infinite());
+    }
+
+    #[test]
+    fn tightening() {
+        assert_eq!(
+            tighten(IntegratorSpec::Rk4 { dt_s: 4e-8 }),
+            IntegratorSpec::Rk4 { dt_s: 1e-8 }
+        );
+        match tighten(IntegratorSpec::default()) {
+            IntegratorSpec::Dop853 { rtol, atol, .. } => {
+                assert!((rtol - 1e-11).abs() < 1e-25);
+                assert_eq!(atol, None);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
