@@ -450,7 +450,14 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
         &mut observer
     ))?;
 
-    let warnings = validity_warnings(scene, &chain, &scales, observer.max_overlap);
+    let mut warnings = validity_warnings(scene, &chain, &scales, observer.max_overlap);
+    if stats.stiffness_detections > 0 {
+        warnings.push(format!(
+            "{}: steps were held by stability, not accuracy ({} stiff stretches): the chain is stiff here (damping against light masses); ros34pw2 needs far fewer steps",
+            integrator.name(),
+            stats.stiffness_detections
+        ));
+    }
     Ok(RunOutput {
         method: integrator.name(),
         max_overlap_m: observer.max_overlap,

@@ -321,3 +321,46 @@ fn observed_order_is_three_on_state_and_dissipated_work() {
     assert!((2.5..3.5).contains(&ps), "state order {ps}");
     assert!((2.5..3.5).contains(&pw), "dissipated-work order {pw}");
 }
+
+#[test]
+fn dop853_flags_a_stiff_chain_and_ros34pw2_does_not_need_to() {
+    use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+    let scene = |mu: f64, integrator: IntegratorSpec| {
+        let mut s = Scene::new(ChainSpec::chain_055(20), 1.3, 1e-4);
+        s.chain.cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.05 };
+        s.physics.damping_kg_s = mu;
+        s.integrator = integrator;
+        run(&s).unwrap()
+    };
+    let dop = IntegratorSpec::Dop853 {
+        rtol: 1e-6,
+        atol: None,
+        max_step_s: None,
+        locate_events: true,
+    };
+    let stiff = scene(10_000.0, dop);
+    assert!(stiff.stats.stiffness_detections > 0);
+    assert!(
+        stiff.warnings.iter().any(|w| w.contains("stiff")),
+        "{:?}",
+        stiff.warnings
+    );
+    let paper = scene(6.0, dop);
+    assert_eq!(paper.stats.stiffness_detections, 0);
+    assert!(
+        !paper.warnings.iter().any(|w| w.contains("stiff")),
+        "{:?}",
+        paper.warnings
+    );
+    let ros = scene(
+        10_000.0,
+        IntegratorSpec::Ros34pw2 {
+            rtol: 1e-6,
+            atol: None,
+            max_step_s: None,
+            locate_events: true,
+        },
+    );
+    assert_eq!(ros.stats.stiffness_detections, 0);
+    assert!(ros.stats.rhs_evals * 10 < stiff.stats.rhs_evals);
+}

@@ -23,6 +23,13 @@ use super::{
     StepObserver,
 };
 
+/// h·|λ| above which a step is on DOP853's stability boundary (Hairer's `dop853.f`).
+const STIFFNESS_BOUND: f64 = 6.1;
+/// Consecutive stiff steps that flag the problem as stiff.
+const STIFF_STEPS_TO_FLAG: u32 = 15;
+/// Calm steps that clear the count.
+const CALM_STEPS_TO_CLEAR: u32 = 6;
+
 /// Order of the method, for the starting-step estimate.
 const ORDER: i32 = 8;
 
@@ -264,6 +271,8 @@ const MAX_NONFINITE_RETRIES: u32 = 6;
 
 /// Every vector the step loop touches, allocated once per run.
 struct Work {
+    /// Hairer's stiffness estimate h·|λ| of the last accepted step.
+    stiffness: f64,
     /// State at the start of the current step.
     y: Vec<f64>,
     /// 8th-order solution at the end of the current step.
@@ -324,6 +333,7 @@ impl Work {
             cont: vec![Cell::new([0.0; 8]); n],
             cont_epoch: vec![Cell::new(0); n],
             epoch: 0,
+            stiffness: 0.0,
             atol,
         }
     }
@@ -599,6 +609,7 @@ impl Work {
             k12,
             k13,
             epoch,
+            stiffness,
             ..
         } = self;
         let y = &y[..n];
@@ -614,6 +625,19 @@ impl Work {
 
         sys.rhs(t_new, y_new, k13);
         let k13 = &k13[..n];
+
+        // Hairer's stiffness estimate h·|λ| ≈ h ‖f(y_new) − f(ys)‖ / ‖y_new − ys‖, where ys is the
+        // argument of stage 12 (also at t_new): near 6.1 the step sits on the stability boundary.
+        let (mut num, mut den) = (0.0, 0.0);
+        for i in 0..n {
+            num += (k13[i] - k12[i]) * (k13[i] - k12[i]);
+            den += (y_new[i] - ys[i]) * (y_new[i] - ys[i]);
+        }
+        *stiffness = if den > 0.0 {
+            h * (num / den).sqrt()
+        } else {
+            0.0
+        };
 
         {
             let s = &mut ys[..n];
@@ -881,6 +905,7 @@ impl Integrator for Dop853 {
         let switches = switches.as_slice();
         // The current attempt ends on a located event: accept it even if it still crosses one.
         let mut landing = false;
+        let (mut stiff_steps, mut calm_steps) = (0u32, 0u32);
         let mut last_failure_nonfinite = false;
 
         loop {
@@ -963,6 +988,20 @@ impl Integrator for Dop853 {
                 let mut h_new = h_step / fac;
                 facold = err.max(1e-4);
                 stats.steps += 1;
+                // Hairer's test: stiff once h·|λ| > 6.1 on 15 accepted steps without 6 calm ones
+                // in between; the step is then held by stability, not by the tolerance.
+                if w.stiffness > STIFFNESS_BOUND {
+                    calm_steps = 0;
+                    stiff_steps += 1;
+                    if stiff_steps == STIFF_STEPS_TO_FLAG {
+                        stats.stiffness_detections += 1;
+                    }
+                } else {
+                    calm_steps += 1;
+                    if calm_steps == CALM_STEPS_TO_CLEAR {
+                        stiff_steps = 0;
+                    }
+                }
                 nonfinite_streak = 0;
                 last_failure_nonfinite = false;
 

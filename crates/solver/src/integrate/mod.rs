@@ -141,6 +141,9 @@ pub struct IntegrationStats {
     pub events: u64,
     /// Evaluations of the right-hand side.
     pub rhs_evals: u64,
+    /// Times an explicit adaptive method found its step held by stability rather than accuracy
+    /// for a sustained stretch (Hairer's stiffness test): an implicit method would be cheaper.
+    pub stiffness_detections: u64,
 }
 
 /// Why an integration stopped before reaching its end time.
