@@ -23,6 +23,19 @@ use super::{
     StepObserver,
 };
 
+/// Sum of a slice in eight interleaved partial sums, which vectorises.
+fn lane_sum(v: &[f64]) -> f64 {
+    let chunks = v.chunks_exact(8);
+    let mut acc = [0.0f64; 8];
+    let rest: f64 = chunks.remainder().iter().sum();
+    for c in chunks {
+        for k in 0..8 {
+            acc[k] += c[k];
+        }
+    }
+    acc.iter().sum::<f64>() + rest
+}
+
 /// h·|λ| above which a step is on DOP853's stability boundary (Hairer's `dop853.f`).
 const STIFFNESS_BOUND: f64 = 6.1;
 /// Consecutive stiff steps that flag the problem as stiff.
@@ -271,6 +284,10 @@ const MAX_NONFINITE_RETRIES: u32 = 6;
 
 /// Every vector the step loop touches, allocated once per run.
 struct Work {
+    /// Squared, scaled components of the 3rd-order error estimate (scratch).
+    e3_sq: Vec<f64>,
+    /// Squared, scaled components of the 5th-order error estimate (scratch).
+    e5_sq: Vec<f64>,
     /// Hairer's stiffness estimate h·|λ| of the last accepted step.
     stiffness: f64,
     /// State at the start of the current step.
@@ -334,6 +351,8 @@ impl Work {
             cont_epoch: vec![Cell::new(0); n],
             epoch: 0,
             stiffness: 0.0,
+            e3_sq: vec![0.0; n],
+            e5_sq: vec![0.0; n],
             atol,
         }
     }
@@ -368,6 +387,8 @@ impl Work {
             k11,
             k12,
             atol,
+            e3_sq,
+            e5_sq,
             ..
         } = self;
         let y = &y[..n];
@@ -545,10 +566,12 @@ impl Work {
         sys.rhs(t_new, ys, k12);
         let k12 = &k12[..n];
 
-        // 8th-order solution and the two error estimates in one pass.
+        // 8th-order solution and the squared, scaled components of both error estimates in one
+        // vectorised pass; their sums in a second pass over eight partial sums (running sums
+        // would serialise the first loop).
         let y_new = &mut y_new[..n];
-        let mut err5 = 0.0;
-        let mut err3 = 0.0;
+        let e3_sq = &mut e3_sq[..n];
+        let e5_sq = &mut e5_sq[..n];
         let mut finite = true;
         for i in 0..n {
             let bk = B1 * k1[i]
@@ -563,22 +586,23 @@ impl Work {
             y_new[i] = yn;
             finite &= yn.is_finite();
             let sk = atol[i] + rtol * y[i].abs().max(yn.abs());
-            if sk > 0.0 {
-                let inv = 1.0 / sk;
-                let e3 = (bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i]) * inv;
-                let e5 = (ER1 * k1[i]
-                    + ER6 * k6[i]
-                    + ER7 * k7[i]
-                    + ER8 * k8[i]
-                    + ER9 * k9[i]
-                    + ER10 * k10[i]
-                    + ER11 * k11[i]
-                    + ER12 * k12[i])
-                    * inv;
-                err3 += e3 * e3;
-                err5 += e5 * e5;
-            }
+            // A component with no tolerance scale (exactly zero, atol 0) is left out.
+            let inv = if sk > 0.0 { 1.0 / sk } else { 0.0 };
+            let e3 = (bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i]) * inv;
+            let e5 = (ER1 * k1[i]
+                + ER6 * k6[i]
+                + ER7 * k7[i]
+                + ER8 * k8[i]
+                + ER9 * k9[i]
+                + ER10 * k10[i]
+                + ER11 * k11[i]
+                + ER12 * k12[i])
+                * inv;
+            e3_sq[i] = e3 * e3;
+            e5_sq[i] = e5 * e5;
         }
+        let err3 = lane_sum(e3_sq);
+        let err5 = lane_sum(e5_sq);
         let mut deno = err5 + 0.01 * err3;
         if deno <= 0.0 {
             deno = 1.0;
