@@ -107,3 +107,24 @@ accuracy: build
 	    2> results/accuracy/work_precision_$$s.log | tee results/accuracy/work_precision_$$s.txt || exit 1; \
 	  $(PY) scripts/plot_work_precision.py results/accuracy/work_precision_$$s.h5 -o results/work_precision_$$s.png || exit 1; \
 	done
+
+# integrator: auto (issue 5): sweeps whose integrator is `auto` with a target relative error, run
+# with every point verified at a tighter setting (--verify 1); the check prints the chosen setting
+# and the largest verified error, and fails when a point misses the target. See docs/NUMERICS.md.
+AUTO_CHECK_SWEEPS := fig08-auto stress/auto-stiff
+AUTO_CHECK_PY := import h5py, json, sys, numpy as np; \
+	f = h5py.File(sys.argv[1], "r"); t = float(f.attrs["auto_target_rel_error"]); \
+	e = f["verify_rel_error_max"][...]; v = f["verified"][...]; m = float(np.nanmax(e)); \
+	i = int(np.nanargmax(e)); a = f.attrs["auto_setting"]; \
+	print(f"{sys.argv[1]}: integrator auto, target {t:g}: {a}; " \
+	      f"{int((v == 1).sum())}/{v.size} points verified, largest relative error {m:.3g} at point {i}: " \
+	      + ("target met" if (v == 1).all() and m <= t else "TARGET MISSED")); \
+	sys.exit(0 if (v == 1).all() and m <= t else 1)
+.PHONY: auto-check
+auto-check: build
+	@mkdir -p results; \
+	for s in $(AUTO_CHECK_SWEEPS); do \
+	  out=results/$$(basename $$s).h5; \
+	  $(CHAINSWEEP_BIN) run sweeps/$$s.json -o $$out --jobs $(SWEEP_JOBS) --verify 1 --quiet || exit $$?; \
+	  $(PY) -c '$(AUTO_CHECK_PY)' $$out || exit 1; \
+	done

@@ -1,5 +1,5 @@
-//! Work-precision studies (`chainsweep accuracy`) and the measurements `integrator: auto` shares
-//! with them.
+//! Work-precision studies (`chainsweep accuracy`), and the measurements `integrator: auto`
+//! ([`crate::auto`]) shares with them.
 //!
 //! A study runs one scene with every integrator over a ladder of settings (DOP853 and ROS34PW2:
 //! `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds`), and compares the

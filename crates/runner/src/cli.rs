@@ -9,6 +9,7 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use clap::{Args, Parser, Subcommand};
 use rayon::prelude::*;
 
+use crate::auto;
 use crate::error::{Error, Result};
 use crate::exec;
 use crate::grid::{hex, multi_index, Grid, RunHash};
@@ -83,6 +84,10 @@ pub enum Command {
         /// Print only the scene, do not run it.
         #[arg(long)]
         scene_only: bool,
+        /// With `integrator: auto`: the output file whose work directory holds the choice made
+        /// by `run` (`X.h5.d/auto.json`); without it (or when it holds none) the pilot is run.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
     },
     /// Work-precision study of one scene: every integrator over a ladder of settings, errors
     /// against a confirmed reference, median wall time, RHS evaluations; written to HDF5.
@@ -213,7 +218,8 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
             file,
             index,
             scene_only,
-        } => cmd_point(&file, index, scene_only),
+            output,
+        } => cmd_point(&file, index, scene_only, output.as_deref()),
     }
 }
 
@@ -226,6 +232,86 @@ fn load(file: &Path) -> Result<(Sweep, Grid)> {
     let sweep = Sweep::load(&name)?;
     let grid = Grid::new(&sweep).map_err(|e| e.in_file(&name))?;
     Ok((sweep, grid))
+}
+
+fn thread_pool(jobs: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .map_err(|e| Error::Other(format!("cannot start {jobs} worker threads: {e}")))
+}
+
+fn all_cpus() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+}
+
+/// How `integrator: auto` was resolved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AutoOrigin {
+    /// The sweep does not use `auto`.
+    None,
+    /// Taken from the cache in the output's work directory.
+    Cache,
+    /// Chosen by a pilot run now (to be cached by a command that holds the work directory).
+    Pilot,
+}
+
+/// Resolves `integrator: auto` when the sweep asks for it: from the cache in `work_dir` when it
+/// holds the choice for this sweep, else by running the pilot on `pool`; then rebuilds the grid
+/// with the chosen integrator. Says what it chose on stderr (the pilot's progress unless `quiet`).
+fn resolve_auto(
+    sweep: &mut Sweep,
+    grid: &mut Grid,
+    work_dir: Option<&Path>,
+    pool: &rayon::ThreadPool,
+    quiet: bool,
+) -> Result<AutoOrigin> {
+    let Some(spec) = sweep.auto else {
+        return Ok(AutoOrigin::None);
+    };
+    if sweep.auto_choice.is_some() {
+        return Ok(AutoOrigin::Cache);
+    }
+    let key = auto::cache_key(grid, &spec);
+    let target = spec.target_rel_error;
+    let (choice, origin) = match work_dir.and_then(|d| auto::read_cache(d, &key)) {
+        Some(c) => {
+            eprintln!(
+                "chainsweep: integrator auto, target {target:e}: {} (chosen earlier: {})",
+                auto::describe(&c.integrator),
+                work_dir
+                    .expect("read from it")
+                    .join(auto::CACHE_FILE)
+                    .display()
+            );
+            (c, AutoOrigin::Cache)
+        }
+        None => {
+            let c = auto::resolve(sweep, grid, &spec, pool, |l| {
+                if !quiet {
+                    eprintln!("chainsweep: auto: {l}");
+                }
+            })?;
+            eprintln!(
+                "chainsweep: integrator auto, target {target:e}: chose {}",
+                c.summary()
+            );
+            (c, AutoOrigin::Pilot)
+        }
+    };
+    sweep.apply_auto(choice);
+    *grid = Grid::new(sweep)?;
+    Ok(origin)
+}
+
+/// Caches the choice of `integrator: auto` in the (locked) work directory.
+fn cache_auto(work: &WorkDir, sweep: &Sweep) -> Result<()> {
+    if let Some(c) = &sweep.auto_choice {
+        work.write_file_atomic(auto::CACHE_FILE, auto::to_json(c).as_bytes())?;
+    }
+    Ok(())
 }
 
 fn parse_shard(s: Option<&str>) -> Result<Option<(usize, usize)>> {
@@ -277,6 +363,14 @@ fn cmd_validate(file: &Path) -> Result<i32> {
             .map(|a| format!("{} ({})", a.name, a.field))
             .collect();
         println!("  {} × {}", d.len(), names.join(" zipped with "));
+    }
+    if let Some(spec) = sweep.auto {
+        let pilots = auto::pilot_points(&sweep, &grid, spec.pilot_points)?;
+        println!(
+            "  integrator auto, target relative error {:e}: chosen when the sweep runs, by a pilot on grid points {pilots:?} (DOP853 or ROS34PW2, the cheapest setting reaching {:e} there)",
+            spec.target_rel_error,
+            spec.target_rel_error / auto::SAFETY_FACTOR
+        );
     }
     Ok(EXIT_OK)
 }
@@ -629,6 +723,13 @@ fn dry_run(
             );
         }
     }
+    if let Some(c) = &sweep.auto_choice {
+        println!(
+            "integrator: auto, target {:e}: {}",
+            c.target_rel_error,
+            c.summary()
+        );
+    }
     let probe_names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
     println!(
         "record: probes [{}]; {}{}",
@@ -697,7 +798,7 @@ fn dry_run(
 }
 
 fn cmd_run(args: &RunArgs) -> Result<i32> {
-    let (sweep, grid) = load(&args.file)?;
+    let (mut sweep, mut grid) = load(&args.file)?;
     let shard = parse_shard(args.shard.as_deref())?;
     if args.jobs == Some(0) {
         return Err(Error::input("--jobs", "must be at least 1"));
@@ -725,23 +826,30 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         .output
         .clone()
         .unwrap_or_else(|| default_output(&args.file, shard));
+    if !args.dry_run {
+        check_output(&output, args.overwrite)?;
+    }
+    let jobs = args.jobs.unwrap_or_else(all_cpus);
+    let pool = thread_pool(jobs)?;
+    exec::install_panic_hook();
+    // `integrator: auto`: the cached choice, or a pilot (before the work directory is created,
+    // so that a target no setting meets leaves nothing behind).
+    let auto_origin = resolve_auto(
+        &mut sweep,
+        &mut grid,
+        Some(&work_dir_of(&output)),
+        &pool,
+        args.quiet,
+    )?;
     let points = grid.shard_points(shard);
     if args.dry_run {
         return dry_run(&sweep, &grid, &points, &output, shard);
     }
-    check_output(&output, args.overwrite)?;
-    let jobs = args.jobs.unwrap_or_else(|| {
-        std::thread::available_parallelism()
-            .map(|n| n.get())
-            .unwrap_or(1)
-    });
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(jobs)
-        .build()
-        .map_err(|e| Error::Other(format!("cannot start {jobs} worker threads: {e}")))?;
 
     let work = WorkDir::open(&output)?;
-    exec::install_panic_hook();
+    if auto_origin == AutoOrigin::Pilot {
+        cache_auto(&work, &sweep)?;
+    }
 
     // What is done already: every segment of this shard's points, verified whole.
     let mut done: HashMap<RunHash, bool> = HashMap::new();
@@ -1017,10 +1125,35 @@ fn cmd_status(file: &Path, output: Option<PathBuf>, shard: Option<&str>) -> Resu
             pending,
         }));
     }
-    let (sweep, grid) = load(file)?;
+    let (mut sweep, mut grid) = load(file)?;
     let shard = parse_shard(shard)?;
     let output = output.unwrap_or_else(|| default_output(file, shard));
     let points = grid.shard_points(shard);
+    if let Some(spec) = sweep.auto {
+        let dir = work_dir_of(&output);
+        match auto::read_cache(&dir, &auto::cache_key(&grid, &spec)) {
+            Some(c) => {
+                println!(
+                    "integrator auto, target {:e}: {}",
+                    spec.target_rel_error,
+                    auto::describe(&c.integrator)
+                );
+                sweep.apply_auto(c);
+                grid = Grid::new(&sweep)?;
+            }
+            None => {
+                println!(
+                    "{} → {}: {} runs: 0 done, {} pending (integrator auto not chosen yet: {} holds no choice for this sweep)",
+                    file.display(),
+                    output.display(),
+                    points.len(),
+                    points.len(),
+                    dir.join(auto::CACHE_FILE).display()
+                );
+                return Ok(EXIT_PARTIAL);
+            }
+        }
+    }
     let segs = scan_segments(&work_dir_of(&output))?;
     let ok = points
         .iter()
@@ -1086,8 +1219,43 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
         }
     }
     let text = text.expect("at least one shard");
-    let sweep = Sweep::parse(&text).map_err(|e| e.in_file(&path_str(&shards[0])))?;
-    let grid = Grid::new(&sweep).map_err(|e| e.in_file(&path_str(&shards[0])))?;
+    let mut sweep = Sweep::parse(&text).map_err(|e| e.in_file(&path_str(&shards[0])))?;
+    let mut grid = Grid::new(&sweep).map_err(|e| e.in_file(&path_str(&shards[0])))?;
+    if let Some(spec) = sweep.auto {
+        // Every shard resolved `auto` alike (the choice is deterministic): take it from them.
+        let key = auto::cache_key(&grid, &spec);
+        let mut choice: Option<auto::AutoChoice> = None;
+        for s in shards {
+            let c = hdf5file::read_auto_choice(s)?.ok_or_else(|| {
+                Error::Other(format!(
+                    "{}: the sweep's integrator is `auto` but the file records no choice (`auto` attribute)",
+                    s.display()
+                ))
+            })?;
+            if c.key != key {
+                return Err(Error::Other(format!(
+                    "{}: its `auto` choice was made for another grid or engine version (key {}, this chainsweep computes {key})",
+                    s.display(),
+                    c.key
+                )));
+            }
+            match &choice {
+                None => choice = Some(c),
+                Some(first) if *first != c => {
+                    return Err(Error::Other(format!(
+                        "{}: its `auto` choice ({}) differs from that of {} ({})",
+                        s.display(),
+                        auto::describe(&c.integrator),
+                        shards[0].display(),
+                        auto::describe(&first.integrator)
+                    )))
+                }
+                _ => {}
+            }
+        }
+        sweep.apply_auto(choice.expect("at least one shard"));
+        grid = Grid::new(&sweep)?;
+    }
     check_output(output, false)?;
     if shards
         .iter()
@@ -1099,6 +1267,7 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
         ));
     }
     let work = WorkDir::open(output)?;
+    cache_auto(&work, &sweep)?;
     let mut done: HashMap<RunHash, bool> = HashMap::new();
     let mut vsrc = VerifySource::empty(0.0);
     for s in shards {
@@ -1177,8 +1346,8 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
     Ok(exit_for(&counts))
 }
 
-fn cmd_point(file: &Path, index: usize, scene_only: bool) -> Result<i32> {
-    let (sweep, grid) = load(file)?;
+fn cmd_point(file: &Path, index: usize, scene_only: bool, output: Option<&Path>) -> Result<i32> {
+    let (mut sweep, mut grid) = load(file)?;
     if index >= grid.len() {
         return Err(Error::input(
             "INDEX",
@@ -1188,6 +1357,15 @@ fn cmd_point(file: &Path, index: usize, scene_only: bool) -> Result<i32> {
             ),
         ));
     }
+    exec::install_panic_hook();
+    let work_dir = output.map(work_dir_of);
+    resolve_auto(
+        &mut sweep,
+        &mut grid,
+        work_dir.as_deref(),
+        &thread_pool(all_cpus())?,
+        false,
+    )?;
     let scene = grid.build(&sweep, index)?;
     let hash = grid.hashes[index];
     let mut out = serde_json::json!({

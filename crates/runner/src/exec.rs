@@ -75,6 +75,11 @@ pub fn execute_verification(scene: &Scene, hash: RunHash, limits: &Limits) -> Ru
     execute_inner(scene, hash, limits, None)
 }
 
+/// Runs a pilot scene of `integrator: auto` (see [`crate::auto`]); the record carries no hash.
+pub fn execute_pilot(scene: &Scene, limits: &Limits) -> RunRecord {
+    execute_inner(scene, [0u8; 32], limits, None)
+}
+
 fn execute_inner(scene: &Scene, hash: RunHash, limits: &Limits, index: Option<usize>) -> RunRecord {
     let start = Instant::now();
     LAST_PANIC.with(|p| *p.borrow_mut() = Some(String::new()));

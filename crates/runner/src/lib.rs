@@ -12,7 +12,9 @@
 //! - [`store`]: crash-safe segment files (one per finished run), the lock on the work directory,
 //!   and the HDF5 file assembled from the segments in grid order;
 //! - [`verify`]: `run --verify`: the sample of grid points re-run at a tighter setting;
-//! - [`accuracy`]: work-precision studies (`chainsweep accuracy`) and `integrator: auto`;
+//! - [`accuracy`]: work-precision studies (`chainsweep accuracy`);
+//! - [`auto`]: `integrator: auto`, resolved to the cheapest setting that meets a target error by
+//!   a pilot on a few grid points, before the grid's scenes are built;
 //! - [`progress`]: the progress bar or the plain progress line;
 //! - [`cli`]: the `chainsweep` command line.
 //!
@@ -20,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod accuracy;
+pub mod auto;
 pub mod cli;
 pub mod error;
 pub mod exec;

@@ -5,7 +5,9 @@
 //! - `description` (optional string);
 //! - `base`: a scene as the solver reads it (`chain`, `physics`, `striker_velocity_m_s`,
 //!   `duration_s`, `integrator`, `max_steps`); `chain` may start from a preset,
-//!   `{"preset": "chain_055", "cylinders": 50, …overrides}`;
+//!   `{"preset": "chain_055", "cylinders": 50, …overrides}`; the integrator may be
+//!   `{"method": "auto", "target_rel_error": 1e-6}` (see [`crate::auto`]), which stands for one
+//!   concrete setting chosen before the sweep runs;
 //! - `record`: the solver's record block (probes, histories, intervals, …): exactly what is stored;
 //! - `axes`: the grid dimensions; each is an axis `{"field": "physics.damping_kg_s", "values": […]}`
 //!   or `{"field": …, "range": {"start": …, "stop": …, "step": …}}` (or `"num"` instead of `"step"`),
@@ -22,6 +24,7 @@ use serde_json::{Map, Value};
 
 use chainsweep_solver::{ChainSpec, Scene};
 
+use crate::auto::{AutoChoice, AutoSpec};
 use crate::error::{Error, Result};
 
 /// Names of the datasets the HDF5 layout uses at the root; axes may not take them.
@@ -117,6 +120,12 @@ pub struct Sweep {
     pub dims: Vec<Dim>,
     /// Failure limits.
     pub limits: Limits,
+    /// The `integrator: auto` request of the base scene, if any. Until it is resolved
+    /// ([`Sweep::apply_auto`]) `base` holds a stand-in integrator ([`AutoSpec::placeholder`]),
+    /// good for validation only.
+    pub auto: Option<AutoSpec>,
+    /// What `auto` chose, once resolved (`base.integrator` is then the chosen setting).
+    pub auto_choice: Option<AutoChoice>,
 }
 
 #[derive(Deserialize)]
@@ -439,7 +448,7 @@ fn expand_range(r: &RangeFile, origin: &str) -> Result<Vec<Value>> {
     }
 }
 
-fn parse_axis(a: AxisFile, origin: &str, base: &Value) -> Result<Axis> {
+fn parse_axis(a: AxisFile, origin: &str, base: &Value, auto: bool) -> Result<Axis> {
     if a.zip.is_some() {
         return Err(Error::input(
             format!("{origin}.zip"),
@@ -452,6 +461,12 @@ fn parse_axis(a: AxisFile, origin: &str, base: &Value) -> Result<Axis> {
             "missing: an axis needs `field` (the dotted path of a scene field, e.g. physics.damping_kg_s)",
         )
     })?;
+    if auto && split_path(&field)[0] == "integrator" {
+        return Err(Error::input(
+            format!("{origin}.field"),
+            format!("`{field}`: the base integrator is `auto`, which chooses one setting for the whole grid; an axis may not set integrator fields (give a fixed integrator in `base` to sweep over integrator settings)"),
+        ));
+    }
     lookup(base, &field).map_err(|m| Error::input(format!("{origin}.field"), m))?;
     let values = match (a.values, a.range) {
         (Some(v), None) => {
@@ -533,6 +548,15 @@ impl Sweep {
         if let Some(chain) = base.get_mut("chain") {
             expand_chain_preset(chain)?;
         }
+        // `integrator: auto` is resolved later; a concrete stand-in validates the rest.
+        let auto = match base.get("integrator") {
+            Some(v) => AutoSpec::from_integrator(v)?,
+            None => None,
+        };
+        if let Some(a) = &auto {
+            base["integrator"] =
+                serde_json::to_value(a.placeholder()).expect("IntegratorSpec serialises");
+        }
         if let Some(record) = file.record {
             if base.get("record").is_some() {
                 return Err(Error::input(
@@ -604,7 +628,12 @@ impl Sweep {
                 }
                 let mut axes = Vec::new();
                 for (j, z) in zip.into_iter().enumerate() {
-                    axes.push(parse_axis(z, &format!("{origin}.zip[{j}]"), &base)?);
+                    axes.push(parse_axis(
+                        z,
+                        &format!("{origin}.zip[{j}]"),
+                        &base,
+                        auto.is_some(),
+                    )?);
                 }
                 let n = axes[0].values.len();
                 for ax in &axes[1..] {
@@ -622,7 +651,7 @@ impl Sweep {
                 let name = a.name.unwrap_or_else(|| axes[0].name.clone());
                 dims.push(Dim { name, axes });
             } else {
-                let axis = parse_axis(a, &origin, &base)?;
+                let axis = parse_axis(a, &origin, &base, auto.is_some())?;
                 dims.push(Dim {
                     name: axis.name.clone(),
                     axes: vec![axis],
@@ -693,7 +722,23 @@ impl Sweep {
             base,
             dims,
             limits,
+            auto,
+            auto_choice: None,
         })
+    }
+
+    /// Whether the base integrator is `auto` and not resolved yet: the scenes of the grid hold a
+    /// stand-in integrator and must not be run.
+    pub fn auto_unresolved(&self) -> bool {
+        self.auto.is_some() && self.auto_choice.is_none()
+    }
+
+    /// Resolves `integrator: auto` with `choice`: every grid point's scene gets the chosen
+    /// integrator (rebuild the [`crate::grid::Grid`] afterwards: its run hashes change).
+    pub fn apply_auto(&mut self, choice: AutoChoice) {
+        self.base["integrator"] =
+            serde_json::to_value(choice.integrator).expect("IntegratorSpec serialises");
+        self.auto_choice = Some(choice);
     }
 
     /// Reads and parses a sweep file.

@@ -408,6 +408,9 @@ pub fn write_file(
     attr_scalar(&file, "verify_fraction", verify_fraction)?;
     attr_str(&file, "verify_tightening", TIGHTENING)?;
     attr_scalar(&file, "n_verified", n_verified as i64)?;
+    if let Some(c) = &sweep.auto_choice {
+        write_auto_attrs(&file, c)?;
+    }
 
     // Coordinates (dimension scales).
     let mut scales: Vec<Vec<(Dataset, String)>> = Vec::new();
@@ -644,6 +647,49 @@ pub struct FileRecords {
 fn read_attr_str(loc: &Location, name: &str) -> Result<String> {
     let v: VarLenUnicode = loc.attr(name)?.read_scalar()?;
     Ok(v.as_str().to_string())
+}
+
+/// Writes what `integrator: auto` chose as root attributes: `auto` (the whole record as JSON,
+/// every candidate of the pilot included), `auto_target_rel_error`, `auto_safety_factor`,
+/// `auto_method`, `auto_setting` (JSON of the chosen integrator), `auto_pilot_points` (flat
+/// indices), `auto_pilot_references` (JSON list), `auto_pilot_errors`, `auto_pilot_rhs_evals`
+/// (of the chosen setting, per pilot point) and `auto_pilot_cost_rhs_evals` (the whole pilot).
+fn write_auto_attrs(file: &File, c: &crate::auto::AutoChoice) -> Result<()> {
+    attr_str(file, "auto", &crate::auto::to_json(c))?;
+    attr_scalar(file, "auto_target_rel_error", c.target_rel_error)?;
+    attr_scalar(file, "auto_safety_factor", c.safety_factor)?;
+    attr_str(file, "auto_method", c.integrator.method_name())?;
+    attr_str(
+        file,
+        "auto_setting",
+        &serde_json::to_string(&c.integrator).expect("json"),
+    )?;
+    let pts: Vec<i64> = c.pilot_points.iter().map(|&i| i as i64).collect();
+    attr_vec(file, "auto_pilot_points", &pts)?;
+    attr_str(
+        file,
+        "auto_pilot_references",
+        &serde_json::to_string(&c.pilot_references).expect("json"),
+    )?;
+    attr_vec(file, "auto_pilot_errors", &c.pilot_errors)?;
+    let ev: Vec<i64> = c.pilot_rhs_evals.iter().map(|&e| e as i64).collect();
+    attr_vec(file, "auto_pilot_rhs_evals", &ev)?;
+    attr_scalar(
+        file,
+        "auto_pilot_cost_rhs_evals",
+        c.pilot_cost_rhs_evals as i64,
+    )?;
+    Ok(())
+}
+
+/// Reads what `integrator: auto` chose from an output file's `auto` attribute (`None` when the
+/// file has none).
+pub fn read_auto_choice(path: &Path) -> Result<Option<crate::auto::AutoChoice>> {
+    let f = File::open(path)?;
+    if !f.attr_names()?.iter().any(|a| a == "auto") {
+        return Ok(None);
+    }
+    crate::auto::from_json(&read_attr_str(&f, "auto")?).map(Some)
 }
 
 /// Reads the `sweep` root attribute of an HDF5 file made by chainsweep.

@@ -8,6 +8,7 @@
 //!   `X.h5.d/tmp/`, `fsync`ed, renamed into place and the directory `fsync`ed; a segment either
 //!   exists whole or not at all.
 //! - `X.h5.d/tmp/`: temporary files, emptied by the next process that takes the lock.
+//! - `X.h5.d/auto.json`: what `integrator: auto` chose ([`crate::auto`]), written atomically.
 //!
 //! `X.h5` itself is only ever replaced by renaming a completely written and `fsync`ed file over it
 //! ([`hdf5file::assemble`]), so it is always either the previous complete version or the new one.
@@ -188,6 +189,26 @@ impl WorkDir {
             format!("cannot rename {} to {}", tmp.display(), dest.display())
         })?;
         fsync_dir(&self.dir.join("segments"))
+    }
+
+    /// Writes `bytes` to the file `name` of the work directory atomically (temporary file, fsync,
+    /// rename, fsync of the directory): the file is either the previous version or the new one.
+    pub fn write_file_atomic(&self, name: &str, bytes: &[u8]) -> Result<()> {
+        let tmp = self.tmp_path(name);
+        {
+            let mut f = io_ctx(File::create(&tmp), || {
+                format!("cannot create {}", tmp.display())
+            })?;
+            io_ctx(f.write_all(bytes), || {
+                format!("cannot write {}", tmp.display())
+            })?;
+            io_ctx(f.sync_all(), || format!("cannot sync {}", tmp.display()))?;
+        }
+        let dest = self.dir.join(name);
+        io_ctx(fs::rename(&tmp, &dest), || {
+            format!("cannot rename {} to {}", tmp.display(), dest.display())
+        })?;
+        fsync_dir(&self.dir)
     }
 
     /// Reads a run's segment; `None` when it is missing or corrupt.

@@ -1,0 +1,735 @@
+//! `integrator: auto`: the engine picks the cheapest integrator setting that meets a target
+//! relative error, from a short pilot on a few grid points, and records what it chose.
+//!
+//! A sweep asks for it in its base scene:
+//!
+//! ```json
+//! "integrator": {"method": "auto", "target_rel_error": 1e-6, "pilot_points": 5}
+//! ```
+//!
+//! (`pilot_points` is optional, default [`DEFAULT_PILOT_POINTS`].) The solver knows no `auto`
+//! method: the runner resolves it to one concrete [`IntegratorSpec`] before it builds the grid's
+//! scenes, so run hashes, `status`, `point`, `merge`, dry runs and resume all see concrete scenes,
+//! and a grid point of an `auto` sweep is the same run as that point with the chosen setting
+//! written out.
+//!
+//! The resolution is a pure function of the sweep (deterministic on every machine, for any
+//! `--jobs` and in every shard), because it decides by right-hand-side evaluation counts and
+//! errors, never by wall time:
+//!
+//! 1. **Pilot points** ([`pilot_points`]): the first and last corners of the grid, its stiffest
+//!    point (largest `μ τ / m_min`, see [`crate::accuracy::scene_scales`]), its centre, then the
+//!    other corners, without repeats, at most `pilot_points` of them.
+//! 2. **Reference** on each pilot point: DOP853 at rtol 1e-12, or ROS34PW2 at rtol 1e-10 where
+//!    damping dominates (stiffness ratio over [`STIFF_RATIO`], as in `chainsweep accuracy`) and
+//!    the target is at least [`ROS_REFERENCE_MIN_TARGET`] (ROS34PW2 at 1e-10 is itself only
+//!    ~5e-9 accurate, so tighter targets keep the DOP853 reference there too).
+//! 3. **Candidates**, cheapest first: DOP853 at rtol = target × [`DOP853_FACTORS`] and ROS34PW2
+//!    at rtol = target × [`ROS34PW2_FACTORS`] (ROS34PW2 first when a pilot point is
+//!    damping-dominated). A candidate's error at a pilot point is the largest relative error of
+//!    `leading_peak`, `leading_peak_time_s` and `record_max` over the probes against the
+//!    reference — the quantity `run --verify` stores as `verify_rel_error_max`. It meets the
+//!    target when that error is at most `target / SAFETY_FACTOR` at every pilot point and every
+//!    pilot run succeeds (energy-drift limit included). A method's ladder stops at its first
+//!    candidate that meets the target, or once a candidate costs more than the best found.
+//! 4. **Choice**: the candidate meeting the target with the smallest pilot cost, the sum of its
+//!    RHS evaluations over the pilot points weighted by [`ROS34PW2_EVAL_WEIGHT`] for ROS34PW2.
+//!    When none meets the target, the sweep is refused (exit 2) with the best error reached.
+//!
+//! The choice ([`AutoChoice`]) is cached in the output's work directory (`X.h5.d/auto.json`,
+//! written atomically) under a key ([`cache_key`]) that covers every unresolved run hash (hence
+//! the base scene, axes, record block, limits, numerics and solver versions), the request and
+//! [`AUTO_VERSION`], so runs after the first, resumes and `status` do not repeat the pilot. It is
+//! stored in the HDF5 file as root attributes (`auto`, `auto_method`, `auto_setting`, …), which
+//! is also where `merge` takes it from.
+
+use std::path::Path;
+use std::time::Instant;
+
+use chainsweep_solver::{IntegratorSpec, Scene};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use sha2::{Digest, Sha256};
+
+use crate::accuracy::{adaptive, max_ignoring_nan, scene_scales, STIFF_RATIO};
+use crate::error::{Error, Result};
+use crate::exec;
+use crate::grid::{hex, multi_index, Grid};
+use crate::store::RunRecord;
+use crate::sweep::{Limits, Sweep};
+use crate::verify::rel_error;
+
+/// Version of the resolution procedure: part of the cache key, so a change of the procedure
+/// re-runs the pilot of sweeps resolved before.
+pub const AUTO_VERSION: u32 = 1;
+
+/// Smallest target relative error. Candidates are measured at `target / SAFETY_FACTOR` against
+/// the DOP853 reference at rtol 1e-12, whose own error is a few 1e-10 (DOP853 at rtol 1e-11
+/// differs from it by up to 2.9e-9 on the Fig. 8 pilot points, leading-peak times included), so
+/// smaller targets could not be told apart from the reference's error.
+pub const TARGET_MIN: f64 = 1e-8;
+
+/// Largest target relative error.
+pub const TARGET_MAX: f64 = 1e-2;
+
+/// Default number of pilot points.
+pub const DEFAULT_PILOT_POINTS: usize = 5;
+
+/// Largest number of pilot points.
+pub const MAX_PILOT_POINTS: usize = 64;
+
+/// A candidate must reach `target / SAFETY_FACTOR` on the pilot points, because the pilot sees a
+/// few points of the grid and the error of a tolerance-controlled method scatters between grid
+/// points with a heavy tail (mostly in the leading-peak time and late record maxima). Calibrated
+/// on five sweeps of `sweeps/` (fig08, fig08-light, critical-damping, mass-damping,
+/// velocity-zip) at seven DOP853 tolerances, 1e-6 … 1e-9, with `run --verify 1`: the largest
+/// error over the five pilot points was below the grid's largest by up to 4.5× (fig08), 4.3×
+/// (critical-damping) and 5.8× (mass-damping; 12× and 30× there at rtol 3e-9 and 1e-8). With a
+/// factor of 5 every sweep met targets of 1e-5 and 1e-6 at every point, at most 27 % dearer than
+/// the cheapest ladder rung that would have; a factor of 3 missed one of these ten cases, 2 missed
+/// three. See `docs/NUMERICS.md`.
+pub const SAFETY_FACTOR: f64 = 5.0;
+
+/// Cost of one ROS34PW2 RHS evaluation in DOP853 evaluations: each comes with its share of
+/// Jacobian evaluations and tridiagonal solves. Measured by `chainsweep accuracy` on the five
+/// scenes of `docs/NUMERICS.md` (wall time per evaluation, ROS34PW2 over DOP853: 5.4, 6.6, 6.8,
+/// 7.0, 7.8).
+pub const ROS34PW2_EVAL_WEIGHT: f64 = 7.0;
+
+/// DOP853 candidates: rtol = target × these, loosest first. DOP853's error is 1–10 × rtol on a
+/// single scene and 20–1000 × rtol at the worst point of a grid, so rtol = target never reaches
+/// `target / SAFETY_FACTOR` and the ladder starts below it.
+pub const DOP853_FACTORS: &[f64] = &[0.3, 0.1, 0.03, 0.01, 0.003, 0.001, 3e-4, 1e-4];
+
+/// ROS34PW2 candidates: rtol = target × these, loosest first (its error is ≈ 1–250 × rtol).
+pub const ROS34PW2_FACTORS: &[f64] = &[0.1, 0.03, 0.01, 0.003, 0.001, 3e-4];
+
+/// Tightest DOP853 candidate: ten times the reference's tolerance.
+pub const DOP853_MIN_RTOL: f64 = 1e-11;
+
+/// Tightest ROS34PW2 candidate: ten times the tolerance of its reference.
+pub const ROS34PW2_MIN_RTOL: f64 = 1e-9;
+
+/// Smallest target for which damping-dominated pilot points take the ROS34PW2 reference.
+pub const ROS_REFERENCE_MIN_TARGET: f64 = 1e-6;
+
+/// Name of the cache file in the output's work directory.
+pub const CACHE_FILE: &str = "auto.json";
+
+/// An `integrator: auto` request of a sweep file.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct AutoSpec {
+    /// Largest relative error allowed at every grid point.
+    pub target_rel_error: f64,
+    /// Largest number of pilot points.
+    pub pilot_points: usize,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AutoFile {
+    #[allow(dead_code)]
+    method: String,
+    target_rel_error: Option<f64>,
+    #[serde(default)]
+    pilot_points: Option<u64>,
+}
+
+impl AutoSpec {
+    /// Reads `base.integrator` (`value`) when its method is `auto`: `Ok(None)` for any other
+    /// integrator; an input error naming the field for a malformed request.
+    pub fn from_integrator(value: &Value) -> Result<Option<AutoSpec>> {
+        if value.get("method").and_then(Value::as_str) != Some("auto") {
+            return Ok(None);
+        }
+        let f: AutoFile =
+            crate::sweep::from_value_at(value.clone(), "base.integrator").map_err(|e| match e {
+                Error::Input { field, message, .. } => Error::input(
+                    field,
+                    format!(
+                        "{message} (`auto` takes `target_rel_error` and optionally `pilot_points`)"
+                    ),
+                ),
+                other => other,
+            })?;
+        let target = f.target_rel_error.ok_or_else(|| {
+            Error::input(
+                "base.integrator.target_rel_error",
+                format!("missing: `auto` needs the largest relative error allowed at every grid point, a number in [{TARGET_MIN:e}, {TARGET_MAX:e}]"),
+            )
+        })?;
+        if !(target.is_finite() && (TARGET_MIN..=TARGET_MAX).contains(&target)) {
+            return Err(Error::input(
+                "base.integrator.target_rel_error",
+                format!("must lie in [{TARGET_MIN:e}, {TARGET_MAX:e}], got {target}"),
+            ));
+        }
+        let pilot_points = match f.pilot_points {
+            None => DEFAULT_PILOT_POINTS,
+            Some(n) if (1..=MAX_PILOT_POINTS as u64).contains(&n) => n as usize,
+            Some(n) => {
+                return Err(Error::input(
+                    "base.integrator.pilot_points",
+                    format!("must lie in 1..={MAX_PILOT_POINTS}, got {n}"),
+                ))
+            }
+        };
+        Ok(Some(AutoSpec {
+            target_rel_error: target,
+            pilot_points,
+        }))
+    }
+
+    /// The concrete integrator that stands in for `auto` while the sweep is parsed and its grid
+    /// validated (DOP853 at rtol = target); never run.
+    pub fn placeholder(&self) -> IntegratorSpec {
+        adaptive("dop853", self.target_rel_error)
+    }
+}
+
+/// One candidate setting tried by the pilot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// The setting.
+    pub integrator: IntegratorSpec,
+    /// Relative error at each pilot point (`null`: the run failed, or found a leading pulse the
+    /// reference did not, or the other way round).
+    pub errors: Vec<Option<f64>>,
+    /// RHS evaluations at each pilot point (`null`: the run failed).
+    pub rhs_evals: Vec<Option<u64>>,
+    /// Weighted RHS evaluations over the pilot points (`null` when a run failed).
+    pub cost: Option<f64>,
+    /// Whether every pilot run succeeded within `target / safety_factor`.
+    pub meets_target: bool,
+    /// Why a pilot run failed, when one did.
+    pub failure: Option<String>,
+}
+
+impl Candidate {
+    /// Largest error over the pilot points (infinite when a run failed).
+    pub fn max_error(&self) -> f64 {
+        self.errors
+            .iter()
+            .map(|e| e.unwrap_or(f64::INFINITY))
+            .fold(0.0, f64::max)
+    }
+}
+
+/// What `auto` chose, and the pilot it chose from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AutoChoice {
+    /// The cache key of the unresolved sweep ([`cache_key`]).
+    pub key: String,
+    /// [`AUTO_VERSION`] of the procedure that chose.
+    pub version: u32,
+    /// The requested target relative error.
+    pub target_rel_error: f64,
+    /// [`SAFETY_FACTOR`]: the pilot required `target / safety_factor`.
+    pub safety_factor: f64,
+    /// The chosen setting, used at every grid point.
+    pub integrator: IntegratorSpec,
+    /// Flat indices of the pilot points.
+    pub pilot_points: Vec<usize>,
+    /// Reference setting at each pilot point.
+    pub pilot_references: Vec<IntegratorSpec>,
+    /// Error of the chosen setting at each pilot point.
+    pub pilot_errors: Vec<f64>,
+    /// RHS evaluations of the chosen setting at each pilot point.
+    pub pilot_rhs_evals: Vec<u64>,
+    /// RHS evaluations the whole pilot took (references and every candidate).
+    pub pilot_cost_rhs_evals: u64,
+    /// Every candidate tried, in the order tried.
+    pub candidates: Vec<Candidate>,
+}
+
+/// A setting in words: `dop853 rtol 3e-8`.
+pub fn describe(spec: &IntegratorSpec) -> String {
+    let (x, name) = crate::accuracy::setting_of(spec);
+    format!("{} {name} {x:e}", spec.method_name())
+}
+
+impl AutoChoice {
+    /// The choice in one line: setting, pilot points, largest pilot error, pilot cost.
+    pub fn summary(&self) -> String {
+        format!(
+            "{} (pilot on points {:?}: largest error {:.2e} <= {:e}/{}, {} RHS evaluations there; the pilot took {} RHS evaluations in all)",
+            describe(&self.integrator),
+            self.pilot_points,
+            self.pilot_errors.iter().cloned().fold(0.0, f64::max),
+            self.target_rel_error,
+            self.safety_factor,
+            self.pilot_rhs_evals.iter().sum::<u64>(),
+            self.pilot_cost_rhs_evals
+        )
+    }
+}
+
+/// The cache key of an `auto` sweep: the SHA-256 of [`AUTO_VERSION`], the request, the grid's
+/// shape and every run hash of the unresolved grid (which cover the scenes, the limits and the
+/// numerics and solver versions).
+pub fn cache_key(grid: &Grid, spec: &AutoSpec) -> String {
+    let mut h = Sha256::new();
+    h.update(b"chainsweep auto resolution\n");
+    h.update(format!("version={AUTO_VERSION}\n").as_bytes());
+    h.update(
+        format!(
+            "request={}\n",
+            serde_json::to_string(spec).expect("AutoSpec serialises")
+        )
+        .as_bytes(),
+    );
+    h.update(format!("shape={:?}\n", grid.shape).as_bytes());
+    for x in &grid.hashes {
+        h.update(x);
+    }
+    let d: [u8; 32] = h.finalize().into();
+    hex(&d)
+}
+
+/// The cached choice in work directory `dir`, if there is one for `key`.
+pub fn read_cache(dir: &Path, key: &str) -> Option<AutoChoice> {
+    let text = std::fs::read_to_string(dir.join(CACHE_FILE)).ok()?;
+    let c: AutoChoice = serde_json::from_str(&text).ok()?;
+    (c.key == key && c.version == AUTO_VERSION).then_some(c)
+}
+
+/// The choice as cached and stored (JSON).
+pub fn to_json(choice: &AutoChoice) -> String {
+    serde_json::to_string(choice).expect("AutoChoice serialises")
+}
+
+/// Reads a choice from its JSON (`auto` attribute of an output file).
+pub fn from_json(text: &str) -> Result<AutoChoice> {
+    serde_json::from_str(text).map_err(|e| Error::Other(format!("unreadable `auto` record: {e}")))
+}
+
+/// Pilot points of a grid: the first and last corners, the stiffest point, the centre, then the
+/// other corners (row-major order), without repeats, at most `n`; sorted.
+pub fn pilot_points(sweep: &Sweep, grid: &Grid, n: usize) -> Result<Vec<usize>> {
+    let shape = &grid.shape;
+    let flat = |mi: &[usize]| {
+        mi.iter()
+            .zip(shape)
+            .fold(0usize, |acc, (&i, &m)| acc * m + i)
+    };
+    let last: Vec<usize> = shape.iter().map(|&m| m - 1).collect();
+    let centre: Vec<usize> = shape.iter().map(|&m| m / 2).collect();
+    let mut order = vec![0, flat(&last)];
+    let mut stiffest = (f64::NEG_INFINITY, 0usize);
+    for i in 0..grid.len() {
+        let r = scene_scales(&grid.build(sweep, i)?)?.stiffness_ratio;
+        if r > stiffest.0 {
+            stiffest = (r, i);
+        }
+    }
+    order.push(stiffest.1);
+    order.push(flat(&centre));
+    let d = shape.len().min(16);
+    for c in 0..(1usize << d) {
+        let mi: Vec<usize> = (0..shape.len())
+            .map(|k| {
+                if k < d && c >> (d - 1 - k) & 1 == 1 {
+                    last[k]
+                } else {
+                    0
+                }
+            })
+            .collect();
+        order.push(flat(&mi));
+    }
+    let mut out: Vec<usize> = Vec::new();
+    for i in order {
+        if out.len() == n {
+            break;
+        }
+        if !out.contains(&i) {
+            out.push(i);
+        }
+    }
+    out.sort_unstable();
+    Ok(out)
+}
+
+/// Rounds to 3 significant digits, so that ladder rungs read `3e-7`, not `2.9999999999999997e-7`.
+fn round3(x: f64) -> f64 {
+    format!("{x:.2e}").parse().unwrap_or(x)
+}
+
+/// The candidate ladder of `method` for `target`, loosest first.
+pub fn ladder(method: &str, target: f64) -> Vec<IntegratorSpec> {
+    let (factors, min) = if method == "ros34pw2" {
+        (ROS34PW2_FACTORS, ROS34PW2_MIN_RTOL)
+    } else {
+        (DOP853_FACTORS, DOP853_MIN_RTOL)
+    };
+    factors
+        .iter()
+        .map(|f| round3(target * f))
+        .filter(|&r| r >= min * (1.0 - 1e-9))
+        .map(|r| adaptive(method, r))
+        .collect()
+}
+
+/// The error of a pilot run against the reference: the largest relative error of the leading
+/// peak, its time and the record maximum over the probes (`None` where they disagree on whether
+/// a value exists; 0 when there is nothing to compare).
+pub fn pilot_error(run: &RunRecord, reference: &RunRecord) -> Option<f64> {
+    let errs = run.probes.iter().zip(&reference.probes).flat_map(|(a, r)| {
+        [
+            rel_error(a.leading_peak, r.leading_peak),
+            rel_error(a.leading_peak_time_s, r.leading_peak_time_s),
+            rel_error(a.record_max, r.record_max),
+        ]
+    });
+    let e = max_ignoring_nan(errs);
+    if e.is_nan() {
+        Some(0.0)
+    } else if e.is_finite() {
+        Some(e)
+    } else {
+        None
+    }
+}
+
+/// Weighted cost of `evals` RHS evaluations of `spec`.
+fn weighted(spec: &IntegratorSpec, evals: u64) -> f64 {
+    match spec {
+        IntegratorSpec::Ros34pw2 { .. } => evals as f64 * ROS34PW2_EVAL_WEIGHT,
+        _ => evals as f64,
+    }
+}
+
+/// Runs `scene` with `spec` (no histories) under `limits` and returns its record.
+fn pilot_run(scene: &Scene, spec: IntegratorSpec, max_steps: u64, limits: &Limits) -> RunRecord {
+    let mut s = scene.clone();
+    s.integrator = spec;
+    s.max_steps = max_steps;
+    s.record.history = false;
+    s.record.min_overlap = false;
+    exec::execute_pilot(&s, limits)
+}
+
+/// Resolves the `auto` request `spec` of `sweep` (whose `grid` holds the unresolved scenes) by
+/// running the pilot on `pool`; `log` receives progress lines. An input error (exit 2) when no
+/// candidate meets the target, or when a reference run fails.
+pub fn resolve(
+    sweep: &Sweep,
+    grid: &Grid,
+    spec: &AutoSpec,
+    pool: &rayon::ThreadPool,
+    mut log: impl FnMut(&str),
+) -> Result<AutoChoice> {
+    let start = Instant::now();
+    let target = spec.target_rel_error;
+    let required = target / SAFETY_FACTOR;
+    let pilots = pilot_points(sweep, grid, spec.pilot_points)?;
+    let label = |i: usize| {
+        let mi = multi_index(&grid.shape, i);
+        let mut parts = Vec::new();
+        for (d, dim) in sweep.dims.iter().enumerate() {
+            for a in &dim.axes {
+                parts.push(format!("{}={}", a.name, a.values[mi[d]]));
+            }
+        }
+        parts.join(" ")
+    };
+    let mut scenes = Vec::new();
+    let mut stiff = Vec::new();
+    for &i in &pilots {
+        let scene = grid.build(sweep, i)?;
+        stiff.push(scene_scales(&scene)?.stiffness_ratio > STIFF_RATIO);
+        scenes.push(scene);
+    }
+    let references: Vec<IntegratorSpec> = stiff
+        .iter()
+        .map(|&s| {
+            if s && target >= ROS_REFERENCE_MIN_TARGET {
+                adaptive("ros34pw2", 1e-10)
+            } else {
+                adaptive("dop853", 1e-12)
+            }
+        })
+        .collect();
+    log(&format!(
+        "pilot on {} grid point(s) {:?} for a target relative error of {target:e} (candidates must reach {required:e} there); references: {}",
+        pilots.len(),
+        pilots,
+        references.iter().map(describe).collect::<Vec<_>>().join(", ")
+    ));
+    // The references are yardsticks, not results: the sweep's energy-drift limit is not theirs.
+    let no_limit = Limits {
+        energy_drift_max: None,
+    };
+    let ref_runs: Vec<RunRecord> = pool.install(|| {
+        scenes
+            .par_iter()
+            .zip(&references)
+            .map(|(s, r)| pilot_run(s, *r, s.max_steps.saturating_mul(4), &no_limit))
+            .collect()
+    });
+    let mut total: u64 = 0;
+    for (k, r) in ref_runs.iter().enumerate() {
+        if !r.ok {
+            return Err(Error::input(
+                "base.integrator",
+                format!(
+                    "`auto`: the pilot's reference run ({}) failed at grid point {} ({}): {}; give a fixed integrator instead",
+                    describe(&references[k]),
+                    pilots[k],
+                    label(pilots[k]),
+                    r.reason
+                ),
+            ));
+        }
+        total += r.rhs_evals;
+    }
+
+    let methods: [&str; 2] = if stiff.iter().any(|&s| s) {
+        ["ros34pw2", "dop853"]
+    } else {
+        ["dop853", "ros34pw2"]
+    };
+    let mut candidates: Vec<Candidate> = Vec::new();
+    let mut best: Option<usize> = None;
+    for method in methods {
+        for cand_spec in ladder(method, target) {
+            let runs: Vec<RunRecord> = pool.install(|| {
+                scenes
+                    .par_iter()
+                    .map(|s| pilot_run(s, cand_spec, s.max_steps, &sweep.limits))
+                    .collect()
+            });
+            let mut errors = Vec::new();
+            let mut evals = Vec::new();
+            let mut failure = None;
+            for (k, r) in runs.iter().enumerate() {
+                total += r.rhs_evals;
+                if r.ok {
+                    errors.push(pilot_error(r, &ref_runs[k]));
+                    evals.push(Some(r.rhs_evals));
+                } else {
+                    errors.push(None);
+                    evals.push(None);
+                    failure.get_or_insert_with(|| {
+                        format!("at grid point {}: {}", pilots[k], r.reason)
+                    });
+                }
+            }
+            let cost = evals
+                .iter()
+                .try_fold(0.0, |acc, e| e.map(|e| acc + weighted(&cand_spec, e)));
+            let meets = errors
+                .iter()
+                .all(|e| matches!(e, Some(x) if *x <= required));
+            let cand = Candidate {
+                integrator: cand_spec,
+                errors,
+                rhs_evals: evals,
+                cost,
+                meets_target: meets,
+                failure,
+            };
+            log(&format!(
+                "pilot {}: largest error {:.2e}{}, {} RHS evaluations{}",
+                describe(&cand_spec),
+                cand.max_error(),
+                if meets { " (meets the target)" } else { "" },
+                cand.rhs_evals.iter().flatten().sum::<u64>(),
+                match &cand.failure {
+                    Some(f) => format!("; a run failed {f}"),
+                    None => String::new(),
+                }
+            ));
+            candidates.push(cand);
+            let c = candidates.last().expect("pushed");
+            let best_cost = best.and_then(|b| candidates[b].cost);
+            if meets {
+                if best_cost.map_or(true, |b| c.cost.expect("met") < b) {
+                    best = Some(candidates.len() - 1);
+                }
+                break;
+            }
+            if let (Some(b), Some(cc)) = (best_cost, c.cost) {
+                if cc > b {
+                    // Tighter settings of this method cost more still.
+                    break;
+                }
+            }
+        }
+    }
+    let Some(b) = best else {
+        let closest = candidates
+            .iter()
+            .min_by(|a, b| a.max_error().total_cmp(&b.max_error()));
+        let what = match closest {
+            Some(c) if c.max_error().is_finite() => format!(
+                "the best was {} with a largest pilot error of {:.2e}",
+                describe(&c.integrator),
+                c.max_error()
+            ),
+            _ => format!(
+                "no candidate succeeded at every pilot point ({})",
+                candidates
+                    .first()
+                    .map(|c| format!(
+                        "{}: a run failed {}",
+                        describe(&c.integrator),
+                        c.failure.as_deref().unwrap_or("")
+                    ))
+                    .unwrap_or_default()
+            ),
+        };
+        return Err(Error::input(
+            "base.integrator.target_rel_error",
+            format!(
+                "`auto` found no setting meeting the target {target:e} on the pilot points {pilots:?} (each must reach {required:e}): {what}; loosen the target or give a fixed integrator"
+            ),
+        ));
+    };
+    let c = &candidates[b];
+    let choice = AutoChoice {
+        key: cache_key(grid, spec),
+        version: AUTO_VERSION,
+        target_rel_error: target,
+        safety_factor: SAFETY_FACTOR,
+        integrator: c.integrator,
+        pilot_points: pilots,
+        pilot_references: references,
+        pilot_errors: c.errors.iter().map(|e| e.unwrap_or(f64::NAN)).collect(),
+        pilot_rhs_evals: c.rhs_evals.iter().map(|e| e.unwrap_or(0)).collect(),
+        pilot_cost_rhs_evals: total,
+        candidates: candidates.clone(),
+    };
+    log(&format!(
+        "pilot done in {:.1} s ({} candidates, {} RHS evaluations)",
+        start.elapsed().as_secs_f64(),
+        candidates.len(),
+        total
+    ));
+    Ok(choice)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn requests_parse_strictly() {
+        let ok = AutoSpec::from_integrator(&json!({"method": "auto", "target_rel_error": 1e-6}))
+            .unwrap()
+            .unwrap();
+        assert_eq!(ok.target_rel_error, 1e-6);
+        assert_eq!(ok.pilot_points, DEFAULT_PILOT_POINTS);
+        assert!(
+            AutoSpec::from_integrator(&json!({"method": "dop853", "rtol": 1e-9}))
+                .unwrap()
+                .is_none()
+        );
+        for (bad, field) in [
+            (
+                json!({"method": "auto"}),
+                "base.integrator.target_rel_error",
+            ),
+            (
+                json!({"method": "auto", "target_rel_error": 1e-9}),
+                "base.integrator.target_rel_error",
+            ),
+            (
+                json!({"method": "auto", "target_rel_error": 0.5}),
+                "base.integrator.target_rel_error",
+            ),
+            (
+                json!({"method": "auto", "target_rel_error": 1e-6, "rtol": 1e-9}),
+                "base.integrator.rtol",
+            ),
+            (
+                json!({"method": "auto", "target_rel_error": 1e-6, "pilot_points": 0}),
+                "base.integrator.pilot_points",
+            ),
+            (
+                json!({"method": "auto", "target_rel_error": "1e-6"}),
+                "base.integrator.target_rel_error",
+            ),
+        ] {
+            match AutoSpec::from_integrator(&bad) {
+                Err(Error::Input { field: f, .. }) => assert_eq!(f, field, "{bad}"),
+                other => panic!("{bad}: {other:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn ladders_are_rounded_and_bounded() {
+        let l = ladder("dop853", 1e-6);
+        let r: Vec<f64> = l.iter().map(|s| crate::accuracy::setting_of(s).0).collect();
+        assert_eq!(r, vec![3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9, 3e-10, 1e-10]);
+        let r: Vec<f64> = ladder("dop853", 1e-8)
+            .iter()
+            .map(|s| crate::accuracy::setting_of(s).0)
+            .collect();
+        assert_eq!(r, vec![3e-9, 1e-9, 3e-10, 1e-10, 3e-11, 1e-11]);
+        let r: Vec<f64> = ladder("ros34pw2", 1e-7)
+            .iter()
+            .map(|s| crate::accuracy::setting_of(s).0)
+            .collect();
+        assert_eq!(r, vec![1e-8, 3e-9, 1e-9]);
+        assert!(ladder("ros34pw2", 1e-6)
+            .iter()
+            .all(|s| s.method_name() == "ros34pw2"));
+    }
+
+    #[test]
+    fn pilot_points_cover_corners_centre_and_stiffest() {
+        let text = r#"{
+          "base": {
+            "chain": {"preset": "chain_055", "cylinders": 8,
+                      "cylinder": {"mass": {"heavy_cylinders": {"mass_ratio": 0.55}}, "height_m": null}},
+            "physics": {"gravity": true, "damping_kg_s": 0.0, "wall": true},
+            "striker_velocity_m_s": 1.3, "duration_s": 1e-4,
+            "integrator": {"method": "auto", "target_rel_error": 1e-6}
+          },
+          "axes": [
+            {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "values": [0.2, 0.4, 0.6, 0.8, 1.0]},
+            {"field": "physics.damping_kg_s", "values": [0, 3, 6]}
+          ]
+        }"#;
+        let sweep = Sweep::parse(text).unwrap();
+        assert!(sweep.auto.is_some());
+        let grid = Grid::new(&sweep).unwrap();
+        // corners 0, 2, 12, 14; centre (2, 1) = 7; stiffest: μ = 6 at the lightest ε (0.2) = 2.
+        assert_eq!(
+            pilot_points(&sweep, &grid, 5).unwrap(),
+            vec![0, 2, 7, 12, 14]
+        );
+        assert_eq!(pilot_points(&sweep, &grid, 3).unwrap(), vec![0, 2, 14]);
+        assert_eq!(pilot_points(&sweep, &grid, 64).unwrap().len(), 5);
+    }
+
+    #[test]
+    fn choices_round_trip_through_json() {
+        let c = AutoChoice {
+            key: "k".into(),
+            version: AUTO_VERSION,
+            target_rel_error: 1e-6,
+            safety_factor: SAFETY_FACTOR,
+            integrator: adaptive("dop853", 3e-8),
+            pilot_points: vec![0, 3],
+            pilot_references: vec![adaptive("dop853", 1e-12); 2],
+            pilot_errors: vec![1.5e-7, 2.25e-7],
+            pilot_rhs_evals: vec![1000, 2000],
+            pilot_cost_rhs_evals: 12345,
+            candidates: vec![Candidate {
+                integrator: adaptive("dop853", 1e-6),
+                errors: vec![Some(3e-6), None],
+                rhs_evals: vec![Some(10), None],
+                cost: None,
+                meets_target: false,
+                failure: Some("at grid point 3: step budget".into()),
+            }],
+        };
+        assert_eq!(from_json(&to_json(&c)).unwrap(), c);
+        assert!(c.summary().contains("dop853 rtol 3e-8"));
+    }
+}
