@@ -7,7 +7,8 @@
 //! - [`model`]: the chain's configuration with the paper's defaults and the built [`model::Chain`];
 //! - [`system`]: the equations of motion as an ODE system, specialised at compile time on gravity,
 //!   damping, wall and clipping, and the energy/momentum [`system::Ledger`];
-//! - [`integrate`]: velocity Verlet, RK4 and DOP853 behind one [`integrate::Integrator`] interface;
+//! - [`integrate`]: velocity Verlet, RK4, DOP853 (with contact-event location) and the stiff
+//!   ROS34PW2 (with the chain's tridiagonal Jacobian) behind one [`integrate::Integrator`] interface;
 //! - [`probes`]: observables sampled through dense output and on-the-fly peak summaries;
 //! - [`scene`]: a whole simulation, [`scene::run`].
 //!
