@@ -231,3 +231,12 @@ pub(crate) fn predicted_event(
     }
     earliest
 }
+
+/// The step that ends just past a crossing `tau` after `t` (a hair past, so the next step starts
+/// in the new regime), or `None` when it would be no shorter than `limit` or too short for
+/// floating point to move the state: then the step is taken as it is.
+pub(crate) fn event_step(t: f64, h_step: f64, tau: f64, limit: f64) -> Option<f64> {
+    let h_event = tau * (1.0 + 1e-6);
+    (h_event < limit * (1.0 - 1e-6) && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step))
+        .then_some(h_event)
+}

@@ -70,7 +70,9 @@
 // Index loops over equal-length slices read more clearly here than nested zips.
 #![allow(clippy::needless_range_loop)]
 
-use super::adaptive::{earliest_event, initial_step, predicted_event, AdaptiveSettings};
+use super::adaptive::{
+    earliest_event, event_step, initial_step, predicted_event, AdaptiveSettings,
+};
 use super::{
     all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
     StepObserver, Tridiagonal,
@@ -687,18 +689,15 @@ impl Integrator for Ros34pw2 {
                         w: &w,
                         tab: &tab,
                     };
-                    if let Some(t_event) = earliest_event(switches, &w.y, &dense) {
-                        // Land a hair past the crossing so the next step starts in the new regime.
-                        let h_event = (t_event - t) * (1.0 + 1e-6);
-                        if h_event < h_step * (1.0 - 1e-6)
-                            && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step)
-                        {
-                            stats.rejected += 1;
-                            stats.events += 1;
-                            landing = true;
-                            h = h_event;
-                            continue;
-                        }
+                    let t_event = earliest_event(switches, &w.y, &dense);
+                    if let Some(h_event) =
+                        t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
+                    {
+                        stats.rejected += 1;
+                        stats.events += 1;
+                        landing = true;
+                        h = h_event;
+                        continue;
                     }
                 }
                 sys.rhs(t_new, &w.y_new, &mut w.f_new);
@@ -756,11 +755,9 @@ impl Integrator for Ros34pw2 {
                 last_failure_nonfinite = false;
                 h = h_step * (SAFE / err.powf(EXPO)).max(FAC_MIN);
                 if self.locate_events && !switches.is_empty() {
-                    if let Some(tau) = predicted_event(switches, &w.y, &w.f0, &w.y_new, h_step) {
-                        let h_event = tau * (1.0 + 1e-6);
-                        if h_event < h && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step) {
-                            h = h_event;
-                        }
+                    let tau = predicted_event(switches, &w.y, &w.f0, &w.y_new, h_step);
+                    if let Some(h_event) = tau.and_then(|tau| event_step(t, h_step, tau, h)) {
+                        h = h_event;
                     }
                 }
                 reject = true;
