@@ -525,13 +525,30 @@ impl Chain {
         self.damping.iter().any(|&m| m != 0.0)
     }
 
-    /// Initial state `[x, v]` (no quadratures): the chain at static equilibrium, the striker touching
-    /// particle 2 with zero overlap and moving towards the wall at `v0`.
-    pub fn initial_positions_velocities(&self, striker_velocity_m_s: f64) -> (Vec<f64>, Vec<f64>) {
-        let x = self.equilibrium_position.clone();
-        let mut v = vec![0.0; self.n_particles()];
-        v[0] = striker_velocity_m_s;
-        (x, v)
+    /// Index of the dissipated-work quadrature in the state `[x, v, q]`, when damping is on.
+    pub fn work_index(&self) -> Option<usize> {
+        self.has_damping().then_some(2 * self.n_particles())
+    }
+
+    /// Index of the wall-impulse quadrature in the state `[x, v, q]`, when there is a wall.
+    pub fn wall_impulse_index(&self) -> Option<usize> {
+        self.wall
+            .then_some(2 * self.n_particles() + self.has_damping() as usize)
+    }
+
+    /// Length of the state `[x, v, q]`: positions, velocities, then the quadratures above.
+    pub fn state_len(&self) -> usize {
+        2 * self.n_particles() + self.has_damping() as usize + self.wall as usize
+    }
+
+    /// Initial state `[x, v, q]`: the chain at static equilibrium, the striker touching particle 2
+    /// with zero overlap and moving towards the wall at `v0`, nothing dissipated or transmitted yet.
+    pub fn initial_state(&self, striker_velocity_m_s: f64) -> Vec<f64> {
+        let n = self.n_particles();
+        let mut y = vec![0.0; self.state_len()];
+        y[..n].copy_from_slice(&self.equilibrium_position);
+        y[n] = striker_velocity_m_s;
+        y
     }
 
     /// Static (preload) force at contact index `c`, N.

@@ -365,16 +365,18 @@ fn validity_warnings(
     warnings
 }
 
-/// Per-component absolute-tolerance scales for the state `[x, v, q]`.
-pub(crate) fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
+/// Per-component absolute-tolerance scales for the state `[x, v, q]`: the two-body peak overlap
+/// for positions, the striker velocity for velocities, the impact energy and momentum for the
+/// dissipated work and the wall impulse. The adaptive integrators multiply them by `atol`.
+pub fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
     let n = chain.n_particles();
-    let mut s = vec![scales.overlap_m; n];
-    s.extend(std::iter::repeat(scales.velocity_m_s).take(n));
-    if chain.has_damping() {
-        s.push(scales.energy_j);
+    let mut s = vec![scales.overlap_m; chain.state_len()];
+    s[n..2 * n].fill(scales.velocity_m_s);
+    if let Some(k) = chain.work_index() {
+        s[k] = scales.energy_j;
     }
-    if chain.wall {
-        s.push(scales.momentum);
+    if let Some(k) = chain.wall_impulse_index() {
+        s[k] = scales.momentum;
     }
     s
 }
@@ -407,11 +409,7 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
     let t_end = scene.duration_s;
     let mut observer = RunObserver::new(&chain, probes, opts, t0, t_end);
 
-    let (x, v) = chain.initial_positions_velocities(v0);
-    let n_quad = chain.has_damping() as usize + chain.wall as usize;
-    let mut y0 = x;
-    y0.extend_from_slice(&v);
-    y0.extend(std::iter::repeat(0.0).take(n_quad));
+    let y0 = chain.initial_state(v0);
 
     let integrator: Box<dyn Integrator> = match scene.integrator {
         IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),

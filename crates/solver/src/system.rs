@@ -57,24 +57,6 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
     pub(crate) fn inverse_masses(&self) -> &[f64] {
         &self.inv_mass
     }
-
-    /// Index of the dissipated-work quadrature in the state, if any.
-    pub const fn work_index(n: usize) -> Option<usize> {
-        if D {
-            Some(2 * n)
-        } else {
-            None
-        }
-    }
-
-    /// Index of the wall-impulse quadrature in the state, if any.
-    pub const fn wall_impulse_index(n: usize) -> Option<usize> {
-        if W {
-            Some(2 * n + D as usize)
-        } else {
-            None
-        }
-    }
 }
 
 /// Net force of one contact and the power it dissipates.
@@ -228,15 +210,13 @@ impl EnergyTerms {
 impl Ledger {
     /// Ledger for a chain.
     pub fn new(chain: &Chain) -> Self {
-        let n = chain.n_particles();
-        let d = chain.has_damping();
         Ledger {
             mass: chain.mass.clone(),
             stiffness: chain.stiffness.clone(),
             gravity: chain.gravity_m_s2,
             wall: chain.wall,
-            work_index: d.then_some(2 * n),
-            wall_impulse_index: chain.wall.then_some(2 * n + d as usize),
+            work_index: chain.work_index(),
+            wall_impulse_index: chain.wall_impulse_index(),
         }
     }
 

@@ -6,7 +6,7 @@ use chainsweep_solver::integrate::{
     Tridiagonal,
 };
 use chainsweep_solver::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
-use chainsweep_solver::scene::ImpactScales;
+use chainsweep_solver::scene::{state_scales, ImpactScales};
 use chainsweep_solver::system::{ChainSystem, Ledger};
 
 const V0: f64 = 1.3;
@@ -27,20 +27,12 @@ fn light_chain(mu: f64) -> Chain {
 }
 
 fn initial_state(chain: &Chain) -> Vec<f64> {
-    let (mut y, v) = chain.initial_positions_velocities(V0);
-    y.extend(v);
-    y.extend([0.0, 0.0]);
-    y
+    chain.initial_state(V0)
 }
 
 /// Absolute-tolerance scales of `[x, v, work, wall impulse]`, as the scene API builds them.
 fn scales(chain: &Chain) -> Vec<f64> {
-    let s = ImpactScales::new(chain, V0);
-    let n = chain.n_particles();
-    let mut v = vec![s.overlap_m; n];
-    v.extend(std::iter::repeat(s.velocity_m_s).take(n));
-    v.extend([s.energy_j, s.momentum]);
-    v
+    state_scales(chain, &ImpactScales::new(chain, V0))
 }
 
 fn ros(chain: &Chain, rtol: f64) -> Ros34pw2 {
