@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::model::{spec_err, Chain, SpecError};
-use crate::system::{EnergyTerms, Ledger};
+use crate::system::{contact_force, EnergyTerms, Ledger};
 
 /// One observable. Indices are 1-based as in the paper and `MODEL.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -347,15 +347,13 @@ impl ProbeSet {
         } else {
             (get(c), get(n + c))
         };
-        let d = overlap.max(0.0);
-        let mut f = self.stiffness[c] * d * d.sqrt();
-        if overlap > 0.0 {
-            f += self.damping[c] * rel;
-        }
+        // The same law as the equations of motion; with zero damping the viscous term vanishes.
+        let (a, mu) = (self.stiffness[c], self.damping[c]);
         if self.clip {
-            f = f.max(0.0);
+            contact_force::<true, true>(a, mu, overlap, rel).0
+        } else {
+            contact_force::<true, false>(a, mu, overlap, rel).0
         }
-        f
     }
 
     /// Value of probe `k` with state components supplied by `get`.

@@ -61,7 +61,7 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
 
 /// Net force of one contact and the power it dissipates.
 #[inline(always)]
-fn contact_force<const D: bool, const C: bool>(
+pub(crate) fn contact_force<const D: bool, const C: bool>(
     a: f64,
     mu: f64,
     overlap: f64,
