@@ -39,7 +39,7 @@ pub fn scene_scales(scene: &Scene) -> Result<SceneScales> {
         .validate()
         .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;
     let s = ImpactScales::new(&chain, scene.striker_velocity_m_s);
-    let tau = 2.943 * s.overlap_m / s.velocity_m_s;
+    let tau = s.contact_duration_s();
     let m_min = chain.mass.iter().cloned().fold(f64::INFINITY, f64::min);
     let mu = chain.damping.iter().cloned().fold(0.0, f64::max);
     Ok(SceneScales {
