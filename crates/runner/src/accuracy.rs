@@ -13,7 +13,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use chainsweep_solver::scene::ImpactScales;
-use chainsweep_solver::{run, IntegratorSpec, RunOutput, Scene};
+use chainsweep_solver::{run, AdaptiveOptions, IntegratorSpec, RunOutput, Scene};
 use hdf5::File;
 
 use crate::error::{Error, Result};
@@ -141,27 +141,16 @@ pub fn max_ignoring_nan(xs: impl IntoIterator<Item = f64>) -> f64 {
 /// An adaptive method at `rtol` with defaults otherwise.
 pub fn adaptive(method: &str, rtol: f64) -> IntegratorSpec {
     match method {
-        "ros34pw2" => IntegratorSpec::Ros34pw2 {
-            rtol,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        },
-        _ => IntegratorSpec::Dop853 {
-            rtol,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        },
+        "ros34pw2" => IntegratorSpec::Ros34pw2(AdaptiveOptions::new(rtol)),
+        _ => IntegratorSpec::Dop853(AdaptiveOptions::new(rtol)),
     }
 }
 
 /// The setting of an integrator as a number (rtol or dt_s) and its name.
 pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
     match *spec {
-        IntegratorSpec::Dop853 { rtol, .. } | IntegratorSpec::Ros34pw2 { rtol, .. } => {
-            (rtol, "rtol")
-        }
+        IntegratorSpec::Dop853(AdaptiveOptions { rtol, .. })
+        | IntegratorSpec::Ros34pw2(AdaptiveOptions { rtol, .. }) => (rtol, "rtol"),
         IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => (dt_s, "dt_s"),
     }
 }

@@ -395,7 +395,7 @@ pub fn pilot_error(run: &RunRecord, reference: &RunRecord) -> Option<f64> {
 /// Weighted cost of `evals` RHS evaluations of `spec`.
 fn weighted(spec: &IntegratorSpec, evals: u64) -> f64 {
     match spec {
-        IntegratorSpec::Ros34pw2 { .. } => evals as f64 * ROS34PW2_EVAL_WEIGHT,
+        IntegratorSpec::Ros34pw2(_) => evals as f64 * ROS34PW2_EVAL_WEIGHT,
         _ => evals as f64,
     }
 }

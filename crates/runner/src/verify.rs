@@ -12,7 +12,7 @@
 //!   under the hash of the tightened scene with a marker ([`verify_hash`]), so an interrupted
 //!   verification resumes, and a point once verified stays verified in later assemblies.
 
-use chainsweep_solver::{IntegratorSpec, Scene};
+use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, Scene};
 use sha2::{Digest, Sha256};
 
 use crate::grid::{hex, Grid, RunHash};
@@ -66,28 +66,17 @@ pub fn tighten(spec: IntegratorSpec) -> IntegratorSpec {
     match spec {
         IntegratorSpec::Verlet { dt_s } => IntegratorSpec::Verlet { dt_s: dt_s / 4.0 },
         IntegratorSpec::Rk4 { dt_s } => IntegratorSpec::Rk4 { dt_s: dt_s / 4.0 },
-        IntegratorSpec::Dop853 {
-            rtol,
-            atol,
-            max_step_s,
-            locate_events,
-        } => IntegratorSpec::Dop853 {
-            rtol: (rtol / 100.0).max(1e-15),
-            atol: atol.map(|a| (a / 100.0).max(1e-18)),
-            max_step_s,
-            locate_events,
-        },
-        IntegratorSpec::Ros34pw2 {
-            rtol,
-            atol,
-            max_step_s,
-            locate_events,
-        } => IntegratorSpec::Ros34pw2 {
-            rtol: (rtol / 100.0).max(1e-15),
-            atol: atol.map(|a| (a / 100.0).max(1e-18)),
-            max_step_s,
-            locate_events,
-        },
+        IntegratorSpec::Dop853(o) => IntegratorSpec::Dop853(tighten_adaptive(o)),
+        IntegratorSpec::Ros34pw2(o) => IntegratorSpec::Ros34pw2(tighten_adaptive(o)),
+    }
+}
+
+/// An adaptive method's options a hundred times tighter (within the ranges a scene allows).
+fn tighten_adaptive(o: AdaptiveOptions) -> AdaptiveOptions {
+    AdaptiveOptions {
+        rtol: (o.rtol / 100.0).max(1e-15),
+        atol: o.atol.map(|a| (a / 100.0).max(1e-18)),
+        ..o
     }
 }
 
@@ -233,7 +222,7 @@ mod tests {
             IntegratorSpec::Rk4 { dt_s: 1e-8 }
         );
         match tighten(IntegratorSpec::default()) {
-            IntegratorSpec::Dop853 { rtol, atol, .. } => {
+            IntegratorSpec::Dop853(AdaptiveOptions { rtol, atol, .. }) => {
                 assert!((rtol - 1e-11).abs() < 1e-25);
                 assert_eq!(atol, None);
             }

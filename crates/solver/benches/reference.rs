@@ -5,6 +5,7 @@
 use chainsweep_solver::model::ChainSpec;
 use chainsweep_solver::probes::Probe;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
+use chainsweep_solver::AdaptiveOptions;
 
 /// DOP853 tolerance at which the leading peak in cylinder 21 is within 1e-6 (relative) of a tight
 /// reference; `tests/accuracy.rs` checks it.
@@ -14,12 +15,7 @@ pub const REFERENCE_RTOL: f64 = 5e-8;
 pub fn reference_scene(rtol: f64) -> Scene {
     let mut scene = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
     scene.physics.damping_kg_s = 6.0;
-    scene.integrator = IntegratorSpec::Dop853 {
-        rtol,
-        atol: None,
-        max_step_s: None,
-        locate_events: true,
-    };
+    scene.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(rtol));
     scene.record.probes = vec![
         Probe::GaugeForce { cylinder: 4 },
         Probe::GaugeForce { cylinder: 21 },

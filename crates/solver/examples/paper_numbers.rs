@@ -8,6 +8,7 @@
 use chainsweep_solver::model::{Chain, ChainSpec};
 use chainsweep_solver::probes::Probe;
 use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::AdaptiveOptions;
 
 fn main() {
     let cases: [(&str, ChainSpec, f64, [&str; 3]); 2] = [
@@ -49,12 +50,7 @@ fn main() {
         for (k, mu) in [0.0, 4.0, 6.0].into_iter().enumerate() {
             let mut scene = Scene::new(spec.clone(), v0, 1e-3);
             scene.physics.damping_kg_s = mu;
-            scene.integrator = IntegratorSpec::Dop853 {
-                rtol: 1e-10,
-                atol: None,
-                max_step_s: None,
-                locate_events: true,
-            };
+            scene.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-10));
             scene.record.probes = vec![
                 Probe::GaugeForce { cylinder: 4 },
                 Probe::GaugeForce { cylinder: 5 },

@@ -3,18 +3,14 @@
 use chainsweep_solver::model::ChainSpec;
 use chainsweep_solver::probes::Probe;
 use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::AdaptiveOptions;
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let rtol: f64 = args.get(1).map_or(1e-6, |s| s.parse().unwrap());
     let repeats: usize = args.get(2).map_or(20, |s| s.parse().unwrap());
     let mut s = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
     s.physics.damping_kg_s = 6.0;
-    s.integrator = IntegratorSpec::Dop853 {
-        rtol,
-        atol: None,
-        max_step_s: None,
-        locate_events: true,
-    };
+    s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(rtol));
     s.record.probes = vec![
         Probe::GaugeForce { cylinder: 4 },
         Probe::GaugeForce { cylinder: 21 },

@@ -5,6 +5,7 @@
 use chainsweep_solver::model::ChainSpec;
 use chainsweep_solver::probes::Probe;
 use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::AdaptiveOptions;
 
 fn scene(integrator: IntegratorSpec) -> Scene {
     let mut s = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
@@ -30,13 +31,7 @@ fn time_run(s: &Scene) -> (chainsweep_solver::RunOutput, f64) {
 }
 
 fn main() {
-    let reference = run(&scene(IntegratorSpec::Dop853 {
-        rtol: 1e-13,
-        atol: None,
-        max_step_s: None,
-        locate_events: true,
-    }))
-    .unwrap();
+    let reference = run(&scene(IntegratorSpec::Dop853(AdaptiveOptions::new(1e-13)))).unwrap();
     let f_ref = reference.probes[1].leading_peak;
     let t_ref = reference.probes[1].leading_peak_time_s;
     println!(
@@ -58,12 +53,7 @@ fn main() {
     for rtol in [
         1e-5, 3e-6, 1e-6, 5e-7, 3e-7, 2e-7, 1e-7, 5e-8, 1e-8, 1e-9, 1e-10, 1e-11,
     ] {
-        ladder.push(IntegratorSpec::Dop853 {
-            rtol,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        });
+        ladder.push(IntegratorSpec::Dop853(AdaptiveOptions::new(rtol)));
     }
     for dt in [4e-7, 2e-7, 1e-7, 5e-8] {
         ladder.push(IntegratorSpec::Rk4 { dt_s: dt });
@@ -72,16 +62,12 @@ fn main() {
         ladder.push(IntegratorSpec::Verlet { dt_s: dt });
     }
     for rtol in [1e-6, 1e-7, 1e-8] {
-        ladder.push(IntegratorSpec::Ros34pw2 {
-            rtol,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        });
+        ladder.push(IntegratorSpec::Ros34pw2(AdaptiveOptions::new(rtol)));
     }
     for ig in ladder {
         let setting = match ig {
-            IntegratorSpec::Dop853 { rtol, .. } | IntegratorSpec::Ros34pw2 { rtol, .. } => {
+            IntegratorSpec::Dop853(AdaptiveOptions { rtol, .. })
+            | IntegratorSpec::Ros34pw2(AdaptiveOptions { rtol, .. }) => {
                 format!("rtol {rtol:.0e}")
             }
             IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => {

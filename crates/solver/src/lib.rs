@@ -31,6 +31,8 @@ pub mod probes;
 pub mod scene;
 pub mod system;
 
+pub use chainsweep_cpu as cpu;
+pub use integrate::AdaptiveOptions;
 pub use model::{Chain, ChainSpec, PhysicsSpec};
 pub use probes::{Probe, RecordSpec};
 pub use scene::{run, IntegratorSpec, RunOutput, Scene};

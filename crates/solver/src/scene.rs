@@ -4,7 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::integrate::{
-    Dop853, IntegrateError, IntegrationStats, Integrator, Rk4, Ros34pw2, VelocityVerlet,
+    AdaptiveOptions, Dop853, IntegrateError, IntegrationStats, Integrator, Rk4, Ros34pw2,
+    VelocityVerlet,
 };
 use crate::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RecordSpec, RunObserver};
@@ -28,53 +29,19 @@ pub enum IntegratorSpec {
         /// Step, s.
         dt_s: f64,
     },
-    /// Dormand–Prince 8(5,3), adaptive, 7th-order dense output.
-    Dop853 {
-        /// Relative tolerance.
-        rtol: f64,
-        /// Absolute tolerance, relative to each component's natural scale (the two-body peak overlap
-        /// for positions, the striker velocity for velocities, the impact energy and momentum for
-        /// the ledger's quadratures). Absent: equal to `rtol`.
-        #[cfg_attr(feature = "serde", serde(default))]
-        atol: Option<f64>,
-        /// Largest step, s. Absent: no bound.
-        #[cfg_attr(feature = "serde", serde(default))]
-        max_step_s: Option<f64>,
-        /// End steps on contacts opening and closing, where the forces are not smooth (default).
-        #[cfg_attr(feature = "serde", serde(default = "default_true"))]
-        locate_events: bool,
-    },
+    /// Dormand–Prince 8(5,3), adaptive, 7th-order dense output. `atol` is relative to each
+    /// component's natural scale (the two-body peak overlap for positions, the striker velocity for
+    /// velocities, the impact energy and momentum for the ledger's quadratures).
+    Dop853(AdaptiveOptions),
     /// ROS34PW2, a linearly implicit (Rosenbrock-W) method of order 3, L-stable, with the chain's
     /// tridiagonal Jacobian: for damping-dominated chains (μ ≳ 1000 kg/s with light particles),
-    /// where explicit methods are held to steps of order m/μ.
-    Ros34pw2 {
-        /// Relative tolerance.
-        rtol: f64,
-        /// Absolute tolerance relative to each component's natural scale, as for DOP853.
-        #[cfg_attr(feature = "serde", serde(default))]
-        atol: Option<f64>,
-        /// Largest step, s.
-        #[cfg_attr(feature = "serde", serde(default))]
-        max_step_s: Option<f64>,
-        /// End steps on contacts opening and closing (default).
-        #[cfg_attr(feature = "serde", serde(default = "default_true"))]
-        locate_events: bool,
-    },
-}
-
-#[cfg(feature = "serde")]
-fn default_true() -> bool {
-    true
+    /// where explicit methods are held to steps of order m/μ. Options as for DOP853.
+    Ros34pw2(AdaptiveOptions),
 }
 
 impl Default for IntegratorSpec {
     fn default() -> Self {
-        IntegratorSpec::Dop853 {
-            rtol: 1e-9,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        }
+        IntegratorSpec::Dop853(AdaptiveOptions::new(1e-9))
     }
 }
 
@@ -84,8 +51,16 @@ impl IntegratorSpec {
         match self {
             IntegratorSpec::Verlet { .. } => "verlet",
             IntegratorSpec::Rk4 { .. } => "rk4",
-            IntegratorSpec::Dop853 { .. } => "dop853",
-            IntegratorSpec::Ros34pw2 { .. } => "ros34pw2",
+            IntegratorSpec::Dop853(_) => "dop853",
+            IntegratorSpec::Ros34pw2(_) => "ros34pw2",
+        }
+    }
+
+    /// The options of an adaptive method (`None` for the fixed-step ones).
+    pub fn adaptive_options(&self) -> Option<&AdaptiveOptions> {
+        match self {
+            IntegratorSpec::Dop853(o) | IntegratorSpec::Ros34pw2(o) => Some(o),
+            IntegratorSpec::Verlet { .. } | IntegratorSpec::Rk4 { .. } => None,
         }
     }
 
@@ -105,18 +80,18 @@ impl IntegratorSpec {
             IntegratorSpec::Verlet { dt_s } | IntegratorSpec::Rk4 { dt_s } => {
                 pos("integrator.dt_s", dt_s)
             }
-            IntegratorSpec::Dop853 {
+            IntegratorSpec::Dop853(AdaptiveOptions {
                 rtol,
                 atol,
                 max_step_s,
                 ..
-            }
-            | IntegratorSpec::Ros34pw2 {
+            })
+            | IntegratorSpec::Ros34pw2(AdaptiveOptions {
                 rtol,
                 atol,
                 max_step_s,
                 ..
-            } => {
+            }) => {
                 if !(rtol.is_finite() && (1e-15..=1e-1).contains(&rtol)) {
                     return Err(spec_err(
                         "integrator.rtol",
@@ -420,29 +395,11 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
     let integrator: Box<dyn Integrator> = match scene.integrator {
         IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
         IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
-        IntegratorSpec::Dop853 {
-            rtol,
-            atol,
-            max_step_s,
-            locate_events,
-        } => {
-            let mut d = Dop853::new(rtol, atol.unwrap_or(rtol));
-            d.h_max = max_step_s;
-            d.locate_events = locate_events;
-            d.atol_scale = Some(state_scales(&chain, &scales));
-            Box::new(d)
+        IntegratorSpec::Dop853(options) => {
+            Box::new(Dop853::with_options(options).with_atol_scale(state_scales(&chain, &scales)))
         }
-        IntegratorSpec::Ros34pw2 {
-            rtol,
-            atol,
-            max_step_s,
-            locate_events,
-        } => {
-            let mut r = Ros34pw2::new(rtol, atol.unwrap_or(rtol));
-            r.h_max = max_step_s;
-            r.locate_events = locate_events;
-            r.atol_scale = Some(state_scales(&chain, &scales));
-            Box::new(r)
+        IntegratorSpec::Ros34pw2(options) => {
+            Box::new(Ros34pw2::with_options(options).with_atol_scale(state_scales(&chain, &scales)))
         }
     };
     let stats = crate::dispatch_chain_system!(&chain, |sys| integrator.integrate(

@@ -9,14 +9,10 @@ use chainsweep_solver::model::{Chain, ChainSpec, PhysicsSpec};
 use chainsweep_solver::probes::Probe;
 use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
 use chainsweep_solver::system::ChainSystem;
+use chainsweep_solver::AdaptiveOptions;
 
 fn dop(rtol: f64) -> IntegratorSpec {
-    IntegratorSpec::Dop853 {
-        rtol,
-        atol: None,
-        max_step_s: None,
-        locate_events: true,
-    }
+    IntegratorSpec::Dop853(AdaptiveOptions::new(rtol))
 }
 
 fn free_physics() -> PhysicsSpec {
@@ -267,12 +263,10 @@ fn event_location_makes_the_undamped_ledger_close() {
     // error estimator is fooled at every crossing and the ledger drifts far beyond the tolerance.
     let drift = |locate_events: bool| {
         let mut scene = ledger_scene(20, 0.0, 6e-4);
-        scene.integrator = IntegratorSpec::Dop853 {
-            rtol: 1e-12,
-            atol: None,
-            max_step_s: None,
+        scene.integrator = IntegratorSpec::Dop853(AdaptiveOptions {
             locate_events,
-        };
+            ..AdaptiveOptions::new(1e-12)
+        });
         scene.record.min_overlap = true;
         let out = run(&scene).unwrap();
         let opened = out
@@ -415,9 +409,7 @@ fn observed_order_of_each_integrator() {
     let rk4 = order(&|h| Box::new(Rk4 { dt: h }), SMOOTH_T_END / 16.0);
     let dop853 = order(
         &|h| {
-            let mut d = Dop853::new(1.0, 1.0);
-            d.h_max = Some(h);
-            d.h_init = Some(h);
+            let d = Dop853::new(1.0, 1.0).with_max_step(h).with_initial_step(h);
             Box::new(d)
         },
         SMOOTH_T_END / 4.0,

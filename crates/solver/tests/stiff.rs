@@ -8,6 +8,7 @@ use chainsweep_solver::integrate::{
 use chainsweep_solver::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
 use chainsweep_solver::scene::{state_scales, ImpactScales};
 use chainsweep_solver::system::{ChainSystem, Ledger};
+use chainsweep_solver::AdaptiveOptions;
 
 const V0: f64 = 1.3;
 const CYLINDERS: usize = 20;
@@ -295,11 +296,9 @@ fn observed_order_is_three_on_state_and_dissipated_work() {
     let reference = smooth_case(&tight, t_end);
     assert!(reference[0] - reference[1] > 1e-7, "must stay in contact");
     let err = |h: f64| {
-        let ig = Ros34pw2 {
-            h_init: Some(h),
-            h_max: Some(h),
-            ..Ros34pw2::new(1e3, 1e3)
-        };
+        let ig = Ros34pw2::new(1e3, 1e3)
+            .with_initial_step(h)
+            .with_max_step(h);
         let y = smooth_case(&ig, t_end);
         let state = (((y[0] - y[1]) - (reference[0] - reference[1])).abs() / 5e-6)
             .max(((y[2] - y[3]) - (reference[2] - reference[3])).abs());
@@ -324,12 +323,7 @@ fn dop853_flags_a_stiff_chain_and_ros34pw2_does_not_need_to() {
         s.integrator = integrator;
         run(&s).unwrap()
     };
-    let dop = IntegratorSpec::Dop853 {
-        rtol: 1e-6,
-        atol: None,
-        max_step_s: None,
-        locate_events: true,
-    };
+    let dop = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-6));
     let stiff = scene(10_000.0, dop);
     assert!(stiff.stats.stiffness_detections > 0);
     assert!(
@@ -346,12 +340,7 @@ fn dop853_flags_a_stiff_chain_and_ros34pw2_does_not_need_to() {
     );
     let ros = scene(
         10_000.0,
-        IntegratorSpec::Ros34pw2 {
-            rtol: 1e-6,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        },
+        IntegratorSpec::Ros34pw2(AdaptiveOptions::new(1e-6)),
     );
     assert_eq!(ros.stats.stiffness_detections, 0);
     assert!(ros.stats.rhs_evals * 10 < stiff.stats.rhs_evals);

@@ -1,75 +1,559 @@
-//! What the adaptive integrators share: checking their settings, Hairer's starting step, and
-//! locating the switches (contacts opening and closing) that a step crosses.
+//! The adaptive-integrator core shared by DOP853 and ROS34PW2: one options type, one step loop
+//! with one step-size controller, the handling of non-finite attempts, the stiffness count, and the
+//! location of the switches (contacts opening and closing) that a step crosses. A method brings
+//! only what is its own ([`Method`], [`Stepper`]): its tableau, its attempt (the stages, the
+//! solution and the error norm) and its dense output. (diffsol's model: one Runge–Kutta core
+//! shared by its methods.)
+//!
+//! The stage arithmetic runs through [`chainsweep_cpu::dispatch`], compiled for the CPU's vector
+//! instructions and fused multiply-add.
 
-use super::{all_finite, DenseStep, IntegrateError, OdeSystemDyn, Switch};
+use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
-/// Settings common to the adaptive methods, as the user gave them.
-pub(crate) struct AdaptiveSettings<'a> {
-    /// Method name, for error messages.
-    pub name: &'static str,
+use super::{
+    all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
+    StepObserver, Switch, Tridiagonal,
+};
+
+/// Settings of an adaptive method: the same for every method, in a scene's `integrator` block and
+/// in the integrators.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct AdaptiveOptions {
+    /// Relative tolerance (must be positive).
     pub rtol: f64,
-    pub atol: f64,
-    pub atol_scale: Option<&'a [f64]>,
-    pub h_init: Option<f64>,
-    pub h_max: Option<f64>,
+    /// Absolute tolerance (must be non-negative); absent: equal to `rtol`. The integrators multiply
+    /// it by each component's scale when they are given scales ([`Adaptive::atol_scale`]); a scene
+    /// gives the natural scale of each quantity (the two-body peak overlap for positions, the
+    /// striker velocity for velocities, the impact energy and momentum for the ledger's
+    /// quadratures).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub atol: Option<f64>,
+    /// Largest step, s. Absent: no bound but the interval. The last step may stretch up to 1 %
+    /// beyond it so as to land exactly on the end time (Hairer's rule).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub max_step_s: Option<f64>,
+    /// Put step boundaries on the zeros of the system's switching functions (contacts opening and
+    /// closing), where the right-hand side is not smooth (default). A step that passes the error
+    /// test but crosses a switch is retaken to end just past the earliest crossing, located on the
+    /// dense output; the retaken step is accepted.
+    #[cfg_attr(feature = "serde", serde(default = "default_true"))]
+    pub locate_events: bool,
 }
 
-impl AdaptiveSettings<'_> {
-    /// Checks the settings against the problem and returns the absolute tolerance of every
-    /// component, `atol * atol_scale[i]`.
-    pub fn validate(
+#[cfg(feature = "serde")]
+fn default_true() -> bool {
+    true
+}
+
+impl AdaptiveOptions {
+    /// Options with relative tolerance `rtol`, `atol` equal to it, no step bound, events located.
+    pub fn new(rtol: f64) -> Self {
+        AdaptiveOptions {
+            rtol,
+            atol: None,
+            max_step_s: None,
+            locate_events: true,
+        }
+    }
+
+    /// The absolute tolerance in force: `atol`, or `rtol` when absent.
+    pub fn atol(&self) -> f64 {
+        self.atol.unwrap_or(self.rtol)
+    }
+}
+
+/// An adaptive integrator: the shared step loop with method `M`'s tableau, attempt and dense
+/// output. Use it through [`super::Dop853`] and [`super::Ros34pw2`].
+///
+/// The error of each step is measured component-wise against
+/// `atol_i + rtol * max(|y_old|, |y_new|)`, where `atol_i = atol * atol_scale[i]` (or `atol` without
+/// scales), and combined into an RMS norm; a step is accepted when that norm is at most one. A
+/// component whose absolute tolerance is zero and that is exactly zero at both ends of a step is
+/// left out of the norm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Adaptive<M> {
+    /// Tolerances, step bound, event location.
+    pub options: AdaptiveOptions,
+    /// Optional per-component scales of the absolute tolerance (length `2 n_pos + n_quad`, each
+    /// finite and non-negative): component `i` gets the absolute tolerance `atol * atol_scale[i]`,
+    /// so `atol` can be given relative to the natural scale of each quantity.
+    pub atol_scale: Option<Vec<f64>>,
+    /// First step size to try. `None` uses Hairer's starting-step heuristic (one extra
+    /// right-hand-side evaluation). A given value is capped at the largest step.
+    pub h_init: Option<f64>,
+    /// The method.
+    pub method: M,
+}
+
+impl<M: Method> Adaptive<M> {
+    /// Integrator with the given tolerances, the automatic first step, no step-size cap and event
+    /// location on.
+    pub fn new(rtol: f64, atol: f64) -> Self {
+        Self::with_options(AdaptiveOptions {
+            atol: Some(atol),
+            ..AdaptiveOptions::new(rtol)
+        })
+    }
+
+    /// Integrator with the given options, the automatic first step and no tolerance scales.
+    pub fn with_options(options: AdaptiveOptions) -> Self {
+        Adaptive {
+            options,
+            atol_scale: None,
+            h_init: None,
+            method: M::default(),
+        }
+    }
+
+    /// The same with the largest step set to `h`.
+    pub fn with_max_step(mut self, h: f64) -> Self {
+        self.options.max_step_s = Some(h);
+        self
+    }
+
+    /// The same with the first step set to `h`.
+    pub fn with_initial_step(mut self, h: f64) -> Self {
+        self.h_init = Some(h);
+        self
+    }
+
+    /// The same with per-component scales of the absolute tolerance.
+    pub fn with_atol_scale(mut self, scale: Vec<f64>) -> Self {
+        self.atol_scale = Some(scale);
+        self
+    }
+
+    /// The same with event location switched on or off.
+    pub fn with_events(mut self, locate_events: bool) -> Self {
+        self.options.locate_events = locate_events;
+        self
+    }
+}
+
+/// What a method brings to the core: its name, order and controller constants, and its stepper.
+pub trait Method: Copy + Default + std::fmt::Debug {
+    /// Stable name (`"dop853"`, `"ros34pw2"`).
+    const NAME: &'static str;
+    /// Order used by the starting-step heuristic.
+    const ORDER: i32;
+    /// Step-size controller constants.
+    const CONTROLLER: Controller;
+    /// The method's work space for one run.
+    type Stepper: Stepper;
+    /// Work space for a run from `y0` of a system with `n_pos` positions.
+    fn stepper(y0: &[f64], n_pos: usize) -> Self::Stepper;
+}
+
+/// The integral step-size controller `h_new = h · clamp(safety · err^(−exponent))`, with the
+/// change per step bounded by `max_shrink` and `max_growth` (Hairer's form).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Controller {
+    /// `1 / (q + 1)` for an error estimate of order `q`.
+    pub exponent: f64,
+    /// Safety factor.
+    pub safety: f64,
+    /// Smallest factor a rejection shrinks the step by.
+    pub max_shrink: f64,
+    /// Largest factor an accepted step grows the next by.
+    pub max_growth: f64,
+}
+
+impl Controller {
+    /// Next step after an accepted step of size `h` with error norm `err` (at most 1).
+    #[inline]
+    fn after_accept(&self, h: f64, err: f64) -> f64 {
+        let fac = (err.powf(self.exponent) / self.safety)
+            .clamp(1.0 / self.max_growth, 1.0 / self.max_shrink);
+        h / fac
+    }
+
+    /// Next try after a rejected step of size `h` with error norm `err` (above 1, or infinite).
+    #[inline]
+    fn after_reject(&self, h: f64, err: f64) -> f64 {
+        h / (1.0 / self.max_shrink).min(err.powf(self.exponent) / self.safety)
+    }
+}
+
+/// The right-hand side as the steppers see it: the system, and a count of its evaluations.
+pub struct Rhs<'a> {
+    sys: &'a mut dyn OdeSystemDyn,
+    evals: u64,
+}
+
+impl<'a> Rhs<'a> {
+    fn new(sys: &'a mut dyn OdeSystemDyn) -> Self {
+        Rhs { sys, evals: 0 }
+    }
+
+    /// `dy = f(t, y)`.
+    #[inline]
+    pub fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.evals += 1;
+        self.sys.rhs(t, y, dy);
+    }
+
+    /// The system's acceleration Jacobian at `(t, y)`, if it has one.
+    pub fn acceleration_jacobian(
         &self,
-        sys: &dyn OdeSystemDyn,
+        t: f64,
+        y: &[f64],
+        kx: &mut Tridiagonal,
+        kv: &mut Tridiagonal,
+    ) -> bool {
+        self.sys.acceleration_jacobian(t, y, kx, kv)
+    }
+}
+
+/// The outcome of one attempted step.
+#[derive(Debug, Clone, Copy)]
+pub struct Attempt {
+    /// Error norm (accepted when at most 1).
+    pub err: f64,
+    /// Whether the attempt produced a finite solution (false also when it could not be made,
+    /// such as a singular iteration matrix).
+    pub finite: bool,
+}
+
+/// A method's work space for one run: its state vectors, stages and dense output.
+pub trait Stepper {
+    /// Interpolant over the last accepted step.
+    type Dense<'a>: DenseStep
+    where
+        Self: 'a;
+    /// Evaluates the derivative at the start, `f(t0, y0)`; returns whether it is finite.
+    fn start(&mut self, rhs: &mut Rhs, t0: f64) -> bool;
+    /// State at the start of the current step.
+    fn y(&self) -> &[f64];
+    /// Derivative at the start of the current step.
+    fn f0(&self) -> &[f64];
+    /// Solution of the last attempt.
+    fn y_new(&self) -> &[f64];
+    /// One attempt of size `h` from `(t, y)` ending at `t_new`: the solution into `y_new` and its
+    /// error norm. Must be `#[inline(always)]` (it runs inside [`chainsweep_cpu::dispatch`]).
+    fn attempt<F: MulAdd>(
+        &mut self,
+        rhs: &mut Rhs,
+        t: f64,
+        h: f64,
+        t_new: f64,
+        rtol: f64,
+        atol: &[f64],
+    ) -> Attempt;
+    /// After an attempt passed the error test: what the dense output needs. Returns whether it is
+    /// finite. Must be `#[inline(always)]`.
+    fn prepare_dense<F: MulAdd>(&mut self, rhs: &mut Rhs, t: f64, h: f64, t_new: f64) -> bool;
+    /// The step is final (not retaken for an event): what the next step needs. Returns whether it
+    /// is finite.
+    fn finish(&mut self, rhs: &mut Rhs, t_new: f64) -> bool;
+    /// The interpolant over the attempt just made, `[t0, t1]` with `h = t1 − t0` as stepped.
+    fn dense(&self, t0: f64, t1: f64, h: f64) -> Self::Dense<'_>;
+    /// Moves to the end of the accepted step.
+    fn advance(&mut self);
+    /// Whether the last accepted step was held by the method's stability boundary rather than its
+    /// accuracy (Hairer's stiffness test), for methods that estimate it.
+    fn on_stability_boundary(&self) -> Option<bool> {
+        None
+    }
+}
+
+/// Consecutive steps on the stability boundary that flag the problem as stiff (Hairer).
+const STIFF_STEPS_TO_FLAG: u32 = 15;
+/// Calm steps that clear the count.
+const CALM_STEPS_TO_CLEAR: u32 = 6;
+/// Consecutive step failures with NaN/inf or a singular matrix (each shrinking the step tenfold)
+/// before giving up.
+const MAX_NONFINITE_RETRIES: u32 = 6;
+
+/// [`Stepper::attempt`] as a dispatched kernel.
+struct AttemptKernel<'a, 'b, S> {
+    stepper: &'a mut S,
+    rhs: &'a mut Rhs<'b>,
+    t: f64,
+    h: f64,
+    t_new: f64,
+    rtol: f64,
+    atol: &'a [f64],
+}
+
+impl<S: Stepper> Kernel for AttemptKernel<'_, '_, S> {
+    type Output = Attempt;
+    #[inline(always)]
+    fn run<F: MulAdd>(self) -> Attempt {
+        self.stepper
+            .attempt::<F>(self.rhs, self.t, self.h, self.t_new, self.rtol, self.atol)
+    }
+}
+
+/// [`Stepper::prepare_dense`] as a dispatched kernel.
+struct DenseKernel<'a, 'b, S> {
+    stepper: &'a mut S,
+    rhs: &'a mut Rhs<'b>,
+    t: f64,
+    h: f64,
+    t_new: f64,
+}
+
+impl<S: Stepper> Kernel for DenseKernel<'_, '_, S> {
+    type Output = bool;
+    #[inline(always)]
+    fn run<F: MulAdd>(self) -> bool {
+        self.stepper
+            .prepare_dense::<F>(self.rhs, self.t, self.h, self.t_new)
+    }
+}
+
+impl<M: Method> Integrator for Adaptive<M> {
+    fn name(&self) -> &'static str {
+        M::NAME
+    }
+
+    /// Adaptive integration from `t0` to exactly `t_end`; see the methods for what each step
+    /// evaluates.
+    fn integrate(
+        &self,
+        sys: &mut dyn OdeSystemDyn,
         t0: f64,
         y0: &[f64],
         t_end: f64,
-    ) -> Result<Vec<f64>, IntegrateError> {
-        let bad = |s: String| {
-            Err(IntegrateError::InvalidSettings(format!(
-                "{}: {s}",
-                self.name
-            )))
+        max_steps: u64,
+        obs: &mut dyn StepObserver,
+    ) -> Result<IntegrationStats, IntegrateError> {
+        let rtol = self.options.rtol;
+        let atol = validate(M::NAME, self, sys, t0, y0, t_end)?;
+        let h_max = self.options.max_step_s.unwrap_or(t_end - t0);
+        let controller = M::CONTROLLER;
+        let switches: Vec<Switch> = if self.options.locate_events {
+            sys.switches().to_vec()
+        } else {
+            Vec::new()
         };
-        let (rtol, atol) = (self.rtol, self.atol);
-        if !(rtol.is_finite() && rtol > 0.0) {
-            return bad(format!("rtol must be positive and finite, got {rtol}"));
+        let mut w = M::stepper(y0, sys.n_pos());
+        let mut rhs = Rhs::new(sys);
+        let mut stats = IntegrationStats::default();
+
+        obs.on_start(t0, y0);
+
+        if !w.start(&mut rhs, t0) {
+            return Err(IntegrateError::NonFinite { t: t0 });
         }
-        if !(atol.is_finite() && atol >= 0.0) {
-            return bad(format!("atol must be non-negative and finite, got {atol}"));
-        }
-        if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
-            return bad(format!(
-                "need finite t_end > t0, got t0 = {t0}, t_end = {t_end}"
-            ));
-        }
-        for (what, value) in [("h_max", self.h_max), ("h_init", self.h_init)] {
-            if let Some(h) = value {
-                if !(h.is_finite() && h > 0.0) {
-                    return bad(format!("{what} must be positive and finite, got {h}"));
+
+        let mut h = match self.h_init {
+            Some(h0) => h0.min(h_max),
+            None => {
+                let mut scratch = vec![0.0; 2 * y0.len()];
+                let (y1, f1) = scratch.split_at_mut(y0.len());
+                initial_step(
+                    M::ORDER,
+                    &mut rhs,
+                    t0,
+                    w.y(),
+                    w.f0(),
+                    y1,
+                    f1,
+                    (rtol, &atol),
+                    h_max,
+                )
+            }
+        };
+
+        let mut t = t0;
+        // The last attempt failed: the next step may not grow beyond it.
+        let mut reject = false;
+        let mut nonfinite_streak = 0u32;
+        // The current attempt ends on a located event: accept it even if it still crosses one.
+        let mut landing = false;
+        let (mut stiff_steps, mut calm_steps) = (0u32, 0u32);
+        let mut last_failure_nonfinite = false;
+
+        loop {
+            if stats.steps >= max_steps {
+                return Err(IntegrateError::StepBudget { max_steps, t });
+            }
+            if h < 10.0 * f64::EPSILON * t.abs() || h < f64::MIN_POSITIVE {
+                return Err(if last_failure_nonfinite {
+                    IntegrateError::NonFinite { t }
+                } else {
+                    IntegrateError::StepTooSmall { t, h }
+                });
+            }
+            // Land exactly on t_end, stretching the step by up to 1 % rather than leaving a
+            // sliver.
+            let (h_step, t_new, last) = if t + 1.01 * h >= t_end {
+                (t_end - t, t_end, true)
+            } else {
+                (h, t + h, false)
+            };
+
+            let attempt = dispatch(AttemptKernel {
+                stepper: &mut w,
+                rhs: &mut rhs,
+                t,
+                h: h_step,
+                t_new,
+                rtol,
+                atol: &atol,
+            });
+            // A NaN error norm with a finite solution can only come from 0/0-type scaling; treat
+            // it as "too large".
+            let err = if attempt.err.is_nan() {
+                f64::INFINITY
+            } else {
+                attempt.err
+            };
+            let mut nonfinite = !attempt.finite;
+            let mut accepted = false;
+            if !nonfinite && err <= 1.0 {
+                nonfinite = !dispatch(DenseKernel {
+                    stepper: &mut w,
+                    rhs: &mut rhs,
+                    t,
+                    h: h_step,
+                    t_new,
+                });
+                accepted = !nonfinite;
+            }
+
+            if accepted && !landing && !switches.is_empty() {
+                let t_event = earliest_event(&switches, w.y(), &w.dense(t, t_new, h_step));
+                if let Some(h_event) = t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
+                {
+                    stats.rejected += 1;
+                    stats.events += 1;
+                    landing = true;
+                    h = h_event;
+                    continue;
                 }
             }
-        }
-        let n = 2 * sys.n_pos() + sys.n_quad();
-        if y0.len() != n {
-            return bad(format!(
-                "y0 has length {} but the system has dimension {n}",
-                y0.len()
-            ));
-        }
-        if !all_finite(y0) {
-            return bad("initial state is not finite".to_string());
-        }
-        match self.atol_scale {
-            None => Ok(vec![atol; n]),
-            Some(scale) if scale.len() != n => bad(format!(
-                "atol_scale has length {} but the system has dimension {n}",
-                scale.len()
-            )),
-            Some(scale) if !scale.iter().all(|s| s.is_finite() && *s >= 0.0) => {
-                bad("atol_scale entries must be finite and non-negative".to_string())
+            if accepted && !w.finish(&mut rhs, t_new) {
+                nonfinite = true;
+                accepted = false;
             }
-            Some(scale) => Ok(scale.iter().map(|s| atol * s).collect()),
+
+            if nonfinite {
+                stats.rejected += 1;
+                nonfinite_streak += 1;
+                last_failure_nonfinite = true;
+                if nonfinite_streak > MAX_NONFINITE_RETRIES {
+                    return Err(IntegrateError::NonFinite { t });
+                }
+                h = 0.1 * h_step;
+                reject = true;
+                landing = false;
+                continue;
+            }
+
+            if accepted {
+                landing = false;
+                let mut h_new = controller.after_accept(h_step, err);
+                stats.steps += 1;
+                // Hairer's test: stiff once 15 accepted steps sit on the stability boundary
+                // without 6 calm ones in between; the step is then held by stability, not by the
+                // tolerance.
+                if let Some(stiff) = w.on_stability_boundary() {
+                    if stiff {
+                        calm_steps = 0;
+                        stiff_steps += 1;
+                        if stiff_steps == STIFF_STEPS_TO_FLAG {
+                            stats.stiffness_detections += 1;
+                        }
+                    } else {
+                        calm_steps += 1;
+                        if calm_steps == CALM_STEPS_TO_CLEAR {
+                            stiff_steps = 0;
+                        }
+                    }
+                }
+                nonfinite_streak = 0;
+                last_failure_nonfinite = false;
+
+                let control = obs.on_step(&w.dense(t, t_new, h_step));
+                w.advance();
+                t = t_new;
+                if last || control == Control::Stop {
+                    stats.rhs_evals = rhs.evals;
+                    return Ok(stats);
+                }
+                h_new = h_new.min(h_max);
+                if reject {
+                    h_new = h_new.min(h_step);
+                }
+                reject = false;
+                h = h_new;
+            } else {
+                stats.rejected += 1;
+                landing = false;
+                last_failure_nonfinite = false;
+                h = controller.after_reject(h_step, err);
+                // A step that fails because it crosses a switch (a re-collision, say) would shrink
+                // by at most the controller's factor per try; aim the next try at the predicted
+                // crossing instead.
+                if !switches.is_empty() {
+                    let tau = predicted_event(&switches, w.y(), w.f0(), w.y_new(), h_step);
+                    if let Some(h_event) = tau.and_then(|tau| event_step(t, h_step, tau, h)) {
+                        h = h_event;
+                    }
+                }
+                reject = true;
+            }
         }
+    }
+}
+
+/// Checks the settings against the problem and returns the absolute tolerance of every
+/// component, `atol * atol_scale[i]`.
+fn validate<M>(
+    name: &str,
+    settings: &Adaptive<M>,
+    sys: &dyn OdeSystemDyn,
+    t0: f64,
+    y0: &[f64],
+    t_end: f64,
+) -> Result<Vec<f64>, IntegrateError> {
+    let bad = |s: String| Err(IntegrateError::InvalidSettings(format!("{name}: {s}")));
+    let (rtol, atol) = (settings.options.rtol, settings.options.atol());
+    if !(rtol.is_finite() && rtol > 0.0) {
+        return bad(format!("rtol must be positive and finite, got {rtol}"));
+    }
+    if !(atol.is_finite() && atol >= 0.0) {
+        return bad(format!("atol must be non-negative and finite, got {atol}"));
+    }
+    if !(t0.is_finite() && t_end.is_finite() && t_end > t0) {
+        return bad(format!(
+            "need finite t_end > t0, got t0 = {t0}, t_end = {t_end}"
+        ));
+    }
+    for (what, value) in [
+        ("h_max", settings.options.max_step_s),
+        ("h_init", settings.h_init),
+    ] {
+        if let Some(h) = value {
+            if !(h.is_finite() && h > 0.0) {
+                return bad(format!("{what} must be positive and finite, got {h}"));
+            }
+        }
+    }
+    let n = 2 * sys.n_pos() + sys.n_quad();
+    if y0.len() != n {
+        return bad(format!(
+            "y0 has length {} but the system has dimension {n}",
+            y0.len()
+        ));
+    }
+    if !all_finite(y0) {
+        return bad("initial state is not finite".to_string());
+    }
+    match settings.atol_scale.as_deref() {
+        None => Ok(vec![atol; n]),
+        Some(scale) if scale.len() != n => bad(format!(
+            "atol_scale has length {} but the system has dimension {n}",
+            scale.len()
+        )),
+        Some(scale) if !scale.iter().all(|s| s.is_finite() && *s >= 0.0) => {
+            bad("atol_scale entries must be finite and non-negative".to_string())
+        }
+        Some(scale) => Ok(scale.iter().map(|s| atol * s).collect()),
     }
 }
 
@@ -77,9 +561,9 @@ impl AdaptiveSettings<'_> {
 /// changes the solution by about 1 % and `h^order max(|f|, |f'|) ≈ 0.01` in the tolerance-weighted
 /// norm. One evaluation of `f` (into `f1`, with `y1` as scratch).
 #[allow(clippy::too_many_arguments)]
-pub(crate) fn initial_step(
+fn initial_step(
     order: i32,
-    sys: &mut dyn OdeSystemDyn,
+    rhs: &mut Rhs,
     t0: f64,
     y: &[f64],
     f0: &[f64],
@@ -109,7 +593,7 @@ pub(crate) fn initial_step(
     for ((o, yi), fi) in y1.iter_mut().zip(y).zip(f0) {
         *o = yi + h * fi;
     }
-    sys.rhs(t0 + h, y1, f1);
+    rhs.eval(t0 + h, y1, f1);
     let mut der2 = 0.0;
     for (((yi, a), b), ai) in y.iter().zip(f0).zip(f1.iter()).zip(atol) {
         let sk = ai + rtol * yi.abs();
@@ -137,7 +621,7 @@ pub(crate) fn initial_step(
 /// located on the step's dense output by the Illinois variant of regula falsi. `None` if no switch
 /// changes sign over the step. A switch exactly at zero at the start (the striker touching at
 /// t = 0, or a step that just landed on an event) is where the step begins, not an event in it.
-pub(crate) fn earliest_event<S: DenseStep + ?Sized>(
+fn earliest_event<S: DenseStep + ?Sized>(
     switches: &[Switch],
     y_start: &[f64],
     step: &S,
@@ -193,13 +677,7 @@ pub(crate) fn earliest_event<S: DenseStep + ?Sized>(
 
 /// Earliest crossing of a switch over a rejected attempt of length `h`, predicted from the values
 /// at both ends and the slope at the start (a quadratic in time); `None` if no switch changes sign.
-pub(crate) fn predicted_event(
-    switches: &[Switch],
-    y0: &[f64],
-    f0: &[f64],
-    y1: &[f64],
-    h: f64,
-) -> Option<f64> {
+fn predicted_event(switches: &[Switch], y0: &[f64], f0: &[f64], y1: &[f64], h: f64) -> Option<f64> {
     let mut earliest: Option<f64> = None;
     for sw in switches {
         let g0 = sw.value(|i| y0[i]);
@@ -235,7 +713,7 @@ pub(crate) fn predicted_event(
 /// The step that ends just past a crossing `tau` after `t` (a hair past, so the next step starts
 /// in the new regime), or `None` when it would be no shorter than `limit` or too short for
 /// floating point to move the state: then the step is taken as it is.
-pub(crate) fn event_step(t: f64, h_step: f64, tau: f64, limit: f64) -> Option<f64> {
+fn event_step(t: f64, h_step: f64, tau: f64, limit: f64) -> Option<f64> {
     let h_event = tau * (1.0 + 1e-6);
     (h_event < limit * (1.0 - 1e-6) && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step))
         .then_some(h_event)

@@ -17,13 +17,10 @@
 
 use std::cell::Cell;
 
-use super::adaptive::{
-    earliest_event, event_step, initial_step, predicted_event, AdaptiveSettings,
-};
-use super::{
-    all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
-    StepObserver,
-};
+use chainsweep_cpu::MulAdd;
+
+use super::adaptive::{Adaptive, Attempt, Controller, Method, Rhs, Stepper};
+use super::{all_finite, DenseStep};
 
 /// Sum of a slice in eight interleaved partial sums, which vectorises.
 fn lane_sum(v: &[f64]) -> f64 {
@@ -40,56 +37,34 @@ fn lane_sum(v: &[f64]) -> f64 {
 
 /// h·|λ| above which a step is on DOP853's stability boundary (Hairer's `dop853.f`).
 const STIFFNESS_BOUND: f64 = 6.1;
-/// Consecutive stiff steps that flag the problem as stiff.
-const STIFF_STEPS_TO_FLAG: u32 = 15;
-/// Calm steps that clear the count.
-const CALM_STEPS_TO_CLEAR: u32 = 6;
-
-/// Order of the method, for the starting-step estimate.
-const ORDER: i32 = 8;
 
 /// Adaptive Dormand–Prince 8(5,3) integrator with 7th-order dense output (Hairer's `DOP853`).
 ///
-/// The error of each step is measured component-wise against
-/// `atol_i + rtol * max(|y_old|, |y_new|)`, where `atol_i = atol * atol_scale[i]` (or `atol` without
-/// scales), and combined into an RMS norm; a step is accepted when that norm is at most one.
-#[derive(Debug, Clone, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub struct Dop853 {
-    /// Relative tolerance (must be positive).
-    pub rtol: f64,
-    /// Absolute tolerance (must be non-negative), multiplied by `atol_scale[i]` when scales are
-    /// given. A component whose absolute tolerance is zero and that is exactly zero at both ends
-    /// of a step is left out of the error norm.
-    pub atol: f64,
-    /// Optional per-component scales of the absolute tolerance (length `2 n_pos + n_quad`, each
-    /// finite and non-negative): component `i` gets the absolute tolerance `atol * atol_scale[i]`,
-    /// so `atol` can be given relative to the natural scale of each quantity.
-    pub atol_scale: Option<Vec<f64>>,
-    /// First step size to try. `None` uses Hairer's starting-step heuristic (one extra
-    /// right-hand-side evaluation). A given value is capped at `h_max`.
-    pub h_init: Option<f64>,
-    /// Largest step size. `None` means the whole interval `t_end - t0`. The last step may stretch
-    /// up to 1 % beyond it so as to land exactly on `t_end` (Hairer's rule).
-    pub h_max: Option<f64>,
-    /// Place step boundaries on the zeros of the system's switching functions (contacts opening
-    /// and closing), where the right-hand side is not smooth. A step that passes the error test
-    /// but crosses a switch is retaken to end just past the earliest crossing, located on the
-    /// dense output; the retaken step is accepted.
-    pub locate_events: bool,
-}
+/// Right-hand-side evaluations counted in [`super::IntegrationStats::rhs_evals`]: one at `t0`, one
+/// more for the automatic first step (`h_init = None`), 11 per attempted step, and 4 per step
+/// that passes the error test (the FSAL stage at the new point plus 3 dense-output stages).
+/// Without non-finite values that is `1 + [h_init is None] + 15 steps + 11 rejected`.
+pub type Dop853 = Adaptive<Dop853Method>;
 
-impl Dop853 {
-    /// Integrator with the given tolerances, the automatic first step and no step-size cap.
-    pub fn new(rtol: f64, atol: f64) -> Self {
-        Dop853 {
-            rtol,
-            atol,
-            atol_scale: None,
-            h_init: None,
-            h_max: None,
-            locate_events: true,
-        }
+/// The DOP853 method: Hairer's coefficients, attempt and dense output, in the shared adaptive core.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Dop853Method;
+
+impl Method for Dop853Method {
+    const NAME: &'static str = "dop853";
+    const ORDER: i32 = 8;
+    /// Hairer's defaults for DOP853: safety 0.9, the step shrinks at most by 0.333 and grows at
+    /// most by 6 per step, the plain integral controller on the 8th-order error (Lund
+    /// stabilisation off, his default).
+    const CONTROLLER: Controller = Controller {
+        exponent: 1.0 / 8.0,
+        safety: 0.9,
+        max_shrink: 0.333,
+        max_growth: 6.0,
+    };
+    type Stepper = Work;
+    fn stepper(y0: &[f64], _n_pos: usize) -> Work {
+        Work::new(y0)
     }
 }
 
@@ -264,28 +239,11 @@ const D715: f64 = -0.39177261675615439165231486172e+02;
 const D716: f64 = -0.14972683625798562581422125276e+03;
 
 // ---------------------------------------------------------------------------------------------
-// Step-size control (Hairer's defaults for DOP853).
-// ---------------------------------------------------------------------------------------------
-
-/// Safety factor.
-const SAFE: f64 = 0.9;
-/// `1 / fac1`: the step shrinks at most by `fac1 = 0.333` per step.
-const FACC1: f64 = 1.0 / 0.333;
-/// `1 / fac2`: the step grows at most by `fac2 = 6` per step.
-const FACC2: f64 = 1.0 / 6.0;
-/// Lund stabilisation exponent (Hairer's default for DOP853 is 0: plain I controller).
-const BETA: f64 = 0.0;
-/// Exponent of the error in the step-size formula.
-const EXPO1: f64 = 1.0 / 8.0 - BETA * 0.2;
-/// Consecutive step failures with NaN/inf (each shrinking the step tenfold) before giving up.
-const MAX_NONFINITE_RETRIES: u32 = 6;
-
-// ---------------------------------------------------------------------------------------------
 // Work space.
 // ---------------------------------------------------------------------------------------------
 
 /// Every vector the step loop touches, allocated once per run.
-struct Work {
+pub struct Work {
     /// Squared, scaled components of the 3rd-order error estimate (scratch).
     e3_sq: Vec<f64>,
     /// Squared, scaled components of the 5th-order error estimate (scratch).
@@ -323,14 +281,11 @@ struct Work {
     cont_epoch: Vec<Cell<u64>>,
     /// Number of the current dense step (starts at 1 so that no coefficient is valid initially).
     epoch: u64,
-    /// Absolute tolerance of every component.
-    atol: Vec<f64>,
 }
 
 impl Work {
-    fn new(y0: &[f64], atol: Vec<f64>) -> Self {
+    fn new(y0: &[f64]) -> Self {
         let n = y0.len();
-        debug_assert_eq!(atol.len(), n);
         let z = || vec![0.0; n];
         Work {
             y: y0.to_vec(),
@@ -355,7 +310,6 @@ impl Work {
             stiffness: 0.0,
             e3_sq: vec![0.0; n],
             e5_sq: vec![0.0; n],
-            atol,
         }
     }
 
@@ -363,13 +317,15 @@ impl Work {
     /// solution into `y_new`, and Hairer's combined 5th/3rd-order error norm. `t_new` is the end
     /// of the step (`t + h`, or exactly `t_end` for the last step). Exactly 11 right-hand-side
     /// evaluations. Returns `(err, y_new is finite)`.
-    fn attempt(
+    #[inline(always)]
+    fn attempt<F: MulAdd>(
         &mut self,
-        sys: &mut dyn OdeSystemDyn,
+        sys: &mut Rhs,
         t: f64,
         h: f64,
         t_new: f64,
         rtol: f64,
+        atol: &[f64],
     ) -> (f64, bool) {
         let n = self.y.len();
         let Work {
@@ -388,7 +344,6 @@ impl Work {
             k10,
             k11,
             k12,
-            atol,
             e3_sq,
             e5_sq,
             ..
@@ -400,106 +355,137 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(A21 * k1[i], y[i]);
+                s[i] = F::mul_add(h, A21 * k1[i], y[i]);
             }
         }
-        sys.rhs(t + C2 * h, ys, k2);
+        sys.eval(t + C2 * h, ys, k2);
         let k2 = &k2[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(A32.mul_add(k2[i], A31 * k1[i]), y[i]);
+                s[i] = F::mul_add(h, F::mul_add(A32, k2[i], A31 * k1[i]), y[i]);
             }
         }
-        sys.rhs(t + C3 * h, ys, k3);
+        sys.eval(t + C3 * h, ys, k3);
         let k3 = &k3[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(A43.mul_add(k3[i], A41 * k1[i]), y[i]);
+                s[i] = F::mul_add(h, F::mul_add(A43, k3[i], A41 * k1[i]), y[i]);
             }
         }
-        sys.rhs(t + C4 * h, ys, k4);
+        sys.eval(t + C4 * h, ys, k4);
         let k4 = &k4[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(A54.mul_add(k4[i], A53.mul_add(k3[i], A51 * k1[i])), y[i]);
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(A54, k4[i], F::mul_add(A53, k3[i], A51 * k1[i])),
+                    y[i],
+                );
             }
         }
-        sys.rhs(t + C5 * h, ys, k5);
+        sys.eval(t + C5 * h, ys, k5);
         let k5 = &k5[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(A65.mul_add(k5[i], A64.mul_add(k4[i], A61 * k1[i])), y[i]);
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(A65, k5[i], F::mul_add(A64, k4[i], A61 * k1[i])),
+                    y[i],
+                );
             }
         }
-        sys.rhs(t + C6 * h, ys, k6);
+        sys.eval(t + C6 * h, ys, k6);
         let k6 = &k6[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A76.mul_add(k6[i], A75.mul_add(k5[i], A74.mul_add(k4[i], A71 * k1[i]))),
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A76,
+                        k6[i],
+                        F::mul_add(A75, k5[i], F::mul_add(A74, k4[i], A71 * k1[i])),
+                    ),
                     y[i],
                 );
             }
         }
-        sys.rhs(t + C7 * h, ys, k7);
+        sys.eval(t + C7 * h, ys, k7);
         let k7 = &k7[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A87.mul_add(
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A87,
                         k7[i],
-                        A86.mul_add(k6[i], A85.mul_add(k5[i], A84.mul_add(k4[i], A81 * k1[i]))),
+                        F::mul_add(
+                            A86,
+                            k6[i],
+                            F::mul_add(A85, k5[i], F::mul_add(A84, k4[i], A81 * k1[i])),
+                        ),
                     ),
                     y[i],
                 );
             }
         }
-        sys.rhs(t + C8 * h, ys, k8);
+        sys.eval(t + C8 * h, ys, k8);
         let k8 = &k8[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A98.mul_add(
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A98,
                         k8[i],
-                        A97.mul_add(
+                        F::mul_add(
+                            A97,
                             k7[i],
-                            A96.mul_add(k6[i], A95.mul_add(k5[i], A94.mul_add(k4[i], A91 * k1[i]))),
+                            F::mul_add(
+                                A96,
+                                k6[i],
+                                F::mul_add(A95, k5[i], F::mul_add(A94, k4[i], A91 * k1[i])),
+                            ),
                         ),
                     ),
                     y[i],
                 );
             }
         }
-        sys.rhs(t + C9 * h, ys, k9);
+        sys.eval(t + C9 * h, ys, k9);
         let k9 = &k9[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A109.mul_add(
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A109,
                         k9[i],
-                        A108.mul_add(
+                        F::mul_add(
+                            A108,
                             k8[i],
-                            A107.mul_add(
+                            F::mul_add(
+                                A107,
                                 k7[i],
-                                A106.mul_add(
+                                F::mul_add(
+                                    A106,
                                     k6[i],
-                                    A105.mul_add(k5[i], A104.mul_add(k4[i], A101 * k1[i])),
+                                    F::mul_add(A105, k5[i], F::mul_add(A104, k4[i], A101 * k1[i])),
                                 ),
                             ),
                         ),
@@ -508,53 +494,33 @@ impl Work {
                 );
             }
         }
-        sys.rhs(t + C10 * h, ys, k10);
+        sys.eval(t + C10 * h, ys, k10);
         let k10 = &k10[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A1110.mul_add(
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A1110,
                         k10[i],
-                        A119.mul_add(
+                        F::mul_add(
+                            A119,
                             k9[i],
-                            A118.mul_add(
+                            F::mul_add(
+                                A118,
                                 k8[i],
-                                A117.mul_add(
+                                F::mul_add(
+                                    A117,
                                     k7[i],
-                                    A116.mul_add(
+                                    F::mul_add(
+                                        A116,
                                         k6[i],
-                                        A115.mul_add(k5[i], A114.mul_add(k4[i], A111 * k1[i])),
-                                    ),
-                                ),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.rhs(t + C11 * h, ys, k11);
-        let k11 = &k11[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = h.mul_add(
-                    A1211.mul_add(
-                        k11[i],
-                        A1210.mul_add(
-                            k10[i],
-                            A129.mul_add(
-                                k9[i],
-                                A128.mul_add(
-                                    k8[i],
-                                    A127.mul_add(
-                                        k7[i],
-                                        A126.mul_add(
-                                            k6[i],
-                                            A125.mul_add(k5[i], A124.mul_add(k4[i], A121 * k1[i])),
+                                        F::mul_add(
+                                            A115,
+                                            k5[i],
+                                            F::mul_add(A114, k4[i], A111 * k1[i]),
                                         ),
                                     ),
                                 ),
@@ -565,7 +531,48 @@ impl Work {
                 );
             }
         }
-        sys.rhs(t_new, ys, k12);
+        sys.eval(t + C11 * h, ys, k11);
+        let k11 = &k11[..n];
+
+        {
+            let s = &mut ys[..n];
+            for i in 0..n {
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A1211,
+                        k11[i],
+                        F::mul_add(
+                            A1210,
+                            k10[i],
+                            F::mul_add(
+                                A129,
+                                k9[i],
+                                F::mul_add(
+                                    A128,
+                                    k8[i],
+                                    F::mul_add(
+                                        A127,
+                                        k7[i],
+                                        F::mul_add(
+                                            A126,
+                                            k6[i],
+                                            F::mul_add(
+                                                A125,
+                                                k5[i],
+                                                F::mul_add(A124, k4[i], A121 * k1[i]),
+                                            ),
+                                        ),
+                                    ),
+                                ),
+                            ),
+                        ),
+                    ),
+                    y[i],
+                );
+            }
+        }
+        sys.eval(t_new, ys, k12);
         let k12 = &k12[..n];
 
         // 8th-order solution and the squared, scaled components of both error estimates in one
@@ -616,7 +623,8 @@ impl Work {
     /// After a step has passed the error test: `k13 = f(t_new, y_new)` (the next step's first
     /// stage), dense stages 14–16, and the eight dense-output coefficients of every component.
     /// Exactly 4 right-hand-side evaluations. Returns whether all coefficients are finite.
-    fn prepare_dense(&mut self, sys: &mut dyn OdeSystemDyn, t: f64, h: f64, t_new: f64) -> bool {
+    #[inline(always)]
+    fn prepare_dense<F: MulAdd>(&mut self, sys: &mut Rhs, t: f64, h: f64, t_new: f64) -> bool {
         let n = self.y.len();
         let Work {
             y,
@@ -649,7 +657,7 @@ impl Work {
         let k11 = &k11[..n];
         let k12 = &k12[..n];
 
-        sys.rhs(t_new, y_new, k13);
+        sys.eval(t_new, y_new, k13);
         let k13 = &k13[..n];
 
         // Hairer's stiffness estimate h·|λ| ≈ h ‖f(y_new) − f(ys)‖ / ‖y_new − ys‖, where ys is the
@@ -668,18 +676,28 @@ impl Work {
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A1413.mul_add(
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A1413,
                         k13[i],
-                        A1412.mul_add(
+                        F::mul_add(
+                            A1412,
                             k12[i],
-                            A1411.mul_add(
+                            F::mul_add(
+                                A1411,
                                 k11[i],
-                                A1410.mul_add(
+                                F::mul_add(
+                                    A1410,
                                     k10[i],
-                                    A149.mul_add(
+                                    F::mul_add(
+                                        A149,
                                         k9[i],
-                                        A148.mul_add(k8[i], A147.mul_add(k7[i], A141 * k1[i])),
+                                        F::mul_add(
+                                            A148,
+                                            k8[i],
+                                            F::mul_add(A147, k7[i], A141 * k1[i]),
+                                        ),
                                     ),
                                 ),
                             ),
@@ -689,24 +707,34 @@ impl Work {
                 );
             }
         }
-        sys.rhs(t + C14 * h, ys, k14);
+        sys.eval(t + C14 * h, ys, k14);
         let k14 = &k14[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A1514.mul_add(
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A1514,
                         k14[i],
-                        A1513.mul_add(
+                        F::mul_add(
+                            A1513,
                             k13[i],
-                            A1512.mul_add(
+                            F::mul_add(
+                                A1512,
                                 k12[i],
-                                A1511.mul_add(
+                                F::mul_add(
+                                    A1511,
                                     k11[i],
-                                    A158.mul_add(
+                                    F::mul_add(
+                                        A158,
                                         k8[i],
-                                        A157.mul_add(k7[i], A156.mul_add(k6[i], A151 * k1[i])),
+                                        F::mul_add(
+                                            A157,
+                                            k7[i],
+                                            F::mul_add(A156, k6[i], A151 * k1[i]),
+                                        ),
                                     ),
                                 ),
                             ),
@@ -716,24 +744,34 @@ impl Work {
                 );
             }
         }
-        sys.rhs(t + C15 * h, ys, k15);
+        sys.eval(t + C15 * h, ys, k15);
         let k15 = &k15[..n];
 
         {
             let s = &mut ys[..n];
             for i in 0..n {
-                s[i] = h.mul_add(
-                    A1615.mul_add(
+                s[i] = F::mul_add(
+                    h,
+                    F::mul_add(
+                        A1615,
                         k15[i],
-                        A1614.mul_add(
+                        F::mul_add(
+                            A1614,
                             k14[i],
-                            A1613.mul_add(
+                            F::mul_add(
+                                A1613,
                                 k13[i],
-                                A169.mul_add(
+                                F::mul_add(
+                                    A169,
                                     k9[i],
-                                    A168.mul_add(
+                                    F::mul_add(
+                                        A168,
                                         k8[i],
-                                        A167.mul_add(k7[i], A166.mul_add(k6[i], A161 * k1[i])),
+                                        F::mul_add(
+                                            A167,
+                                            k7[i],
+                                            F::mul_add(A166, k6[i], A161 * k1[i]),
+                                        ),
                                     ),
                                 ),
                             ),
@@ -743,7 +781,7 @@ impl Work {
                 );
             }
         }
-        sys.rhs(t + C16 * h, ys, k16);
+        sys.eval(t + C16 * h, ys, k16);
         let k16 = &k16[..n];
 
         *epoch += 1;
@@ -752,7 +790,7 @@ impl Work {
 }
 
 /// The interpolant handed to the observer: Hairer's `CONTD8` on one accepted step.
-struct Dop853Step<'a> {
+pub struct Dop853Step<'a> {
     t0: f64,
     t1: f64,
     h: f64,
@@ -861,206 +899,51 @@ impl DenseStep for Dop853Step<'_> {
     }
 }
 
-impl Integrator for Dop853 {
-    fn name(&self) -> &'static str {
-        "dop853"
+impl Stepper for Work {
+    type Dense<'a> = Dop853Step<'a>;
+
+    fn start(&mut self, rhs: &mut Rhs, t0: f64) -> bool {
+        rhs.eval(t0, &self.y, &mut self.k1);
+        all_finite(&self.k1)
     }
-
-    /// Adaptive integration from `t0` to exactly `t_end`.
-    ///
-    /// Right-hand-side evaluations counted in [`IntegrationStats::rhs_evals`]: one at `t0`, one
-    /// more for the automatic first step (`h_init = None`), 11 per attempted step, and 4 per step
-    /// that passes the error test (the FSAL stage at the new point plus 3 dense-output stages).
-    /// Without non-finite values that is `1 + [h_init is None] + 15 steps + 11 rejected`.
-    fn integrate(
-        &self,
-        sys: &mut dyn OdeSystemDyn,
-        t0: f64,
-        y0: &[f64],
-        t_end: f64,
-        max_steps: u64,
-        obs: &mut dyn StepObserver,
-    ) -> Result<IntegrationStats, IntegrateError> {
-        let (rtol, atol) = (self.rtol, self.atol);
-        let atol_vec = AdaptiveSettings {
-            name: "dop853",
-            rtol,
-            atol,
-            atol_scale: self.atol_scale.as_deref(),
-            h_init: self.h_init,
-            h_max: self.h_max,
-        }
-        .validate(sys, t0, y0, t_end)?;
-
-        let h_max = self.h_max.unwrap_or(t_end - t0);
-        let mut stats = IntegrationStats::default();
-        let mut w = Work::new(y0, atol_vec);
-
-        obs.on_start(t0, y0);
-
-        sys.rhs(t0, &w.y, &mut w.k1);
-        stats.rhs_evals += 1;
-        if !all_finite(&w.k1) {
-            return Err(IntegrateError::NonFinite { t: t0 });
-        }
-
-        let mut h = match self.h_init {
-            Some(h0) => h0.min(h_max),
-            None => {
-                stats.rhs_evals += 1;
-                initial_step(
-                    ORDER,
-                    sys,
-                    t0,
-                    &w.y,
-                    &w.k1,
-                    &mut w.ys,
-                    &mut w.k2,
-                    (rtol, &w.atol),
-                    h_max,
-                )
-            }
-        };
-
-        let mut t = t0;
-        let mut facold: f64 = 1e-4;
-        let mut reject = false;
-        let mut nonfinite_streak = 0u32;
-        let switches = sys.switches();
-        let switches = switches.to_vec();
-        let switches = switches.as_slice();
-        // The current attempt ends on a located event: accept it even if it still crosses one.
-        let mut landing = false;
-        let (mut stiff_steps, mut calm_steps) = (0u32, 0u32);
-        let mut last_failure_nonfinite = false;
-
-        loop {
-            if stats.steps >= max_steps {
-                return Err(IntegrateError::StepBudget { max_steps, t });
-            }
-            if h < 10.0 * f64::EPSILON * t.abs() || h < f64::MIN_POSITIVE {
-                return Err(if last_failure_nonfinite {
-                    IntegrateError::NonFinite { t }
-                } else {
-                    IntegrateError::StepTooSmall { t, h }
-                });
-            }
-            // Land exactly on t_end, stretching the step by up to 1 % rather than leaving a
-            // sliver.
-            let (h_step, t_new, last) = if t + 1.01 * h >= t_end {
-                (t_end - t, t_end, true)
-            } else {
-                (h, t + h, false)
-            };
-
-            let (err, finite) = w.attempt(sys, t, h_step, t_new, rtol);
-            stats.rhs_evals += 11;
-
-            let mut nonfinite = !finite;
-            let mut accepted = false;
-            // A NaN error norm with a finite solution can only come from 0/0-type scaling; treat
-            // it as "too large".
-            let err = if err.is_nan() { f64::INFINITY } else { err };
-            let fac11 = err.powf(EXPO1);
-            if !nonfinite && err <= 1.0 {
-                nonfinite = !w.prepare_dense(sys, t, h_step, t_new);
-                stats.rhs_evals += 4;
-                accepted = !nonfinite;
-            }
-
-            if nonfinite {
-                stats.rejected += 1;
-                nonfinite_streak += 1;
-                last_failure_nonfinite = true;
-                if nonfinite_streak > MAX_NONFINITE_RETRIES {
-                    return Err(IntegrateError::NonFinite { t });
-                }
-                h = 0.1 * h_step;
-                reject = true;
-                continue;
-            }
-
-            if accepted && self.locate_events && !landing && !switches.is_empty() {
-                let dense = Dop853Step {
-                    t0: t,
-                    t1: t_new,
-                    h: h_step,
-                    w: &w,
-                };
-                let t_event = earliest_event(switches, &w.y, &dense);
-                if let Some(h_event) = t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
-                {
-                    stats.rejected += 1;
-                    stats.events += 1;
-                    landing = true;
-                    h = h_event;
-                    continue;
-                }
-            }
-
-            if accepted {
-                landing = false;
-                // Lund stabilisation uses the previous accepted step's error.
-                let fac = if BETA > 0.0 {
-                    fac11 / facold.powf(BETA)
-                } else {
-                    fac11
-                };
-                let fac = (fac / SAFE).clamp(FACC2, FACC1);
-                let mut h_new = h_step / fac;
-                facold = err.max(1e-4);
-                stats.steps += 1;
-                // Hairer's test: stiff once h·|λ| > 6.1 on 15 accepted steps without 6 calm ones
-                // in between; the step is then held by stability, not by the tolerance.
-                if w.stiffness > STIFFNESS_BOUND {
-                    calm_steps = 0;
-                    stiff_steps += 1;
-                    if stiff_steps == STIFF_STEPS_TO_FLAG {
-                        stats.stiffness_detections += 1;
-                    }
-                } else {
-                    calm_steps += 1;
-                    if calm_steps == CALM_STEPS_TO_CLEAR {
-                        stiff_steps = 0;
-                    }
-                }
-                nonfinite_streak = 0;
-                last_failure_nonfinite = false;
-
-                let control = obs.on_step(&Dop853Step {
-                    t0: t,
-                    t1: t_new,
-                    h: h_step,
-                    w: &w,
-                });
-                std::mem::swap(&mut w.y, &mut w.y_new);
-                std::mem::swap(&mut w.k1, &mut w.k13);
-                t = t_new;
-                if last || control == Control::Stop {
-                    return Ok(stats);
-                }
-                h_new = h_new.min(h_max);
-                if reject {
-                    h_new = h_new.min(h_step);
-                }
-                reject = false;
-                h = h_new;
-            } else {
-                stats.rejected += 1;
-                landing = false;
-                last_failure_nonfinite = false;
-                h = h_step / FACC1.min(fac11 / SAFE);
-                // A step that fails because it crosses a switch (a re-collision, say) would shrink
-                // by at most a factor 3 per try; aim the next try at the predicted crossing instead.
-                if self.locate_events && !switches.is_empty() {
-                    let tau = predicted_event(switches, &w.y, &w.k1, &w.y_new, h_step);
-                    if let Some(h_event) = tau.and_then(|tau| event_step(t, h_step, tau, h)) {
-                        h = h_event;
-                    }
-                }
-                reject = true;
-            }
-        }
+    fn y(&self) -> &[f64] {
+        &self.y
+    }
+    fn f0(&self) -> &[f64] {
+        &self.k1
+    }
+    fn y_new(&self) -> &[f64] {
+        &self.y_new
+    }
+    #[inline(always)]
+    fn attempt<F: MulAdd>(
+        &mut self,
+        rhs: &mut Rhs,
+        t: f64,
+        h: f64,
+        t_new: f64,
+        rtol: f64,
+        atol: &[f64],
+    ) -> Attempt {
+        let (err, finite) = Work::attempt::<F>(self, rhs, t, h, t_new, rtol, atol);
+        Attempt { err, finite }
+    }
+    #[inline(always)]
+    fn prepare_dense<F: MulAdd>(&mut self, rhs: &mut Rhs, t: f64, h: f64, t_new: f64) -> bool {
+        Work::prepare_dense::<F>(self, rhs, t, h, t_new)
+    }
+    fn finish(&mut self, _rhs: &mut Rhs, _t_new: f64) -> bool {
+        true
+    }
+    fn dense(&self, t0: f64, t1: f64, h: f64) -> Dop853Step<'_> {
+        Dop853Step { t0, t1, h, w: self }
+    }
+    fn advance(&mut self) {
+        std::mem::swap(&mut self.y, &mut self.y_new);
+        std::mem::swap(&mut self.k1, &mut self.k13);
+    }
+    fn on_stability_boundary(&self) -> Option<bool> {
+        Some(self.stiffness > STIFFNESS_BOUND)
     }
 }
 
@@ -1068,6 +951,9 @@ impl Integrator for Dop853 {
 mod tests {
     use super::*;
     use crate::integrate::OdeSystem;
+    use crate::integrate::{
+        Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver,
+    };
 
     /// x'' = -x, optionally with the quadrature q' = x^2.
     struct Osc {
@@ -1440,11 +1326,7 @@ mod tests {
         n: u32,
     ) -> (f64, Vec<f64>) {
         let h = t_end / f64::from(n);
-        let solver = Dop853 {
-            h_init: Some(h),
-            h_max: Some(h),
-            ..Dop853::new(1e3, 1e3)
-        };
+        let solver = Dop853::new(1e3, 1e3).with_initial_step(h).with_max_step(h);
         let (r, rec) = run(&solver, sys, y0, t_end);
         let s = r.unwrap();
         assert_eq!(s.steps, u64::from(n));
@@ -1499,11 +1381,7 @@ mod tests {
             }
         }
         let err_for = |h: f64| {
-            let solver = Dop853 {
-                h_init: Some(h),
-                h_max: Some(h),
-                ..Dop853::new(1e3, 1e3)
-            };
+            let solver = Dop853::new(1e3, 1e3).with_initial_step(h).with_max_step(h);
             let mut obs = Mid { max_err: 0.0 };
             solver
                 .integrate(&mut Forced, 0.0, &[1.0], 10.0, 10, &mut obs)
@@ -1555,10 +1433,7 @@ mod tests {
 
     #[test]
     fn dop853_h_max_is_respected() {
-        let solver = Dop853 {
-            h_max: Some(0.1),
-            ..Dop853::new(1e-6, 1e-6)
-        };
+        let solver = Dop853::new(1e-6, 1e-6).with_max_step(0.1);
         let (r, rec) = run(&solver, &mut Osc { quad: false }, &[1.0, 0.0], 3.05);
         r.unwrap();
         for &(a, b) in &rec.steps {
@@ -1621,10 +1496,7 @@ mod tests {
         bad(Dop853::new(1e-6, 1e-6), &[f64::NAN, 0.0], 1.0, &mut sys);
         bad(Dop853::new(1e-6, 1e-6), &[1.0], 1.0, &mut sys);
         bad(
-            Dop853 {
-                h_max: Some(0.0),
-                ..Dop853::new(1e-6, 1e-6)
-            },
+            Dop853::new(1e-6, 1e-6).with_max_step(0.0),
             &y0,
             1.0,
             &mut sys,

@@ -70,61 +70,34 @@
 // Index loops over equal-length slices read more clearly here than nested zips.
 #![allow(clippy::needless_range_loop)]
 
-use super::adaptive::{
-    earliest_event, event_step, initial_step, predicted_event, AdaptiveSettings,
-};
-use super::{
-    all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
-    StepObserver, Tridiagonal,
-};
+use chainsweep_cpu::MulAdd;
 
-/// Order of the method, for the starting-step estimate.
-const ORDER: i32 = 3;
+use super::adaptive::{Adaptive, Attempt, Controller, Method, Rhs, Stepper};
+use super::{all_finite, DenseStep, Tridiagonal};
 
 /// Adaptive, L-stable Rosenbrock-W integrator ROS34PW2 (order 3, embedded order 2, third-order
-/// dense output) using the system's tridiagonal acceleration Jacobian.
-///
-/// The error of each step is measured component-wise against
-/// `atol_i + rtol * max(|y_old|, |y_new|)`, where `atol_i = atol * atol_scale[i]` (or `atol` without
-/// scales), and combined into an RMS norm; a step is accepted when that norm is at most one.
-/// Settings mean what they mean for [`super::Dop853`].
-#[derive(Debug, Clone, PartialEq)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub struct Ros34pw2 {
-    /// Relative tolerance (must be positive).
-    pub rtol: f64,
-    /// Absolute tolerance (must be non-negative), multiplied by `atol_scale[i]` when scales are
-    /// given. A component whose absolute tolerance is zero and that is exactly zero at both ends
-    /// of a step is left out of the error norm.
-    pub atol: f64,
-    /// Optional per-component scales of the absolute tolerance (length `2 n_pos + n_quad`, each
-    /// finite and non-negative): component `i` gets the absolute tolerance `atol * atol_scale[i]`.
-    pub atol_scale: Option<Vec<f64>>,
-    /// First step size to try. `None` uses Hairer's starting-step heuristic (one extra
-    /// right-hand-side evaluation). A given value is capped at `h_max`.
-    pub h_init: Option<f64>,
-    /// Largest step size. `None` means the whole interval `t_end - t0`. The last step may stretch
-    /// up to 1 % beyond it so as to land exactly on `t_end`.
-    pub h_max: Option<f64>,
-    /// Place step boundaries on the zeros of the system's switching functions (contacts opening
-    /// and closing), where the right-hand side and its Jacobian are not smooth. A step that passes
-    /// the error test but crosses a switch is retaken to end just past the earliest crossing,
-    /// located on the dense output; the retaken step is accepted.
-    pub locate_events: bool,
-}
+/// dense output) using the system's tridiagonal acceleration Jacobian. Settings mean what they mean
+/// for [`super::Dop853`]; the module docs give the cost of a step.
+pub type Ros34pw2 = Adaptive<Ros34pw2Method>;
 
-impl Ros34pw2 {
-    /// Integrator with the given tolerances, the automatic first step, no step-size cap and event
-    /// location on.
-    pub fn new(rtol: f64, atol: f64) -> Self {
-        Ros34pw2 {
-            rtol,
-            atol,
-            atol_scale: None,
-            h_init: None,
-            h_max: None,
-            locate_events: true,
-        }
+/// The ROS34PW2 method: its tableau, attempt and dense output, in the shared adaptive core.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Ros34pw2Method;
+
+impl Method for Ros34pw2Method {
+    const NAME: &'static str = "ros34pw2";
+    const ORDER: i32 = 3;
+    /// Safety 0.9, the step shrinks at most fivefold and grows at most fivefold per step, on the
+    /// embedded second-order error.
+    const CONTROLLER: Controller = Controller {
+        exponent: 1.0 / 3.0,
+        safety: 0.9,
+        max_shrink: 0.2,
+        max_growth: 5.0,
+    };
+    type Stepper = Work;
+    fn stepper(y0: &[f64], n_pos: usize) -> Work {
+        Work::new(y0, n_pos)
     }
 }
 
@@ -267,22 +240,6 @@ impl Tableau {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Step-size control.
-// ---------------------------------------------------------------------------------------------
-
-/// Safety factor.
-const SAFE: f64 = 0.9;
-/// Largest growth of the step per accepted step.
-const FAC_MAX: f64 = 5.0;
-/// Largest shrinking of the step per rejected step.
-const FAC_MIN: f64 = 0.2;
-/// Exponent of the error in the step-size formula: the embedded solution is of order 2.
-const EXPO: f64 = 1.0 / 3.0;
-/// Consecutive failures with NaN/inf or a singular matrix (each shrinking the step tenfold)
-/// before giving up.
-const MAX_NONFINITE_RETRIES: u32 = 6;
-
-// ---------------------------------------------------------------------------------------------
 // Tridiagonal LU with partial pivoting (LAPACK dgttrf/dgtts2), factor once, solve per stage.
 // ---------------------------------------------------------------------------------------------
 
@@ -394,7 +351,7 @@ fn tri_mul(m: &Tridiagonal, r: &[f64], out: &mut [f64]) {
 // ---------------------------------------------------------------------------------------------
 
 /// Every vector the step loop touches, allocated once per run.
-struct Work {
+pub struct Work {
     /// Number of positions.
     np: usize,
     /// State at the start of the current step.
@@ -418,12 +375,14 @@ struct Work {
     /// Whether the system provides a Jacobian.
     has_jacobian: bool,
     lu: TriLu,
-    /// Absolute tolerance of every component.
-    atol: Vec<f64>,
+    /// The Jacobian in `kx`, `kv` is the one at the current step's start point (rejected attempts
+    /// and event retakes from the same point reuse it).
+    jacobian_current: bool,
+    tab: Tableau,
 }
 
 impl Work {
-    fn new(y0: &[f64], np: usize, atol: Vec<f64>) -> Self {
+    fn new(y0: &[f64], np: usize) -> Self {
         let n = y0.len();
         let z = || vec![0.0; n];
         Work {
@@ -440,7 +399,8 @@ impl Work {
             kv: Tridiagonal::zeros(np),
             has_jacobian: false,
             lu: TriLu::new(np),
-            atol,
+            jacobian_current: false,
+            tab: Tableau::new(),
         }
     }
 
@@ -466,18 +426,39 @@ impl Work {
         }
     }
 
+    /// The Jacobian at the step's start into `kx`, `kv`, unless it is there already.
+    fn update_jacobian(&mut self, rhs: &Rhs, t: f64) {
+        if self.jacobian_current {
+            return;
+        }
+        self.has_jacobian =
+            self.np > 0 && rhs.acceleration_jacobian(t, &self.y, &mut self.kx, &mut self.kv);
+        if !self.has_jacobian {
+            // No Jacobian: W = [[0, I], [0, 0]], still a third-order W-method.
+            for m in [&mut self.kx, &mut self.kv] {
+                m.lower.iter_mut().for_each(|e| *e = 0.0);
+                m.diag.iter_mut().for_each(|e| *e = 0.0);
+                m.upper.iter_mut().for_each(|e| *e = 0.0);
+            }
+        }
+        self.jacobian_current = true;
+    }
+
     /// One attempt of size `h` from `(t, y)` with `f0 = f(t, y)` and the Jacobian at `y` in
     /// `kx`, `kv`: the solution into `y_new` and the RMS error norm. Exactly three right-hand-side
     /// evaluations. Returns `None` if the iteration matrix is singular or not finite, else
     /// `Some((err, y_new is finite))`.
+    #[inline(always)]
     fn attempt(
         &mut self,
-        sys: &mut dyn OdeSystemDyn,
-        tab: &Tableau,
+        sys: &mut Rhs,
         t: f64,
         h: f64,
         rtol: f64,
+        atol: &[f64],
     ) -> Option<(f64, bool)> {
+        self.update_jacobian(sys, t);
+        let tab = self.tab;
         let n = self.y.len();
         let gh = GAMMA * h;
         let factored = self.lu.factor(&self.kx, &self.kv, gh, gh * gh);
@@ -492,7 +473,7 @@ impl Work {
                     }
                     self.ys[k] = s;
                 }
-                sys.rhs(t + tab.alpha[i] * h, &self.ys, &mut self.r);
+                sys.eval(t + tab.alpha[i] * h, &self.ys, &mut self.r);
                 for j in 0..i {
                     let cj = tab.c[i][j] / h;
                     let (r, u) = (&mut self.r, &self.u[j]);
@@ -519,7 +500,7 @@ impl Work {
             }
             self.y_new[k] = yn;
             finite &= yn.is_finite();
-            let sk = self.atol[k] + rtol * self.y[k].abs().max(yn.abs());
+            let sk = atol[k] + rtol * self.y[k].abs().max(yn.abs());
             if sk > 0.0 {
                 let x = e / sk;
                 err += x * x;
@@ -536,12 +517,11 @@ impl Work {
 }
 
 /// The interpolant handed to the observer: the method's third-order continuous extension.
-struct RosStep<'a> {
+pub struct RosStep<'a> {
     t0: f64,
     t1: f64,
     h: f64,
     w: &'a Work,
-    tab: &'a Tableau,
 }
 
 impl DenseStep for RosStep<'_> {
@@ -562,207 +542,63 @@ impl DenseStep for RosStep<'_> {
         let th = (t - self.t0) / self.h;
         let mut s = self.w.y[i];
         for j in 0..S {
-            let d = &self.tab.d[j];
+            let d = &self.w.tab.d[j];
             s += th * (d[0] + th * (d[1] + th * d[2])) * self.w.u[j][i];
         }
         s
     }
 }
 
-impl Integrator for Ros34pw2 {
-    fn name(&self) -> &'static str {
-        "ros34pw2"
+impl Stepper for Work {
+    type Dense<'a> = RosStep<'a>;
+
+    fn start(&mut self, rhs: &mut Rhs, t0: f64) -> bool {
+        rhs.eval(t0, &self.y, &mut self.f0);
+        all_finite(&self.f0)
     }
-
-    /// Adaptive integration from `t0` to exactly `t_end`. See the module docs for the cost
-    /// accounting: `rhs_evals = 1 + [h_init is None] + 4 steps + 3 rejected` without non-finite
-    /// values, and `steps` Jacobian evaluations.
-    fn integrate(
-        &self,
-        sys: &mut dyn OdeSystemDyn,
-        t0: f64,
-        y0: &[f64],
-        t_end: f64,
-        max_steps: u64,
-        obs: &mut dyn StepObserver,
-    ) -> Result<IntegrationStats, IntegrateError> {
-        let (rtol, atol) = (self.rtol, self.atol);
-        let atol_vec = AdaptiveSettings {
-            name: "ros34pw2",
-            rtol,
-            atol,
-            atol_scale: self.atol_scale.as_deref(),
-            h_init: self.h_init,
-            h_max: self.h_max,
+    fn y(&self) -> &[f64] {
+        &self.y
+    }
+    fn f0(&self) -> &[f64] {
+        &self.f0
+    }
+    fn y_new(&self) -> &[f64] {
+        &self.y_new
+    }
+    #[inline(always)]
+    fn attempt<F: MulAdd>(
+        &mut self,
+        rhs: &mut Rhs,
+        t: f64,
+        h: f64,
+        _t_new: f64,
+        rtol: f64,
+        atol: &[f64],
+    ) -> Attempt {
+        match Work::attempt(self, rhs, t, h, rtol, atol) {
+            Some((err, finite)) => Attempt { err, finite },
+            None => Attempt {
+                err: f64::INFINITY,
+                finite: false,
+            },
         }
-        .validate(sys, t0, y0, t_end)?;
-        let np = sys.n_pos();
-
-        let tab = Tableau::new();
-        let h_max = self.h_max.unwrap_or(t_end - t0);
-        let mut stats = IntegrationStats::default();
-        let mut w = Work::new(y0, np, atol_vec);
-
-        obs.on_start(t0, y0);
-
-        sys.rhs(t0, &w.y, &mut w.f0);
-        stats.rhs_evals += 1;
-        if !all_finite(&w.f0) {
-            return Err(IntegrateError::NonFinite { t: t0 });
-        }
-
-        let mut h = match self.h_init {
-            Some(h0) => h0.min(h_max),
-            None => {
-                stats.rhs_evals += 1;
-                initial_step(
-                    ORDER,
-                    sys,
-                    t0,
-                    &w.y,
-                    &w.f0,
-                    &mut w.ys,
-                    &mut w.f_new,
-                    (rtol, &w.atol),
-                    h_max,
-                )
-            }
-        };
-
-        let mut t = t0;
-        let mut reject = false;
-        let mut nonfinite_streak = 0u32;
-        let switches = sys.switches().to_vec();
-        let switches = switches.as_slice();
-        // The current attempt ends on a located event: accept it even if it still crosses one.
-        let mut landing = false;
-        let mut last_failure_nonfinite = false;
-        // The Jacobian at the current step's start point has been evaluated.
-        let mut jacobian_current = false;
-
-        loop {
-            if stats.steps >= max_steps {
-                return Err(IntegrateError::StepBudget { max_steps, t });
-            }
-            if h < 10.0 * f64::EPSILON * t.abs() || h < f64::MIN_POSITIVE {
-                return Err(if last_failure_nonfinite {
-                    IntegrateError::NonFinite { t }
-                } else {
-                    IntegrateError::StepTooSmall { t, h }
-                });
-            }
-            let (h_step, t_new, last) = if t + 1.01 * h >= t_end {
-                (t_end - t, t_end, true)
-            } else {
-                (h, t + h, false)
-            };
-
-            if !jacobian_current {
-                w.has_jacobian = np > 0 && sys.acceleration_jacobian(t, &w.y, &mut w.kx, &mut w.kv);
-                if !w.has_jacobian {
-                    // No Jacobian: W = [[0, I], [0, 0]], still a third-order W-method.
-                    for m in [&mut w.kx, &mut w.kv] {
-                        m.lower.iter_mut().for_each(|e| *e = 0.0);
-                        m.diag.iter_mut().for_each(|e| *e = 0.0);
-                        m.upper.iter_mut().for_each(|e| *e = 0.0);
-                    }
-                }
-                jacobian_current = true;
-            }
-
-            let outcome = w.attempt(sys, &tab, t, h_step, rtol);
-            stats.rhs_evals += 3;
-
-            let (err, mut nonfinite) = match outcome {
-                Some((err, finite)) => (if err.is_nan() { f64::INFINITY } else { err }, !finite),
-                None => (f64::INFINITY, true),
-            };
-
-            let mut accepted = false;
-            if !nonfinite && err <= 1.0 {
-                accepted = true;
-                if self.locate_events && !landing && !switches.is_empty() {
-                    let dense = RosStep {
-                        t0: t,
-                        t1: t_new,
-                        h: h_step,
-                        w: &w,
-                        tab: &tab,
-                    };
-                    let t_event = earliest_event(switches, &w.y, &dense);
-                    if let Some(h_event) =
-                        t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
-                    {
-                        stats.rejected += 1;
-                        stats.events += 1;
-                        landing = true;
-                        h = h_event;
-                        continue;
-                    }
-                }
-                sys.rhs(t_new, &w.y_new, &mut w.f_new);
-                stats.rhs_evals += 1;
-                if !all_finite(&w.f_new) {
-                    nonfinite = true;
-                    accepted = false;
-                }
-            }
-
-            if nonfinite {
-                stats.rejected += 1;
-                nonfinite_streak += 1;
-                last_failure_nonfinite = true;
-                if nonfinite_streak > MAX_NONFINITE_RETRIES {
-                    return Err(IntegrateError::NonFinite { t });
-                }
-                h = 0.1 * h_step;
-                reject = true;
-                landing = false;
-                continue;
-            }
-
-            if accepted {
-                landing = false;
-                let fac = (err.powf(EXPO) / SAFE).clamp(1.0 / FAC_MAX, 1.0 / FAC_MIN);
-                let mut h_new = h_step / fac;
-                stats.steps += 1;
-                nonfinite_streak = 0;
-                last_failure_nonfinite = false;
-
-                let control = obs.on_step(&RosStep {
-                    t0: t,
-                    t1: t_new,
-                    h: h_step,
-                    w: &w,
-                    tab: &tab,
-                });
-                std::mem::swap(&mut w.y, &mut w.y_new);
-                std::mem::swap(&mut w.f0, &mut w.f_new);
-                jacobian_current = false;
-                t = t_new;
-                if last || control == Control::Stop {
-                    return Ok(stats);
-                }
-                h_new = h_new.min(h_max);
-                if reject {
-                    h_new = h_new.min(h_step);
-                }
-                reject = false;
-                h = h_new;
-            } else {
-                stats.rejected += 1;
-                landing = false;
-                last_failure_nonfinite = false;
-                h = h_step * (SAFE / err.powf(EXPO)).max(FAC_MIN);
-                if self.locate_events && !switches.is_empty() {
-                    let tau = predicted_event(switches, &w.y, &w.f0, &w.y_new, h_step);
-                    if let Some(h_event) = tau.and_then(|tau| event_step(t, h_step, tau, h)) {
-                        h = h_event;
-                    }
-                }
-                reject = true;
-            }
-        }
+    }
+    #[inline(always)]
+    fn prepare_dense<F: MulAdd>(&mut self, _rhs: &mut Rhs, _t: f64, _h: f64, _t_new: f64) -> bool {
+        // The dense output is built from the stage vectors alone.
+        true
+    }
+    fn finish(&mut self, rhs: &mut Rhs, t_new: f64) -> bool {
+        rhs.eval(t_new, &self.y_new, &mut self.f_new);
+        all_finite(&self.f_new)
+    }
+    fn dense(&self, t0: f64, t1: f64, h: f64) -> RosStep<'_> {
+        RosStep { t0, t1, h, w: self }
+    }
+    fn advance(&mut self) {
+        std::mem::swap(&mut self.y, &mut self.y_new);
+        std::mem::swap(&mut self.f0, &mut self.f_new);
+        self.jacobian_current = false;
     }
 }
 
@@ -770,6 +606,7 @@ impl Integrator for Ros34pw2 {
 mod tests {
     use super::*;
     use crate::integrate::OdeSystem;
+    use crate::integrate::{Control, IntegrateError, Integrator, StepObserver};
 
     /// `x'' = -x` (with an optional quadrature `q' = x²`), Jacobian provided.
     struct Osc {
@@ -879,11 +716,9 @@ mod tests {
     }
 
     fn fixed(h: f64) -> Ros34pw2 {
-        Ros34pw2 {
-            h_init: Some(h),
-            h_max: Some(h),
-            ..Ros34pw2::new(1e6, 1e6)
-        }
+        Ros34pw2::new(1e6, 1e6)
+            .with_initial_step(h)
+            .with_max_step(h)
     }
 
     #[test]
@@ -1099,10 +934,7 @@ mod tests {
         for ig in [
             Ros34pw2::new(0.0, 1e-6),
             Ros34pw2::new(1e-6, -1.0),
-            Ros34pw2 {
-                h_max: Some(0.0),
-                ..Ros34pw2::new(1e-6, 1e-6)
-            },
+            Ros34pw2::new(1e-6, 1e-6).with_max_step(0.0),
             Ros34pw2 {
                 atol_scale: Some(vec![1.0]),
                 ..Ros34pw2::new(1e-6, 1e-6)
@@ -1158,10 +990,7 @@ mod tests {
 
     #[test]
     fn h_max_and_landing_on_t_end() {
-        let ig = Ros34pw2 {
-            h_max: Some(0.1),
-            ..Ros34pw2::new(1e-4, 1e-4)
-        };
+        let ig = Ros34pw2::new(1e-4, 1e-4).with_max_step(0.1);
         let mut rec = record();
         ig.integrate(
             &mut Osc { quad: false },
