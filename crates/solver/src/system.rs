@@ -1,6 +1,8 @@
 //! The equations of motion (Eqs. 2–12) as an [`OdeSystem`], specialised at compile time on the
 //! physics a scene switches on, and the energy and momentum ledgers.
 
+use chainsweep_cpu::{dispatch, Kernel, MulAdd};
+
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 use crate::model::Chain;
 
@@ -110,6 +112,31 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem
 
     #[inline]
     fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        dispatch(RhsKernel { sys: self, y, dy });
+    }
+}
+
+/// The right-hand side as a kernel compiled for the CPU's vector instructions at run time.
+struct RhsKernel<'a, const G: bool, const D: bool, const W: bool, const C: bool> {
+    sys: &'a mut ChainSystem<G, D, W, C>,
+    y: &'a [f64],
+    dy: &'a mut [f64],
+}
+
+impl<const G: bool, const D: bool, const W: bool, const C: bool> Kernel
+    for RhsKernel<'_, G, D, W, C>
+{
+    type Output = ();
+    #[inline(always)]
+    fn run<M: MulAdd>(self) {
+        self.sys.rhs_body(self.y, self.dy);
+    }
+}
+
+impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, D, W, C> {
+    /// Eqs. (2)–(12): accelerations from the contact forces, and the quadratures.
+    #[inline(always)]
+    fn rhs_body(&mut self, y: &[f64], dy: &mut [f64]) {
         let n = self.inv_mass.len();
         let (x, rest) = y.split_at(n);
         let v = &rest[..n];
@@ -222,6 +249,11 @@ impl Ledger {
 
     /// Energy terms of state `y`.
     pub fn energy(&self, y: &[f64]) -> EnergyTerms {
+        dispatch(EnergyKernel { ledger: self, y })
+    }
+
+    #[inline(always)]
+    fn energy_body(&self, y: &[f64]) -> EnergyTerms {
         // Evaluated after every accepted step: sums run over eight partial sums so they vectorise.
         const L: usize = 8;
         let n = self.mass.len();
@@ -292,6 +324,20 @@ impl Ledger {
     pub fn momentum(&self, y: &[f64]) -> f64 {
         let n = self.mass.len();
         (0..n).map(|i| self.mass[i] * y[n + i]).sum()
+    }
+}
+
+/// [`Ledger::energy`] as a kernel compiled for the CPU's vector instructions at run time.
+struct EnergyKernel<'a> {
+    ledger: &'a Ledger,
+    y: &'a [f64],
+}
+
+impl Kernel for EnergyKernel<'_> {
+    type Output = EnergyTerms;
+    #[inline(always)]
+    fn run<M: MulAdd>(self) -> EnergyTerms {
+        self.ledger.energy_body(self.y)
     }
 }
 
