@@ -2,7 +2,8 @@
 #
 #   make test      builds everything (installing what it needs into .venv) and runs every test
 #   make figures   runs the paper's sweeps on a small default and draws the figures into results/
-#   make bench     benchmarks (criterion): right-hand-side cost and the reference run
+#   make bench     benchmarks (criterion): right-hand-side cost and the reference run; then the
+#                  default, no-FMA and native builds side by side (scripts/bench_builds.sh)
 #
 # The HDF5 library is built from source (hdf5-metno's `static` feature) and needs CMake >= 3.26;
 # when the machine has none or an older one, CMake comes from PyPI into .venv.
@@ -56,8 +57,13 @@ test-python: build
 
 test: lint test-rust test-python
 
+# BENCH_BASELINE=REV adds a build of revision REV to the side-by-side table (e.g. 1564ed6, the
+# first round's build); BENCH_CRITERION=0 leaves out the criterion benchmarks.
+BENCH_BASELINE ?=
+BENCH_CRITERION ?= 1
 bench: venv
-	$(CARGO) bench -p chainsweep-solver --bench solver
+	if [ "$(BENCH_CRITERION)" = 1 ]; then $(CARGO) bench -p chainsweep-solver --bench solver; fi
+	BENCH_BASELINE=$(BENCH_BASELINE) CARGO=$(CARGO) scripts/bench_builds.sh
 
 clean:
 	$(CARGO) clean

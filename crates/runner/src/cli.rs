@@ -193,6 +193,12 @@ pub fn main() -> i32 {
             return code;
         }
     };
+    // A pinned code path this CPU cannot run (or a misspelt one) is bad input, refused before any
+    // work, never an illegal instruction or a panic inside a run.
+    if let Err(e) = chainsweep_solver::cpu::level_from_env() {
+        eprintln!("chainsweep: error: {e}");
+        return crate::EXIT_BAD_INPUT;
+    }
     match dispatch(cli) {
         Ok(code) => code,
         Err(e) => {
