@@ -339,6 +339,22 @@ impl ProbeSet {
         self.compiled.len()
     }
 
+    /// The state components the probes read, sorted, each once.
+    fn components(&self) -> Vec<usize> {
+        let read = std::cell::RefCell::new(Vec::new());
+        let get = |i: usize| {
+            read.borrow_mut().push(i);
+            0.0
+        };
+        for k in 0..self.len() {
+            self.value(k, &get);
+        }
+        let mut read = read.into_inner();
+        read.sort_unstable();
+        read.dedup();
+        read
+    }
+
     #[inline]
     fn contact_force(&self, c: usize, get: &impl Fn(usize) -> f64) -> f64 {
         let n = self.n;
@@ -609,6 +625,10 @@ pub(crate) struct RunObserver {
     pub t_reached: f64,
     n: usize,
     n_contacts: usize,
+    /// The components the probes read ([`ProbeSet::components`]).
+    probe_components: Vec<usize>,
+    /// Those components at one sample time, at their indices in the state.
+    probe_state: Vec<f64>,
 }
 
 impl RunObserver {
@@ -627,7 +647,11 @@ impl RunObserver {
                 values: (0..n_probes).map(|_| Vec::with_capacity(cap)).collect(),
             }
         });
+        let probe_components = probes.components();
+        let probe_state = vec![0.0; probe_components.last().map_or(0, |i| i + 1)];
         RunObserver {
+            probe_components,
+            probe_state,
             ledger: Ledger::new(chain),
             probes,
             t0,
@@ -741,7 +765,9 @@ impl StepObserver for RunObserver {
                 if ts > t1 || ts > self.t_end {
                     break;
                 }
-                let g = |i: usize| step.eval_component(ts, i);
+                step.eval_components(ts, &self.probe_components, &mut self.probe_state);
+                let state = &self.probe_state;
+                let g = |i: usize| state[i];
                 for k in 0..n_probes {
                     let s = self.probes.value(k, &g);
                     self.trackers[k].sample(ts, s);
@@ -754,7 +780,9 @@ impl StepObserver for RunObserver {
                     if th > t1 || th > self.t_end {
                         break;
                     }
-                    let g = |i: usize| step.eval_component(th, i);
+                    step.eval_components(th, &self.probe_components, &mut self.probe_state);
+                    let state = &self.probe_state;
+                    let g = |i: usize| state[i];
                     h.time_s.push(th);
                     for (k, series) in h.values.iter_mut().enumerate() {
                         series.push(self.probes.value(k, &g));

@@ -800,12 +800,20 @@ pub struct Dop853Step<'a> {
 impl Dop853Step<'_> {
     /// The eight dense-output coefficients of component `i` (Hairer's `rcont1..8`), computed
     /// from the stages of this step on first use and cached until the next step.
-    #[inline]
+    #[inline(always)]
     fn coefficients(&self, i: usize) -> [f64; 8] {
         let w = self.w;
         if w.cont_epoch[i].get() == w.epoch {
             return w.cont[i].get();
         }
+        self.compute_coefficients(i)
+    }
+
+    /// [`Dop853Step::coefficients`] on first use in a step (kept out of line: the cached case is
+    /// the frequent one, several samples per step).
+    #[inline(never)]
+    fn compute_coefficients(&self, i: usize) -> [f64; 8] {
+        let w = self.w;
         let h = self.h;
         let (k1, k6, k7, k8, k9) = (w.k1[i], w.k6[i], w.k7[i], w.k8[i], w.k9[i]);
         let (k10, k11, k12, k13) = (w.k10[i], w.k11[i], w.k12[i], w.k13[i]);
@@ -896,6 +904,18 @@ impl DenseStep for Dop853Step<'_> {
         }
         let s = (t - self.t0) / self.h;
         Self::contd8(&self.coefficients(i), s)
+    }
+    fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
+        if t == self.t1 {
+            for &i in indices {
+                out[i] = self.w.y_new[i];
+            }
+            return;
+        }
+        let s = (t - self.t0) / self.h;
+        for &i in indices {
+            out[i] = Self::contd8(&self.coefficients(i), s);
+        }
     }
 }
 

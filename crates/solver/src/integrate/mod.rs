@@ -86,7 +86,7 @@ pub struct Switch {
 
 impl Switch {
     /// Value of the switching function for a component accessor.
-    #[inline]
+    #[inline(always)]
     pub fn value(&self, y: impl Fn(usize) -> f64) -> f64 {
         match self.minus {
             Some(m) => y(self.plus) - y(m),
@@ -109,6 +109,13 @@ pub trait DenseStep {
     fn eval(&self, t: f64, out: &mut [f64]) {
         for (i, o) in out.iter_mut().enumerate() {
             *o = self.eval_component(t, i);
+        }
+    }
+    /// Interpolated components `indices` at `t`, each written to `out[i]` (the same values as
+    /// [`DenseStep::eval_component`]); one call for the handful of components probes read.
+    fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
+        for &i in indices {
+            out[i] = self.eval_component(t, i);
         }
     }
 }
