@@ -262,6 +262,11 @@ pub trait Stepper {
 
 /// Fraction of the step before an event that the step after it starts from.
 const RESUME_FRACTION: f64 = 0.5;
+/// Predicted crossings closer than this fraction of the step are slivers (grazing contacts): the
+/// step is not shortened to them (measured: 1e-6 already costs the reference run 35 % more RHS
+/// evaluations; 1e-9 none, and ends the endless landings on a grazing contact of a 999-cylinder
+/// chain).
+const MIN_PREDICTED_FRACTION: f64 = 1e-9;
 /// Consecutive steps on the stability boundary that flag the problem as stiff (Hairer).
 const STIFF_STEPS_TO_FLAG: u32 = 15;
 /// Calm steps that clear the count.
@@ -392,7 +397,14 @@ impl<M: Method> Integrator for Adaptive<M> {
             // rather than have the attempt fail on it or be retaken.
             if !landing && !switches.is_empty() {
                 if let Some(tau) = crossing_ahead(&switches, n_pos, w.y(), w.f0(), h) {
-                    if let Some(h_event) = event_step(t, h, tau, h) {
+                    // A crossing predicted within a sliver of the step is a grazing contact
+                    // (value and slope both near zero): stepping to it and resuming from there
+                    // can repeat without end (Zeno). Such a step is taken whole; the located-event
+                    // path below handles what it crosses.
+                    let h_event = (tau >= MIN_PREDICTED_FRACTION * h)
+                        .then(|| event_step(t, h, tau, h))
+                        .flatten();
+                    if let Some(h_event) = h_event {
                         resume_h = Some(h);
                         h = h_event;
                         predicted = true;
@@ -445,7 +457,9 @@ impl<M: Method> Integrator for Adaptive<M> {
                     predicted = false;
                     landing = true;
                     // This attempt passed the error test: the event does not change the step the
-                    // smooth motion allows.
+                    // smooth motion allows. Not after a sliver (a grazing contact): there the
+                    // controller regrows the step from the landing step, which lets the run leave
+                    // the grazing contact behind instead of landing on it again and again.
                     resume_h = Some(resume_h.map_or(h_step, |r| r.max(h_step)));
                     h = h_event;
                     continue;
