@@ -46,10 +46,7 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// Version 2: runs record `events`, `max_overlap_m` and `warnings` (segment format 2).
 /// Version 3: vectorised sums in the solver (right-hand side, DOP853 error norm, ledger) and FMA
 /// stage sums change results in the last digits (≤ 1e-6 relative on peaks).
-/// Version 4: adaptive steps end on contact switches predicted before the attempt, and resume
-/// after an event from half the step before it: different step sequences (a third of the RHS
-/// evaluations on the reference run), results within the tolerance of the former ones.
-pub const NUMERICS_VERSION: u32 = 4;
+pub const NUMERICS_VERSION: u32 = 3;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -35,11 +35,9 @@ pub struct AdaptiveOptions {
     #[cfg_attr(feature = "serde", serde(default))]
     pub max_step_s: Option<f64>,
     /// Put step boundaries on the zeros of the system's switching functions (contacts opening and
-    /// closing), where the right-hand side is not smooth (default). A step whose start predicts
-    /// (from the value, slope and curvature of each switch) a crossing within it is shortened to
-    /// end just past that crossing; a step that passes the error test but still crosses a switch
-    /// is retaken to end just past the earliest crossing, located on the dense output, and the
-    /// retaken step is accepted.
+    /// closing), where the right-hand side is not smooth (default). A step that passes the error
+    /// test but crosses a switch is retaken to end just past the earliest crossing, located on the
+    /// dense output; the retaken step is accepted.
     #[cfg_attr(feature = "serde", serde(default = "default_true"))]
     pub locate_events: bool,
 }
@@ -260,13 +258,6 @@ pub trait Stepper {
     }
 }
 
-/// Fraction of the step before an event that the step after it starts from.
-const RESUME_FRACTION: f64 = 0.5;
-/// Predicted crossings closer than this fraction of the step are slivers (grazing contacts): the
-/// step is not shortened to them (measured: 1e-6 already costs the reference run 35 % more RHS
-/// evaluations; 1e-9 none, and ends the endless landings on a grazing contact of a 999-cylinder
-/// chain).
-const MIN_PREDICTED_FRACTION: f64 = 1e-9;
 /// Consecutive steps on the stability boundary that flag the problem as stiff (Hairer).
 const STIFF_STEPS_TO_FLAG: u32 = 15;
 /// Calm steps that clear the count.
@@ -338,7 +329,6 @@ impl<M: Method> Integrator for Adaptive<M> {
         } else {
             Vec::new()
         };
-        let n_pos = sys.n_pos();
         let mut w = M::stepper(y0, sys.n_pos());
         let mut rhs = Rhs::new(sys);
         let mut stats = IntegrationStats::default();
@@ -374,11 +364,6 @@ impl<M: Method> Integrator for Adaptive<M> {
         let mut nonfinite_streak = 0u32;
         // The current attempt ends on a located event: accept it even if it still crosses one.
         let mut landing = false;
-        // The step the smooth stretch before an event allowed, to resume from once the step
-        // that lands on the event is accepted.
-        let mut resume_h: Option<f64> = None;
-        // The current attempt was shortened to end just past a predicted crossing.
-        let mut predicted = false;
         let (mut stiff_steps, mut calm_steps) = (0u32, 0u32);
         let mut last_failure_nonfinite = false;
 
@@ -392,24 +377,6 @@ impl<M: Method> Integrator for Adaptive<M> {
                 } else {
                     IntegrateError::StepTooSmall { t, h }
                 });
-            }
-            // A switch predicted to cross within the step: end the step just past the crossing
-            // rather than have the attempt fail on it or be retaken.
-            if !landing && !switches.is_empty() {
-                if let Some(tau) = crossing_ahead(&switches, n_pos, w.y(), w.f0(), h) {
-                    // A crossing predicted within a sliver of the step is a grazing contact
-                    // (value and slope both near zero): stepping to it and resuming from there
-                    // can repeat without end (Zeno). Such a step is taken whole; the located-event
-                    // path below handles what it crosses.
-                    let h_event = (tau >= MIN_PREDICTED_FRACTION * h)
-                        .then(|| event_step(t, h, tau, h))
-                        .flatten();
-                    if let Some(h_event) = h_event {
-                        resume_h = Some(h);
-                        h = h_event;
-                        predicted = true;
-                    }
-                }
             }
             // Land exactly on t_end, stretching the step by up to 1 % rather than leaving a
             // sliver.
@@ -453,14 +420,8 @@ impl<M: Method> Integrator for Adaptive<M> {
                 if let Some(h_event) = t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
                 {
                     stats.rejected += 1;
-                    stats.events += u64::from(!predicted);
-                    predicted = false;
+                    stats.events += 1;
                     landing = true;
-                    // This attempt passed the error test: the event does not change the step the
-                    // smooth motion allows. Not after a sliver (a grazing contact): there the
-                    // controller regrows the step from the landing step, which lets the run leave
-                    // the grazing contact behind instead of landing on it again and again.
-                    resume_h = Some(resume_h.map_or(h_step, |r| r.max(h_step)));
                     h = h_event;
                     continue;
                 }
@@ -480,16 +441,10 @@ impl<M: Method> Integrator for Adaptive<M> {
                 h = 0.1 * h_step;
                 reject = true;
                 landing = false;
-                resume_h = None;
-                predicted = false;
                 continue;
             }
 
             if accepted {
-                if predicted {
-                    stats.events += 1;
-                }
-                predicted = false;
                 landing = false;
                 let mut h_new = controller.after_accept(h_step, err);
                 stats.steps += 1;
@@ -526,21 +481,9 @@ impl<M: Method> Integrator for Adaptive<M> {
                 }
                 reject = false;
                 h = h_new;
-                // After landing on an event, go on with a step near the one the motion before
-                // it allowed, not with the controller's growth from a short landing step (which
-                // would take a handful of steps to recover, at every contact that opens or
-                // closes). Half of it: just after a contact closes the motion is not smooth
-                // (the force grows like δ^{3/2}) and the error estimate of a full step there
-                // falls short of its true error (measured: energy drift several times the
-                // tolerance with the full step, as without this rule with half of it).
-                if let Some(r) = resume_h.take() {
-                    h = h.max((RESUME_FRACTION * r).min(h_max));
-                }
             } else {
                 stats.rejected += 1;
                 landing = false;
-                resume_h = None;
-                predicted = false;
                 last_failure_nonfinite = false;
                 h = controller.after_reject(h_step, err);
                 // A step that fails because it crosses a switch (a re-collision, say) would shrink
@@ -728,59 +671,6 @@ fn earliest_event<S: DenseStep + ?Sized>(
             }
         }
         earliest = Some(b);
-    }
-    earliest
-}
-
-/// Earliest zero of a switch within `h` of the current point, predicted by its Taylor polynomial
-/// there: value and slope (`f`), and, for switches on positions (whose second derivative is the
-/// acceleration, the state being `[x, v, q]` with `x' = v`), curvature. `None` if no switch is
-/// predicted to change sign within `h`. Contacts open and close where their overlap crosses zero;
-/// ending the step there spares an attempt that would fail on the kink, or be retaken.
-fn crossing_ahead(switches: &[Switch], n_pos: usize, y: &[f64], f: &[f64], h: f64) -> Option<f64> {
-    let mut earliest: Option<f64> = None;
-    for sw in switches {
-        let g0 = sw.value(|i| y[i]);
-        if g0 == 0.0 {
-            continue;
-        }
-        let b = sw.value(|i| f[i]);
-        let on_positions = sw.plus < n_pos && sw.minus.map_or(true, |m| m < n_pos);
-        let c = if on_positions {
-            0.5 * sw.value(|i| f[i + n_pos])
-        } else {
-            0.0
-        };
-        let limit = earliest.unwrap_or(h);
-        // Most switches are far from zero: |g(s) − g0| ≤ (|b| + |c| s) s rules them out cheaply.
-        if (b.abs() + c.abs() * limit) * limit < g0.abs() {
-            continue;
-        }
-        // Does g(s) = g0 + b s + c s² change sign in (0, limit], at the end or at its extremum?
-        let changes_sign = |s: f64| (g0 + s * (b + c * s) > 0.0) != (g0 > 0.0);
-        let extremum = if c != 0.0 { -b / (2.0 * c) } else { f64::NAN };
-        if !(changes_sign(limit) || (extremum > 0.0 && extremum < limit && changes_sign(extremum)))
-        {
-            continue;
-        }
-        // Its smallest positive root (the numerically stable pair of quadratic roots).
-        let disc = b * b - 4.0 * c * g0;
-        let root = if c == 0.0 {
-            -g0 / b
-        } else if disc < 0.0 {
-            continue;
-        } else {
-            let q = -0.5 * (b + b.signum() * disc.sqrt());
-            let r1 = q / c;
-            let r2 = if q != 0.0 { g0 / q } else { f64::NAN };
-            [r1, r2]
-                .into_iter()
-                .filter(|r| r.is_finite() && *r > 0.0)
-                .fold(f64::NAN, f64::min)
-        };
-        if root.is_finite() && root > 0.0 && root <= limit {
-            earliest = Some(root);
-        }
     }
     earliest
 }

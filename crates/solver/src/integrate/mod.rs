@@ -145,9 +145,7 @@ pub struct IntegrationStats {
     pub steps: u64,
     /// Rejected step attempts (adaptive methods only), event retakes included.
     pub rejected: u64,
-    /// Steps that end on an event (a contact opening or closing): shortened before the attempt to
-    /// end on a predicted crossing, or retaken to end on one found in an accepted attempt (the
-    /// retakes are also counted in `rejected`).
+    /// Steps retaken to end on a located event (a contact opening or closing).
     pub events: u64,
     /// Evaluations of the right-hand side.
     pub rhs_evals: u64,
