@@ -1,4 +1,5 @@
-//! Tridiagonal Jacobian of the chain's accelerations, for implicit integrators.
+//! Tridiagonal Jacobian of the chain's accelerations, for implicit integrators, exact for every
+//! contact law and dissipation model.
 //!
 //! Contact `c` joins particles `c` and `c+1` with overlap `δ_c = x_c − x_{c+1}` and relative velocity
 //! `Δv_c = v_c − v_{c+1}`; with a wall the last contact presses particle `N−1` against `x = 0`
@@ -19,6 +20,8 @@
 //! strictly diagonally dominant M-matrix for any `a, b ≥ 0`, which is what makes the implicit
 //! solves of [`crate::integrate::Ros34pw2`] pivot-free.
 
+use crate::contact::general_derivatives;
+use crate::general::GeneralChainSystem;
 use crate::integrate::Tridiagonal;
 use crate::system::ChainSystem;
 
@@ -87,6 +90,66 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
             if D {
                 kv.diag[n - 1] -= eta * im[n - 1];
             }
+        }
+    }
+}
+
+/// Adds contact `c`'s derivatives `k = ∂F/∂δ`, `eta = ∂F/∂δ̇` to the matrices: between particles
+/// `c` and `c+1`, or (`wall`) between particle `c` and the wall.
+#[inline(always)]
+fn add_contact(
+    kx: &mut Tridiagonal,
+    kv: &mut Tridiagonal,
+    im: &[f64],
+    c: usize,
+    wall: bool,
+    k: f64,
+    eta: f64,
+) {
+    if wall {
+        kx.diag[c] -= k * im[c];
+        kv.diag[c] -= eta * im[c];
+        return;
+    }
+    if k != 0.0 {
+        kx.diag[c] -= k * im[c];
+        kx.upper[c] += k * im[c];
+        kx.lower[c] += k * im[c + 1];
+        kx.diag[c + 1] -= k * im[c + 1];
+    }
+    if eta != 0.0 {
+        kv.diag[c] -= eta * im[c];
+        kv.upper[c] += eta * im[c];
+        kv.lower[c] += eta * im[c + 1];
+        kv.diag[c + 1] -= eta * im[c + 1];
+    }
+}
+
+impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
+    /// Writes `kx = ∂a/∂x` and `kv = ∂a/∂v` at state `y`, exactly, on the smooth piece of the
+    /// right-hand side that contains `y`. For `F = A δ^n + (μ + γ δ^{n−1} + λ δ^n) δ̇`:
+    /// `∂F/∂δ = n A δ^{n−1} + ((n−1) γ δ^{n−2} + n λ δ^{n−1}) δ̇` and
+    /// `∂F/∂δ̇ = μ + γ δ^{n−1} + λ δ^n`. Unlike the paper's law, `∂F/∂δ` may be negative (a
+    /// contact unloading fast under Kuwabara–Kono or Hunt–Crossley damping), so the iteration
+    /// matrix is not always an M-matrix; the factorisation pivots where needed. The external
+    /// forces depend on time only and contribute nothing.
+    pub fn jacobian(&self, _t: f64, y: &[f64], kx: &mut Tridiagonal, kv: &mut Tridiagonal) {
+        let im = self.inverse_masses();
+        let n = im.len();
+        reset(kx, n);
+        reset(kv, n);
+        let (x, v) = (&y[..n], &y[n..2 * n]);
+        let clip = self.clips();
+        for c in 0..n.saturating_sub(1) {
+            let p = self.contact_parameters(c);
+            let (k, eta) =
+                general_derivatives::<LAW, D>(&p, x[c] - x[c + 1], v[c] - v[c + 1], clip);
+            add_contact(kx, kv, im, c, false, k, eta);
+        }
+        if self.has_wall() && n > 0 {
+            let p = self.contact_parameters(n - 1);
+            let (k, eta) = general_derivatives::<LAW, D>(&p, x[n - 1], v[n - 1], clip);
+            add_contact(kx, kv, im, n - 1, true, k, eta);
         }
     }
 }

@@ -94,14 +94,18 @@ fn fingerprint() -> String {
     // Built chains: both presets, both mass-ratio conventions, every physics switch.
     let light = {
         let mut s = ChainSpec::chain_055(20);
-        s.cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.3 };
-        s.cylinder.height_m = None;
+        if let ChainSpec::Dimer(d) = &mut s {
+            d.cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.3 };
+            d.cylinder.height_m = None;
+        }
         s
     };
     let heavy = {
         let mut s = ChainSpec::chain_055(50);
-        s.cylinder.mass = CylinderMass::HeavyCylinders { mass_ratio: 0.55 };
-        s.cylinder.height_m = None;
+        if let ChainSpec::Dimer(d) = &mut s {
+            d.cylinder.mass = CylinderMass::HeavyCylinders { mass_ratio: 0.55 };
+            d.cylinder.height_m = None;
+        }
         s
     };
     let damped = PhysicsSpec {
