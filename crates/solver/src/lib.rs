@@ -15,7 +15,8 @@
 //! - [`integrate`]: velocity Verlet, RK4, DOP853 (with contact-event location) and the stiff
 //!   ROS34PW2 (with the chain's tridiagonal Jacobian) behind one [`integrate::Integrator`] interface;
 //! - [`probes`]: observables sampled through dense output and on-the-fly peak summaries;
-//! - [`scene`]: a whole simulation, [`scene::run`].
+//! - [`scene`]: a whole simulation, [`scene::run`];
+//! - [`problems`]: reference problems with closed-form answers (tests, benchmarks, examples).
 //!
 //! Units are SI throughout. The crate knows nothing of files or command lines.
 //!
@@ -35,6 +36,7 @@ pub mod integrate;
 mod jacobian;
 pub mod model;
 pub mod probes;
+pub mod problems;
 pub mod scene;
 pub mod sequence;
 pub mod system;
