@@ -36,6 +36,11 @@ pub const WALL: &str = "wall";
 /// Name a contact rule uses for the striker, whatever its type.
 pub const STRIKER: &str = "striker";
 
+/// Largest factor by which taper and disorder may scale a particle's size, either way: beyond a
+/// thousandfold a particle is a few µm across, the size of the overlaps, and its contact laws mean
+/// nothing (such a taper "makes a particle vanish").
+pub const MAX_SIZE_FACTOR: f64 = 1e3;
+
 /// A chain described as a sequence of named particle types.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize))]
@@ -562,7 +567,8 @@ impl SequenceSpec {
                 }
                 shape = scaled(shape, size);
                 let ok = |x: f64| x.is_normal() && x > 0.0;
-                if !(ok(shape.length_m()) && ok(mass) && ok(shape.volume_m3())) {
+                let in_range = (1.0 / MAX_SIZE_FACTOR..=MAX_SIZE_FACTOR).contains(&size);
+                if !(in_range && ok(shape.length_m()) && ok(mass) && ok(shape.volume_m3())) {
                     let field = if self.taper.is_some() {
                         "chain.taper.ratio"
                     } else {
@@ -571,8 +577,9 @@ impl SequenceSpec {
                     return Err(spec_err(
                         field,
                         format!(
-                            "makes particle {} (type `{name}`) vanish or blow up: length {:e} m, mass {:e} kg",
+                            "makes particle {} (type `{name}`) vanish or blow up: {size:e} times its type's size (allowed: {:e} to {MAX_SIZE_FACTOR:e}), length {:e} m, mass {:e} kg",
                             i + 1,
+                            1.0 / MAX_SIZE_FACTOR,
                             shape.length_m(),
                             mass
                         ),
