@@ -3,6 +3,7 @@
 #   make test      builds everything (installing what it needs into .venv) and runs every test
 #   make figures   runs the paper's sweeps on a small default and draws the figures into results/
 #   make bench     benchmarks (criterion): right-hand-side cost and the reference run
+#   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
 #
 # The HDF5 library is built from source (hdf5-metno's `static` feature) and needs CMake >= 3.26;
 # when the machine has none or an older one, CMake comes from PyPI into .venv.
@@ -15,7 +16,7 @@ CARGO ?= cargo
 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-.PHONY: all build test test-rust test-python bench figures fmt lint venv clean
+.PHONY: all build test test-rust test-python bench figures examples fmt lint venv clean
 
 all: build
 
@@ -84,6 +85,20 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 	done
 
 .PHONY: paper-check
+
+# Chains beyond the paper's (docs/CHAINS.md): every sweep of sweeps/examples/ into
+# results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
+# attenuation table of the delta-force dimer. About a minute on two cores.
+EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse
+
+examples: build
+	@mkdir -p results/examples; \
+	for s in $(EXAMPLE_SWEEPS); do \
+	  echo "example $$s"; \
+	  $(CHAINSWEEP_BIN) run sweeps/examples/$$s.json -o results/examples/$$s.h5 --jobs $(SWEEP_JOBS) --quiet \
+	    || { echo "ERROR: example $$s failed (exit $$?)"; exit 1; }; \
+	done; \
+	cd scripts && ../$(PY) examples.py
 
 figures: build
 	@$(RUN_PAPER_SWEEPS); \
