@@ -2,7 +2,8 @@
 #
 #   make test      builds everything (installing what it needs into .venv) and runs every test
 #   make figures   runs the paper's sweeps on a small default and draws the figures into results/
-#   make bench     benchmarks (criterion): right-hand-side cost and the reference run
+#   make bench     benchmarks (criterion), before (BENCH_BASE, default main) and after side by side:
+#                  right-hand-side cost per contact, the reference run, each contact law and model
 #   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
 #
 # The HDF5 library is built from source (hdf5-metno's `static` feature) and needs CMake >= 3.26;
@@ -57,8 +58,13 @@ test-python: build
 
 test: lint test-rust test-python
 
+# The solver's bench at BENCH_BASE (built in a temporary git worktree) and at the working tree, run
+# alternately BENCH_ROUNDS times; medians side by side (scripts/bench_compare.py). After a merge,
+# give the commit before it: make bench BENCH_BASE=<commit>.
+BENCH_BASE ?= main
+BENCH_ROUNDS ?= 5
 bench: venv
-	$(CARGO) bench -p chainsweep-solver --bench solver
+	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 
 clean:
 	$(CARGO) clean

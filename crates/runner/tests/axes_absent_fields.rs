@@ -44,11 +44,9 @@ fn absent_fields_are_created_along_the_path() {
     assert_eq!(scene.physics.precompression_force_n, 2.5);
     assert_eq!(
         scene.physics.dissipation,
-        Some(
-            chainsweep_solver::contact::DissipationSpec::KuwabaraKono {
-                relaxation_time_s: 1e-7
-            }
-        )
+        Some(chainsweep_solver::contact::DissipationSpec::KuwabaraKono {
+            relaxation_time_s: 1e-7
+        })
     );
     // A value equal to the default serialises as the default, so the point keeps the run hash
     // of the same scene without the axis.

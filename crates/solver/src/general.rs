@@ -129,9 +129,11 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
         }
     }
 
-    /// The right-hand side over slices: the body every specialisation compiles.
+    /// The right-hand side over slices: the one kernel every `(LAW, D)` specialisation compiles,
+    /// kept apart from the [`OdeSystem::rhs`] entry point so that a run-time CPU dispatch (a
+    /// `#[target_feature]` trampoline) can wrap it without touching the physics.
     #[inline(always)]
-    fn rhs_body(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+    pub(crate) fn rhs_kernel(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
         let n = self.inv_mass.len();
         let (x, rest) = y.split_at(n);
         let v = &rest[..n];
@@ -245,6 +247,6 @@ impl<const LAW: u8, const D: bool> OdeSystem for GeneralChainSystem<LAW, D> {
 
     #[inline]
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
-        self.rhs_body(t, y, dy)
+        self.rhs_kernel(t, y, dy)
     }
 }
