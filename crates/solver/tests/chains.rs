@@ -499,7 +499,8 @@ fn energy_ledger_closes_for_every_law_model_and_excitation() {
     ];
     // The mixed chains run on the per-contact power-law kernel; the monodisperse ones on the
     // Hertz and linear kernels.
-    let chains: [(&str, fn(bool) -> SequenceSpec); 4] = [
+    type Build = fn(bool) -> SequenceSpec;
+    let chains: [(&str, Build); 4] = [
         ("mixed, Hertz spheres", |s| mixed_chain(None, s)),
         ("mixed, n = 2.5 spheres", |s| mixed_chain(Some(2.5), s)),
         ("monodisperse Hertz", |s| monodisperse(24, None, s)),
