@@ -94,7 +94,7 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 
 # Chains beyond the paper's (docs/CHAINS.md): every sweep of sweeps/examples/ into
 # results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
-# attenuation table of the delta-force dimer. About a minute on two cores.
+# attenuation table of the delta-force dimer. About 10 s on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse
 
 examples: build
