@@ -797,6 +797,12 @@ fn dry_run(
     Ok(EXIT_OK)
 }
 
+/// Asks every `run` in this process to stop cleanly: points not started yet are skipped, runs in
+/// flight finish and are stored, and the output is assembled with the rest pending (exit 3), so
+/// that the same command resumes it. For programs that embed the runner (the Python package's
+/// Ctrl-C); the command line itself is stopped by its signal. The embedder clears it afterwards.
+pub static STOP_REQUESTED: AtomicBool = AtomicBool::new(false);
+
 fn cmd_run(args: &RunArgs) -> Result<i32> {
     let (mut sweep, mut grid) = load(&args.file)?;
     let shard = parse_shard(args.shard.as_deref())?;
@@ -950,7 +956,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         s.spawn(move || {
             pool_r.install(|| {
                 tasks_r.par_iter().for_each_with(tx, |tx, &task| {
-                    if stop_r.load(Ordering::Relaxed) {
+                    if stop_r.load(Ordering::Relaxed) || STOP_REQUESTED.load(Ordering::Relaxed) {
                         return;
                     }
                     let (rec, verification) = match task {
