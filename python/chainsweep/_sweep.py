@@ -149,11 +149,17 @@ class _BarProgress:
             self.bar.close()
 
 
+def _interactive() -> bool:
+    """Whether a bar can be drawn: a terminal, or a notebook (where tqdm.auto draws a widget).
+    Elsewhere (nohup, SLURM, CI logs) plain lines, as the command line prints them."""
+    return sys.stderr.isatty() or "ipykernel" in sys.modules
+
+
 def _display(progress: bool | ProgressCallback | None) -> Any:
     if progress is None or progress is False:
         return None
     if progress is True:
-        return _BarProgress(_tqdm) if _tqdm is not None else _PlainProgress()
+        return _BarProgress(_tqdm) if _tqdm is not None and _interactive() else _PlainProgress()
     if callable(progress):
         return progress
     raise TypeError(f"progress must be True, False or a callable(done, failed, total), got {progress!r}")
@@ -221,8 +227,9 @@ def sweep(
     while the sweep runs (0: only at the end).
 
     ``progress=True`` shows a tqdm bar (a widget in a notebook, a bar in a terminal) when tqdm is
-    installed, else a plain line on stderr every 10 s; ``False`` shows nothing; a callable is
-    called as ``progress(done, failed, total)`` a few times a second. Failed runs are listed at
+    installed, else — and when stderr is neither, as under nohup or SLURM — a plain line on
+    stderr every 10 s; ``False`` shows nothing; a callable is called as
+    ``progress(done, failed, total)`` a few times a second. Failed runs are listed at
     the end (with ``progress``) and always in the result.
 
     Returns a :class:`SweepResult`: ``exit_code`` 0 when every run succeeded, 3 when some failed

@@ -74,8 +74,7 @@ def test_shard_runs_every_nth_point(tmp_path):
     assert chainsweep.sweep(sweep_spec(), out, shard="2/3", progress=False).ran == 0
 
 
-def test_failed_runs_are_a_partial_result(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(_sweep, "_tqdm", None)
+def test_failed_runs_are_a_partial_result(tmp_path, capsys):
     out = tmp_path / "f.h5"
     r = chainsweep.sweep(failing_spec(), out, jobs=2)
     assert r.exit_code == 3 and not r.complete
@@ -173,15 +172,21 @@ def test_progress_callback_counts_up_to_the_total(tmp_path):
 
 
 def test_progress_bar_and_plain_lines(tmp_path, monkeypatch, capfd):
-    assert _sweep._tqdm is not None  # tqdm is in requirements.txt
+    # stderr is captured here: not a terminal, so plain lines as the command line prints them
     chainsweep.sweep(sweep_spec(), tmp_path / "a.h5")
     err = capfd.readouterr().err
-    assert "chainsweep" in err and "6/6" in err and "run/s" in err
-    monkeypatch.setattr(_sweep, "_tqdm", None)
+    assert "chainsweep: 6/6 runs done, 0 failed" in err and "ETA" in err and "\r" not in err
+    # in a terminal or a notebook: a tqdm bar (tqdm is in requirements.txt)
+    assert _sweep._tqdm is not None
+    monkeypatch.setattr(_sweep, "_interactive", lambda: True)
     chainsweep.sweep(sweep_spec(), tmp_path / "b.h5")
     err = capfd.readouterr().err
-    assert "chainsweep: 6/6 runs done, 0 failed" in err and "ETA" in err
-    chainsweep.sweep(sweep_spec(), tmp_path / "c.h5", progress=False)
+    assert "chainsweep: 100%" in err and "6/6" in err and "run/s" in err
+    # without tqdm: plain lines
+    monkeypatch.setattr(_sweep, "_tqdm", None)
+    chainsweep.sweep(sweep_spec(), tmp_path / "c.h5")
+    assert "chainsweep: 6/6 runs done, 0 failed" in capfd.readouterr().err
+    chainsweep.sweep(sweep_spec(), tmp_path / "d.h5", progress=False)
     assert capfd.readouterr().err == ""
 
 
