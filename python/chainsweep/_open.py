@@ -154,6 +154,7 @@ def _stack_histories(
     values = values.reshape(*grid.shape, len(grid.probes), width)
     attrs = {"units": L.probe_units(grid.probe_units), "long_name": L.HISTORY_LONG_NAME}
     shared = all(np.array_equal(t, longest[: len(t)]) for t, _ in runs.values())
+    coords: dict[str, Any]
     if shared:
         # One time axis: every run sampled at the same instants (shorter runs stopped earlier).
         coords = {"time_s": ("time_s", longest, {"units": "s"})}

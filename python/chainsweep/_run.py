@@ -27,8 +27,9 @@ def _versions() -> dict[str, Any]:
     }
 
 
-def _floats(raw: bytes | None) -> np.ndarray | None:
-    return None if raw is None else np.frombuffer(raw, dtype="<f8").astype(np.float64)
+def _floats(raw: bytes) -> np.ndarray:
+    """Little-endian float64 bytes (the native module's arrays) as a float64 array."""
+    return np.frombuffer(raw, dtype="<f8").astype(np.float64)
 
 
 def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
@@ -50,18 +51,18 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
     out["warnings"] = str(raw["warnings"])
     out["run_hash"] = str(raw["run_hash"])
     if raw["history_recorded"]:
-        time = _floats(raw["time_s"])
         n = len(out["probe"])
-        if time is None:  # a failed run records no history
+        if raw["time_s"] is None:  # a failed run records no history
             time = np.zeros(0)
             history = np.zeros((n, 0))
         else:
+            time = _floats(raw["time_s"])
             history = np.stack([_floats(s) for s in raw["history"]]) if n else np.zeros((0, len(time)))
         out["time_s"] = time
         out["history"] = history
     if raw["min_overlap_recorded"]:
-        m = _floats(raw["min_overlap_m"])
-        out["min_overlap_m"] = np.zeros(0) if m is None else m
+        m = raw["min_overlap_m"]
+        out["min_overlap_m"] = np.zeros(0) if m is None else _floats(m)
         out["contact"] = np.arange(1, len(out["min_overlap_m"]) + 1, dtype=np.int64)
     limit = raw["energy_drift_limit"]
     attrs: dict[str, Any] = {
