@@ -88,12 +88,12 @@ class _PlainProgress:
     def __init__(self, every: float = 10.0):
         self.every = every
         self.start = time.monotonic()
-        self.last = -np.inf
+        self.last = self.start
         self.first: int | None = None
         self.state = (0, 0, 0)
 
     def __call__(self, done: int, failed: int, total: int) -> None:
-        if self.first is None:
+        if self.first is None:  # the state before anything ran
             self.first = done
         self.state = (done, failed, total)
         now = time.monotonic()

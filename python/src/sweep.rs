@@ -108,6 +108,11 @@ pub fn run_sweep(
         let r = req.clone();
         py.detach(move || Watch::new(&r))
     };
+    // The state before anything runs: what is done already is not counted in the rate.
+    if let (Some(w), Some(cb)) = (watch.as_mut(), progress.as_ref()) {
+        let p = py.detach(|| w.poll());
+        cb.call1(py, (p.done, p.failed, p.total))?;
+    }
     let (tx, rx) = mpsc::channel::<Result<i32>>();
     let runner_req = req.clone();
     let runner = std::thread::spawn(move || {
@@ -116,7 +121,7 @@ pub fn run_sweep(
     // (A receiver is not `Sync`; the wait below borrows it from a thread without the GIL.)
     let rx = std::sync::Mutex::new(rx);
     let mut pending_error: Option<PyErr> = None;
-    let mut next_report = Instant::now();
+    let mut next_report = Instant::now() + Duration::from_millis(250);
     let outcome = loop {
         match py.detach(|| {
             rx.lock()

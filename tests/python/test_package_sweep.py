@@ -163,12 +163,12 @@ def test_locked_output_is_a_sweep_error(tmp_path):
 def test_progress_callback_counts_up_to_the_total(tmp_path):
     calls = []
     chainsweep.sweep(sweep_spec(), tmp_path / "s.h5", progress=lambda *c: calls.append(c))
-    assert calls and calls[-1] == (6, 0, 6)
+    assert calls[0] == (0, 0, 6) and calls[-1] == (6, 0, 6)
     done = [c[0] for c in calls]
     assert done == sorted(done) and all(c[2] == 6 for c in calls)
     calls.clear()
     chainsweep.sweep(sweep_spec(), tmp_path / "s.h5", progress=lambda *c: calls.append(c))
-    assert calls[-1] == (6, 0, 6)
+    assert calls[0] == calls[-1] == (6, 0, 6)
 
 
 def test_progress_bar_and_plain_lines(tmp_path, monkeypatch, capfd):
