@@ -9,17 +9,17 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use clap::{Args, Parser, Subcommand};
 use rayon::prelude::*;
 
-use crate::auto;
 use crate::error::{Error, Result};
 use crate::exec;
-use crate::grid::{hex, multi_index, Grid, RunHash};
+use crate::grid::{multi_index, Grid};
+use crate::identity::{hex, RunHash};
+use crate::numerics::{auto, verify};
 use crate::progress::Progress;
-use crate::store::hdf5file::{
-    self, Counts, FileRecords, Provenance, STATUS_FAILED, STATUS_OK, STATUS_PENDING,
-};
-use crate::store::{read_segment_in, scan_segments, work_dir_of, RunRecord, WorkDir};
+use crate::record::{RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use crate::store::hdf5::{self as hdf5file, Counts, FileRecords, Provenance};
+use crate::store::{read_segment_in, scan_segments, work_dir_of, WorkDir, AUTO_CHOICE_FILE};
+use crate::sweep::auto::{describe, AutoChoice};
 use crate::sweep::Sweep;
-use crate::verify::{self, VerifyInfo};
 use crate::{EXIT_OK, EXIT_PARTIAL};
 
 const EXAMPLES: &str = "\
@@ -280,10 +280,10 @@ fn resolve_auto(
         Some(c) => {
             eprintln!(
                 "chainsweep: integrator auto, target {target:e}: {} (chosen earlier: {})",
-                auto::describe(&c.integrator),
+                describe(&c.integrator),
                 work_dir
                     .expect("read from it")
-                    .join(auto::CACHE_FILE)
+                    .join(AUTO_CHOICE_FILE)
                     .display()
             );
             (c, AutoOrigin::Cache)
@@ -309,7 +309,7 @@ fn resolve_auto(
 /// Caches the choice of `integrator: auto` in the (locked) work directory.
 fn cache_auto(work: &WorkDir, sweep: &Sweep) -> Result<()> {
     if let Some(c) = &sweep.auto_choice {
-        work.write_file_atomic(auto::CACHE_FILE, auto::to_json(c).as_bytes())?;
+        work.write_auto_choice(c)?;
     }
     Ok(())
 }
@@ -428,18 +428,6 @@ fn provenance() -> Provenance {
         created_utc: utc_now(),
         command_line: command_line(),
     }
-}
-
-/// Describes grid point `i` by its axis values.
-fn point_label(sweep: &Sweep, grid: &Grid, i: usize) -> String {
-    let mi = multi_index(&grid.shape, i);
-    let mut parts = Vec::new();
-    for (d, dim) in sweep.dims.iter().enumerate() {
-        for a in &dim.axes {
-            parts.push(format!("{}={}", a.name, a.values[mi[d]]));
-        }
-    }
-    parts.join(" ")
 }
 
 /// Checks that the output can be written without clobbering a file chainsweep did not make.
@@ -600,7 +588,7 @@ fn print_failures(
             .flatten()
             .map(|r| r.reason)
             .unwrap_or_else(|| "(reason unreadable)".into());
-        eprintln!("  point {i} ({}): {reason}", point_label(sweep, grid, i));
+        eprintln!("  point {i} ({}): {reason}", grid.point_label(sweep, i));
         shown += 1;
     }
 }
@@ -629,7 +617,7 @@ fn print_verification(
                     continue;
                 };
                 let info = vsrc.info(work, grid, i, &rec)?;
-                if info.status == verify::VERIFY_OK {
+                if info.status == crate::record::VERIFY_OK {
                     n_ok += 1;
                     let e = info.max_error();
                     if !e.is_nan() && worst.map_or(true, |(w, _)| e > w) {
@@ -650,7 +638,7 @@ fn print_verification(
                 .read_segment(&vsrc.hashes[&i])?
                 .map(|r| r.reason)
                 .unwrap_or_default();
-            eprintln!("  point {i} ({}): {reason}", point_label(sweep, grid, i));
+            eprintln!("  point {i} ({}): {reason}", grid.point_label(sweep, i));
         }
     }
     let requested = points.iter().filter(|&&i| chosen[i]).count();
@@ -658,7 +646,7 @@ fn print_verification(
         match worst {
             Some((e, i)) => eprintln!(
                 "chainsweep: {n_ok} point(s) verified at a tighter setting; largest relative error {e:.2e} at point {i} ({})",
-                point_label(sweep, grid, i)
+                grid.point_label(sweep, i)
             ),
             None => eprintln!("chainsweep: {n_ok} point(s) verified at a tighter setting"),
         }
@@ -783,7 +771,7 @@ fn dry_run(
         };
         println!(
             "  {i:>6}  {}  {}{state}",
-            point_label(sweep, grid, i),
+            grid.point_label(sweep, i),
             &hex(&h)[..12]
         );
     };
@@ -1142,7 +1130,7 @@ fn cmd_status(file: &Path, output: Option<PathBuf>, shard: Option<&str>) -> Resu
                 println!(
                     "integrator auto, target {:e}: {}",
                     spec.target_rel_error,
-                    auto::describe(&c.integrator)
+                    describe(&c.integrator)
                 );
                 sweep.apply_auto(c);
                 grid = Grid::new(&sweep)?;
@@ -1154,7 +1142,7 @@ fn cmd_status(file: &Path, output: Option<PathBuf>, shard: Option<&str>) -> Resu
                     output.display(),
                     points.len(),
                     points.len(),
-                    dir.join(auto::CACHE_FILE).display()
+                    dir.join(AUTO_CHOICE_FILE).display()
                 );
                 return Ok(EXIT_PARTIAL);
             }
@@ -1190,7 +1178,7 @@ fn cmd_status(file: &Path, output: Option<PathBuf>, shard: Option<&str>) -> Resu
             .unwrap_or_default();
         println!(
             "  failed: point {i} ({}): {reason}",
-            point_label(&sweep, &grid, i)
+            grid.point_label(&sweep, i)
         );
     }
     Ok(exit_for(&Counts {
@@ -1230,7 +1218,7 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
     if let Some(spec) = sweep.auto {
         // Every shard resolved `auto` alike (the choice is deterministic): take it from them.
         let key = auto::cache_key(&grid, &spec);
-        let mut choice: Option<auto::AutoChoice> = None;
+        let mut choice: Option<AutoChoice> = None;
         for s in shards {
             let c = hdf5file::read_auto_choice(s)?.ok_or_else(|| {
                 Error::Other(format!(
@@ -1251,9 +1239,9 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
                     return Err(Error::Other(format!(
                         "{}: its `auto` choice ({}) differs from that of {} ({})",
                         s.display(),
-                        auto::describe(&c.integrator),
+                        describe(&c.integrator),
                         shards[0].display(),
-                        auto::describe(&first.integrator)
+                        describe(&first.integrator)
                     )))
                 }
                 _ => {}
@@ -1427,7 +1415,7 @@ fn cmd_point(file: &Path, index: usize, scene_only: bool, output: Option<&Path>)
 }
 
 fn cmd_accuracy(args: &AccuracyArgs) -> Result<i32> {
-    use crate::accuracy;
+    use crate::numerics::accuracy;
     let (sweep, grid) = load(&args.file)?;
     if args.repeats == 0 {
         return Err(Error::input("--repeats", "must be at least 1"));
@@ -1447,7 +1435,7 @@ fn cmd_accuracy(args: &AccuracyArgs) -> Result<i32> {
         }
         Some(i) => (
             grid.build(&sweep, i)?,
-            format!("grid point {i} ({})", point_label(&sweep, &grid, i)),
+            format!("grid point {i} ({})", grid.point_label(&sweep, i)),
         ),
         None => (
             crate::sweep::from_value_at::<chainsweep_solver::Scene>(sweep.base.clone(), "base")?,

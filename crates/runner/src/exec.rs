@@ -12,8 +12,8 @@ use std::time::Instant;
 
 use chainsweep_solver::{run, Scene};
 
-use crate::grid::RunHash;
-use crate::store::RunRecord;
+use crate::identity::RunHash;
+use crate::record::RunRecord;
 use crate::sweep::Limits;
 
 thread_local! {
@@ -70,12 +70,12 @@ pub fn execute(scene: &Scene, hash: RunHash, limits: &Limits, index: usize) -> R
     execute_inner(scene, hash, limits, Some(index))
 }
 
-/// Runs a verification scene (see [`crate::verify`]) and records the outcome under `hash`.
+/// Runs a verification scene (see [`crate::numerics::verify`]) and records the outcome under `hash`.
 pub fn execute_verification(scene: &Scene, hash: RunHash, limits: &Limits) -> RunRecord {
     execute_inner(scene, hash, limits, None)
 }
 
-/// Runs a pilot scene of `integrator: auto` (see [`crate::auto`]); the record carries no hash.
+/// Runs a pilot scene of `integrator: auto` (see [`crate::numerics::auto`]); the record carries no hash.
 pub fn execute_pilot(scene: &Scene, limits: &Limits) -> RunRecord {
     execute_inner(scene, [0u8; 32], limits, None)
 }

@@ -8,12 +8,12 @@
 //!   `X.h5.d/tmp/`, `fsync`ed, renamed into place and the directory `fsync`ed; a segment either
 //!   exists whole or not at all.
 //! - `X.h5.d/tmp/`: temporary files, emptied by the next process that takes the lock.
-//! - `X.h5.d/auto.json`: what `integrator: auto` chose ([`crate::auto`]), written atomically.
+//! - `X.h5.d/auto.json`: what `integrator: auto` chose ([`AutoChoice`]), written atomically.
 //!
 //! `X.h5` itself is only ever replaced by renaming a completely written and `fsync`ed file over it
-//! ([`hdf5file::assemble`]), so it is always either the previous complete version or the new one.
+//! ([`WorkDir::publish`]), so it is always either the previous complete version or the new one.
 
-pub mod hdf5file;
+pub mod hdf5;
 pub mod segment;
 
 use std::collections::HashMap;
@@ -25,8 +25,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use fs4::fs_std::FileExt;
 
 use crate::error::{io_ctx, Error, Result};
-use crate::grid::{hex, RunHash};
-pub use segment::RunRecord;
+use crate::identity::{from_hex, hex, RunHash};
+use crate::record::RunRecord;
+use crate::sweep::auto::AutoChoice;
 
 /// Path of the work directory of an output file: `X.h5` → `X.h5.d`.
 pub fn work_dir_of(output: &Path) -> PathBuf {
@@ -38,16 +39,11 @@ pub fn work_dir_of(output: &Path) -> PathBuf {
 /// What a work directory holds: status of every segment, by run hash.
 pub type SegmentIndex = HashMap<RunHash, bool>;
 
-fn parse_hex(name: &str) -> Option<RunHash> {
-    let stem = name.strip_suffix(".seg")?;
-    if stem.len() != 64 {
-        return None;
-    }
-    let mut out = [0u8; 32];
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = u8::from_str_radix(&stem[2 * i..2 * i + 2], 16).ok()?;
-    }
-    Some(out)
+/// Name of the file in a work directory that holds what `integrator: auto` chose.
+pub const AUTO_CHOICE_FILE: &str = "auto.json";
+
+fn segment_hash(file_name: &str) -> Option<RunHash> {
+    from_hex(file_name.strip_suffix(".seg")?)
 }
 
 /// Lists the segments under `dir/segments` with their status (ok or failed), reading only their
@@ -68,7 +64,7 @@ pub fn scan_segments(dir: &Path) -> Result<SegmentIndex> {
     for entry in entries {
         let entry = entry?;
         let name = entry.file_name();
-        let Some(hash) = name.to_str().and_then(parse_hex) else {
+        let Some(hash) = name.to_str().and_then(segment_hash) else {
             continue;
         };
         let mut head = Vec::new();
@@ -77,7 +73,7 @@ pub fn scan_segments(dir: &Path) -> Result<SegmentIndex> {
             Err(_) => continue,
         };
         Read::by_ref(&mut f).take(4096).read_to_end(&mut head)?;
-        if let Some((ok, _)) = RunRecord::peek_status(&head) {
+        if let Some((ok, _)) = segment::peek_status(&head) {
             index.insert(hash, ok);
         }
     }
@@ -173,7 +169,7 @@ impl WorkDir {
 
     /// Writes a run's segment atomically: temporary file, fsync, rename, fsync of the directory.
     pub fn write_segment(&self, rec: &RunRecord) -> Result<()> {
-        let bytes = rec.encode();
+        let bytes = segment::encode(rec);
         let tmp = self.tmp_path(&hex(&rec.hash));
         {
             let mut f = io_ctx(File::create(&tmp), || {
@@ -211,6 +207,11 @@ impl WorkDir {
         fsync_dir(&self.dir)
     }
 
+    /// Caches what `integrator: auto` chose (atomically).
+    pub fn write_auto_choice(&self, choice: &AutoChoice) -> Result<()> {
+        self.write_file_atomic(AUTO_CHOICE_FILE, choice.to_json().as_bytes())
+    }
+
     /// Reads a run's segment; `None` when it is missing or corrupt.
     pub fn read_segment(&self, hash: &RunHash) -> Result<Option<RunRecord>> {
         read_segment_in(&self.dir, hash)
@@ -241,8 +242,15 @@ impl WorkDir {
 pub fn read_segment_in(dir: &Path, hash: &RunHash) -> Result<Option<RunRecord>> {
     let path = dir.join("segments").join(format!("{}.seg", hex(hash)));
     match fs::read(&path) {
-        Ok(bytes) => Ok(RunRecord::decode(&bytes).filter(|r| &r.hash == hash)),
+        Ok(bytes) => Ok(segment::decode(&bytes).filter(|r| &r.hash == hash)),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(Error::Other(format!("cannot read {}: {e}", path.display()))),
     }
+}
+
+/// What `integrator: auto` chose, as cached in work directory `dir`; `None` when there is no
+/// readable choice.
+pub fn read_auto_choice_in(dir: &Path) -> Option<AutoChoice> {
+    let text = fs::read_to_string(dir.join(AUTO_CHOICE_FILE)).ok()?;
+    AutoChoice::from_json(&text).ok()
 }

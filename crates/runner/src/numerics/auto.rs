@@ -7,7 +7,9 @@
 //! "integrator": {"method": "auto", "target_rel_error": 1e-6, "pilot_points": 5}
 //! ```
 //!
-//! (`pilot_points` is optional, default [`DEFAULT_PILOT_POINTS`].) The solver knows no `auto`
+//! (`pilot_points` is optional, default
+//! [`DEFAULT_PILOT_POINTS`](crate::sweep::auto::DEFAULT_PILOT_POINTS); the request and the
+//! choice are plain data in [`crate::sweep::auto`].) The solver knows no `auto`
 //! method: the runner resolves it to one concrete [`IntegratorSpec`] before it builds the grid's
 //! scenes, so run hashes, `status`, `point`, `merge`, dry runs and resume all see concrete scenes,
 //! and a grid point of an `auto` sweep is the same run as that point with the chosen setting
@@ -18,7 +20,7 @@
 //! errors, never by wall time:
 //!
 //! 1. **Pilot points** ([`pilot_points`]): the first and last corners of the grid, its stiffest
-//!    point (largest `μ τ / m_min`, see [`crate::accuracy::scene_scales`]), its centre, then the
+//!    point (largest `μ τ / m_min`, see [`super::accuracy::scene_scales`]), its centre, then the
 //!    other corners, without repeats, at most `pilot_points` of them.
 //! 2. **Reference** on each pilot point: DOP853 at rtol 1e-12, or ROS34PW2 at rtol 1e-10 where
 //!    damping dominates (stiffness ratio over [`STIFF_RATIO`], as in `chainsweep accuracy`) and
@@ -48,36 +50,22 @@ use std::time::Instant;
 
 use chainsweep_solver::{IntegratorSpec, Scene};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use serde_json::Value;
 use sha2::{Digest, Sha256};
 
-use crate::accuracy::{adaptive, max_ignoring_nan, scene_scales, STIFF_RATIO};
+use super::accuracy::{max_ignoring_nan, scene_scales, STIFF_RATIO};
+use super::verify::rel_error;
 use crate::error::{Error, Result};
 use crate::exec;
-use crate::grid::{hex, multi_index, Grid};
-use crate::store::RunRecord;
+use crate::grid::Grid;
+use crate::identity::hex;
+use crate::record::RunRecord;
+use crate::store::read_auto_choice_in;
+use crate::sweep::auto::{adaptive, describe, AutoChoice, AutoSpec, Candidate};
 use crate::sweep::{Limits, Sweep};
-use crate::verify::rel_error;
 
 /// Version of the resolution procedure: part of the cache key, so a change of the procedure
 /// re-runs the pilot of sweeps resolved before.
 pub const AUTO_VERSION: u32 = 1;
-
-/// Smallest target relative error. Candidates are measured at `target / SAFETY_FACTOR` against
-/// the DOP853 reference at rtol 1e-12, whose own error is a few 1e-10 (DOP853 at rtol 1e-11
-/// differs from it by up to 2.9e-9 on the Fig. 8 pilot points, leading-peak times included), so
-/// smaller targets could not be told apart from the reference's error.
-pub const TARGET_MIN: f64 = 1e-8;
-
-/// Largest target relative error.
-pub const TARGET_MAX: f64 = 1e-2;
-
-/// Default number of pilot points.
-pub const DEFAULT_PILOT_POINTS: usize = 5;
-
-/// Largest number of pilot points.
-pub const MAX_PILOT_POINTS: usize = 64;
 
 /// A candidate must reach `target / SAFETY_FACTOR` on the pilot points, because the pilot sees a
 /// few points of the grid and the error of a tolerance-controlled method scatters between grid
@@ -114,157 +102,6 @@ pub const ROS34PW2_MIN_RTOL: f64 = 1e-9;
 /// Smallest target for which damping-dominated pilot points take the ROS34PW2 reference.
 pub const ROS_REFERENCE_MIN_TARGET: f64 = 1e-6;
 
-/// Name of the cache file in the output's work directory.
-pub const CACHE_FILE: &str = "auto.json";
-
-/// An `integrator: auto` request of a sweep file.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
-pub struct AutoSpec {
-    /// Largest relative error allowed at every grid point.
-    pub target_rel_error: f64,
-    /// Largest number of pilot points.
-    pub pilot_points: usize,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct AutoFile {
-    #[allow(dead_code)]
-    method: String,
-    target_rel_error: Option<f64>,
-    #[serde(default)]
-    pilot_points: Option<u64>,
-}
-
-impl AutoSpec {
-    /// Reads `base.integrator` (`value`) when its method is `auto`: `Ok(None)` for any other
-    /// integrator; an input error naming the field for a malformed request.
-    pub fn from_integrator(value: &Value) -> Result<Option<AutoSpec>> {
-        if value.get("method").and_then(Value::as_str) != Some("auto") {
-            return Ok(None);
-        }
-        let f: AutoFile =
-            crate::sweep::from_value_at(value.clone(), "base.integrator").map_err(|e| match e {
-                Error::Input { field, message, .. } => Error::input(
-                    field,
-                    format!(
-                        "{message} (`auto` takes `target_rel_error` and optionally `pilot_points`)"
-                    ),
-                ),
-                other => other,
-            })?;
-        let target = f.target_rel_error.ok_or_else(|| {
-            Error::input(
-                "base.integrator.target_rel_error",
-                format!("missing: `auto` needs the largest relative error allowed at every grid point, a number in [{TARGET_MIN:e}, {TARGET_MAX:e}]"),
-            )
-        })?;
-        if !(target.is_finite() && (TARGET_MIN..=TARGET_MAX).contains(&target)) {
-            return Err(Error::input(
-                "base.integrator.target_rel_error",
-                format!("must lie in [{TARGET_MIN:e}, {TARGET_MAX:e}], got {target}"),
-            ));
-        }
-        let pilot_points = match f.pilot_points {
-            None => DEFAULT_PILOT_POINTS,
-            Some(n) if (1..=MAX_PILOT_POINTS as u64).contains(&n) => n as usize,
-            Some(n) => {
-                return Err(Error::input(
-                    "base.integrator.pilot_points",
-                    format!("must lie in 1..={MAX_PILOT_POINTS}, got {n}"),
-                ))
-            }
-        };
-        Ok(Some(AutoSpec {
-            target_rel_error: target,
-            pilot_points,
-        }))
-    }
-
-    /// The concrete integrator that stands in for `auto` while the sweep is parsed and its grid
-    /// validated (DOP853 at rtol = target); never run.
-    pub fn placeholder(&self) -> IntegratorSpec {
-        adaptive("dop853", self.target_rel_error)
-    }
-}
-
-/// One candidate setting tried by the pilot.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Candidate {
-    /// The setting.
-    pub integrator: IntegratorSpec,
-    /// Relative error at each pilot point (`null`: the run failed, or found a leading pulse the
-    /// reference did not, or the other way round).
-    pub errors: Vec<Option<f64>>,
-    /// RHS evaluations at each pilot point (`null`: the run failed).
-    pub rhs_evals: Vec<Option<u64>>,
-    /// Weighted RHS evaluations over the pilot points (`null` when a run failed).
-    pub cost: Option<f64>,
-    /// Whether every pilot run succeeded within `target / safety_factor`.
-    pub meets_target: bool,
-    /// Why a pilot run failed, when one did.
-    pub failure: Option<String>,
-}
-
-impl Candidate {
-    /// Largest error over the pilot points (infinite when a run failed).
-    pub fn max_error(&self) -> f64 {
-        self.errors
-            .iter()
-            .map(|e| e.unwrap_or(f64::INFINITY))
-            .fold(0.0, f64::max)
-    }
-}
-
-/// What `auto` chose, and the pilot it chose from.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AutoChoice {
-    /// The cache key of the unresolved sweep ([`cache_key`]).
-    pub key: String,
-    /// [`AUTO_VERSION`] of the procedure that chose.
-    pub version: u32,
-    /// The requested target relative error.
-    pub target_rel_error: f64,
-    /// [`SAFETY_FACTOR`]: the pilot required `target / safety_factor`.
-    pub safety_factor: f64,
-    /// The chosen setting, used at every grid point.
-    pub integrator: IntegratorSpec,
-    /// Flat indices of the pilot points.
-    pub pilot_points: Vec<usize>,
-    /// Reference setting at each pilot point.
-    pub pilot_references: Vec<IntegratorSpec>,
-    /// Error of the chosen setting at each pilot point.
-    pub pilot_errors: Vec<f64>,
-    /// RHS evaluations of the chosen setting at each pilot point.
-    pub pilot_rhs_evals: Vec<u64>,
-    /// RHS evaluations the whole pilot took (references and every candidate).
-    pub pilot_cost_rhs_evals: u64,
-    /// Every candidate tried, in the order tried.
-    pub candidates: Vec<Candidate>,
-}
-
-/// A setting in words: `dop853 rtol 3e-8`.
-pub fn describe(spec: &IntegratorSpec) -> String {
-    let (x, name) = crate::accuracy::setting_of(spec);
-    format!("{} {name} {x:e}", spec.method_name())
-}
-
-impl AutoChoice {
-    /// The choice in one line: setting, pilot points, largest pilot error, pilot cost.
-    pub fn summary(&self) -> String {
-        format!(
-            "{} (pilot on points {:?}: largest error {:.2e} <= {:e}/{}, {} RHS evaluations there; the pilot took {} RHS evaluations in all)",
-            describe(&self.integrator),
-            self.pilot_points,
-            self.pilot_errors.iter().cloned().fold(0.0, f64::max),
-            self.target_rel_error,
-            self.safety_factor,
-            self.pilot_rhs_evals.iter().sum::<u64>(),
-            self.pilot_cost_rhs_evals
-        )
-    }
-}
-
 /// The cache key of an `auto` sweep: the SHA-256 of [`AUTO_VERSION`], the request, the grid's
 /// shape and every run hash of the unresolved grid (which cover the scenes, the limits and the
 /// numerics and solver versions).
@@ -289,19 +126,8 @@ pub fn cache_key(grid: &Grid, spec: &AutoSpec) -> String {
 
 /// The cached choice in work directory `dir`, if there is one for `key`.
 pub fn read_cache(dir: &Path, key: &str) -> Option<AutoChoice> {
-    let text = std::fs::read_to_string(dir.join(CACHE_FILE)).ok()?;
-    let c: AutoChoice = serde_json::from_str(&text).ok()?;
+    let c = read_auto_choice_in(dir)?;
     (c.key == key && c.version == AUTO_VERSION).then_some(c)
-}
-
-/// The choice as cached and stored (JSON).
-pub fn to_json(choice: &AutoChoice) -> String {
-    serde_json::to_string(choice).expect("AutoChoice serialises")
-}
-
-/// Reads a choice from its JSON (`auto` attribute of an output file).
-pub fn from_json(text: &str) -> Result<AutoChoice> {
-    serde_json::from_str(text).map_err(|e| Error::Other(format!("unreadable `auto` record: {e}")))
 }
 
 /// Pilot points of a grid: the first and last corners, the stiffest point, the centre, then the
@@ -424,16 +250,7 @@ pub fn resolve(
     let target = spec.target_rel_error;
     let required = target / SAFETY_FACTOR;
     let pilots = pilot_points(sweep, grid, spec.pilot_points)?;
-    let label = |i: usize| {
-        let mi = multi_index(&grid.shape, i);
-        let mut parts = Vec::new();
-        for (d, dim) in sweep.dims.iter().enumerate() {
-            for a in &dim.axes {
-                parts.push(format!("{}={}", a.name, a.values[mi[d]]));
-            }
-        }
-        parts.join(" ")
-    };
+    let label = |i: usize| grid.point_label(sweep, i);
     let mut scenes = Vec::new();
     let mut stiff = Vec::new();
     for &i in &pilots {
@@ -613,66 +430,23 @@ pub fn resolve(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
-
-    #[test]
-    fn requests_parse_strictly() {
-        let ok = AutoSpec::from_integrator(&json!({"method": "auto", "target_rel_error": 1e-6}))
-            .unwrap()
-            .unwrap();
-        assert_eq!(ok.target_rel_error, 1e-6);
-        assert_eq!(ok.pilot_points, DEFAULT_PILOT_POINTS);
-        assert!(
-            AutoSpec::from_integrator(&json!({"method": "dop853", "rtol": 1e-9}))
-                .unwrap()
-                .is_none()
-        );
-        for (bad, field) in [
-            (
-                json!({"method": "auto"}),
-                "base.integrator.target_rel_error",
-            ),
-            (
-                json!({"method": "auto", "target_rel_error": 1e-9}),
-                "base.integrator.target_rel_error",
-            ),
-            (
-                json!({"method": "auto", "target_rel_error": 0.5}),
-                "base.integrator.target_rel_error",
-            ),
-            (
-                json!({"method": "auto", "target_rel_error": 1e-6, "rtol": 1e-9}),
-                "base.integrator.rtol",
-            ),
-            (
-                json!({"method": "auto", "target_rel_error": 1e-6, "pilot_points": 0}),
-                "base.integrator.pilot_points",
-            ),
-            (
-                json!({"method": "auto", "target_rel_error": "1e-6"}),
-                "base.integrator.target_rel_error",
-            ),
-        ] {
-            match AutoSpec::from_integrator(&bad) {
-                Err(Error::Input { field: f, .. }) => assert_eq!(f, field, "{bad}"),
-                other => panic!("{bad}: {other:?}"),
-            }
-        }
-    }
 
     #[test]
     fn ladders_are_rounded_and_bounded() {
         let l = ladder("dop853", 1e-6);
-        let r: Vec<f64> = l.iter().map(|s| crate::accuracy::setting_of(s).0).collect();
+        let r: Vec<f64> = l
+            .iter()
+            .map(|s| crate::sweep::auto::setting_of(s).0)
+            .collect();
         assert_eq!(r, vec![3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9, 3e-10, 1e-10]);
         let r: Vec<f64> = ladder("dop853", 1e-8)
             .iter()
-            .map(|s| crate::accuracy::setting_of(s).0)
+            .map(|s| crate::sweep::auto::setting_of(s).0)
             .collect();
         assert_eq!(r, vec![3e-9, 1e-9, 3e-10, 1e-10, 3e-11, 1e-11]);
         let r: Vec<f64> = ladder("ros34pw2", 1e-7)
             .iter()
-            .map(|s| crate::accuracy::setting_of(s).0)
+            .map(|s| crate::sweep::auto::setting_of(s).0)
             .collect();
         assert_eq!(r, vec![1e-8, 3e-9, 1e-9]);
         assert!(ladder("ros34pw2", 1e-6)
@@ -705,31 +479,5 @@ mod tests {
         );
         assert_eq!(pilot_points(&sweep, &grid, 3).unwrap(), vec![0, 2, 14]);
         assert_eq!(pilot_points(&sweep, &grid, 64).unwrap().len(), 5);
-    }
-
-    #[test]
-    fn choices_round_trip_through_json() {
-        let c = AutoChoice {
-            key: "k".into(),
-            version: AUTO_VERSION,
-            target_rel_error: 1e-6,
-            safety_factor: SAFETY_FACTOR,
-            integrator: adaptive("dop853", 3e-8),
-            pilot_points: vec![0, 3],
-            pilot_references: vec![adaptive("dop853", 1e-12); 2],
-            pilot_errors: vec![1.5e-7, 2.25e-7],
-            pilot_rhs_evals: vec![1000, 2000],
-            pilot_cost_rhs_evals: 12345,
-            candidates: vec![Candidate {
-                integrator: adaptive("dop853", 1e-6),
-                errors: vec![Some(3e-6), None],
-                rhs_evals: vec![Some(10), None],
-                cost: None,
-                meets_target: false,
-                failure: Some("at grid point 3: step budget".into()),
-            }],
-        };
-        assert_eq!(from_json(&to_json(&c)).unwrap(), c);
-        assert!(c.summary().contains("dop853 rtol 3e-8"));
     }
 }

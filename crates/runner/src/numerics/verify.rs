@@ -15,51 +15,10 @@
 use chainsweep_solver::{IntegratorSpec, Scene};
 use sha2::{Digest, Sha256};
 
-use crate::grid::{hex, Grid, RunHash};
-use crate::store::RunRecord;
+use crate::grid::Grid;
+use crate::identity::{verify_hash, RunHash};
+use crate::record::{RunRecord, VerifyInfo, VERIFY_FAILED, VERIFY_OK};
 use crate::sweep::Sweep;
-
-/// `verified` flag: the point was not verified.
-pub const VERIFY_NONE: u8 = 0;
-/// `verified` flag: verified; the errors are stored.
-pub const VERIFY_OK: u8 = 1;
-/// `verified` flag: the verification run itself failed (its reason is printed by `run`).
-pub const VERIFY_FAILED: u8 = 2;
-
-/// How the tighter setting is made, as recorded in the file.
-pub const TIGHTENING: &str =
-    "dop853/ros34pw2: rtol/100 (atol/100 when given); rk4/verlet: dt_s/4; max_steps x4";
-
-/// The verification outcome of one grid point.
-#[derive(Debug, Clone, PartialEq)]
-pub struct VerifyInfo {
-    /// [`VERIFY_NONE`], [`VERIFY_OK`] or [`VERIFY_FAILED`].
-    pub status: u8,
-    /// Per probe: relative error of the leading peak, its time and the record maximum (NaN
-    /// where not verified, or where neither run has the value).
-    pub errors: Vec<[f64; 3]>,
-}
-
-impl VerifyInfo {
-    /// Not verified: NaN errors for `n_probes` probes.
-    pub fn none(n_probes: usize) -> Self {
-        VerifyInfo {
-            status: VERIFY_NONE,
-            errors: vec![[f64::NAN; 3]; n_probes],
-        }
-    }
-
-    /// The largest error over probes and summaries, NaN where there is none.
-    pub fn max_error(&self) -> f64 {
-        let mut m = f64::NAN;
-        for e in self.errors.iter().flatten() {
-            if !e.is_nan() && (m.is_nan() || *e > m) {
-                m = *e;
-            }
-        }
-        m
-    }
-}
 
 /// The integrator one notch tighter (see the module docs).
 pub fn tighten(spec: IntegratorSpec) -> IntegratorSpec {
@@ -99,23 +58,6 @@ pub fn tight_scene(scene: &Scene) -> Scene {
     s.record.history = false;
     s.record.min_overlap = false;
     s
-}
-
-/// Identity of the verification run of the point whose run hash is `base` and whose verification
-/// scene is `tight`: a different marker than run hashes, so the two never collide.
-pub fn verify_hash(base: &RunHash, tight: &Scene) -> RunHash {
-    let mut h = Sha256::new();
-    h.update(b"chainsweep verification run v1\n");
-    h.update(format!("base_run={}\n", hex(base)).as_bytes());
-    h.update(b"tightening=");
-    h.update(TIGHTENING.as_bytes());
-    h.update(b"\nscene=");
-    h.update(
-        serde_json::to_string(tight)
-            .expect("Scene serialises")
-            .as_bytes(),
-    );
-    h.finalize().into()
 }
 
 /// The key of a sweep for sampling: the SHA-256 of every run hash in grid order.

@@ -18,20 +18,14 @@ use hdf5::{Dataset, File, Group, H5Type, Location};
 use serde_json::Value;
 
 use crate::error::{Error, Result};
-use crate::grid::{hex, multi_index, Grid, RunHash};
-use crate::store::RunRecord;
+use crate::grid::{multi_index, Grid};
+use crate::identity::{hex, RunHash, TIGHTENING};
+use crate::record::{
+    RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING, VERIFY_FAILED,
+    VERIFY_NONE, VERIFY_OK,
+};
+use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
-use crate::verify::{VerifyInfo, TIGHTENING, VERIFY_FAILED, VERIFY_NONE, VERIFY_OK};
-
-/// Status code of a pending grid point (not run, or not in this shard).
-pub const STATUS_PENDING: u8 = 0;
-/// Status code of a successful run.
-pub const STATUS_OK: u8 = 1;
-/// Status code of a failed run.
-pub const STATUS_FAILED: u8 = 2;
-
-/// Fill value of the integer summaries (steps, …) where a run failed or is pending.
-pub const INT_FILL: i64 = -1;
 
 /// Deflate level of history datasets.
 pub const DEFLATE_LEVEL: u8 = 4;
@@ -654,8 +648,8 @@ fn read_attr_str(loc: &Location, name: &str) -> Result<String> {
 /// `auto_method`, `auto_setting` (JSON of the chosen integrator), `auto_pilot_points` (flat
 /// indices), `auto_pilot_references` (JSON list), `auto_pilot_errors`, `auto_pilot_rhs_evals`
 /// (of the chosen setting, per pilot point) and `auto_pilot_cost_rhs_evals` (the whole pilot).
-fn write_auto_attrs(file: &File, c: &crate::auto::AutoChoice) -> Result<()> {
-    attr_str(file, "auto", &crate::auto::to_json(c))?;
+fn write_auto_attrs(file: &File, c: &AutoChoice) -> Result<()> {
+    attr_str(file, "auto", &c.to_json())?;
     attr_scalar(file, "auto_target_rel_error", c.target_rel_error)?;
     attr_scalar(file, "auto_safety_factor", c.safety_factor)?;
     attr_str(file, "auto_method", c.integrator.method_name())?;
@@ -684,12 +678,12 @@ fn write_auto_attrs(file: &File, c: &crate::auto::AutoChoice) -> Result<()> {
 
 /// Reads what `integrator: auto` chose from an output file's `auto` attribute (`None` when the
 /// file has none).
-pub fn read_auto_choice(path: &Path) -> Result<Option<crate::auto::AutoChoice>> {
+pub fn read_auto_choice(path: &Path) -> Result<Option<AutoChoice>> {
     let f = File::open(path)?;
     if !f.attr_names()?.iter().any(|a| a == "auto") {
         return Ok(None);
     }
-    crate::auto::from_json(&read_attr_str(&f, "auto")?).map(Some)
+    AutoChoice::from_json(&read_attr_str(&f, "auto")?).map(Some)
 }
 
 /// Reads the `sweep` root attribute of an HDF5 file made by chainsweep.

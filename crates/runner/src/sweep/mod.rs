@@ -6,7 +6,7 @@
 //! - `base`: a scene as the solver reads it (`chain`, `physics`, `striker_velocity_m_s`,
 //!   `duration_s`, `integrator`, `max_steps`); `chain` may start from a preset,
 //!   `{"preset": "chain_055", "cylinders": 50, …overrides}`; the integrator may be
-//!   `{"method": "auto", "target_rel_error": 1e-6}` (see [`crate::auto`]), which stands for one
+//!   `{"method": "auto", "target_rel_error": 1e-6}` (see [`auto`]), which stands for one
 //!   concrete setting chosen before the sweep runs;
 //! - `record`: the solver's record block (probes, histories, intervals, …): exactly what is stored;
 //! - `axes`: the grid dimensions; each is an axis `{"field": "physics.damping_kg_s", "values": […]}`
@@ -19,13 +19,15 @@
 //! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
 
+pub mod auto;
+
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use chainsweep_solver::{ChainSpec, Scene};
 
-use crate::auto::{AutoChoice, AutoSpec};
 use crate::error::{Error, Result};
+use auto::{AutoChoice, AutoSpec};
 
 /// Names of the datasets the HDF5 layout uses at the root; axes may not take them.
 pub const RESERVED_NAMES: &[&str] = &[

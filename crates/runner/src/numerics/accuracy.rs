@@ -1,5 +1,5 @@
 //! Work-precision studies (`chainsweep accuracy`), and the measurements `integrator: auto`
-//! ([`crate::auto`]) shares with them.
+//! ([`super::auto`]) shares with them.
 //!
 //! A study runs one scene with every integrator over a ladder of settings (DOP853 and ROS34PW2:
 //! `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds`), and compares the
@@ -16,9 +16,10 @@ use chainsweep_solver::scene::ImpactScales;
 use chainsweep_solver::{run, IntegratorSpec, RunOutput, Scene};
 use hdf5::File;
 
+use super::verify::rel_error;
 use crate::error::{Error, Result};
-use crate::store::hdf5file::{attr_scalar, attr_str, dataset, str_dataset};
-use crate::verify::rel_error;
+use crate::store::hdf5::{attr_scalar, attr_str, dataset, str_dataset};
+use crate::sweep::auto::{adaptive, setting_of};
 
 /// Above this stiffness ratio `μ τ / m_min` a scene counts as damping-dominated: the reference
 /// is ROS34PW2 and `auto` tries ROS34PW2 first.
@@ -136,34 +137,6 @@ pub fn max_ignoring_nan(xs: impl IntoIterator<Item = f64>) -> f64 {
         }
     }
     m
-}
-
-/// An adaptive method at `rtol` with defaults otherwise.
-pub fn adaptive(method: &str, rtol: f64) -> IntegratorSpec {
-    match method {
-        "ros34pw2" => IntegratorSpec::Ros34pw2 {
-            rtol,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        },
-        _ => IntegratorSpec::Dop853 {
-            rtol,
-            atol: None,
-            max_step_s: None,
-            locate_events: true,
-        },
-    }
-}
-
-/// The setting of an integrator as a number (rtol or dt_s) and its name.
-pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
-    match *spec {
-        IntegratorSpec::Dop853 { rtol, .. } | IntegratorSpec::Ros34pw2 { rtol, .. } => {
-            (rtol, "rtol")
-        }
-        IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => (dt_s, "dt_s"),
-    }
 }
 
 /// Options of a study.
