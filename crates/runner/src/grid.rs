@@ -185,13 +185,35 @@ impl Grid {
             other => other,
         })
     }
+}
 
-    /// Indices of the points in shard `k` of `n` (1-based `k`): every `n`-th point from `k-1`.
-    pub fn shard_points(&self, shard: Option<(usize, usize)>) -> Vec<usize> {
-        match shard {
-            None => (0..self.len()).collect(),
-            Some((k, n)) => (0..self.len()).filter(|i| i % n == k - 1).collect(),
+/// Shard `k` of `n` (`1 <= k <= n`): the part of a grid one machine of `n` runs
+/// (which points, is the engine's shard assignment).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// Which shard, from 1.
+    pub k: usize,
+    /// Number of shards.
+    pub n: usize,
+}
+
+impl Shard {
+    /// Reads `K/N`; an input error naming `field` otherwise.
+    pub fn parse(text: &str, field: &str) -> Result<Shard> {
+        let bad = || Error::input(field, format!("must be K/N with 1 <= K <= N, got `{text}`"));
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let k: usize = k.trim().parse().map_err(|_| bad())?;
+        let n: usize = n.trim().parse().map_err(|_| bad())?;
+        if k == 0 || n == 0 || k > n {
+            return Err(bad());
         }
+        Ok(Shard { k, n })
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.k, self.n)
     }
 }
 

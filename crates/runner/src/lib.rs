@@ -17,13 +17,16 @@
 //! - [`store`]: crash-safe segment files (one per finished run), the lock on the work directory,
 //!   and the HDF5 file assembled from the segments in grid order;
 //! - [`numerics`]: `run --verify`, `integrator: auto` and work-precision studies;
-//! - [`progress`]: the progress bar or the plain progress line;
+//! - [`engine`]: planning, scheduling with checkpoints, assembling, merging, status: what the
+//!   commands do, as a library that prints nothing;
+//! - [`progress`]: the command line's progress display (a [`engine::ProgressSink`]);
 //! - [`cli`]: the `chainsweep` command line.
 //!
 //! Exit codes: [`EXIT_OK`], [`EXIT_ERROR`], [`EXIT_BAD_INPUT`], [`EXIT_PARTIAL`].
 #![warn(missing_docs)]
 
 pub mod cli;
+pub mod engine;
 pub mod error;
 pub mod exec;
 pub mod grid;

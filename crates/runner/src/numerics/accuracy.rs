@@ -10,14 +10,14 @@
 //! method; their agreement is reported. Each setting's wall time is the median of repeats.
 
 use std::path::Path;
-use std::time::Instant;
 
 use chainsweep_solver::scene::ImpactScales;
-use chainsweep_solver::{run, IntegratorSpec, RunOutput, Scene};
+use chainsweep_solver::{IntegratorSpec, RunOutput, Scene};
 use hdf5::File;
 
 use super::verify::rel_error;
 use crate::error::{Error, Result};
+use crate::exec;
 use crate::store::hdf5::{attr_scalar, attr_str, dataset, str_dataset};
 use crate::sweep::auto::{adaptive, setting_of};
 
@@ -87,17 +87,12 @@ pub fn measure(scene: &Scene, spec: IntegratorSpec, repeats: usize) -> Measureme
     let mut out = None;
     let mut reason = String::new();
     for _ in 0..repeats.max(1) {
-        let t = Instant::now();
-        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&s)));
-        walls.push(t.elapsed().as_secs_f64());
+        let (r, wall) = exec::run_guarded(&s);
+        walls.push(wall);
         match r {
-            Ok(Ok(o)) => out = Some(o),
-            Ok(Err(e)) => {
-                reason = e.to_string();
-                break;
-            }
-            Err(_) => {
-                reason = "panic".to_string();
+            Ok(o) => out = Some(o),
+            Err(e) => {
+                reason = e;
                 break;
             }
         }

@@ -18,7 +18,7 @@ use hdf5::{Dataset, File, Group, H5Type, Location};
 use serde_json::Value;
 
 use crate::error::{Error, Result};
-use crate::grid::{multi_index, Grid};
+use crate::grid::{multi_index, Grid, Shard};
 use crate::identity::{hex, RunHash, TIGHTENING};
 use crate::record::{
     RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING, VERIFY_FAILED,
@@ -160,6 +160,43 @@ pub struct Provenance {
     pub command_line: String,
 }
 
+impl Provenance {
+    /// Provenance of a file made now by `command_line`.
+    pub fn now(command_line: String) -> Self {
+        Provenance {
+            created_utc: utc_now(),
+            command_line,
+        }
+    }
+}
+
+/// Current time as ISO 8601 UTC (`2026-01-31T23:59:59Z`).
+pub fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0) as i64;
+    let days = secs.div_euclid(86400);
+    let rem = secs.rem_euclid(86400);
+    // Civil date from days since 1970-01-01 (H. Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36524 - doe / 146_096) / 365;
+    let y = yoe + era * 400;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = if m <= 2 { y + 1 } else { y };
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        (rem / 60) % 60,
+        rem % 60
+    )
+}
+
 /// Counts of a file's grid points.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counts {
@@ -257,7 +294,7 @@ pub fn write_file(
     sweep: &Sweep,
     grid: &Grid,
     points: &[usize],
-    shard: Option<(usize, usize)>,
+    shard: Option<Shard>,
     prov: &Provenance,
     verify_fraction: f64,
     mut get: impl FnMut(usize) -> Result<Option<RunRecord>>,
@@ -284,8 +321,8 @@ pub fn write_file(
     attr_str(&file, "git_revision", crate::GIT_REVISION)?;
     attr_str(&file, "created_utc", &prov.created_utc)?;
     attr_str(&file, "command_line", &prov.command_line)?;
-    let (k, nshards) = shard.unwrap_or((1, 1));
-    attr_str(&file, "shard", &format!("{k}/{nshards}"))?;
+    let shard = shard.unwrap_or(Shard { k: 1, n: 1 });
+    attr_str(&file, "shard", &shard.to_string())?;
     let dims: Vec<&str> = sweep.dims.iter().map(|d| d.name.as_str()).collect();
     attr_str(
         &file,
@@ -635,6 +672,8 @@ pub struct FileRecords {
     verr: Vec<Vec<f64>>,
     /// The `verify_fraction` root attribute (0 in files without it).
     pub verify_fraction: f64,
+    /// The `shard` root attribute (`K/N`).
+    pub shard: String,
     n: usize,
 }
 
@@ -686,6 +725,16 @@ pub fn read_auto_choice(path: &Path) -> Result<Option<AutoChoice>> {
     AutoChoice::from_json(&read_attr_str(&f, "auto")?).map(Some)
 }
 
+/// Whether the file at `path` starts with the HDF5 signature.
+pub fn is_hdf5(path: &Path) -> bool {
+    use std::io::Read;
+    let mut magic = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut magic))
+        .map(|_| &magic == b"\x89HDF\r\n\x1a\n")
+        .unwrap_or(false)
+}
+
 /// Reads the `sweep` root attribute of an HDF5 file made by chainsweep.
 pub fn read_sweep_text(path: &Path) -> Result<String> {
     let f = File::open(path)?;
@@ -702,6 +751,7 @@ impl FileRecords {
     pub fn open(path: &Path) -> Result<FileRecords> {
         let file = File::open(path)?;
         let sweep_text = read_attr_str(&file, "sweep")?;
+        let shard = read_attr_str(&file, "shard")?;
         let status: Vec<u8> = file.dataset("status")?.read_raw()?;
         let n = status.len();
         let reason = read_strs(&file, "reason")?;
@@ -781,8 +831,19 @@ impl FileRecords {
             verified,
             verr,
             verify_fraction,
+            shard,
             n,
         })
+    }
+
+    /// Status code of point `i` ([`STATUS_OK`], [`STATUS_FAILED`] or [`STATUS_PENDING`]).
+    pub fn status(&self, i: usize) -> u8 {
+        self.status[i]
+    }
+
+    /// Why point `i` failed (empty unless it did).
+    pub fn reason(&self, i: usize) -> &str {
+        &self.reason[i]
     }
 
     /// The verification outcome stored for point `i` (`np` probes).

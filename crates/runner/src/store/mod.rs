@@ -39,6 +39,33 @@ pub fn work_dir_of(output: &Path) -> PathBuf {
 /// What a work directory holds: status of every segment, by run hash.
 pub type SegmentIndex = HashMap<RunHash, bool>;
 
+/// Where finished runs are kept until the output file is assembled from them. The engine plans,
+/// schedules and assembles through this narrow interface only, so that another layout (for
+/// example append-only logs per worker) can replace one file per run.
+pub trait RunStore: Sync {
+    /// The stored record of the run `hash`; `None` when it is missing or unreadable (it is then
+    /// run again).
+    fn read(&self, hash: &RunHash) -> Result<Option<RunRecord>>;
+    /// Stores a finished run, crash-safely: after a crash it is there whole or not at all.
+    fn write(&self, rec: &RunRecord) -> Result<()>;
+    /// Every stored run and whether it succeeded, reading as little as possible.
+    fn index(&self) -> Result<SegmentIndex>;
+}
+
+impl RunStore for WorkDir {
+    fn read(&self, hash: &RunHash) -> Result<Option<RunRecord>> {
+        self.read_segment(hash)
+    }
+
+    fn write(&self, rec: &RunRecord) -> Result<()> {
+        self.write_segment(rec)
+    }
+
+    fn index(&self) -> Result<SegmentIndex> {
+        scan_segments(&self.dir)
+    }
+}
+
 /// Name of the file in a work directory that holds what `integrator: auto` chose.
 pub const AUTO_CHOICE_FILE: &str = "auto.json";
 
