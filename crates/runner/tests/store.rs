@@ -2,6 +2,7 @@
 
 use chainsweep::exec::execute;
 use chainsweep::grid::Grid;
+use chainsweep::record::columns::{COLUMNS, LAYOUT_NAMES};
 use chainsweep::record::{VerifyInfo, VERIFY_NONE, VERIFY_OK};
 use chainsweep::store::hdf5::{write_file, FileRecords, Provenance};
 use chainsweep::store::segment::encode;
@@ -79,6 +80,18 @@ fn records_survive_segments_and_hdf5_bitwise() {
     )
     .unwrap();
     assert_eq!((counts.ok, counts.failed, counts.pending), (2, 2, 0));
+    // The file's root holds the axes, the layout's names and exactly the table's columns.
+    let mut names = hdf5::File::open(&out).unwrap().member_names().unwrap();
+    names.sort();
+    let mut want: Vec<String> = COLUMNS
+        .iter()
+        .map(|c| c.name)
+        .chain(LAYOUT_NAMES.iter().copied())
+        .chain(["damping_kg_s", "max_steps"])
+        .map(String::from)
+        .collect();
+    want.sort();
+    assert_eq!(names, want);
     let back = FileRecords::open(&out).unwrap();
     assert_eq!(back.sweep_text, SWEEP);
     for (i, rec) in records.iter().enumerate() {

@@ -27,38 +27,8 @@ use serde_json::{Map, Value};
 use chainsweep_solver::{ChainSpec, Scene};
 
 use crate::error::{Error, Result};
+use crate::record::columns::reserved_names;
 use auto::{AutoChoice, AutoSpec};
-
-/// Names of the datasets the HDF5 layout uses at the root; axes may not take them.
-pub const RESERVED_NAMES: &[&str] = &[
-    "probe",
-    "probe_units",
-    "leading_peak",
-    "leading_peak_time_s",
-    "record_max",
-    "record_max_time_s",
-    "t_end_s",
-    "energy_drift_max",
-    "energy_drift_final",
-    "momentum_residual_max",
-    "impact_energy_j",
-    "wall_time_s",
-    "steps",
-    "rejected_steps",
-    "rhs_evals",
-    "events",
-    "max_overlap_m",
-    "warnings",
-    "verified",
-    "verify_rel_error_max",
-    "verify_rel_error_leading_peak",
-    "verify_rel_error_leading_peak_time",
-    "verify_rel_error_record_max",
-    "status",
-    "reason",
-    "run_hash",
-    "runs",
-];
 
 /// Largest number of grid points a sweep may have.
 pub const MAX_GRID_POINTS: usize = 10_000_000;
@@ -685,12 +655,13 @@ impl Sweep {
                         format!("`{name}` is not a usable name: letters, digits, `_` and `-`, not starting with a digit, at most 64 characters"),
                     ));
                 }
-                if RESERVED_NAMES.contains(&name) {
+                let reserved = reserved_names();
+                if reserved.contains(&name) {
                     return Err(Error::input(
                         at,
                         format!(
                             "`{name}` is a reserved dataset name; reserved: {}",
-                            RESERVED_NAMES.join(", ")
+                            reserved.join(", ")
                         ),
                     ));
                 }

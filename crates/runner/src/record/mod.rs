@@ -2,7 +2,9 @@
 //! ([`VerifyInfo`]), and the status codes the output file stores for them.
 //!
 //! Everything here is plain data: the store writes and reads it, the executor fills it, the
-//! numerics compare it.
+//! numerics compare it. [`columns`] is the one table of what the output file stores of it.
+
+pub mod columns;
 
 use chainsweep_solver::probes::{History, ProbeSummary};
 
