@@ -23,6 +23,7 @@
 //! assert!(out.energy_drift_max < 1e-6);
 //! ```
 #![warn(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod integrate;
 mod jacobian;

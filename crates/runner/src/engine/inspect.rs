@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use chainsweep_solver::Scene;
 
-use crate::error::{io_ctx, Error, Result};
+use crate::error::{Error, Result};
 use crate::exec;
 use crate::grid::Grid;
 use crate::identity::RunHash;
@@ -176,8 +176,6 @@ pub fn study(
     let probe_names: Vec<String> = scene.record.probes.iter().map(|p| p.name()).collect();
     let tmp = output.with_extension("h5.tmp");
     accuracy::write_study(&tmp, &st, &probe_names, source)?;
-    io_ctx(std::fs::rename(&tmp, output), || {
-        format!("cannot rename {} to {}", tmp.display(), output.display())
-    })?;
+    std::fs::rename(&tmp, output).map_err(Error::rename(&tmp, output))?;
     Ok(st)
 }

@@ -150,7 +150,7 @@ pub fn thread_pool(jobs: usize) -> Result<rayon::ThreadPool> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()
-        .map_err(|e| Error::Other(format!("cannot start {jobs} worker threads: {e}")))
+        .map_err(|source| Error::Threads { jobs, source })
 }
 
 /// The number of CPUs this process may use.

@@ -329,6 +329,11 @@ fn round3(x: f64) -> f64 {
 /// `error_leading_peak_time`, `energy_drift`, `wall_time`, `wall_times`, `rhs_evals`, `steps`,
 /// `ok` and `reason`.
 pub fn write_study(path: &Path, st: &Study, probe_names: &[String], source: &str) -> Result<()> {
+    write_study_file(path, st, probe_names, source)
+        .map_err(|e| e.hdf5_context(|| format!("writing {}", path.display())))
+}
+
+fn write_study_file(path: &Path, st: &Study, probe_names: &[String], source: &str) -> Result<()> {
     let f = File::create(path)?;
     attr_str(&f, "engine", "chainsweep accuracy")?;
     attr_str(&f, "engine_version", crate::ENGINE_VERSION)?;

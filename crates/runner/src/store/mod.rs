@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use fs4::fs_std::FileExt;
 
-use crate::error::{io_ctx, Error, Result};
+use crate::error::{Error, Result};
 use crate::identity::{from_hex, hex, RunHash};
 use crate::record::RunRecord;
 use crate::sweep::auto::AutoChoice;
@@ -81,15 +81,10 @@ pub fn scan_segments(dir: &Path) -> Result<SegmentIndex> {
     let entries = match fs::read_dir(&seg_dir) {
         Ok(e) => e,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(index),
-        Err(e) => {
-            return Err(Error::Other(format!(
-                "cannot list {}: {e}",
-                seg_dir.display()
-            )))
-        }
+        Err(e) => return Err(Error::io("list", &seg_dir)(e)),
     };
     for entry in entries {
-        let entry = entry?;
+        let entry = entry.map_err(Error::io("list", &seg_dir))?;
         let name = entry.file_name();
         let Some(hash) = name.to_str().and_then(segment_hash) else {
             continue;
@@ -99,7 +94,10 @@ pub fn scan_segments(dir: &Path) -> Result<SegmentIndex> {
             Ok(f) => f,
             Err(_) => continue,
         };
-        Read::by_ref(&mut f).take(4096).read_to_end(&mut head)?;
+        Read::by_ref(&mut f)
+            .take(4096)
+            .read_to_end(&mut head)
+            .map_err(Error::io("read", &entry.path()))?;
         if let Some((ok, _)) = segment::peek_status(&head) {
             index.insert(hash, ok);
         }
@@ -119,12 +117,51 @@ pub struct WorkDir {
 }
 
 fn fsync_dir(dir: &Path) -> Result<()> {
-    let d = io_ctx(File::open(dir), || {
-        format!("cannot open directory {}", dir.display())
-    })?;
-    io_ctx(d.sync_all(), || {
-        format!("cannot sync directory {}", dir.display())
-    })
+    let d = File::open(dir).map_err(Error::io("open directory", dir))?;
+    d.sync_all().map_err(Error::io("sync directory", dir))
+}
+
+/// Writes `bytes` to `dest` atomically: a temporary file `tmp` written and synced, renamed over
+/// `dest`, and the directory synced. `dest` is then either its previous version or the new one.
+fn write_atomic(tmp: &Path, dest: &Path, bytes: &[u8]) -> Result<()> {
+    {
+        let mut f = File::create(tmp).map_err(Error::io("create", tmp))?;
+        f.write_all(bytes).map_err(Error::io("write", tmp))?;
+        f.sync_all().map_err(Error::io("sync", tmp))?;
+    }
+    fs::rename(tmp, dest).map_err(Error::rename(tmp, dest))?;
+    fsync_dir(dest.parent().expect("a file in a directory"))
+}
+
+/// Takes the lock of the work directory `dir` of `output`; an error naming the holder's pid when
+/// another process has it.
+fn take_lock(dir: &Path, output: &Path) -> Result<File> {
+    let lock_path = dir.join("lock");
+    let mut lock = OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(&lock_path)
+        .map_err(Error::io("open", &lock_path))?;
+    let got = lock
+        .try_lock_exclusive()
+        .map_err(Error::io("lock", &lock_path))?;
+    if !got {
+        let mut holder = String::new();
+        let _ = lock.read_to_string(&mut holder);
+        let holder = holder.trim();
+        return Err(Error::Locked {
+            output: output.to_path_buf(),
+            lock: lock_path,
+            holder: (!holder.is_empty()).then(|| holder.to_string()),
+        });
+    }
+    lock.set_len(0)
+        .and_then(|()| write!(lock, "{}", std::process::id()))
+        .and_then(|()| lock.flush())
+        .map_err(Error::io("write", &lock_path))?;
+    Ok(lock)
 }
 
 impl WorkDir {
@@ -132,46 +169,13 @@ impl WorkDir {
     /// Fails with a clear message when another process holds the lock.
     pub fn open(output: &Path) -> Result<WorkDir> {
         let dir = work_dir_of(output);
-        io_ctx(fs::create_dir_all(dir.join("segments")), || {
-            format!("cannot create {}", dir.display())
-        })?;
-        io_ctx(fs::create_dir_all(dir.join("tmp")), || {
-            format!("cannot create {}", dir.display())
-        })?;
-        let lock_path = dir.join("lock");
-        let mut lock = io_ctx(
-            OpenOptions::new()
-                .read(true)
-                .write(true)
-                .create(true)
-                .truncate(false)
-                .open(&lock_path),
-            || format!("cannot open {}", lock_path.display()),
-        )?;
-        let got = io_ctx(lock.try_lock_exclusive(), || {
-            format!("cannot lock {}", lock_path.display())
-        })?;
-        if !got {
-            let mut holder = String::new();
-            let _ = lock.read_to_string(&mut holder);
-            let holder = holder.trim();
-            let who = if holder.is_empty() {
-                String::new()
-            } else {
-                format!(" (pid {holder})")
-            };
-            return Err(Error::Other(format!(
-                "another chainsweep process{who} is working on {}: its lock {} is held; wait for it to finish or stop it, then run the same command again",
-                output.display(),
-                lock_path.display()
-            )));
-        }
-        lock.set_len(0)?;
-        write!(lock, "{}", std::process::id())?;
-        lock.flush()?;
+        fs::create_dir_all(dir.join("segments")).map_err(Error::io("create", &dir))?;
+        fs::create_dir_all(dir.join("tmp")).map_err(Error::io("create", &dir))?;
+        let lock = take_lock(&dir, output)?;
         // Nobody else can be writing: leftovers in tmp/ are from a process that died.
-        for entry in fs::read_dir(dir.join("tmp"))? {
-            let _ = fs::remove_file(entry?.path());
+        let tmp = dir.join("tmp");
+        for entry in fs::read_dir(&tmp).map_err(Error::io("list", &tmp))? {
+            let _ = fs::remove_file(entry.map_err(Error::io("list", &tmp))?.path());
         }
         Ok(WorkDir {
             output: output.to_path_buf(),
@@ -196,42 +200,14 @@ impl WorkDir {
 
     /// Writes a run's segment atomically: temporary file, fsync, rename, fsync of the directory.
     pub fn write_segment(&self, rec: &RunRecord) -> Result<()> {
-        let bytes = segment::encode(rec);
         let tmp = self.tmp_path(&hex(&rec.hash));
-        {
-            let mut f = io_ctx(File::create(&tmp), || {
-                format!("cannot create {}", tmp.display())
-            })?;
-            io_ctx(f.write_all(&bytes), || {
-                format!("cannot write {}", tmp.display())
-            })?;
-            io_ctx(f.sync_all(), || format!("cannot sync {}", tmp.display()))?;
-        }
-        let dest = self.segment_path(&rec.hash);
-        io_ctx(fs::rename(&tmp, &dest), || {
-            format!("cannot rename {} to {}", tmp.display(), dest.display())
-        })?;
-        fsync_dir(&self.dir.join("segments"))
+        write_atomic(&tmp, &self.segment_path(&rec.hash), &segment::encode(rec))
     }
 
     /// Writes `bytes` to the file `name` of the work directory atomically (temporary file, fsync,
     /// rename, fsync of the directory): the file is either the previous version or the new one.
     pub fn write_file_atomic(&self, name: &str, bytes: &[u8]) -> Result<()> {
-        let tmp = self.tmp_path(name);
-        {
-            let mut f = io_ctx(File::create(&tmp), || {
-                format!("cannot create {}", tmp.display())
-            })?;
-            io_ctx(f.write_all(bytes), || {
-                format!("cannot write {}", tmp.display())
-            })?;
-            io_ctx(f.sync_all(), || format!("cannot sync {}", tmp.display()))?;
-        }
-        let dest = self.dir.join(name);
-        io_ctx(fs::rename(&tmp, &dest), || {
-            format!("cannot rename {} to {}", tmp.display(), dest.display())
-        })?;
-        fsync_dir(&self.dir)
+        write_atomic(&self.tmp_path(name), &self.dir.join(name), bytes)
     }
 
     /// Caches what `integrator: auto` chose (atomically).
@@ -247,16 +223,10 @@ impl WorkDir {
     /// Replaces the output file by the finished file at `tmp` (fsync, rename, fsync of the directory).
     pub fn publish(&self, tmp: &Path) -> Result<()> {
         {
-            let f = io_ctx(File::open(tmp), || format!("cannot open {}", tmp.display()))?;
-            io_ctx(f.sync_all(), || format!("cannot sync {}", tmp.display()))?;
+            let f = File::open(tmp).map_err(Error::io("open", tmp))?;
+            f.sync_all().map_err(Error::io("sync", tmp))?;
         }
-        io_ctx(fs::rename(tmp, &self.output), || {
-            format!(
-                "cannot rename {} to {}",
-                tmp.display(),
-                self.output.display()
-            )
-        })?;
+        fs::rename(tmp, &self.output).map_err(Error::rename(tmp, &self.output))?;
         let parent = match self.output.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
             _ => PathBuf::from("."),
@@ -271,7 +241,7 @@ pub fn read_segment_in(dir: &Path, hash: &RunHash) -> Result<Option<RunRecord>> 
     match fs::read(&path) {
         Ok(bytes) => Ok(segment::decode(&bytes).filter(|r| &r.hash == hash)),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-        Err(e) => Err(Error::Other(format!("cannot read {}: {e}", path.display()))),
+        Err(e) => Err(Error::io("read", &path)(e)),
     }
 }
 

@@ -213,8 +213,10 @@ impl AutoChoice {
 
     /// Reads a choice from its JSON (`auto` attribute of an output file, or the cache file).
     pub fn from_json(text: &str) -> Result<AutoChoice> {
-        serde_json::from_str(text)
-            .map_err(|e| Error::Other(format!("unreadable `auto` record: {e}")))
+        serde_json::from_str(text).map_err(|source| Error::Json {
+            what: "`auto` record".into(),
+            source,
+        })
     }
 }
 

@@ -28,6 +28,7 @@ pub const DEFLATE_LEVEL: u8 = 4;
 /// Largest chunk of a history dataset, in samples.
 pub const HISTORY_CHUNK: usize = 16384;
 
+/// The HDF5 high-level library's dimension-scale functions, which hdf5-metno does not wrap.
 mod ds {
     use hdf5_sys::h5::herr_t;
     use hdf5_sys::h5i::hid_t;
@@ -43,6 +44,9 @@ mod ds {
 /// Makes `scale` a dimension scale named `name`.
 fn set_scale(scale: &Dataset, name: &str) -> Result<()> {
     let c = CString::new(name).map_err(|_| Error::Other(format!("bad scale name {name:?}")))?;
+    // SAFETY: `scale.id()` is the id of an open dataset (`scale` borrows it for the call), `c`
+    // is a NUL-terminated string alive for the call (the function copies it), and the call runs
+    // under hdf5-metno's global lock, as every call into the (non-thread-safe) library must.
     let r = hdf5::sync::sync(|| unsafe { ds::H5DSset_scale(scale.id(), c.as_ptr()) });
     if r < 0 {
         return Err(Error::Other(format!("H5DSset_scale({name}) failed")));
@@ -53,6 +57,11 @@ fn set_scale(scale: &Dataset, name: &str) -> Result<()> {
 /// Attaches dimension scale `scale` to dimension `dim` of `data`, and labels the dimension.
 fn attach_scale(data: &Dataset, scale: &Dataset, dim: usize, label: &str) -> Result<()> {
     let c = CString::new(label).map_err(|_| Error::Other(format!("bad label {label:?}")))?;
+    // SAFETY: `data.id()` and `scale.id()` are ids of open datasets (borrowed for the call);
+    // `dim` is a dimension of `data` (callers pass the grid's dimensions, and the probe dimension
+    // of per-probe datasets; HDF5 checks it and fails rather than writing out of bounds); `c` is
+    // a NUL-terminated string alive for the call (copied by the library); the calls run under
+    // hdf5-metno's global lock.
     let r = hdf5::sync::sync(|| unsafe {
         let a = ds::H5DSattach_scale(data.id(), scale.id(), dim as u32);
         if a < 0 {
@@ -190,11 +199,15 @@ fn read_attr_str(loc: &Location, name: &str) -> Result<String> {
 /// Reads what `integrator: auto` chose from an output file's `auto` attribute (`None` when the
 /// file has none).
 pub fn read_auto_choice(path: &Path) -> Result<Option<AutoChoice>> {
-    let f = File::open(path)?;
-    if !f.attr_names()?.iter().any(|a| a == "auto") {
-        return Ok(None);
-    }
-    AutoChoice::from_json(&read_attr_str(&f, "auto")?).map(Some)
+    let read = || -> Result<Option<String>> {
+        let f = File::open(path)?;
+        if !f.attr_names()?.iter().any(|a| a == "auto") {
+            return Ok(None);
+        }
+        read_attr_str(&f, "auto").map(Some)
+    };
+    let text = read().map_err(|e| e.hdf5_context(|| format!("reading {}", path.display())))?;
+    text.map(|t| AutoChoice::from_json(&t)).transpose()
 }
 
 /// Whether the file at `path` starts with the HDF5 signature.
@@ -209,6 +222,8 @@ pub fn is_hdf5(path: &Path) -> bool {
 
 /// Reads the `sweep` root attribute of an HDF5 file made by chainsweep.
 pub fn read_sweep_text(path: &Path) -> Result<String> {
-    let f = File::open(path)?;
-    read_attr_str(&f, "sweep")
+    File::open(path)
+        .and_then(|f| f.attr("sweep")?.read_scalar::<VarLenUnicode>())
+        .map(|v| v.as_str().to_string())
+        .map_err(|e| Error::from(e).hdf5_context(|| format!("reading {}", path.display())))
 }

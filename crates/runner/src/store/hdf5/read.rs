@@ -48,6 +48,11 @@ impl FileRecords {
     /// Opens a file and reads its columns (a required column missing is an error; the others
     /// read as their fill).
     pub fn open(path: &Path) -> Result<FileRecords> {
+        FileRecords::read(path)
+            .map_err(|e| e.hdf5_context(|| format!("reading {}", path.display())))
+    }
+
+    fn read(path: &Path) -> Result<FileRecords> {
         let file = File::open(path)?;
         let sweep_text = read_attr_str(&file, "sweep")?;
         let shard = read_attr_str(&file, "shard")?;

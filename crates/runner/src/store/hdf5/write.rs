@@ -37,29 +37,32 @@ pub fn write_file(
     get: impl FnMut(usize) -> Result<Option<RunRecord>>,
     get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
 ) -> Result<Counts> {
-    let file = File::with_options()
-        .with_fcpl(|p| p.obj_track_times(false))
-        .create(path)?;
-    write_sweep_attrs(&file, sweep, grid, shard, prov)?;
-    let runs = if grid.history || grid.min_overlap {
-        Some(file.create_group("runs")?)
-    } else {
-        None
+    let write = move || -> Result<Counts> {
+        let file = File::with_options()
+            .with_fcpl(|p| p.obj_track_times(false))
+            .create(path)?;
+        write_sweep_attrs(&file, sweep, grid, shard, prov)?;
+        let runs = if grid.history || grid.min_overlap {
+            Some(file.create_group("runs")?)
+        } else {
+            None
+        };
+        let table = fill_columns(sweep, grid, points, runs.as_ref(), get, get_verify)?;
+        write_outcome_attrs(&file, points, &table, verify_fraction)?;
+        if let Some(c) = &sweep.auto_choice {
+            write_auto_attrs(&file, c)?;
+        }
+        let scales = write_coordinates(&file, sweep)?;
+        let probe_scale = write_probe_scale(&file, grid)?;
+        write_columns(&file, grid, &table.columns, &scales, probe_scale.as_ref())?;
+        file.flush()?;
+        drop(scales);
+        drop(probe_scale);
+        drop(runs);
+        file.close()?;
+        Ok(table.counts)
     };
-    let table = fill_columns(sweep, grid, points, runs.as_ref(), get, get_verify)?;
-    write_outcome_attrs(&file, points, &table, verify_fraction)?;
-    if let Some(c) = &sweep.auto_choice {
-        write_auto_attrs(&file, c)?;
-    }
-    let scales = write_coordinates(&file, sweep)?;
-    let probe_scale = write_probe_scale(&file, grid)?;
-    write_columns(&file, grid, &table.columns, &scales, probe_scale.as_ref())?;
-    file.flush()?;
-    drop(scales);
-    drop(probe_scale);
-    drop(runs);
-    file.close()?;
-    Ok(table.counts)
+    write().map_err(|e| e.hdf5_context(|| format!("writing {}", path.display())))
 }
 
 /// Root attributes describing the sweep and the engine.
