@@ -15,7 +15,7 @@ use chainsweep_solver::scene::ImpactScales;
 use chainsweep_solver::{IntegratorSpec, RunOutput, Scene};
 use hdf5::File;
 
-use super::verify::rel_error;
+use super::{max_ignoring_nan, probe_errors, round3};
 use crate::error::{Error, Result};
 use crate::exec;
 use crate::store::hdf5::{attr_scalar, attr_str, dataset, str_dataset};
@@ -110,28 +110,7 @@ pub fn measure(scene: &Scene, spec: IntegratorSpec, repeats: usize) -> Measureme
 
 /// Relative errors of a run against a reference, per probe: leading peak, its time, record max.
 pub fn errors_against(out: &RunOutput, reference: &RunOutput) -> Vec<[f64; 3]> {
-    out.probes
-        .iter()
-        .zip(&reference.probes)
-        .map(|(a, r)| {
-            [
-                rel_error(a.leading_peak, r.leading_peak),
-                rel_error(a.leading_peak_time_s, r.leading_peak_time_s),
-                rel_error(a.record_max, r.record_max),
-            ]
-        })
-        .collect()
-}
-
-/// Largest of a set of errors, ignoring NaN (values neither run has); NaN when all are NaN.
-pub fn max_ignoring_nan(xs: impl IntoIterator<Item = f64>) -> f64 {
-    let mut m = f64::NAN;
-    for x in xs {
-        if !x.is_nan() && (m.is_nan() || x > m) {
-            m = x;
-        }
-    }
-    m
+    probe_errors(&out.probes, &reference.probes)
 }
 
 /// Options of a study.
@@ -317,11 +296,6 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
         agreement,
         methods,
     })
-}
-
-/// Rounds to 3 significant digits (readable step sizes).
-fn round3(x: f64) -> f64 {
-    format!("{x:.2e}").parse().unwrap_or(x)
 }
 
 /// Writes a study to HDF5: root attributes describing the scene, the reference and its

@@ -52,8 +52,8 @@ use chainsweep_solver::{IntegratorSpec, Scene};
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
-use super::accuracy::{max_ignoring_nan, scene_scales, STIFF_RATIO};
-use super::verify::rel_error;
+use super::accuracy::{scene_scales, STIFF_RATIO};
+use super::{max_ignoring_nan, probe_errors, round3};
 use crate::error::{Error, Result};
 use crate::exec;
 use crate::grid::Grid;
@@ -177,11 +177,6 @@ pub fn pilot_points(sweep: &Sweep, grid: &Grid, n: usize) -> Result<Vec<usize>> 
     Ok(out)
 }
 
-/// Rounds to 3 significant digits, so that ladder rungs read `3e-7`, not `2.9999999999999997e-7`.
-fn round3(x: f64) -> f64 {
-    format!("{x:.2e}").parse().unwrap_or(x)
-}
-
 /// The candidate ladder of `method` for `target`, loosest first.
 pub fn ladder(method: &str, target: f64) -> Vec<IntegratorSpec> {
     let (factors, min) = if method == "ros34pw2" {
@@ -201,14 +196,11 @@ pub fn ladder(method: &str, target: f64) -> Vec<IntegratorSpec> {
 /// peak, its time and the record maximum over the probes (`None` where they disagree on whether
 /// a value exists; 0 when there is nothing to compare).
 pub fn pilot_error(run: &RunRecord, reference: &RunRecord) -> Option<f64> {
-    let errs = run.probes.iter().zip(&reference.probes).flat_map(|(a, r)| {
-        [
-            rel_error(a.leading_peak, r.leading_peak),
-            rel_error(a.leading_peak_time_s, r.leading_peak_time_s),
-            rel_error(a.record_max, r.record_max),
-        ]
-    });
-    let e = max_ignoring_nan(errs);
+    let e = max_ignoring_nan(
+        probe_errors(&run.probes, &reference.probes)
+            .into_iter()
+            .flatten(),
+    );
     if e.is_nan() {
         Some(0.0)
     } else if e.is_finite() {
@@ -248,134 +240,227 @@ pub fn resolve(
 ) -> Result<AutoChoice> {
     let start = Instant::now();
     let target = spec.target_rel_error;
-    let required = target / SAFETY_FACTOR;
-    let pilots = pilot_points(sweep, grid, spec.pilot_points)?;
-    let label = |i: usize| grid.point_label(sweep, i);
-    let mut scenes = Vec::new();
-    let mut stiff = Vec::new();
-    for &i in &pilots {
-        let scene = grid.build(sweep, i)?;
-        stiff.push(scene_scales(&scene)?.stiffness_ratio > STIFF_RATIO);
-        scenes.push(scene);
-    }
-    let references: Vec<IntegratorSpec> = stiff
-        .iter()
-        .map(|&s| {
-            if s && target >= ROS_REFERENCE_MIN_TARGET {
-                adaptive("ros34pw2", 1e-10)
-            } else {
-                adaptive("dop853", 1e-12)
-            }
-        })
-        .collect();
+    let pilot = Pilot::new(sweep, grid, spec, pool)?;
     log(&format!(
-        "pilot on {} grid point(s) {:?} for a target relative error of {target:e} (candidates must reach {required:e} there); references: {}",
-        pilots.len(),
-        pilots,
-        references.iter().map(describe).collect::<Vec<_>>().join(", ")
+        "pilot on {} grid point(s) {:?} for a target relative error of {target:e} (candidates must reach {:e} there); references: {}",
+        pilot.points.len(),
+        pilot.points,
+        pilot.required,
+        pilot.references.iter().map(describe).collect::<Vec<_>>().join(", ")
     ));
-    // The references are yardsticks, not results: the sweep's energy-drift limit is not theirs.
-    let no_limit = Limits {
-        energy_drift_max: None,
+    let reference_runs = pilot.run_references()?;
+    let mut total: u64 = reference_runs.iter().map(|r| r.rhs_evals).sum();
+    let (candidates, best) = pilot.search(&reference_runs, &mut total, &mut log);
+    let Some(b) = best else {
+        return Err(pilot.nothing_meets_the_target(&candidates));
     };
-    let ref_runs: Vec<RunRecord> = pool.install(|| {
-        scenes
-            .par_iter()
-            .zip(&references)
-            .map(|(s, r)| pilot_run(s, *r, s.max_steps.saturating_mul(4), &no_limit))
-            .collect()
-    });
-    let mut total: u64 = 0;
-    for (k, r) in ref_runs.iter().enumerate() {
-        if !r.ok {
+    let c = &candidates[b];
+    let choice = AutoChoice {
+        key: cache_key(grid, spec),
+        version: AUTO_VERSION,
+        target_rel_error: target,
+        safety_factor: SAFETY_FACTOR,
+        integrator: c.integrator,
+        pilot_points: pilot.points.clone(),
+        pilot_references: pilot.references.clone(),
+        pilot_errors: c.errors.iter().map(|e| e.unwrap_or(f64::NAN)).collect(),
+        pilot_rhs_evals: c.rhs_evals.iter().map(|e| e.unwrap_or(0)).collect(),
+        pilot_cost_rhs_evals: total,
+        candidates: candidates.clone(),
+    };
+    log(&format!(
+        "pilot done in {:.1} s ({} candidates, {} RHS evaluations)",
+        start.elapsed().as_secs_f64(),
+        candidates.len(),
+        total
+    ));
+    Ok(choice)
+}
+
+/// The pilot of an `auto` request: its grid points, their scenes and reference settings.
+struct Pilot<'a> {
+    sweep: &'a Sweep,
+    grid: &'a Grid,
+    pool: &'a rayon::ThreadPool,
+    target: f64,
+    /// What a candidate must reach at every pilot point: `target / SAFETY_FACTOR`.
+    required: f64,
+    points: Vec<usize>,
+    scenes: Vec<Scene>,
+    /// Whether each pilot point is damping-dominated.
+    stiff: Vec<bool>,
+    references: Vec<IntegratorSpec>,
+}
+
+impl<'a> Pilot<'a> {
+    /// Picks the pilot points and, for each, its scene and reference setting.
+    fn new(
+        sweep: &'a Sweep,
+        grid: &'a Grid,
+        spec: &AutoSpec,
+        pool: &'a rayon::ThreadPool,
+    ) -> Result<Pilot<'a>> {
+        let target = spec.target_rel_error;
+        let points = pilot_points(sweep, grid, spec.pilot_points)?;
+        let mut scenes = Vec::new();
+        let mut stiff = Vec::new();
+        for &i in &points {
+            let scene = grid.build(sweep, i)?;
+            stiff.push(scene_scales(&scene)?.stiffness_ratio > STIFF_RATIO);
+            scenes.push(scene);
+        }
+        let references = stiff
+            .iter()
+            .map(|&s| {
+                if s && target >= ROS_REFERENCE_MIN_TARGET {
+                    adaptive("ros34pw2", 1e-10)
+                } else {
+                    adaptive("dop853", 1e-12)
+                }
+            })
+            .collect();
+        Ok(Pilot {
+            sweep,
+            grid,
+            pool,
+            target,
+            required: target / SAFETY_FACTOR,
+            points,
+            scenes,
+            stiff,
+            references,
+        })
+    }
+
+    /// The reference run at every pilot point; an input error when one fails.
+    fn run_references(&self) -> Result<Vec<RunRecord>> {
+        // The references are yardsticks, not results: the sweep's energy-drift limit is not theirs.
+        let no_limit = Limits {
+            energy_drift_max: None,
+        };
+        let runs: Vec<RunRecord> = self.pool.install(|| {
+            self.scenes
+                .par_iter()
+                .zip(&self.references)
+                .map(|(s, r)| pilot_run(s, *r, s.max_steps.saturating_mul(4), &no_limit))
+                .collect()
+        });
+        if let Some(k) = runs.iter().position(|r| !r.ok) {
             return Err(Error::input(
                 "base.integrator",
                 format!(
                     "`auto`: the pilot's reference run ({}) failed at grid point {} ({}): {}; give a fixed integrator instead",
-                    describe(&references[k]),
-                    pilots[k],
-                    label(pilots[k]),
-                    r.reason
+                    describe(&self.references[k]),
+                    self.points[k],
+                    self.grid.point_label(self.sweep, self.points[k]),
+                    runs[k].reason
                 ),
             ));
         }
-        total += r.rhs_evals;
+        Ok(runs)
     }
 
-    let methods: [&str; 2] = if stiff.iter().any(|&s| s) {
-        ["ros34pw2", "dop853"]
-    } else {
-        ["dop853", "ros34pw2"]
-    };
-    let mut candidates: Vec<Candidate> = Vec::new();
-    let mut best: Option<usize> = None;
-    for method in methods {
-        for cand_spec in ladder(method, target) {
-            let runs: Vec<RunRecord> = pool.install(|| {
-                scenes
-                    .par_iter()
-                    .map(|s| pilot_run(s, cand_spec, s.max_steps, &sweep.limits))
-                    .collect()
-            });
-            let mut errors = Vec::new();
-            let mut evals = Vec::new();
-            let mut failure = None;
-            for (k, r) in runs.iter().enumerate() {
-                total += r.rhs_evals;
-                if r.ok {
-                    errors.push(pilot_error(r, &ref_runs[k]));
-                    evals.push(Some(r.rhs_evals));
-                } else {
-                    errors.push(None);
-                    evals.push(None);
-                    failure.get_or_insert_with(|| {
-                        format!("at grid point {}: {}", pilots[k], r.reason)
-                    });
-                }
-            }
-            let cost = evals
-                .iter()
-                .try_fold(0.0, |acc, e| e.map(|e| acc + weighted(&cand_spec, e)));
-            let meets = errors
-                .iter()
-                .all(|e| matches!(e, Some(x) if *x <= required));
-            let cand = Candidate {
-                integrator: cand_spec,
-                errors,
-                rhs_evals: evals,
-                cost,
-                meets_target: meets,
-                failure,
-            };
-            log(&format!(
-                "pilot {}: largest error {:.2e}{}, {} RHS evaluations{}",
-                describe(&cand_spec),
-                cand.max_error(),
-                if meets { " (meets the target)" } else { "" },
-                cand.rhs_evals.iter().flatten().sum::<u64>(),
-                match &cand.failure {
-                    Some(f) => format!("; a run failed {f}"),
-                    None => String::new(),
-                }
-            ));
-            candidates.push(cand);
-            let c = candidates.last().expect("pushed");
-            let best_cost = best.and_then(|b| candidates[b].cost);
-            if meets {
-                if best_cost.map_or(true, |b| c.cost.expect("met") < b) {
-                    best = Some(candidates.len() - 1);
-                }
-                break;
-            }
-            if let (Some(b), Some(cc)) = (best_cost, c.cost) {
-                if cc > b {
-                    // Tighter settings of this method cost more still.
+    /// Tries the candidates, method by method, cheapest first: each method's ladder stops at its
+    /// first candidate meeting the target, or once one costs more than the best so far. Returns
+    /// every candidate tried and the best; adds their RHS evaluations to `total`.
+    fn search(
+        &self,
+        references: &[RunRecord],
+        total: &mut u64,
+        log: &mut impl FnMut(&str),
+    ) -> (Vec<Candidate>, Option<usize>) {
+        let methods: [&str; 2] = if self.stiff.iter().any(|&s| s) {
+            ["ros34pw2", "dop853"]
+        } else {
+            ["dop853", "ros34pw2"]
+        };
+        let mut candidates: Vec<Candidate> = Vec::new();
+        let mut best: Option<usize> = None;
+        for method in methods {
+            for spec in ladder(method, self.target) {
+                let c = self.try_candidate(spec, references, total);
+                log(&format!(
+                    "pilot {}: largest error {:.2e}{}, {} RHS evaluations{}",
+                    describe(&spec),
+                    c.max_error(),
+                    if c.meets_target {
+                        " (meets the target)"
+                    } else {
+                        ""
+                    },
+                    c.rhs_evals.iter().flatten().sum::<u64>(),
+                    match &c.failure {
+                        Some(f) => format!("; a run failed {f}"),
+                        None => String::new(),
+                    }
+                ));
+                let best_cost = best.and_then(|b| candidates[b].cost);
+                let (meets, cost) = (c.meets_target, c.cost);
+                candidates.push(c);
+                if meets {
+                    if best_cost.map_or(true, |b| cost.expect("met") < b) {
+                        best = Some(candidates.len() - 1);
+                    }
                     break;
+                }
+                if let (Some(b), Some(cc)) = (best_cost, cost) {
+                    if cc > b {
+                        // Tighter settings of this method cost more still.
+                        break;
+                    }
                 }
             }
         }
+        (candidates, best)
     }
-    let Some(b) = best else {
+
+    /// Runs candidate `spec` at every pilot point and measures it against the `references`.
+    fn try_candidate(
+        &self,
+        spec: IntegratorSpec,
+        references: &[RunRecord],
+        total: &mut u64,
+    ) -> Candidate {
+        let runs: Vec<RunRecord> = self.pool.install(|| {
+            self.scenes
+                .par_iter()
+                .map(|s| pilot_run(s, spec, s.max_steps, &self.sweep.limits))
+                .collect()
+        });
+        let mut errors = Vec::new();
+        let mut evals = Vec::new();
+        let mut failure = None;
+        for (k, r) in runs.iter().enumerate() {
+            *total += r.rhs_evals;
+            if r.ok {
+                errors.push(pilot_error(r, &references[k]));
+                evals.push(Some(r.rhs_evals));
+            } else {
+                errors.push(None);
+                evals.push(None);
+                failure.get_or_insert_with(|| {
+                    format!("at grid point {}: {}", self.points[k], r.reason)
+                });
+            }
+        }
+        let cost = evals
+            .iter()
+            .try_fold(0.0, |acc, e| e.map(|e| acc + weighted(&spec, e)));
+        let meets_target = errors
+            .iter()
+            .all(|e| matches!(e, Some(x) if *x <= self.required));
+        Candidate {
+            integrator: spec,
+            errors,
+            rhs_evals: evals,
+            cost,
+            meets_target,
+            failure,
+        }
+    }
+
+    /// The input error when no candidate meets the target, with the closest one.
+    fn nothing_meets_the_target(&self, candidates: &[Candidate]) -> Error {
         let closest = candidates
             .iter()
             .min_by(|a, b| a.max_error().total_cmp(&b.max_error()));
@@ -397,34 +482,14 @@ pub fn resolve(
                     .unwrap_or_default()
             ),
         };
-        return Err(Error::input(
+        Error::input(
             "base.integrator.target_rel_error",
             format!(
-                "`auto` found no setting meeting the target {target:e} on the pilot points {pilots:?} (each must reach {required:e}): {what}; loosen the target or give a fixed integrator"
+                "`auto` found no setting meeting the target {:e} on the pilot points {:?} (each must reach {:e}): {what}; loosen the target or give a fixed integrator",
+                self.target, self.points, self.required
             ),
-        ));
-    };
-    let c = &candidates[b];
-    let choice = AutoChoice {
-        key: cache_key(grid, spec),
-        version: AUTO_VERSION,
-        target_rel_error: target,
-        safety_factor: SAFETY_FACTOR,
-        integrator: c.integrator,
-        pilot_points: pilots,
-        pilot_references: references,
-        pilot_errors: c.errors.iter().map(|e| e.unwrap_or(f64::NAN)).collect(),
-        pilot_rhs_evals: c.rhs_evals.iter().map(|e| e.unwrap_or(0)).collect(),
-        pilot_cost_rhs_evals: total,
-        candidates: candidates.clone(),
-    };
-    log(&format!(
-        "pilot done in {:.1} s ({} candidates, {} RHS evaluations)",
-        start.elapsed().as_secs_f64(),
-        candidates.len(),
-        total
-    ));
-    Ok(choice)
+        )
+    }
 }
 
 #[cfg(test)]

@@ -15,6 +15,7 @@
 use chainsweep_solver::{IntegratorSpec, Scene};
 use sha2::{Digest, Sha256};
 
+use super::probe_errors;
 use crate::grid::Grid;
 use crate::identity::{verify_hash, RunHash};
 use crate::record::{RunRecord, VerifyInfo, VERIFY_FAILED, VERIFY_OK};
@@ -96,25 +97,6 @@ pub fn sample(grid: &Grid, fraction: f64) -> Vec<bool> {
     chosen
 }
 
-/// Relative error of `x` against the reference `r`: NaN when both are NaN (neither run has the
-/// value), infinite when only one is (the runs disagree on whether it exists) or when `r` is 0 and
-/// `x` is not.
-pub fn rel_error(x: f64, r: f64) -> f64 {
-    match (x.is_nan(), r.is_nan()) {
-        (true, true) => f64::NAN,
-        (true, false) | (false, true) => f64::INFINITY,
-        _ => {
-            if x == r {
-                0.0
-            } else if r == 0.0 {
-                f64::INFINITY
-            } else {
-                ((x - r) / r).abs()
-            }
-        }
-    }
-}
-
 /// The verification outcome of a point from its run and its verification run.
 pub fn compare(base: &RunRecord, tight: Option<&RunRecord>, n_probes: usize) -> VerifyInfo {
     let Some(tight) = tight else {
@@ -123,24 +105,13 @@ pub fn compare(base: &RunRecord, tight: Option<&RunRecord>, n_probes: usize) -> 
     if !tight.ok {
         return VerifyInfo {
             status: VERIFY_FAILED,
-            errors: vec![[f64::NAN; 3]; n_probes],
+            ..VerifyInfo::none(n_probes)
         };
     }
     if !base.ok {
         return VerifyInfo::none(n_probes);
     }
-    let errors = base
-        .probes
-        .iter()
-        .zip(&tight.probes)
-        .map(|(b, t)| {
-            [
-                rel_error(b.leading_peak, t.leading_peak),
-                rel_error(b.leading_peak_time_s, t.leading_peak_time_s),
-                rel_error(b.record_max, t.record_max),
-            ]
-        })
-        .collect();
+    let errors = probe_errors(&base.probes, &tight.probes);
     VerifyInfo {
         status: VERIFY_OK,
         errors,
@@ -158,15 +129,6 @@ pub fn point_verification(sweep: &Sweep, grid: &Grid, i: usize) -> (Scene, RunHa
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn relative_errors() {
-        assert_eq!(rel_error(1.0, 1.0), 0.0);
-        assert!((rel_error(1.01, 1.0) - 0.01).abs() < 1e-12);
-        assert!(rel_error(f64::NAN, f64::NAN).is_nan());
-        assert!(rel_error(f64::NAN, 1.0).is_infinite());
-        assert!(rel_error(1.0, 0.0).is_infinite());
-    }
 
     #[test]
     fn tightening() {

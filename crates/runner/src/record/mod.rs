@@ -113,14 +113,20 @@ impl VerifyInfo {
         }
     }
 
-    /// The largest error over probes and summaries, NaN where there is none.
+    /// The largest error over probes and summaries, NaN where there is none (stored as
+    /// `verify_rel_error_max`).
     pub fn max_error(&self) -> f64 {
-        let mut m = f64::NAN;
-        for e in self.errors.iter().flatten() {
-            if !e.is_nan() && (m.is_nan() || *e > m) {
-                m = *e;
-            }
-        }
-        m
+        max_ignoring_nan(self.errors.iter().flatten().copied())
     }
+}
+
+/// Largest of a set of errors, ignoring NaN (values neither run has); NaN when all are NaN.
+pub fn max_ignoring_nan(xs: impl IntoIterator<Item = f64>) -> f64 {
+    let mut m = f64::NAN;
+    for x in xs {
+        if !x.is_nan() && (m.is_nan() || x > m) {
+            m = x;
+        }
+    }
+    m
 }
