@@ -22,7 +22,7 @@ fn py_error(py: Python<'_>, e: &chainsweep::error::Error, context: &str) -> PyEr
     use chainsweep::error::Error;
     let (kind, field, message) = match e {
         Error::Input { field, message, .. } => ("input", field.as_str(), message.clone()),
-        Error::Other(m) => ("other", "", m.clone()),
+        other => ("other", "", other.to_string()),
     };
     let made = py
         .import("chainsweep.errors")

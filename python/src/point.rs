@@ -10,11 +10,14 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
 use serde_json::{json, Map, Value};
 
-use chainsweep::auto::{self, AutoChoice};
+use chainsweep::engine;
 use chainsweep::error::{Error, Result};
 use chainsweep::exec;
-use chainsweep::grid::{hex, Grid};
-use chainsweep::store::RunRecord;
+use chainsweep::grid::Grid;
+use chainsweep::identity::hex;
+use chainsweep::numerics::auto as pilot;
+use chainsweep::record::RunRecord;
+use chainsweep::sweep::auto::AutoChoice;
 use chainsweep::sweep::Sweep;
 use chainsweep_solver::Scene;
 
@@ -55,15 +58,8 @@ fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Resu
     exec::install_panic_hook();
     if let Some(spec) = sweep.auto {
         // As `chainsweep point` without `-o`: the pilot runs on the one point there is.
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(
-                std::thread::available_parallelism()
-                    .map(|n| n.get())
-                    .unwrap_or(1),
-            )
-            .build()
-            .map_err(|e| Error::Other(format!("cannot start the pilot's worker threads: {e}")))?;
-        let choice = auto::resolve(&sweep, &grid, &spec, &pool, |_| {})?;
+        let pool = engine::thread_pool(engine::all_cpus())?;
+        let choice = pilot::resolve(&sweep, &grid, &spec, &pool, |_| {})?;
         sweep.apply_auto(choice);
         grid = Grid::new(&sweep)?;
     }
@@ -129,7 +125,7 @@ pub fn run_scene<'py>(
     )?;
     d.set_item("run_hash", &run.hash)?;
     d.set_item("energy_drift_limit", run.energy_drift_limit)?;
-    d.set_item("auto", run.auto.as_ref().map(auto::to_json))?;
+    d.set_item("auto", run.auto.as_ref().map(AutoChoice::to_json))?;
     d.set_item(
         "auto_setting",
         run.auto

@@ -8,14 +8,18 @@
 //! `KeyboardInterrupt` is raised once the runner has returned, so the same call resumes.
 
 use std::path::PathBuf;
-use std::sync::atomic::Ordering;
-use std::sync::mpsc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
 use std::time::{Duration, Instant};
 
 use pyo3::prelude::*;
 
-use chainsweep::cli::{Cli, Command, RunArgs, STOP_REQUESTED};
+use chainsweep::engine::{self, run};
 use chainsweep::error::{Error, Result};
+use chainsweep::grid::Shard;
+use chainsweep::progress::Terminal;
+use chainsweep::store::hdf5::Provenance;
+use chainsweep::{EXIT_OK, EXIT_PARTIAL};
 
 use crate::watch::Watch;
 
@@ -38,35 +42,42 @@ pub struct SweepRequest {
     pub checkpoint_interval: f64,
 }
 
-/// The package's one call into the runner for a whole sweep.
-///
-/// Today the runner's only entry for a sweep is its command line, so this builds the parsed
-/// `chainsweep run FILE -o OUTPUT --quiet …` and dispatches it in this process (the runner's own
-/// progress display stays off: [`Watch`] reports progress to Python instead, and the stop is
-/// [`STOP_REQUESTED`]). When the runner offers an engine API (a plan, a schedule on an executor,
-/// a progress sink, a stop flag), this function, [`request_stop`] and [`Watch`] are what to
-/// re-point: the rest of the package sees only a [`SweepRequest`] in and an exit code out.
-fn dispatch_run(req: &SweepRequest) -> Result<i32> {
-    chainsweep::cli::dispatch(Cli {
-        command: Command::Run(RunArgs {
-            file: req.file.clone(),
-            output: Some(req.output.clone()),
-            jobs: req.jobs,
-            shard: req.shard.clone(),
-            dry_run: false,
-            quiet: true,
-            retry_failed: req.retry_failed,
-            progress_interval: 10.0,
-            checkpoint_interval: req.checkpoint_interval,
-            overwrite: false,
-            verify: req.verify,
-        }),
+/// The package's one call into the runner for a whole sweep: the engine's
+/// [`run::run_sweep`], as `chainsweep run FILE -o OUTPUT --quiet …` calls it, with the same
+/// checks of the options (errors name them as the command line does: `--jobs`, `--shard`, …).
+/// The runner's own progress display stays quiet ([`Watch`] reports progress to Python instead;
+/// only what `integrator: auto` chose is said on stderr), and `stop` is the engine's stop flag:
+/// once set, no new run starts, the runs in flight are stored and the output is written with the
+/// rest pending. Returns the exit code the command line would (0, or 3 with failed or pending
+/// runs).
+fn run_request(req: &SweepRequest, stop: &AtomicBool) -> Result<i32> {
+    let (mut sweep, mut grid) = engine::load(&req.file)?;
+    let shard = req
+        .shard
+        .as_deref()
+        .map(|s| Shard::parse(s, "--shard"))
+        .transpose()?;
+    let fraction = req.verify.unwrap_or(0.0);
+    let jobs = req.jobs.unwrap_or_else(engine::all_cpus);
+    run::RunOptions::check(jobs, req.checkpoint_interval, fraction)?;
+    let opts = run::RunOptions {
+        output: req.output.clone(),
+        jobs,
+        shard,
+        retry_failed: req.retry_failed,
+        checkpoint_interval: Duration::from_secs_f64(req.checkpoint_interval),
+        verify_fraction: fraction,
+        overwrite: false,
+        provenance: Provenance::of_this_process(),
+    };
+    let mut sink = Terminal::new(true, Duration::from_secs(10));
+    let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, stop)?;
+    let c = &report.counts;
+    Ok(if c.failed > 0 || c.pending > 0 {
+        EXIT_PARTIAL
+    } else {
+        EXIT_OK
     })
-}
-
-/// Asks the running sweep to stop cleanly (see [`dispatch_run`]).
-fn request_stop(stop: bool) {
-    STOP_REQUESTED.store(stop, Ordering::SeqCst);
 }
 
 /// How often Python's signals are checked while the sweep runs.
@@ -113,10 +124,13 @@ pub fn run_sweep(
         let p = py.detach(|| w.poll());
         cb.call1(py, (p.done, p.failed, p.total))?;
     }
+    let stop = Arc::new(AtomicBool::new(false));
+    let request_stop = || stop.store(true, Ordering::SeqCst);
     let (tx, rx) = mpsc::channel::<Result<i32>>();
     let runner_req = req.clone();
+    let runner_stop = Arc::clone(&stop);
     let runner = std::thread::spawn(move || {
-        let _ = tx.send(dispatch_run(&runner_req));
+        let _ = tx.send(run_request(&runner_req, &runner_stop));
     });
     // (A receiver is not `Sync`; the wait below borrows it from a thread without the GIL.)
     let rx = std::sync::Mutex::new(rx);
@@ -138,7 +152,7 @@ pub fn run_sweep(
         }
         if pending_error.is_none() {
             if let Err(e) = py.check_signals() {
-                request_stop(true);
+                request_stop();
                 pending_error = Some(e);
             }
         }
@@ -153,14 +167,13 @@ pub fn run_sweep(
             next_report = Instant::now() + (t0.elapsed() * 30).max(Duration::from_millis(250));
             if pending_error.is_none() {
                 if let Err(e) = cb.call1(py, (p.done, p.failed, p.total)) {
-                    request_stop(true);
+                    request_stop();
                     pending_error = Some(e);
                 }
             }
         }
     };
     let _ = runner.join();
-    request_stop(false);
     let mut ran = 0;
     if let Some(w) = watch.as_mut() {
         let p = py.detach(|| w.poll());

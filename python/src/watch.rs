@@ -1,12 +1,13 @@
 //! Progress of a sweep that runs in this process, read from its output's work directory.
 //!
-//! The runner's command line draws its own progress on stderr, which a notebook does not show,
-//! and offers no progress hook. Every finished run, though, is a segment file
+//! The engine's progress sink hears of runs on the runner's thread, and only once the runs start
+//! (after an `integrator: auto` pilot); Python wants the state before anything runs, and reads
+//! it on its own thread with the GIL. Every finished run is a segment file
 //! `X.h5.d/segments/<run hash>.seg` (written whole, by an atomic rename), so progress is the
 //! number of the sweep's runs whose segment exists. This module computes the sweep's run hashes
 //! once (the runner's own [`Sweep`], [`Grid`] and [`verify`] code, `integrator: auto` resolved
 //! from the runner's cache as soon as the pilot has written it) and then polls the directory,
-//! reading the status of each new segment once. It goes away when the runner has a progress sink.
+//! reading the status of each new segment once.
 
 use std::collections::{HashMap, HashSet};
 use std::fs::File;
@@ -14,11 +15,13 @@ use std::io::Read;
 use std::path::PathBuf;
 use std::time::SystemTime;
 
-use chainsweep::auto;
-use chainsweep::grid::{Grid, RunHash};
-use chainsweep::store::{work_dir_of, RunRecord};
+use chainsweep::engine::shard;
+use chainsweep::grid::{Grid, Shard};
+use chainsweep::identity::{hex, RunHash};
+use chainsweep::numerics::{auto, verify};
+use chainsweep::store::segment::peek_status;
+use chainsweep::store::work_dir_of;
 use chainsweep::sweep::Sweep;
-use chainsweep::verify;
 
 use crate::sweep::SweepRequest;
 
@@ -47,7 +50,7 @@ pub struct Watch {
     segments: PathBuf,
     sweep: Sweep,
     grid: Grid,
-    shard: Option<(usize, usize)>,
+    shard: Option<Shard>,
     fraction: f64,
     retry_failed: bool,
     /// The cache key of an `integrator: auto` sweep not resolved yet.
@@ -72,12 +75,6 @@ fn parse_hex(name: &str) -> Option<RunHash> {
     Some(out)
 }
 
-fn parse_shard(s: &str) -> Option<(usize, usize)> {
-    let (k, n) = s.split_once('/')?;
-    let (k, n) = (k.trim().parse().ok()?, n.trim().parse().ok()?);
-    (1..=n).contains(&k).then_some((k, n))
-}
-
 /// Every segment file in `dir` with its modification time.
 fn list(dir: &PathBuf) -> Vec<(RunHash, SystemTime)> {
     let Ok(entries) = std::fs::read_dir(dir) else {
@@ -99,7 +96,7 @@ fn peek_ok(path: PathBuf) -> Option<bool> {
         .take(4096)
         .read_to_end(&mut head)
         .ok()?;
-    RunRecord::peek_status(&head).map(|(ok, _)| ok)
+    peek_status(&head).map(|(ok, _)| ok)
 }
 
 impl Watch {
@@ -109,7 +106,7 @@ impl Watch {
         let sweep = Sweep::load(req.file.to_str()?).ok()?;
         let grid = Grid::new(&sweep).ok()?;
         let shard = match &req.shard {
-            Some(s) => Some(parse_shard(s)?),
+            Some(s) => Some(Shard::parse(s, "--shard").ok()?),
             None => None,
         };
         let segments = work_dir_of(&req.output).join("segments");
@@ -150,7 +147,7 @@ impl Watch {
                 Err(_) => return,
             }
         }
-        let points = self.grid.shard_points(self.shard);
+        let points = shard::points(self.grid.len(), self.shard);
         let chosen = verify::sample(&self.grid, self.fraction);
         let mut units: Vec<RunHash> = points.iter().map(|&i| self.grid.hashes[i]).collect();
         let mut verifications = HashSet::new();
@@ -169,7 +166,7 @@ impl Watch {
         self.resolve();
         let Some(units) = &self.units else {
             return Progress {
-                total: self.grid.shard_points(self.shard).len(),
+                total: shard::points(self.grid.len(), self.shard).len(),
                 ..Progress::default()
             };
         };
@@ -180,9 +177,7 @@ impl Watch {
             if self.seen.get(&hash).map(|s| s.modified) == Some(modified) {
                 continue;
             }
-            let path = self
-                .segments
-                .join(format!("{}.seg", chainsweep::grid::hex(&hash)));
+            let path = self.segments.join(format!("{}.seg", hex(&hash)));
             self.seen.insert(
                 hash,
                 Seen {

@@ -231,20 +231,6 @@ fn parse_shard(s: Option<&str>) -> Result<Option<Shard>> {
     s.map(|s| Shard::parse(s, "--shard")).transpose()
 }
 
-/// This process's command line, quoted for a shell where needed (recorded in output files).
-fn command_line() -> String {
-    std::env::args()
-        .map(|a| {
-            if a.is_empty() || a.contains(|c: char| c.is_whitespace() || c == '\'' || c == '"') {
-                format!("'{}'", a.replace('\'', "'\\''"))
-            } else {
-                a
-            }
-        })
-        .collect::<Vec<_>>()
-        .join(" ")
-}
-
 fn cmd_validate(file: &Path) -> Result<i32> {
     let (sweep, grid) = engine::load(file)?;
     show::validated(file, &sweep, &grid)?;
@@ -285,7 +271,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         checkpoint_interval: Duration::from_secs_f64(args.checkpoint_interval),
         verify_fraction: fraction,
         overwrite: args.overwrite,
-        provenance: Provenance::now(command_line()),
+        provenance: Provenance::of_this_process(),
     };
     let stop = AtomicBool::new(false);
     let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, &stop)?;
@@ -308,7 +294,7 @@ fn cmd_status(file: &Path, output: Option<PathBuf>, shard: Option<&str>) -> Resu
 }
 
 fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
-    let r = merge::merge(output, shards, &Provenance::now(command_line()))?;
+    let r = merge::merge(output, shards, &Provenance::of_this_process())?;
     show::merged(&r, output);
     Ok(exit_for(&r.counts))
 }

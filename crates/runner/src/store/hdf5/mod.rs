@@ -145,6 +145,23 @@ impl Provenance {
             command_line,
         }
     }
+
+    /// Provenance of a file made now by this process: its command line, quoted for a shell
+    /// where needed (the `chainsweep` command, or the program that embeds the runner).
+    pub fn of_this_process() -> Self {
+        let command_line = std::env::args()
+            .map(|a| {
+                if a.is_empty() || a.contains(|c: char| c.is_whitespace() || c == '\'' || c == '"')
+                {
+                    format!("'{}'", a.replace('\'', "'\\''"))
+                } else {
+                    a
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(" ");
+        Provenance::now(command_line)
+    }
 }
 
 /// Current time as ISO 8601 UTC (`2026-01-31T23:59:59Z`).
