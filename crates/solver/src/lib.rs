@@ -2,7 +2,7 @@
 //!
 //! The strongly nonlinear, dissipative sphere–cylinder chain of Wang & Nesterenko, *Attenuation of
 //! short strongly nonlinear stress pulses in dissipative granular chains*, Sec. III, Eqs. (1)–(12),
-//! with the conventions of the project's `MODEL.md`:
+//! with the conventions of the project's `docs/MODEL.md`:
 //!
 //! - [`model`]: the chain's configuration with the paper's defaults and the built [`model::Chain`];
 //! - [`system`]: the equations of motion as an ODE system, specialised at compile time on gravity,

@@ -1,7 +1,7 @@
 //! The chain of the paper (Sec. III): configuration with the paper's defaults, and the built
 //! [`Chain`] with masses, Hertz coefficients, damping coefficients and the static-equilibrium state.
 //!
-//! Numbering follows `MODEL.md`: particle 1 is the striker, particle 2 the first chain sphere,
+//! Numbering follows `docs/MODEL.md`: particle 1 is the striker, particle 2 the first chain sphere,
 //! cylinders have odd indices (cylinder `k` is particle `2k+1`), the last particle `N = 2n+2` is a
 //! sphere on the wall. Contact `j` joins particles `j` and `j+1`; contact `N` joins particle `N` and
 //! the wall. Displacement is positive downwards, towards the wall. Internally arrays are 0-based:
@@ -474,7 +474,7 @@ impl Chain {
         } else {
             0.0
         };
-        // Static equilibrium (MODEL.md): contact j carries the weight of particles 2..j. Without a
+        // Static equilibrium (docs/MODEL.md): contact j carries the weight of particles 2..j. Without a
         // wall nothing supports the chain, it falls freely and no contact is preloaded.
         let mut static_overlap = vec![0.0; n_contacts];
         if physics.wall && g > 0.0 {

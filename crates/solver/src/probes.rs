@@ -8,7 +8,7 @@ use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::model::{spec_err, Chain, SpecError};
 use crate::system::{contact_force, EnergyTerms, Ledger};
 
-/// One observable. Indices are 1-based as in the paper and `MODEL.md`.
+/// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(
