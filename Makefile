@@ -5,6 +5,7 @@
 #   make bench     benchmarks (criterion), before (BENCH_BASE, default main) and after side by side:
 #                  right-hand-side cost per contact, the reference run, each contact law and model
 #   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
+#   make python    the Python package (python/) built by maturin and installed into .venv
 #
 # The HDF5 library is built from source (hdf5-metno's `static` feature) and needs CMake >= 3.26;
 # when the machine has none or an older one, CMake comes from PyPI into .venv.
@@ -16,8 +17,11 @@ CMAKE_MIN := 3.26
 CARGO ?= cargo
 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
+# pyo3 (python/) reads its build configuration (CPython, stable ABI >= 3.10) from this one file in
+# every cargo command here and in maturin's: without it, each would rebuild pyo3 after the other.
+export PYO3_CONFIG_FILE := $(CURDIR)/python/pyo3-config.txt
 
-.PHONY: all build test test-rust test-python bench figures examples fmt lint venv clean
+.PHONY: all build test test-rust test-python python bench figures examples fmt lint venv clean
 
 all: build
 
@@ -49,11 +53,18 @@ lint: venv
 test-rust: venv
 	$(CARGO) test --release --workspace
 
+# The Python package (python/): maturin builds it in the workspace's target directory, so the
+# HDF5 library and the runner are compiled once for the binary and the package, and pip installs
+# it into .venv (offline: maturin comes from requirements.txt; see PYO3_CONFIG_FILE above).
+python: build
+	$(PY) -m pip install --quiet --no-build-isolation --no-deps ./python
+
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
 # --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
+# tests/python/: the Python package (run, sweep, open against the binary) and the examples.
 CHAINSWEEP_BIN ?= $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/release/chainsweep
 
-test-python: build
+test-python: build python
 	CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) $(PY) -m pytest -q tests
 
 test: lint test-rust test-python

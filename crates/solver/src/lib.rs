@@ -2,8 +2,8 @@
 //!
 //! The strongly nonlinear, dissipative sphere–cylinder chain of Wang & Nesterenko, *Attenuation of
 //! short strongly nonlinear stress pulses in dissipative granular chains*, Sec. III, Eqs. (1)–(12),
-//! as the default, and any one-dimensional granular chain beyond it (`docs/CHAINS.md` teaches how
-//! to describe one):
+//! as the default (with the conventions of the project's `docs/MODEL.md`), and any one-dimensional
+//! granular chain beyond it (`docs/CHAINS.md` teaches how to describe one):
 //!
 //! - [`model`]: the chain's configuration with the paper's defaults and the built [`model::Chain`];
 //! - [`sequence`]: chains as sequences of named particle types, with taper and disorder;
@@ -29,6 +29,7 @@
 //! assert!(out.energy_drift_max < 1e-6);
 //! ```
 #![warn(missing_docs)]
+#![forbid(unsafe_code)]
 
 pub mod contact;
 pub mod general;

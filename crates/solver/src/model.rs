@@ -3,12 +3,12 @@
 //! switches ([`PhysicsSpec`]), and the built [`Chain`] with per-particle masses, per-contact laws
 //! and dissipation, and the static-equilibrium state.
 //!
-//! Numbering: particle 1 is the striker when the chain has one (the paper's chain always does:
-//! particle 2 is then the first chain sphere, cylinder `k` is particle `2k+1` and the last particle
-//! `N = 2n+2` is a sphere on the wall); without a striker particle 1 is the first particle of the
-//! sequence. Contact `j` joins particles `j` and `j+1`; contact `N` joins particle `N` and the wall.
-//! Displacement is positive downwards, towards the wall. Internally arrays are 0-based: particle
-//! `i` is index `i-1`, contact `j` is index `j-1`.
+//! Numbering follows `docs/MODEL.md`: particle 1 is the striker when the chain has one (the paper's
+//! chain always does: particle 2 is then the first chain sphere, cylinder `k` is particle `2k+1` and
+//! the last particle `N = 2n+2` is a sphere on the wall); without a striker particle 1 is the first
+//! particle of the sequence. Contact `j` joins particles `j` and `j+1`; contact `N` joins particle
+//! `N` and the wall. Displacement is positive downwards, towards the wall. Internally arrays are
+//! 0-based: particle `i` is index `i-1`, contact `j` is index `j-1`.
 
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
@@ -935,9 +935,9 @@ impl Chain {
         };
         let first = layout.striker as usize;
         let top = physics.precompression_force_n;
-        // Static equilibrium: contact j carries the precompression and the weight of the chain
-        // particles above it. Without a wall nothing supports the chain, it falls freely and no
-        // contact is preloaded.
+        // Static equilibrium (docs/MODEL.md, docs/CHAINS.md): contact j carries the precompression
+        // and the weight of the chain particles above it. Without a wall nothing supports the
+        // chain, it falls freely and no contact is preloaded.
         let mut static_overlap = vec![0.0; n_contacts];
         if physics.wall && (g > 0.0 || top > 0.0) {
             let mut load = top;

@@ -9,8 +9,9 @@ use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::model::{spec_err, Chain, SpecError};
 use crate::system::{contact_force, EnergyTerms, Ledger};
 
-/// One observable. Indices are 1-based as in the paper: particle 1 is the striker when the chain
-/// has one, else the first particle of the sequence; contact `j` joins particles `j` and `j+1`.
+/// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
+/// striker when the chain has one, else the first particle of the sequence; contact `j` joins
+/// particles `j` and `j+1`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(
