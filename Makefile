@@ -2,8 +2,11 @@
 #
 #   make test      builds everything (installing what it needs into .venv) and runs every test
 #   make figures   runs the paper's sweeps on a small default and draws the figures into results/
-#   make bench     benchmarks (criterion): right-hand-side cost and the reference run; then the
+#   make bench     benchmarks, before (BENCH_BASE, default main) and after side by side: right-hand-
+#                  side cost per contact, the reference run, each contact law and model; then the
 #                  default, no-FMA and native builds side by side (scripts/bench_builds.sh)
+#   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
+#   make python    the Python package (python/) built by maturin and installed into .venv
 #
 # The HDF5 library is built from source (hdf5-metno's `static` feature) and needs CMake >= 3.26;
 # when the machine has none or an older one, CMake comes from PyPI into .venv.
@@ -15,8 +18,11 @@ CMAKE_MIN := 3.26
 CARGO ?= cargo
 
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
+# pyo3 (python/) reads its build configuration (CPython, stable ABI >= 3.10) from this one file in
+# every cargo command here and in maturin's: without it, each would rebuild pyo3 after the other.
+export PYO3_CONFIG_FILE := $(CURDIR)/python/pyo3-config.txt
 
-.PHONY: all build test test-rust test-python bench figures fmt lint venv clean
+.PHONY: all build test test-rust test-python python bench figures examples fmt lint venv clean
 
 all: build
 
@@ -48,21 +54,32 @@ lint: venv
 test-rust: venv
 	$(CARGO) test --release --workspace
 
+# The Python package (python/): maturin builds it in the workspace's target directory, so the
+# HDF5 library and the runner are compiled once for the binary and the package, and pip installs
+# it into .venv (offline: maturin comes from requirements.txt; see PYO3_CONFIG_FILE above).
+python: build
+	$(PY) -m pip install --quiet --no-build-isolation --no-deps ./python
+
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
 # --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
+# tests/python/: the Python package (run, sweep, open against the binary) and the examples.
 CHAINSWEEP_BIN ?= $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/release/chainsweep
 
-test-python: build
+test-python: build python
 	CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) $(PY) -m pytest -q tests
 
 test: lint test-rust test-python
 
-# BENCH_BASELINE=REV adds a build of revision REV to the side-by-side table (e.g. 1564ed6, the
-# first round's build); BENCH_CRITERION=0 leaves out the criterion benchmarks.
+# The solver's bench at BENCH_BASE (built in a temporary git worktree) and at the working tree, run
+# alternately BENCH_ROUNDS times; medians side by side (scripts/bench_compare.py). After a merge,
+# give the commit before it: make bench BENCH_BASE=<commit>. Then the default, no-FMA (portable)
+# and target-cpu=native builds side by side (scripts/bench_builds.sh); BENCH_BASELINE=REV adds a
+# build of revision REV to that table (e.g. 1564ed6, the first round's build).
+BENCH_BASE ?= main
+BENCH_ROUNDS ?= 5
 BENCH_BASELINE ?=
-BENCH_CRITERION ?= 1
 bench: venv
-	if [ "$(BENCH_CRITERION)" = 1 ]; then $(CARGO) bench -p chainsweep-solver --bench solver; fi
+	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 	BENCH_BASELINE=$(BENCH_BASELINE) CARGO=$(CARGO) scripts/bench_builds.sh
 
 clean:
@@ -90,6 +107,20 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 	done
 
 .PHONY: paper-check
+
+# Chains beyond the paper's (docs/CHAINS.md): every sweep of sweeps/examples/ into
+# results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
+# attenuation table of the delta-force dimer. About 10 s on two cores.
+EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse
+
+examples: build
+	@mkdir -p results/examples; \
+	for s in $(EXAMPLE_SWEEPS); do \
+	  echo "example $$s"; \
+	  $(CHAINSWEEP_BIN) run sweeps/examples/$$s.json -o results/examples/$$s.h5 --jobs $(SWEEP_JOBS) --quiet \
+	    || { echo "ERROR: example $$s failed (exit $$?)"; exit 1; }; \
+	done; \
+	cd scripts && ../$(PY) examples.py
 
 figures: build
 	@$(RUN_PAPER_SWEEPS); \

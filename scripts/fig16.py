@@ -2,7 +2,7 @@
 (heavy cylinders; red, solid circles) at the moment the leading pulse peaks at cylinder 21, at
 μ = 0, 6, 10, 15, 100 kg/s, striker 1.45 m/s (results/fig16.png; input results/fig16.h5).
 
-Particles are numbered as in MODEL.md (striker = 1, cylinder k = particle 2k+1); the paper's caption
+Particles are numbered as in docs/MODEL.md (striker = 1, cylinder k = particle 2k+1); the paper's caption
 counts without the striker, so its "42nd particle" is our particle 43."""
 
 import matplotlib

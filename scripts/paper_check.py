@@ -1,4 +1,4 @@
-"""Every numerical claim of Wang & Nesterenko (the list in ../shared/MODEL.md) beside ours.
+"""Every numerical claim of Wang & Nesterenko (the list in docs/MODEL.md) beside ours.
 
     python scripts/paper_check.py            # prints the table, writes results/paper_check.json
 

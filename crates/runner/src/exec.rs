@@ -1,5 +1,5 @@
-//! Running one grid point: the solver under `catch_unwind`, its output checked and turned into a
-//! [`RunRecord`].
+//! Running one scene: the solver under [`guarded`] (`catch_unwind`), its output checked and turned
+//! into a [`RunRecord`].
 //!
 //! A run fails, with its reason recorded, when the solver panics, returns an error (invalid
 //! scene, NaN or infinite state, step budget exceeded, step size collapsed), produces a non-finite
@@ -10,31 +10,28 @@ use std::panic::{self, AssertUnwindSafe};
 use std::sync::Once;
 use std::time::Instant;
 
-use chainsweep_solver::{run, Scene};
+use chainsweep_solver::{run, RunOutput, Scene};
 
-use crate::grid::RunHash;
-use crate::store::RunRecord;
+use crate::identity::RunHash;
+use crate::record::RunRecord;
 use crate::sweep::Limits;
 
 thread_local! {
+    /// `Some("")` while a [`guarded`] call runs on this thread; the panic hook fills in the
+    /// message of a panic there.
     static LAST_PANIC: RefCell<Option<String>> = const { RefCell::new(None) };
 }
 
 static HOOK: Once = Once::new();
 
-/// Installs a panic hook that records a panic's message and location for the failed run's reason
-/// instead of printing it over the progress display. Panics outside runs are printed as usual.
+/// Installs (once per process) a panic hook that records the message and location of a panic
+/// inside [`guarded`] for the failed run's reason, instead of printing it over the progress
+/// display. Panics elsewhere are printed as usual.
 pub fn install_panic_hook() {
     HOOK.call_once(|| {
         let default = panic::take_hook();
         panic::set_hook(Box::new(move |info| {
-            let msg = if let Some(s) = info.payload().downcast_ref::<&str>() {
-                (*s).to_string()
-            } else if let Some(s) = info.payload().downcast_ref::<String>() {
-                s.clone()
-            } else {
-                "non-string panic payload".to_string()
-            };
+            let msg = payload_text(info.payload());
             let loc = info
                 .location()
                 .map(|l| format!(" at {}:{}", l.file(), l.line()))
@@ -55,8 +52,32 @@ pub fn install_panic_hook() {
     });
 }
 
+fn payload_text(payload: &(dyn std::any::Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "non-string panic payload".to_string()
+    }
+}
+
+/// Runs `f`, turning a panic into `Err` with its message and location (`panic at
+/// src/x.rs:12: what`): the one place where runs are isolated from each other. Calls may nest.
+pub fn guarded<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    install_panic_hook();
+    let outer = LAST_PANIC.with(|p| p.borrow_mut().replace(String::new()));
+    let result = panic::catch_unwind(AssertUnwindSafe(f));
+    let recorded = LAST_PANIC.with(|p| std::mem::replace(&mut *p.borrow_mut(), outer));
+    result.map_err(|payload| {
+        recorded
+            .filter(|m| !m.is_empty())
+            .unwrap_or_else(|| format!("panic: {}", payload_text(payload.as_ref())))
+    })
+}
+
 /// Environment variable naming grid points (flat indices, comma separated) whose run panics on
-/// purpose: a testing aid for failure isolation.
+/// purpose: a testing aid for the end-to-end tests (the library's tests use an executor instead).
 pub const INJECT_PANIC_ENV: &str = "CHAINSWEEP_INJECT_PANIC";
 
 fn injected_panic(index: usize) -> bool {
@@ -70,75 +91,48 @@ pub fn execute(scene: &Scene, hash: RunHash, limits: &Limits, index: usize) -> R
     execute_inner(scene, hash, limits, Some(index))
 }
 
-/// Runs a verification scene (see [`crate::verify`]) and records the outcome under `hash`.
+/// Runs a verification scene and records the outcome under `hash`.
 pub fn execute_verification(scene: &Scene, hash: RunHash, limits: &Limits) -> RunRecord {
     execute_inner(scene, hash, limits, None)
 }
 
-/// Runs a pilot scene of `integrator: auto` (see [`crate::auto`]); the record carries no hash.
+/// Runs a pilot scene of `integrator: auto`; the record carries no hash.
 pub fn execute_pilot(scene: &Scene, limits: &Limits) -> RunRecord {
     execute_inner(scene, [0u8; 32], limits, None)
 }
 
+/// Runs `scene` under [`guarded`]: its output and wall time, or why it failed.
+pub fn run_guarded(scene: &Scene) -> (std::result::Result<RunOutput, String>, f64) {
+    let start = Instant::now();
+    let result = guarded(|| run(scene)).and_then(|r| r.map_err(|e| e.to_string()));
+    (result, start.elapsed().as_secs_f64())
+}
+
 fn execute_inner(scene: &Scene, hash: RunHash, limits: &Limits, index: Option<usize>) -> RunRecord {
     let start = Instant::now();
-    LAST_PANIC.with(|p| *p.borrow_mut() = Some(String::new()));
-    let result = panic::catch_unwind(AssertUnwindSafe(|| {
-        if let Some(index) = index.filter(|&i| injected_panic(i)) {
-            panic!("injected panic for grid point {index} ({INJECT_PANIC_ENV})");
+    let result = guarded(|| {
+        if let Some(i) = index.filter(|&i| injected_panic(i)) {
+            panic!("injected panic for grid point {i} ({INJECT_PANIC_ENV})");
         }
         run(scene)
-    }));
-    let panic_msg = LAST_PANIC.with(|p| p.borrow_mut().take());
+    });
     let wall = start.elapsed().as_secs_f64();
-    let out = match result {
-        Err(payload) => {
-            let msg = panic_msg.filter(|m| !m.is_empty()).unwrap_or_else(|| {
-                payload
-                    .downcast_ref::<&str>()
-                    .map(|s| format!("panic: {s}"))
-                    .or_else(|| {
-                        payload
-                            .downcast_ref::<String>()
-                            .map(|s| format!("panic: {s}"))
-                    })
-                    .unwrap_or_else(|| "panic".to_string())
-            });
-            return RunRecord::failed(hash, msg, wall);
-        }
-        Ok(Err(e)) => return RunRecord::failed(hash, e.to_string(), wall),
-        Ok(Ok(out)) => out,
-    };
+    match result.and_then(|r| r.map_err(|e| e.to_string())) {
+        Err(reason) => RunRecord::failed(hash, reason, wall),
+        Ok(out) => record_of(scene, hash, limits, out, wall),
+    }
+}
 
-    let mut bad: Vec<String> = Vec::new();
-    for (name, x) in [
-        ("t_end_s", out.t_end_s),
-        ("energy_drift_max", out.energy_drift_max),
-        ("energy_drift_final", out.energy_drift_final),
-        ("momentum_residual_max", out.momentum_residual_max),
-        ("max_overlap_m", out.max_overlap_m),
-    ] {
-        if !x.is_finite() {
-            bad.push(format!("{name} = {x}"));
-        }
-    }
-    for (p, s) in scene.record.probes.iter().zip(&out.probes) {
-        if !s.record_max.is_finite() {
-            bad.push(format!("{} record maximum = {}", p.name(), s.record_max));
-        }
-    }
-    if let Some(h) = &out.history {
-        for (p, series) in scene.record.probes.iter().zip(&h.values) {
-            if let Some(x) = series.iter().find(|x| !x.is_finite()) {
-                bad.push(format!("{} history holds {x}", p.name()));
-            }
-        }
-    }
-    if let Some(m) = &out.min_overlap_m {
-        if m.iter().any(|x| !x.is_finite()) {
-            bad.push("min_overlap_m holds a non-finite value".to_string());
-        }
-    }
+/// Checks a finished run's output and turns it into its record: failed when a stored number is
+/// not finite or the energy drift exceeds the limit.
+fn record_of(
+    scene: &Scene,
+    hash: RunHash,
+    limits: &Limits,
+    out: RunOutput,
+    wall: f64,
+) -> RunRecord {
+    let bad = non_finite(scene, &out);
     if !bad.is_empty() {
         return RunRecord::failed(hash, format!("non-finite result: {}", bad.join(", ")), wall);
     }
@@ -173,5 +167,63 @@ fn execute_inner(scene: &Scene, hash: RunHash, limits: &Limits, index: Option<us
         probes: out.probes,
         min_overlap_m: out.min_overlap_m,
         history: out.history,
+    }
+}
+
+/// The stored numbers of a run's output that are not finite, in words.
+fn non_finite(scene: &Scene, out: &RunOutput) -> Vec<String> {
+    let mut bad: Vec<String> = Vec::new();
+    for (name, x) in [
+        ("t_end_s", out.t_end_s),
+        ("energy_drift_max", out.energy_drift_max),
+        ("energy_drift_final", out.energy_drift_final),
+        ("momentum_residual_max", out.momentum_residual_max),
+        ("max_overlap_m", out.max_overlap_m),
+    ] {
+        if !x.is_finite() {
+            bad.push(format!("{name} = {x}"));
+        }
+    }
+    for (p, s) in scene.record.probes.iter().zip(&out.probes) {
+        if !s.record_max.is_finite() {
+            bad.push(format!("{} record maximum = {}", p.name(), s.record_max));
+        }
+    }
+    if let Some(h) = &out.history {
+        for (p, series) in scene.record.probes.iter().zip(&h.values) {
+            if let Some(x) = series.iter().find(|x| !x.is_finite()) {
+                bad.push(format!("{} history holds {x}", p.name()));
+            }
+        }
+    }
+    if let Some(m) = &out.min_overlap_m {
+        if m.iter().any(|x| !x.is_finite()) {
+            bad.push("min_overlap_m holds a non-finite value".to_string());
+        }
+    }
+    bad
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_becomes_its_message_and_location() {
+        let r: std::result::Result<(), String> = guarded(|| panic!("boom {}", 7));
+        let msg = r.unwrap_err();
+        assert!(msg.starts_with("panic at "), "{msg}");
+        assert!(msg.ends_with(": boom 7"), "{msg}");
+        assert_eq!(guarded(|| 3), Ok(3));
+    }
+
+    #[test]
+    fn guarded_calls_nest() {
+        let outer = guarded(|| {
+            let inner: std::result::Result<(), String> = guarded(|| panic!("inner"));
+            assert!(inner.unwrap_err().ends_with(": inner"));
+            panic!("outer");
+        });
+        assert!(outer.unwrap_err().ends_with(": outer"));
     }
 }

@@ -1,26 +1,16 @@
 //! Grid expansion: the product of the sweep's dimensions, each point a complete scene with its
 //! run hash.
 //!
-//! Points are numbered in row-major (C) order: the last dimension varies fastest. A point's run
-//! hash is the SHA-256 of the runner's numerics version, the solver's version, the failure limits
-//! and the point's full scene as canonical JSON, so any change to a parameter that enters a run
-//! changes its hash, and nothing else does.
+//! Points are numbered in row-major (C) order: the last dimension varies fastest. Each point's
+//! run hash is [`crate::identity::run_hash`] of its scene.
 
 use serde_json::Value;
-use sha2::{Digest, Sha256};
 
 use chainsweep_solver::{Probe, Scene};
 
 use crate::error::{Error, Result};
+use crate::identity::{run_hash, RunHash};
 use crate::sweep::{from_value_at, set_path, split_path, Sweep};
-
-/// SHA-256 identity of a run.
-pub type RunHash = [u8; 32];
-
-/// Lower-case hex of a run hash.
-pub fn hex(hash: &RunHash) -> String {
-    hash.iter().map(|b| format!("{b:02x}")).collect()
-}
 
 /// The expanded grid of a sweep.
 #[derive(Debug, Clone)]
@@ -39,23 +29,6 @@ pub struct Grid {
     pub max_history_samples: usize,
     /// Largest number of contacts of any point (for minimum overlaps).
     pub max_contacts: usize,
-}
-
-/// Identity of a run: its hash.
-pub fn run_hash(scene: &Scene, sweep: &Sweep) -> RunHash {
-    let scene_json = serde_json::to_string(scene).expect("Scene serialises");
-    let limit = match sweep.limits.energy_drift_max {
-        Some(x) => serde_json::to_string(&x).expect("f64 serialises"),
-        None => "null".to_string(),
-    };
-    let mut h = Sha256::new();
-    h.update(b"chainsweep run identity v1\n");
-    h.update(format!("numerics_version={}\n", crate::NUMERICS_VERSION).as_bytes());
-    h.update(format!("solver_version={}\n", crate::SOLVER_VERSION).as_bytes());
-    h.update(format!("energy_drift_max={limit}\n").as_bytes());
-    h.update(b"scene=");
-    h.update(scene_json.as_bytes());
-    h.finalize().into()
 }
 
 /// Multi-index of flat point `index` in a grid of `shape`.
@@ -162,7 +135,8 @@ impl Grid {
                 grid.max_history_samples = grid.max_history_samples.max(samples);
             }
             grid.max_contacts = grid.max_contacts.max(chain.n_contacts());
-            grid.hashes.push(run_hash(&scene, sweep));
+            grid.hashes
+                .push(run_hash(&scene, sweep.limits.energy_drift_max));
         }
         Ok(grid)
     }
@@ -175,6 +149,18 @@ impl Grid {
     /// Whether the grid has no points (never true for a parsed sweep).
     pub fn is_empty(&self) -> bool {
         self.hashes.is_empty()
+    }
+
+    /// Describes point `index` by its axis values: `mass_ratio=0.3 damping_kg_s=6`.
+    pub fn point_label(&self, sweep: &Sweep, index: usize) -> String {
+        let mi = multi_index(&self.shape, index);
+        let mut parts = Vec::new();
+        for (d, dim) in sweep.dims.iter().enumerate() {
+            for a in &dim.axes {
+                parts.push(format!("{}={}", a.name, a.values[mi[d]]));
+            }
+        }
+        parts.join(" ")
     }
 
     /// The scene JSON of point `index`: the base with every axis value applied.
@@ -199,13 +185,35 @@ impl Grid {
             other => other,
         })
     }
+}
 
-    /// Indices of the points in shard `k` of `n` (1-based `k`): every `n`-th point from `k-1`.
-    pub fn shard_points(&self, shard: Option<(usize, usize)>) -> Vec<usize> {
-        match shard {
-            None => (0..self.len()).collect(),
-            Some((k, n)) => (0..self.len()).filter(|i| i % n == k - 1).collect(),
+/// Shard `k` of `n` (`1 <= k <= n`): the part of a grid one machine of `n` runs
+/// (which points, is the engine's shard assignment).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Shard {
+    /// Which shard, from 1.
+    pub k: usize,
+    /// Number of shards.
+    pub n: usize,
+}
+
+impl Shard {
+    /// Reads `K/N`; an input error naming `field` otherwise.
+    pub fn parse(text: &str, field: &str) -> Result<Shard> {
+        let bad = || Error::input(field, format!("must be K/N with 1 <= K <= N, got `{text}`"));
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let k: usize = k.trim().parse().map_err(|_| bad())?;
+        let n: usize = n.trim().parse().map_err(|_| bad())?;
+        if k == 0 || n == 0 || k > n {
+            return Err(bad());
         }
+        Ok(Shard { k, n })
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.k, self.n)
     }
 }
 

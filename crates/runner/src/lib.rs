@@ -3,34 +3,39 @@
 //! Runs grids of [`chainsweep_solver`] scenes described by a sweep file, in parallel, into an HDF5
 //! file that h5py and xarray read, and resumes after any interruption.
 //!
-//! The data flow has one module per stage:
+//! The modules form layers, each importing only those listed before it (see `ARCHITECTURE.md`,
+//! kept true by `tests/layers.rs`):
 //!
-//! - [`sweep`]: parse and validate a sweep file (base scene, record block, axes, limits);
+//! - [`error`]: the runner's errors and the exit codes they map to;
+//! - [`identity`]: run hashes and verification hashes (the identity of a run);
+//! - [`record`]: what a finished run leaves behind ([`record::RunRecord`]), status codes;
+//! - [`sweep`]: parse and validate a sweep file (base scene, record block, axes, limits, the
+//!   `integrator: auto` request and choice as data);
 //! - [`grid`]: expand the axes into grid points, each a complete [`chainsweep_solver::Scene`] with
 //!   its run hash;
-//! - [`exec`]: run one scene under `catch_unwind` and turn its output into a [`store::RunRecord`];
+//! - [`exec`]: run one scene under `catch_unwind` and turn its output into a run record;
 //! - [`store`]: crash-safe segment files (one per finished run), the lock on the work directory,
 //!   and the HDF5 file assembled from the segments in grid order;
-//! - [`verify`]: `run --verify`: the sample of grid points re-run at a tighter setting;
-//! - [`accuracy`]: work-precision studies (`chainsweep accuracy`);
-//! - [`auto`]: `integrator: auto`, resolved to the cheapest setting that meets a target error by
-//!   a pilot on a few grid points, before the grid's scenes are built;
-//! - [`progress`]: the progress bar or the plain progress line;
+//! - [`numerics`]: `run --verify`, `integrator: auto` and work-precision studies;
+//! - [`engine`]: planning, scheduling with checkpoints, assembling, merging, status: what the
+//!   commands do, as a library that prints nothing;
+//! - [`progress`]: the command line's progress display (a [`engine::ProgressSink`]);
 //! - [`cli`]: the `chainsweep` command line.
 //!
 //! Exit codes: [`EXIT_OK`], [`EXIT_ERROR`], [`EXIT_BAD_INPUT`], [`EXIT_PARTIAL`].
 #![warn(missing_docs)]
 
-pub mod accuracy;
-pub mod auto;
 pub mod cli;
+pub mod engine;
 pub mod error;
 pub mod exec;
 pub mod grid;
+pub mod identity;
+pub mod numerics;
 pub mod progress;
+pub mod record;
 pub mod store;
 pub mod sweep;
-pub mod verify;
 
 /// Every run finished successfully.
 pub const EXIT_OK: i32 = 0;

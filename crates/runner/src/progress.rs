@@ -1,10 +1,14 @@
-//! Progress display: an indicatif bar on a terminal, a plain line every few seconds otherwise
-//! (nohup, SLURM, CI logs), nothing with `--quiet`.
+//! What a terminal (or a log) shows while the engine works: a [`ProgressSink`] that draws an
+//! indicatif bar on a terminal, a plain line every few seconds otherwise (nohup, SLURM, CI logs),
+//! and nothing but the essentials with `--quiet`.
 
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+use crate::engine::{AutoResolution, ProgressSink, Start};
+use crate::sweep::auto::describe;
 
 enum Mode {
     Quiet,
@@ -12,7 +16,7 @@ enum Mode {
     Plain { every: Duration, last: Instant },
 }
 
-/// Progress of a sweep.
+/// Progress of a sweep's runs.
 pub struct Progress {
     mode: Mode,
     total: usize,
@@ -128,6 +132,80 @@ impl Progress {
             Mode::Bar(bar) => bar.println(line),
             Mode::Plain { .. } => eprintln!("{line}"),
             Mode::Quiet => {}
+        }
+    }
+}
+
+/// The command line's [`ProgressSink`]: progress on stderr, and what `integrator: auto` chose
+/// (said even with `quiet`; its pilot's lines only without).
+pub struct Terminal {
+    quiet: bool,
+    plain_every: Duration,
+    runs: Option<Progress>,
+}
+
+impl Terminal {
+    /// A display; `plain_every` is the interval of plain progress lines.
+    pub fn new(quiet: bool, plain_every: Duration) -> Self {
+        Terminal {
+            quiet,
+            plain_every,
+            runs: None,
+        }
+    }
+}
+
+impl ProgressSink for Terminal {
+    fn pilot(&mut self, line: &str) {
+        if !self.quiet {
+            eprintln!("chainsweep: auto: {line}");
+        }
+    }
+
+    fn auto_resolved(&mut self, resolution: AutoResolution<'_>) {
+        match resolution {
+            AutoResolution::Cached { choice, cache_file } => eprintln!(
+                "chainsweep: integrator auto, target {:e}: {} (chosen earlier: {})",
+                choice.target_rel_error,
+                describe(&choice.integrator),
+                cache_file.display()
+            ),
+            AutoResolution::Chosen { choice } => eprintln!(
+                "chainsweep: integrator auto, target {:e}: chose {}",
+                choice.target_rel_error,
+                choice.summary()
+            ),
+        }
+    }
+
+    fn started(&mut self, s: &Start<'_>) {
+        let runs = Progress::new(s.total, s.done, s.failed, self.quiet, self.plain_every);
+        if !self.quiet && s.resumed_points > 0 {
+            runs.println(&format!(
+                "chainsweep: resuming {}: {} of {} runs already done",
+                s.output.display(),
+                s.resumed_points,
+                s.points
+            ));
+        }
+        self.runs = Some(runs);
+    }
+
+    fn run_finished(&mut self, failed: bool) {
+        if let Some(r) = &mut self.runs {
+            r.finish_run(failed);
+        }
+    }
+
+    fn idle(&mut self) {
+        if let Some(r) = &mut self.runs {
+            r.tick();
+        }
+    }
+
+    fn runs_ended(&mut self) {
+        if let Some(r) = &mut self.runs {
+            r.finish();
         }
     }
 }

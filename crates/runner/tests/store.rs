@@ -2,10 +2,12 @@
 
 use chainsweep::exec::execute;
 use chainsweep::grid::Grid;
-use chainsweep::store::hdf5file::{write_file, FileRecords, Provenance};
+use chainsweep::record::columns::{COLUMNS, LAYOUT_NAMES};
+use chainsweep::record::{VerifyInfo, VERIFY_NONE, VERIFY_OK};
+use chainsweep::store::hdf5::{write_file, FileRecords, Provenance};
+use chainsweep::store::segment::encode;
 use chainsweep::store::{scan_segments, WorkDir};
 use chainsweep::sweep::Sweep;
-use chainsweep::verify::{VerifyInfo, VERIFY_NONE, VERIFY_OK};
 
 const SWEEP: &str = r#"{
   "base": {
@@ -42,11 +44,8 @@ fn records_survive_segments_and_hdf5_bitwise() {
         let rec = execute(&scene, grid.hashes[i], &sweep.limits, i);
         work.write_segment(&rec).unwrap();
         assert_eq!(
-            work.read_segment(&grid.hashes[i])
-                .unwrap()
-                .unwrap()
-                .encode(),
-            rec.encode()
+            encode(&work.read_segment(&grid.hashes[i]).unwrap().unwrap()),
+            encode(&rec)
         );
         records.push(rec);
     }
@@ -81,11 +80,23 @@ fn records_survive_segments_and_hdf5_bitwise() {
     )
     .unwrap();
     assert_eq!((counts.ok, counts.failed, counts.pending), (2, 2, 0));
+    // The file's root holds the axes, the layout's names and exactly the table's columns.
+    let mut names = hdf5::File::open(&out).unwrap().member_names().unwrap();
+    names.sort();
+    let mut want: Vec<String> = COLUMNS
+        .iter()
+        .map(|c| c.name)
+        .chain(LAYOUT_NAMES.iter().copied())
+        .chain(["damping_kg_s", "max_steps"])
+        .map(String::from)
+        .collect();
+    want.sort();
+    assert_eq!(names, want);
     let back = FileRecords::open(&out).unwrap();
     assert_eq!(back.sweep_text, SWEEP);
     for (i, rec) in records.iter().enumerate() {
         let r = back.record(i, grid.hashes[i], &grid).unwrap().unwrap();
-        assert_eq!(r.encode(), rec.encode(), "point {i}");
+        assert_eq!(encode(&r), encode(rec), "point {i}");
     }
     assert_eq!(back.verify_fraction, 0.5);
     let v = back.verify_info(0, 1);

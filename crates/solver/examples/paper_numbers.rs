@@ -1,6 +1,6 @@
 //! The leading peaks in cylinders 4, 5 and 21, the pulse speeds and A21/A4 for the paper's 0.98
 //! chain (v0 = 1.06 m/s) and 0.55 chain (v0 = 1.3 m/s) at μ = 0, 4, 6 kg/s, beside the paper's
-//! values from MODEL.md. 50 cylinders (no wall reflection reaches cylinder 21 in 1 ms), gravity on,
+//! values from docs/MODEL.md. 50 cylinders (no wall reflection reaches cylinder 21 in 1 ms), gravity on,
 //! gauge forces with the static preload included, leading-pulse peaks.
 //!
 //! Run: `cargo run --release -p chainsweep-solver --example paper_numbers`.
@@ -63,7 +63,8 @@ fn main() {
             let out = run(&scene).expect("run");
             let cell = Chain::build(&scene.chain, &scene.physics)
                 .unwrap()
-                .cell_length_m;
+                .cell_length_m
+                .expect("the paper's dimer chain");
             let p = &out.probes;
             let c45 = cell / (p[1].leading_peak_time_s - p[0].leading_peak_time_s);
             let c421 = 17.0 * cell / (p[2].leading_peak_time_s - p[0].leading_peak_time_s);

@@ -29,7 +29,7 @@ fn reference_run_meets_1e6_relative_on_leading_peaks() {
         );
     }
     assert!(bench.energy_drift_max < 1e-5);
-    // The peak in cylinder 21 is the paper's "109 -> 57 N" case (MODEL.md): about 56.4 N here.
+    // The peak in cylinder 21 is the paper's "109 -> 57 N" case (docs/MODEL.md): about 56.4 N here.
     assert!(
         (tight.probes[1].leading_peak - 56.38).abs() < 0.01,
         "{}",

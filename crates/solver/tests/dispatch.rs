@@ -36,8 +36,9 @@ fn scenes() -> Vec<(&'static str, Scene)> {
         out.push((name, s));
     }
     let mut light = Scene::new(ChainSpec::chain_098(20), 1.0, 3e-4);
-    light.chain.cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.05 };
-    light.chain.cylinder.height_m = None;
+    let dimer = light.chain.dimer_mut().expect("chain_098 is a dimer");
+    dimer.cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.05 };
+    dimer.cylinder.height_m = None;
     light.physics.damping_kg_s = 1000.0;
     light.record.probes = vec![Probe::GaugeForce { cylinder: 4 }, Probe::WallForce];
     light.integrator = spec(r#"{"method":"ros34pw2","rtol":1e-8}"#);

@@ -1,4 +1,4 @@
-//! Run records and their segment files.
+//! Segment files: one [`RunRecord`] each.
 //!
 //! A segment holds one finished run (successful or failed) in a small binary format, little
 //! endian, ending in the SHA-256 of everything before it:
@@ -24,232 +24,166 @@
 use chainsweep_solver::probes::{History, ProbeSummary};
 use sha2::{Digest, Sha256};
 
-use crate::grid::RunHash;
+use crate::identity::RunHash;
+use crate::record::RunRecord;
 
 const MAGIC: &[u8; 8] = b"CSWSEG\x00\x02";
-/// Magic of the previous segment format (read only by [`RunRecord::peek_status`]).
+/// Magic of the previous segment format (read only by [`peek_status`]).
 const MAGIC_V1: &[u8; 8] = b"CSWSEG\x00\x01";
 
-/// One finished run, as stored in a segment.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RunRecord {
-    /// Run hash.
-    pub hash: RunHash,
-    /// Whether the run succeeded.
-    pub ok: bool,
-    /// Why it failed (empty when it succeeded).
-    pub reason: String,
-    /// Accepted steps.
-    pub steps: u64,
-    /// Rejected steps.
-    pub rejected: u64,
-    /// Right-hand-side evaluations.
-    pub rhs_evals: u64,
-    /// Steps retaken to end on a located event (a contact opening or closing).
-    pub events: u64,
-    /// Time reached, s.
-    pub t_end_s: f64,
-    /// Largest relative energy drift.
-    pub energy_drift_max: f64,
-    /// Final relative energy drift.
-    pub energy_drift_final: f64,
-    /// Largest relative momentum residual.
-    pub momentum_residual_max: f64,
-    /// Striker kinetic energy, J.
-    pub impact_energy_j: f64,
-    /// Wall time of the run, s.
-    pub wall_time_s: f64,
-    /// Largest contact overlap over the run (at step ends), m (NaN for failed runs).
-    pub max_overlap_m: f64,
-    /// Physical-validity warnings of the solver, one per line (empty when none).
-    pub warnings: String,
-    /// Summary of each probe (empty for failed runs).
-    pub probes: Vec<ProbeSummary>,
-    /// Minimum overlap of every contact, m, when recorded.
-    pub min_overlap_m: Option<Vec<f64>>,
-    /// Histories, when recorded.
-    pub history: Option<History>,
-}
-
-impl RunRecord {
-    /// A failed run: only its reason and wall time are kept.
-    pub fn failed(hash: RunHash, reason: String, wall_time_s: f64) -> Self {
-        RunRecord {
-            hash,
-            ok: false,
-            reason,
-            steps: 0,
-            rejected: 0,
-            rhs_evals: 0,
-            events: 0,
-            t_end_s: f64::NAN,
-            energy_drift_max: f64::NAN,
-            energy_drift_final: f64::NAN,
-            momentum_residual_max: f64::NAN,
-            impact_energy_j: f64::NAN,
-            wall_time_s,
-            max_overlap_m: f64::NAN,
-            warnings: String::new(),
-            probes: Vec::new(),
-            min_overlap_m: None,
-            history: None,
-        }
+/// Encodes a record as segment bytes.
+pub fn encode(rec: &RunRecord) -> Vec<u8> {
+    let mut b = Vec::with_capacity(256);
+    b.extend_from_slice(MAGIC);
+    b.extend_from_slice(&rec.hash);
+    b.push(rec.ok as u8);
+    put_u32(&mut b, rec.reason.len() as u32);
+    b.extend_from_slice(rec.reason.as_bytes());
+    for x in [rec.steps, rec.rejected, rec.rhs_evals, rec.events] {
+        b.extend_from_slice(&x.to_le_bytes());
     }
-
-    /// Encodes the record as segment bytes.
-    pub fn encode(&self) -> Vec<u8> {
-        let mut b = Vec::with_capacity(256);
-        b.extend_from_slice(MAGIC);
-        b.extend_from_slice(&self.hash);
-        b.push(self.ok as u8);
-        put_u32(&mut b, self.reason.len() as u32);
-        b.extend_from_slice(self.reason.as_bytes());
-        for x in [self.steps, self.rejected, self.rhs_evals, self.events] {
-            b.extend_from_slice(&x.to_le_bytes());
-        }
+    for x in [
+        rec.t_end_s,
+        rec.energy_drift_max,
+        rec.energy_drift_final,
+        rec.momentum_residual_max,
+        rec.impact_energy_j,
+        rec.wall_time_s,
+        rec.max_overlap_m,
+    ] {
+        put_f64(&mut b, x);
+    }
+    put_u32(&mut b, rec.warnings.len() as u32);
+    b.extend_from_slice(rec.warnings.as_bytes());
+    put_u32(&mut b, rec.probes.len() as u32);
+    for p in &rec.probes {
         for x in [
-            self.t_end_s,
-            self.energy_drift_max,
-            self.energy_drift_final,
-            self.momentum_residual_max,
-            self.impact_energy_j,
-            self.wall_time_s,
-            self.max_overlap_m,
+            p.leading_peak,
+            p.leading_peak_time_s,
+            p.record_max,
+            p.record_max_time_s,
         ] {
             put_f64(&mut b, x);
         }
-        put_u32(&mut b, self.warnings.len() as u32);
-        b.extend_from_slice(self.warnings.as_bytes());
-        put_u32(&mut b, self.probes.len() as u32);
-        for p in &self.probes {
-            for x in [
-                p.leading_peak,
-                p.leading_peak_time_s,
-                p.record_max,
-                p.record_max_time_s,
-            ] {
-                put_f64(&mut b, x);
-            }
-        }
-        match &self.min_overlap_m {
-            None => b.push(0),
-            Some(v) => {
-                b.push(1);
-                put_u32(&mut b, v.len() as u32);
-                v.iter().for_each(|&x| put_f64(&mut b, x));
-            }
-        }
-        match &self.history {
-            None => b.push(0),
-            Some(h) => {
-                b.push(1);
-                put_u32(&mut b, h.values.len() as u32);
-                b.extend_from_slice(&(h.time_s.len() as u64).to_le_bytes());
-                h.time_s.iter().for_each(|&x| put_f64(&mut b, x));
-                for s in &h.values {
-                    s.iter().for_each(|&x| put_f64(&mut b, x));
-                }
-            }
-        }
-        let sum: [u8; 32] = Sha256::digest(&b).into();
-        b.extend_from_slice(&sum);
-        b
     }
+    match &rec.min_overlap_m {
+        None => b.push(0),
+        Some(v) => {
+            b.push(1);
+            put_u32(&mut b, v.len() as u32);
+            v.iter().for_each(|&x| put_f64(&mut b, x));
+        }
+    }
+    match &rec.history {
+        None => b.push(0),
+        Some(h) => {
+            b.push(1);
+            put_u32(&mut b, h.values.len() as u32);
+            b.extend_from_slice(&(h.time_s.len() as u64).to_le_bytes());
+            h.time_s.iter().for_each(|&x| put_f64(&mut b, x));
+            for s in &h.values {
+                s.iter().for_each(|&x| put_f64(&mut b, x));
+            }
+        }
+    }
+    let sum: [u8; 32] = Sha256::digest(&b).into();
+    b.extend_from_slice(&sum);
+    b
+}
 
-    /// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
-    pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
-        if bytes.len() < MAGIC.len() + 32 + 32 {
-            return None;
-        }
-        let (body, sum) = bytes.split_at(bytes.len() - 32);
-        let check: [u8; 32] = Sha256::digest(body).into();
-        if check != sum {
-            return None;
-        }
-        let mut r = Reader { b: body, at: 0 };
-        if r.take(8)? != MAGIC {
-            return None;
-        }
-        let hash: RunHash = r.take(32)?.try_into().ok()?;
-        let ok = r.take(1)?[0] == 1;
-        let n = r.u32()? as usize;
-        let reason = String::from_utf8(r.take(n)?.to_vec()).ok()?;
-        let steps = r.u64()?;
-        let rejected = r.u64()?;
-        let rhs_evals = r.u64()?;
-        let events = r.u64()?;
-        let mut f = [0.0; 7];
-        for x in &mut f {
-            *x = r.f64()?;
-        }
-        let n = r.u32()? as usize;
-        let warnings = String::from_utf8(r.take(n)?.to_vec()).ok()?;
-        let n_probes = r.u32()? as usize;
-        let mut probes = Vec::with_capacity(n_probes);
-        for _ in 0..n_probes {
-            probes.push(ProbeSummary {
-                leading_peak: r.f64()?,
-                leading_peak_time_s: r.f64()?,
-                record_max: r.f64()?,
-                record_max_time_s: r.f64()?,
-            });
-        }
-        let min_overlap_m = if r.take(1)?[0] == 1 {
-            let n = r.u32()? as usize;
-            Some(r.f64s(n)?)
-        } else {
-            None
-        };
-        let history = if r.take(1)?[0] == 1 {
-            let series = r.u32()? as usize;
-            let samples = r.u64()? as usize;
-            let time_s = r.f64s(samples)?;
-            let mut values = Vec::with_capacity(series);
-            for _ in 0..series {
-                values.push(r.f64s(samples)?);
-            }
-            Some(History { time_s, values })
-        } else {
-            None
-        };
-        if r.at != body.len() {
-            return None;
-        }
-        Some(RunRecord {
-            hash,
-            ok,
-            reason,
-            steps,
-            rejected,
-            rhs_evals,
-            events,
-            t_end_s: f[0],
-            energy_drift_max: f[1],
-            energy_drift_final: f[2],
-            momentum_residual_max: f[3],
-            impact_energy_j: f[4],
-            wall_time_s: f[5],
-            max_overlap_m: f[6],
-            warnings,
-            probes,
-            min_overlap_m,
-            history,
-        })
+/// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
+pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
+    if bytes.len() < MAGIC.len() + 32 + 32 {
+        return None;
     }
+    let (body, sum) = bytes.split_at(bytes.len() - 32);
+    let check: [u8; 32] = Sha256::digest(body).into();
+    if check != sum {
+        return None;
+    }
+    let mut r = Reader { b: body, at: 0 };
+    if r.take(8)? != MAGIC {
+        return None;
+    }
+    let hash: RunHash = r.take(32)?.try_into().ok()?;
+    let ok = r.take(1)?[0] == 1;
+    let n = r.u32()? as usize;
+    let reason = String::from_utf8(r.take(n)?.to_vec()).ok()?;
+    let steps = r.u64()?;
+    let rejected = r.u64()?;
+    let rhs_evals = r.u64()?;
+    let events = r.u64()?;
+    let mut f = [0.0; 7];
+    for x in &mut f {
+        *x = r.f64()?;
+    }
+    let n = r.u32()? as usize;
+    let warnings = String::from_utf8(r.take(n)?.to_vec()).ok()?;
+    let n_probes = r.u32()? as usize;
+    let mut probes = Vec::with_capacity(n_probes);
+    for _ in 0..n_probes {
+        probes.push(ProbeSummary {
+            leading_peak: r.f64()?,
+            leading_peak_time_s: r.f64()?,
+            record_max: r.f64()?,
+            record_max_time_s: r.f64()?,
+        });
+    }
+    let min_overlap_m = if r.take(1)?[0] == 1 {
+        let n = r.u32()? as usize;
+        Some(r.f64s(n)?)
+    } else {
+        None
+    };
+    let history = if r.take(1)?[0] == 1 {
+        let series = r.u32()? as usize;
+        let samples = r.u64()? as usize;
+        let time_s = r.f64s(samples)?;
+        let mut values = Vec::with_capacity(series);
+        for _ in 0..series {
+            values.push(r.f64s(samples)?);
+        }
+        Some(History { time_s, values })
+    } else {
+        None
+    };
+    if r.at != body.len() {
+        return None;
+    }
+    Some(RunRecord {
+        hash,
+        ok,
+        reason,
+        steps,
+        rejected,
+        rhs_evals,
+        events,
+        t_end_s: f[0],
+        energy_drift_max: f[1],
+        energy_drift_final: f[2],
+        momentum_residual_max: f[3],
+        impact_energy_j: f[4],
+        wall_time_s: f[5],
+        max_overlap_m: f[6],
+        warnings,
+        probes,
+        min_overlap_m,
+        history,
+    })
+}
 
-    /// Reads only the status part of segment bytes (no checksum check): `(ok, reason)`.
-    pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
-        let mut r = Reader { b: bytes, at: 0 };
-        let magic = r.take(8)?;
-        if magic != MAGIC && magic != MAGIC_V1 {
-            return None;
-        }
-        r.take(32)?;
-        let ok = r.take(1)?[0] == 1;
-        let n = r.u32()? as usize;
-        let reason = String::from_utf8_lossy(r.take(n)?).into_owned();
-        Some((ok, reason))
+/// Reads only the status part of segment bytes (no checksum check): `(ok, reason)`.
+pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
+    let mut r = Reader { b: bytes, at: 0 };
+    let magic = r.take(8)?;
+    if magic != MAGIC && magic != MAGIC_V1 {
+        return None;
     }
+    r.take(32)?;
+    let ok = r.take(1)?[0] == 1;
+    let n = r.u32()? as usize;
+    let reason = String::from_utf8_lossy(r.take(n)?).into_owned();
+    Some((ok, reason))
 }
 
 fn put_u32(b: &mut Vec<u8>, x: u32) {
@@ -326,20 +260,20 @@ mod tests {
                 values: vec![vec![1.0, 2.0]],
             }),
         };
-        let bytes = rec.encode();
-        let back = RunRecord::decode(&bytes).unwrap();
-        assert_eq!(back.encode(), bytes);
+        let bytes = encode(&rec);
+        let back = decode(&bytes).unwrap();
+        assert_eq!(encode(&back), bytes);
         assert!(back.probes[0].leading_peak_time_s.is_nan());
         assert_eq!(
             (back.events, back.max_overlap_m.to_bits()),
             (12, 2.5e-6f64.to_bits())
         );
         assert_eq!(back.warnings, "first\nsecond ü");
-        assert_eq!(RunRecord::peek_status(&bytes), Some((true, String::new())));
+        assert_eq!(peek_status(&bytes), Some((true, String::new())));
         // Any truncation or flipped byte is detected.
-        assert!(RunRecord::decode(&bytes[..bytes.len() - 1]).is_none());
+        assert!(decode(&bytes[..bytes.len() - 1]).is_none());
         let mut bad = bytes.clone();
         bad[50] ^= 1;
-        assert!(RunRecord::decode(&bad).is_none());
+        assert!(decode(&bad).is_none());
     }
 }

@@ -1,5 +1,5 @@
 //! Work-precision studies (`chainsweep accuracy`), and the measurements `integrator: auto`
-//! ([`crate::auto`]) shares with them.
+//! ([`super::auto`]) shares with them.
 //!
 //! A study runs one scene with every integrator over a ladder of settings (DOP853 and ROS34PW2:
 //! `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds`), and compares the
@@ -10,15 +10,15 @@
 //! method; their agreement is reported. Each setting's wall time is the median of repeats.
 
 use std::path::Path;
-use std::time::Instant;
 
-use chainsweep_solver::scene::ImpactScales;
-use chainsweep_solver::{run, AdaptiveOptions, IntegratorSpec, RunOutput, Scene};
+use chainsweep_solver::{IntegratorSpec, RunOutput, Scene};
 use hdf5::File;
 
+use super::{max_ignoring_nan, probe_errors, round3};
 use crate::error::{Error, Result};
-use crate::store::hdf5file::{attr_scalar, attr_str, dataset, str_dataset};
-use crate::verify::rel_error;
+use crate::exec;
+use crate::store::hdf5::{attr_scalar, attr_str, dataset, str_dataset};
+use crate::sweep::auto::{adaptive, setting_of};
 
 /// Above this stiffness ratio `μ τ / m_min` a scene counts as damping-dominated: the reference
 /// is ROS34PW2 and `auto` tries ROS34PW2 first.
@@ -38,7 +38,7 @@ pub fn scene_scales(scene: &Scene) -> Result<SceneScales> {
     let chain = scene
         .validate()
         .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;
-    let s = ImpactScales::new(&chain, scene.striker_velocity_m_s);
+    let s = scene.impact_scales(&chain);
     let tau = s.contact_duration_s();
     let m_min = chain.mass.iter().cloned().fold(f64::INFINITY, f64::min);
     let mu = chain.damping.iter().cloned().fold(0.0, f64::max);
@@ -86,17 +86,12 @@ pub fn measure(scene: &Scene, spec: IntegratorSpec, repeats: usize) -> Measureme
     let mut out = None;
     let mut reason = String::new();
     for _ in 0..repeats.max(1) {
-        let t = Instant::now();
-        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run(&s)));
-        walls.push(t.elapsed().as_secs_f64());
+        let (r, wall) = exec::run_guarded(&s);
+        walls.push(wall);
         match r {
-            Ok(Ok(o)) => out = Some(o),
-            Ok(Err(e)) => {
-                reason = e.to_string();
-                break;
-            }
-            Err(_) => {
-                reason = "panic".to_string();
+            Ok(o) => out = Some(o),
+            Err(e) => {
+                reason = e;
                 break;
             }
         }
@@ -114,45 +109,7 @@ pub fn measure(scene: &Scene, spec: IntegratorSpec, repeats: usize) -> Measureme
 
 /// Relative errors of a run against a reference, per probe: leading peak, its time, record max.
 pub fn errors_against(out: &RunOutput, reference: &RunOutput) -> Vec<[f64; 3]> {
-    out.probes
-        .iter()
-        .zip(&reference.probes)
-        .map(|(a, r)| {
-            [
-                rel_error(a.leading_peak, r.leading_peak),
-                rel_error(a.leading_peak_time_s, r.leading_peak_time_s),
-                rel_error(a.record_max, r.record_max),
-            ]
-        })
-        .collect()
-}
-
-/// Largest of a set of errors, ignoring NaN (values neither run has); NaN when all are NaN.
-pub fn max_ignoring_nan(xs: impl IntoIterator<Item = f64>) -> f64 {
-    let mut m = f64::NAN;
-    for x in xs {
-        if !x.is_nan() && (m.is_nan() || x > m) {
-            m = x;
-        }
-    }
-    m
-}
-
-/// An adaptive method at `rtol` with defaults otherwise.
-pub fn adaptive(method: &str, rtol: f64) -> IntegratorSpec {
-    match method {
-        "ros34pw2" => IntegratorSpec::Ros34pw2(AdaptiveOptions::new(rtol)),
-        _ => IntegratorSpec::Dop853(AdaptiveOptions::new(rtol)),
-    }
-}
-
-/// The setting of an integrator as a number (rtol or dt_s) and its name.
-pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
-    match *spec {
-        IntegratorSpec::Dop853(AdaptiveOptions { rtol, .. })
-        | IntegratorSpec::Ros34pw2(AdaptiveOptions { rtol, .. }) => (rtol, "rtol"),
-        IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => (dt_s, "dt_s"),
-    }
+    probe_errors(&out.probes, &reference.probes)
 }
 
 /// Options of a study.
@@ -340,16 +297,16 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
     })
 }
 
-/// Rounds to 3 significant digits (readable step sizes).
-fn round3(x: f64) -> f64 {
-    format!("{x:.2e}").parse().unwrap_or(x)
-}
-
 /// Writes a study to HDF5: root attributes describing the scene, the reference and its
 /// confirmation; one group per method with `setting`, `error`, `error_leading_peak`,
 /// `error_leading_peak_time`, `energy_drift`, `wall_time`, `wall_times`, `rhs_evals`, `steps`,
 /// `ok` and `reason`.
 pub fn write_study(path: &Path, st: &Study, probe_names: &[String], source: &str) -> Result<()> {
+    write_study_file(path, st, probe_names, source)
+        .map_err(|e| e.hdf5_context(|| format!("writing {}", path.display())))
+}
+
+fn write_study_file(path: &Path, st: &Study, probe_names: &[String], source: &str) -> Result<()> {
     let f = File::create(path)?;
     attr_str(&f, "engine", "chainsweep accuracy")?;
     attr_str(&f, "engine_version", crate::ENGINE_VERSION)?;

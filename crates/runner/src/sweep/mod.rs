@@ -6,7 +6,7 @@
 //! - `base`: a scene as the solver reads it (`chain`, `physics`, `striker_velocity_m_s`,
 //!   `duration_s`, `integrator`, `max_steps`); `chain` may start from a preset,
 //!   `{"preset": "chain_055", "cylinders": 50, …overrides}`; the integrator may be
-//!   `{"method": "auto", "target_rel_error": 1e-6}` (see [`crate::auto`]), which stands for one
+//!   `{"method": "auto", "target_rel_error": 1e-6}` (see [`auto`]), which stands for one
 //!   concrete setting chosen before the sweep runs;
 //! - `record`: the solver's record block (probes, histories, intervals, …): exactly what is stored;
 //! - `axes`: the grid dimensions; each is an axis `{"field": "physics.damping_kg_s", "values": […]}`
@@ -19,44 +19,16 @@
 //! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
 
+pub mod auto;
+
 use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use chainsweep_solver::{ChainSpec, Scene};
 
-use crate::auto::{AutoChoice, AutoSpec};
 use crate::error::{Error, Result};
-
-/// Names of the datasets the HDF5 layout uses at the root; axes may not take them.
-pub const RESERVED_NAMES: &[&str] = &[
-    "probe",
-    "probe_units",
-    "leading_peak",
-    "leading_peak_time_s",
-    "record_max",
-    "record_max_time_s",
-    "t_end_s",
-    "energy_drift_max",
-    "energy_drift_final",
-    "momentum_residual_max",
-    "impact_energy_j",
-    "wall_time_s",
-    "steps",
-    "rejected_steps",
-    "rhs_evals",
-    "events",
-    "max_overlap_m",
-    "warnings",
-    "verified",
-    "verify_rel_error_max",
-    "verify_rel_error_leading_peak",
-    "verify_rel_error_leading_peak_time",
-    "verify_rel_error_record_max",
-    "status",
-    "reason",
-    "run_hash",
-    "runs",
-];
+use crate::record::columns::reserved_names;
+use auto::{AutoChoice, AutoSpec};
 
 /// Largest number of grid points a sweep may have.
 pub const MAX_GRID_POINTS: usize = 10_000_000;
@@ -298,12 +270,39 @@ pub fn lookup<'a>(root: &'a Value, path: &str) -> std::result::Result<&'a Value,
     Ok(cur)
 }
 
-/// Sets the value at `path` (which must exist) in `root`.
-pub fn set_path(root: &mut Value, path: &str, value: Value) {
+/// Checks that an axis can set `path` in `root`: along it every existing value is an object (a
+/// missing key is created when values are applied: the normalised base leaves out fields that hold
+/// their defaults) or a list that has the index. Whether the field exists in the scene is then
+/// decided at every grid point, which names the axis and the allowed fields.
+pub fn check_settable(root: &Value, path: &str) -> std::result::Result<(), String> {
     let mut cur = root;
     for seg in split_path(path) {
         cur = match cur {
-            Value::Object(m) => m.get_mut(&seg).expect("path checked at parse time"),
+            Value::Object(m) => match m.get(&seg) {
+                Some(next) => next,
+                None => return Ok(()),
+            },
+            Value::Null => return Ok(()),
+            Value::Array(a) => match seg.parse::<usize>().ok().and_then(|i| a.get(i)) {
+                Some(next) => next,
+                None => return lookup(root, path).map(|_| ()),
+            },
+            _ => return lookup(root, path).map(|_| ()),
+        };
+    }
+    Ok(())
+}
+
+/// Sets the value at `path` in `root` (checked by [`check_settable`]), creating the objects
+/// missing along it.
+pub fn set_path(root: &mut Value, path: &str, value: Value) {
+    let mut cur = root;
+    for seg in split_path(path) {
+        if cur.is_null() {
+            *cur = Value::Object(Map::new());
+        }
+        cur = match cur {
+            Value::Object(m) => m.entry(seg).or_insert(Value::Null),
             Value::Array(a) => {
                 let i: usize = seg.parse().expect("path checked at parse time");
                 &mut a[i]
@@ -467,7 +466,7 @@ fn parse_axis(a: AxisFile, origin: &str, base: &Value, auto: bool) -> Result<Axi
             format!("`{field}`: the base integrator is `auto`, which chooses one setting for the whole grid; an axis may not set integrator fields (give a fixed integrator in `base` to sweep over integrator settings)"),
         ));
     }
-    lookup(base, &field).map_err(|m| Error::input(format!("{origin}.field"), m))?;
+    check_settable(base, &field).map_err(|m| Error::input(format!("{origin}.field"), m))?;
     let values = match (a.values, a.range) {
         (Some(v), None) => {
             if v.is_empty() {
@@ -528,194 +527,245 @@ fn valid_name(name: &str) -> bool {
         && !name.starts_with(|c: char| c.is_ascii_digit())
 }
 
-impl Sweep {
-    /// Parses and checks a sweep file's text: syntax, unknown fields, types, axes. Grid points
-    /// are checked by [`crate::grid::Grid::new`].
-    pub fn parse(text: &str) -> Result<Sweep> {
-        let raw: Value = serde_json::from_str(text).map_err(|e| {
-            let field = field_near(text, e.line(), e.column()).unwrap_or_default();
-            Error::input(
-                field,
-                format!(
-                    "not valid JSON: {e} (numbers must be finite: NaN and infinities are not JSON)"
-                ),
-            )
-        })?;
-        let file: SweepFile = from_value_at(raw, "")?;
+/// The sweep file's JSON, refusing unknown fields; a syntax error names the field near it.
+fn read_json(text: &str) -> Result<SweepFile> {
+    let raw: Value = serde_json::from_str(text).map_err(|e| {
+        let field = field_near(text, e.line(), e.column()).unwrap_or_default();
+        Error::input(
+            field,
+            format!(
+                "not valid JSON: {e} (numbers must be finite: NaN and infinities are not JSON)"
+            ),
+        )
+    })?;
+    from_value_at(raw, "")
+}
 
-        // Base scene: presets, then the record block, then every default filled in by the solver.
-        let mut base = Value::Object(file.base);
-        if let Some(chain) = base.get_mut("chain") {
-            expand_chain_preset(chain)?;
-        }
-        // `integrator: auto` is resolved later; a concrete stand-in validates the rest.
-        let auto = match base.get("integrator") {
-            Some(v) => AutoSpec::from_integrator(v)?,
-            None => None,
-        };
-        if let Some(a) = &auto {
-            base["integrator"] =
-                serde_json::to_value(a.placeholder()).expect("IntegratorSpec serialises");
-        }
-        if let Some(record) = file.record {
-            if base.get("record").is_some() {
-                return Err(Error::input(
-                    "base.record",
-                    "give the record block once, at the top level (`record`), not inside `base`",
-                ));
-            }
-            base.as_object_mut()
-                .expect("object")
-                .insert("record".into(), Value::Object(record));
-        }
-        let scene: Scene = from_value_at(base, "base").map_err(|e| match e {
-            Error::Input {
-                file,
-                field,
-                message,
-            } => Error::Input {
-                file,
-                field: match field.strip_prefix("base.record") {
-                    Some(rest) => format!("record{rest}"),
-                    None => field,
-                },
-                message,
-            },
-            other => other,
-        })?;
-        let base = serde_json::to_value(&scene).expect("Scene serialises");
-
-        let limits = match file.limits {
-            None => Limits {
-                energy_drift_max: Some(DEFAULT_ENERGY_DRIFT_MAX),
-            },
-            Some(l) => {
-                if let Some(x) = l.energy_drift_max {
-                    if !(x.is_finite() && x > 0.0) {
-                        return Err(Error::input(
-                            "limits.energy_drift_max",
-                            format!("must be a finite number > 0 or null (no limit), got {x}"),
-                        ));
-                    }
-                }
-                Limits {
-                    energy_drift_max: l.energy_drift_max,
-                }
-            }
-        };
-
-        if file.axes.is_empty() {
+/// The base scene normalised: chain presets expanded, `integrator: auto` replaced by its
+/// stand-in (the request returned), the top-level record block put in, and every default filled
+/// in by the solver, which validates it.
+fn normalise_base(
+    base: Map<String, Value>,
+    record: Option<Map<String, Value>>,
+) -> Result<(Value, Option<AutoSpec>)> {
+    let mut base = Value::Object(base);
+    if let Some(chain) = base.get_mut("chain") {
+        expand_chain_preset(chain)?;
+    }
+    // `integrator: auto` is resolved later; a concrete stand-in validates the rest.
+    let auto = match base.get("integrator") {
+        Some(v) => AutoSpec::from_integrator(v)?,
+        None => None,
+    };
+    if let Some(a) = &auto {
+        base["integrator"] =
+            serde_json::to_value(a.placeholder()).expect("IntegratorSpec serialises");
+    }
+    if let Some(record) = record {
+        if base.get("record").is_some() {
             return Err(Error::input(
-                "axes",
-                "at least one axis is required (a single run is an axis with one value)",
+                "base.record",
+                "give the record block once, at the top level (`record`), not inside `base`",
             ));
         }
-        let mut dims = Vec::new();
-        for (i, a) in file.axes.into_iter().enumerate() {
-            let origin = format!("axes[{i}]");
-            if let Some(zip) = a.zip {
-                if a.field.is_some() || a.values.is_some() || a.range.is_some() {
-                    return Err(Error::input(
-                        origin,
-                        "a zipped group holds only `zip` (a list of axes) and an optional `name`",
-                    ));
-                }
-                if zip.is_empty() {
-                    return Err(Error::input(
-                        format!("{origin}.zip"),
-                        "must hold at least one axis",
-                    ));
-                }
-                let mut axes = Vec::new();
-                for (j, z) in zip.into_iter().enumerate() {
-                    axes.push(parse_axis(
-                        z,
-                        &format!("{origin}.zip[{j}]"),
-                        &base,
-                        auto.is_some(),
-                    )?);
-                }
-                let n = axes[0].values.len();
-                for ax in &axes[1..] {
-                    if ax.values.len() != n {
-                        return Err(Error::input(
-                            format!("{}.values", ax.origin),
-                            format!(
-                                "zipped axes advance together and need equal lengths: this one has {}, `{}` has {n}",
-                                ax.values.len(),
-                                axes[0].name
-                            ),
-                        ));
-                    }
-                }
-                let name = a.name.unwrap_or_else(|| axes[0].name.clone());
-                dims.push(Dim { name, axes });
-            } else {
-                let axis = parse_axis(a, &origin, &base, auto.is_some())?;
+        base.as_object_mut()
+            .expect("object")
+            .insert("record".into(), Value::Object(record));
+    }
+    let scene: Scene = from_value_at(base, "base").map_err(|e| match e {
+        Error::Input {
+            file,
+            field,
+            message,
+        } => Error::Input {
+            file,
+            field: match field.strip_prefix("base.record") {
+                Some(rest) => format!("record{rest}"),
+                None => field,
+            },
+            message,
+        },
+        other => other,
+    })?;
+    Ok((
+        serde_json::to_value(&scene).expect("Scene serialises"),
+        auto,
+    ))
+}
+
+/// The failure limits (the default energy-drift limit when the file gives none).
+fn parse_limits(limits: Option<LimitsFile>) -> Result<Limits> {
+    let Some(l) = limits else {
+        return Ok(Limits {
+            energy_drift_max: Some(DEFAULT_ENERGY_DRIFT_MAX),
+        });
+    };
+    if let Some(x) = l.energy_drift_max {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(Error::input(
+                "limits.energy_drift_max",
+                format!("must be a finite number > 0 or null (no limit), got {x}"),
+            ));
+        }
+    }
+    Ok(Limits {
+        energy_drift_max: l.energy_drift_max,
+    })
+}
+
+/// The grid's dimensions from the `axes` list: one per axis or zipped group.
+fn parse_dims(axes: Vec<AxisFile>, base: &Value, auto: bool) -> Result<Vec<Dim>> {
+    if axes.is_empty() {
+        return Err(Error::input(
+            "axes",
+            "at least one axis is required (a single run is an axis with one value)",
+        ));
+    }
+    let mut dims = Vec::new();
+    for (i, mut a) in axes.into_iter().enumerate() {
+        let origin = format!("axes[{i}]");
+        match a.zip.take() {
+            Some(zip) => dims.push(parse_zip(a, zip, &origin, base, auto)?),
+            None => {
+                let axis = parse_axis(a, &origin, base, auto)?;
                 dims.push(Dim {
                     name: axis.name.clone(),
                     axes: vec![axis],
                 });
             }
         }
+    }
+    Ok(dims)
+}
 
-        // Names and fields must be distinct and usable as dataset names.
-        let mut names: Vec<(&str, &str)> = Vec::new();
-        let mut fields: Vec<(&str, &str)> = Vec::new();
-        for d in &dims {
-            let mut all: Vec<(&str, &str)> = d
-                .axes
-                .iter()
-                .map(|a| (a.name.as_str(), a.origin.as_str()))
-                .collect();
-            if d.axes.len() > 1 && !d.axes.iter().any(|a| a.name == d.name) {
-                all.push((d.name.as_str(), ""));
-            }
-            for (name, origin) in all {
-                let at = if origin.is_empty() {
-                    "axes".to_string()
-                } else {
-                    format!("{origin}.name")
-                };
-                if !valid_name(name) {
-                    return Err(Error::input(
-                        at,
-                        format!("`{name}` is not a usable name: letters, digits, `_` and `-`, not starting with a digit, at most 64 characters"),
-                    ));
-                }
-                if RESERVED_NAMES.contains(&name) {
-                    return Err(Error::input(
-                        at,
-                        format!(
-                            "`{name}` is a reserved dataset name; reserved: {}",
-                            RESERVED_NAMES.join(", ")
-                        ),
-                    ));
-                }
-                if let Some((_, other)) = names.iter().find(|(n, _)| *n == name) {
-                    return Err(Error::input(
-                        at,
-                        format!("name `{name}` is already used by {other}"),
-                    ));
-                }
-                names.push((name, origin));
-            }
-            for a in &d.axes {
-                let segs = split_path(&a.field);
-                for (f, other) in &fields {
-                    let o = split_path(f);
-                    let overlap = segs.len().min(o.len());
-                    if segs[..overlap] == o[..overlap] {
-                        return Err(Error::input(
-                            format!("{}.field", a.origin),
-                            format!("`{}` overlaps `{f}` set by {other}; each field may be set by one axis only", a.field),
-                        ));
-                    }
-                }
-                fields.push((a.field.as_str(), a.origin.as_str()));
-            }
+/// A zipped group `group` (its `zip` list taken out as `zip`) at `origin`: axes of equal length.
+fn parse_zip(
+    group: AxisFile,
+    zip: Vec<AxisFile>,
+    origin: &str,
+    base: &Value,
+    auto: bool,
+) -> Result<Dim> {
+    if group.field.is_some() || group.values.is_some() || group.range.is_some() {
+        return Err(Error::input(
+            origin,
+            "a zipped group holds only `zip` (a list of axes) and an optional `name`",
+        ));
+    }
+    if zip.is_empty() {
+        return Err(Error::input(
+            format!("{origin}.zip"),
+            "must hold at least one axis",
+        ));
+    }
+    let mut axes = Vec::new();
+    for (j, z) in zip.into_iter().enumerate() {
+        axes.push(parse_axis(z, &format!("{origin}.zip[{j}]"), base, auto)?);
+    }
+    let n = axes[0].values.len();
+    for ax in &axes[1..] {
+        if ax.values.len() != n {
+            return Err(Error::input(
+                format!("{}.values", ax.origin),
+                format!(
+                    "zipped axes advance together and need equal lengths: this one has {}, `{}` has {n}",
+                    ax.values.len(),
+                    axes[0].name
+                ),
+            ));
         }
+    }
+    let name = group.name.unwrap_or_else(|| axes[0].name.clone());
+    Ok(Dim { name, axes })
+}
 
+/// Names and fields must be distinct, names usable as dataset names and not reserved; checked
+/// dimension by dimension.
+fn check_names_and_fields(dims: &[Dim]) -> Result<()> {
+    let mut names: Vec<(&str, &str)> = Vec::new();
+    let mut fields: Vec<(&str, &str)> = Vec::new();
+    for d in dims {
+        let mut all: Vec<(&str, &str)> = d
+            .axes
+            .iter()
+            .map(|a| (a.name.as_str(), a.origin.as_str()))
+            .collect();
+        if d.axes.len() > 1 && !d.axes.iter().any(|a| a.name == d.name) {
+            all.push((d.name.as_str(), ""));
+        }
+        for (name, origin) in all {
+            check_name(name, origin, &names)?;
+            names.push((name, origin));
+        }
+        for a in &d.axes {
+            check_field(a, &fields)?;
+            fields.push((a.field.as_str(), a.origin.as_str()));
+        }
+    }
+    Ok(())
+}
+
+/// `name` (of the axis at `origin`, or of a zipped dimension when `origin` is empty) is usable,
+/// not reserved, and not among `taken`.
+fn check_name(name: &str, origin: &str, taken: &[(&str, &str)]) -> Result<()> {
+    let at = if origin.is_empty() {
+        "axes".to_string()
+    } else {
+        format!("{origin}.name")
+    };
+    if !valid_name(name) {
+        return Err(Error::input(
+            at,
+            format!("`{name}` is not a usable name: letters, digits, `_` and `-`, not starting with a digit, at most 64 characters"),
+        ));
+    }
+    let reserved = reserved_names();
+    if reserved.contains(&name) {
+        return Err(Error::input(
+            at,
+            format!(
+                "`{name}` is a reserved dataset name; reserved: {}",
+                reserved.join(", ")
+            ),
+        ));
+    }
+    if let Some((_, other)) = taken.iter().find(|(n, _)| *n == name) {
+        return Err(Error::input(
+            at,
+            format!("name `{name}` is already used by {other}"),
+        ));
+    }
+    Ok(())
+}
+
+/// The field of axis `a` overlaps none of the fields `taken` (a field, or one inside it).
+fn check_field(a: &Axis, taken: &[(&str, &str)]) -> Result<()> {
+    let segs = split_path(&a.field);
+    for (f, other) in taken {
+        let o = split_path(f);
+        let overlap = segs.len().min(o.len());
+        if segs[..overlap] == o[..overlap] {
+            return Err(Error::input(
+                format!("{}.field", a.origin),
+                format!(
+                    "`{}` overlaps `{f}` set by {other}; each field may be set by one axis only",
+                    a.field
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+impl Sweep {
+    /// Parses and checks a sweep file's text: syntax, unknown fields, types, axes. Grid points
+    /// are checked by [`crate::grid::Grid::new`].
+    pub fn parse(text: &str) -> Result<Sweep> {
+        let file = read_json(text)?;
+        let (base, auto) = normalise_base(file.base, file.record)?;
+        let limits = parse_limits(file.limits)?;
+        let dims = parse_dims(file.axes, &base, auto.is_some())?;
+        check_names_and_fields(&dims)?;
         Ok(Sweep {
             text: text.to_string(),
             description: file.description,

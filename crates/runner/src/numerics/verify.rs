@@ -15,51 +15,11 @@
 use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, Scene};
 use sha2::{Digest, Sha256};
 
-use crate::grid::{hex, Grid, RunHash};
-use crate::store::RunRecord;
+use super::probe_errors;
+use crate::grid::Grid;
+use crate::identity::{verify_hash, RunHash};
+use crate::record::{RunRecord, VerifyInfo, VERIFY_FAILED, VERIFY_OK};
 use crate::sweep::Sweep;
-
-/// `verified` flag: the point was not verified.
-pub const VERIFY_NONE: u8 = 0;
-/// `verified` flag: verified; the errors are stored.
-pub const VERIFY_OK: u8 = 1;
-/// `verified` flag: the verification run itself failed (its reason is printed by `run`).
-pub const VERIFY_FAILED: u8 = 2;
-
-/// How the tighter setting is made, as recorded in the file.
-pub const TIGHTENING: &str =
-    "dop853/ros34pw2: rtol/100 (atol/100 when given); rk4/verlet: dt_s/4; max_steps x4";
-
-/// The verification outcome of one grid point.
-#[derive(Debug, Clone, PartialEq)]
-pub struct VerifyInfo {
-    /// [`VERIFY_NONE`], [`VERIFY_OK`] or [`VERIFY_FAILED`].
-    pub status: u8,
-    /// Per probe: relative error of the leading peak, its time and the record maximum (NaN
-    /// where not verified, or where neither run has the value).
-    pub errors: Vec<[f64; 3]>,
-}
-
-impl VerifyInfo {
-    /// Not verified: NaN errors for `n_probes` probes.
-    pub fn none(n_probes: usize) -> Self {
-        VerifyInfo {
-            status: VERIFY_NONE,
-            errors: vec![[f64::NAN; 3]; n_probes],
-        }
-    }
-
-    /// The largest error over probes and summaries, NaN where there is none.
-    pub fn max_error(&self) -> f64 {
-        let mut m = f64::NAN;
-        for e in self.errors.iter().flatten() {
-            if !e.is_nan() && (m.is_nan() || *e > m) {
-                m = *e;
-            }
-        }
-        m
-    }
-}
 
 /// The integrator one notch tighter (see the module docs).
 pub fn tighten(spec: IntegratorSpec) -> IntegratorSpec {
@@ -88,23 +48,6 @@ pub fn tight_scene(scene: &Scene) -> Scene {
     s.record.history = false;
     s.record.min_overlap = false;
     s
-}
-
-/// Identity of the verification run of the point whose run hash is `base` and whose verification
-/// scene is `tight`: a different marker than run hashes, so the two never collide.
-pub fn verify_hash(base: &RunHash, tight: &Scene) -> RunHash {
-    let mut h = Sha256::new();
-    h.update(b"chainsweep verification run v1\n");
-    h.update(format!("base_run={}\n", hex(base)).as_bytes());
-    h.update(b"tightening=");
-    h.update(TIGHTENING.as_bytes());
-    h.update(b"\nscene=");
-    h.update(
-        serde_json::to_string(tight)
-            .expect("Scene serialises")
-            .as_bytes(),
-    );
-    h.finalize().into()
 }
 
 /// The key of a sweep for sampling: the SHA-256 of every run hash in grid order.
@@ -143,25 +86,6 @@ pub fn sample(grid: &Grid, fraction: f64) -> Vec<bool> {
     chosen
 }
 
-/// Relative error of `x` against the reference `r`: NaN when both are NaN (neither run has the
-/// value), infinite when only one is (the runs disagree on whether it exists) or when `r` is 0 and
-/// `x` is not.
-pub fn rel_error(x: f64, r: f64) -> f64 {
-    match (x.is_nan(), r.is_nan()) {
-        (true, true) => f64::NAN,
-        (true, false) | (false, true) => f64::INFINITY,
-        _ => {
-            if x == r {
-                0.0
-            } else if r == 0.0 {
-                f64::INFINITY
-            } else {
-                ((x - r) / r).abs()
-            }
-        }
-    }
-}
-
 /// The verification outcome of a point from its run and its verification run.
 pub fn compare(base: &RunRecord, tight: Option<&RunRecord>, n_probes: usize) -> VerifyInfo {
     let Some(tight) = tight else {
@@ -170,24 +94,13 @@ pub fn compare(base: &RunRecord, tight: Option<&RunRecord>, n_probes: usize) -> 
     if !tight.ok {
         return VerifyInfo {
             status: VERIFY_FAILED,
-            errors: vec![[f64::NAN; 3]; n_probes],
+            ..VerifyInfo::none(n_probes)
         };
     }
     if !base.ok {
         return VerifyInfo::none(n_probes);
     }
-    let errors = base
-        .probes
-        .iter()
-        .zip(&tight.probes)
-        .map(|(b, t)| {
-            [
-                rel_error(b.leading_peak, t.leading_peak),
-                rel_error(b.leading_peak_time_s, t.leading_peak_time_s),
-                rel_error(b.record_max, t.record_max),
-            ]
-        })
-        .collect();
+    let errors = probe_errors(&base.probes, &tight.probes);
     VerifyInfo {
         status: VERIFY_OK,
         errors,
@@ -205,15 +118,6 @@ pub fn point_verification(sweep: &Sweep, grid: &Grid, i: usize) -> (Scene, RunHa
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn relative_errors() {
-        assert_eq!(rel_error(1.0, 1.0), 0.0);
-        assert!((rel_error(1.01, 1.0) - 0.01).abs() < 1e-12);
-        assert!(rel_error(f64::NAN, f64::NAN).is_nan());
-        assert!(rel_error(f64::NAN, 1.0).is_infinite());
-        assert!(rel_error(1.0, 0.0).is_infinite());
-    }
 
     #[test]
     fn tightening() {

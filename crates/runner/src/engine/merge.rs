@@ -1,0 +1,165 @@
+//! `merge`: shard files of one sweep assembled into one output file, identical to a
+//! single-machine run. The merged output's work directory is filled with the shards' runs, so it
+//! can be resumed like any output.
+
+use std::collections::hash_map::Entry;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::grid::Grid;
+use crate::identity::{hex, RunHash};
+use crate::numerics::verify;
+use crate::store::hdf5::{self, Counts, FileRecords, Provenance};
+use crate::store::{RunStore, WorkDir};
+use crate::sweep::Sweep;
+
+use super::assemble::{assemble, Assembly, VerifySource};
+use super::{auto, check_output};
+
+/// What a merge did.
+#[derive(Debug, Clone, Copy)]
+pub struct MergeReport {
+    /// Shard files merged.
+    pub shards: usize,
+    /// Grid points of the sweep.
+    pub points: usize,
+    /// The state of those points in the merged file.
+    pub counts: Counts,
+}
+
+/// Merges `shards` (files made by `run --shard` from one sweep file) into `output`.
+pub fn merge(output: &Path, shards: &[PathBuf], provenance: &Provenance) -> Result<MergeReport> {
+    let text = common_sweep_text(shards)?;
+    let first = shards[0].display().to_string();
+    let mut sweep = Sweep::parse(&text).map_err(|e| e.in_file(&first))?;
+    let mut grid = Grid::new(&sweep).map_err(|e| e.in_file(&first))?;
+    auto::apply_from_shards(&mut sweep, &mut grid, shards)?;
+    check_output(output, false)?;
+    if shards
+        .iter()
+        .any(|s| s.canonicalize().ok() == output.canonicalize().ok() && output.exists())
+    {
+        return Err(Error::input(
+            "--output",
+            "must not be one of the shard files",
+        ));
+    }
+    let work = WorkDir::open(output)?;
+    auto::cache(&work, &sweep)?;
+    let mut done: HashMap<RunHash, bool> = HashMap::new();
+    let mut vsrc = VerifySource::empty(0.0);
+    for s in shards {
+        take_shard(s, &grid, &work, &mut done, &mut vsrc)?;
+    }
+    // Runs already in the output's work directory count too.
+    for &h in &grid.hashes {
+        if let Entry::Vacant(slot) = done.entry(h) {
+            if let Some(rec) = work.read(&h)? {
+                slot.insert(rec.ok);
+            }
+        }
+    }
+    let points: Vec<usize> = (0..grid.len()).collect();
+    // Points whose run was already in the output's work directory: their verification runs too.
+    let index = work.index()?;
+    for &i in &points {
+        if vsrc.given.contains_key(&i) {
+            continue;
+        }
+        let (_, vh) = verify::point_verification(&sweep, &grid, i);
+        if let Some(&ok) = index.get(&vh) {
+            vsrc.done.insert(vh, ok);
+        }
+        vsrc.hashes.insert(i, vh);
+    }
+    let counts = assemble(
+        &work,
+        &Assembly {
+            sweep: &sweep,
+            grid: &grid,
+            points: &points,
+            shard: None,
+            done: &done,
+            provenance,
+            verify: &vsrc,
+        },
+    )?;
+    Ok(MergeReport {
+        shards: shards.len(),
+        points: grid.len(),
+        counts,
+    })
+}
+
+/// The sweep file's text every shard records; an input error naming the shard that is no
+/// chainsweep output or was made from another sweep.
+fn common_sweep_text(shards: &[PathBuf]) -> Result<String> {
+    let mut text: Option<String> = None;
+    for s in shards {
+        let bad = |m: String| Error::Input {
+            file: Some(s.display().to_string()),
+            field: String::new(),
+            message: m,
+        };
+        if !hdf5::is_hdf5(s) {
+            return Err(bad("not an HDF5 file".into()));
+        }
+        let t = hdf5::read_sweep_text(s)
+            .map_err(|e| bad(format!("not a chainsweep output file: {e}")))?;
+        match &text {
+            None => text = Some(t),
+            Some(first) if *first != t => {
+                return Err(bad(format!(
+                    "was made from a different sweep file than {}; shards must come from the same sweep",
+                    shards[0].display()
+                )))
+            }
+            _ => {}
+        }
+    }
+    Ok(text.expect("at least one shard"))
+}
+
+/// Copies the finished runs of shard file `path` into `work` (those not there yet), and takes
+/// their verification outcomes as they are.
+fn take_shard(
+    path: &Path,
+    grid: &Grid,
+    work: &WorkDir,
+    done: &mut HashMap<RunHash, bool>,
+    vsrc: &mut VerifySource,
+) -> Result<()> {
+    let recs = FileRecords::open(path)?;
+    vsrc.fraction = vsrc.fraction.max(recs.verify_fraction);
+    if recs.len() != grid.len() {
+        return Err(Error::Other(format!(
+            "{}: holds {} grid points, the sweep has {}",
+            path.display(),
+            recs.len(),
+            grid.len()
+        )));
+    }
+    for i in 0..grid.len() {
+        let h = grid.hashes[i];
+        if done.contains_key(&h) {
+            continue;
+        }
+        if recs.hash_hex(i) != hex(&h) {
+            return Err(Error::Other(format!(
+                "{}: point {i} has run hash {}, this chainsweep computes {}: the shard was made by a different engine version",
+                path.display(),
+                recs.hash_hex(i),
+                hex(&h)
+            )));
+        }
+        if let Some(rec) = recs.record(i, h, grid)? {
+            if work.read(&h)?.is_none() {
+                work.write(&rec)?;
+            }
+            done.insert(h, rec.ok);
+            vsrc.given.insert(i, recs.verify_info(i, grid.probes.len()));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,161 @@
+//! The engine: everything a command does between parsing its arguments and printing its result,
+//! as a library. It prints nothing: results come back as values, and what happens while a sweep
+//! runs goes to a [`ProgressSink`].
+//!
+//! - [`run`]: a sweep run or resumed into its output file ([`run::run_sweep`]), through
+//!   - [`plan`]: what is done already, what to run (grid points and verification runs);
+//!   - [`schedule`]: the runs on a thread pool through an [`schedule::Executor`], each stored
+//!     as it finishes, with checkpoints of the output file and a stop flag;
+//!   - [`assemble`]: the output file written from the stored runs;
+//! - [`auto`]: `integrator: auto` resolved from the work directory's cache or a pilot;
+//! - [`shard`]: which grid points a shard runs;
+//! - [`merge`]: shard files assembled into one;
+//! - [`status`]: what an output file or a work directory holds;
+//! - [`inspect`]: a dry run, one grid point, a work-precision study.
+
+pub mod assemble;
+pub mod auto;
+pub mod inspect;
+pub mod merge;
+pub mod plan;
+pub mod run;
+pub mod schedule;
+pub mod shard;
+pub mod status;
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::grid::{Grid, Shard};
+use crate::store::work_dir_of;
+use crate::sweep::auto::AutoChoice;
+use crate::sweep::Sweep;
+
+/// How `integrator: auto` was resolved, as a [`ProgressSink`] hears of it.
+#[derive(Debug, Clone, Copy)]
+pub enum AutoResolution<'a> {
+    /// Taken from the cache file `cache_file` of the output's work directory.
+    Cached {
+        /// The choice.
+        choice: &'a AutoChoice,
+        /// Where it was cached.
+        cache_file: &'a Path,
+    },
+    /// Chosen now by a pilot.
+    Chosen {
+        /// The choice.
+        choice: &'a AutoChoice,
+    },
+}
+
+/// Receives what happens while the engine works: the display of a command line, a notebook
+/// widget, a test's log. Every method has an empty default.
+pub trait ProgressSink {
+    /// A line of `integrator: auto`'s pilot, as it runs.
+    fn pilot(&mut self, _line: &str) {}
+    /// `integrator: auto` was resolved.
+    fn auto_resolved(&mut self, _resolution: AutoResolution<'_>) {}
+    /// The runs start: `total` runs (verification runs included), `done` of them finished
+    /// earlier (`failed` of those failed); `resumed_points` of the `points` grid points of this
+    /// run were done earlier, into `output`.
+    fn started(&mut self, _start: &Start<'_>) {}
+    /// A run finished (`failed`: it failed).
+    fn run_finished(&mut self, _failed: bool) {}
+    /// Nothing finished for a while: time to refresh a display.
+    fn idle(&mut self) {}
+    /// The output file was refreshed with every run finished so far.
+    fn checkpoint(&mut self) {}
+    /// Every run is finished (or the sweep was stopped); the output file is written next.
+    fn runs_ended(&mut self) {}
+}
+
+/// What a [`ProgressSink`] hears when the runs start.
+#[derive(Debug, Clone, Copy)]
+pub struct Start<'a> {
+    /// Runs in all, verification runs included.
+    pub total: usize,
+    /// Runs finished earlier.
+    pub done: usize,
+    /// Runs finished earlier that failed.
+    pub failed: usize,
+    /// Grid points of this run (or shard).
+    pub points: usize,
+    /// Grid points finished earlier.
+    pub resumed_points: usize,
+    /// The output file.
+    pub output: &'a Path,
+}
+
+/// A [`ProgressSink`] that ignores everything.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Silent;
+
+impl ProgressSink for Silent {}
+
+/// Reads, parses and expands a sweep file; errors name the file.
+pub fn load(file: &Path) -> Result<(Sweep, Grid)> {
+    let name = file.display().to_string();
+    let sweep = Sweep::load(&name)?;
+    let grid = Grid::new(&sweep).map_err(|e| e.in_file(&name))?;
+    Ok((sweep, grid))
+}
+
+/// The output file of a sweep file when none is given: its name with `.h5` in the current
+/// directory, `NAME.shard-K-of-N.h5` for a shard.
+pub fn default_output(file: &Path, shard: Option<Shard>) -> PathBuf {
+    let stem = file
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "sweep".into());
+    match shard {
+        None => PathBuf::from(format!("{stem}.h5")),
+        Some(Shard { k, n }) => PathBuf::from(format!("{stem}.shard-{k}-of-{n}.h5")),
+    }
+}
+
+/// Checks that `output` can be written without clobbering a file chainsweep did not make
+/// (unless `overwrite`).
+pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
+    let parent = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !parent.is_dir() {
+        return Err(Error::input(
+            "--output",
+            format!("the directory {} does not exist", parent.display()),
+        ));
+    }
+    if output.is_dir() {
+        return Err(Error::input(
+            "--output",
+            format!("{} is a directory", output.display()),
+        ));
+    }
+    if output.exists() && !work_dir_of(output).is_dir() && !overwrite {
+        return Err(Error::input(
+            "--output",
+            format!(
+                "{} exists but has no work directory {} (it was not made by `chainsweep run` or `merge`); pass --overwrite to replace it",
+                output.display(),
+                work_dir_of(output).display()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A pool of `jobs` worker threads.
+pub fn thread_pool(jobs: usize) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .map_err(|source| Error::Threads { jobs, source })
+}
+
+/// The number of CPUs this process may use.
+pub fn all_cpus() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+}

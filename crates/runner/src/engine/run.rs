@@ -1,0 +1,315 @@
+//! A sweep run (or resumed) into its output file: plan, schedule with checkpoints, assemble, and
+//! the report of what happened.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
+
+use crate::error::{Error, Result};
+use crate::grid::{Grid, Shard};
+use crate::identity::RunHash;
+use crate::record::VERIFY_OK;
+use crate::store::hdf5::{Counts, Provenance};
+use crate::store::{work_dir_of, RunStore, WorkDir};
+use crate::sweep::Sweep;
+
+use super::assemble::{assemble, Assembly};
+use super::auto::{self, AutoOrigin};
+use super::plan::Plan;
+use super::schedule::{run_tasks, Coordinator, Executor, Schedule, SolverExecutor, Task};
+use super::{check_output, shard, thread_pool, ProgressSink, Start};
+
+/// How many failed runs a report lists with their reasons (it counts them all).
+pub const LISTED_FAILURES: usize = 20;
+
+/// Options of a sweep run.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// The output file.
+    pub output: PathBuf,
+    /// Parallel runs (at least 1).
+    pub jobs: usize,
+    /// Run only this shard.
+    pub shard: Option<Shard>,
+    /// Run again the points whose earlier run failed.
+    pub retry_failed: bool,
+    /// Time between refreshes of the output file while the sweep runs (zero: only at the end).
+    pub checkpoint_interval: Duration,
+    /// Fraction of the grid verified at a tighter setting (0: none).
+    pub verify_fraction: f64,
+    /// Replace an existing output file that has no work directory.
+    pub overwrite: bool,
+    /// Provenance attributes of the output file.
+    pub provenance: Provenance,
+}
+
+impl RunOptions {
+    /// Checks the options that do not depend on the sweep; an input error naming the option.
+    pub fn check(jobs: usize, checkpoint_interval_s: f64, verify_fraction: f64) -> Result<()> {
+        if jobs == 0 {
+            return Err(Error::input("--jobs", "must be at least 1"));
+        }
+        if !(checkpoint_interval_s.is_finite() && checkpoint_interval_s >= 0.0) {
+            return Err(Error::input(
+                "--checkpoint-interval",
+                "must be a number of seconds >= 0",
+            ));
+        }
+        if !(0.0..=1.0).contains(&verify_fraction) {
+            return Err(Error::input(
+                "--verify",
+                format!("must be a fraction in [0, 1], got {verify_fraction}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A failed run: its grid point and why it failed (`None`: its record could not be read).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// The grid point.
+    pub point: usize,
+    /// Its reason.
+    pub reason: Option<String>,
+}
+
+/// What `--verify` found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct VerificationReport {
+    /// Sampled points of this run.
+    pub requested: usize,
+    /// Points verified.
+    pub verified: usize,
+    /// The largest verified error and its point.
+    pub worst: Option<(f64, usize)>,
+    /// Points whose verification run failed.
+    pub failed: usize,
+    /// The first [`LISTED_FAILURES`] of them, with their reasons.
+    pub failures: Vec<Failure>,
+}
+
+/// What a sweep run did.
+#[derive(Debug, Clone)]
+pub struct RunReport {
+    /// Grid points of this run (or shard).
+    pub points: usize,
+    /// The state of those points in the output file.
+    pub counts: Counts,
+    /// Failed grid points.
+    pub failed: usize,
+    /// The first [`LISTED_FAILURES`] of them, with their reasons.
+    pub failures: Vec<Failure>,
+    /// What `--verify` found.
+    pub verification: VerificationReport,
+    /// Whether the sweep was stopped (by the stop flag) before every run finished.
+    pub stopped: bool,
+}
+
+/// Runs (or resumes) `sweep` into `opts.output` with the solver: checks the output, resolves
+/// `integrator: auto` (in `sweep` and `grid`), locks the work directory and runs the plan. `stop` may be set from another
+/// thread to take no new run; the output is then written with everything finished.
+pub fn run_sweep(
+    sweep: &mut Sweep,
+    grid: &mut Grid,
+    opts: &RunOptions,
+    sink: &mut dyn ProgressSink,
+    stop: &AtomicBool,
+) -> Result<RunReport> {
+    check_output(&opts.output, opts.overwrite)?;
+    let pool = thread_pool(opts.jobs)?;
+    // `integrator: auto`: the cached choice, or a pilot (before the work directory is created,
+    // so that a target no setting meets leaves nothing behind).
+    let origin = auto::resolve(sweep, grid, Some(&work_dir_of(&opts.output)), &pool, sink)?;
+    let work = WorkDir::open(&opts.output)?;
+    if origin == AutoOrigin::Pilot {
+        auto::cache(&work, sweep)?;
+    }
+    let points = shard::points(grid.len(), opts.shard);
+    let executor = SolverExecutor { sweep, grid };
+    run_points(
+        &work, sweep, grid, points, opts, &pool, &executor, sink, stop,
+    )
+}
+
+/// Runs (or resumes) `points` of `sweep` into the locked work directory `work` through
+/// `executor`, with checkpoints, and writes the output file.
+#[allow(clippy::too_many_arguments)]
+pub fn run_points(
+    work: &WorkDir,
+    sweep: &Sweep,
+    grid: &Grid,
+    points: Vec<usize>,
+    opts: &RunOptions,
+    pool: &rayon::ThreadPool,
+    executor: &dyn Executor,
+    sink: &mut dyn ProgressSink,
+    stop: &AtomicBool,
+) -> Result<RunReport> {
+    let plan = Plan::new(
+        sweep,
+        grid,
+        points,
+        work,
+        opts.retry_failed,
+        opts.verify_fraction,
+    )?;
+    sink.started(&Start {
+        total: plan.total,
+        done: plan.done_before,
+        failed: plan.failed_before,
+        points: plan.points.len(),
+        resumed_points: plan.points_done_before,
+        output: &opts.output,
+    });
+    let tasks = plan.tasks.clone();
+    let mut run = Running {
+        work,
+        sweep,
+        grid,
+        opts,
+        plan,
+        sink,
+    };
+    let schedule = Schedule {
+        pool,
+        checkpoint_every: opts.checkpoint_interval,
+        stop,
+    };
+    run_tasks(&tasks, executor, work, &schedule, &mut run)?;
+    let counts = run.assemble()?;
+    let plan = &run.plan;
+    let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
+    Ok(RunReport {
+        points: plan.points.len(),
+        counts,
+        failed,
+        failures,
+        verification: verification_report(work, grid, plan)?,
+        stopped: stop.load(Ordering::Relaxed) && counts.pending > 0,
+    })
+}
+
+/// The state of a run while its tasks execute: the coordinator of the scheduler.
+struct Running<'a> {
+    work: &'a WorkDir,
+    sweep: &'a Sweep,
+    grid: &'a Grid,
+    opts: &'a RunOptions,
+    plan: Plan,
+    sink: &'a mut dyn ProgressSink,
+}
+
+impl Running<'_> {
+    fn assemble(&self) -> Result<Counts> {
+        assemble(
+            self.work,
+            &Assembly {
+                sweep: self.sweep,
+                grid: self.grid,
+                points: &self.plan.points,
+                shard: self.opts.shard,
+                done: &self.plan.done,
+                provenance: &self.opts.provenance,
+                verify: &self.plan.verify,
+            },
+        )
+    }
+}
+
+impl Coordinator for Running<'_> {
+    fn finished(&mut self, task: &Task, ok: bool) {
+        self.plan.finish(task, ok);
+        for _ in 0..self.plan.weight(task) {
+            self.sink.run_finished(!ok);
+        }
+    }
+
+    fn idle(&mut self) {
+        self.sink.idle();
+    }
+
+    fn checkpoint(&mut self) -> Result<()> {
+        self.assemble()?;
+        self.sink.checkpoint();
+        Ok(())
+    }
+
+    fn ended(&mut self) {
+        self.sink.runs_ended();
+    }
+}
+
+/// The failed grid points among `points` (counted once per point) and the first
+/// [`LISTED_FAILURES`] with their reasons.
+fn failures(
+    store: &dyn RunStore,
+    grid: &Grid,
+    points: &[usize],
+    done: &HashMap<RunHash, bool>,
+) -> (usize, Vec<Failure>) {
+    let failed_points: Vec<usize> = points
+        .iter()
+        .copied()
+        .filter(|&i| done.get(&grid.hashes[i]) == Some(&false))
+        .collect();
+    let listed = failed_points
+        .iter()
+        .take(LISTED_FAILURES)
+        .map(|&point| Failure {
+            point,
+            reason: store
+                .read(&grid.hashes[point])
+                .ok()
+                .flatten()
+                .map(|r| r.reason),
+        })
+        .collect();
+    (failed_points.len(), listed)
+}
+
+/// What the verification runs of `plan` found.
+fn verification_report(
+    store: &dyn RunStore,
+    grid: &Grid,
+    plan: &Plan,
+) -> Result<VerificationReport> {
+    let mut report = VerificationReport::default();
+    let mut failed_points = Vec::new();
+    for &i in &plan.points {
+        let Some(h) = plan.verify.hashes.get(&i) else {
+            continue;
+        };
+        match plan.verify.done.get(h) {
+            Some(false) => failed_points.push(i),
+            Some(true) => {
+                let Some(rec) = store.read(&grid.hashes[i])? else {
+                    continue;
+                };
+                let info = plan.verify.info(store, grid, i, &rec)?;
+                if info.status == VERIFY_OK {
+                    report.verified += 1;
+                    let e = info.max_error();
+                    if !e.is_nan() && report.worst.map_or(true, |(w, _)| e > w) {
+                        report.worst = Some((e, i));
+                    }
+                }
+            }
+            None => {}
+        }
+    }
+    report.failed = failed_points.len();
+    for &point in failed_points.iter().take(LISTED_FAILURES) {
+        let reason = store
+            .read(&plan.verify.hashes[&point])?
+            .map(|r| r.reason)
+            .unwrap_or_default();
+        report.failures.push(Failure {
+            point,
+            reason: Some(reason),
+        });
+    }
+    report.requested = plan.points.iter().filter(|&&i| plan.sampled[i]).count();
+    Ok(report)
+}

@@ -1,0 +1,191 @@
+//! The scheduler: tasks run on a thread pool through an [`Executor`], each finished run stored at
+//! once, and the coordinating thread told of every finished run and of when a checkpoint is due.
+//!
+//! A panic of the executor is a failed run with its message, never the end of the sweep. Workers
+//! take no new task once the stop flag is set (by the caller, e.g. on a signal) or once storing a
+//! run failed; the tasks already running finish and are stored.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::exec;
+use crate::grid::Grid;
+use crate::identity::RunHash;
+use crate::numerics::verify;
+use crate::record::RunRecord;
+use crate::store::RunStore;
+use crate::sweep::Sweep;
+
+use super::assemble::VerifySource;
+
+/// One unit of work: a grid point's run, or its verification run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Task {
+    /// The grid point (flat index).
+    pub point: usize,
+    /// The run's hash: the point's run hash, or its verification hash.
+    pub hash: RunHash,
+    /// Whether this is the verification run of the point.
+    pub verification: bool,
+}
+
+impl Task {
+    /// The run of grid point `point`.
+    pub fn run(grid: &Grid, point: usize) -> Task {
+        Task {
+            point,
+            hash: grid.hashes[point],
+            verification: false,
+        }
+    }
+
+    /// The verification run of grid point `point` (its hash from `verify`).
+    pub fn verification(verify: &VerifySource, point: usize) -> Task {
+        Task {
+            point,
+            hash: verify.hashes[&point],
+            verification: true,
+        }
+    }
+}
+
+/// Runs one task into its record (whose hash must be the task's). It may panic: the scheduler
+/// records a panic as the run's failure, with the panic's message.
+pub trait Executor: Sync {
+    /// Runs `task`.
+    fn execute(&self, task: &Task) -> RunRecord;
+}
+
+/// The executor of a sweep: each task's scene built from the grid and run by the solver.
+pub struct SolverExecutor<'a> {
+    /// The sweep.
+    pub sweep: &'a Sweep,
+    /// Its grid.
+    pub grid: &'a Grid,
+}
+
+impl Executor for SolverExecutor<'_> {
+    fn execute(&self, task: &Task) -> RunRecord {
+        let (sweep, grid, i) = (self.sweep, self.grid, task.point);
+        if task.verification {
+            let (tight, vh) = verify::point_verification(sweep, grid, i);
+            debug_assert_eq!(vh, task.hash);
+            exec::execute_verification(&tight, vh, &sweep.limits)
+        } else {
+            let scene = grid.build(sweep, i).expect("every point was validated");
+            exec::execute(&scene, task.hash, &sweep.limits, i)
+        }
+    }
+}
+
+/// The coordinating thread's side of a run: it hears of every finished run and writes
+/// checkpoints. Its methods run on the thread that called [`run_tasks`], one at a time.
+pub trait Coordinator {
+    /// `task` finished and its record is stored (`ok`: the run succeeded).
+    fn finished(&mut self, task: &Task, ok: bool);
+    /// Nothing finished for a while.
+    fn idle(&mut self);
+    /// A checkpoint is due: write the output with everything finished so far.
+    fn checkpoint(&mut self) -> Result<()>;
+    /// Every worker is done (also after a run could not be stored, but not after a failed
+    /// checkpoint).
+    fn ended(&mut self);
+}
+
+/// How the scheduler runs.
+pub struct Schedule<'a> {
+    /// The worker threads.
+    pub pool: &'a rayon::ThreadPool,
+    /// Time between checkpoints (zero: none).
+    pub checkpoint_every: Duration,
+    /// Set by the caller to take no new task.
+    pub stop: &'a AtomicBool,
+}
+
+/// How often the coordinator is woken when nothing finishes.
+const IDLE_TICK: Duration = Duration::from_millis(250);
+
+/// What a worker sends the coordinator.
+struct Finished {
+    task: Task,
+    ok: bool,
+    stored: Result<()>,
+}
+
+/// Runs `tasks` on `schedule.pool` through `executor`, storing each record in `store` as it
+/// finishes. Returns the first error storing a run or writing a checkpoint (the runs stored
+/// before it stay stored). A checkpoint that fails ends the coordination at once; the workers
+/// finish the remaining tasks and store them.
+pub fn run_tasks(
+    tasks: &[Task],
+    executor: &dyn Executor,
+    store: &dyn RunStore,
+    schedule: &Schedule<'_>,
+    coordinator: &mut dyn Coordinator,
+) -> Result<()> {
+    let store_failed = AtomicBool::new(false);
+    let mut store_error: Option<Error> = None;
+    let mut last_checkpoint = Instant::now();
+    std::thread::scope(|s| -> Result<()> {
+        let (tx, rx) = mpsc::channel::<Finished>();
+        let store_failed = &store_failed;
+        s.spawn(move || {
+            schedule.pool.install(|| {
+                tasks.par_iter().for_each_with(tx, |tx, task| {
+                    if schedule.stop.load(Ordering::Relaxed) || store_failed.load(Ordering::Relaxed)
+                    {
+                        return;
+                    }
+                    let rec = run_one(executor, task);
+                    let stored = store.write(&rec);
+                    if stored.is_err() {
+                        store_failed.store(true, Ordering::Relaxed);
+                    }
+                    let _ = tx.send(Finished {
+                        task: *task,
+                        ok: rec.ok,
+                        stored,
+                    });
+                });
+            });
+        });
+        loop {
+            match rx.recv_timeout(IDLE_TICK) {
+                Ok(f) => match f.stored {
+                    Err(e) => {
+                        store_error.get_or_insert(e);
+                        continue;
+                    }
+                    Ok(()) => coordinator.finished(&f.task, f.ok),
+                },
+                Err(mpsc::RecvTimeoutError::Timeout) => coordinator.idle(),
+                Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            }
+            let due = !schedule.checkpoint_every.is_zero()
+                && last_checkpoint.elapsed() >= schedule.checkpoint_every;
+            if due && store_error.is_none() {
+                coordinator.checkpoint()?;
+                last_checkpoint = Instant::now();
+            }
+        }
+        Ok(())
+    })?;
+    coordinator.ended();
+    match store_error {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+/// Runs one task, a panic becoming a failed record.
+fn run_one(executor: &dyn Executor, task: &Task) -> RunRecord {
+    let start = Instant::now();
+    match exec::guarded(|| executor.execute(task)) {
+        Ok(rec) => rec,
+        Err(reason) => RunRecord::failed(task.hash, reason, start.elapsed().as_secs_f64()),
+    }
+}

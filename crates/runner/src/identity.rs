@@ -1,0 +1,96 @@
+//! Run identity: the SHA-256 hashes that name a run and a verification run.
+//!
+//! A run's hash is what resume, `status`, `merge` and the segment store look runs up by, so the
+//! bytes hashed here are a file format: changing them recomputes every sweep ever run. They are
+//! the runner's numerics version, the solver's version, the failure limit on the energy drift and
+//! the point's full scene as canonical JSON, so any change to a parameter that enters a run
+//! changes its hash, and nothing else does.
+
+use sha2::{Digest, Sha256};
+
+use chainsweep_solver::Scene;
+
+/// SHA-256 identity of a run.
+pub type RunHash = [u8; 32];
+
+/// How the tighter setting of a verification run is made (part of its identity, and recorded in
+/// output files as `verify_tightening`).
+pub const TIGHTENING: &str =
+    "dop853/ros34pw2: rtol/100 (atol/100 when given); rk4/verlet: dt_s/4; max_steps x4";
+
+/// Lower-case hex of a run hash.
+pub fn hex(hash: &RunHash) -> String {
+    hash.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The run hash written as 64 hex digits, read back; `None` for anything else.
+pub fn from_hex(text: &str) -> Option<RunHash> {
+    if text.len() != 64 || !text.is_ascii() {
+        return None;
+    }
+    let mut out = [0u8; 32];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = u8::from_str_radix(&text[2 * i..2 * i + 2], 16).ok()?;
+    }
+    Some(out)
+}
+
+/// Identity of the run of `scene` under the energy-drift limit `energy_drift_max` (`None`: no
+/// limit).
+pub fn run_hash(scene: &Scene, energy_drift_max: Option<f64>) -> RunHash {
+    let scene_json = serde_json::to_string(scene).expect("Scene serialises");
+    let limit = match energy_drift_max {
+        Some(x) => serde_json::to_string(&x).expect("f64 serialises"),
+        None => "null".to_string(),
+    };
+    let mut h = Sha256::new();
+    h.update(b"chainsweep run identity v1\n");
+    h.update(format!("numerics_version={}\n", crate::NUMERICS_VERSION).as_bytes());
+    h.update(format!("solver_version={}\n", crate::SOLVER_VERSION).as_bytes());
+    h.update(format!("energy_drift_max={limit}\n").as_bytes());
+    h.update(b"scene=");
+    h.update(scene_json.as_bytes());
+    h.finalize().into()
+}
+
+/// Identity of the verification run of the point whose run hash is `base` and whose verification
+/// scene is `tight`: a different marker than run hashes, so the two never collide.
+pub fn verify_hash(base: &RunHash, tight: &Scene) -> RunHash {
+    let mut h = Sha256::new();
+    h.update(b"chainsweep verification run v1\n");
+    h.update(format!("base_run={}\n", hex(base)).as_bytes());
+    h.update(b"tightening=");
+    h.update(TIGHTENING.as_bytes());
+    h.update(b"\nscene=");
+    h.update(
+        serde_json::to_string(tight)
+            .expect("Scene serialises")
+            .as_bytes(),
+    );
+    h.finalize().into()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hex_round_trips() {
+        let h: RunHash = std::array::from_fn(|i| (i * 37) as u8);
+        assert_eq!(from_hex(&hex(&h)), Some(h));
+        assert_eq!(from_hex("00"), None);
+        assert_eq!(from_hex(&"g".repeat(64)), None);
+    }
+
+    #[test]
+    fn hashes_follow_the_scene_and_the_limit() {
+        let scene = Scene::new(chainsweep_solver::ChainSpec::chain_055(3), 1.3, 1e-4);
+        let h = run_hash(&scene, Some(1e-3));
+        assert_ne!(h, run_hash(&scene, None));
+        let mut other = scene.clone();
+        other.striker_velocity_m_s = Some(1.31);
+        assert_ne!(h, run_hash(&other, Some(1e-3)));
+        assert_ne!(verify_hash(&h, &scene), h);
+        assert_eq!(run_hash(&scene, Some(1e-3)), h);
+    }
+}

@@ -1,0 +1,685 @@
+//! The one table of stored summary columns: every dataset the output file holds per grid point,
+//! with its name, dtype, shape, units, description, and how it is filled from a point's run and
+//! verification (and read back into a run record). The HDF5 writer and reader, the check that no
+//! axis takes a stored name, and the table in `README-sweeps.md` all come from [`COLUMNS`].
+
+use chainsweep_solver::probes::ProbeSummary;
+
+use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use super::{VERIFY_FAILED, VERIFY_NONE, VERIFY_OK};
+
+/// Element type of a column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dtype {
+    /// 64-bit float.
+    F64,
+    /// 64-bit signed integer.
+    I64,
+    /// 8-bit unsigned integer (a flag).
+    U8,
+    /// Variable-length UTF-8 string.
+    Str,
+}
+
+impl Dtype {
+    /// The name numpy gives it.
+    pub fn numpy(self) -> &'static str {
+        match self {
+            Dtype::F64 => "float64",
+            Dtype::I64 => "int64",
+            Dtype::U8 => "uint8",
+            Dtype::Str => "str",
+        }
+    }
+}
+
+/// What the `units` attribute of a column says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Units {
+    /// No `units` attribute.
+    None,
+    /// This unit.
+    Fixed(&'static str),
+    /// The unit of the probes when they share one, else `see probe_units`.
+    OfProbes,
+}
+
+/// How a column is filled from a grid point's outcome, and how it is read back into a record.
+#[derive(Clone, Copy)]
+pub enum Fill {
+    /// A number of a successful run; NaN elsewhere.
+    OkF64 {
+        /// The value in a record.
+        get: fn(&RunRecord) -> f64,
+        /// Puts it back.
+        set: fn(&mut RunRecord, f64),
+    },
+    /// A number of every finished run, failed ones included; NaN where pending.
+    RunF64 {
+        /// The value in a record.
+        get: fn(&RunRecord) -> f64,
+        /// Puts it back.
+        set: fn(&mut RunRecord, f64),
+    },
+    /// A count of a successful run; [`INT_FILL`] elsewhere.
+    OkCount {
+        /// The value in a record.
+        get: fn(&RunRecord) -> u64,
+        /// Puts it back.
+        set: fn(&mut RunRecord, u64),
+    },
+    /// Text of a successful run; empty elsewhere.
+    OkText {
+        /// The value in a record.
+        get: fn(&RunRecord) -> &str,
+        /// Puts it back.
+        set: fn(&mut RunRecord, String),
+    },
+    /// Why a failed run failed; empty elsewhere.
+    Reason,
+    /// A number per probe of a successful run; NaN elsewhere.
+    ProbeF64 {
+        /// The value in a probe's summary.
+        get: fn(&ProbeSummary) -> f64,
+        /// Puts it back.
+        set: fn(&mut ProbeSummary, f64),
+    },
+    /// The point's status: [`STATUS_PENDING`], [`STATUS_OK`] or [`STATUS_FAILED`].
+    Status,
+    /// The point's run hash (hex), pending points included.
+    RunHash,
+    /// The verification flag of a finished point ([`VERIFY_NONE`] elsewhere).
+    Verified,
+    /// The largest verification error of a verified point; NaN elsewhere.
+    VerifyMax,
+    /// Verification error `k` of [`VerifyInfo::errors`] per probe of a verified point; NaN
+    /// elsewhere.
+    VerifyProbe(usize),
+}
+
+/// One stored column.
+#[derive(Clone, Copy)]
+pub struct Column {
+    /// Dataset name at the root of the file.
+    pub name: &'static str,
+    /// Element type.
+    pub dtype: Dtype,
+    /// One value per grid point and probe (shape `grid + (P,)`), else one per grid point.
+    pub per_probe: bool,
+    /// The `units` attribute.
+    pub units: Units,
+    /// What it holds; written as the `long_name` attribute when `long_name` is set.
+    pub description: &'static str,
+    /// Whether `description` is written as the `long_name` attribute.
+    pub long_name: bool,
+    /// `flag_values` and `flag_meanings` attributes of a flag.
+    pub flags: Option<(&'static [u8], &'static str)>,
+    /// More for the documentation.
+    pub note: &'static str,
+    /// Whether every output file has it; the others read as their fill where absent (files
+    /// without probes have no per-probe columns, older files lack later columns).
+    pub required: bool,
+    /// How it is filled.
+    pub fill: Fill,
+}
+
+impl Column {
+    /// Whether a `fill_value` attribute ([`INT_FILL`]) marks its missing values.
+    pub fn has_fill_value(&self) -> bool {
+        matches!(self.fill, Fill::OkCount { .. })
+    }
+}
+
+const STATUS_FLAGS: &[u8] = &[STATUS_PENDING, STATUS_OK, STATUS_FAILED];
+const VERIFY_ERROR_NOTE: &str =
+    "NaN where not verified or where neither run has the value, inf where only one has it";
+const VERIFY_FLAGS: &[u8] = &[VERIFY_NONE, VERIFY_OK, VERIFY_FAILED];
+
+/// Every stored column, in the order the writer creates them.
+pub const COLUMNS: &[Column] = &[
+    Column {
+        name: "t_end_s",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("s"),
+        description: "time the run reached",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkF64 {
+            get: |r| r.t_end_s,
+            set: |r, x| r.t_end_s = x,
+        },
+    },
+    Column {
+        name: "energy_drift_max",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "largest |E(t) - E(0)| over the run, relative to the impact energy",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkF64 {
+            get: |r| r.energy_drift_max,
+            set: |r, x| r.energy_drift_max = x,
+        },
+    },
+    Column {
+        name: "energy_drift_final",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "|E(t_end) - E(0)| relative to the impact energy",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkF64 {
+            get: |r| r.energy_drift_final,
+            set: |r, x| r.energy_drift_final = x,
+        },
+    },
+    Column {
+        name: "momentum_residual_max",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "largest momentum-balance residual, relative to the striker momentum",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkF64 {
+            get: |r| r.momentum_residual_max,
+            set: |r, x| r.momentum_residual_max = x,
+        },
+    },
+    Column {
+        name: "impact_energy_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("J"),
+        description: "striker kinetic energy",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkF64 {
+            get: |r| r.impact_energy_j,
+            set: |r, x| r.impact_energy_j = x,
+        },
+    },
+    Column {
+        name: "wall_time_s",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("s"),
+        description: "wall-clock time of the run (kept for failed runs)",
+        long_name: true,
+        flags: None,
+        note: "the one summary that differs between otherwise identical files",
+        required: true,
+        fill: Fill::RunF64 {
+            get: |r| r.wall_time_s,
+            set: |r, x| r.wall_time_s = x,
+        },
+    },
+    Column {
+        name: "max_overlap_m",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("m"),
+        description: "largest contact overlap over the run (at step ends)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        fill: Fill::OkF64 {
+            get: |r| r.max_overlap_m,
+            set: |r, x| r.max_overlap_m = x,
+        },
+    },
+    Column {
+        name: "steps",
+        dtype: Dtype::I64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "accepted integrator steps",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkCount {
+            get: |r| r.steps,
+            set: |r, x| r.steps = x,
+        },
+    },
+    Column {
+        name: "rejected_steps",
+        dtype: Dtype::I64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "rejected step attempts",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkCount {
+            get: |r| r.rejected,
+            set: |r, x| r.rejected = x,
+        },
+    },
+    Column {
+        name: "rhs_evals",
+        dtype: Dtype::I64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "right-hand-side evaluations",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::OkCount {
+            get: |r| r.rhs_evals,
+            set: |r, x| r.rhs_evals = x,
+        },
+    },
+    Column {
+        name: "events",
+        dtype: Dtype::I64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "steps retaken to end on a contact opening or closing (located events)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        fill: Fill::OkCount {
+            get: |r| r.events,
+            set: |r, x| r.events = x,
+        },
+    },
+    Column {
+        name: "status",
+        dtype: Dtype::U8,
+        per_probe: false,
+        units: Units::None,
+        description: "0 pending, 1 ok, 2 failed",
+        long_name: false,
+        flags: Some((STATUS_FLAGS, "pending ok failed")),
+        note: "",
+        required: true,
+        fill: Fill::Status,
+    },
+    Column {
+        name: "reason",
+        dtype: Dtype::Str,
+        per_probe: false,
+        units: Units::None,
+        description: "why the run failed (empty unless status == 2)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::Reason,
+    },
+    Column {
+        name: "warnings",
+        dtype: Dtype::Str,
+        per_probe: false,
+        units: Units::None,
+        description: "physical-validity warnings of the run, one per line (empty when none)",
+        long_name: true,
+        flags: None,
+        note: "overlaps over 1 % of the radius (Hertz's law stretched), impact pulse shorter than 10 sound transit times through a particle; not failures",
+        required: false,
+        fill: Fill::OkText {
+            get: |r| &r.warnings,
+            set: |r, x| r.warnings = x,
+        },
+    },
+    Column {
+        name: "verified",
+        dtype: Dtype::U8,
+        per_probe: false,
+        units: Units::None,
+        description: "whether the point was re-run at a tighter setting (run --verify)",
+        long_name: true,
+        flags: Some((VERIFY_FLAGS, "not_verified verified verification_failed")),
+        note: "0 not verified, 1 verified, 2 the verification run failed",
+        required: false,
+        fill: Fill::Verified,
+    },
+    Column {
+        name: "verify_rel_error_max",
+        dtype: Dtype::F64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "largest verify_rel_error_* over the probes (NaN where not verified)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        fill: Fill::VerifyMax,
+    },
+    Column {
+        name: "run_hash",
+        dtype: Dtype::Str,
+        per_probe: false,
+        units: Units::None,
+        description:
+            "SHA-256 identity of the run: numerics version, solver version, limits, full scene",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: true,
+        fill: Fill::RunHash,
+    },
+    Column {
+        name: "leading_peak",
+        dtype: Dtype::F64,
+        per_probe: true,
+        units: Units::OfProbes,
+        description: "peak of the leading pulse (first excursion), refined between samples",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        fill: Fill::ProbeF64 {
+            get: |s| s.leading_peak,
+            set: |s, x| s.leading_peak = x,
+        },
+    },
+    Column {
+        name: "leading_peak_time_s",
+        dtype: Dtype::F64,
+        per_probe: true,
+        units: Units::Fixed("s"),
+        description: "time of the leading peak",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        fill: Fill::ProbeF64 {
+            get: |s| s.leading_peak_time_s,
+            set: |s, x| s.leading_peak_time_s = x,
+        },
+    },
+    Column {
+        name: "record_max",
+        dtype: Dtype::F64,
+        per_probe: true,
+        units: Units::OfProbes,
+        description: "maximum over the whole record, refined between samples",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        fill: Fill::ProbeF64 {
+            get: |s| s.record_max,
+            set: |s, x| s.record_max = x,
+        },
+    },
+    Column {
+        name: "record_max_time_s",
+        dtype: Dtype::F64,
+        per_probe: true,
+        units: Units::Fixed("s"),
+        description: "time of the record maximum",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        fill: Fill::ProbeF64 {
+            get: |s| s.record_max_time_s,
+            set: |s, x| s.record_max_time_s = x,
+        },
+    },
+    Column {
+        name: "verify_rel_error_leading_peak",
+        dtype: Dtype::F64,
+        per_probe: true,
+        units: Units::Fixed("1"),
+        description: "relative error of leading_peak against the verification run",
+        long_name: true,
+        flags: None,
+        note: VERIFY_ERROR_NOTE,
+        required: false,
+        fill: Fill::VerifyProbe(0),
+    },
+    Column {
+        name: "verify_rel_error_leading_peak_time",
+        dtype: Dtype::F64,
+        per_probe: true,
+        units: Units::Fixed("1"),
+        description: "relative error of leading_peak_time_s against the verification run",
+        long_name: true,
+        flags: None,
+        note: VERIFY_ERROR_NOTE,
+        required: false,
+        fill: Fill::VerifyProbe(1),
+    },
+    Column {
+        name: "verify_rel_error_record_max",
+        dtype: Dtype::F64,
+        per_probe: true,
+        units: Units::Fixed("1"),
+        description: "relative error of record_max against the verification run",
+        long_name: true,
+        flags: None,
+        note: VERIFY_ERROR_NOTE,
+        required: false,
+        fill: Fill::VerifyProbe(2),
+    },
+];
+
+/// Names the file uses at its root beside the columns: the probe coordinate, the probes' units
+/// and the group of full histories.
+pub const LAYOUT_NAMES: &[&str] = &["probe", "probe_units", "runs"];
+
+/// Every name an axis may not take: the columns' and the layout's.
+pub fn reserved_names() -> Vec<&'static str> {
+    let mut names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
+    names.extend_from_slice(LAYOUT_NAMES);
+    names
+}
+
+/// The column named `name`.
+pub fn column(name: &str) -> Option<&'static Column> {
+    COLUMNS.iter().find(|c| c.name == name)
+}
+
+/// The values of one column over the grid (row-major; probe fastest for per-probe columns).
+#[derive(Debug, Clone, PartialEq)]
+pub enum ColumnData {
+    /// [`Dtype::F64`].
+    F64(Vec<f64>),
+    /// [`Dtype::I64`].
+    I64(Vec<i64>),
+    /// [`Dtype::U8`].
+    U8(Vec<u8>),
+    /// [`Dtype::Str`].
+    Str(Vec<String>),
+}
+
+/// What a grid point holds when the file is written: its run hash, its run's record (none while
+/// pending) and, for a finished run, its verification outcome.
+#[derive(Debug, Clone, Copy)]
+pub struct PointOutcome<'a> {
+    /// The point's run hash (hex).
+    pub hash_hex: &'a str,
+    /// The finished run.
+    pub record: Option<&'a RunRecord>,
+    /// The verification outcome of a finished run.
+    pub verify: Option<&'a VerifyInfo>,
+}
+
+impl Column {
+    /// The column for `n_points` points of `n_probes` probes, every value its fill.
+    pub fn empty(&self, n_points: usize, n_probes: usize) -> ColumnData {
+        let n = if self.per_probe {
+            n_points * n_probes
+        } else {
+            n_points
+        };
+        match self.dtype {
+            Dtype::F64 => ColumnData::F64(vec![f64::NAN; n]),
+            Dtype::I64 => ColumnData::I64(vec![INT_FILL; n]),
+            Dtype::U8 => ColumnData::U8(vec![0; n]),
+            Dtype::Str => ColumnData::Str(vec![String::new(); n]),
+        }
+    }
+
+    /// Fills in point `i` (of `n_probes` probes) of `data` from its outcome `o`.
+    pub fn fill_point(&self, data: &mut ColumnData, i: usize, n_probes: usize, o: &PointOutcome) {
+        let ok = o.record.filter(|r| r.ok);
+        let verified = o.verify.filter(|v| v.status == VERIFY_OK);
+        match (self.fill, data) {
+            (Fill::OkF64 { get, .. }, ColumnData::F64(d)) => {
+                if let Some(r) = ok {
+                    d[i] = get(r);
+                }
+            }
+            (Fill::RunF64 { get, .. }, ColumnData::F64(d)) => {
+                if let Some(r) = o.record {
+                    d[i] = get(r);
+                }
+            }
+            (Fill::OkCount { get, .. }, ColumnData::I64(d)) => {
+                if let Some(r) = ok {
+                    d[i] = get(r) as i64;
+                }
+            }
+            (Fill::OkText { get, .. }, ColumnData::Str(d)) => {
+                if let Some(r) = ok {
+                    d[i] = get(r).to_string();
+                }
+            }
+            (Fill::Reason, ColumnData::Str(d)) => {
+                if let Some(r) = o.record.filter(|r| !r.ok) {
+                    d[i] = r.reason.clone();
+                }
+            }
+            (Fill::ProbeF64 { get, .. }, ColumnData::F64(d)) => {
+                if let Some(r) = ok {
+                    for (p, s) in r.probes.iter().enumerate().take(n_probes) {
+                        d[i * n_probes + p] = get(s);
+                    }
+                }
+            }
+            (Fill::Status, ColumnData::U8(d)) => {
+                d[i] = match o.record {
+                    None => STATUS_PENDING,
+                    Some(r) if r.ok => STATUS_OK,
+                    Some(_) => STATUS_FAILED,
+                };
+            }
+            (Fill::RunHash, ColumnData::Str(d)) => d[i] = o.hash_hex.to_string(),
+            (Fill::Verified, ColumnData::U8(d)) => {
+                if let Some(v) = o.verify {
+                    d[i] = v.status;
+                }
+            }
+            (Fill::VerifyMax, ColumnData::F64(d)) => {
+                if let Some(v) = verified {
+                    d[i] = v.max_error();
+                }
+            }
+            (Fill::VerifyProbe(k), ColumnData::F64(d)) => {
+                if let Some(v) = verified {
+                    for (p, e) in v.errors.iter().enumerate().take(n_probes) {
+                        d[i * n_probes + p] = e[k];
+                    }
+                }
+            }
+            _ => unreachable!("column {} holds data of another type", self.name),
+        }
+    }
+
+    /// Puts the value of point `i` of `data` back into `rec` (a record read from the file):
+    /// columns of successful runs when `rec.ok`, those of every finished run always.
+    pub fn restore(&self, data: &ColumnData, i: usize, n_probes: usize, rec: &mut RunRecord) {
+        match (self.fill, data) {
+            (Fill::OkF64 { set, .. }, ColumnData::F64(d)) if rec.ok => set(rec, d[i]),
+            (Fill::RunF64 { set, .. }, ColumnData::F64(d)) => set(rec, d[i]),
+            (Fill::OkCount { set, .. }, ColumnData::I64(d)) if rec.ok => set(rec, d[i] as u64),
+            (Fill::OkText { set, .. }, ColumnData::Str(d)) if rec.ok => set(rec, d[i].clone()),
+            (Fill::Reason, ColumnData::Str(d)) if !rec.ok => rec.reason = d[i].clone(),
+            (Fill::ProbeF64 { set, .. }, ColumnData::F64(d)) if rec.ok => {
+                for (p, s) in rec.probes.iter_mut().enumerate().take(n_probes) {
+                    set(s, d[i * n_probes + p]);
+                }
+            }
+            _ => {}
+        }
+    }
+}
+
+/// The table of columns as `README-sweeps.md` shows it (a Markdown table).
+pub fn markdown_table() -> String {
+    let mut out =
+        String::from("| dataset | shape | dtype | units | content |\n|---|---|---|---|---|\n");
+    for c in COLUMNS {
+        let shape = if c.per_probe {
+            "`(n0, n1, …, P)`"
+        } else {
+            "`(n0, n1, …)`"
+        };
+        let units = match c.units {
+            Units::None => "—".to_string(),
+            Units::Fixed(u) => format!("`{u}`"),
+            Units::OfProbes => "the probes' unit".to_string(),
+        };
+        let mut content = c.description.to_string();
+        if c.has_fill_value() {
+            content.push_str(&format!(
+                " ({INT_FILL} where failed or pending: attr `fill_value`)"
+            ));
+        }
+        if c.flags.is_some() {
+            content.push_str(" (attrs `flag_values`, `flag_meanings`)");
+        }
+        if !c.note.is_empty() {
+            content.push_str(&format!("; {}", c.note));
+        }
+        let content = content.replace('|', "\\|");
+        out.push_str(&format!(
+            "| `{}` | {shape} | {} | {units} | {content} |\n",
+            c.name,
+            c.dtype.numpy()
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_are_distinct_and_typed_as_filled() {
+        let names = reserved_names();
+        let mut sorted = names.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), names.len());
+        for c in COLUMNS {
+            let dtype = match c.fill {
+                Fill::OkF64 { .. }
+                | Fill::RunF64 { .. }
+                | Fill::ProbeF64 { .. }
+                | Fill::VerifyMax
+                | Fill::VerifyProbe(_) => Dtype::F64,
+                Fill::OkCount { .. } => Dtype::I64,
+                Fill::OkText { .. } | Fill::Reason | Fill::RunHash => Dtype::Str,
+                Fill::Status | Fill::Verified => Dtype::U8,
+            };
+            assert_eq!(c.dtype, dtype, "{}", c.name);
+            let per_probe = matches!(c.fill, Fill::ProbeF64 { .. } | Fill::VerifyProbe(_));
+            assert_eq!(c.per_probe, per_probe, "{}", c.name);
+        }
+    }
+}

@@ -1,0 +1,132 @@
+//! What a finished run leaves behind ([`RunRecord`]), the verification outcome of a grid point
+//! ([`VerifyInfo`]), and the status codes the output file stores for them.
+//!
+//! Everything here is plain data: the store writes and reads it, the executor fills it, the
+//! numerics compare it. [`columns`] is the one table of what the output file stores of it.
+
+pub mod columns;
+
+use chainsweep_solver::probes::{History, ProbeSummary};
+
+use crate::identity::RunHash;
+
+/// Status code of a pending grid point (not run, or not in this shard).
+pub const STATUS_PENDING: u8 = 0;
+/// Status code of a successful run.
+pub const STATUS_OK: u8 = 1;
+/// Status code of a failed run.
+pub const STATUS_FAILED: u8 = 2;
+
+/// Fill value of the integer summaries (steps, …) where a run failed or is pending.
+pub const INT_FILL: i64 = -1;
+
+/// `verified` flag: the point was not verified.
+pub const VERIFY_NONE: u8 = 0;
+/// `verified` flag: verified; the errors are stored.
+pub const VERIFY_OK: u8 = 1;
+/// `verified` flag: the verification run itself failed (its reason is printed by `run`).
+pub const VERIFY_FAILED: u8 = 2;
+
+/// One finished run, successful or failed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunRecord {
+    /// Run hash.
+    pub hash: RunHash,
+    /// Whether the run succeeded.
+    pub ok: bool,
+    /// Why it failed (empty when it succeeded).
+    pub reason: String,
+    /// Accepted steps.
+    pub steps: u64,
+    /// Rejected steps.
+    pub rejected: u64,
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// Steps retaken to end on a located event (a contact opening or closing).
+    pub events: u64,
+    /// Time reached, s.
+    pub t_end_s: f64,
+    /// Largest relative energy drift.
+    pub energy_drift_max: f64,
+    /// Final relative energy drift.
+    pub energy_drift_final: f64,
+    /// Largest relative momentum residual.
+    pub momentum_residual_max: f64,
+    /// Striker kinetic energy, J.
+    pub impact_energy_j: f64,
+    /// Wall time of the run, s.
+    pub wall_time_s: f64,
+    /// Largest contact overlap over the run (at step ends), m (NaN for failed runs).
+    pub max_overlap_m: f64,
+    /// Physical-validity warnings of the solver, one per line (empty when none).
+    pub warnings: String,
+    /// Summary of each probe (empty for failed runs).
+    pub probes: Vec<ProbeSummary>,
+    /// Minimum overlap of every contact, m, when recorded.
+    pub min_overlap_m: Option<Vec<f64>>,
+    /// Histories, when recorded.
+    pub history: Option<History>,
+}
+
+impl RunRecord {
+    /// A failed run: only its reason and wall time are kept.
+    pub fn failed(hash: RunHash, reason: String, wall_time_s: f64) -> Self {
+        RunRecord {
+            hash,
+            ok: false,
+            reason,
+            steps: 0,
+            rejected: 0,
+            rhs_evals: 0,
+            events: 0,
+            t_end_s: f64::NAN,
+            energy_drift_max: f64::NAN,
+            energy_drift_final: f64::NAN,
+            momentum_residual_max: f64::NAN,
+            impact_energy_j: f64::NAN,
+            wall_time_s,
+            max_overlap_m: f64::NAN,
+            warnings: String::new(),
+            probes: Vec::new(),
+            min_overlap_m: None,
+            history: None,
+        }
+    }
+}
+
+/// The verification outcome of one grid point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VerifyInfo {
+    /// [`VERIFY_NONE`], [`VERIFY_OK`] or [`VERIFY_FAILED`].
+    pub status: u8,
+    /// Per probe: relative error of the leading peak, its time and the record maximum (NaN
+    /// where not verified, or where neither run has the value).
+    pub errors: Vec<[f64; 3]>,
+}
+
+impl VerifyInfo {
+    /// Not verified: NaN errors for `n_probes` probes.
+    pub fn none(n_probes: usize) -> Self {
+        VerifyInfo {
+            status: VERIFY_NONE,
+            errors: vec![[f64::NAN; 3]; n_probes],
+        }
+    }
+
+    /// The largest error over probes and summaries, NaN where there is none (stored as
+    /// `verify_rel_error_max`).
+    pub fn max_error(&self) -> f64 {
+        max_ignoring_nan(self.errors.iter().flatten().copied())
+    }
+}
+
+/// Largest of a set of errors, ignoring NaN (values neither run has); NaN when all are NaN.
+pub fn max_ignoring_nan(xs: impl IntoIterator<Item = f64>) -> f64 {
+    let mut m = f64::NAN;
+    for x in xs {
+        if !x.is_nan() && (m.is_nan() || x > m) {
+            m = x;
+        }
+    }
+    m
+}

@@ -1,0 +1,450 @@
+//! The writer: the output file of a sweep from the records of its finished runs, in grid order.
+//!
+//! The file is a pure function of the sweep, the grid and the records (apart from the
+//! `created_utc` and `command_line` attributes and the `wall_time_s` dataset), which is what makes
+//! files bitwise equal whatever the number of jobs, the finishing order or the sharding.
+
+use std::path::Path;
+
+use hdf5::{Dataset, File, Group};
+use serde_json::Value;
+
+use super::{
+    attach_scale, attr_scalar, attr_str, attr_vec, dataset, run_group_name, set_scale, str_dataset,
+    Counts, Provenance, DEFLATE_LEVEL, HISTORY_CHUNK,
+};
+use crate::error::{Error, Result};
+use crate::grid::{multi_index, Grid, Shard};
+use crate::identity::{hex, TIGHTENING};
+use crate::record::columns::{Column, ColumnData, PointOutcome, Units, COLUMNS};
+use crate::record::{RunRecord, VerifyInfo, INT_FILL, VERIFY_OK};
+use crate::sweep::auto::AutoChoice;
+use crate::sweep::Sweep;
+
+/// Writes the HDF5 file of a sweep to `path` from the records `get(index)` returns for the points
+/// in `points` (others are pending), in grid order, with the verification outcome
+/// `get_verify(index, record)` of each finished point. `shard` and `verify_fraction` (0 when
+/// `--verify` was not given) are recorded as attributes.
+#[allow(clippy::too_many_arguments)]
+pub fn write_file(
+    path: &Path,
+    sweep: &Sweep,
+    grid: &Grid,
+    points: &[usize],
+    shard: Option<Shard>,
+    prov: &Provenance,
+    verify_fraction: f64,
+    get: impl FnMut(usize) -> Result<Option<RunRecord>>,
+    get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
+) -> Result<Counts> {
+    let write = move || -> Result<Counts> {
+        let file = File::with_options()
+            .with_fcpl(|p| p.obj_track_times(false))
+            .create(path)?;
+        write_sweep_attrs(&file, sweep, grid, shard, prov)?;
+        let runs = if grid.history || grid.min_overlap {
+            Some(file.create_group("runs")?)
+        } else {
+            None
+        };
+        let table = fill_columns(sweep, grid, points, runs.as_ref(), get, get_verify)?;
+        write_outcome_attrs(&file, points, &table, verify_fraction)?;
+        if let Some(c) = &sweep.auto_choice {
+            write_auto_attrs(&file, c)?;
+        }
+        let scales = write_coordinates(&file, sweep)?;
+        let probe_scale = write_probe_scale(&file, grid)?;
+        write_columns(&file, grid, &table.columns, &scales, probe_scale.as_ref())?;
+        file.flush()?;
+        drop(scales);
+        drop(probe_scale);
+        drop(runs);
+        file.close()?;
+        Ok(table.counts)
+    };
+    write().map_err(|e| e.hdf5_context(|| format!("writing {}", path.display())))
+}
+
+/// Root attributes describing the sweep and the engine.
+fn write_sweep_attrs(
+    file: &File,
+    sweep: &Sweep,
+    grid: &Grid,
+    shard: Option<Shard>,
+    prov: &Provenance,
+) -> Result<()> {
+    attr_str(file, "sweep", &sweep.text)?;
+    attr_str(file, "description", &sweep.description)?;
+    attr_str(
+        file,
+        "base_scene",
+        &serde_json::to_string(&sweep.base).expect("json"),
+    )?;
+    attr_str(file, "engine", "chainsweep")?;
+    attr_str(file, "engine_version", crate::ENGINE_VERSION)?;
+    attr_str(file, "solver_version", crate::SOLVER_VERSION)?;
+    attr_scalar(file, "numerics_version", crate::NUMERICS_VERSION as i64)?;
+    attr_str(file, "git_revision", crate::GIT_REVISION)?;
+    attr_str(file, "created_utc", &prov.created_utc)?;
+    attr_str(file, "command_line", &prov.command_line)?;
+    let shard = shard.unwrap_or(Shard { k: 1, n: 1 });
+    attr_str(file, "shard", &shard.to_string())?;
+    let dims: Vec<&str> = sweep.dims.iter().map(|d| d.name.as_str()).collect();
+    attr_str(
+        file,
+        "dimensions",
+        &serde_json::to_string(&dims).expect("json"),
+    )?;
+    let shape_i: Vec<i64> = grid.shape.iter().map(|&x| x as i64).collect();
+    attr_vec(file, "grid_shape", &shape_i)?;
+    attr_scalar(
+        file,
+        "energy_drift_limit",
+        sweep.limits.energy_drift_max.unwrap_or(f64::NAN),
+    )?;
+    Ok(())
+}
+
+/// Every column's values, and the counts of the points.
+struct Table {
+    columns: Vec<ColumnData>,
+    counts: Counts,
+    n_verified: usize,
+}
+
+/// Reads every point's record (and verification outcome) once, in grid order, into the columns;
+/// writes the run groups of histories and minimum overlaps on the way.
+fn fill_columns(
+    sweep: &Sweep,
+    grid: &Grid,
+    points: &[usize],
+    runs: Option<&Group>,
+    mut get: impl FnMut(usize) -> Result<Option<RunRecord>>,
+    mut get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
+) -> Result<Table> {
+    let n = grid.len();
+    let np = grid.probes.len();
+    let mut columns: Vec<ColumnData> = COLUMNS.iter().map(|c| c.empty(n, np)).collect();
+    let mut counts = Counts::default();
+    let mut n_verified = 0;
+    let mut in_points = vec![false; n];
+    for &i in points {
+        in_points[i] = true;
+    }
+    for (i, &in_run) in in_points.iter().enumerate() {
+        let hash_hex = hex(&grid.hashes[i]);
+        let record = if in_run { get(i)? } else { None };
+        if in_run && record.is_none() {
+            counts.pending += 1;
+        }
+        let verify = match &record {
+            Some(rec) if rec.hash != grid.hashes[i] => {
+                return Err(Error::Other(format!(
+                    "record for point {i} has the wrong run hash"
+                )))
+            }
+            Some(rec) => Some(get_verify(i, rec)?),
+            None => None,
+        };
+        let outcome = PointOutcome {
+            hash_hex: &hash_hex,
+            record: record.as_ref(),
+            verify: verify.as_ref(),
+        };
+        for (c, data) in COLUMNS.iter().zip(&mut columns) {
+            c.fill_point(data, i, np, &outcome);
+        }
+        n_verified += verify.as_ref().is_some_and(|v| v.status == VERIFY_OK) as usize;
+        match &record {
+            Some(rec) if rec.ok => {
+                counts.ok += 1;
+                if let Some(runs) = runs {
+                    write_run_group(runs, grid, sweep, i, rec)?;
+                }
+            }
+            Some(_) => counts.failed += 1,
+            None => {}
+        }
+    }
+    Ok(Table {
+        columns,
+        counts,
+        n_verified,
+    })
+}
+
+/// Root attributes counting the points and the verified points.
+fn write_outcome_attrs(
+    file: &File,
+    points: &[usize],
+    table: &Table,
+    verify_fraction: f64,
+) -> Result<()> {
+    attr_scalar(file, "n_runs", points.len() as i64)?;
+    attr_scalar(file, "n_ok", table.counts.ok as i64)?;
+    attr_scalar(file, "n_failed", table.counts.failed as i64)?;
+    attr_scalar(file, "n_pending", table.counts.pending as i64)?;
+    attr_scalar(file, "verify_fraction", verify_fraction)?;
+    attr_str(file, "verify_tightening", TIGHTENING)?;
+    attr_scalar(file, "n_verified", table.n_verified as i64)?;
+    Ok(())
+}
+
+/// Writes what `integrator: auto` chose as root attributes: `auto` (the whole record as JSON,
+/// every candidate of the pilot included), `auto_target_rel_error`, `auto_safety_factor`,
+/// `auto_method`, `auto_setting` (JSON of the chosen integrator), `auto_pilot_points` (flat
+/// indices), `auto_pilot_references` (JSON list), `auto_pilot_errors`, `auto_pilot_rhs_evals`
+/// (of the chosen setting, per pilot point) and `auto_pilot_cost_rhs_evals` (the whole pilot).
+fn write_auto_attrs(file: &File, c: &AutoChoice) -> Result<()> {
+    attr_str(file, "auto", &c.to_json())?;
+    attr_scalar(file, "auto_target_rel_error", c.target_rel_error)?;
+    attr_scalar(file, "auto_safety_factor", c.safety_factor)?;
+    attr_str(file, "auto_method", c.integrator.method_name())?;
+    attr_str(
+        file,
+        "auto_setting",
+        &serde_json::to_string(&c.integrator).expect("json"),
+    )?;
+    let pts: Vec<i64> = c.pilot_points.iter().map(|&i| i as i64).collect();
+    attr_vec(file, "auto_pilot_points", &pts)?;
+    attr_str(
+        file,
+        "auto_pilot_references",
+        &serde_json::to_string(&c.pilot_references).expect("json"),
+    )?;
+    attr_vec(file, "auto_pilot_errors", &c.pilot_errors)?;
+    let ev: Vec<i64> = c.pilot_rhs_evals.iter().map(|&e| e as i64).collect();
+    attr_vec(file, "auto_pilot_rhs_evals", &ev)?;
+    attr_scalar(
+        file,
+        "auto_pilot_cost_rhs_evals",
+        c.pilot_cost_rhs_evals as i64,
+    )?;
+    Ok(())
+}
+
+/// Values of one coordinate, typed for HDF5.
+enum Coord {
+    F64(Vec<f64>),
+    I64(Vec<i64>),
+    Bool(Vec<bool>),
+    Str(Vec<String>),
+}
+
+fn coord_of(values: &[Value]) -> Coord {
+    if values.iter().all(|v| v.is_i64()) {
+        Coord::I64(values.iter().map(|v| v.as_i64().expect("i64")).collect())
+    } else if values.iter().all(|v| v.is_number()) {
+        Coord::F64(values.iter().map(|v| v.as_f64().expect("number")).collect())
+    } else if values.iter().all(|v| v.is_boolean()) {
+        Coord::Bool(values.iter().map(|v| v.as_bool().expect("bool")).collect())
+    } else if values.iter().all(|v| v.is_string()) {
+        Coord::Str(
+            values
+                .iter()
+                .map(|v| v.as_str().expect("str").to_string())
+                .collect(),
+        )
+    } else {
+        Coord::Str(values.iter().map(|v| v.to_string()).collect())
+    }
+}
+
+/// The coordinate of every axis, a dimension scale, grouped by dimension (with its name).
+fn write_coordinates(file: &File, sweep: &Sweep) -> Result<Vec<Vec<(Dataset, String)>>> {
+    let mut scales: Vec<Vec<(Dataset, String)>> = Vec::new();
+    for dim in &sweep.dims {
+        let mut here = Vec::new();
+        for axis in &dim.axes {
+            let shape = [axis.values.len()];
+            let d = match coord_of(&axis.values) {
+                Coord::F64(v) => dataset(file, &axis.name, &shape, &v)?,
+                Coord::I64(v) => dataset(file, &axis.name, &shape, &v)?,
+                Coord::Bool(v) => dataset(file, &axis.name, &shape, &v)?,
+                Coord::Str(v) => str_dataset(file, &axis.name, &shape, &v)?,
+            };
+            attr_str(&d, "units", &axis.units)?;
+            attr_str(&d, "field", &axis.field)?;
+            attr_str(&d, "dimension", &dim.name)?;
+            set_scale(&d, &axis.name)?;
+            here.push((d, dim.name.clone()));
+        }
+        scales.push(here);
+    }
+    Ok(scales)
+}
+
+/// The `probe` coordinate (a dimension scale) and `probe_units`, when there are probes; with
+/// the probes' units.
+fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<(Dataset, Vec<String>)>> {
+    let np = grid.probes.len();
+    if np == 0 {
+        return Ok(None);
+    }
+    let names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
+    let d = str_dataset(file, "probe", &[np], &names)?;
+    let json: Vec<String> = grid
+        .probes
+        .iter()
+        .map(|p| serde_json::to_string(p).expect("probe serialises"))
+        .collect();
+    attr_str(&d, "long_name", "probe (as in the record block)")?;
+    attr_str(&d, "probes_json", &format!("[{}]", json.join(",")))?;
+    set_scale(&d, "probe")?;
+    let units: Vec<String> = grid.probes.iter().map(|p| p.unit().to_string()).collect();
+    let u = str_dataset(file, "probe_units", &[np], &units)?;
+    attach_scale(&u, &d, 0, "probe")?;
+    Ok(Some((d, units)))
+}
+
+/// Every column of [`COLUMNS`] as a dataset with its attributes and dimension scales (the
+/// per-probe ones only when there are probes).
+fn write_columns(
+    file: &File,
+    grid: &Grid,
+    columns: &[ColumnData],
+    scales: &[Vec<(Dataset, String)>],
+    probe_scale: Option<&(Dataset, Vec<String>)>,
+) -> Result<()> {
+    let shape = grid.shape.clone();
+    for (c, data) in COLUMNS.iter().zip(columns) {
+        let d = if c.per_probe {
+            let Some((pscale, units)) = probe_scale else {
+                continue;
+            };
+            let mut pshape = shape.clone();
+            pshape.push(units.len());
+            let d = write_column(file, c, &pshape, data, units)?;
+            attach_grid(&d, scales)?;
+            attach_scale(&d, pscale, shape.len(), "probe")?;
+            d
+        } else {
+            let d = write_column(file, c, &shape, data, &[])?;
+            attach_grid(&d, scales)?;
+            d
+        };
+        drop(d);
+    }
+    Ok(())
+}
+
+/// One column's dataset and attributes (`probe_units`: the probes' units, for
+/// [`Units::OfProbes`]).
+fn write_column(
+    file: &File,
+    c: &Column,
+    shape: &[usize],
+    data: &ColumnData,
+    probe_units: &[String],
+) -> Result<Dataset> {
+    let d = match data {
+        ColumnData::F64(v) => dataset(file, c.name, shape, v)?,
+        ColumnData::I64(v) => dataset(file, c.name, shape, v)?,
+        ColumnData::U8(v) => dataset(file, c.name, shape, v)?,
+        ColumnData::Str(v) => str_dataset(file, c.name, shape, v)?,
+    };
+    if let Some((values, meanings)) = c.flags {
+        attr_vec(&d, "flag_values", values)?;
+        attr_str(&d, "flag_meanings", meanings)?;
+    }
+    match c.units {
+        Units::None => {}
+        Units::Fixed(u) => attr_str(&d, "units", u)?,
+        Units::OfProbes => {
+            let same = probe_units.iter().all(|u| u == &probe_units[0]);
+            let u = if same {
+                probe_units[0].as_str()
+            } else {
+                "see probe_units"
+            };
+            attr_str(&d, "units", u)?;
+        }
+    }
+    if c.long_name {
+        attr_str(&d, "long_name", c.description)?;
+    }
+    if c.has_fill_value() {
+        attr_scalar(&d, "fill_value", INT_FILL)?;
+    }
+    Ok(d)
+}
+
+/// Attaches every axis's scale to its dimension of `d`.
+fn attach_grid(d: &Dataset, scales: &[Vec<(Dataset, String)>]) -> Result<()> {
+    for (k, here) in scales.iter().enumerate() {
+        for (s, label) in here {
+            attach_scale(d, s, k, label)?;
+        }
+    }
+    Ok(())
+}
+
+fn write_history_series(g: &Group, name: &str, data: &[f64], units: &str) -> Result<Dataset> {
+    let n = data.len();
+    let d = g
+        .new_dataset::<f64>()
+        .chunk(n.clamp(1, HISTORY_CHUNK))
+        .shuffle()
+        .deflate(DEFLATE_LEVEL)
+        .shape(n)
+        .create(name)?;
+    if n > 0 {
+        d.write_raw(data)?;
+    }
+    attr_str(&d, "units", units)?;
+    Ok(d)
+}
+
+fn write_run_group(
+    runs: &Group,
+    grid: &Grid,
+    sweep: &Sweep,
+    index: usize,
+    rec: &RunRecord,
+) -> Result<()> {
+    let g = runs.create_group(&run_group_name(grid.len(), index))?;
+    attr_str(&g, "run_hash", &hex(&rec.hash))?;
+    let mi: Vec<i64> = multi_index(&grid.shape, index)
+        .iter()
+        .map(|&x| x as i64)
+        .collect();
+    attr_vec(&g, "grid_index", &mi)?;
+    attr_scalar(&g, "flat_index", index as i64)?;
+    for (d, dim) in sweep.dims.iter().enumerate() {
+        for axis in &dim.axes {
+            let v = &axis.values[mi[d] as usize];
+            if let Some(i) = v.as_i64() {
+                attr_scalar(&g, &axis.name, i)?;
+            } else if let Some(x) = v.as_f64() {
+                attr_scalar(&g, &axis.name, x)?;
+            } else if let Some(s) = v.as_str() {
+                attr_str(&g, &axis.name, s)?;
+            } else {
+                attr_str(&g, &axis.name, &v.to_string())?;
+            }
+        }
+    }
+    if let Some(h) = &rec.history {
+        let t = write_history_series(&g, "time_s", &h.time_s, "s")?;
+        set_scale(&t, "time_s")?;
+        for (p, series) in grid.probes.iter().zip(&h.values) {
+            let d = write_history_series(&g, &p.name(), series, p.unit())?;
+            attr_str(
+                &d,
+                "probe",
+                &serde_json::to_string(p).expect("probe serialises"),
+            )?;
+            attach_scale(&d, &t, 0, "time_s")?;
+        }
+    }
+    if let Some(m) = &rec.min_overlap_m {
+        let d = dataset(&g, "min_overlap_m", &[m.len()], m)?;
+        attr_str(&d, "units", "m")?;
+        attr_str(
+            &d,
+            "long_name",
+            "minimum overlap of each contact over the run (contact j at index j-1)",
+        )?;
+    }
+    Ok(())
+}

@@ -1,0 +1,498 @@
+//! The engine's orchestration through a test executor, without subprocesses: resume,
+//! checkpoints, failed runs, panics, the stop flag, verification, and a store that fails.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Duration;
+
+use chainsweep::engine::run::{run_points, RunOptions, RunReport};
+use chainsweep::engine::schedule::{run_tasks, Coordinator, Executor, Schedule, Task};
+use chainsweep::engine::{shard, thread_pool, ProgressSink, Silent, Start};
+use chainsweep::error::{Error, Result};
+use chainsweep::grid::{Grid, Shard};
+use chainsweep::identity::RunHash;
+use chainsweep::record::{RunRecord, STATUS_FAILED, STATUS_OK, STATUS_PENDING, VERIFY_OK};
+use chainsweep::store::hdf5::{FileRecords, Provenance};
+use chainsweep::store::segment::encode;
+use chainsweep::store::{RunStore, SegmentIndex, WorkDir};
+use chainsweep::sweep::Sweep;
+use chainsweep_solver::probes::ProbeSummary;
+
+const SWEEP: &str = r#"{
+  "base": {
+    "chain": {"preset": "chain_055", "cylinders": 8},
+    "physics": {"gravity": true, "damping_kg_s": 0.0, "wall": true},
+    "striker_velocity_m_s": 1.3,
+    "duration_s": 1e-4
+  },
+  "record": {"probes": [{"kind": "gauge_force", "cylinder": 2}, {"kind": "gauge_force", "cylinder": 5}]},
+  "axes": [
+    {"field": "physics.damping_kg_s", "values": [0, 3, 6]},
+    {"field": "striker_velocity_m_s", "values": [1.0, 1.3]}
+  ]
+}"#;
+
+fn sweep_and_grid() -> (Sweep, Grid) {
+    let sweep = Sweep::parse(SWEEP).unwrap();
+    let grid = Grid::new(&sweep).unwrap();
+    assert_eq!(grid.len(), 6);
+    (sweep, grid)
+}
+
+/// A test executor: a deterministic record per task (the verification run differs from the run
+/// by a relative 1e-6), failing or panicking on the points it is told, and counting its calls.
+#[derive(Default)]
+struct Fake {
+    fail: HashSet<usize>,
+    panic: HashSet<usize>,
+    sleep: Duration,
+    /// Sets `stop_flag` after this many calls.
+    stop_after: Option<(usize, &'static AtomicBool)>,
+    calls: Mutex<Vec<Task>>,
+}
+
+impl Fake {
+    fn calls(&self) -> Vec<Task> {
+        let mut c = self.calls.lock().unwrap().clone();
+        c.sort_by_key(|t| (t.verification, t.point));
+        c
+    }
+}
+
+fn record(task: &Task) -> RunRecord {
+    let scale = if task.verification { 1.0 + 1e-6 } else { 1.0 };
+    let p = task.point as f64;
+    let mut rec = RunRecord::failed(task.hash, String::new(), 0.001);
+    rec.ok = true;
+    rec.steps = 100 + task.point as u64;
+    rec.rejected = 3;
+    rec.rhs_evals = 1300 + task.point as u64;
+    rec.events = 7;
+    rec.t_end_s = 1e-4;
+    rec.energy_drift_max = 1e-9;
+    rec.energy_drift_final = 5e-10;
+    rec.momentum_residual_max = 1e-12;
+    rec.impact_energy_j = 0.0017 + p;
+    rec.max_overlap_m = 2e-6;
+    rec.probes = (0..2)
+        .map(|k| ProbeSummary {
+            leading_peak: (100.0 + p + k as f64) * scale,
+            leading_peak_time_s: 2e-5 * (1.0 + p),
+            record_max: (110.0 + p) * scale,
+            record_max_time_s: 3e-5,
+        })
+        .collect();
+    rec
+}
+
+impl Executor for Fake {
+    fn execute(&self, task: &Task) -> RunRecord {
+        let n = {
+            let mut calls = self.calls.lock().unwrap();
+            calls.push(*task);
+            calls.len()
+        };
+        if let Some((after, flag)) = self.stop_after {
+            if n >= after {
+                flag.store(true, Ordering::Relaxed);
+            }
+        }
+        std::thread::sleep(self.sleep);
+        if !task.verification && self.panic.contains(&task.point) {
+            panic!("boom at point {}", task.point);
+        }
+        if !task.verification && self.fail.contains(&task.point) {
+            return RunRecord::failed(task.hash, "made to fail".into(), 0.002);
+        }
+        record(task)
+    }
+}
+
+struct Setup {
+    _dir: tempfile::TempDir,
+    output: PathBuf,
+    sweep: Sweep,
+    grid: Grid,
+}
+
+fn setup() -> Setup {
+    let dir = tempfile::tempdir().unwrap();
+    let output = dir.path().join("out.h5");
+    let (sweep, grid) = sweep_and_grid();
+    Setup {
+        _dir: dir,
+        output,
+        sweep,
+        grid,
+    }
+}
+
+fn options(output: &Path) -> RunOptions {
+    RunOptions {
+        output: output.to_path_buf(),
+        jobs: 2,
+        shard: None,
+        retry_failed: false,
+        checkpoint_interval: Duration::ZERO,
+        verify_fraction: 0.0,
+        overwrite: false,
+        provenance: Provenance {
+            created_utc: "2026-01-01T00:00:00Z".into(),
+            command_line: "test".into(),
+        },
+    }
+}
+
+fn run_with(
+    s: &Setup,
+    opts: &RunOptions,
+    executor: &dyn Executor,
+    sink: &mut dyn ProgressSink,
+    stop: &AtomicBool,
+) -> RunReport {
+    let work = WorkDir::open(&opts.output).unwrap();
+    let pool = thread_pool(opts.jobs).unwrap();
+    let points = shard::points(s.grid.len(), opts.shard);
+    run_points(
+        &work, &s.sweep, &s.grid, points, opts, &pool, executor, sink, stop,
+    )
+    .unwrap()
+}
+
+fn run(s: &Setup, opts: &RunOptions, executor: &dyn Executor) -> RunReport {
+    run_with(s, opts, executor, &mut Silent, &AtomicBool::new(false))
+}
+
+/// Every point's record as stored in the output file (segment bytes), `None` where pending.
+fn file_records(s: &Setup) -> Vec<Option<Vec<u8>>> {
+    let recs = FileRecords::open(&s.output).unwrap();
+    (0..s.grid.len())
+        .map(|i| {
+            recs.record(i, s.grid.hashes[i], &s.grid)
+                .unwrap()
+                .map(|r| encode(&r))
+        })
+        .collect()
+}
+
+#[test]
+fn a_sweep_runs_every_point_once_and_a_rerun_resumes_with_nothing_left() {
+    let s = setup();
+    let opts = options(&s.output);
+    let fake = Fake::default();
+    let report = run(&s, &opts, &fake);
+    assert_eq!(
+        (
+            report.counts.ok,
+            report.counts.failed,
+            report.counts.pending
+        ),
+        (6, 0, 0)
+    );
+    let calls: Vec<usize> = fake.calls().iter().map(|t| t.point).collect();
+    assert_eq!(calls, vec![0, 1, 2, 3, 4, 5]);
+    let first = file_records(&s);
+    for (i, r) in first.iter().enumerate() {
+        let want = record(&Task::run(&s.grid, i));
+        assert_eq!(r.as_deref(), Some(&encode(&want)[..]), "point {i}");
+    }
+
+    let again = Fake::default();
+    let report = run(&s, &opts, &again);
+    assert!(again.calls().is_empty(), "{:?}", again.calls());
+    assert_eq!(report.counts.ok, 6);
+    assert_eq!(file_records(&s), first);
+}
+
+#[test]
+fn failed_runs_keep_their_reason_and_are_retried_only_on_request() {
+    let s = setup();
+    let mut opts = options(&s.output);
+    let fake = Fake {
+        fail: [1, 4].into(),
+        ..Fake::default()
+    };
+    let report = run(&s, &opts, &fake);
+    assert_eq!((report.counts.ok, report.counts.failed), (4, 2));
+    assert_eq!(report.failed, 2);
+    let listed: Vec<(usize, Option<&str>)> = report
+        .failures
+        .iter()
+        .map(|f| (f.point, f.reason.as_deref()))
+        .collect();
+    assert_eq!(
+        listed,
+        vec![(1, Some("made to fail")), (4, Some("made to fail"))]
+    );
+    let recs = FileRecords::open(&s.output).unwrap();
+    assert_eq!(recs.status(1), STATUS_FAILED);
+    assert_eq!(recs.reason(1), "made to fail");
+
+    // Failed runs are finished runs: not run again...
+    let again = Fake::default();
+    run(&s, &opts, &again);
+    assert!(again.calls().is_empty());
+    // ...unless asked.
+    opts.retry_failed = true;
+    let retry = Fake::default();
+    let report = run(&s, &opts, &retry);
+    let calls: Vec<usize> = retry.calls().iter().map(|t| t.point).collect();
+    assert_eq!(calls, vec![1, 4]);
+    assert_eq!((report.counts.ok, report.counts.failed), (6, 0));
+}
+
+#[test]
+fn a_panicking_run_fails_alone_with_the_panic_message() {
+    let s = setup();
+    let opts = options(&s.output);
+    let fake = Fake {
+        panic: [2].into(),
+        ..Fake::default()
+    };
+    let report = run(&s, &opts, &fake);
+    assert_eq!((report.counts.ok, report.counts.failed), (5, 1));
+    let reason = report.failures[0].reason.clone().unwrap();
+    assert_eq!(report.failures[0].point, 2);
+    assert!(reason.starts_with("panic at "), "{reason}");
+    assert!(reason.ends_with("boom at point 2"), "{reason}");
+    let recs = FileRecords::open(&s.output).unwrap();
+    assert_eq!(recs.reason(2), reason);
+    assert_eq!(recs.status(3), STATUS_OK);
+}
+
+/// Opens the output file at every checkpoint and notes how many points it holds.
+#[derive(Default)]
+struct CheckpointSpy {
+    output: PathBuf,
+    seen_ok: Vec<usize>,
+    finished: usize,
+    started: Option<(usize, usize)>,
+    ended: bool,
+}
+
+impl ProgressSink for CheckpointSpy {
+    fn started(&mut self, s: &Start<'_>) {
+        self.started = Some((s.total, s.done));
+    }
+    fn run_finished(&mut self, _failed: bool) {
+        self.finished += 1;
+    }
+    fn checkpoint(&mut self) {
+        let recs = FileRecords::open(&self.output).unwrap();
+        let ok = (0..recs.len())
+            .filter(|&i| recs.status(i) == STATUS_OK)
+            .count();
+        self.seen_ok.push(ok);
+    }
+    fn runs_ended(&mut self) {
+        self.ended = true;
+    }
+}
+
+#[test]
+fn checkpoints_publish_the_finished_runs_while_the_sweep_goes_on() {
+    let s = setup();
+    let mut opts = options(&s.output);
+    opts.jobs = 1;
+    opts.checkpoint_interval = Duration::from_millis(5);
+    // Each run takes longer than the checkpoint interval: a checkpoint follows every run.
+    let fake = Fake {
+        sleep: Duration::from_millis(40),
+        ..Fake::default()
+    };
+    let mut spy = CheckpointSpy {
+        output: s.output.clone(),
+        ..CheckpointSpy::default()
+    };
+    let report = run_with(&s, &opts, &fake, &mut spy, &AtomicBool::new(false));
+    assert_eq!(report.counts.ok, 6);
+    assert_eq!(spy.started, Some((6, 0)));
+    assert_eq!(spy.finished, 6);
+    assert!(spy.ended);
+    assert!(
+        spy.seen_ok.iter().any(|&ok| ok > 0 && ok < 6),
+        "checkpoints saw {:?}",
+        spy.seen_ok
+    );
+    assert!(spy.seen_ok.windows(2).all(|w| w[0] <= w[1]));
+}
+
+#[test]
+fn a_stopped_sweep_writes_what_finished_and_resumes_to_the_same_file() {
+    static STOP: AtomicBool = AtomicBool::new(false);
+    let s = setup();
+    let mut opts = options(&s.output);
+    opts.jobs = 1;
+    let fake = Fake {
+        stop_after: Some((2, &STOP)),
+        ..Fake::default()
+    };
+    let report = run_with(&s, &opts, &fake, &mut Silent, &STOP);
+    assert!(report.stopped);
+    assert_eq!(fake.calls().len(), 2);
+    assert_eq!(
+        (report.counts.ok, report.counts.pending),
+        (2, 4),
+        "{report:?}"
+    );
+    let recs = FileRecords::open(&s.output).unwrap();
+    let pending = (0..6).filter(|&i| recs.status(i) == STATUS_PENDING).count();
+    assert_eq!(pending, 4);
+
+    let rest = Fake::default();
+    let report = run(&s, &opts, &rest);
+    assert!(!report.stopped);
+    assert_eq!(rest.calls().len(), 4);
+    assert_eq!(report.counts.ok, 6);
+    let resumed = file_records(&s);
+
+    let whole = setup();
+    run(&whole, &options(&whole.output), &Fake::default());
+    assert_eq!(resumed, file_records(&whole));
+}
+
+#[test]
+fn verification_runs_are_tasks_like_the_others_and_resume() {
+    let s = setup();
+    let mut opts = options(&s.output);
+    opts.verify_fraction = 0.5;
+    let fake = Fake::default();
+    let report = run(&s, &opts, &fake);
+    let verifications = fake.calls().iter().filter(|t| t.verification).count();
+    assert_eq!(verifications, 3); // ceil(0.5 × 6)
+    assert_eq!(report.verification.requested, 3);
+    assert_eq!(report.verification.verified, 3);
+    let (worst, _) = report.verification.worst.unwrap();
+    assert!((worst - 1e-6).abs() < 1e-9, "{worst}");
+    let recs = FileRecords::open(&s.output).unwrap();
+    let verified: Vec<usize> = (0..6)
+        .filter(|&i| recs.verify_info(i, 2).status == VERIFY_OK)
+        .collect();
+    assert_eq!(verified.len(), 3);
+    assert_eq!(recs.verify_fraction, 0.5);
+
+    // Raising the fraction runs only the missing verifications.
+    opts.verify_fraction = 1.0;
+    let more = Fake::default();
+    let report = run(&s, &opts, &more);
+    assert!(more.calls().iter().all(|t| t.verification));
+    assert_eq!(more.calls().len(), 3);
+    assert_eq!(report.verification.verified, 6);
+}
+
+#[test]
+fn shards_run_their_own_points() {
+    let s = setup();
+    let mut opts = options(&s.output);
+    opts.shard = Some(Shard { k: 2, n: 4 });
+    let fake = Fake::default();
+    let report = run(&s, &opts, &fake);
+    let calls: Vec<usize> = fake.calls().iter().map(|t| t.point).collect();
+    assert_eq!(calls, vec![1, 5]);
+    assert_eq!((report.points, report.counts.ok), (2, 2));
+    let recs = FileRecords::open(&s.output).unwrap();
+    assert_eq!(recs.shard, "2/4");
+}
+
+/// A store that refuses its `fail_at`-th write.
+struct FailingStore {
+    fail_at: usize,
+    writes: AtomicUsize,
+}
+
+impl RunStore for FailingStore {
+    fn read(&self, _hash: &RunHash) -> Result<Option<RunRecord>> {
+        Ok(None)
+    }
+    fn write(&self, _rec: &RunRecord) -> Result<()> {
+        let n = self.writes.fetch_add(1, Ordering::SeqCst) + 1;
+        if n == self.fail_at {
+            return Err(Error::Other("no space left on device".into()));
+        }
+        Ok(())
+    }
+    fn index(&self) -> Result<SegmentIndex> {
+        Ok(SegmentIndex::new())
+    }
+}
+
+#[derive(Default)]
+struct Tally {
+    finished: Vec<usize>,
+    checkpoints: usize,
+    fail_checkpoint: bool,
+    ended: bool,
+}
+
+impl Coordinator for Tally {
+    fn finished(&mut self, task: &Task, _ok: bool) {
+        self.finished.push(task.point);
+    }
+    fn idle(&mut self) {}
+    fn checkpoint(&mut self) -> Result<()> {
+        self.checkpoints += 1;
+        if self.fail_checkpoint {
+            return Err(Error::Other("checkpoint refused".into()));
+        }
+        Ok(())
+    }
+    fn ended(&mut self) {
+        self.ended = true;
+    }
+}
+
+#[test]
+fn a_run_that_cannot_be_stored_stops_the_sweep_with_its_error() {
+    let (_, grid) = sweep_and_grid();
+    let tasks: Vec<Task> = (0..6).map(|i| Task::run(&grid, i)).collect();
+    let store = FailingStore {
+        fail_at: 3,
+        writes: AtomicUsize::new(0),
+    };
+    let fake = Fake::default();
+    let pool = thread_pool(1).unwrap();
+    let stop = AtomicBool::new(false);
+    let schedule = Schedule {
+        pool: &pool,
+        checkpoint_every: Duration::ZERO,
+        stop: &stop,
+    };
+    let mut tally = Tally::default();
+    let err = run_tasks(&tasks, &fake, &store, &schedule, &mut tally).unwrap_err();
+    assert!(err.to_string().contains("no space left"), "{err}");
+    // The two stored runs were reported; no task started after the failed write.
+    assert_eq!(tally.finished, vec![0, 1]);
+    assert_eq!(fake.calls().len(), 3);
+    assert!(tally.ended);
+}
+
+#[test]
+fn a_failed_checkpoint_ends_the_coordination_with_its_error() {
+    let (_, grid) = sweep_and_grid();
+    let tasks: Vec<Task> = (0..6).map(|i| Task::run(&grid, i)).collect();
+    let store = FailingStore {
+        fail_at: usize::MAX,
+        writes: AtomicUsize::new(0),
+    };
+    let fake = Fake {
+        sleep: Duration::from_millis(20),
+        ..Fake::default()
+    };
+    let pool = thread_pool(1).unwrap();
+    let stop = AtomicBool::new(false);
+    let schedule = Schedule {
+        pool: &pool,
+        checkpoint_every: Duration::from_millis(1),
+        stop: &stop,
+    };
+    let mut tally = Tally {
+        fail_checkpoint: true,
+        ..Tally::default()
+    };
+    let err = run_tasks(&tasks, &fake, &store, &schedule, &mut tally).unwrap_err();
+    assert!(err.to_string().contains("checkpoint refused"), "{err}");
+    assert_eq!(tally.checkpoints, 1);
+    assert!(!tally.ended);
+}

@@ -1,0 +1,236 @@
+//! Keeps `ARCHITECTURE.md` true: every module of the runner imports exactly the modules the
+//! listing there says, and only modules listed before it (no module imports one above it, so
+//! there are no cycles).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+const CRATE: &str = env!("CARGO_MANIFEST_DIR");
+
+/// The listing: module → the modules it imports, in layer order (lowest first).
+fn listing(doc: &str) -> Vec<(String, BTreeSet<String>)> {
+    let start = doc
+        .find("<!-- layers -->")
+        .expect("ARCHITECTURE.md has a `<!-- layers -->` marker before the listing");
+    let block = &doc[start..];
+    let open = block
+        .find("```text\n")
+        .expect("a ```text block follows the marker")
+        + 8;
+    let close = block[open..].find("```").expect("the block is closed") + open;
+    let mut out = Vec::new();
+    for line in block[open..close].lines().skip(1) {
+        let mut words = line.split_whitespace();
+        let Some(module) = words.next() else { continue };
+        let imports: BTreeSet<String> = words
+            .filter(|w| *w != "-")
+            .map(|w| w.trim_end_matches(',').to_string())
+            .collect();
+        out.push((module.to_string(), imports));
+    }
+    out
+}
+
+/// Removes `//` comments (doc comments included: links are not imports) and string literals.
+fn code_only(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        let mut in_str = false;
+        let mut prev = ' ';
+        let mut chars = line.chars().peekable();
+        while let Some(c) = chars.next() {
+            if in_str {
+                if c == '"' && prev != '\\' {
+                    in_str = false;
+                }
+                prev = if prev == '\\' && c == '\\' { ' ' } else { c };
+                continue;
+            }
+            if c == '/' && chars.peek() == Some(&'/') {
+                break;
+            }
+            if c == '"' {
+                in_str = true;
+                prev = ' ';
+                continue;
+            }
+            out.push(c);
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// First path segments of every `crate::…` path in `code` (`crate::{a, b::c}` gives a and b).
+fn crate_imports(code: &str) -> BTreeSet<String> {
+    let ident = |s: &str| -> String {
+        s.chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect()
+    };
+    let mut out = BTreeSet::new();
+    let mut rest = code;
+    while let Some(i) = rest.find("crate::") {
+        let before = rest[..i].chars().last();
+        rest = &rest[i + 7..];
+        if before.is_some_and(|c| c.is_ascii_alphanumeric() || c == '_') {
+            continue; // e.g. `other_crate::`
+        }
+        let after = rest.trim_start();
+        if let Some(group) = after.strip_prefix('{') {
+            let mut depth = 1;
+            let mut item = String::new();
+            for c in group.chars() {
+                match c {
+                    '{' => depth += 1,
+                    '}' => depth -= 1,
+                    _ => {}
+                }
+                if depth == 0 {
+                    break;
+                }
+                if c == ',' && depth == 1 {
+                    out.insert(ident(item.trim()));
+                    item.clear();
+                } else {
+                    item.push(c);
+                }
+            }
+            if !item.trim().is_empty() {
+                out.insert(ident(item.trim()));
+            }
+        } else {
+            out.insert(ident(after));
+        }
+    }
+    // Items of the crate root (`crate::NUMERICS_VERSION`, `crate::EXIT_OK`) are no module.
+    out.retain(|m| !m.is_empty() && !m.starts_with(|c: char| c.is_ascii_uppercase()));
+    out
+}
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// Each top-level module of `src/` (`X.rs` and everything under `X/`) and what it imports.
+fn actual_imports(src: &Path) -> BTreeMap<String, BTreeSet<String>> {
+    let mut files = Vec::new();
+    rust_files(src, &mut files);
+    let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for f in files {
+        let rel = f.strip_prefix(src).unwrap();
+        let first = rel
+            .components()
+            .next()
+            .unwrap()
+            .as_os_str()
+            .to_string_lossy();
+        let module = first.trim_end_matches(".rs").to_string();
+        if module == "lib" || module == "main" {
+            continue;
+        }
+        let code = code_only(&std::fs::read_to_string(&f).unwrap());
+        let imports = out.entry(module.clone()).or_default();
+        imports.extend(crate_imports(&code).into_iter().filter(|m| *m != module));
+    }
+    out
+}
+
+/// Every violation of `listing` by `actual`, in words.
+fn violations(
+    listing: &[(String, BTreeSet<String>)],
+    actual: &BTreeMap<String, BTreeSet<String>>,
+) -> Vec<String> {
+    let mut bad = Vec::new();
+    let position: BTreeMap<&str, usize> = listing
+        .iter()
+        .enumerate()
+        .map(|(i, (m, _))| (m.as_str(), i))
+        .collect();
+    for (module, imports) in actual {
+        let Some(&at) = position.get(module.as_str()) else {
+            bad.push(format!("module `{module}` is not in the listing"));
+            continue;
+        };
+        for m in imports {
+            match position.get(m.as_str()) {
+                None => bad.push(format!(
+                    "`{module}` imports `{m}`, which is not in the listing"
+                )),
+                Some(&j) if j >= at => bad.push(format!(
+                    "`{module}` imports `{m}`, which is not below it in the listing"
+                )),
+                _ => {}
+            }
+        }
+        let listed = &listing[at].1;
+        if listed != imports {
+            bad.push(format!(
+                "`{module}` imports {imports:?}, the listing says {listed:?}"
+            ));
+        }
+    }
+    for (m, _) in listing {
+        if !actual.contains_key(m) {
+            bad.push(format!(
+                "the listing names `{m}`, which is no module of src/"
+            ));
+        }
+    }
+    bad
+}
+
+#[test]
+fn modules_import_only_what_the_listing_says_and_only_from_below() {
+    let doc = std::fs::read_to_string(Path::new(CRATE).join("ARCHITECTURE.md")).unwrap();
+    let listing = listing(&doc);
+    assert!(listing.len() >= 8, "listing too short: {listing:?}");
+    let actual = actual_imports(&Path::new(CRATE).join("src"));
+    let bad = violations(&listing, &actual);
+    assert!(
+        bad.is_empty(),
+        "ARCHITECTURE.md and src/ disagree:\n  {}",
+        bad.join("\n  ")
+    );
+}
+
+#[test]
+fn the_checker_finds_imports_and_reports_an_upward_one() {
+    let code = code_only(
+        "use crate::{grid::Grid, store as s};\n\
+         // use crate::cli;\n\
+         let x = \"crate::engine\";\n\
+         fn f() -> crate::error::Result<()> { crate::NUMERICS_VERSION; my_crate::x; }\n",
+    );
+    let found = crate_imports(&code);
+    let want: BTreeSet<String> = ["error", "grid", "store"].map(String::from).into();
+    assert_eq!(found, want);
+
+    let listing = vec![
+        ("error".to_string(), BTreeSet::new()),
+        ("store".to_string(), BTreeSet::from(["error".to_string()])),
+        ("engine".to_string(), BTreeSet::from(["store".to_string()])),
+    ];
+    let mut actual = BTreeMap::new();
+    actual.insert("error".to_string(), BTreeSet::new());
+    actual.insert(
+        "store".to_string(),
+        BTreeSet::from(["error".to_string(), "engine".to_string()]),
+    );
+    actual.insert("engine".to_string(), BTreeSet::from(["store".to_string()]));
+    let bad = violations(&listing, &actual);
+    assert!(
+        bad.iter()
+            .any(|b| b.contains("`store` imports `engine`, which is not below it")),
+        "{bad:?}"
+    );
+    actual.get_mut("store").unwrap().remove("engine");
+    assert!(violations(&listing, &actual).is_empty());
+}

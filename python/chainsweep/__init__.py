@@ -1,0 +1,31 @@
+"""chainsweep from Python: run scenes and sweeps of dissipative granular chains, read the results
+as labelled xarray Datasets.
+
+- :func:`run` — one scene (a sweep file's ``base`` as a dict) in this process, as a Dataset;
+- :func:`sweep` — a sweep file or dict into an HDF5 file, resumable, with progress;
+- :func:`open` — a result file as a Dataset labelled by the grid's axes and the probes.
+
+Errors: :class:`InputError` (bad input; ``.field`` names the field), :class:`RunError` (a run
+failed; ``.reason``), :class:`SweepError` (I/O, a locked output); all are :class:`Error`.
+"""
+
+from __future__ import annotations
+
+from ._chainsweep import ENGINE_VERSION as __version__
+from ._open import open
+from ._run import run
+from ._sweep import Failure, SweepResult, sweep
+from .errors import Error, InputError, RunError, SweepError
+
+__all__ = [
+    "run",
+    "sweep",
+    "open",
+    "SweepResult",
+    "Failure",
+    "Error",
+    "InputError",
+    "RunError",
+    "SweepError",
+    "__version__",
+]

@@ -1,0 +1,21 @@
+"""Type stubs of the native module (python/src/): see chainsweep.run and chainsweep.sweep."""
+
+from collections.abc import Callable
+from typing import Any
+
+ENGINE_VERSION: str
+SOLVER_VERSION: str
+NUMERICS_VERSION: int
+GIT_REVISION: str
+
+def run_scene(scene: str, record: str | None = None, limits: str | None = None) -> dict[str, Any]: ...
+def run_sweep(
+    file: str,
+    output: str,
+    jobs: int | None = None,
+    shard: str | None = None,
+    retry_failed: bool = False,
+    verify: float | None = None,
+    checkpoint_interval: float = 300.0,
+    progress: Callable[[int, int, int], Any] | None = None,
+) -> tuple[int, int]: ...

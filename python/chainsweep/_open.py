@@ -1,0 +1,246 @@
+"""chainsweep.open: a sweep's HDF5 file as a labelled Dataset, read with h5py.
+
+What this module knows of the file's layout (crates/runner/README-sweeps.md) is kept in the
+functions marked LAYOUT, so that a change of layout is followed there:
+
+- the grid: root attributes ``dimensions`` (JSON list of names) and ``grid_shape``;
+- coordinates: root datasets with a ``dimension`` attribute (zipped axes share one dimension);
+  the ``probe`` dataset and ``probe_units`` on it;
+- summaries: every other root dataset shaped like the grid, or like the grid and the probes;
+  integer ones mark missing values with a fill attribute;
+- per-run groups (histories, minimum overlaps) under ``runs/``, each with a ``flat_index``
+  attribute; a history dataset per probe, named like it, on the group's ``time_s``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterator
+from typing import Any
+
+import h5py
+import numpy as np
+import xarray as xr
+
+from . import _layout as L
+from .errors import InputError
+
+# HDF5 bookkeeping attributes (dimension scales, netCDF-4 markers): not data.
+_INTERNAL_ATTRS = {
+    "DIMENSION_LIST",
+    "REFERENCE_LIST",
+    "CLASS",
+    "NAME",
+    "DIMENSION_LABELS",
+    "_Netcdf4Dimid",
+    "_Netcdf4Coordinates",
+    "_nc3_strict",
+}
+
+# LAYOUT: attributes that hold the fill value of an integer dataset (`_FillValue` is the netCDF
+# convention; `fill_value` is what files of numerics version 3 use).
+_FILL_ATTRS = ("_FillValue", "fill_value")
+
+PathLike = str | os.PathLike[str]
+
+
+def _value(v: Any) -> Any:
+    if isinstance(v, bytes):
+        return v.decode("utf-8", "replace")
+    if isinstance(v, np.ndarray) and v.dtype.kind in "OS":
+        return np.array([_value(x) for x in v.ravel()], dtype=object).reshape(v.shape)
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _attrs(obj: h5py.HLObject) -> dict[str, Any]:
+    return {k: _value(v) for k, v in obj.attrs.items() if k not in _INTERNAL_ATTRS}
+
+
+def _read(ds: h5py.Dataset) -> tuple[np.ndarray, dict[str, Any]]:
+    """A dataset's values and attributes: strings as `str`, integer fills masked to NaN."""
+    attrs = _attrs(ds)
+    if h5py.check_string_dtype(ds.dtype) is not None:
+        return np.asarray(ds.asstr()[()], dtype=object), attrs
+    values = ds[()]
+    fill = next((attrs.pop(a) for a in _FILL_ATTRS if a in attrs), None)
+    if fill is not None and values.dtype.kind in "iu":
+        masked = values.astype(np.float64)
+        masked[values == fill] = np.nan
+        return masked, attrs
+    return values, attrs
+
+
+def _labels(values: np.ndarray) -> np.ndarray:
+    """Coordinate values: strings as numpy `str` (as pandas indexes and `.sel` like them)."""
+    return values.astype(str) if values.dtype == object else values
+
+
+class _Grid:
+    """LAYOUT: the grid of a file: dimension names and shape, coordinates, probes."""
+
+    def __init__(self, f: h5py.File):
+        self.dims: list[str] = list(json.loads(_value(f.attrs["dimensions"])))
+        self.shape: tuple[int, ...] = tuple(int(n) for n in f.attrs["grid_shape"])
+        self.coords: dict[str, tuple[str, np.ndarray, dict[str, Any]]] = {}
+        self.coord_order: dict[str, list[str]] = {d: [] for d in self.dims}
+        for name, obj in f.items():
+            if isinstance(obj, h5py.Dataset) and "dimension" in obj.attrs:
+                dim = _value(obj.attrs["dimension"])
+                values, attrs = _read(obj)
+                self.coords[name] = (dim, _labels(values), attrs)
+                self.coord_order.setdefault(dim, []).append(name)
+        self.probes: list[str] = list(f["probe"].asstr()[()]) if "probe" in f else []
+        if self.probes:
+            values, attrs = _read(f["probe"])
+            self.coords["probe"] = ("probe", _labels(values), attrs)
+            units, uattrs = _read(f["probe_units"])
+            self.coords["probe_units"] = ("probe", _labels(units), uattrs)
+        self.probe_units: list[str] = (
+            [str(u) for u in self.coords["probe_units"][1]] if self.probes else []
+        )
+
+    def dims_of(self, ds: h5py.Dataset) -> tuple[str, ...] | None:
+        """The dimensions of a grid-shaped dataset (None: not grid-shaped)."""
+        if ds.shape == self.shape:
+            return tuple(self.dims)
+        if self.probes and ds.shape == (*self.shape, len(self.probes)):
+            return (*self.dims, "probe")
+        return None
+
+
+def _run_groups(f: h5py.File) -> Iterator[tuple[int, h5py.Group]]:
+    """LAYOUT: every per-run group with its flat (row-major) grid index."""
+    runs = f.get("runs")
+    if runs is None:
+        return
+    for g in runs.values():
+        if isinstance(g, h5py.Group) and "flat_index" in g.attrs:
+            yield int(g.attrs["flat_index"]), g
+
+
+def _history_of(g: h5py.Group, probes: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
+    """LAYOUT: one run's time samples and its history per probe, (probes, samples)."""
+    if "time_s" not in g:
+        return None
+    time = g["time_s"][()]
+    series = [g[p][()] if p in g else np.full(len(time), np.nan) for p in probes]
+    values = np.stack(series) if series else np.zeros((0, len(time)))
+    return time, values
+
+
+def _min_overlap_of(g: h5py.Group) -> np.ndarray | None:
+    """LAYOUT: one run's minimum overlap of every contact."""
+    return g["min_overlap_m"][()] if "min_overlap_m" in g else None
+
+
+def _stack_histories(
+    f: h5py.File, grid: _Grid
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """All histories as one array over (grid…, probe, time_s), NaN where a run has none."""
+    runs = {i: h for i, g in _run_groups(f) if (h := _history_of(g, grid.probes)) is not None}
+    if not runs:
+        return None
+    n = int(np.prod(grid.shape))
+    longest = max(runs.values(), key=lambda h: len(h[0]))[0]
+    width = len(longest)
+    values = np.full((n, len(grid.probes), width), np.nan)
+    times = np.full((n, width), np.nan)
+    for i, (t, v) in runs.items():
+        values[i, :, : len(t)] = v
+        times[i, : len(t)] = t
+    values = values.reshape(*grid.shape, len(grid.probes), width)
+    attrs = {"units": L.probe_units(grid.probe_units), "long_name": L.HISTORY_LONG_NAME}
+    shared = all(np.array_equal(t, longest[: len(t)]) for t, _ in runs.values())
+    coords: dict[str, Any]
+    if shared:
+        # One time axis: every run sampled at the same instants (shorter runs stopped earlier).
+        coords = {"time_s": ("time_s", longest, {"units": "s"})}
+        data = {"history": ((*grid.dims, "probe", "time_s"), values, attrs)}
+    else:
+        # Runs sampled at different instants (the interval or the duration is an axis): a sample
+        # dimension, with each run's own times as a coordinate over the grid.
+        coords = {
+            "time_s": ((*grid.dims, "sample"), times.reshape(*grid.shape, width), {"units": "s"})
+        }
+        data = {"history": ((*grid.dims, "probe", "sample"), values, attrs)}
+    return data, coords
+
+
+def _stack_min_overlaps(
+    f: h5py.File, grid: _Grid
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """Minimum overlaps over (grid…, contact), NaN where a run has none (or fewer contacts)."""
+    runs = {i: m for i, g in _run_groups(f) if (m := _min_overlap_of(g)) is not None}
+    if not runs:
+        return None
+    n = int(np.prod(grid.shape))
+    width = max(len(m) for m in runs.values())
+    values = np.full((n, width), np.nan)
+    for i, m in runs.items():
+        values[i, : len(m)] = m
+    coords = {
+        "contact": (
+            "contact",
+            np.arange(1, width + 1, dtype=np.int64),
+            {"long_name": L.CONTACT_LONG_NAME},
+        )
+    }
+    attrs = {"units": "m", "long_name": L.MIN_OVERLAP_LONG_NAME}
+    data = {"min_overlap_m": ((*grid.dims, "contact"), values.reshape(*grid.shape, width), attrs)}
+    return data, coords
+
+
+def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (chainsweep.open)
+    """Opens a sweep's result file (made by :func:`chainsweep.sweep` or ``chainsweep run``).
+
+    Returns an ``xarray.Dataset`` read into memory (the file is closed again) whose dimensions are
+    the grid's axes, outermost first, with their values and units as coordinates — a zipped group
+    of axes is one dimension and every field of the group is a coordinate on it, indexed by the
+    first (``ds.sel(velocity_m_s=1.3)``) — and ``probe`` (the probe names; ``probe_units`` on it).
+    Every summary of the file is a variable over the grid (and ``probe``) with its ``units`` and
+    ``long_name``: peaks and times, ledger errors, counters (``steps``, … as float64 with NaN where
+    a run failed or is pending, the file's fill value masked), ``status`` (0 pending, 1 ok,
+    2 failed), ``reason``, ``warnings``, ``run_hash``, and the verification columns
+    (``verified``, ``verify_rel_error_*``). Pending and failed points hold NaN. The file's root
+    attributes (the sweep, the base scene, versions, counts) are the Dataset's ``attrs``.
+    ``min_overlap_m`` over (grid…, ``contact``) is there when the sweep recorded it.
+
+    With ``histories=True``, every run's history is stacked into ``history`` over (grid…,
+    ``probe``, ``time_s``), NaN where a run failed, is pending or stopped earlier. When the runs
+    were sampled at different instants (the history interval an axis), the last dimension is
+    ``sample`` and ``time_s`` a coordinate over (grid…, ``sample``).
+    """
+    with h5py.File(path, "r") as f:
+        if "dimensions" not in f.attrs or "grid_shape" not in f.attrs:
+            raise InputError(
+                "path", f"{os.fspath(path)} is not a chainsweep result file (no grid attributes)"
+            )
+        grid = _Grid(f)
+        data: dict[str, Any] = {}
+        for name, obj in f.items():
+            if not isinstance(obj, h5py.Dataset) or name in grid.coords:
+                continue
+            dims = grid.dims_of(obj)
+            if dims is None:
+                continue
+            values, attrs = _read(obj)
+            data[name] = (dims, values, attrs)
+        coords: dict[str, Any] = dict(grid.coords)
+        extras = [_stack_min_overlaps(f, grid)]
+        if histories:
+            extras.append(_stack_histories(f, grid))
+        for extra in extras:
+            if extra is not None:
+                data.update(extra[0])
+                coords.update(extra[1])
+        attrs = _attrs(f)
+    data = {name: data[name] for name in L.ordered(data)}
+    ds = xr.Dataset(data, coords=coords, attrs=attrs)
+    # A zipped dimension named after none of its fields: index it by its first field.
+    for dim, names in grid.coord_order.items():
+        if dim not in ds.coords and names:
+            ds = ds.set_xindex(names[0])
+    return ds

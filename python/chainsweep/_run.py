@@ -1,0 +1,199 @@
+"""chainsweep.run: one scene, in this process, as a labelled Dataset."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, Literal, overload
+
+import numpy as np
+import xarray as xr
+
+from . import _chainsweep as _native
+from . import _layout as L
+from ._json import dumps
+from .errors import InputError, RunError
+
+Scene = Mapping[str, Any]
+
+
+def _versions() -> dict[str, Any]:
+    return {
+        "engine": "chainsweep",
+        "engine_version": _native.ENGINE_VERSION,
+        "solver_version": _native.SOLVER_VERSION,
+        "numerics_version": _native.NUMERICS_VERSION,
+        "git_revision": _native.GIT_REVISION,
+    }
+
+
+def _floats(raw: bytes) -> np.ndarray:
+    """Little-endian float64 bytes (the native module's arrays) as a float64 array."""
+    return np.frombuffer(raw, dtype="<f8").astype(np.float64)
+
+
+def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
+    """The native module's answer as numpy arrays (the `as_dataset=False` form)."""
+    ok = bool(raw["ok"])
+    out: dict[str, Any] = {
+        "probe": np.array(raw["probe"], dtype=str),
+        "probe_units": np.array(raw["probe_units"], dtype=str),
+    }
+    for name in L.PROBE_SUMMARIES:
+        out[name] = np.array(raw[name], dtype=np.float64)
+    for name in L.RUN_FLOATS:
+        out[name] = np.float64(raw[name])
+    for name in L.RUN_COUNTERS:
+        # A failed run counted nothing that is kept: NaN, as chainsweep.open masks the file's -1.
+        out[name] = np.int64(raw[name]) if ok else np.float64(np.nan)
+    out["status"] = np.uint8(L.STATUS_OK if ok else L.STATUS_FAILED)
+    out["reason"] = str(raw["reason"])
+    out["warnings"] = str(raw["warnings"])
+    out["run_hash"] = str(raw["run_hash"])
+    if raw["history_recorded"]:
+        n = len(out["probe"])
+        if raw["time_s"] is None:  # a failed run records no history
+            time = np.zeros(0)
+            history = np.zeros((n, 0))
+        else:
+            time = _floats(raw["time_s"])
+            history = np.stack([_floats(s) for s in raw["history"]]) if n else np.zeros((0, len(time)))
+        out["time_s"] = time
+        out["history"] = history
+    if raw["min_overlap_recorded"]:
+        m = raw["min_overlap_m"]
+        out["min_overlap_m"] = np.zeros(0) if m is None else _floats(m)
+        out["contact"] = np.arange(1, len(out["min_overlap_m"]) + 1, dtype=np.int64)
+    limit = raw["energy_drift_limit"]
+    attrs: dict[str, Any] = {
+        "scene": raw["scene"],
+        "integrator": raw["integrator"],
+        "run_hash": raw["run_hash"],
+        "energy_drift_limit": math.nan if limit is None else float(limit),
+        "probes_json": raw["probes_json"],
+        **_versions(),
+    }
+    if raw["auto"] is not None:
+        attrs["auto"] = raw["auto"]
+        attrs["auto_setting"] = raw["auto_setting"]
+    out["attrs"] = attrs
+    return out
+
+
+def _dataset(a: dict[str, Any]) -> xr.Dataset:
+    """The arrays of one run as a labelled Dataset."""
+    units = [str(u) for u in a["probe_units"]]
+    coords: dict[str, Any] = {
+        "probe": ("probe", a["probe"], {"long_name": "probe (as in the record block)"}),
+        "probe_units": ("probe", a["probe_units"]),
+    }
+    data: dict[str, Any] = {}
+    for name, (unit, long_name) in L.PROBE_SUMMARIES.items():
+        u = unit if unit is not None else L.probe_units(units)
+        data[name] = ("probe", a[name], {"units": u, "long_name": long_name})
+    for name, (unit, long_name) in {**L.RUN_FLOATS, **L.RUN_COUNTERS}.items():
+        data[name] = ((), a[name], {"units": unit, "long_name": long_name})
+    data["status"] = ((), a["status"], dict(L.STATUS_ATTRS))
+    for name, long_name in L.RUN_STRINGS.items():
+        data[name] = ((), np.array(a[name], dtype=object), {"long_name": long_name})
+    if "history" in a:
+        coords["time_s"] = ("time_s", a["time_s"], {"units": "s"})
+        data["history"] = (
+            ("probe", "time_s"),
+            a["history"],
+            {"units": L.probe_units(units), "long_name": L.HISTORY_LONG_NAME},
+        )
+    if "min_overlap_m" in a:
+        coords["contact"] = ("contact", a["contact"], {"long_name": L.CONTACT_LONG_NAME})
+        data["min_overlap_m"] = (
+            "contact",
+            a["min_overlap_m"],
+            {"units": "m", "long_name": L.MIN_OVERLAP_LONG_NAME},
+        )
+    return xr.Dataset(data, coords=coords, attrs=a["attrs"])
+
+
+@overload
+def run(
+    scene: Scene,
+    *,
+    record: Mapping[str, Any] | None = None,
+    limits: Mapping[str, Any] | None = None,
+    as_dataset: Literal[True] = True,
+) -> xr.Dataset: ...
+
+
+@overload
+def run(
+    scene: Scene,
+    *,
+    record: Mapping[str, Any] | None = None,
+    limits: Mapping[str, Any] | None = None,
+    as_dataset: Literal[False],
+) -> dict[str, Any]: ...
+
+
+def run(
+    scene: Scene,
+    *,
+    record: Mapping[str, Any] | None = None,
+    limits: Mapping[str, Any] | None = None,
+    as_dataset: bool = True,
+) -> xr.Dataset | dict[str, Any]:
+    """Runs one scene in this process and returns what it recorded.
+
+    ``scene`` is the JSON of a sweep file's ``base`` as a dict: a chain (a preset such as
+    ``{"preset": "chain_055", "cylinders": 50}`` with overrides beside it, or every field),
+    ``physics``, ``striker_velocity_m_s``, ``duration_s``, optionally ``integrator`` (default
+    DOP853 at rtol 1e-9) and ``max_steps``; fields left out take the solver's defaults. The
+    ``record`` block (probes, histories, …) goes either inside the scene, as the solver's scene
+    JSON has it, or in the ``record`` argument, as a sweep file has it beside ``base`` — not both.
+    ``limits`` is a sweep file's ``limits`` block (default ``{"energy_drift_max": 1e-3}``).
+
+    The scene is normalised, identified and run by the runner's own code, as a one-point sweep,
+    so the numbers are bitwise those of ``chainsweep point`` for the same scene. The GIL is
+    released while the solver runs: threads run scenes in parallel.
+
+    ``integrator: {"method": "auto", "target_rel_error": …}`` is resolved as ``chainsweep point``
+    resolves it without ``-o``: by a pilot on this scene (a reference run at rtol 1e-12 and a
+    ladder of candidates; tens of runs' worth of work). The choice is in ``attrs["integrator"]``
+    (and ``attrs["auto"]``): pass it as the integrator of later calls to skip the pilot.
+
+    Returns an ``xarray.Dataset`` with a ``probe`` dimension (coordinate: the probe names, and
+    ``probe_units``); per-probe ``leading_peak``, ``leading_peak_time_s``, ``record_max``,
+    ``record_max_time_s``; per-run ``t_end_s``, ``energy_drift_max``, ``energy_drift_final``,
+    ``momentum_residual_max``, ``impact_energy_j``, ``wall_time_s``, ``max_overlap_m``,
+    ``steps``, ``rejected_steps``, ``rhs_evals``, ``events`` (int64), ``status`` (1 ok),
+    ``reason``, ``warnings`` (one per line), ``run_hash``; ``history`` over (``probe``,
+    ``time_s``) when ``record.history`` is on; ``min_overlap_m`` over ``contact`` (1-based) when
+    ``record.min_overlap`` is on. Every variable has ``units``; ``attrs`` hold the scene as run
+    (JSON, defaults filled in), the integrator, the run hash and the versions. With
+    ``as_dataset=False``: a dict of the same names holding numpy arrays and scalars, plus
+    ``"attrs"``.
+
+    Raises :class:`~chainsweep.InputError` (``.field``: the scene field, e.g.
+    ``chain.cylinders`` or ``record.probes[0].cylinder``) for bad input, and
+    :class:`~chainsweep.RunError` when the run fails (``.reason``; ``.result``: the Dataset or
+    dict with ``status`` 2, ``reason``, ``wall_time_s`` and NaN elsewhere).
+    """
+    if not isinstance(scene, Mapping):
+        raise TypeError(f"scene must be a dict (a sweep file's `base`), got {type(scene).__name__}")
+    scene = dict(scene)
+    if record is not None and "record" in scene:
+        raise InputError(
+            "record",
+            "given twice: inside the scene and as the `record` argument; give it once",
+        )
+    if record is None:
+        record = scene.pop("record", None)
+    raw = _native.run_scene(
+        dumps(scene),
+        None if record is None else dumps(record, "record"),
+        None if limits is None else dumps(limits, "limits"),
+    )
+    arrays = _arrays(raw)
+    result: xr.Dataset | dict[str, Any] = _dataset(arrays) if as_dataset else arrays
+    if not raw["ok"]:
+        raise RunError(raw["reason"], result)
+    return result
+

@@ -1,0 +1,197 @@
+//! One scene, run in this process exactly as `chainsweep point` runs a grid point.
+//!
+//! The scene is the JSON of a sweep file's `base` (chain presets, defaults, `integrator: auto`),
+//! with the `record` and `limits` blocks beside it. It becomes a one-point sweep built in memory,
+//! so the runner normalises it ([`Sweep::parse`]), identifies it ([`Grid`]'s run hash) and runs it
+//! under panic protection with its failure limits ([`exec::execute`]): the numbers are bitwise
+//! those of `chainsweep point` for the same scene.
+
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict, PyList};
+use serde_json::{json, Map, Value};
+
+use chainsweep::engine;
+use chainsweep::error::{Error, Result};
+use chainsweep::exec;
+use chainsweep::grid::Grid;
+use chainsweep::identity::hex;
+use chainsweep::numerics::auto as pilot;
+use chainsweep::record::RunRecord;
+use chainsweep::sweep::auto::AutoChoice;
+use chainsweep::sweep::Sweep;
+use chainsweep_solver::Scene;
+
+/// A finished point: the scene as run (defaults filled in, `auto` resolved), its identity, the
+/// failure limit and the run's record.
+struct PointRun {
+    scene: Scene,
+    hash: String,
+    energy_drift_limit: Option<f64>,
+    auto: Option<AutoChoice>,
+    record: RunRecord,
+}
+
+/// Normalises and runs one scene (see the module docs). Errors are input errors naming the field
+/// (`base.…`, `record.…`, `limits.…` as in a sweep file; the validation of the built scene names
+/// scene fields without the `base.` prefix).
+fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Result<PointRun> {
+    let mut file = Map::new();
+    file.insert("base".into(), scene);
+    if let Some(r) = record {
+        file.insert("record".into(), r);
+    }
+    if let Some(l) = limits {
+        file.insert("limits".into(), l);
+    }
+    // A sweep file needs an axis; this stand-in names a field every scene has and is dropped
+    // before the grid is built, so the grid's single point is the base scene itself.
+    file.insert(
+        "axes".into(),
+        json!([{"field": "duration_s", "values": [null]}]),
+    );
+    let mut sweep = Sweep::parse(&Value::Object(file).to_string())?;
+    sweep.dims.clear();
+    let base: Scene = chainsweep::sweep::from_value_at(sweep.base.clone(), "base")?;
+    base.validate()
+        .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;
+    let mut grid = Grid::new(&sweep)?;
+    exec::install_panic_hook();
+    if let Some(spec) = sweep.auto {
+        // As `chainsweep point` without `-o`: the pilot runs on the one point there is.
+        let pool = engine::thread_pool(engine::all_cpus())?;
+        let choice = pilot::resolve(&sweep, &grid, &spec, &pool, |_| {})?;
+        sweep.apply_auto(choice);
+        grid = Grid::new(&sweep)?;
+    }
+    let scene = grid.build(&sweep, 0)?;
+    let hash = grid.hashes[0];
+    let record = exec::execute(&scene, hash, &sweep.limits, 0);
+    Ok(PointRun {
+        scene,
+        hash: hex(&hash),
+        energy_drift_limit: sweep.limits.energy_drift_max,
+        auto: sweep.auto_choice.clone(),
+        record,
+    })
+}
+
+fn parse_json(text: &str, what: &str) -> Result<Value> {
+    serde_json::from_str(text).map_err(|e| Error::input(what, format!("not valid JSON: {e}")))
+}
+
+/// Little-endian float64 bytes of `xs`, for `numpy.frombuffer` (bitwise, NaN included).
+fn f64_bytes<'py>(py: Python<'py>, xs: &[f64]) -> Bound<'py, PyBytes> {
+    let mut b = Vec::with_capacity(8 * xs.len());
+    for x in xs {
+        b.extend_from_slice(&x.to_le_bytes());
+    }
+    PyBytes::new(py, &b)
+}
+
+/// Runs one scene given as JSON text (`scene`: a sweep file's `base`; `record`, `limits`: its
+/// blocks, or `None`) with the GIL released, and returns everything the run recorded as a dict of
+/// plain Python values (histories as little-endian float64 bytes). Raises `chainsweep.InputError`
+/// for bad input; a failed run is returned with `ok` false and its `reason`.
+#[pyfunction]
+#[pyo3(signature = (scene, record=None, limits=None))]
+pub fn run_scene<'py>(
+    py: Python<'py>,
+    scene: &str,
+    record: Option<&str>,
+    limits: Option<&str>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (scene, record, limits) = (
+        scene.to_string(),
+        record.map(str::to_string),
+        limits.map(str::to_string),
+    );
+    let outcome = py.detach(move || -> Result<PointRun> {
+        let scene = parse_json(&scene, "scene")?;
+        let record = record.map(|r| parse_json(&r, "record")).transpose()?;
+        let limits = limits.map(|l| parse_json(&l, "limits")).transpose()?;
+        run_point(scene, record, limits)
+    });
+    let run = outcome.map_err(|e| crate::py_error(py, &e, "scene"))?;
+    let rec = &run.record;
+    let probes = &run.scene.record.probes;
+    let d = PyDict::new(py);
+    d.set_item(
+        "scene",
+        serde_json::to_string(&run.scene).expect("Scene serialises"),
+    )?;
+    d.set_item(
+        "integrator",
+        serde_json::to_string(&run.scene.integrator).expect("IntegratorSpec serialises"),
+    )?;
+    d.set_item("run_hash", &run.hash)?;
+    d.set_item("energy_drift_limit", run.energy_drift_limit)?;
+    d.set_item("auto", run.auto.as_ref().map(AutoChoice::to_json))?;
+    d.set_item(
+        "auto_setting",
+        run.auto
+            .as_ref()
+            .map(|c| serde_json::to_string(&c.integrator).expect("IntegratorSpec serialises")),
+    )?;
+    d.set_item("ok", rec.ok)?;
+    d.set_item("reason", &rec.reason)?;
+    for (name, x) in [
+        ("t_end_s", rec.t_end_s),
+        ("energy_drift_max", rec.energy_drift_max),
+        ("energy_drift_final", rec.energy_drift_final),
+        ("momentum_residual_max", rec.momentum_residual_max),
+        ("impact_energy_j", rec.impact_energy_j),
+        ("wall_time_s", rec.wall_time_s),
+        ("max_overlap_m", rec.max_overlap_m),
+    ] {
+        d.set_item(name, x)?;
+    }
+    for (name, n) in [
+        ("steps", rec.steps),
+        ("rejected_steps", rec.rejected),
+        ("rhs_evals", rec.rhs_evals),
+        ("events", rec.events),
+    ] {
+        d.set_item(name, n)?;
+    }
+    d.set_item("warnings", &rec.warnings)?;
+    d.set_item("probe", PyList::new(py, probes.iter().map(|p| p.name()))?)?;
+    d.set_item(
+        "probe_units",
+        PyList::new(py, probes.iter().map(|p| p.unit()))?,
+    )?;
+    d.set_item(
+        "probes_json",
+        serde_json::to_string(probes).expect("probes serialise"),
+    )?;
+    // Per-probe summaries; a failed run has none (NaN, as in the HDF5 file).
+    let column = |f: fn(&chainsweep_solver::probes::ProbeSummary) -> f64| -> Vec<f64> {
+        if rec.probes.len() == probes.len() {
+            rec.probes.iter().map(f).collect()
+        } else {
+            vec![f64::NAN; probes.len()]
+        }
+    };
+    d.set_item("leading_peak", column(|s| s.leading_peak))?;
+    d.set_item("leading_peak_time_s", column(|s| s.leading_peak_time_s))?;
+    d.set_item("record_max", column(|s| s.record_max))?;
+    d.set_item("record_max_time_s", column(|s| s.record_max_time_s))?;
+    match &rec.history {
+        Some(h) => {
+            d.set_item("time_s", f64_bytes(py, &h.time_s))?;
+            let series: Vec<Bound<'py, PyBytes>> =
+                h.values.iter().map(|v| f64_bytes(py, v)).collect();
+            d.set_item("history", PyList::new(py, series)?)?;
+        }
+        None => {
+            d.set_item("time_s", py.None())?;
+            d.set_item("history", py.None())?;
+        }
+    }
+    match &rec.min_overlap_m {
+        Some(m) => d.set_item("min_overlap_m", f64_bytes(py, m))?,
+        None => d.set_item("min_overlap_m", py.None())?,
+    }
+    d.set_item("history_recorded", run.scene.record.history)?;
+    d.set_item("min_overlap_recorded", run.scene.record.min_overlap)?;
+    Ok(d)
+}
