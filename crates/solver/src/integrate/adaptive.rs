@@ -158,6 +158,19 @@ pub struct Controller {
     pub max_shrink: f64,
     /// Largest factor an accepted step grows the next by.
     pub max_growth: f64,
+    /// How a rejection computes its factor (the same value, rounded differently).
+    pub rejection: RejectionForm,
+}
+
+/// The two roundings of the rejection factor `max(max_shrink, safety · err^(−exponent))` found in
+/// the published codes. Mathematically equal, they differ in the last bit; each method keeps the
+/// one it has always used so that stored results stay bitwise those of earlier versions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RejectionForm {
+    /// `h / min(1/max_shrink, err^exponent / safety)` (Hairer's DOP853).
+    DivideByInverse,
+    /// `h · max(max_shrink, safety / err^exponent)` (the form of our ROS34PW2).
+    MultiplyByFactor,
 }
 
 impl Controller {
@@ -172,7 +185,14 @@ impl Controller {
     /// Next try after a rejected step of size `h` with error norm `err` (above 1, or infinite).
     #[inline]
     fn after_reject(&self, h: f64, err: f64) -> f64 {
-        h / (1.0 / self.max_shrink).min(err.powf(self.exponent) / self.safety)
+        match self.rejection {
+            RejectionForm::DivideByInverse => {
+                h / (1.0 / self.max_shrink).min(err.powf(self.exponent) / self.safety)
+            }
+            RejectionForm::MultiplyByFactor => {
+                h * (self.safety / err.powf(self.exponent)).max(self.max_shrink)
+            }
+        }
     }
 }
 

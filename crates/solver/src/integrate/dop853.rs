@@ -19,7 +19,7 @@ use std::cell::Cell;
 
 use chainsweep_cpu::MulAdd;
 
-use super::adaptive::{Adaptive, Attempt, Controller, Method, Rhs, Stepper};
+use super::adaptive::{Adaptive, Attempt, Controller, Method, RejectionForm, Rhs, Stepper};
 use super::{all_finite, DenseStep};
 
 /// Sum of a slice in eight interleaved partial sums, which vectorises.
@@ -61,6 +61,7 @@ impl Method for Dop853Method {
         safety: 0.9,
         max_shrink: 0.333,
         max_growth: 6.0,
+        rejection: RejectionForm::DivideByInverse,
     };
     type Stepper = Work;
     fn stepper(y0: &[f64], _n_pos: usize) -> Work {

@@ -72,7 +72,7 @@
 
 use chainsweep_cpu::MulAdd;
 
-use super::adaptive::{Adaptive, Attempt, Controller, Method, Rhs, Stepper};
+use super::adaptive::{Adaptive, Attempt, Controller, Method, RejectionForm, Rhs, Stepper};
 use super::{all_finite, DenseStep, Tridiagonal};
 
 /// Adaptive, L-stable Rosenbrock-W integrator ROS34PW2 (order 3, embedded order 2, third-order
@@ -94,6 +94,7 @@ impl Method for Ros34pw2Method {
         safety: 0.9,
         max_shrink: 0.2,
         max_growth: 5.0,
+        rejection: RejectionForm::MultiplyByFactor,
     };
     type Stepper = Work;
     fn stepper(y0: &[f64], n_pos: usize) -> Work {
