@@ -301,7 +301,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
     if !(p > 0.0 && p <= MAX_PROGRESS_INTERVAL_S) {
         return Err(Error::input(
             "--progress-interval",
-            format!("must be a number of seconds in (0, {MAX_PROGRESS_INTERVAL_S}] (at most a day), got {p}"),
+            format!("must be a number of seconds in (0, {MAX_PROGRESS_INTERVAL_S}] (at most a day), got {}", engine::number_text(p)),
         ));
     }
     let output = args

@@ -158,6 +158,16 @@ pub fn thread_pool(jobs: usize) -> Result<rayon::ThreadPool> {
         .map_err(|source| Error::Threads { jobs, source })
 }
 
+/// A number as an error message shows it: plain, or in scientific notation when huge or tiny
+/// (`1e308`, not 309 digits).
+pub fn number_text(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e9).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// The number of CPUs this process may use: its CPU affinity mask (what `taskset`, SLURM or a
 /// container allow), as `std::thread::available_parallelism` reads it on Linux.
 pub fn all_cpus() -> usize {

@@ -18,7 +18,9 @@ use super::assemble::{assemble, Assembly};
 use super::auto::{self, AutoOrigin};
 use super::plan::Plan;
 use super::schedule::{run_tasks, Coordinator, Executor, Schedule, SolverExecutor, Task};
-use super::{check_output, max_jobs, shard, thread_pool, ProgressSink, Start, MAX_JOBS_PER_CPU};
+use super::{
+    check_output, max_jobs, number_text, shard, thread_pool, ProgressSink, Start, MAX_JOBS_PER_CPU,
+};
 
 /// The longest `--checkpoint-interval`, s (a week): longer is never refreshed in practice, and
 /// the interval must stay a representable duration.
@@ -64,7 +66,8 @@ impl RunOptions {
             return Err(Error::input(
                 "--checkpoint-interval",
                 format!(
-                    "must be a number of seconds in [0, {MAX_CHECKPOINT_INTERVAL_S}] (0: only at the end; at most a week), got {checkpoint_interval_s}"
+                    "must be a number of seconds in [0, {MAX_CHECKPOINT_INTERVAL_S}] (0: only at the end; at most a week), got {}",
+                    number_text(checkpoint_interval_s)
                 ),
             ));
         }
