@@ -56,6 +56,7 @@ def test_zip_axes_share_a_dimension(single):
 def test_shards_then_merge_equals_single(single, tmp_path):
     path, ref = single
     parts = []
+    owner = None
     for k in (1, 2, 3):
         part = tmp_path / f"part-{k}.h5"
         r = run("run", path, "--shard", f"{k}/3", "-o", part, "--jobs", "2", "--quiet")
@@ -63,18 +64,24 @@ def test_shards_then_merge_equals_single(single, tmp_path):
         with h5py.File(part, "r") as f:
             assert f.attrs["shard"] == f"{k}/3"
             status = f["status"][...].ravel()
-            idx = np.arange(status.size)
-            assert (status[idx % 3 == k - 1] == 1).all()
-            assert (status[idx % 3 != k - 1] == 0).all()
+            owner = np.zeros(status.size, dtype=int) if owner is None else owner
+            # A shard runs its own points only: the shards partition the grid.
+            assert ((status == 1) | (status == 0)).all()
+            assert (owner[status == 1] == 0).all()
+            owner[status == 1] = k
         r = run("status", part)
         assert r.returncode == 0, r.stdout
         parts.append(part)
+    assert (owner > 0).all()
 
     # A merge of some of the shards is partial (exit 3) and says what is pending.
     partial = tmp_path / "partial.h5"
     r = run("merge", "-o", partial, parts[0], parts[2])
     assert r.returncode == 3, r.stderr
-    assert "5 pending" in r.stderr
+    assert f"{(owner == 2).sum()} pending" in r.stderr
+    # The merge names the missing shard and how to run only it again (array task = shard - 1).
+    assert "shard 2/3 (SLURM array task 1) is missing" in r.stderr, r.stderr
+    assert "sbatch --array=1 " in r.stderr, r.stderr
 
     merged = tmp_path / "merged.h5"
     r = run("merge", "-o", merged, *reversed(parts))
@@ -86,7 +93,7 @@ def test_shards_then_merge_equals_single(single, tmp_path):
         for k, part in enumerate(parts, start=1):
             with h5py.File(part, "r") as f:
                 w = f["wall_time_s"][...].ravel()
-                sel = np.arange(w.size) % 3 == k - 1
+                sel = owner == k
                 assert w[sel].tobytes() == wall[sel].tobytes()
     # The merged file is resumable like any run's output: nothing is left to run.
     r = run("run", path, "-o", merged, "--jobs", "2")
