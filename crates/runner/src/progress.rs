@@ -204,13 +204,10 @@ impl ProgressSink for Terminal {
     }
 
     fn stopping(&mut self, in_flight: usize) {
-        // Said even with `quiet`: the user (or SLURM's log) must know why the sweep ends early.
-        let line = format!(
-            "chainsweep: stop requested: no new runs; the output holds every finished run; waiting for {in_flight} run(s) in flight (a second signal ends at once: they are then run again on resume)"
-        );
-        match &self.runs {
-            Some(r) if !self.quiet => r.println(&line),
-            _ => errln!("{line}"),
+        if let Some(r) = self.runs.as_ref().filter(|_| !self.quiet) {
+            r.println(&format!(
+                "chainsweep: stop requested: no new runs; the output holds every finished run; waiting for {in_flight} run(s) in flight (a second signal ends at once: they are then run again on resume)"
+            ));
         }
     }
 
