@@ -82,6 +82,12 @@ def test_shards_then_merge_equals_single(single, tmp_path):
     # The merge names the missing shard and how to run only it again (array task = shard - 1).
     assert "shard 2/3 (SLURM array task 1) is missing" in r.stderr, r.stderr
     assert "sbatch --array=1 " in r.stderr, r.stderr
+    # `status` over the shard files says per shard done or missing.
+    r = run("status", parts[0], parts[2])
+    assert r.returncode == 3, r.stdout + r.stderr
+    assert "shard 1/3 (array task 0): done" in r.stdout, r.stdout
+    assert "shard 2/3 (array task 1): missing" in r.stdout, r.stdout
+    assert "3 shards: 2 done, 0 failed, 0 pending, 1 missing" in r.stdout, r.stdout
 
     merged = tmp_path / "merged.h5"
     r = run("merge", "-o", merged, *reversed(parts))
