@@ -197,6 +197,23 @@ def test_zipped_axes_are_one_dimension(tmp_path, binary):
         assert bool((lp.diff(dim) > 0).all())
 
 
+def test_a_zipped_dimension_of_its_own_name_is_no_variable(tmp_path, binary):
+    """A one-dimensional grid whose zipped group has a name of its own: the file's dimension-only
+    dataset of that name has the grid's shape, and is still no variable."""
+    spec = sweep_spec()
+    spec["record"]["stop_after_leading_pulses"] = True
+    spec["axes"] = [{"name": "impact", "zip": [
+        {"field": "striker_velocity_m_s", "name": "velocity_m_s", "values": [1.06, 1.3]},
+        {"field": "chain.cylinders", "values": [10, 12]},
+    ]}]
+    path = write(tmp_path / "zip1.json", spec)
+    out = tmp_path / "zip1.h5"
+    assert cli("run", path, "-o", out, "--quiet").returncode == 0
+    ds = chainsweep.open(out)
+    assert "impact" not in ds.variables and ds.steps.dims == ("impact",)
+    assert ds.sel(cylinders=12).velocity_m_s.item() == 1.3
+
+
 def test_histories_of_different_instants_get_a_sample_dimension(tmp_path, binary):
     spec = sweep_spec(history=True)
     spec["axes"] = [{"field": "record.history_interval_s", "values": [1e-6, 2e-6]}]
