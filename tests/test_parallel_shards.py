@@ -46,8 +46,14 @@ def test_zip_axes_share_a_dimension(single):
     _, ref = single
     with h5py.File(ref, "r") as f:
         assert f["leading_peak"].shape == (5, 3, 2)
+        # one scale per dimension (netCDF-4 takes the last one attached as the dimension): the
+        # axis named like it; the zipped velocity is a coordinate on it
         scales = [s.name for s in f["leading_peak"].dims[1].values()]
-        assert scales == ["/damping_kg_s", "/velocity_m_s"]
+        assert scales == ["/damping_kg_s"]
+        assert [s.name for s in f["velocity_m_s"].dims[0].values()] == ["/damping_kg_s"]
+        assert not h5py.h5ds.is_scale(f["velocity_m_s"].id)
+        assert f["leading_peak"].attrs["coordinates"] == "velocity_m_s probe_units"
+        assert f["steps"].attrs["coordinates"] == "velocity_m_s"
         np.testing.assert_array_equal(f["velocity_m_s"][:], [1.06, 1.3, 1.45])
         assert f["velocity_m_s"].attrs["units"] == "m/s"
         assert f["velocity_m_s"].attrs["dimension"] == "damping_kg_s"
