@@ -2,7 +2,9 @@
 #
 #   make test      builds everything (installing what it needs into .venv) and runs every test
 #   make figures   runs the paper's sweeps on a small default and draws the figures into results/
-#   make bench     benchmarks (criterion): right-hand-side cost and the reference run
+#   make bench     benchmarks (criterion), before (BENCH_BASE, default main) and after side by side:
+#                  right-hand-side cost per contact, the reference run, each contact law and model
+#   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
 #   make python    the Python package (python/) built by maturin and installed into .venv
 #
 # The HDF5 library is built from source (hdf5-metno's `static` feature) and needs CMake >= 3.26;
@@ -19,7 +21,7 @@ export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 # every cargo command here and in maturin's: without it, each would rebuild pyo3 after the other.
 export PYO3_CONFIG_FILE := $(CURDIR)/python/pyo3-config.txt
 
-.PHONY: all build test test-rust test-python python ncdump bench figures fmt lint venv clean
+.PHONY: all build test test-rust test-python python ncdump bench figures examples fmt lint venv clean
 
 all: build
 
@@ -78,8 +80,13 @@ test-python: build python ncdump
 
 test: lint test-rust test-python
 
+# The solver's bench at BENCH_BASE (built in a temporary git worktree) and at the working tree, run
+# alternately BENCH_ROUNDS times; medians side by side (scripts/bench_compare.py). After a merge,
+# give the commit before it: make bench BENCH_BASE=<commit>.
+BENCH_BASE ?= main
+BENCH_ROUNDS ?= 5
 bench: venv
-	$(CARGO) bench -p chainsweep-solver --bench solver
+	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 
 clean:
 	$(CARGO) clean
@@ -106,6 +113,20 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 	done
 
 .PHONY: paper-check
+
+# Chains beyond the paper's (docs/CHAINS.md): every sweep of sweeps/examples/ into
+# results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
+# attenuation table of the delta-force dimer. About 10 s on two cores.
+EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse
+
+examples: build
+	@mkdir -p results/examples; \
+	for s in $(EXAMPLE_SWEEPS); do \
+	  echo "example $$s"; \
+	  $(CHAINSWEEP_BIN) run sweeps/examples/$$s.json -o results/examples/$$s.h5 --jobs $(SWEEP_JOBS) --quiet \
+	    || { echo "ERROR: example $$s failed (exit $$?)"; exit 1; }; \
+	done; \
+	cd scripts && ../$(PY) examples.py
 
 figures: build
 	@$(RUN_PAPER_SWEEPS); \

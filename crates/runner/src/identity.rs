@@ -88,7 +88,7 @@ mod tests {
         let h = run_hash(&scene, Some(1e-3));
         assert_ne!(h, run_hash(&scene, None));
         let mut other = scene.clone();
-        other.striker_velocity_m_s = 1.31;
+        other.striker_velocity_m_s = Some(1.31);
         assert_ne!(h, run_hash(&other, Some(1e-3)));
         assert_ne!(verify_hash(&h, &scene), h);
         assert_eq!(run_hash(&scene, Some(1e-3)), h);

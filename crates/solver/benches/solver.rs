@@ -1,14 +1,20 @@
-//! `make bench`: right-hand-side cost per contact and the cost of one reference run.
+//! `make bench`: right-hand-side cost per contact (the paper's specialised kernel, and the general
+//! kernel under every contact law and dissipation model) and the cost of one reference run.
 //!
 //! The reference run is the issue's: the 0.55 chain (3.77 g cylinders, 50 cylinders), μ = 6 kg/s,
 //! v0 = 1.3 m/s, 1 ms simulated, DOP853 at the tolerance whose leading peak in cylinder 21 is within
 //! 1e-6 of a tight reference (checked by `tests/accuracy.rs`).
 
+use chainsweep_solver::contact::{DissipationSpec, LawSpec};
+use chainsweep_solver::general::{law, GeneralChainSystem, HERTZ_LAW, LINEAR_LAW, POWER_LAW};
 use chainsweep_solver::integrate::OdeSystem;
-use chainsweep_solver::model::{Chain, ChainSpec, PhysicsSpec};
+use chainsweep_solver::model::{Chain, ChainSpec, Material, PhysicsSpec};
 use chainsweep_solver::scene::run;
 use chainsweep_solver::system::ChainSystem;
-use criterion::{black_box, criterion_group, criterion_main, Criterion, Throughput};
+use criterion::measurement::WallTime;
+use criterion::{
+    black_box, criterion_group, criterion_main, BenchmarkGroup, Criterion, Throughput,
+};
 
 mod reference;
 use reference::{reference_scene, REFERENCE_RTOL};
@@ -80,5 +86,120 @@ fn bench_run(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_rhs, bench_run);
+/// The paper's 0.55 chain written as a sequence (striker sphere, 50 × [cylinder, sphere], the last
+/// sphere on the wall: 101 particles, 101 contacts) with `law` on the sphere–cylinder pairs (Hertz
+/// when `None`) and `model` on every contact: the general kernel at the paper's size.
+fn general_chain(law: Option<LawSpec>, model: Option<DissipationSpec>) -> Chain {
+    use chainsweep_solver::problems::{chain, rule, sphere, STEEL};
+    use chainsweep_solver::sequence::{CylinderType, ParticleType, RepeatBlock, SequenceItem};
+    let cylinder = ParticleType::Cylinder(CylinderType {
+        material: Material::STEEL_SS304,
+        diameter_m: 8e-3,
+        height_m: 9.6e-3,
+        mass_kg: Some(3.77e-3),
+        density_kg_m3: None,
+    });
+    let contacts = law
+        .map(|l| {
+            vec![
+                rule("sphere", "cylinder", Some(l), None),
+                rule("sphere", "wall", Some(l), None),
+            ]
+        })
+        .unwrap_or_default();
+    let spec = chain(
+        &[
+            ("sphere", sphere(STEEL, 8e-3, 2.085e-3)),
+            ("cylinder", cylinder),
+        ],
+        vec![SequenceItem::Repeat(RepeatBlock {
+            repeat: 50,
+            of: vec![
+                SequenceItem::Type("cylinder".into()),
+                SequenceItem::Type("sphere".into()),
+            ],
+        })],
+        Some("sphere"),
+        contacts,
+    );
+    let physics = PhysicsSpec {
+        dissipation: model,
+        ..PhysicsSpec::default()
+    };
+    Chain::build(&ChainSpec::Sequence(spec), &physics).unwrap()
+}
+
+fn time_general<const LAW: u8, const D: bool>(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    chain: &Chain,
+    y: &mut Vec<f64>,
+) {
+    let mut sys = GeneralChainSystem::<LAW, D>::new(chain);
+    let dim = OdeSystem::dim(&sys);
+    y.resize(dim, 0.0);
+    let mut dy = vec![0.0; dim];
+    group.bench_function(name, |b| {
+        b.iter(|| sys.rhs(0.0, black_box(&y[..]), black_box(&mut dy)))
+    });
+}
+
+/// RHS cost per contact of the general kernel for each law and dissipation model, on the paper's
+/// chain size with gravity and the wall (`rhs/full_physics` is the paper's kernel on the same
+/// chain with μ = 6 kg/s).
+fn bench_general_rhs(c: &mut Criterion) {
+    let power = |n: f64| LawSpec::PowerLaw {
+        coefficient: 9e9 * 1e-6f64.powf(1.5 - n),
+        exponent: n,
+    };
+    let linear = Some(DissipationSpec::LinearViscous { damping_kg_s: 6.0 });
+    let cases: [(&str, Option<LawSpec>, Option<DissipationSpec>); 7] = [
+        ("hertz_no_damping", None, None),
+        ("hertz_linear_viscous", None, linear),
+        (
+            "hertz_kuwabara_kono",
+            None,
+            Some(DissipationSpec::KuwabaraKono {
+                relaxation_time_s: 1e-7,
+            }),
+        ),
+        (
+            "hertz_hunt_crossley",
+            None,
+            Some(DissipationSpec::HuntCrossley {
+                restitution: 0.8,
+                impact_velocity_m_s: 1.0,
+            }),
+        ),
+        ("linear_law_linear_viscous", Some(power(1.0)), linear),
+        ("power_law_2.5_no_damping", Some(power(2.5)), None),
+        ("power_law_2.5_linear_viscous", Some(power(2.5)), linear),
+    ];
+    let mut group = c.benchmark_group("general_rhs");
+    for (name, law_spec, model) in cases {
+        let chain = general_chain(law_spec, model);
+        group.throughput(Throughput::Elements(chain.n_contacts() as u64));
+        let mut y = mid_pulse_state(&chain);
+        // The general kernel itself, also for the two cases that `dispatch_chain_system!` sends to
+        // the paper's kernel (Hertz laws with no or linear damping): their difference from
+        // `rhs/full_physics` is the price of generality that the dispatch avoids.
+        match (law(&chain), chain.has_damping()) {
+            (HERTZ_LAW, false) => {
+                time_general::<HERTZ_LAW, false>(&mut group, name, &chain, &mut y)
+            }
+            (HERTZ_LAW, true) => time_general::<HERTZ_LAW, true>(&mut group, name, &chain, &mut y),
+            (LINEAR_LAW, false) => {
+                time_general::<LINEAR_LAW, false>(&mut group, name, &chain, &mut y)
+            }
+            (LINEAR_LAW, true) => {
+                time_general::<LINEAR_LAW, true>(&mut group, name, &chain, &mut y)
+            }
+            (_, false) => time_general::<POWER_LAW, false>(&mut group, name, &chain, &mut y),
+            (_, true) => time_general::<POWER_LAW, true>(&mut group, name, &chain, &mut y),
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_rhs, bench_general_rhs, bench_run);
 criterion_main!(benches);

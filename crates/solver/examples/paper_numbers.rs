@@ -67,7 +67,8 @@ fn main() {
             let out = run(&scene).expect("run");
             let cell = Chain::build(&scene.chain, &scene.physics)
                 .unwrap()
-                .cell_length_m;
+                .cell_length_m
+                .expect("the paper's dimer chain");
             let p = &out.probes;
             let c45 = cell / (p[1].leading_peak_time_s - p[0].leading_peak_time_s);
             let c421 = 17.0 * cell / (p[2].leading_peak_time_s - p[0].leading_peak_time_s);

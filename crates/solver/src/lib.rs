@@ -2,15 +2,21 @@
 //!
 //! The strongly nonlinear, dissipative sphere–cylinder chain of Wang & Nesterenko, *Attenuation of
 //! short strongly nonlinear stress pulses in dissipative granular chains*, Sec. III, Eqs. (1)–(12),
-//! with the conventions of the project's `docs/MODEL.md`:
+//! as the default (with the conventions of the project's `docs/MODEL.md`), and any one-dimensional
+//! granular chain beyond it (`docs/CHAINS.md` teaches how to describe one):
 //!
 //! - [`model`]: the chain's configuration with the paper's defaults and the built [`model::Chain`];
-//! - [`system`]: the equations of motion as an ODE system, specialised at compile time on gravity,
-//!   damping, wall and clipping, and the energy/momentum [`system::Ledger`];
+//! - [`sequence`]: chains as sequences of named particle types, with taper and disorder;
+//! - [`contact`]: the contact laws (Hertz, power laws) and dissipation models (linear viscous,
+//!   Kuwabara–Kono, Hunt–Crossley), the one home of their formulas;
+//! - [`system`]: the paper's equations of motion as an ODE system, specialised at compile time on
+//!   gravity, damping, wall and clipping, the energy/momentum [`system::Ledger`], and the dispatch
+//!   to [`general`]'s kernels for every other chain;
 //! - [`integrate`]: velocity Verlet, RK4, DOP853 (with contact-event location) and the stiff
 //!   ROS34PW2 (with the chain's tridiagonal Jacobian) behind one [`integrate::Integrator`] interface;
 //! - [`probes`]: observables sampled through dense output and on-the-fly peak summaries;
-//! - [`scene`]: a whole simulation, [`scene::run`].
+//! - [`scene`]: a whole simulation, [`scene::run`];
+//! - [`problems`]: reference problems with closed-form answers (tests, benchmarks, examples).
 //!
 //! Units are SI throughout. The crate knows nothing of files or command lines.
 //!
@@ -25,13 +31,18 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod contact;
+pub mod general;
 pub mod integrate;
 mod jacobian;
 pub mod model;
 pub mod probes;
+pub mod problems;
 pub mod scene;
+pub mod sequence;
 pub mod system;
 
-pub use model::{Chain, ChainSpec, PhysicsSpec};
+pub use model::{Chain, ChainSpec, DimerSpec, PhysicsSpec};
 pub use probes::{Probe, RecordSpec};
-pub use scene::{run, IntegratorSpec, RunOutput, Scene};
+pub use scene::{run, Excitation, IntegratorSpec, RunOutput, Scene};
+pub use sequence::SequenceSpec;

@@ -1,14 +1,20 @@
-//! The chain of the paper (Sec. III): configuration with the paper's defaults, and the built
-//! [`Chain`] with masses, Hertz coefficients, damping coefficients and the static-equilibrium state.
+//! What a chain is made of: its description ([`ChainSpec`]: the paper's sphere–cylinder dimer
+//! with a striker, or any sequence of named particle types, see [`crate::sequence`]), the physics
+//! switches ([`PhysicsSpec`]), and the built [`Chain`] with per-particle masses, per-contact laws
+//! and dissipation, and the static-equilibrium state.
 //!
-//! Numbering follows `docs/MODEL.md`: particle 1 is the striker, particle 2 the first chain sphere,
-//! cylinders have odd indices (cylinder `k` is particle `2k+1`), the last particle `N = 2n+2` is a
-//! sphere on the wall. Contact `j` joins particles `j` and `j+1`; contact `N` joins particle `N` and
-//! the wall. Displacement is positive downwards, towards the wall. Internally arrays are 0-based:
-//! particle `i` is index `i-1`, contact `j` is index `j-1`.
+//! Numbering follows `docs/MODEL.md`: particle 1 is the striker when the chain has one (the paper's
+//! chain always does: particle 2 is then the first chain sphere, cylinder `k` is particle `2k+1` and
+//! the last particle `N = 2n+2` is a sphere on the wall); without a striker particle 1 is the first
+//! particle of the sequence. Contact `j` joins particles `j` and `j+1`; contact `N` joins particle
+//! `N` and the wall. Displacement is positive downwards, towards the wall. Internally arrays are
+//! 0-based: particle `i` is index `i-1`, contact `j` is index `j-1`.
 
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
+
+use crate::contact::{overlap_at_force, Damping, DissipationSpec};
+use crate::sequence::SequenceSpec;
 
 /// Standard gravity used by default, m/s².
 pub const STANDARD_GRAVITY_M_S2: f64 = 9.81;
@@ -148,11 +154,13 @@ impl CylinderSpec {
     }
 }
 
-/// Geometry and materials of the chain.
+/// The paper's chain: a striker sphere, then `n + 1` spheres alternating with `n` flat-ended
+/// cylinders, the last sphere on the wall. The presets `chain_055` and `chain_098` and the
+/// heavy/light mass-ratio conventions are written in this form.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
-pub struct ChainSpec {
+pub struct DimerSpec {
     /// Number of cylinders `n`; the chain has `n+1` spheres and `N = 2n+2` particles with the striker.
     pub cylinders: usize,
     /// Chain spheres.
@@ -165,10 +173,10 @@ pub struct ChainSpec {
     pub wall_material: Material,
 }
 
-impl ChainSpec {
+impl DimerSpec {
     /// The 0.98 chain (short cylinders) with `cylinders` cylinders.
     pub fn chain_098(cylinders: usize) -> Self {
-        ChainSpec {
+        DimerSpec {
             cylinders,
             sphere: SphereSpec::PAPER,
             cylinder: CylinderSpec::SHORT,
@@ -179,7 +187,7 @@ impl ChainSpec {
 
     /// The 0.55 chain (tall 3.77 g cylinders) with `cylinders` cylinders.
     pub fn chain_055(cylinders: usize) -> Self {
-        ChainSpec {
+        DimerSpec {
             cylinder: CylinderSpec::TALL,
             ..Self::chain_098(cylinders)
         }
@@ -188,6 +196,258 @@ impl ChainSpec {
     /// Number of particles including the striker, `N = 2n + 2`.
     pub fn particles(&self) -> usize {
         2 * self.cylinders + 2
+    }
+}
+
+/// Geometry and materials of a chain: the paper's dimer ([`DimerSpec`], in which every existing
+/// scene is written) or a sequence of named particle types ([`SequenceSpec`]). In a scene file the
+/// two are told apart by their fields: `particles`/`sequence` (and the optional `taper`,
+/// `disorder`, `contacts`, a `striker` naming a particle type) make a sequence; `cylinders`,
+/// `sphere`, `cylinder`, `striker` (a sphere) make the dimer. Both take `wall_material`.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
+#[cfg_attr(feature = "serde", serde(untagged))]
+pub enum ChainSpec {
+    /// The paper's sphere–cylinder chain with a striker.
+    Dimer(DimerSpec),
+    /// Any sequence of particle types.
+    Sequence(SequenceSpec),
+}
+
+impl From<DimerSpec> for ChainSpec {
+    fn from(d: DimerSpec) -> Self {
+        ChainSpec::Dimer(d)
+    }
+}
+
+impl From<SequenceSpec> for ChainSpec {
+    fn from(s: SequenceSpec) -> Self {
+        ChainSpec::Sequence(s)
+    }
+}
+
+impl ChainSpec {
+    /// The 0.98 chain (short cylinders) with `cylinders` cylinders.
+    pub fn chain_098(cylinders: usize) -> Self {
+        ChainSpec::Dimer(DimerSpec::chain_098(cylinders))
+    }
+
+    /// The 0.55 chain (tall 3.77 g cylinders) with `cylinders` cylinders.
+    pub fn chain_055(cylinders: usize) -> Self {
+        ChainSpec::Dimer(DimerSpec::chain_055(cylinders))
+    }
+
+    /// The dimer description, if this is one.
+    pub fn dimer(&self) -> Option<&DimerSpec> {
+        match self {
+            ChainSpec::Dimer(d) => Some(d),
+            ChainSpec::Sequence(_) => None,
+        }
+    }
+
+    /// The dimer description, mutably, if this is one.
+    pub fn dimer_mut(&mut self) -> Option<&mut DimerSpec> {
+        match self {
+            ChainSpec::Dimer(d) => Some(d),
+            ChainSpec::Sequence(_) => None,
+        }
+    }
+
+    /// Whether particle 1 is a striker.
+    pub fn has_striker(&self) -> bool {
+        match self {
+            ChainSpec::Dimer(_) => true,
+            ChainSpec::Sequence(s) => s.striker.is_some(),
+        }
+    }
+
+    /// Checks every field for physical sense; the error names the field (relative to `chain`).
+    pub fn validate(&self) -> Result<(), SpecError> {
+        match self {
+            ChainSpec::Dimer(d) => d.validate(),
+            ChainSpec::Sequence(s) => s.validate(),
+        }
+    }
+}
+
+#[cfg(feature = "serde")]
+mod chain_spec_serde {
+    //! `ChainSpec` is read in one pass over its fields: each field has one type whichever form
+    //! the chain takes (a `striker` is a sphere in the dimer and a type name in a sequence), so
+    //! every value is read straight into its type and errors keep their full path.
+    use super::*;
+    use crate::sequence::{ContactRule, DisorderSpec, ParticleType, SequenceItem, TaperSpec};
+    use serde::de::{self, Deserializer, MapAccess, Visitor};
+    use std::collections::BTreeMap;
+
+    const DIMER_FIELDS: &[&str] = &[
+        "cylinders",
+        "sphere",
+        "cylinder",
+        "striker",
+        "wall_material",
+    ];
+    const SEQUENCE_FIELDS: &[&str] = &[
+        "particles",
+        "sequence",
+        "striker",
+        "wall_material",
+        "taper",
+        "disorder",
+        "contacts",
+    ];
+    const ALL_FIELDS: &[&str] = &[
+        "cylinders",
+        "sphere",
+        "cylinder",
+        "particles",
+        "sequence",
+        "striker",
+        "wall_material",
+        "taper",
+        "disorder",
+        "contacts",
+    ];
+
+    /// A striker: a sphere (dimer) or the name of a particle type (sequence).
+    enum Striker {
+        Sphere(SphereSpec),
+        Name(String),
+    }
+
+    impl<'de> Deserialize<'de> for Striker {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V;
+            impl<'de> Visitor<'de> for V {
+                type Value = Striker;
+                fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                    f.write_str("a sphere {\"material\", \"diameter_m\", \"mass_kg\"} (the dimer chain) or the name of a particle type (a sequence chain)")
+                }
+                fn visit_str<E: de::Error>(self, v: &str) -> Result<Striker, E> {
+                    Ok(Striker::Name(v.to_string()))
+                }
+                fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Striker, A::Error> {
+                    SphereSpec::deserialize(de::value::MapAccessDeserializer::new(map))
+                        .map(Striker::Sphere)
+                }
+            }
+            d.deserialize_any(V)
+        }
+    }
+
+    #[derive(Default)]
+    struct Fields {
+        cylinders: Option<usize>,
+        sphere: Option<SphereSpec>,
+        cylinder: Option<CylinderSpec>,
+        particles: Option<BTreeMap<String, ParticleType>>,
+        sequence: Option<Vec<SequenceItem>>,
+        striker: Option<Striker>,
+        wall_material: Option<Material>,
+        taper: Option<Option<TaperSpec>>,
+        disorder: Option<Option<DisorderSpec>>,
+        contacts: Option<Vec<ContactRule>>,
+    }
+
+    fn once<T, E: de::Error>(slot: &mut Option<T>, value: T, key: &'static str) -> Result<(), E> {
+        if slot.is_some() {
+            return Err(E::duplicate_field(key));
+        }
+        *slot = Some(value);
+        Ok(())
+    }
+
+    impl<'de> Deserialize<'de> for ChainSpec {
+        fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+            struct V;
+            impl<'de> Visitor<'de> for V {
+                type Value = ChainSpec;
+                fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                    f.write_str("a chain: the paper's dimer {cylinders, sphere, cylinder, striker, wall_material} or a sequence {particles, sequence, …}")
+                }
+                fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<ChainSpec, A::Error> {
+                    let mut f = Fields::default();
+                    while let Some(key) = map.next_key::<String>()? {
+                        match key.as_str() {
+                            "cylinders" => once(&mut f.cylinders, map.next_value()?, "cylinders")?,
+                            "sphere" => once(&mut f.sphere, map.next_value()?, "sphere")?,
+                            "cylinder" => once(&mut f.cylinder, map.next_value()?, "cylinder")?,
+                            "particles" => once(&mut f.particles, map.next_value()?, "particles")?,
+                            "sequence" => once(&mut f.sequence, map.next_value()?, "sequence")?,
+                            "striker" => once(&mut f.striker, map.next_value()?, "striker")?,
+                            "wall_material" => {
+                                once(&mut f.wall_material, map.next_value()?, "wall_material")?
+                            }
+                            "taper" => once(&mut f.taper, map.next_value()?, "taper")?,
+                            "disorder" => once(&mut f.disorder, map.next_value()?, "disorder")?,
+                            "contacts" => once(&mut f.contacts, map.next_value()?, "contacts")?,
+                            other => return Err(de::Error::unknown_field(other, ALL_FIELDS)),
+                        }
+                    }
+                    let sequence = f.particles.is_some()
+                        || f.sequence.is_some()
+                        || f.taper.is_some()
+                        || f.disorder.is_some()
+                        || f.contacts.is_some()
+                        || matches!(f.striker, Some(Striker::Name(_)));
+                    if sequence {
+                        let stray = [
+                            ("cylinders", f.cylinders.is_some()),
+                            ("sphere", f.sphere.is_some()),
+                            ("cylinder", f.cylinder.is_some()),
+                        ];
+                        if let Some((name, _)) = stray.iter().find(|(_, given)| *given) {
+                            return Err(de::Error::custom(format!(
+                                "`{name}` is a field of the paper's dimer chain, not of a sequence chain (given `particles`/`sequence`); a sequence chain has: {}",
+                                SEQUENCE_FIELDS.join(", ")
+                            )));
+                        }
+                        let striker = match f.striker {
+                            None => None,
+                            Some(Striker::Name(n)) => Some(n),
+                            Some(Striker::Sphere(_)) => {
+                                return Err(de::Error::custom(
+                                    "in a sequence chain `striker` names one of the particle types (e.g. \"striker\": \"ball\")",
+                                ))
+                            }
+                        };
+                        Ok(ChainSpec::Sequence(SequenceSpec {
+                            particles: f
+                                .particles
+                                .ok_or_else(|| de::Error::missing_field("particles"))?,
+                            sequence: f
+                                .sequence
+                                .ok_or_else(|| de::Error::missing_field("sequence"))?,
+                            striker,
+                            wall_material: f.wall_material.unwrap_or(Material::STEEL_SS304),
+                            taper: f.taper.flatten(),
+                            disorder: f.disorder.flatten(),
+                            contacts: f.contacts.unwrap_or_default(),
+                        }))
+                    } else {
+                        let striker = match f.striker {
+                            Some(Striker::Sphere(s)) => s,
+                            _ => return Err(de::Error::missing_field("striker")),
+                        };
+                        let _ = DIMER_FIELDS;
+                        Ok(ChainSpec::Dimer(DimerSpec {
+                            cylinders: f
+                                .cylinders
+                                .ok_or_else(|| de::Error::missing_field("cylinders"))?,
+                            sphere: f.sphere.ok_or_else(|| de::Error::missing_field("sphere"))?,
+                            cylinder: f
+                                .cylinder
+                                .ok_or_else(|| de::Error::missing_field("cylinder"))?,
+                            striker,
+                            wall_material: f
+                                .wall_material
+                                .ok_or_else(|| de::Error::missing_field("wall_material"))?,
+                        }))
+                    }
+                }
+            }
+            d.deserialize_map(V)
+        }
     }
 }
 
@@ -206,12 +466,29 @@ pub struct PhysicsSpec {
     /// Damping μ₁ on the striker contact, kg/s (Eqs. 8–9). Absent: equal to `damping_kg_s`.
     #[cfg_attr(feature = "serde", serde(default))]
     pub striker_damping_kg_s: Option<f64>,
-    /// The rigid wall under the last sphere (Eq. 7). Without it the last sphere is free.
+    /// The rigid wall under the last particle (Eq. 7). Without it the last particle is free.
     pub wall: bool,
     /// Clip the net (elastic + viscous) contact force at zero so a contact never pulls. The paper's
     /// equations allow a slightly tensile force at the end of unloading; that is the default.
     #[cfg_attr(feature = "serde", serde(default))]
     pub clip_tensile: bool,
+    /// Static precompression force pressing the first chain particle towards the wall, N (needs
+    /// the wall). The initial state is the exact static equilibrium under it and gravity.
+    #[cfg_attr(feature = "serde", serde(default, skip_serializing_if = "is_zero"))]
+    pub precompression_force_n: f64,
+    /// Dissipation model of every contact (a sequence chain's contact rules may override it per
+    /// pair). Absent: the paper's linear viscous term with `damping_kg_s` and
+    /// `striker_damping_kg_s`, which must then be zero.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub dissipation: Option<DissipationSpec>,
+}
+
+#[cfg(feature = "serde")]
+fn is_zero(x: &f64) -> bool {
+    *x == 0.0
 }
 
 #[cfg(feature = "serde")]
@@ -228,12 +505,14 @@ impl Default for PhysicsSpec {
             striker_damping_kg_s: None,
             wall: true,
             clip_tensile: false,
+            precompression_force_n: 0.0,
+            dissipation: None,
         }
     }
 }
 
 impl PhysicsSpec {
-    /// Whether any contact carries viscous damping.
+    /// Whether any contact carries the paper's linear viscous damping.
     pub fn has_damping(&self) -> bool {
         self.damping_kg_s != 0.0 || self.striker_damping_kg_s.is_some_and(|m| m != 0.0)
     }
@@ -256,12 +535,58 @@ pub fn hertz_coefficient(m1: Material, r1: Option<f64>, m2: Material, r2: Option
 /// Kind of a particle in the chain.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ParticleKind {
-    /// Particle 1.
+    /// The striker (particle 1 of a chain that has one; a sphere in the paper's chain).
     Striker,
-    /// Even particles.
+    /// A sphere.
     Sphere,
-    /// Odd particles from 3 on.
+    /// A flat-ended cylinder.
     Cylinder,
+}
+
+/// Shape of a particle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// A sphere.
+    Sphere {
+        /// Diameter, m.
+        diameter_m: f64,
+    },
+    /// A cylinder with flat ends along the chain.
+    Cylinder {
+        /// Diameter, m.
+        diameter_m: f64,
+        /// Height (length along the chain), m.
+        height_m: f64,
+    },
+}
+
+impl Shape {
+    /// Radius of curvature of the faces that touch the neighbours: `None` for a flat face.
+    pub fn contact_radius(&self) -> Option<f64> {
+        match *self {
+            Shape::Sphere { diameter_m } => Some(0.5 * diameter_m),
+            Shape::Cylinder { .. } => None,
+        }
+    }
+
+    /// Length along the chain, m.
+    pub fn length_m(&self) -> f64 {
+        match *self {
+            Shape::Sphere { diameter_m } => diameter_m,
+            Shape::Cylinder { height_m, .. } => height_m,
+        }
+    }
+
+    /// Volume, m³.
+    pub fn volume_m3(&self) -> f64 {
+        match *self {
+            Shape::Sphere { diameter_m } => std::f64::consts::PI / 6.0 * diameter_m.powi(3),
+            Shape::Cylinder {
+                diameter_m,
+                height_m,
+            } => 0.25 * std::f64::consts::PI * diameter_m * diameter_m * height_m,
+        }
+    }
 }
 
 /// Error in a chain or physics specification, naming the field.
@@ -288,7 +613,7 @@ pub(crate) fn spec_err(field: &str, message: impl Into<String>) -> SpecError {
     }
 }
 
-fn check_positive(field: &str, v: f64) -> Result<(), SpecError> {
+pub(crate) fn check_positive(field: &str, v: f64) -> Result<(), SpecError> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
@@ -299,7 +624,7 @@ fn check_positive(field: &str, v: f64) -> Result<(), SpecError> {
     }
 }
 
-fn check_material(field: &str, m: &Material) -> Result<(), SpecError> {
+pub(crate) fn check_material(field: &str, m: &Material) -> Result<(), SpecError> {
     check_positive(&format!("{field}.youngs_modulus_pa"), m.youngs_modulus_pa)?;
     if !(m.poisson_ratio.is_finite() && m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
         return Err(spec_err(
@@ -316,7 +641,10 @@ fn check_sphere(field: &str, s: &SphereSpec) -> Result<(), SpecError> {
     check_positive(&format!("{field}.mass_kg"), s.mass_kg)
 }
 
-impl ChainSpec {
+/// Largest number of particles a chain may have.
+pub const MAX_PARTICLES: usize = 2_000_002;
+
+impl DimerSpec {
     /// Checks every field for physical sense; the error names the field (relative to `chain`).
     pub fn validate(&self) -> Result<(), SpecError> {
         check_sphere("chain.sphere", &self.sphere)?;
@@ -356,6 +684,103 @@ impl ChainSpec {
         }
         Ok(())
     }
+
+    /// The particles and their Hertz contact laws.
+    fn layout(&self, wall: bool) -> Layout {
+        let n_particles = self.particles();
+        let m_s = self.sphere.mass_kg;
+        let m_c = self.cylinder.mass_kg(m_s);
+        let h = self.cylinder.height(m_s);
+        let sphere = Particle {
+            kind: ParticleKind::Sphere,
+            shape: Shape::Sphere {
+                diameter_m: self.sphere.diameter_m,
+            },
+            material: self.sphere.material,
+            mass_kg: m_s,
+        };
+        let cylinder = Particle {
+            kind: ParticleKind::Cylinder,
+            shape: Shape::Cylinder {
+                diameter_m: self.cylinder.diameter_m,
+                height_m: h,
+            },
+            material: self.cylinder.material,
+            mass_kg: m_c,
+        };
+        let mut particles = Vec::with_capacity(n_particles);
+        particles.push(Particle {
+            kind: ParticleKind::Striker,
+            shape: Shape::Sphere {
+                diameter_m: self.striker.diameter_m,
+            },
+            material: self.striker.material,
+            mass_kg: self.striker.mass_kg,
+        });
+        for p in 2..=n_particles {
+            particles.push(if p % 2 == 0 { sphere } else { cylinder });
+        }
+        let laws = hertz_laws(&particles, wall.then_some(self.wall_material));
+        let n_contacts = laws.len();
+        Layout {
+            particles,
+            striker: true,
+            laws,
+            dissipation: vec![None; n_contacts],
+            cell_length_m: Some(h + self.sphere.diameter_m),
+        }
+    }
+}
+
+/// Hertz laws (`n = 3/2`) of consecutive particles, and of the last one with a flat wall of
+/// `wall` when there is one. Only for particle pairs of which at least one is a sphere.
+fn hertz_laws(particles: &[Particle], wall: Option<Material>) -> Vec<(f64, f64)> {
+    let mut laws: Vec<(f64, f64)> = particles
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (&w[0], &w[1]);
+            // The paper's argument order (flat body first) is kept; the formula is symmetric.
+            let coefficient = match (a.shape.contact_radius(), b.shape.contact_radius()) {
+                (None, rb) => hertz_coefficient(a.material, None, b.material, rb),
+                (ra, None) => hertz_coefficient(b.material, None, a.material, ra),
+                (ra, rb) => hertz_coefficient(a.material, ra, b.material, rb),
+            };
+            (coefficient, 1.5)
+        })
+        .collect();
+    if let (Some(wall_material), Some(last)) = (wall, particles.last()) {
+        laws.push((
+            hertz_coefficient(
+                wall_material,
+                None,
+                last.material,
+                last.shape.contact_radius(),
+            ),
+            1.5,
+        ));
+    }
+    laws
+}
+
+/// One particle of a resolved chain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Particle {
+    pub kind: ParticleKind,
+    pub shape: Shape,
+    pub material: Material,
+    pub mass_kg: f64,
+}
+
+/// A chain description resolved into particles and per-contact laws, before physics.
+#[derive(Debug, Clone)]
+pub(crate) struct Layout {
+    pub particles: Vec<Particle>,
+    pub striker: bool,
+    /// `(A, n)` of each contact, the wall's last when there is a wall.
+    pub laws: Vec<(f64, f64)>,
+    /// A per-pair dissipation model replacing the physics block's.
+    pub dissipation: Vec<Option<DissipationSpec>>,
+    pub cell_length_m: Option<f64>,
 }
 
 impl PhysicsSpec {
@@ -381,37 +806,82 @@ impl PhysicsSpec {
                 ));
             }
         }
+        let f = self.precompression_force_n;
+        if !(f.is_finite() && f >= 0.0) {
+            return Err(spec_err(
+                "physics.precompression_force_n",
+                format!("must be a finite number >= 0, got {f}"),
+            ));
+        }
+        if f > 0.0 && !self.wall {
+            return Err(spec_err(
+                "physics.precompression_force_n",
+                "a static force needs a wall to push the chain against (physics.wall = true)",
+            ));
+        }
+        if let Some(d) = &self.dissipation {
+            d.validate("physics.dissipation")?;
+            if self.damping_kg_s != 0.0 {
+                return Err(spec_err(
+                    "physics.damping_kg_s",
+                    format!("must be 0 when physics.dissipation is given (the model replaces the linear viscous term; for both, give a contact rule {{\"linear_viscous\": …}}), got {}", self.damping_kg_s),
+                ));
+            }
+            if self.striker_damping_kg_s.is_some() {
+                return Err(spec_err(
+                    "physics.striker_damping_kg_s",
+                    "must be absent when physics.dissipation is given (give the striker contact its own model with a contact rule between \"striker\" and its neighbour)",
+                ));
+            }
+        }
         Ok(())
     }
 }
 
 /// The built chain: per-particle and per-contact arrays (0-based) and the initial state.
+///
+/// Contact `c` exerts `F = A δ^n + (μ + γ δ^{n−1} + λ δ^n) δ̇` while compressed (see
+/// [`crate::contact`]); for the paper's chain every `n` is 3/2 and only `μ` is used.
 #[derive(Debug, Clone)]
 pub struct Chain {
-    /// Particle masses, kg (index 0 is the striker).
+    /// Particle masses, kg (index 0 is the striker when there is one).
     pub mass: Vec<f64>,
     /// Particle kinds.
     pub kind: Vec<ParticleKind>,
-    /// Hertz coefficient of each contact, N/m^{3/2}; the last one is the wall contact when there is a wall.
+    /// Particle shapes.
+    pub shape: Vec<Shape>,
+    /// Coefficient `A` of each contact's law, N/m^n; the last one is the wall contact when there
+    /// is a wall.
     pub stiffness: Vec<f64>,
-    /// Damping coefficient of each contact, kg/s (zero without damping).
+    /// Exponent `n` of each contact's law (3/2 for Hertz).
+    pub exponent: Vec<f64>,
+    /// Linear viscous coefficient μ of each contact, kg/s (zero without damping).
     pub damping: Vec<f64>,
+    /// Viscoelastic (Kuwabara–Kono) coefficient γ of each contact, the factor of `δ^{n−1} δ̇`.
+    pub viscoelastic_damping: Vec<f64>,
+    /// Hunt–Crossley coefficient λ of each contact, the factor of `δ^n δ̇`.
+    pub hunt_crossley_damping: Vec<f64>,
     /// Gravitational acceleration applied, m/s² (zero when gravity is off).
     pub gravity_m_s2: f64,
-    /// Whether the last sphere rests on a wall.
+    /// Whether the last particle rests on a wall.
     pub wall: bool,
     /// Clip tensile net contact forces at zero.
     pub clip_tensile: bool,
-    /// Static overlap of each contact in the gravity-loaded chain, m (zero for the striker contact).
+    /// Whether particle 1 is a striker.
+    pub striker: bool,
+    /// Static precompression force on the first chain particle, N.
+    pub precompression_force_n: f64,
+    /// A half-sine force pulse on the first chain particle: `(amplitude N, duration s)`.
+    pub force_pulse: Option<(f64, f64)>,
+    /// Static overlap of each contact in the loaded chain, m (zero for the striker contact).
     pub static_overlap: Vec<f64>,
     /// Equilibrium displacement of each particle from the undeformed, just-touching chain, m.
     pub equilibrium_position: Vec<f64>,
-    /// Cell length `h + d`, m.
-    pub cell_length_m: f64,
-    /// Cylinder height used, m.
-    pub cylinder_height_m: f64,
-    /// Cylinder mass used, kg.
-    pub cylinder_mass_kg: f64,
+    /// Cell length `h + d` of the paper's dimer chain, m (`None` for a sequence chain: use
+    /// [`Chain::center_distance_m`]).
+    pub cell_length_m: Option<f64>,
+    /// Particle materials.
+    pub materials: Vec<Material>,
 }
 
 impl Chain {
@@ -419,69 +889,61 @@ impl Chain {
     pub fn build(spec: &ChainSpec, physics: &PhysicsSpec) -> Result<Chain, SpecError> {
         spec.validate()?;
         physics.validate()?;
-        let n_particles = spec.particles();
-        let m_s = spec.sphere.mass_kg;
-        let m_c = spec.cylinder.mass_kg(m_s);
-        let h = spec.cylinder.height(m_s);
-        let r_s = 0.5 * spec.sphere.diameter_m;
-        let r_imp = 0.5 * spec.striker.diameter_m;
-
-        let mut mass = Vec::with_capacity(n_particles);
-        let mut kind = Vec::with_capacity(n_particles);
-        for p in 1..=n_particles {
-            let (m, k) = if p == 1 {
-                (spec.striker.mass_kg, ParticleKind::Striker)
-            } else if p % 2 == 0 {
-                (m_s, ParticleKind::Sphere)
-            } else {
-                (m_c, ParticleKind::Cylinder)
-            };
-            mass.push(m);
-            kind.push(k);
-        }
-
-        let a_striker = hertz_coefficient(
-            spec.striker.material,
-            Some(r_imp),
-            spec.sphere.material,
-            Some(r_s),
-        );
-        let a_chain = hertz_coefficient(
-            spec.cylinder.material,
-            None,
-            spec.sphere.material,
-            Some(r_s),
-        );
-        let a_wall = hertz_coefficient(spec.wall_material, None, spec.sphere.material, Some(r_s));
-        let n_contacts = if physics.wall {
-            n_particles
-        } else {
-            n_particles - 1
+        let layout = match spec {
+            ChainSpec::Dimer(d) => d.layout(physics.wall),
+            ChainSpec::Sequence(s) => s.layout(physics.wall)?,
         };
-        let mut stiffness = vec![a_chain; n_contacts];
-        stiffness[0] = a_striker;
-        if physics.wall {
-            stiffness[n_contacts - 1] = a_wall;
+        if !layout.striker && physics.striker_damping_kg_s.is_some() {
+            return Err(spec_err(
+                "physics.striker_damping_kg_s",
+                "the chain has no striker (a sequence chain names one in chain.striker)",
+            ));
         }
+        Ok(Self::from_layout(layout, physics))
+    }
+
+    fn from_layout(layout: Layout, physics: &PhysicsSpec) -> Chain {
+        let n_particles = layout.particles.len();
+        let mass: Vec<f64> = layout.particles.iter().map(|p| p.mass_kg).collect();
+        let n_contacts = layout.laws.len();
+        let stiffness: Vec<f64> = layout.laws.iter().map(|l| l.0).collect();
+        let exponent: Vec<f64> = layout.laws.iter().map(|l| l.1).collect();
 
         let mu = physics.damping_kg_s;
         let mu1 = physics.striker_damping_kg_s.unwrap_or(mu);
-        let mut damping = vec![mu; n_contacts];
-        damping[0] = mu1;
+        let mut damping = Vec::with_capacity(n_contacts);
+        let mut viscoelastic_damping = Vec::with_capacity(n_contacts);
+        let mut hunt_crossley_damping = Vec::with_capacity(n_contacts);
+        for c in 0..n_contacts {
+            let model = layout.dissipation[c].or(physics.dissipation);
+            let d = match model {
+                Some(m) => m.coefficients(stiffness[c], exponent[c]),
+                None => Damping {
+                    linear: if c == 0 && layout.striker { mu1 } else { mu },
+                    ..Damping::NONE
+                },
+            };
+            damping.push(d.linear);
+            viscoelastic_damping.push(d.viscoelastic);
+            hunt_crossley_damping.push(d.hunt_crossley);
+        }
 
         let g = if physics.gravity {
             physics.gravity_m_s2
         } else {
             0.0
         };
-        // Static equilibrium (docs/MODEL.md): contact j carries the weight of particles 2..j. Without a
-        // wall nothing supports the chain, it falls freely and no contact is preloaded.
+        let first = layout.striker as usize;
+        let top = physics.precompression_force_n;
+        // Static equilibrium (docs/MODEL.md, docs/CHAINS.md): contact j carries the precompression
+        // and the weight of the chain particles above it. Without a wall nothing supports the
+        // chain, it falls freely and no contact is preloaded.
         let mut static_overlap = vec![0.0; n_contacts];
-        if physics.wall && g > 0.0 {
-            let mut weight = 0.0;
-            for j in 1..n_contacts {
-                weight += g * mass[j];
-                static_overlap[j] = (weight / stiffness[j]).powf(2.0 / 3.0);
+        if physics.wall && (g > 0.0 || top > 0.0) {
+            let mut load = top;
+            for j in first..n_contacts {
+                load += g * mass[j];
+                static_overlap[j] = overlap_at_force(stiffness[j], exponent[j], load);
             }
         }
         // Positions measured from the undeformed chain touching the wall (or, without a wall, from
@@ -494,20 +956,32 @@ impl Chain {
             equilibrium_position[i] = equilibrium_position[i + 1] + static_overlap[i];
         }
 
-        Ok(Chain {
+        Chain {
             mass,
-            kind,
+            kind: layout.particles.iter().map(|p| p.kind).collect(),
+            shape: layout.particles.iter().map(|p| p.shape).collect(),
             stiffness,
+            exponent,
             damping,
+            viscoelastic_damping,
+            hunt_crossley_damping,
             gravity_m_s2: g,
             wall: physics.wall,
             clip_tensile: physics.clip_tensile,
+            striker: layout.striker,
+            precompression_force_n: top,
+            force_pulse: None,
             static_overlap,
             equilibrium_position,
-            cell_length_m: h + spec.sphere.diameter_m,
-            cylinder_height_m: h,
-            cylinder_mass_kg: m_c,
-        })
+            cell_length_m: layout.cell_length_m,
+            materials: layout.particles.iter().map(|p| p.material).collect(),
+        }
+    }
+
+    /// The chain with a half-sine force pulse on its first chain particle.
+    pub fn with_force_pulse(mut self, amplitude_n: f64, duration_s: f64) -> Chain {
+        self.force_pulse = Some((amplitude_n, duration_s));
+        self
     }
 
     /// Number of particles `N`, striker included.
@@ -520,9 +994,30 @@ impl Chain {
         self.stiffness.len()
     }
 
-    /// Whether any contact is damped.
+    /// Index of the first chain particle (1 after a striker, else 0): where precompression and
+    /// force pulses act.
+    pub fn first_chain_particle(&self) -> usize {
+        self.striker as usize
+    }
+
+    /// Whether any contact dissipates energy.
     pub fn has_damping(&self) -> bool {
-        self.damping.iter().any(|&m| m != 0.0)
+        self.damping
+            .iter()
+            .chain(&self.viscoelastic_damping)
+            .chain(&self.hunt_crossley_damping)
+            .any(|&m| m != 0.0)
+    }
+
+    /// Whether the chain is the paper's physics: every law Hertz's, only linear viscous damping,
+    /// no precompression and no force pulse. Such chains run on the paper's specialised
+    /// right-hand side ([`crate::system::ChainSystem`]), all others on the general one.
+    pub fn is_paper_physics(&self) -> bool {
+        self.exponent.iter().all(|&n| n == 1.5)
+            && self.viscoelastic_damping.iter().all(|&g| g == 0.0)
+            && self.hunt_crossley_damping.iter().all(|&l| l == 0.0)
+            && self.precompression_force_n == 0.0
+            && self.force_pulse.is_none()
     }
 
     /// Index of the dissipated-work quadrature in the state `[x, v, q]`, when damping is on.
@@ -536,13 +1031,25 @@ impl Chain {
             .then_some(2 * self.n_particles() + self.has_damping() as usize)
     }
 
-    /// Length of the state `[x, v, q]`: positions, velocities, then the quadratures above.
-    pub fn state_len(&self) -> usize {
-        2 * self.n_particles() + self.has_damping() as usize + self.wall as usize
+    /// Index of the quadrature of the work done by a force pulse, when there is one.
+    pub fn pulse_work_index(&self) -> Option<usize> {
+        self.force_pulse
+            .is_some()
+            .then_some(2 * self.n_particles() + self.has_damping() as usize + self.wall as usize)
     }
 
-    /// Initial state `[x, v, q]`: the chain at static equilibrium, the striker touching particle 2
-    /// with zero overlap and moving towards the wall at `v0`, nothing dissipated or transmitted yet.
+    /// Length of the state `[x, v, q]`: positions, velocities, then the quadratures above.
+    pub fn state_len(&self) -> usize {
+        2 * self.n_particles()
+            + self.has_damping() as usize
+            + self.wall as usize
+            + self.force_pulse.is_some() as usize
+    }
+
+    /// Initial state `[x, v, q]`: the chain at static equilibrium, the striker (when there is one)
+    /// touching particle 2 with zero overlap and moving towards the wall at `v0`, nothing
+    /// dissipated or transmitted yet. Without a striker particle 1 starts at `v0` (a δ-force
+    /// impulse; zero for a force pulse).
     pub fn initial_state(&self, striker_velocity_m_s: f64) -> Vec<f64> {
         let n = self.n_particles();
         let mut y = vec![0.0; self.state_len()];
@@ -554,6 +1061,51 @@ impl Chain {
     /// Static (preload) force at contact index `c`, N.
     pub fn static_force(&self, c: usize) -> f64 {
         let d = self.static_overlap[c];
-        self.stiffness[c] * d * d.sqrt()
+        if self.exponent[c] == 1.5 {
+            self.stiffness[c] * d * d.sqrt()
+        } else {
+            crate::contact::elastic_force(self.stiffness[c], self.exponent[c], d)
+        }
     }
+
+    /// Distance between the centres of particles `i` and `j` (0-based) in the undeformed chain, m.
+    pub fn center_distance_m(&self, i: usize, j: usize) -> f64 {
+        let (lo, hi) = if i <= j { (i, j) } else { (j, i) };
+        let lengths: f64 = self.shape[lo..=hi].iter().map(|s| s.length_m()).sum();
+        lengths - 0.5 * (self.shape[lo].length_m() + self.shape[hi].length_m())
+    }
+
+    /// Indices (0-based) of the cylinders, in order: cylinder `k` (1-based) is `cylinders()[k-1]`.
+    pub fn cylinders(&self) -> Vec<usize> {
+        (0..self.n_particles())
+            .filter(|&i| self.kind[i] == ParticleKind::Cylinder)
+            .collect()
+    }
+
+    /// Smallest sphere radius in the chain (striker included), m: the scale on which Hertz's
+    /// small-strain law is judged. `None` without spheres.
+    pub fn smallest_sphere_radius_m(&self) -> Option<f64> {
+        self.shape
+            .iter()
+            .filter_map(|s| s.contact_radius())
+            .reduce(f64::min)
+    }
+
+    /// Longest time sound takes to cross a chain particle (striker excluded), s: its length over
+    /// the longitudinal wave speed of its material at its density.
+    pub fn sound_transit_s(&self) -> f64 {
+        let first = self.first_chain_particle();
+        (first..self.n_particles())
+            .map(|i| {
+                let rho = self.mass[i] / self.shape[i].volume_m3();
+                self.shape[i].length_m() / longitudinal_speed(&self.materials[i], rho)
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// Longitudinal wave speed of a material of density `rho`, m/s.
+pub(crate) fn longitudinal_speed(m: &Material, rho: f64) -> f64 {
+    let (e, nu) = (m.youngs_modulus_pa, m.poisson_ratio);
+    (e * (1.0 - nu) / (rho * (1.0 + nu) * (1.0 - 2.0 * nu))).sqrt()
 }

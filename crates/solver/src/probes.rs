@@ -4,11 +4,14 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
+use crate::contact::{general_force, ContactParams, Damping, POWER};
 use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::model::{spec_err, Chain, SpecError};
 use crate::system::{contact_force, EnergyTerms, Ledger};
 
-/// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`.
+/// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
+/// striker when the chain has one, else the first particle of the sequence; contact `j` joins
+/// particles `j` and `j+1`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(
@@ -16,11 +19,19 @@ use crate::system::{contact_force, EnergyTerms, Ledger};
     serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)
 )]
 pub enum Probe {
-    /// Force read by a gauge embedded in cylinder `k` (particle `2k+1`): the mean of the total
-    /// (elastic + viscous) forces at its two contacts, N.
+    /// Force read by a gauge embedded in cylinder `k`, the `k`-th cylinder from the top
+    /// (particle `2k+1` of the paper's chain): the mean of the total (elastic + dissipative) forces
+    /// at its two contacts, N.
     GaugeForce {
         /// Cylinder number, 1..=n.
         cylinder: usize,
+    },
+    /// Force read by a gauge embedded in particle `i` of any shape: the mean of the total forces
+    /// at its two contacts (with particles `i−1` and `i+1`, or the wall), N. The particle needs
+    /// both: not the first of a chain without a striker, nor the last of a chain without a wall.
+    ParticleForce {
+        /// Particle number.
+        particle: usize,
     },
     /// Total force of contact `j` (between particles `j` and `j+1`; `j = N` is the wall), N.
     ContactForce {
@@ -51,6 +62,7 @@ impl Probe {
     pub fn name(&self) -> String {
         match self {
             Probe::GaugeForce { cylinder } => format!("gauge_force_cyl{cylinder}"),
+            Probe::ParticleForce { particle } => format!("particle_force_p{particle}"),
             Probe::ContactForce { contact } => format!("contact_force_{contact}"),
             Probe::Overlap { contact } => format!("overlap_{contact}"),
             Probe::Displacement { particle } => format!("displacement_p{particle}"),
@@ -62,7 +74,10 @@ impl Probe {
     /// SI unit of the probe's values.
     pub fn unit(&self) -> &'static str {
         match self {
-            Probe::GaugeForce { .. } | Probe::ContactForce { .. } | Probe::WallForce => "N",
+            Probe::GaugeForce { .. }
+            | Probe::ParticleForce { .. }
+            | Probe::ContactForce { .. }
+            | Probe::WallForce => "N",
             Probe::Overlap { .. } | Probe::Displacement { .. } => "m",
             Probe::Velocity { .. } => "m/s",
         }
@@ -166,14 +181,41 @@ impl RecordSpec {
     pub fn validate(&self, chain: &Chain) -> Result<(), SpecError> {
         let n_p = chain.n_particles();
         let n_c = chain.n_contacts();
-        let n_cyl = (n_p - 2) / 2;
+        let cylinders = chain.cylinders();
+        let n_cyl = cylinders.len();
+        // A gauge reads the two contacts of its particle: the one above and the one below.
+        let two_contacts = |index: usize| index >= 1 && index < n_c;
         for (i, p) in self.probes.iter().enumerate() {
             let field = format!("record.probes[{i}]");
             match *p {
+                Probe::GaugeForce { .. } if n_cyl == 0 => {
+                    return Err(spec_err(
+                        &format!("{field}.cylinder"),
+                        "the chain has no cylinders; a gauge in any particle is {\"kind\": \"particle_force\", \"particle\": i}",
+                    ))
+                }
                 Probe::GaugeForce { cylinder } if cylinder == 0 || cylinder > n_cyl => {
                     return Err(spec_err(
                         &format!("{field}.cylinder"),
                         format!("must lie in 1..={n_cyl} (the chain's cylinders), got {cylinder}"),
+                    ))
+                }
+                Probe::GaugeForce { cylinder } if !two_contacts(cylinders[cylinder - 1]) => {
+                    return Err(spec_err(
+                        &format!("{field}.cylinder"),
+                        format!("cylinder {cylinder} is particle {}, which has a contact on one side only", cylinders[cylinder - 1] + 1),
+                    ))
+                }
+                Probe::ParticleForce { particle } if particle == 0 || particle > n_p => {
+                    return Err(spec_err(
+                        &format!("{field}.particle"),
+                        format!("must lie in 1..={n_p} (the chain's particles), got {particle}"),
+                    ))
+                }
+                Probe::ParticleForce { particle } if !two_contacts(particle - 1) => {
+                    return Err(spec_err(
+                        &format!("{field}.particle"),
+                        format!("particle {particle} has a contact on one side only (the first particle of a chain without a striker, or the last without a wall); read its contact with contact_force"),
                     ))
                 }
                 Probe::ContactForce { contact } | Probe::Overlap { contact }
@@ -262,6 +304,9 @@ pub(crate) struct ProbeSet {
     compiled: Vec<Compiled>,
     stiffness: Vec<f64>,
     damping: Vec<f64>,
+    /// Exponents and the viscoelastic and Hunt–Crossley coefficients, for chains that are not the
+    /// paper's physics.
+    general: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>,
     clip: bool,
     n: usize,
     /// Reference scale of each probe for leading-pulse detection.
@@ -286,9 +331,11 @@ impl ProbeSet {
         };
         let mut compiled = Vec::new();
         let mut scale = Vec::new();
+        let cylinders = chain.cylinders();
         for p in probes {
             let (c, s) = match *p {
-                Probe::GaugeForce { cylinder } => (2 * cylinder - 1, 2),
+                Probe::GaugeForce { cylinder } => (cylinders[cylinder - 1] - 1, 2),
+                Probe::ParticleForce { particle } => (particle - 2, 2),
                 Probe::ContactForce { contact } => (contact - 1, 1),
                 Probe::WallForce => (n - 1, 1),
                 Probe::Overlap { contact } => {
@@ -329,6 +376,13 @@ impl ProbeSet {
             compiled,
             stiffness: chain.stiffness.clone(),
             damping: chain.damping.clone(),
+            general: (!chain.is_paper_physics()).then(|| {
+                (
+                    chain.exponent.clone(),
+                    chain.viscoelastic_damping.clone(),
+                    chain.hunt_crossley_damping.clone(),
+                )
+            }),
             clip: chain.clip_tensile,
             n,
             scale,
@@ -349,6 +403,18 @@ impl ProbeSet {
         };
         // The same law as the equations of motion; with zero damping the viscous term vanishes.
         let (a, mu) = (self.stiffness[c], self.damping[c]);
+        if let Some((exponent, gamma, lambda)) = &self.general {
+            let p = ContactParams {
+                a,
+                n: exponent[c],
+                damping: Damping {
+                    linear: mu,
+                    viscoelastic: gamma[c],
+                    hunt_crossley: lambda[c],
+                },
+            };
+            return general_force::<POWER, true>(&p, overlap, rel, self.clip).0;
+        }
         if self.clip {
             contact_force::<true, true>(a, mu, overlap, rel).0
         } else {
@@ -587,8 +653,16 @@ pub struct History {
     pub values: Vec<Vec<f64>>,
 }
 
-/// The observer that feeds probes, summaries and the ledger from every accepted step.
+/// The observer that feeds probes, summaries and the ledger from every accepted step. A run
+/// integrated in legs ([`crate::scene::run`]) calls `on_start` once per leg: the first call
+/// starts the record, the later ones continue it from the state the previous leg ended in.
 pub(crate) struct RunObserver {
+    /// Whether the record has started (later `on_start` calls are continuations).
+    started: bool,
+    /// Whether the observer asked the integrator to stop.
+    pub stopped: bool,
+    /// The state at the end of the last accepted step, kept when the run has several legs.
+    pub state: Option<Vec<f64>>,
     probes: ProbeSet,
     ledger: Ledger,
     opts: ObserverOptions,
@@ -628,6 +702,9 @@ impl RunObserver {
             }
         });
         RunObserver {
+            started: false,
+            stopped: false,
+            state: None,
             ledger: Ledger::new(chain),
             probes,
             t0,
@@ -704,6 +781,15 @@ impl RunObserver {
 
 impl StepObserver for RunObserver {
     fn on_start(&mut self, t0: f64, y0: &[f64]) {
+        if self.started {
+            // A new leg: it starts where the last accepted step ended, already recorded.
+            debug_assert_eq!(t0, self.t_reached);
+            return;
+        }
+        self.started = true;
+        if let Some(s) = &mut self.state {
+            s.copy_from_slice(y0);
+        }
         self.e0 = self.ledger.energy(y0).total();
         self.p0 = self.ledger.momentum(y0);
         let get = |i: usize| y0[i];
@@ -765,7 +851,11 @@ impl StepObserver for RunObserver {
         }
         self.update_ledger(t1, step.y_end());
         self.t_reached = t1;
+        if let Some(s) = &mut self.state {
+            s.copy_from_slice(step.y_end());
+        }
         if self.opts.stop_after_leading_pulses && self.all_leading_passed() {
+            self.stopped = true;
             return Control::Stop;
         }
         Control::Continue

@@ -4,7 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::integrate::{
-    Dop853, IntegrateError, IntegrationStats, Integrator, Rk4, Ros34pw2, VelocityVerlet,
+    Dop853, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, Rk4, Ros34pw2,
+    VelocityVerlet,
 };
 use crate::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RecordSpec, RunObserver};
@@ -140,6 +141,30 @@ impl IntegratorSpec {
     }
 }
 
+/// How a chain without a striker is set in motion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(rename_all = "snake_case", deny_unknown_fields)
+)]
+pub enum Excitation {
+    /// A δ-force impulse: particle 1 starts towards the wall at `velocity_m_s`, the rest of the
+    /// chain at rest in static equilibrium (the excitation of the paper's ref. [20]).
+    Impulse {
+        /// Initial velocity of particle 1, m/s.
+        velocity_m_s: f64,
+    },
+    /// A prescribed force on particle 1, `F(t) = amplitude sin(π t / duration)` for
+    /// `0 ≤ t ≤ duration`, zero after (an actuator's half-sine pulse).
+    HalfSineForce {
+        /// Peak force, N.
+        amplitude_n: f64,
+        /// Duration of the pulse, s.
+        duration_s: f64,
+    },
+}
+
 /// One simulation: everything needed to reproduce a run.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
@@ -149,8 +174,19 @@ pub struct Scene {
     pub chain: ChainSpec,
     /// Physics switches.
     pub physics: PhysicsSpec,
-    /// Striker velocity towards the wall at impact, m/s.
-    pub striker_velocity_m_s: f64,
+    /// Striker velocity towards the wall at impact, m/s: required when the chain has a striker
+    /// (the paper's chain always has), absent otherwise.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub striker_velocity_m_s: Option<f64>,
+    /// How a chain without a striker is set in motion (absent for a chain with one).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub excitation: Option<Excitation>,
     /// Simulated time after impact, s.
     pub duration_s: f64,
     /// Integrator.
@@ -173,13 +209,15 @@ fn default_max_steps() -> u64 {
 }
 
 impl Scene {
-    /// A scene with the paper's defaults: `chain`, gravity and wall on, no damping, DOP853 at
-    /// rtol 1e-9, nothing recorded.
-    pub fn new(chain: ChainSpec, striker_velocity_m_s: f64, duration_s: f64) -> Self {
+    /// A scene with the paper's defaults: `chain` (which has a striker) struck at
+    /// `striker_velocity_m_s`, gravity and wall on, no damping, DOP853 at rtol 1e-9, nothing
+    /// recorded.
+    pub fn new(chain: impl Into<ChainSpec>, striker_velocity_m_s: f64, duration_s: f64) -> Self {
         Scene {
-            chain,
+            chain: chain.into(),
             physics: PhysicsSpec::default(),
-            striker_velocity_m_s,
+            striker_velocity_m_s: Some(striker_velocity_m_s),
+            excitation: None,
             duration_s,
             integrator: IntegratorSpec::default(),
             max_steps: DEFAULT_MAX_STEPS,
@@ -187,15 +225,70 @@ impl Scene {
         }
     }
 
+    /// A scene of a chain without a striker, set in motion by `excitation`; defaults as
+    /// [`Scene::new`].
+    pub fn excited(chain: impl Into<ChainSpec>, excitation: Excitation, duration_s: f64) -> Self {
+        Scene {
+            striker_velocity_m_s: None,
+            excitation: Some(excitation),
+            ..Scene::new(chain, 0.0, duration_s)
+        }
+    }
+
     /// Checks the whole scene before anything runs; the error names the field.
     pub fn validate(&self) -> Result<Chain, SpecError> {
-        let chain = Chain::build(&self.chain, &self.physics)?;
-        let v0 = self.striker_velocity_m_s;
-        if !(v0.is_finite() && v0 > 0.0) {
-            return Err(spec_err(
-                "striker_velocity_m_s",
-                format!("must be a finite number > 0, got {v0}"),
-            ));
+        let mut chain = Chain::build(&self.chain, &self.physics)?;
+        let positive = |field: &str, v: f64| -> Result<(), SpecError> {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(spec_err(
+                    field,
+                    format!("must be a finite number > 0, got {v}"),
+                ))
+            }
+        };
+        match (chain.striker, self.striker_velocity_m_s, self.excitation) {
+            (true, Some(v0), None) => positive("striker_velocity_m_s", v0)?,
+            (true, None, _) => {
+                return Err(spec_err(
+                    "striker_velocity_m_s",
+                    "required: the chain has a striker",
+                ))
+            }
+            (true, Some(_), Some(_)) => {
+                return Err(spec_err(
+                    "excitation",
+                    "a chain with a striker is excited by the striker (striker_velocity_m_s); remove `excitation` or the chain's striker",
+                ))
+            }
+            (false, Some(_), _) => {
+                return Err(spec_err(
+                    "striker_velocity_m_s",
+                    "the chain has no striker (a sequence chain names one in chain.striker); excite it with `excitation` instead",
+                ))
+            }
+            (false, None, None) => {
+                return Err(spec_err(
+                    "excitation",
+                    "required for a chain without a striker: {\"impulse\": {\"velocity_m_s\": …}} or {\"half_sine_force\": {\"amplitude_n\": …, \"duration_s\": …}}",
+                ))
+            }
+            (false, None, Some(Excitation::Impulse { velocity_m_s })) => {
+                positive("excitation.impulse.velocity_m_s", velocity_m_s)?
+            }
+            (
+                false,
+                None,
+                Some(Excitation::HalfSineForce {
+                    amplitude_n,
+                    duration_s,
+                }),
+            ) => {
+                positive("excitation.half_sine_force.amplitude_n", amplitude_n)?;
+                positive("excitation.half_sine_force.duration_s", duration_s)?;
+                chain = chain.with_force_pulse(amplitude_n, duration_s);
+            }
         }
         let d = self.duration_s;
         if !(d.is_finite() && d > 0.0) {
@@ -211,9 +304,42 @@ impl Scene {
         self.record.validate(&chain)?;
         Ok(chain)
     }
+
+    /// Initial velocity of particle 1: the striker's, the impulse's, or zero under a force pulse.
+    pub fn initial_velocity_m_s(&self) -> f64 {
+        match (self.striker_velocity_m_s, self.excitation) {
+            (Some(v0), _) => v0,
+            (None, Some(Excitation::Impulse { velocity_m_s })) => velocity_m_s,
+            _ => 0.0,
+        }
+    }
+
+    /// Natural scales of the scene's excitation on its built chain ([`Scene::validate`]).
+    pub fn impact_scales(&self, chain: &Chain) -> ImpactScales {
+        match self.excitation {
+            Some(Excitation::HalfSineForce {
+                amplitude_n,
+                duration_s,
+            }) => ImpactScales::force_pulse(chain, amplitude_n, duration_s),
+            _ => ImpactScales::new(chain, self.initial_velocity_m_s()),
+        }
+    }
+
+    /// Times at which the right-hand side is not smooth in time (the end of a force pulse),
+    /// strictly inside the run: the run is integrated in legs between them.
+    pub fn breakpoints_s(&self) -> Vec<f64> {
+        match self.excitation {
+            Some(Excitation::HalfSineForce { duration_s, .. }) if duration_s < self.duration_s => {
+                vec![duration_s]
+            }
+            _ => Vec::new(),
+        }
+    }
 }
 
-/// Natural scales of an impact: the two-body collision of the striker with the first sphere.
+/// Natural scales of an excitation: for a striker (or a δ-force impulse) the two-body collision of
+/// particle 1 with particle 2 under contact 1's law; for a force pulse its amplitude and the
+/// response of particle 1 to it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImpactScales {
     /// Peak overlap of the two-body collision, m.
@@ -226,28 +352,64 @@ pub struct ImpactScales {
     pub energy_j: f64,
     /// Striker momentum, kg·m/s.
     pub momentum: f64,
+    /// Duration of the excitation's pulse, s: the two-body impact's, or the force pulse's.
+    pub duration_s: f64,
 }
 
 impl ImpactScales {
-    /// Duration of the two-body striker impact, s: `2 δm / v0 · ∫₀¹ (1 − x^{5/2})^{-1/2} dx`
-    /// = 2.943 δm / v0 (the closed form checked in `tests/dynamics.rs`).
+    /// Duration of the two-body striker impact, s: `2 δm / v0 · ∫₀¹ (1 − x^{n+1})^{-1/2} dx`
+    /// (2.943 δm / v0 for Hertz, the closed form checked in `tests/dynamics.rs`), or of the force
+    /// pulse.
     pub fn contact_duration_s(&self) -> f64 {
-        2.943 * self.overlap_m / self.velocity_m_s
+        self.duration_s
     }
 
-    /// Scales for a chain struck at `v0`.
+    /// Scales for particle 1 moving at `v0` into particle 2 (a striker, or a δ-force impulse).
     pub fn new(chain: &Chain, v0: f64) -> Self {
         let m1 = chain.mass[0];
         let m2 = chain.mass[1];
         let reduced = m1 * m2 / (m1 + m2);
-        let a1 = chain.stiffness[0];
-        let overlap = (1.25 * reduced * v0 * v0 / a1).powf(0.4);
+        let (a1, n) = (chain.stiffness[0], chain.exponent[0]);
+        let (overlap, force, duration) = if n == 1.5 {
+            let overlap = (1.25 * reduced * v0 * v0 / a1).powf(0.4);
+            (overlap, a1 * overlap * overlap.sqrt(), 2.943 * overlap / v0)
+        } else {
+            // Energy balance at the peak: ½ m v0² = A δm^{n+1}/(n+1).
+            let overlap = (0.5 * (n + 1.0) * reduced * v0 * v0 / a1).powf(1.0 / (n + 1.0));
+            (
+                overlap,
+                crate::contact::elastic_force(a1, n, overlap),
+                crate::contact::impact_duration_factor(n) * overlap / v0,
+            )
+        };
         ImpactScales {
             overlap_m: overlap,
-            force_n: a1 * overlap * overlap.sqrt(),
+            force_n: force,
             velocity_m_s: v0,
             energy_j: 0.5 * m1 * v0 * v0,
             momentum: m1 * v0,
+            duration_s: duration,
+        }
+    }
+
+    /// Scales for a half-sine force pulse of `amplitude` N and `duration` s on particle 1: the
+    /// overlap `δ_F` at which contact 1 carries the amplitude, the particle velocity
+    /// `min(I/m₁, √(F δ_F / m₁))` (a free particle's after the pulse's impulse `I = 2FT/π`, or
+    /// that of a strongly nonlinear wave of force `F`), the pulse's impulse and the work of a
+    /// force of mean `2F/π` at that velocity over the pulse.
+    pub fn force_pulse(chain: &Chain, amplitude: f64, duration: f64) -> Self {
+        let m1 = chain.mass[0];
+        let overlap =
+            crate::contact::overlap_at_force(chain.stiffness[0], chain.exponent[0], amplitude);
+        let impulse = 2.0 * amplitude * duration / std::f64::consts::PI;
+        let velocity = (impulse / m1).min((amplitude * overlap / m1).sqrt());
+        ImpactScales {
+            overlap_m: overlap,
+            force_n: amplitude,
+            velocity_m_s: velocity,
+            energy_j: impulse * velocity,
+            momentum: impulse,
+            duration_s: duration,
         }
     }
 }
@@ -300,16 +462,19 @@ pub struct RunOutput {
     pub history: Option<History>,
     /// Minimum overlap of every contact over the run, m, when recorded.
     pub min_overlap_m: Option<Vec<f64>>,
-    /// Largest |E(t) − E(0)| over accepted steps, relative to the impact energy.
+    /// Largest |E(t) − E(0)| over accepted steps, relative to the impact energy (the excitation's
+    /// energy scale, [`ImpactScales::energy_j`]).
     pub energy_drift_max: f64,
     /// |E(t_end) − E(0)| relative to the impact energy.
     pub energy_drift_final: f64,
-    /// Largest momentum-balance residual over accepted steps, relative to the striker's momentum.
+    /// Largest momentum-balance residual over accepted steps, relative to the striker's momentum
+    /// (the excitation's momentum scale).
     pub momentum_residual_max: f64,
     /// Energy terms at the end, J.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub final_energy: EnergyTerms,
-    /// Striker kinetic energy, J.
+    /// Energy scale of the excitation, J: the striker's (or the impulse's) kinetic energy, or for
+    /// a force pulse the estimate of [`ImpactScales::force_pulse`].
     pub impact_energy_j: f64,
     /// Largest contact overlap over the run (at step ends), m.
     pub max_overlap_m: f64,
@@ -327,12 +492,6 @@ pub const MAX_HERTZ_OVERLAP_RATIO: f64 = 0.01;
 /// particle for which the static Hertz law is taken as valid ("much longer", Sec. III).
 pub const MIN_PULSE_TO_TRANSIT_RATIO: f64 = 10.0;
 
-/// Longitudinal wave speed of a material of density `rho`, m/s.
-fn longitudinal_speed(m: &crate::model::Material, rho: f64) -> f64 {
-    let (e, nu) = (m.youngs_modulus_pa, m.poisson_ratio);
-    (e * (1.0 - nu) / (rho * (1.0 + nu) * (1.0 - 2.0 * nu))).sqrt()
-}
-
 /// Physical-validity warnings for a scene and its largest overlap.
 fn validity_warnings(
     scene: &Scene,
@@ -341,30 +500,26 @@ fn validity_warnings(
     max_overlap: f64,
 ) -> Vec<String> {
     let mut warnings = Vec::new();
-    let radius = 0.5
-        * scene
-            .chain
-            .sphere
-            .diameter_m
-            .min(scene.chain.striker.diameter_m);
-    let ratio = max_overlap / radius;
-    if ratio > MAX_HERTZ_OVERLAP_RATIO {
-        warnings.push(format!(
-            "largest overlap {max_overlap:.3e} m is {ratio:.3} of the sphere radius (> {MAX_HERTZ_OVERLAP_RATIO}): Hertz's small-strain contact law is stretched"
-        ));
+    // Hertz's law is judged on the smallest sphere; chains of flat faces only have explicit laws.
+    if let Some(radius) = chain.smallest_sphere_radius_m() {
+        let ratio = max_overlap / radius;
+        if ratio > MAX_HERTZ_OVERLAP_RATIO {
+            warnings.push(format!(
+                "largest overlap {max_overlap:.3e} m is {ratio:.3} of the sphere radius (> {MAX_HERTZ_OVERLAP_RATIO}): Hertz's small-strain contact law is stretched"
+            ));
+        }
     }
-    // Two-body striker impact duration against the slowest crossing of a particle.
+    // The excitation's pulse (the two-body impact, or the force pulse) against the slowest
+    // crossing of a particle.
     let duration = scales.contact_duration_s();
-    let sphere = &scene.chain.sphere;
-    let sphere_rho = sphere.mass_kg / (std::f64::consts::PI / 6.0 * sphere.diameter_m.powi(3));
-    let cyl = &scene.chain.cylinder;
-    let cyl_rho = chain.cylinder_mass_kg
-        / (0.25 * std::f64::consts::PI * cyl.diameter_m * cyl.diameter_m * chain.cylinder_height_m);
-    let transit = (sphere.diameter_m / longitudinal_speed(&sphere.material, sphere_rho))
-        .max(chain.cylinder_height_m / longitudinal_speed(&cyl.material, cyl_rho));
+    let transit = chain.sound_transit_s();
     if duration < MIN_PULSE_TO_TRANSIT_RATIO * transit {
+        let what = match scene.excitation {
+            Some(Excitation::HalfSineForce { .. }) => "force pulse",
+            _ => "impact pulse",
+        };
         warnings.push(format!(
-            "impact pulse of {duration:.3e} s is only {:.1} times the sound transit time through a particle ({transit:.3e} s; want > {MIN_PULSE_TO_TRANSIT_RATIO}): the static Hertz law assumes a much longer pulse",
+            "{what} of {duration:.3e} s is only {:.1} times the sound transit time through a particle ({transit:.3e} s; want > {MIN_PULSE_TO_TRANSIT_RATIO}): the static Hertz law assumes a much longer pulse",
             duration / transit
         ));
     }
@@ -373,7 +528,8 @@ fn validity_warnings(
 
 /// Per-component absolute-tolerance scales for the state `[x, v, q]`: the two-body peak overlap
 /// for positions, the striker velocity for velocities, the impact energy and momentum for the
-/// dissipated work and the wall impulse. The adaptive integrators multiply them by `atol`.
+/// dissipated work, the wall impulse and the work of a force pulse. The adaptive integrators
+/// multiply them by `atol`.
 pub fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
     let n = chain.n_particles();
     let mut s = vec![scales.overlap_m; chain.state_len()];
@@ -384,14 +540,59 @@ pub fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
     if let Some(k) = chain.wall_impulse_index() {
         s[k] = scales.momentum;
     }
+    if let Some(k) = chain.pulse_work_index() {
+        s[k] = scales.energy_j;
+    }
     s
+}
+
+/// Integrates `sys` from `(t0, y0)` over consecutive legs ending at each of `leg_ends` (the last
+/// is the run's end), each leg a fresh call of the integrator, so that no step straddles a time
+/// where the right-hand side is not smooth. The observer sees one continuous record (it takes the
+/// second and later `on_start` as continuations); the step budget and the statistics are the
+/// run's, summed over the legs. Stops after the leg in which the observer stopped the run.
+fn integrate_legs(
+    integrator: &dyn Integrator,
+    sys: &mut dyn OdeSystemDyn,
+    t0: f64,
+    y0: &[f64],
+    leg_ends: &[f64],
+    max_steps: u64,
+    observer: &mut RunObserver,
+) -> Result<IntegrationStats, IntegrateError> {
+    if let [t_end] = leg_ends {
+        return integrator.integrate(sys, t0, y0, *t_end, max_steps, observer);
+    }
+    observer.state = Some(y0.to_vec());
+    let mut total = IntegrationStats::default();
+    let mut t = t0;
+    let mut y = y0.to_vec();
+    for &t_leg in leg_ends {
+        let budget = max_steps - total.steps;
+        let stats = integrator
+            .integrate(sys, t, &y, t_leg, budget, observer)
+            .map_err(|e| match e {
+                IntegrateError::StepBudget { t, .. } => IntegrateError::StepBudget { max_steps, t },
+                other => other,
+            })?;
+        total.steps += stats.steps;
+        total.rejected += stats.rejected;
+        total.events += stats.events;
+        total.rhs_evals += stats.rhs_evals;
+        total.stiffness_detections += stats.stiffness_detections;
+        if observer.stopped || total.steps >= max_steps {
+            break;
+        }
+        t = t_leg;
+        y.copy_from_slice(observer.state.as_ref().expect("kept for legs"));
+    }
+    Ok(total)
 }
 
 /// Runs a scene.
 pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
     let chain = scene.validate()?;
-    let v0 = scene.striker_velocity_m_s;
-    let scales = ImpactScales::new(&chain, v0);
+    let scales = scene.impact_scales(&chain);
     let probes = ProbeSet::new(
         &chain,
         &scene.record.probes,
@@ -415,7 +616,9 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
     let t_end = scene.duration_s;
     let mut observer = RunObserver::new(&chain, probes, opts, t0, t_end);
 
-    let y0 = chain.initial_state(v0);
+    let y0 = chain.initial_state(scene.initial_velocity_m_s());
+    let mut leg_ends = scene.breakpoints_s();
+    leg_ends.push(t_end);
 
     let integrator: Box<dyn Integrator> = match scene.integrator {
         IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
@@ -445,11 +648,12 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
             Box::new(r)
         }
     };
-    let stats = crate::dispatch_chain_system!(&chain, |sys| integrator.integrate(
+    let stats = crate::dispatch_chain_system!(&chain, |sys| integrate_legs(
+        integrator.as_ref(),
         &mut sys,
         t0,
         &y0,
-        t_end,
+        &leg_ends,
         scene.max_steps,
         &mut observer
     ))?;

@@ -1,5 +1,7 @@
-//! The equations of motion (Eqs. 2–12) as an [`OdeSystem`], specialised at compile time on the
-//! physics a scene switches on, and the energy and momentum ledgers.
+//! The paper's equations of motion (Eqs. 2–12) as an [`OdeSystem`], specialised at compile time
+//! on the physics a scene switches on, the energy and momentum ledgers of every chain, and the
+//! dispatch from a built chain to its specialised right-hand side (the paper's, or one of
+//! [`crate::general::GeneralChainSystem`]'s for other laws, dissipation models and loads).
 
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 use crate::model::Chain;
@@ -28,6 +30,10 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
     /// Builds the system; panics if the chain's switches differ from the type's (a programming error:
     /// use [`crate::dispatch_chain_system`] to pick the type from a chain).
     pub fn new(chain: &Chain) -> Self {
+        assert!(
+            chain.is_paper_physics(),
+            "ChainSystem is the paper's physics (Hertz laws, linear damping, no external force)"
+        );
         assert_eq!(chain.wall, W, "wall switch mismatch");
         assert_eq!(chain.clip_tensile, C, "clip switch mismatch");
         assert_eq!(chain.gravity_m_s2 != 0.0, G, "gravity switch mismatch");
@@ -179,10 +185,17 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem
 pub struct Ledger {
     mass: Vec<f64>,
     stiffness: Vec<f64>,
+    /// Exponents of the contact laws, when any is not Hertz's 3/2.
+    exponent: Option<Vec<f64>>,
     gravity: f64,
     wall: bool,
     work_index: Option<usize>,
     wall_impulse_index: Option<usize>,
+    /// Particle the external forces act on, the precompression force, and the force pulse
+    /// `(amplitude, duration)` with the index of its work quadrature.
+    top: usize,
+    precompression: f64,
+    pulse: Option<(f64, f64, usize)>,
 }
 
 /// Energy terms of a state, J.
@@ -190,12 +203,15 @@ pub struct Ledger {
 pub struct EnergyTerms {
     /// Kinetic energy.
     pub kinetic: f64,
-    /// Hertz potential `Σ (2/5) A δ^{5/2}` over compressed contacts.
+    /// Elastic potential `Σ A δ^{n+1}/(n+1)` over compressed contacts (`(2/5) A δ^{5/2}` for Hertz).
     pub elastic: f64,
     /// Gravitational potential `-g Σ m x` (x positive downwards).
     pub gravitational: f64,
-    /// Work dissipated by the viscous terms so far.
+    /// Work dissipated by the contacts' dissipative terms so far.
     pub dissipated: f64,
+    /// Minus the work of the external forces so far: `−F_p x_top` for the precompression (its
+    /// potential) minus the work the force pulse has done. Zero without them.
+    pub external: f64,
     /// Largest contact overlap in the state, m (not an energy; computed in the same pass).
     pub max_overlap: f64,
 }
@@ -203,7 +219,7 @@ pub struct EnergyTerms {
 impl EnergyTerms {
     /// The conserved total.
     pub fn total(&self) -> f64 {
-        self.kinetic + self.elastic + self.gravitational + self.dissipated
+        self.kinetic + self.elastic + self.gravitational + self.dissipated + self.external
     }
 }
 
@@ -213,10 +229,20 @@ impl Ledger {
         Ledger {
             mass: chain.mass.clone(),
             stiffness: chain.stiffness.clone(),
+            exponent: chain
+                .exponent
+                .iter()
+                .any(|&n| n != 1.5)
+                .then(|| chain.exponent.clone()),
             gravity: chain.gravity_m_s2,
             wall: chain.wall,
             work_index: chain.work_index(),
             wall_impulse_index: chain.wall_impulse_index(),
+            top: chain.first_chain_particle(),
+            precompression: chain.precompression_force_n,
+            pulse: chain
+                .force_pulse
+                .map(|(a, d)| (a, d, chain.pulse_work_index().expect("pulse quadrature"))),
         }
     }
 
@@ -239,7 +265,35 @@ impl Ledger {
             twice_kinetic[0] += m[j] * v[j] * v[j];
             weight_moment[0] += m[j] * x[j];
         }
-        // Interior contacts, then the wall's.
+        let sum = |lanes: [f64; L]| lanes.iter().sum::<f64>();
+        let (elastic, max_overlap) = match &self.exponent {
+            None => self.hertz_potential(x),
+            Some(exponent) => self.general_potential(x, exponent),
+        };
+        let kinetic = 0.5 * sum(twice_kinetic);
+        let gravitational = -self.gravity * sum(weight_moment);
+        let dissipated = self.work_index.map_or(0.0, |k| y[k]);
+        let mut external = 0.0;
+        if self.precompression != 0.0 {
+            external -= self.precompression * x[self.top];
+        }
+        if let Some((_, _, k)) = self.pulse {
+            external -= y[k];
+        }
+        EnergyTerms {
+            kinetic,
+            elastic,
+            gravitational,
+            dissipated,
+            external,
+            max_overlap,
+        }
+    }
+
+    /// Hertz potential `(2/5) Σ A δ^{5/2}` and the largest overlap, interior contacts then the wall's.
+    fn hertz_potential(&self, x: &[f64]) -> (f64, f64) {
+        const L: usize = 8;
+        let n = self.mass.len();
         let interior = n - 1;
         let a = &self.stiffness[..interior];
         let (mut potential, mut largest) = ([0.0f64; L], [0.0f64; L]);
@@ -262,30 +316,48 @@ impl Ledger {
             potential[0] += self.stiffness[interior] * d * d * d.sqrt();
             largest[0] = largest[0].max(d);
         }
-        let sum = |lanes: [f64; L]| lanes.iter().sum::<f64>();
-        let kinetic = 0.5 * sum(twice_kinetic);
-        let gravitational = -self.gravity * sum(weight_moment);
-        let elastic = 0.4 * sum(potential);
-        let max_overlap = largest.iter().fold(0.0f64, |a, &b| a.max(b));
-        let dissipated = self.work_index.map_or(0.0, |k| y[k]);
-        EnergyTerms {
-            kinetic,
-            elastic,
-            gravitational,
-            dissipated,
-            max_overlap,
-        }
+        let elastic = 0.4 * potential.iter().sum::<f64>();
+        (elastic, largest.iter().fold(0.0f64, |a, &b| a.max(b)))
     }
 
-    /// Momentum balance residual `P(t) - P(0) - M g t + J_wall(t)`, N·s, which is zero for the
-    /// exact solution (`J_wall` is the impulse the wall has taken).
+    /// `Σ A δ^{n+1}/(n+1)` for any exponents, and the largest overlap.
+    fn general_potential(&self, x: &[f64], exponent: &[f64]) -> (f64, f64) {
+        let n = self.mass.len();
+        let (mut elastic, mut largest) = (0.0f64, 0.0f64);
+        for (c, (&a, &e)) in self.stiffness.iter().zip(exponent).enumerate() {
+            let d = if c + 1 < n { x[c] - x[c + 1] } else { x[c] }.max(0.0);
+            elastic += crate::contact::potential(a, e, d);
+            largest = largest.max(d);
+        }
+        (elastic, largest)
+    }
+
+    /// Impulse of the external forces from `t0` to `t`, N·s.
+    fn external_impulse(&self, t: f64, t0: f64) -> f64 {
+        let mut j = self.precompression * (t - t0);
+        if let Some((amplitude, duration, _)) = self.pulse {
+            // The pulse starts at t = 0: ∫ F₀ sin(πs/T) ds = F₀ T/π (1 − cos(πs/T)).
+            let phase = |s: f64| std::f64::consts::PI * s.clamp(0.0, duration) / duration;
+            j += amplitude * duration / std::f64::consts::PI * (phase(t0).cos() - phase(t).cos());
+        }
+        j
+    }
+
+    /// Momentum balance residual `P(t) - P(0) - M g t - J_ext(t) + J_wall(t)`, N·s, which is zero
+    /// for the exact solution (`J_wall` is the impulse the wall has taken, `J_ext` that of the
+    /// precompression and the force pulse).
     pub fn momentum_residual(&self, y: &[f64], t: f64, t0: f64, p0: f64) -> f64 {
         let n = self.mass.len();
         let p: f64 = (0..n).map(|i| self.mass[i] * y[n + i]).sum();
         let m_total: f64 = self.mass.iter().sum();
         let j = self.wall_impulse_index.map_or(0.0, |k| y[k]);
         debug_assert!(self.wall || j == 0.0);
-        p - p0 - m_total * self.gravity * (t - t0) + j
+        let external = if self.precompression != 0.0 || self.pulse.is_some() {
+            self.external_impulse(t, t0)
+        } else {
+            0.0
+        };
+        p - p0 - m_total * self.gravity * (t - t0) - external + j
     }
 
     /// Total momentum of state `y`, kg·m/s.
@@ -295,10 +367,55 @@ impl Ledger {
     }
 }
 
-/// Calls `$body` with `$sys` bound to a [`ChainSystem`] whose const parameters match `$chain`'s
-/// switches; this is the one place where run-time switches become compile-time ones.
+/// Calls `$body` with `$sys` bound to the right-hand side specialised for `$chain`: the paper's
+/// [`ChainSystem`] (16 variants: gravity × damping × wall × clipping) when the chain is the
+/// paper's physics, else a [`crate::general::GeneralChainSystem`] (6 variants: Hertz, linear or
+/// per-contact power laws × damping). This is the one place where run-time switches become
+/// compile-time ones: 22 compiled right-hand sides in all.
 #[macro_export]
 macro_rules! dispatch_chain_system {
+    ($chain:expr, |$sys:ident| $body:expr) => {{
+        let chain: &$crate::model::Chain = $chain;
+        if chain.is_paper_physics() {
+            $crate::dispatch_paper_system!(chain, |$sys| $body)
+        } else {
+            use $crate::general::GeneralChainSystem as General;
+            use $crate::general::{HERTZ_LAW, LINEAR_LAW, POWER_LAW};
+            match ($crate::general::law(chain), chain.has_damping()) {
+                (HERTZ_LAW, false) => {
+                    let mut $sys = General::<HERTZ_LAW, false>::new(chain);
+                    $body
+                }
+                (HERTZ_LAW, true) => {
+                    let mut $sys = General::<HERTZ_LAW, true>::new(chain);
+                    $body
+                }
+                (LINEAR_LAW, false) => {
+                    let mut $sys = General::<LINEAR_LAW, false>::new(chain);
+                    $body
+                }
+                (LINEAR_LAW, true) => {
+                    let mut $sys = General::<LINEAR_LAW, true>::new(chain);
+                    $body
+                }
+                (_, false) => {
+                    let mut $sys = General::<POWER_LAW, false>::new(chain);
+                    $body
+                }
+                (_, true) => {
+                    let mut $sys = General::<POWER_LAW, true>::new(chain);
+                    $body
+                }
+            }
+        }
+    }};
+}
+
+/// The paper's half of [`dispatch_chain_system`]: a [`ChainSystem`] whose const parameters match
+/// the chain's switches.
+#[doc(hidden)]
+#[macro_export]
+macro_rules! dispatch_paper_system {
     ($chain:expr, |$sys:ident| $body:expr) => {{
         let chain: &$crate::model::Chain = $chain;
         let g = chain.gravity_m_s2 != 0.0;

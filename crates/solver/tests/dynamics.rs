@@ -312,7 +312,7 @@ fn solitary_wave_speed_agrees_with_eq_13() {
     ];
     let out = run(&scene).unwrap();
     let chain = Chain::build(&scene.chain, &scene.physics).unwrap();
-    let cell = chain.cell_length_m;
+    let cell = chain.cell_length_m.unwrap();
     let speed =
         15.0 * cell / (out.probes[1].leading_peak_time_s - out.probes[0].leading_peak_time_s);
     let v_m = 0.5 * (out.probes[2].leading_peak + out.probes[3].leading_peak);
@@ -510,7 +510,7 @@ fn invalid_scenes_name_the_field() {
     type Mutation = Box<dyn Fn(&mut Scene)>;
     let cases: Vec<(Mutation, &str)> = vec![
         (
-            Box::new(|s| s.striker_velocity_m_s = f64::NAN),
+            Box::new(|s| s.striker_velocity_m_s = Some(f64::NAN)),
             "striker_velocity_m_s",
         ),
         (Box::new(|s| s.duration_s = 0.0), "duration_s"),
@@ -519,12 +519,12 @@ fn invalid_scenes_name_the_field() {
             "physics.damping_kg_s",
         ),
         (
-            Box::new(|s| s.chain.sphere.mass_kg = -2e-3),
+            Box::new(|s| s.chain.dimer_mut().unwrap().sphere.mass_kg = -2e-3),
             "chain.sphere.mass_kg",
         ),
         (
             Box::new(|s| {
-                s.chain.cylinder.mass =
+                s.chain.dimer_mut().unwrap().cylinder.mass =
                     chainsweep_solver::model::CylinderMass::HeavyCylinders { mass_ratio: 1.5 }
             }),
             "chain.cylinder.mass.heavy_cylinders.mass_ratio",
@@ -594,7 +594,7 @@ fn validity_warnings_flag_extreme_impacts_only() {
     // Cylinders 30 mm tall: sound needs ~5 µs to cross one, while the impact pulse (~23 µs at
     // 1.3 m/s) is set by the striker and the first sphere alone.
     let mut s = Scene::new(ChainSpec::chain_055(5), 1.3, 1e-4);
-    s.chain.cylinder.height_m = Some(30e-3);
+    s.chain.dimer_mut().unwrap().cylinder.height_m = Some(30e-3);
     s.integrator = dop(1e-8);
     let tall = run(&s).unwrap();
     assert_eq!(tall.warnings.len(), 1, "{:?}", tall.warnings);

@@ -140,11 +140,12 @@ fn fast_rhs_matches_literal_transcription_of_eqs_2_to_12() {
         let r = 4e-3;
         let a = hertz_coefficient(Material::STEEL_SS304, None, Material::STEEL_440C, Some(r));
         let a1 = hertz_coefficient(Material::STEEL_440C, Some(r), Material::STEEL_440C, Some(r));
+        let dimer = spec.dimer().unwrap();
         let lit = paper_accelerations(
             n,
-            spec.striker.mass_kg,
-            spec.sphere.mass_kg,
-            spec.cylinder.mass_kg(spec.sphere.mass_kg),
+            dimer.striker.mass_kg,
+            dimer.sphere.mass_kg,
+            dimer.cylinder.mass_kg(dimer.sphere.mass_kg),
             a,
             a1,
             a,

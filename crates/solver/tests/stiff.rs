@@ -18,7 +18,7 @@ const PROBE_CONTACT: usize = 20;
 
 fn light_chain(mu: f64) -> Chain {
     let mut spec = ChainSpec::chain_055(CYLINDERS);
-    spec.cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.05 };
+    spec.dimer_mut().unwrap().cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.05 };
     let physics = PhysicsSpec {
         damping_kg_s: mu,
         ..PhysicsSpec::default()
@@ -319,7 +319,8 @@ fn dop853_flags_a_stiff_chain_and_ros34pw2_does_not_need_to() {
     use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
     let scene = |mu: f64, integrator: IntegratorSpec| {
         let mut s = Scene::new(ChainSpec::chain_055(20), 1.3, 1e-4);
-        s.chain.cylinder.mass = CylinderMass::LightCylinders { mass_ratio: 0.05 };
+        s.chain.dimer_mut().unwrap().cylinder.mass =
+            CylinderMass::LightCylinders { mass_ratio: 0.05 };
         s.physics.damping_kg_s = mu;
         s.integrator = integrator;
         run(&s).unwrap()

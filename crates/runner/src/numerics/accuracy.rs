@@ -11,7 +11,6 @@
 
 use std::path::Path;
 
-use chainsweep_solver::scene::ImpactScales;
 use chainsweep_solver::{IntegratorSpec, RunOutput, Scene};
 use hdf5::File;
 
@@ -39,7 +38,7 @@ pub fn scene_scales(scene: &Scene) -> Result<SceneScales> {
     let chain = scene
         .validate()
         .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;
-    let s = ImpactScales::new(&chain, scene.striker_velocity_m_s);
+    let s = scene.impact_scales(&chain);
     let tau = s.contact_duration_s();
     let m_min = chain.mass.iter().cloned().fold(f64::INFINITY, f64::min);
     let mu = chain.damping.iter().cloned().fold(0.0, f64::max);

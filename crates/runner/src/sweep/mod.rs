@@ -270,12 +270,39 @@ pub fn lookup<'a>(root: &'a Value, path: &str) -> std::result::Result<&'a Value,
     Ok(cur)
 }
 
-/// Sets the value at `path` (which must exist) in `root`.
-pub fn set_path(root: &mut Value, path: &str, value: Value) {
+/// Checks that an axis can set `path` in `root`: along it every existing value is an object (a
+/// missing key is created when values are applied: the normalised base leaves out fields that hold
+/// their defaults) or a list that has the index. Whether the field exists in the scene is then
+/// decided at every grid point, which names the axis and the allowed fields.
+pub fn check_settable(root: &Value, path: &str) -> std::result::Result<(), String> {
     let mut cur = root;
     for seg in split_path(path) {
         cur = match cur {
-            Value::Object(m) => m.get_mut(&seg).expect("path checked at parse time"),
+            Value::Object(m) => match m.get(&seg) {
+                Some(next) => next,
+                None => return Ok(()),
+            },
+            Value::Null => return Ok(()),
+            Value::Array(a) => match seg.parse::<usize>().ok().and_then(|i| a.get(i)) {
+                Some(next) => next,
+                None => return lookup(root, path).map(|_| ()),
+            },
+            _ => return lookup(root, path).map(|_| ()),
+        };
+    }
+    Ok(())
+}
+
+/// Sets the value at `path` in `root` (checked by [`check_settable`]), creating the objects
+/// missing along it.
+pub fn set_path(root: &mut Value, path: &str, value: Value) {
+    let mut cur = root;
+    for seg in split_path(path) {
+        if cur.is_null() {
+            *cur = Value::Object(Map::new());
+        }
+        cur = match cur {
+            Value::Object(m) => m.entry(seg).or_insert(Value::Null),
             Value::Array(a) => {
                 let i: usize = seg.parse().expect("path checked at parse time");
                 &mut a[i]
@@ -439,7 +466,7 @@ fn parse_axis(a: AxisFile, origin: &str, base: &Value, auto: bool) -> Result<Axi
             format!("`{field}`: the base integrator is `auto`, which chooses one setting for the whole grid; an axis may not set integrator fields (give a fixed integrator in `base` to sweep over integrator settings)"),
         ));
     }
-    lookup(base, &field).map_err(|m| Error::input(format!("{origin}.field"), m))?;
+    check_settable(base, &field).map_err(|m| Error::input(format!("{origin}.field"), m))?;
     let values = match (a.values, a.range) {
         (Some(v), None) => {
             if v.is_empty() {

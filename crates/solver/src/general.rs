@@ -1,0 +1,252 @@
+//! The equations of motion of any chain that is not the paper's physics (see
+//! [`crate::model::Chain::is_paper_physics`]): per-contact power laws, the three dissipation
+//! models, precompression and a half-sine force pulse.
+//!
+//! Specialised at compile time on the elastic law (`HERTZ`: every contact `n = 3/2`, `LINEAR`:
+//! every contact `n = 1`, `POWER`: any `n` per contact) and on whether any contact dissipates, so
+//! six variants in all; gravity, the wall, clipping, precompression and the pulse are data, each a
+//! few operations per evaluation, not per contact. The dissipation models are data too: every
+//! contact carries `(μ, γ, λ)` and the kernel evaluates `μ + γ δ^{n−1} + λ δ^n`, two fused
+//! operations on powers it computes anyway.
+
+use crate::contact::{general_force, ContactParams, Damping, HERTZ, LINEAR, POWER};
+use crate::integrate::{OdeSystem, Switch, Tridiagonal};
+use crate::model::Chain;
+
+/// Right-hand side of a general chain. State `[x (N), v (N), q]`, `q` holding in order the
+/// dissipated work (when `D`), the wall impulse (with a wall) and the work of the force pulse
+/// (with one), the layout [`Chain::state_len`] defines.
+#[derive(Debug, Clone)]
+pub struct GeneralChainSystem<const LAW: u8, const D: bool> {
+    inv_mass: Vec<f64>,
+    stiffness: Vec<f64>,
+    exponent: Vec<f64>,
+    linear: Vec<f64>,
+    viscoelastic: Vec<f64>,
+    hunt_crossley: Vec<f64>,
+    gravity: f64,
+    wall: bool,
+    clip: bool,
+    /// Particle the external forces act on.
+    top: usize,
+    precompression: f64,
+    /// Half-sine pulse: amplitude (N), π/duration (1/s), duration (s); zero amplitude: none.
+    pulse: (f64, f64, f64),
+    force: Vec<f64>,
+    power: Vec<f64>,
+    switches: Vec<Switch>,
+}
+
+/// `LAW` of a kernel whose contacts are all Hertz's (`n = 3/2`).
+pub const HERTZ_LAW: u8 = HERTZ;
+/// `LAW` of a kernel whose contacts are all linear (`n = 1`).
+pub const LINEAR_LAW: u8 = LINEAR;
+/// `LAW` of a kernel with any exponent per contact.
+pub const POWER_LAW: u8 = POWER;
+
+/// Law of every contact of a chain, as the kernel's `LAW` parameter.
+pub fn law(chain: &Chain) -> u8 {
+    if chain.exponent.iter().all(|&n| n == 1.5) {
+        HERTZ
+    } else if chain.exponent.iter().all(|&n| n == 1.0) {
+        LINEAR
+    } else {
+        POWER
+    }
+}
+
+impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
+    /// Builds the system; panics if the chain's laws or damping differ from the type's (a
+    /// programming error: use [`crate::dispatch_chain_system`] to pick the type from a chain).
+    pub fn new(chain: &Chain) -> Self {
+        assert_eq!(law(chain), LAW, "law mismatch");
+        assert_eq!(chain.has_damping(), D, "damping switch mismatch");
+        let n = chain.n_particles();
+        let pulse = match chain.force_pulse {
+            Some((amplitude, duration)) => (amplitude, std::f64::consts::PI / duration, duration),
+            None => (0.0, 0.0, 0.0),
+        };
+        GeneralChainSystem {
+            inv_mass: chain.mass.iter().map(|m| 1.0 / m).collect(),
+            stiffness: chain.stiffness.clone(),
+            exponent: chain.exponent.clone(),
+            linear: chain.damping.clone(),
+            viscoelastic: chain.viscoelastic_damping.clone(),
+            hunt_crossley: chain.hunt_crossley_damping.clone(),
+            gravity: chain.gravity_m_s2,
+            wall: chain.wall,
+            clip: chain.clip_tensile,
+            top: chain.first_chain_particle(),
+            precompression: chain.precompression_force_n,
+            pulse,
+            force: vec![0.0; n],
+            power: vec![0.0; n],
+            switches: (0..chain.n_contacts())
+                .map(|c| Switch {
+                    plus: c,
+                    minus: (c + 1 < n).then_some(c + 1),
+                })
+                .collect(),
+        }
+    }
+
+    /// Law and dissipation of contact `c`.
+    pub(crate) fn contact_parameters(&self, c: usize) -> ContactParams {
+        ContactParams {
+            a: self.stiffness[c],
+            n: self.exponent[c],
+            damping: Damping {
+                linear: self.linear[c],
+                viscoelastic: self.viscoelastic[c],
+                hunt_crossley: self.hunt_crossley[c],
+            },
+        }
+    }
+
+    /// Inverse masses, 1/kg.
+    pub(crate) fn inverse_masses(&self) -> &[f64] {
+        &self.inv_mass
+    }
+
+    /// Whether the net contact force is clipped at zero.
+    pub(crate) fn clips(&self) -> bool {
+        self.clip
+    }
+
+    /// Whether the last particle rests on a wall.
+    pub(crate) fn has_wall(&self) -> bool {
+        self.wall
+    }
+
+    /// Force of the half-sine pulse at time `t`, N.
+    #[inline(always)]
+    fn pulse_force(&self, t: f64) -> f64 {
+        let (amplitude, omega, duration) = self.pulse;
+        if amplitude != 0.0 && t < duration {
+            amplitude * (omega * t).sin()
+        } else {
+            0.0
+        }
+    }
+
+    /// The right-hand side over slices: the one kernel every `(LAW, D)` specialisation compiles,
+    /// kept apart from the [`OdeSystem::rhs`] entry point so that a run-time CPU dispatch (a
+    /// `#[target_feature]` trampoline) can wrap it without touching the physics.
+    #[inline(always)]
+    pub(crate) fn rhs_kernel(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let n = self.inv_mass.len();
+        let (x, rest) = y.split_at(n);
+        let v = &rest[..n];
+        let (dx, rest) = dy.split_at_mut(n);
+        let (dv, dq) = rest.split_at_mut(n);
+        dx.copy_from_slice(v);
+
+        const LANES: usize = 8;
+        let m = n - 1;
+        let clip = self.clip;
+        let force = &mut self.force[..m];
+        let contact_power = &mut self.power[..m];
+        let (a, e) = (&self.stiffness[..m], &self.exponent[..m]);
+        let (mu, gamma, lambda) = (
+            &self.linear[..m],
+            &self.viscoelastic[..m],
+            &self.hunt_crossley[..m],
+        );
+        for c in 0..m {
+            let params = ContactParams {
+                a: a[c],
+                n: e[c],
+                damping: Damping {
+                    linear: mu[c],
+                    viscoelastic: gamma[c],
+                    hunt_crossley: lambda[c],
+                },
+            };
+            let (fc, p) = general_force::<LAW, D>(&params, x[c] - x[c + 1], v[c] - v[c + 1], clip);
+            force[c] = fc;
+            if D {
+                contact_power[c] = p;
+            }
+        }
+        let mut power = [0.0f64; LANES];
+        if D {
+            let chunks = contact_power.chunks_exact(LANES);
+            power[0] = chunks.remainder().iter().sum();
+            for chunk in chunks {
+                for k in 0..LANES {
+                    power[k] += chunk[k];
+                }
+            }
+        }
+        let (wall_force, wall_power) = if self.wall {
+            let params = ContactParams {
+                a: self.stiffness[m],
+                n: self.exponent[m],
+                damping: Damping {
+                    linear: self.linear[m],
+                    viscoelastic: self.viscoelastic[m],
+                    hunt_crossley: self.hunt_crossley[m],
+                },
+            };
+            general_force::<LAW, D>(&params, x[m], v[m], clip)
+        } else {
+            (0.0, 0.0)
+        };
+
+        let g = self.gravity;
+        let im = &self.inv_mass[..n];
+        dv[0] = g - force[0] * im[0];
+        for i in 1..n - 1 {
+            dv[i] = g + (force[i - 1] - force[i]) * im[i];
+        }
+        dv[n - 1] = g + (force[n - 2] - wall_force) * im[n - 1];
+        let pulse = self.pulse_force(t);
+        let external = self.precompression + pulse;
+        if external != 0.0 {
+            dv[self.top] += external * im[self.top];
+        }
+
+        let mut k = 0;
+        if D {
+            dq[k] = power.iter().sum::<f64>() + wall_power;
+            k += 1;
+        }
+        if self.wall {
+            dq[k] = wall_force;
+            k += 1;
+        }
+        if self.pulse.0 != 0.0 {
+            dq[k] = pulse * v[self.top];
+        }
+    }
+}
+
+impl<const LAW: u8, const D: bool> OdeSystem for GeneralChainSystem<LAW, D> {
+    fn n_pos(&self) -> usize {
+        self.inv_mass.len()
+    }
+
+    fn n_quad(&self) -> usize {
+        D as usize + self.wall as usize + (self.pulse.0 != 0.0) as usize
+    }
+
+    fn switches(&self) -> &[Switch] {
+        &self.switches
+    }
+
+    fn acceleration_jacobian(
+        &self,
+        t: f64,
+        y: &[f64],
+        kx: &mut Tridiagonal,
+        kv: &mut Tridiagonal,
+    ) -> bool {
+        self.jacobian(t, y, kx, kv);
+        true
+    }
+
+    #[inline]
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.rhs_kernel(t, y, dy)
+    }
+}

@@ -1,0 +1,682 @@
+//! Chains as sequences of named particle types: spheres and flat-ended cylinders of any size,
+//! material and mass, in repeated blocks and explicit lists, with an optional striker, a taper
+//! (geometric progression of size and mass along the chain) and seeded disorder; contact laws
+//! derived from the geometry (Hertz for sphere–sphere and sphere–flat pairs) and overridable per
+//! pair of types, like the dissipation model.
+//!
+//! ```json
+//! "chain": {
+//!   "particles": {
+//!     "ball": {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085,
+//!                         "material": {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.28}}},
+//!     "tall": {"cylinder": {"diameter_m": 0.008, "height_m": 0.0096, "density_kg_m3": 7813,
+//!                           "material": {"youngs_modulus_pa": 1.93e11, "poisson_ratio": 0.29}}}
+//!   },
+//!   "sequence": [{"repeat": 50, "of": ["ball", "tall"]}, "ball"],
+//!   "striker": "ball",
+//!   "taper": {"ratio": 0.98},
+//!   "disorder": {"level": 0.05, "seed": 7, "of": "mass"},
+//!   "contacts": [{"between": ["tall", "wall"],
+//!                 "law": {"power_law": {"coefficient": 1e10, "exponent": 1.0}}}]
+//! }
+//! ```
+
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+use crate::contact::{DissipationSpec, LawSpec, SplitMix64, MAX_EXPONENT};
+use crate::model::{
+    check_material, check_positive, hertz_coefficient, spec_err, Layout, Material, Particle,
+    ParticleKind, Shape, SpecError, MAX_PARTICLES,
+};
+
+/// Name a contact rule uses for the wall.
+pub const WALL: &str = "wall";
+/// Name a contact rule uses for the striker, whatever its type.
+pub const STRIKER: &str = "striker";
+
+/// Largest factor by which taper and disorder may scale a particle's size, either way: beyond a
+/// thousandfold a particle is a few µm across, the size of the overlaps, and its contact laws mean
+/// nothing (such a taper "makes a particle vanish").
+pub const MAX_SIZE_FACTOR: f64 = 1e3;
+
+/// A chain described as a sequence of named particle types.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
+pub struct SequenceSpec {
+    /// The particle types, by name.
+    pub particles: BTreeMap<String, ParticleType>,
+    /// The chain from the top (struck end) to the wall: type names and repeated blocks.
+    pub sequence: Vec<SequenceItem>,
+    /// Type of the striker, particle 1, above the sequence. Absent: no striker; the chain is
+    /// excited by the scene's `excitation`.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub striker: Option<String>,
+    /// Material of the flat wall (default SS304 steel, as the paper's).
+    pub wall_material: Material,
+    /// Geometric progression of size and mass along the chain.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub taper: Option<TaperSpec>,
+    /// Seeded random perturbation of masses or sizes.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub disorder: Option<DisorderSpec>,
+    /// Contact laws and dissipation models per pair of types, overriding the defaults.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Vec::is_empty"))]
+    pub contacts: Vec<ContactRule>,
+}
+
+/// A particle type.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(
+    feature = "serde",
+    serde(rename_all = "snake_case", deny_unknown_fields)
+)]
+pub enum ParticleType {
+    /// A sphere.
+    Sphere(SphereType),
+    /// A cylinder with flat ends along the chain.
+    Cylinder(CylinderType),
+}
+
+/// A sphere type; give exactly one of `mass_kg` and `density_kg_m3`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct SphereType {
+    /// Material.
+    pub material: Material,
+    /// Diameter, m.
+    pub diameter_m: f64,
+    /// Mass, kg.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub mass_kg: Option<f64>,
+    /// Density, kg/m³.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub density_kg_m3: Option<f64>,
+}
+
+/// A flat-ended cylinder type; give exactly one of `mass_kg` and `density_kg_m3`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct CylinderType {
+    /// Material.
+    pub material: Material,
+    /// Diameter, m.
+    pub diameter_m: f64,
+    /// Height (length along the chain), m.
+    pub height_m: f64,
+    /// Mass, kg.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub mass_kg: Option<f64>,
+    /// Density, kg/m³.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub density_kg_m3: Option<f64>,
+}
+
+impl ParticleType {
+    fn material(&self) -> Material {
+        match self {
+            ParticleType::Sphere(s) => s.material,
+            ParticleType::Cylinder(c) => c.material,
+        }
+    }
+
+    fn shape(&self) -> Shape {
+        match *self {
+            ParticleType::Sphere(s) => Shape::Sphere {
+                diameter_m: s.diameter_m,
+            },
+            ParticleType::Cylinder(c) => Shape::Cylinder {
+                diameter_m: c.diameter_m,
+                height_m: c.height_m,
+            },
+        }
+    }
+
+    fn mass_or_density(&self) -> (Option<f64>, Option<f64>) {
+        match *self {
+            ParticleType::Sphere(s) => (s.mass_kg, s.density_kg_m3),
+            ParticleType::Cylinder(c) => (c.mass_kg, c.density_kg_m3),
+        }
+    }
+
+    /// Mass of one particle of this type, kg.
+    pub fn mass_kg(&self) -> f64 {
+        match self.mass_or_density() {
+            (Some(m), _) => m,
+            (None, Some(rho)) => rho * self.shape().volume_m3(),
+            (None, None) => f64::NAN,
+        }
+    }
+
+    fn kind(&self) -> ParticleKind {
+        match self {
+            ParticleType::Sphere(_) => ParticleKind::Sphere,
+            ParticleType::Cylinder(_) => ParticleKind::Cylinder,
+        }
+    }
+
+    fn validate(&self, field: &str) -> Result<(), SpecError> {
+        let (variant, diameter, height) = match *self {
+            ParticleType::Sphere(s) => ("sphere", s.diameter_m, None),
+            ParticleType::Cylinder(c) => ("cylinder", c.diameter_m, Some(c.height_m)),
+        };
+        let field = format!("{field}.{variant}");
+        check_material(&format!("{field}.material"), &self.material())?;
+        check_positive(&format!("{field}.diameter_m"), diameter)?;
+        if let Some(h) = height {
+            check_positive(&format!("{field}.height_m"), h)?;
+        }
+        match self.mass_or_density() {
+            (Some(m), None) => check_positive(&format!("{field}.mass_kg"), m),
+            (None, Some(rho)) => check_positive(&format!("{field}.density_kg_m3"), rho),
+            _ => Err(spec_err(
+                &field,
+                "give exactly one of `mass_kg` and `density_kg_m3`",
+            )),
+        }
+    }
+}
+
+/// An element of a sequence: a type name, or a block of elements repeated `repeat` times.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
+#[cfg_attr(feature = "serde", serde(untagged))]
+pub enum SequenceItem {
+    /// One particle of the named type.
+    Type(String),
+    /// `repeat × [of…]`.
+    Repeat(RepeatBlock),
+}
+
+/// `repeat` copies of a block.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct RepeatBlock {
+    /// Number of copies, at least 1.
+    pub repeat: usize,
+    /// The block.
+    pub of: Vec<SequenceItem>,
+}
+
+#[cfg(feature = "serde")]
+impl<'de> Deserialize<'de> for SequenceItem {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = SequenceItem;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a particle type name or a block {\"repeat\": n, \"of\": [...]}")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<SequenceItem, E> {
+                Ok(SequenceItem::Type(v.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<SequenceItem, A::Error> {
+                RepeatBlock::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(SequenceItem::Repeat)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Geometric progression along the chain: chain particle `k` (0 for the first below the striker)
+/// has every length multiplied by `ratio^k` and its mass by `ratio^{3k}` (same density).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct TaperSpec {
+    /// Size ratio of consecutive particles, > 0 (< 1: decreasing towards the wall).
+    pub ratio: f64,
+}
+
+/// What disorder perturbs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum DisorderOf {
+    /// Masses only (geometry and contact laws unchanged).
+    #[default]
+    Mass,
+    /// Sizes (every length; the mass follows at constant density, and so do Hertz laws).
+    Size,
+}
+
+/// Seeded random perturbation: chain particle `k` is scaled by `1 + level · u_k`, `u_k` uniform in
+/// [−1, 1) drawn in order from SplitMix64 seeded with `seed`. One seed per axis value makes an
+/// ensemble of chains.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct DisorderSpec {
+    /// Relative amplitude, in [0, 1).
+    pub level: f64,
+    /// Seed of the generator.
+    pub seed: u64,
+    /// What is perturbed (default: mass).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub of: DisorderOf,
+}
+
+/// A contact law and/or dissipation model for every contact between two named types (`"wall"`
+/// for the wall, `"striker"` for the striker whatever its type; a rule naming the striker wins
+/// over one naming its type).
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct ContactRule {
+    /// The two types, in either order.
+    pub between: [String; 2],
+    /// The elastic law (absent: Hertz from the geometry).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub law: Option<LawSpec>,
+    /// The dissipation model (absent: the physics block's).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub dissipation: Option<DissipationSpec>,
+}
+
+/// Number of particles a sequence expands to, or the item whose repeat count is not allowed.
+fn count(items: &[SequenceItem], field: &str) -> Result<usize, SpecError> {
+    let mut total = 0usize;
+    for (i, item) in items.iter().enumerate() {
+        let n = match item {
+            SequenceItem::Type(_) => 1,
+            SequenceItem::Repeat(b) => {
+                let f = format!("{field}[{i}]");
+                if b.repeat == 0 {
+                    return Err(spec_err(&format!("{f}.repeat"), "must be at least 1"));
+                }
+                if b.of.is_empty() {
+                    return Err(spec_err(&format!("{f}.of"), "must hold at least one item"));
+                }
+                count(&b.of, &format!("{f}.of"))?
+                    .checked_mul(b.repeat)
+                    .filter(|&n| n <= MAX_PARTICLES)
+                    .ok_or_else(|| {
+                        spec_err(
+                            &format!("{f}.repeat"),
+                            format!("makes the chain longer than {MAX_PARTICLES} particles"),
+                        )
+                    })?
+            }
+        };
+        total = total
+            .checked_add(n)
+            .filter(|&n| n <= MAX_PARTICLES)
+            .ok_or_else(|| {
+                spec_err(
+                    field,
+                    format!("the chain is longer than {MAX_PARTICLES} particles"),
+                )
+            })?;
+    }
+    Ok(total)
+}
+
+/// Checks that every name in the sequence is a type.
+fn check_names(
+    items: &[SequenceItem],
+    field: &str,
+    types: &BTreeMap<String, ParticleType>,
+) -> Result<(), SpecError> {
+    for (i, item) in items.iter().enumerate() {
+        match item {
+            SequenceItem::Type(name) if !types.contains_key(name) => {
+                return Err(spec_err(
+                    &format!("{field}[{i}]"),
+                    format!(
+                        "unknown particle type `{name}`; the types are: {}",
+                        type_list(types)
+                    ),
+                ))
+            }
+            SequenceItem::Type(_) => {}
+            SequenceItem::Repeat(b) => check_names(&b.of, &format!("{field}[{i}].of"), types)?,
+        }
+    }
+    Ok(())
+}
+
+fn type_list(types: &BTreeMap<String, ParticleType>) -> String {
+    types.keys().cloned().collect::<Vec<_>>().join(", ")
+}
+
+/// Appends the type names of `items`, expanded, to `out`.
+fn expand<'a>(items: &'a [SequenceItem], out: &mut Vec<&'a str>) {
+    for item in items {
+        match item {
+            SequenceItem::Type(name) => out.push(name),
+            SequenceItem::Repeat(b) => {
+                for _ in 0..b.repeat {
+                    expand(&b.of, out);
+                }
+            }
+        }
+    }
+}
+
+impl SequenceSpec {
+    /// Checks every field that does not depend on the expanded chain; the error names the field
+    /// (relative to `chain`).
+    pub fn validate(&self) -> Result<(), SpecError> {
+        if self.particles.is_empty() {
+            return Err(spec_err(
+                "chain.particles",
+                "must name at least one particle type",
+            ));
+        }
+        for (name, t) in &self.particles {
+            if name.is_empty() || name == WALL || name == STRIKER {
+                return Err(spec_err(
+                    "chain.particles",
+                    format!(
+                        "`{name}` cannot name a particle type (reserved: \"\", {WALL}, {STRIKER})"
+                    ),
+                ));
+            }
+            t.validate(&format!("chain.particles.{name}"))?;
+        }
+        if self.sequence.is_empty() {
+            return Err(spec_err(
+                "chain.sequence",
+                "must hold at least one particle",
+            ));
+        }
+        check_names(&self.sequence, "chain.sequence", &self.particles)?;
+        let n = count(&self.sequence, "chain.sequence")? + self.striker.is_some() as usize;
+        if n < 2 {
+            return Err(spec_err(
+                "chain.sequence",
+                "a chain needs at least two particles, the striker included",
+            ));
+        }
+        if n > MAX_PARTICLES {
+            return Err(spec_err(
+                "chain.sequence",
+                format!("the chain has {n} particles, at most {MAX_PARTICLES} allowed"),
+            ));
+        }
+        if let Some(s) = &self.striker {
+            if !self.particles.contains_key(s) {
+                return Err(spec_err(
+                    "chain.striker",
+                    format!(
+                        "unknown particle type `{s}`; the types are: {}",
+                        type_list(&self.particles)
+                    ),
+                ));
+            }
+        }
+        check_material("chain.wall_material", &self.wall_material)?;
+        if let Some(t) = &self.taper {
+            check_positive("chain.taper.ratio", t.ratio)?;
+        }
+        if let Some(d) = &self.disorder {
+            if !(d.level.is_finite() && (0.0..1.0).contains(&d.level)) {
+                return Err(spec_err(
+                    "chain.disorder.level",
+                    format!("must lie in [0, 1), got {}", d.level),
+                ));
+            }
+        }
+        let mut pairs: Vec<(&str, &str, usize)> = Vec::new();
+        for (i, rule) in self.contacts.iter().enumerate() {
+            let field = format!("chain.contacts[{i}]");
+            for (k, name) in rule.between.iter().enumerate() {
+                let known = self.particles.contains_key(name)
+                    || name == WALL
+                    || (name == STRIKER && self.striker.is_some());
+                if !known {
+                    return Err(spec_err(
+                        &format!("{field}.between[{k}]"),
+                        format!(
+                            "unknown name `{name}`; allowed: the particle types ({}), \"{WALL}\"{}",
+                            type_list(&self.particles),
+                            if self.striker.is_some() {
+                                format!(", \"{STRIKER}\"")
+                            } else {
+                                String::new()
+                            }
+                        ),
+                    ));
+                }
+            }
+            let (a, b) = (rule.between[0].as_str(), rule.between[1].as_str());
+            if a == WALL && b == WALL {
+                return Err(spec_err(
+                    &format!("{field}.between"),
+                    "the wall touches only the last particle",
+                ));
+            }
+            let key = if a <= b { (a, b) } else { (b, a) };
+            if let Some((_, _, j)) = pairs.iter().find(|p| (p.0, p.1) == key) {
+                return Err(spec_err(
+                    &format!("{field}.between"),
+                    format!("the pair ({a}, {b}) already has a rule, chain.contacts[{j}]"),
+                ));
+            }
+            pairs.push((key.0, key.1, i));
+            if rule.law.is_none() && rule.dissipation.is_none() {
+                return Err(spec_err(
+                    &field,
+                    "a contact rule needs a `law`, a `dissipation`, or both",
+                ));
+            }
+            if let Some(LawSpec::PowerLaw {
+                coefficient,
+                exponent,
+            }) = rule.law
+            {
+                check_positive(&format!("{field}.law.power_law.coefficient"), coefficient)?;
+                if !(exponent.is_finite() && (1.0..=MAX_EXPONENT).contains(&exponent)) {
+                    return Err(spec_err(
+                        &format!("{field}.law.power_law.exponent"),
+                        format!("must lie in [1, {MAX_EXPONENT}], got {exponent}"),
+                    ));
+                }
+            }
+            if let Some(d) = &rule.dissipation {
+                d.validate(&format!("{field}.dissipation"))?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The rule for a pair of particles with the given names (type, and `"striker"` for the
+    /// striker), the most specific first.
+    fn rule(&self, a: &[&str], b: &[&str]) -> Option<&ContactRule> {
+        let mut best: Option<(usize, &ContactRule)> = None;
+        for rule in &self.contacts {
+            let (x, y) = (rule.between[0].as_str(), rule.between[1].as_str());
+            for &na in a {
+                for &nb in b {
+                    if (x == na && y == nb) || (x == nb && y == na) {
+                        let score = (na == STRIKER) as usize + (nb == STRIKER) as usize;
+                        if best.map_or(true, |(s, _)| score > s) {
+                            best = Some((score, rule));
+                        }
+                    }
+                }
+            }
+        }
+        best.map(|(_, r)| r)
+    }
+
+    /// Expands the sequence into particles (taper and disorder applied) and resolves every
+    /// contact's law and dissipation override.
+    pub(crate) fn layout(&self, wall: bool) -> Result<Layout, SpecError> {
+        let mut names: Vec<&str> = Vec::new();
+        if let Some(s) = &self.striker {
+            names.push(s);
+        }
+        let first = names.len();
+        expand(&self.sequence, &mut names);
+
+        let mut rng = self.disorder.map(|d| (d, SplitMix64(d.seed)));
+        let mut particles = Vec::with_capacity(names.len());
+        for (i, &name) in names.iter().enumerate() {
+            let t = &self.particles[name];
+            let mut shape = t.shape();
+            let mut mass = t.mass_kg();
+            let kind = if i < first {
+                ParticleKind::Striker
+            } else {
+                t.kind()
+            };
+            if i >= first {
+                let k = (i - first) as i32;
+                let mut size = 1.0;
+                if let Some(taper) = self.taper {
+                    size = taper.ratio.powi(k);
+                    mass *= size * size * size;
+                }
+                if let Some((d, rng)) = &mut rng {
+                    let f = 1.0 + d.level * rng.symmetric();
+                    match d.of {
+                        crate::sequence::DisorderOf::Mass => mass *= f,
+                        crate::sequence::DisorderOf::Size => {
+                            size *= f;
+                            mass *= f * f * f;
+                        }
+                    }
+                }
+                shape = scaled(shape, size);
+                let ok = |x: f64| x.is_normal() && x > 0.0;
+                let in_range = (1.0 / MAX_SIZE_FACTOR..=MAX_SIZE_FACTOR).contains(&size);
+                if !(in_range && ok(shape.length_m()) && ok(mass) && ok(shape.volume_m3())) {
+                    let field = if self.taper.is_some() {
+                        "chain.taper.ratio"
+                    } else {
+                        "chain.disorder.level"
+                    };
+                    return Err(spec_err(
+                        field,
+                        format!(
+                            "makes particle {} (type `{name}`) vanish or blow up: {size:e} times its type's size (allowed: {:e} to {MAX_SIZE_FACTOR:e}), length {:e} m, mass {:e} kg",
+                            i + 1,
+                            1.0 / MAX_SIZE_FACTOR,
+                            shape.length_m(),
+                            mass
+                        ),
+                    ));
+                }
+            }
+            particles.push(Particle {
+                kind,
+                shape,
+                material: t.material(),
+                mass_kg: mass,
+            });
+        }
+
+        let labels = |i: usize| -> Vec<&str> {
+            if i < first {
+                vec![STRIKER, names[i]]
+            } else {
+                vec![names[i]]
+            }
+        };
+        let n = particles.len();
+        let n_contacts = if wall { n } else { n - 1 };
+        let mut laws = Vec::with_capacity(n_contacts);
+        let mut dissipation = Vec::with_capacity(n_contacts);
+        for c in 0..n_contacts {
+            let p = &particles[c];
+            let (la, lb) = if c + 1 < n {
+                (labels(c), labels(c + 1))
+            } else {
+                (labels(c), vec![WALL])
+            };
+            let rule = self.rule(&la, &lb);
+            let (mb, rb) = if c + 1 < n {
+                (
+                    particles[c + 1].material,
+                    particles[c + 1].shape.contact_radius(),
+                )
+            } else {
+                (self.wall_material, None)
+            };
+            let law = match rule.and_then(|r| r.law) {
+                Some(LawSpec::PowerLaw {
+                    coefficient,
+                    exponent,
+                }) => (coefficient, exponent),
+                Some(LawSpec::Hertz) | None => {
+                    let ra = p.shape.contact_radius();
+                    if ra.is_none() && rb.is_none() {
+                        let (ta, tb) = (la[la.len() - 1], lb[lb.len() - 1]);
+                        let what = if c + 1 < n {
+                            format!(
+                                "particles {} and {} (types `{ta}` and `{tb}`) touch flat to flat",
+                                c + 1,
+                                c + 2
+                            )
+                        } else {
+                            format!("particle {} (type `{ta}`) rests flat on the wall", c + 1)
+                        };
+                        return Err(spec_err(
+                            "chain.contacts",
+                            format!("{what}, which has no Hertz law: add a rule {{\"between\": [\"{ta}\", \"{tb}\"], \"law\": {{\"power_law\": {{\"coefficient\": …, \"exponent\": …}}}}}}"),
+                        ));
+                    }
+                    let a = match (ra, rb) {
+                        (None, rb) => hertz_coefficient(p.material, None, mb, rb),
+                        (ra, None) => hertz_coefficient(mb, None, p.material, ra),
+                        (ra, rb) => hertz_coefficient(p.material, ra, mb, rb),
+                    };
+                    (a, 1.5)
+                }
+            };
+            laws.push(law);
+            dissipation.push(rule.and_then(|r| r.dissipation));
+        }
+        Ok(Layout {
+            particles,
+            striker: first > 0,
+            laws,
+            dissipation,
+            cell_length_m: None,
+        })
+    }
+}
+
+/// `shape` with every length multiplied by `factor`.
+fn scaled(shape: Shape, factor: f64) -> Shape {
+    match shape {
+        Shape::Sphere { diameter_m } => Shape::Sphere {
+            diameter_m: diameter_m * factor,
+        },
+        Shape::Cylinder {
+            diameter_m,
+            height_m,
+        } => Shape::Cylinder {
+            diameter_m: diameter_m * factor,
+            height_m: height_m * factor,
+        },
+    }
+}
