@@ -11,8 +11,6 @@
 //! compared or summed). The shards partition the grid, and a merge of their files equals a
 //! single-machine run.
 
-use chainsweep_solver::scene::ImpactScales;
-
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -33,7 +31,7 @@ pub fn estimated_cost(sweep: &Sweep, grid: &Grid, index: usize) -> f64 {
     let Ok(chain) = scene.validate() else {
         return 1.0;
     };
-    let contact = ImpactScales::new(&chain, scene.striker_velocity_m_s).contact_duration_s();
+    let contact = scene.impact_scales(&chain).contact_duration_s();
     let cost = chain.mass.len() as f64 * scene.duration_s / contact;
     if cost.is_finite() && cost > 0.0 {
         cost
