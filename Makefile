@@ -22,7 +22,7 @@ export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 # every cargo command here and in maturin's: without it, each would rebuild pyo3 after the other.
 export PYO3_CONFIG_FILE := $(CURDIR)/python/pyo3-config.txt
 
-.PHONY: all build test test-rust test-python python bench figures examples fmt lint venv clean
+.PHONY: all build test test-rust test-python python ncdump bench figures examples fmt lint venv clean
 
 all: build
 
@@ -60,12 +60,23 @@ test-rust: venv
 python: build
 	$(PY) -m pip install --quiet --no-build-isolation --no-deps ./python
 
+# ncdump (Debian's netcdf-bin): tests/test_xarray.py checks the result files with `ncdump -h`.
+# Installed with apt-get when missing (as root, else through sudo); a no-op once installed.
+NCDUMP_PACKAGE := netcdf-bin
+ncdump:
+	@command -v ncdump >/dev/null 2>&1 || { \
+	  echo "installing $(NCDUMP_PACKAGE) (ncdump) with apt-get"; \
+	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  $$sudo apt-get install -y -q $(NCDUMP_PACKAGE) >/dev/null 2>&1 || \
+	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(NCDUMP_PACKAGE); }; }
+
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
 # --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
 # tests/python/: the Python package (run, sweep, open against the binary) and the examples.
 CHAINSWEEP_BIN ?= $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/release/chainsweep
 
-test-python: build python
+test-python: build python ncdump
 	CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) $(PY) -m pytest -q tests
 
 test: lint test-rust test-python

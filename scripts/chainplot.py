@@ -1,7 +1,7 @@
 """Shared helpers for the figure and paper-check scripts: reading chainsweep HDF5 files by axis name.
 
 Every sweep file `sweeps/NAME.json` is run into `results/NAME.h5` (see the Makefile's `figures`
-target). The helpers here find axes through the HDF5 dimension scales attached to each dataset, so
+target). The helpers here find axes by the `dimension` attribute of each axis's coordinate, so
 the scripts never depend on the order of the axes in a sweep file, and they are NaN-aware: a failed
 run (status 2) has NaN in every float summary and no history.
 """
@@ -46,12 +46,12 @@ class Sweep:
         self.probes: list[str] = list(self.f["probe"].asstr()[:])
         self.base = json.loads(self.f.attrs["base_scene"])
         self.status = self.f["status"][...]
-        # every coordinate (zipped ones included) -> its dimension index
+        # every coordinate (zipped ones included) -> its dimension index: each axis's dataset
+        # names its dimension (only the axis named like it is the dimension's scale)
         self._coord_dim: dict[str, int] = {}
-        lp = self.f["status"]
-        for i in range(len(self.dims)):
-            for name in lp.dims[i].keys():
-                self._coord_dim[name] = i
+        for name, obj in self.f.items():
+            if isinstance(obj, h5py.Dataset) and "dimension" in obj.attrs:
+                self._coord_dim[name] = self.dims.index(obj.attrs["dimension"])
 
     def close(self):
         self.f.close()
@@ -118,8 +118,8 @@ class Sweep:
         if self.status[idx] != 1 or "runs" not in self.f:
             return None
         flat = int(np.ravel_multi_index(idx, self.shape))
-        for key, g in self.f["runs"].items():
-            if int(key) == flat:
+        for g in self.f["runs"].values():
+            if int(g.attrs["flat_index"]) == flat:
                 return {k: g[k][...] for k in g.keys()}
         return None
 

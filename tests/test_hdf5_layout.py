@@ -104,6 +104,17 @@ def test_names_shapes_dtypes(produced):
             assert isinstance(f[name].attrs["units"], str)
         for name in INT_GRID:
             assert f[name].shape == (3, 2) and f[name].dtype == np.int64, name
+        # the missing-value marker, netCDF's way: HDF5 fill value and `_FillValue` of the
+        # dataset's own type (-1 in counts, NaN in floats); flags and text have none
+        for name in INT_GRID:
+            fill = f[name].attrs["_FillValue"]
+            assert fill == -1 and fill.dtype == np.int64 and f[name].fillvalue == -1, name
+            assert "fill_value" not in f[name].attrs
+        for name in SUMMARY_GRID + PROBE_GRID + VERIFY_GRID + VERIFY_PROBE_GRID:
+            fill = f[name].attrs["_FillValue"]
+            assert np.isnan(fill) and fill.dtype == np.float64 and np.isnan(f[name].fillvalue), name
+        for name in ["status", "verified", "reason", "warnings", "run_hash"]:
+            assert "_FillValue" not in f[name].attrs, name
         for name in PROBE_GRID:
             assert f[name].shape == (3, 2, 3) and f[name].dtype == np.float64, name
         assert f["leading_peak"].attrs["units"] == "see probe_units"
@@ -150,12 +161,16 @@ def test_dimension_scales(produced):
 def test_histories(produced):
     _, _, out = produced
     with h5py.File(out, "r") as f:
-        assert sorted(f["runs"].keys()) == [str(i) for i in range(6)]
+        # run_<flat index>: a valid netCDF name, whatever the grid's size
+        assert sorted(f["runs"].keys()) == [f"run_{i}" for i in range(6)]
+        assert int(f.attrs["layout_version"]) == 2
         for i in range(6):
-            g = f["runs"][str(i)]
+            g = f["runs"][f"run_{i}"]
+            assert int(g.attrs["flat_index"]) == i
             assert g.attrs["run_hash"] == f["run_hash"].asstr()[np.unravel_index(i, (3, 2))]
             assert list(g.attrs["grid_index"]) == list(np.unravel_index(i, (3, 2)))
-            assert set(g.keys()) == {"time_s", "gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5", "min_overlap_m"}
+            assert set(g.keys()) == {"time_s", "gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5",
+                                     "contact", "min_overlap_m"}
             t = g["time_s"]
             assert t.attrs["units"] == "s"
             assert h5py.h5ds.is_scale(t.id)
@@ -174,6 +189,10 @@ def test_histories(produced):
             assert g["gauge_force_cyl2"][:].max() <= peak * (1 + 1e-9)
             assert g["gauge_force_cyl2"][:].max() >= 0.9 * peak
             assert g["min_overlap_m"].shape == (22,)
+            # contacts 1…22 as the overlaps' dimension scale
+            assert h5py.h5ds.is_scale(g["contact"].id)
+            assert list(g["contact"][:]) == list(range(1, 23))
+            assert g["min_overlap_m"].dims[0][0].name == g["contact"].name
 
 
 def test_values_match_rust(produced):
@@ -201,7 +220,7 @@ def test_values_match_rust(produced):
                         assert np.isnan(stored)
                     else:
                         assert stored == v, (name, k)
-            assert res["history_samples"] == f["runs"][str(i)]["time_s"].shape[0]
+            assert res["history_samples"] == f["runs"][f"run_{i}"]["time_s"].shape[0]
             scene = p["scene"]
             assert scene["physics"]["damping_kg_s"] == f["damping_kg_s"][mi[1]]
             assert scene["chain"]["cylinder"]["mass"]["heavy_cylinders"]["mass_ratio"] == f["mass_ratio"][mi[0]]
@@ -267,7 +286,7 @@ def test_failed_runs_are_isolated_and_recorded(tmp_path, binary):
         assert (f["steps"][...][failed] == -1).all()
         assert f["steps"][1, 0] > 0
         # Only the successful run has a history.
-        assert list(f["runs"].keys()) == ["2"]
+        assert list(f["runs"].keys()) == ["run_2"]
         assert int(f.attrs["n_failed"]) == 7
     r = run("status", out)
     assert r.returncode == 3
@@ -283,4 +302,4 @@ def test_failed_runs_are_isolated_and_recorded(tmp_path, binary):
     with h5py.File(out, "r") as f:
         assert f["status"][0, 0] == 1
         assert int(f.attrs["n_failed"]) == 6
-        assert sorted(f["runs"].keys()) == ["0", "2"]
+        assert sorted(f["runs"].keys()) == ["run_0", "run_2"]

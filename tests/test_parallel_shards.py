@@ -46,8 +46,14 @@ def test_zip_axes_share_a_dimension(single):
     _, ref = single
     with h5py.File(ref, "r") as f:
         assert f["leading_peak"].shape == (5, 3, 2)
+        # one scale per dimension (netCDF-4 takes the last one attached as the dimension): the
+        # axis named like it; the zipped velocity is a coordinate on it
         scales = [s.name for s in f["leading_peak"].dims[1].values()]
-        assert scales == ["/damping_kg_s", "/velocity_m_s"]
+        assert scales == ["/damping_kg_s"]
+        assert [s.name for s in f["velocity_m_s"].dims[0].values()] == ["/damping_kg_s"]
+        assert not h5py.h5ds.is_scale(f["velocity_m_s"].id)
+        assert f["leading_peak"].attrs["coordinates"] == "velocity_m_s probe_units"
+        assert f["steps"].attrs["coordinates"] == "velocity_m_s"
         np.testing.assert_array_equal(f["velocity_m_s"][:], [1.06, 1.3, 1.45])
         assert f["velocity_m_s"].attrs["units"] == "m/s"
         assert f["velocity_m_s"].attrs["dimension"] == "damping_kg_s"
@@ -56,6 +62,7 @@ def test_zip_axes_share_a_dimension(single):
 def test_shards_then_merge_equals_single(single, tmp_path):
     path, ref = single
     parts = []
+    owner = None
     for k in (1, 2, 3):
         part = tmp_path / f"part-{k}.h5"
         r = run("run", path, "--shard", f"{k}/3", "-o", part, "--jobs", "2", "--quiet")
@@ -63,18 +70,30 @@ def test_shards_then_merge_equals_single(single, tmp_path):
         with h5py.File(part, "r") as f:
             assert f.attrs["shard"] == f"{k}/3"
             status = f["status"][...].ravel()
-            idx = np.arange(status.size)
-            assert (status[idx % 3 == k - 1] == 1).all()
-            assert (status[idx % 3 != k - 1] == 0).all()
+            owner = np.zeros(status.size, dtype=int) if owner is None else owner
+            # A shard runs its own points only: the shards partition the grid.
+            assert ((status == 1) | (status == 0)).all()
+            assert (owner[status == 1] == 0).all()
+            owner[status == 1] = k
         r = run("status", part)
         assert r.returncode == 0, r.stdout
         parts.append(part)
+    assert (owner > 0).all()
 
     # A merge of some of the shards is partial (exit 3) and says what is pending.
     partial = tmp_path / "partial.h5"
     r = run("merge", "-o", partial, parts[0], parts[2])
     assert r.returncode == 3, r.stderr
-    assert "5 pending" in r.stderr
+    assert f"{(owner == 2).sum()} pending" in r.stderr
+    # The merge names the missing shard and how to run only it again (array task = shard - 1).
+    assert "shard 2/3 (SLURM array task 1) is missing" in r.stderr, r.stderr
+    assert "sbatch --array=1 " in r.stderr, r.stderr
+    # `status` over the shard files says per shard done or missing.
+    r = run("status", parts[0], parts[2])
+    assert r.returncode == 3, r.stdout + r.stderr
+    assert "shard 1/3 (array task 0): done" in r.stdout, r.stdout
+    assert "shard 2/3 (array task 1): missing" in r.stdout, r.stdout
+    assert "3 shards: 2 done, 0 failed, 0 pending, 1 missing" in r.stdout, r.stdout
 
     merged = tmp_path / "merged.h5"
     r = run("merge", "-o", merged, *reversed(parts))
@@ -86,7 +105,7 @@ def test_shards_then_merge_equals_single(single, tmp_path):
         for k, part in enumerate(parts, start=1):
             with h5py.File(part, "r") as f:
                 w = f["wall_time_s"][...].ravel()
-                sel = np.arange(w.size) % 3 == k - 1
+                sel = owner == k
                 assert w[sel].tobytes() == wall[sel].tobytes()
     # The merged file is resumable like any run's output: nothing is left to run.
     r = run("run", path, "-o", merged, "--jobs", "2")

@@ -50,7 +50,7 @@ def check_readable(out):
         status = f["status"][...]
         assert int(f.attrs["n_ok"]) == int((status == 1).sum())
         for i in np.flatnonzero(status.ravel() == 1):
-            g = f["runs"][f"{i:02d}"]
+            g = f["runs"][f"run_{i}"]
             assert g["time_s"].shape[0] == 1001
         return int((status == 1).sum())
 

@@ -5,11 +5,13 @@ functions marked LAYOUT, so that a change of layout is followed there:
 
 - the grid: root attributes ``dimensions`` (JSON list of names) and ``grid_shape``;
 - coordinates: root datasets with a ``dimension`` attribute (zipped axes share one dimension);
-  the ``probe`` dataset and ``probe_units`` on it;
+  the ``probe`` dataset and ``probe_units`` on it; a zipped dimension named after none of its
+  axes is also an empty dataset marked as a netCDF dimension without a variable (not data);
 - summaries: every other root dataset shaped like the grid, or like the grid and the probes;
-  integer ones mark missing values with a fill attribute;
-- per-run groups (histories, minimum overlaps) under ``runs/``, each with a ``flat_index``
-  attribute; a history dataset per probe, named like it, on the group's ``time_s``.
+  numeric ones mark missing values with a fill attribute (``_FillValue``);
+- per-run groups (histories, minimum overlaps) under ``runs/`` (``run_<flat index>``; older
+  files: the zero-padded index), each with a ``flat_index`` attribute, read by that attribute;
+  a history dataset per probe, named like it, on the group's ``time_s``.
 """
 
 from __future__ import annotations
@@ -36,11 +38,15 @@ _INTERNAL_ATTRS = {
     "_Netcdf4Dimid",
     "_Netcdf4Coordinates",
     "_nc3_strict",
+    "coordinates",
 }
 
-# LAYOUT: attributes that hold the fill value of an integer dataset (`_FillValue` is the netCDF
-# convention; `fill_value` is what files of numerics version 3 use).
+# LAYOUT: attributes that hold the fill value of a dataset (`_FillValue` is the netCDF convention,
+# used from layout version 2; `fill_value` marks the integer ones in files of layout version 1).
 _FILL_ATTRS = ("_FillValue", "fill_value")
+
+# LAYOUT: the NAME of a dimension scale that is a netCDF dimension without a variable.
+_DIMENSION_ONLY = b"This is a netCDF dimension but not a netCDF variable."
 
 PathLike = str | os.PathLike[str]
 
@@ -65,12 +71,19 @@ def _read(ds: h5py.Dataset) -> tuple[np.ndarray, dict[str, Any]]:
     if h5py.check_string_dtype(ds.dtype) is not None:
         return np.asarray(ds.asstr()[()], dtype=object), attrs
     values = ds[()]
-    fill = next((attrs.pop(a) for a in _FILL_ATTRS if a in attrs), None)
+    fills = [attrs.pop(a) for a in _FILL_ATTRS if a in attrs]
+    fill = fills[0] if fills else None
     if fill is not None and values.dtype.kind in "iu":
         masked = values.astype(np.float64)
         masked[values == fill] = np.nan
         return masked, attrs
     return values, attrs
+
+
+def _dimension_only(ds: h5py.Dataset) -> bool:
+    """LAYOUT: whether a dataset is a netCDF dimension without a variable (no data)."""
+    name = ds.attrs.get("NAME")
+    return isinstance(name, bytes | np.bytes_) and bytes(name).startswith(_DIMENSION_ONLY)
 
 
 def _labels(values: np.ndarray) -> np.ndarray:
@@ -198,8 +211,9 @@ def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (
 
     Returns an ``xarray.Dataset`` read into memory (the file is closed again) whose dimensions are
     the grid's axes, outermost first, with their values and units as coordinates — a zipped group
-    of axes is one dimension and every field of the group is a coordinate on it, indexed by the
-    first (``ds.sel(velocity_m_s=1.3)``) — and ``probe`` (the probe names; ``probe_units`` on it).
+    of axes is one dimension and every field of the group is a coordinate on it that indexes it
+    (``ds.sel(velocity_m_s=1.3)``, ``ds.sel(cylinders=60)``) — and ``probe`` (the probe names;
+    ``probe_units`` on it).
     Every summary of the file is a variable over the grid (and ``probe``) with its ``units`` and
     ``long_name``: peaks and times, ledger errors, counters (``steps``, … as float64 with NaN where
     a run failed or is pending, the file's fill value masked), ``status`` (0 pending, 1 ok,
@@ -221,7 +235,7 @@ def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (
         grid = _Grid(f)
         data: dict[str, Any] = {}
         for name, obj in f.items():
-            if not isinstance(obj, h5py.Dataset) or name in grid.coords:
+            if not isinstance(obj, h5py.Dataset) or name in grid.coords or _dimension_only(obj):
                 continue
             dims = grid.dims_of(obj)
             if dims is None:
@@ -239,8 +253,10 @@ def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (
         attrs = _attrs(f)
     data = {name: data[name] for name in L.ordered(data)}
     ds = xr.Dataset(data, coords=coords, attrs=attrs)
-    # A zipped dimension named after none of its fields: index it by its first field.
-    for dim, names in grid.coord_order.items():
-        if dim not in ds.coords and names:
-            ds = ds.set_xindex(names[0])
+    # Every field of a zipped dimension indexes it (the one named like the dimension already
+    # does), so that `.sel` takes any of them.
+    for names in grid.coord_order.values():
+        for name in names:
+            if name not in ds.indexes:
+                ds = ds.set_xindex(name)
     return ds

@@ -220,10 +220,10 @@ def sweep(
     crates/runner/README-sweeps.md). ``output`` is the HDF5 file; its work directory
     ``OUTPUT.d/`` holds every finished run, so calling ``sweep`` again with the same arguments
     resumes an interrupted sweep and runs nothing once it is complete; editing the sweep reruns
-    exactly the points whose scene changed. ``jobs``: parallel runs (default: every CPU);
+    exactly the points whose scene changed. ``jobs``: parallel runs (default: ``SLURM_CPUS_PER_TASK``, else every CPU this process may use);
     ``verify``: the fraction of points re-run at a tighter setting (``--verify``);
-    ``retry_failed``: run failed points again; ``shard``: ``(K, N)`` or ``"K/N"``, only every N-th
-    point from the K-th; ``checkpoint_interval``: seconds between refreshes of the output file
+    ``retry_failed``: run failed points again; ``shard``: ``(K, N)`` or ``"K/N"`` (K from 1), only
+    shard K of N (the engine's balanced assignment, as ``chainsweep run --shard K/N``); ``checkpoint_interval``: seconds between refreshes of the output file
     while the sweep runs (0: only at the end).
 
     ``progress=True`` shows a tqdm bar (a widget in a notebook, a bar in a terminal) when tqdm is

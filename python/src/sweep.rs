@@ -14,9 +14,8 @@ use std::time::{Duration, Instant};
 
 use pyo3::prelude::*;
 
-use chainsweep::engine::{self, run};
+use chainsweep::engine::{self, run, slurm};
 use chainsweep::error::{Error, Result};
-use chainsweep::grid::Shard;
 use chainsweep::progress::Terminal;
 use chainsweep::store::hdf5::Provenance;
 use chainsweep::{EXIT_OK, EXIT_PARTIAL};
@@ -55,10 +54,10 @@ fn run_request(req: &SweepRequest, stop: &AtomicBool) -> Result<i32> {
     let shard = req
         .shard
         .as_deref()
-        .map(|s| Shard::parse(s, "--shard"))
+        .map(|s| slurm::parse_shard_env(s, "--shard"))
         .transpose()?;
     let fraction = req.verify.unwrap_or(0.0);
-    let jobs = req.jobs.unwrap_or_else(engine::all_cpus);
+    let jobs = req.jobs.unwrap_or_else(engine::default_jobs);
     run::RunOptions::check(jobs, req.checkpoint_interval, fraction)?;
     let opts = run::RunOptions {
         output: req.output.clone(),

@@ -15,7 +15,7 @@ use std::io::Read;
 use std::path::PathBuf;
 use std::time::SystemTime;
 
-use chainsweep::engine::shard;
+use chainsweep::engine::{shard, slurm};
 use chainsweep::grid::{Grid, Shard};
 use chainsweep::identity::{hex, RunHash};
 use chainsweep::numerics::{auto, verify};
@@ -106,7 +106,7 @@ impl Watch {
         let sweep = Sweep::load(req.file.to_str()?).ok()?;
         let grid = Grid::new(&sweep).ok()?;
         let shard = match &req.shard {
-            Some(s) => Some(Shard::parse(s, "--shard").ok()?),
+            Some(s) => Some(slurm::parse_shard_env(s, "--shard").ok()?),
             None => None,
         };
         let segments = work_dir_of(&req.output).join("segments");
@@ -147,7 +147,7 @@ impl Watch {
                 Err(_) => return,
             }
         }
-        let points = shard::points(self.grid.len(), self.shard);
+        let points = shard::points(&self.sweep, &self.grid, self.shard);
         let chosen = verify::sample(&self.grid, self.fraction);
         let mut units: Vec<RunHash> = points.iter().map(|&i| self.grid.hashes[i]).collect();
         let mut verifications = HashSet::new();
@@ -166,7 +166,7 @@ impl Watch {
         self.resolve();
         let Some(units) = &self.units else {
             return Progress {
-                total: shard::points(self.grid.len(), self.shard).len(),
+                total: shard::points(&self.sweep, &self.grid, self.shard).len(),
                 ..Progress::default()
             };
         };

@@ -64,13 +64,21 @@ def test_second_call_resumes_and_runs_nothing(tmp_path):
     assert {k: after[k] for k in before} == before
 
 
-def test_shard_runs_every_nth_point(tmp_path):
+def test_a_shard_runs_its_share_of_the_points(tmp_path):
     out = tmp_path / "part.h5"
     r = chainsweep.sweep(sweep_spec(), out, shard=(2, 3), progress=False)
     assert (r.exit_code, r.n_runs, r.ran) == (0, 2, 2)
     with h5py.File(out, "r") as f:
         assert f.attrs["shard"] == "2/3"
-        assert list(f["status"][()].ravel()) == [0, 1, 0, 0, 1, 0]
+        status = f["status"][()].ravel()
+        assert sorted(status) == [0, 0, 0, 0, 1, 1]
+    # The same points as `chainsweep run --shard 2/3` (the engine's balanced assignment).
+    by_cli = tmp_path / "cli.h5"
+    spec = write(tmp_path / "spec.json", sweep_spec())
+    p = cli("run", spec, "--shard", "2/3", "-o", by_cli, "--quiet")
+    assert p.returncode == 0, p.stderr
+    with h5py.File(by_cli, "r") as f:
+        assert list(f["status"][()].ravel()) == list(status)
     assert chainsweep.sweep(sweep_spec(), out, shard="2/3", progress=False).ran == 0
 
 

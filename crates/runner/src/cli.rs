@@ -1,15 +1,16 @@
 //! The `chainsweep` command line: parses the arguments, calls the [`crate::engine`], prints.
-//! `validate`, `run`, `status`, `point`, `accuracy`, `merge`.
+//! `validate`, `run`, `status`, `point`, `accuracy`, `merge`, `slurm`.
 
 mod show;
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::engine::{self, inspect, merge, run, shard, status};
+use crate::engine::{self, inspect, merge, run, shard, slurm, status};
 use crate::error::{Error, Result};
 use crate::grid::Shard;
 use crate::numerics::accuracy::StudyOptions;
@@ -25,12 +26,17 @@ Examples:
   chainsweep status results/mass-damping.h5
   # re-running the same command after an interruption continues where it stopped:
   chainsweep run sweeps/mass-damping.json -o results/mass-damping.h5 --jobs 8
-  # on a cluster: one shard per job, then merge
+  # on a SLURM cluster: an array job of 16 shards and a merge job after it
+  chainsweep slurm sweeps/mass-damping.json -o results/mass-damping.h5 --shards 16 --time 2:00:00 --submit
+  chainsweep status results/mass-damping.h5.slurm
+  # by hand: one shard per machine (K from 1), then merge
   chainsweep run sweeps/mass-damping.json --shard 3/16 -o shards/part-3.h5
   chainsweep merge -o results/mass-damping.h5 shards/part-*.h5
 
 Exit codes: 0 all runs succeeded; 1 other error (I/O, output locked by another process);
-2 bad input or usage (nothing run, nothing written); 3 partial (some runs failed or are missing).";
+2 bad input or usage (nothing run, nothing written); 3 partial (some runs failed or are missing);
+130 / 143 `run` stopped by SIGINT (Ctrl-C) / SIGTERM: the output holds every finished run, and the
+same command resumes (a second signal ends the process at once).";
 
 /// Runs grids of chain simulations into HDF5, in parallel, resumably.
 #[derive(Debug, Parser)]
@@ -55,20 +61,30 @@ pub enum Command {
         after_help = "Examples:\n  chainsweep run sweeps/mass-damping.json --dry-run\n  chainsweep run sweeps/mass-damping.json -o out.h5 --jobs 4\n  chainsweep run sweeps/mass-damping.json --shard 2/8 -o part-2.h5"
     )]
     Run(RunArgs),
-    /// Say how many runs of a sweep are done, failed and pending.
+    /// Say how many runs of a sweep are done, failed and pending; of a shard set, which shards
+    /// are done, failed, pending or missing.
     #[command(
-        after_help = "Examples:\n  chainsweep status results/mass-damping.h5\n  chainsweep status sweeps/mass-damping.json -o results/mass-damping.h5"
+        after_help = "Examples:\n  chainsweep status results/mass-damping.h5\n  chainsweep status sweeps/mass-damping.json -o results/mass-damping.h5\n  chainsweep status results/mass-damping.h5.slurm        # the shards of `chainsweep slurm`\n  chainsweep status shards/part-*.h5"
     )]
     Status {
-        /// An output file (`.h5`) or a sweep file (then the output is `-o` or its default).
-        file: PathBuf,
+        /// An output file (`.h5`), a sweep file (then the output is `-o` or its default), several
+        /// shard files of one sweep, or a folder of shard files (`OUT.h5.slurm` of `chainsweep
+        /// slurm`, or a folder of `.h5` shard files).
+        #[arg(required = true, num_args = 1.., value_name = "FILE")]
+        files: Vec<PathBuf>,
         /// Output file, when FILE is a sweep file.
         #[arg(short, long)]
         output: Option<PathBuf>,
-        /// Shard `K/N`, when FILE is a sweep file run with `--shard`.
+        /// Shard `K/N` (or `slurm/N`), when FILE is a sweep file run with `--shard`.
         #[arg(long)]
         shard: Option<String>,
     },
+    /// Write SLURM job scripts for a sweep: an array job of N shards and a merge job after it
+    /// (whatever the array's outcome), in `OUT.h5.slurm/`; submit them with `--submit`.
+    #[command(
+        after_help = "Examples:\n  chainsweep slurm sweeps/mass-damping.json -o results/mass-damping.h5 --shards 16 \\\n      --time 2:00:00 --cpus-per-task 8 --partition short --sbatch-arg=--mem=4G --submit\n  chainsweep status results/mass-damping.h5.slurm\n\nArray task T (SLURM_ARRAY_TASK_ID, from 0) runs shard T+1 of N (`run --shard slurm/N`) into\nOUT.h5.slurm/shards/; a task stopped by SIGTERM (time limit, scancel) keeps every finished run\nand resumes when submitted again. The merge names the missing shards and the command that\nre-submits only those tasks."
+    )]
+    Slurm(SlurmArgs),
     /// Run one grid point in this process and print its scene and results as JSON; writes nothing.
     #[command(after_help = "Example:\n  chainsweep point sweeps/mass-damping.json 17")]
     Point {
@@ -98,7 +114,8 @@ pub enum Command {
         /// Merged output file.
         #[arg(short, long)]
         output: PathBuf,
-        /// Shard files made by `chainsweep run --shard K/N` from the same sweep file.
+        /// Shard files made by `chainsweep run --shard K/N` from the same sweep file (files that
+        /// do not exist are missing shards: the merge names them and is partial).
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
@@ -113,11 +130,13 @@ pub struct RunArgs {
     /// `NAME.shard-K-of-N.h5` with `--shard`].
     #[arg(short, long)]
     pub output: Option<PathBuf>,
-    /// Parallel runs [default: the number of CPUs].
+    /// Parallel runs, at most 4 per CPU [default: SLURM_CPUS_PER_TASK inside a SLURM job, else
+    /// the CPUs this process may use (its CPU affinity)].
     #[arg(short, long)]
     pub jobs: Option<usize>,
-    /// Run only shard K of N (every N-th grid point from the K-th), into its own file.
-    #[arg(long, value_name = "K/N")]
+    /// Run only shard K of N (K from 1; shards are balanced by estimated cost), into its own
+    /// file; `slurm/N`: shard SLURM_ARRAY_TASK_ID + 1 of N (array tasks count from 0).
+    #[arg(long, value_name = "K/N|slurm/N")]
     pub shard: Option<String>,
     /// Print the expanded grid and an estimate of the output size; run nothing.
     #[arg(long)]
@@ -142,6 +161,37 @@ pub struct RunArgs {
     /// of every summary (`verified`, `verify_rel_error_*`).
     #[arg(long, value_name = "FRACTION")]
     pub verify: Option<f64>,
+}
+
+/// Arguments of `chainsweep slurm`.
+#[derive(Debug, Args)]
+pub struct SlurmArgs {
+    /// Sweep file (JSON).
+    pub file: PathBuf,
+    /// The merged output file; the job files go to `OUT.h5.slurm/`.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Number of shards (array tasks).
+    #[arg(long)]
+    pub shards: usize,
+    /// Time limit of each job (sbatch `--time`, e.g. `2:00:00`).
+    #[arg(long)]
+    pub time: Option<String>,
+    /// Partition (sbatch `--partition`).
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// CPUs of each array task (sbatch `--cpus-per-task`): its parallel runs.
+    #[arg(long)]
+    pub cpus_per_task: Option<usize>,
+    /// Account (sbatch `--account`).
+    #[arg(long)]
+    pub account: Option<String>,
+    /// A further sbatch option for both jobs, as written (`--sbatch-arg=--mem=4G`); repeatable.
+    #[arg(long, value_name = "OPTION", allow_hyphen_values = true)]
+    pub sbatch_arg: Vec<String>,
+    /// Submit the array job, then the merge job after it (`sbatch`, which must be on PATH).
+    #[arg(long)]
+    pub submit: bool,
 }
 
 /// Arguments of `chainsweep accuracy`.
@@ -197,7 +247,7 @@ pub fn main() -> i32 {
     match dispatch(cli) {
         Ok(code) => code,
         Err(e) => {
-            eprintln!("chainsweep: error: {e}");
+            errln!("chainsweep: error: {e}");
             e.exit_code()
         }
     }
@@ -209,10 +259,11 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
         Command::Validate { file } => cmd_validate(&file),
         Command::Run(args) => cmd_run(&args),
         Command::Status {
-            file,
+            files,
             output,
             shard,
-        } => cmd_status(&file, output, shard.as_deref()),
+        } => cmd_status(&files, output, shard.as_deref()),
+        Command::Slurm(args) => cmd_slurm(&args),
         Command::Merge { output, shards } => cmd_merge(&output, &shards),
         Command::Accuracy(args) => cmd_accuracy(&args),
         Command::Point {
@@ -234,8 +285,11 @@ fn exit_for(c: &Counts) -> i32 {
 }
 
 fn parse_shard(s: Option<&str>) -> Result<Option<Shard>> {
-    s.map(|s| Shard::parse(s, "--shard")).transpose()
+    s.map(|s| slurm::parse_shard_env(s, "--shard")).transpose()
 }
+
+/// The longest `--progress-interval`, s (a day).
+const MAX_PROGRESS_INTERVAL_S: f64 = 24.0 * 3600.0;
 
 fn cmd_validate(file: &Path) -> Result<i32> {
     let (sweep, grid) = engine::load(file)?;
@@ -247,12 +301,13 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
     let (mut sweep, mut grid) = engine::load(&args.file)?;
     let shard = parse_shard(args.shard.as_deref())?;
     let fraction = args.verify.unwrap_or(0.0);
-    let jobs = args.jobs.unwrap_or_else(engine::all_cpus);
+    let jobs = args.jobs.unwrap_or_else(engine::default_jobs);
     run::RunOptions::check(jobs, args.checkpoint_interval, fraction)?;
-    if !(args.progress_interval.is_finite() && args.progress_interval > 0.0) {
+    let p = args.progress_interval;
+    if !(p > 0.0 && p <= MAX_PROGRESS_INTERVAL_S) {
         return Err(Error::input(
             "--progress-interval",
-            "must be a number of seconds > 0",
+            format!("must be a number of seconds in (0, {MAX_PROGRESS_INTERVAL_S}] (at most a day), got {}", engine::number_text(p)),
         ));
     }
     let output = args
@@ -264,7 +319,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         let pool = engine::thread_pool(jobs)?;
         let work_dir = crate::store::work_dir_of(&output);
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
-        let points = shard::points(grid.len(), shard);
+        let points = shard::points(&sweep, &grid, shard);
         let d = inspect::dry_run(&grid, &points, &output)?;
         show::dry_run(&sweep, &grid, &points, &output, shard, &d);
         return Ok(EXIT_OK);
@@ -279,13 +334,91 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         overwrite: args.overwrite,
         provenance: Provenance::of_this_process(),
     };
-    let stop = AtomicBool::new(false);
-    let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, &stop)?;
+    let stop = StopOnSignal::install()?;
+    let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, &stop.flag)?;
     show::run_report(&sweep, &grid, &report, &opts.output, args.quiet);
-    Ok(exit_for(&report.counts))
+    match stop.signal() {
+        Some((name, code)) if report.stopped => {
+            show::stopped(name, &report, &opts.output);
+            Ok(code)
+        }
+        _ => Ok(exit_for(&report.counts)),
+    }
 }
 
-fn cmd_status(file: &Path, output: Option<PathBuf>, shard: Option<&str>) -> Result<i32> {
+/// The engine's stop flag, set by SIGINT or SIGTERM: the sweep takes no new run, stores the runs
+/// in flight and writes its output. A second signal ends the process at once (the default
+/// action), for a user who does not want to wait for the runs in flight.
+struct StopOnSignal {
+    flag: Arc<AtomicBool>,
+    signal: Arc<AtomicUsize>,
+}
+
+impl StopOnSignal {
+    fn install() -> Result<StopOnSignal> {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        let flag = Arc::new(AtomicBool::new(false));
+        let signal = Arc::new(AtomicUsize::new(0));
+        for sig in [SIGINT, SIGTERM] {
+            let failed =
+                |e: std::io::Error| Error::Other(format!("cannot handle signal {sig}: {e}"));
+            // Registered first, so that it sees the flag as the previous signal left it.
+            signal_hook::flag::register_conditional_default(sig, Arc::clone(&flag))
+                .map_err(failed)?;
+            signal_hook::flag::register_usize(sig, Arc::clone(&signal), sig as usize)
+                .map_err(failed)?;
+            signal_hook::flag::register(sig, Arc::clone(&flag)).map_err(failed)?;
+        }
+        Ok(StopOnSignal { flag, signal })
+    }
+
+    /// The signal that stopped the sweep, if any, and the exit code it calls for (128 + signal).
+    fn signal(&self) -> Option<(&'static str, i32)> {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        match self.signal.load(Ordering::SeqCst) as i32 {
+            0 => None,
+            SIGINT => Some(("SIGINT", 128 + SIGINT)),
+            SIGTERM => Some(("SIGTERM", 128 + SIGTERM)),
+            other => Some(("a signal", 128 + other)),
+        }
+    }
+}
+
+fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
+    // The scripts run on other machines, from another folder: every path absolute, and the sweep
+    // file checked here.
+    engine::load(&args.file)?;
+    let absolute = |p: &Path, what: &str| -> Result<PathBuf> {
+        std::path::absolute(p).map_err(|e| Error::input(what, format!("{}: {e}", p.display())))
+    };
+    let binary = std::env::current_exe()
+        .and_then(|p| p.canonicalize())
+        .map_err(|e| Error::Other(format!("cannot find the chainsweep binary's path: {e}")))?;
+    let req = slurm::JobRequest {
+        sweep: absolute(&args.file, "FILE")?,
+        output: absolute(&args.output, "--output")?,
+        shards: args.shards,
+        time: args.time.clone(),
+        partition: args.partition.clone(),
+        cpus_per_task: args.cpus_per_task,
+        account: args.account.clone(),
+        sbatch_args: args.sbatch_arg.clone(),
+        binary,
+    };
+    let files = slurm::write_job(&req)?;
+    show::slurm_job(&req, &files);
+    if args.submit {
+        let (array, merge) = slurm::submit(&files)?;
+        show::submitted(&array, &merge, &files);
+    }
+    Ok(EXIT_OK)
+}
+
+fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -> Result<i32> {
+    if files.len() > 1 || files[0].is_dir() {
+        return cmd_shard_set_status(files);
+    }
+    let file = &files[0];
     if is_hdf5(file) {
         let s = status::of_file(file)?;
         show::file_status(file, &s);
@@ -299,9 +432,58 @@ fn cmd_status(file: &Path, output: Option<PathBuf>, shard: Option<&str>) -> Resu
     Ok(s.counts.as_ref().map_or(EXIT_PARTIAL, exit_for))
 }
 
+/// `status` of shard files, or of a folder of them (`OUT.h5.slurm`, its `shards/`, any folder).
+fn cmd_shard_set_status(files: &[PathBuf]) -> Result<i32> {
+    let mut list: Vec<PathBuf> = Vec::new();
+    for f in files {
+        if !f.is_dir() {
+            list.push(f.clone());
+            continue;
+        }
+        let dir = if f.join("shards").is_dir() {
+            f.join("shards")
+        } else {
+            f.clone()
+        };
+        let mut found: Vec<PathBuf> = std::fs::read_dir(&dir)
+            .map_err(Error::io("list", &dir))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.extension().is_some_and(|x| x == "h5") && p.is_file())
+            .collect();
+        if found.is_empty() {
+            return Err(Error::input(
+                "FILE",
+                format!("{} holds no shard files (*.h5)", dir.display()),
+            ));
+        }
+        found.sort();
+        list.extend(found);
+    }
+    let set = status::of_shard_set(&list)?;
+    let script = files
+        .iter()
+        .find(|f| f.join("array.sh").is_file())
+        .map(|d| (d.join("array.sh"), d.join("merge.sh")));
+    show::shard_set_status(
+        &set,
+        script.as_ref().map(|(a, m)| (a.as_path(), m.as_path())),
+    );
+    let all_done = set
+        .shards
+        .iter()
+        .all(|s| s.state == status::ShardState::Done);
+    Ok(if all_done { EXIT_OK } else { EXIT_PARTIAL })
+}
+
 fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
     let r = merge::merge(output, shards, &Provenance::of_this_process())?;
-    show::merged(&r, output);
+    let job = slurm::job_dir_of(output);
+    let scripts = (job.join("array.sh"), job.join("merge.sh"));
+    let scripts = scripts
+        .0
+        .is_file()
+        .then_some((scripts.0.as_path(), scripts.1.as_path()));
+    show::merged(&r, output, scripts);
     Ok(exit_for(&r.counts))
 }
 
@@ -309,7 +491,7 @@ fn cmd_point(file: &Path, index: usize, scene_only: bool, output: Option<&Path>)
     let (mut sweep, mut grid) = engine::load(file)?;
     let mut sink = Terminal::new(false, Duration::from_secs(10));
     let p = inspect::point(&mut sweep, &mut grid, index, output, !scene_only, &mut sink)?;
-    println!("{}", show::point(&grid, index, &p));
+    outln!("{}", show::point(&grid, index, &p));
     Ok(EXIT_OK)
 }
 
@@ -328,12 +510,12 @@ fn cmd_accuracy(args: &AccuracyArgs) -> Result<i32> {
     };
     let quiet = args.quiet;
     if !quiet {
-        eprintln!("chainsweep accuracy: {} of {}", what, args.file.display());
+        errln!("chainsweep accuracy: {} of {}", what, args.file.display());
     }
     let source = format!("{} {}", args.file.display(), what);
     let st = inspect::study(&scene, &opts, &output, &source, |l| {
         if !quiet {
-            eprintln!("  {l}");
+            errln!("  {l}");
         }
     })?;
     show::study(&st, &output);

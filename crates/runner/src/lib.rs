@@ -25,6 +25,23 @@
 //! Exit codes: [`EXIT_OK`], [`EXIT_ERROR`], [`EXIT_BAD_INPUT`], [`EXIT_PARTIAL`].
 #![warn(missing_docs)]
 
+/// `println!` that ignores write errors: a reader that went away (`| head`) must never end a
+/// command, least of all a sweep (output to a closed pipe is dropped).
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// `eprintln!` that ignores write errors (progress and reports on stderr; see [`outln`]).
+macro_rules! errln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 pub mod cli;
 pub mod engine;
 pub mod error;

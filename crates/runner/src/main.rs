@@ -1,12 +1,8 @@
 //! `chainsweep`: runs sweeps of chain simulations into HDF5 (see `chainsweep --help`).
+//!
+//! SIGPIPE stays ignored (Rust's default): a reader that goes away (`chainsweep run … 2>&1 |
+//! head`) must not kill a sweep; every line printed ignores write errors instead.
 
 fn main() {
-    // Behave like other command-line tools when the reader of stdout goes away (`| head`).
-    #[cfg(unix)]
-    // SAFETY: restoring the default disposition of SIGPIPE installs no handler (no code runs
-    // in signal context), and it happens first thing in `main`, before any other thread exists.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
     std::process::exit(chainsweep::cli::main());
 }

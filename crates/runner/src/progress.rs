@@ -95,7 +95,7 @@ impl Progress {
         if let Mode::Plain { every, last } = &mut self.mode {
             if last.elapsed() >= *every {
                 *last = Instant::now();
-                eprintln!("{}", self.line_text());
+                errln!("{}", self.line_text());
             }
         }
     }
@@ -121,7 +121,7 @@ impl Progress {
     pub fn finish(&mut self) {
         match &self.mode {
             Mode::Bar(bar) => bar.finish_and_clear(),
-            Mode::Plain { .. } => eprintln!("{}", self.line_text()),
+            Mode::Plain { .. } => errln!("{}", self.line_text()),
             Mode::Quiet => {}
         }
     }
@@ -130,7 +130,7 @@ impl Progress {
     pub fn println(&self, line: &str) {
         match &self.mode {
             Mode::Bar(bar) => bar.println(line),
-            Mode::Plain { .. } => eprintln!("{line}"),
+            Mode::Plain { .. } => errln!("{line}"),
             Mode::Quiet => {}
         }
     }
@@ -158,19 +158,19 @@ impl Terminal {
 impl ProgressSink for Terminal {
     fn pilot(&mut self, line: &str) {
         if !self.quiet {
-            eprintln!("chainsweep: auto: {line}");
+            errln!("chainsweep: auto: {line}");
         }
     }
 
     fn auto_resolved(&mut self, resolution: AutoResolution<'_>) {
         match resolution {
-            AutoResolution::Cached { choice, cache_file } => eprintln!(
+            AutoResolution::Cached { choice, cache_file } => errln!(
                 "chainsweep: integrator auto, target {:e}: {} (chosen earlier: {})",
                 choice.target_rel_error,
                 describe(&choice.integrator),
                 cache_file.display()
             ),
-            AutoResolution::Chosen { choice } => eprintln!(
+            AutoResolution::Chosen { choice } => errln!(
                 "chainsweep: integrator auto, target {:e}: chose {}",
                 choice.target_rel_error,
                 choice.summary()
@@ -200,6 +200,14 @@ impl ProgressSink for Terminal {
     fn idle(&mut self) {
         if let Some(r) = &mut self.runs {
             r.tick();
+        }
+    }
+
+    fn stopping(&mut self, in_flight: usize) {
+        if let Some(r) = self.runs.as_ref().filter(|_| !self.quiet) {
+            r.println(&format!(
+                "chainsweep: stop requested: no new runs; the output holds every finished run; waiting for {in_flight} run(s) in flight (a second signal ends at once: they are then run again on resume)"
+            ));
         }
     }
 

@@ -5,7 +5,8 @@ use std::path::Path;
 use crate::engine::inspect::{DryRun, Point};
 use crate::engine::merge::MergeReport;
 use crate::engine::run::{Failure, RunReport};
-use crate::engine::status::{FileStatus, SweepStatus};
+use crate::engine::slurm::{self, JobFiles, JobRequest};
+use crate::engine::status::{FileStatus, ShardSetStatus, ShardState, SweepStatus};
 use crate::grid::{multi_index, Grid, Shard};
 use crate::identity::hex;
 use crate::numerics::accuracy::{cost_of, Study};
@@ -39,7 +40,7 @@ fn human(bytes: f64) -> String {
 
 /// `validate`: the grid, its dimensions and, for `integrator: auto`, the pilot points.
 pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> crate::error::Result<()> {
-    println!(
+    outln!(
         "{}: valid — {} grid points (shape {}), {} probes, {}",
         file.display(),
         grid.len(),
@@ -57,11 +58,11 @@ pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> crate::error::Resul
             .iter()
             .map(|a| format!("{} ({})", a.name, a.field))
             .collect();
-        println!("  {} × {}", d.len(), names.join(" zipped with "));
+        outln!("  {} × {}", d.len(), names.join(" zipped with "));
     }
     if let Some(spec) = sweep.auto {
         let pilots = pilot_points(sweep, grid, spec.pilot_points)?;
-        println!(
+        outln!(
             "  integrator auto, target relative error {:e}: chosen when the sweep runs, by a pilot on grid points {pilots:?} (DOP853 or ROS34PW2, the cheapest setting reaching {:e} there)",
             spec.target_rel_error,
             spec.target_rel_error / SAFETY_FACTOR
@@ -79,7 +80,7 @@ pub fn dry_run(
     shard: Option<Shard>,
     d: &DryRun,
 ) {
-    println!(
+    outln!(
         "grid: {} points (shape {}){}",
         grid.len(),
         shape_text(&grid.shape),
@@ -91,7 +92,7 @@ pub fn dry_run(
     for (k, dim) in sweep.dims.iter().enumerate() {
         for a in &dim.axes {
             let vals: Vec<String> = a.values.iter().map(|v| v.to_string()).collect();
-            println!(
+            outln!(
                 "  dim {k} `{}`: {} = [{}] ({})",
                 dim.name,
                 a.field,
@@ -101,14 +102,14 @@ pub fn dry_run(
         }
     }
     if let Some(c) = &sweep.auto_choice {
-        println!(
+        outln!(
             "integrator: auto, target {:e}: {}",
             c.target_rel_error,
             c.summary()
         );
     }
     let probe_names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
-    println!(
+    outln!(
         "record: probes [{}]; {}{}",
         probe_names.join(", "),
         if grid.history {
@@ -125,7 +126,7 @@ pub fn dry_run(
             ""
         }
     );
-    println!(
+    outln!(
         "output: {} — {} done, {} failed, {} to run",
         output.display(),
         d.ok,
@@ -133,14 +134,14 @@ pub fn dry_run(
         points.len() - d.ok - d.failed
     );
     let (summary, history) = (d.size.summary, d.size.history);
-    println!(
+    outln!(
         "estimated output size: {} ({} per run: {} summaries{}); histories are deflate-compressed, so usually less",
         human(d.size.total(points.len())),
         human(summary + history),
         human(summary),
         if history > 0.0 { format!(" + {} histories, uncompressed", human(history)) } else { String::new() }
     );
-    println!("points (flat index, axis values, run hash):");
+    outln!("points (flat index, axis values, run hash):");
     let show = |i: usize| {
         let h = grid.hashes[i];
         let state = match d.stored.get(&h) {
@@ -148,7 +149,7 @@ pub fn dry_run(
             Some(false) => " [failed]",
             None => "",
         };
-        println!(
+        outln!(
             "  {i:>6}  {}  {}{state}",
             grid.point_label(sweep, i),
             &hex(&h)[..12]
@@ -158,7 +159,7 @@ pub fn dry_run(
         points.iter().for_each(|&i| show(i));
     } else {
         points[..1000].iter().for_each(|&i| show(i));
-        println!("  … {} more …", points.len() - 1010);
+        outln!("  … {} more …", points.len() - 1010);
         points[points.len() - 10..].iter().for_each(|&i| show(i));
     }
 }
@@ -167,10 +168,10 @@ pub fn dry_run(
 /// verified error and the counts (unless `quiet`).
 pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quiet: bool) {
     if r.failed > 0 {
-        eprintln!("chainsweep: {} failed run(s):", r.failed);
+        errln!("chainsweep: {} failed run(s):", r.failed);
         list_failures(sweep, grid, &r.failures, "(reason unreadable)");
         if r.failed > r.failures.len() {
-            eprintln!(
+            errln!(
                 "  … and {} more (see the `status` and `reason` datasets)",
                 r.failed - r.failures.len()
             );
@@ -178,7 +179,7 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
     }
     let v = &r.verification;
     if v.failed > 0 {
-        eprintln!(
+        errln!(
             "chainsweep: {} verification run(s) failed (`verified` = 2):",
             v.failed
         );
@@ -186,19 +187,19 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
     }
     if !quiet && (v.requested > 0 || v.verified > 0) {
         match v.worst {
-            Some((e, i)) => eprintln!(
+            Some((e, i)) => errln!(
                 "chainsweep: {} point(s) verified at a tighter setting; largest relative error {e:.2e} at point {i} ({})",
                 v.verified,
                 grid.point_label(sweep, i)
             ),
-            None => eprintln!(
+            None => errln!(
                 "chainsweep: {} point(s) verified at a tighter setting",
                 v.verified
             ),
         }
     }
     if !quiet {
-        eprintln!(
+        errln!(
             "chainsweep: {} runs: {} ok, {} failed, {} pending → {}",
             r.points,
             r.counts.ok,
@@ -211,7 +212,7 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
 
 fn list_failures(sweep: &Sweep, grid: &Grid, failures: &[Failure], unreadable: &str) {
     for f in failures {
-        eprintln!(
+        errln!(
             "  point {} ({}): {}",
             f.point,
             grid.point_label(sweep, f.point),
@@ -222,7 +223,7 @@ fn list_failures(sweep: &Sweep, grid: &Grid, failures: &[Failure], unreadable: &
 
 /// `status` of an output file.
 pub fn file_status(file: &Path, s: &FileStatus) {
-    println!(
+    outln!(
         "{}: {} runs (grid {}, shard {}): {} done ({} ok, {} failed), {} pending",
         file.display(),
         s.total,
@@ -234,35 +235,35 @@ pub fn file_status(file: &Path, s: &FileStatus) {
         s.counts.pending
     );
     if s.newer > 0 {
-        println!(
+        outln!(
             "  {} more runs have finished since the file was written (a sweep is running, or was interrupted): re-run the same `chainsweep run` command to bring the file up to date",
             s.newer
         );
     }
     for (shown, (i, reason)) in s.failures.iter().enumerate() {
         if shown == LISTED_IN_STATUS {
-            println!("  …");
+            outln!("  …");
             break;
         }
         let mi: Vec<String> = multi_index(&s.shape, *i)
             .iter()
             .map(|x| x.to_string())
             .collect();
-        println!("  failed: point {i} [{}]: {reason}", mi.join(", "));
+        outln!("  failed: point {i} [{}]: {reason}", mi.join(", "));
     }
 }
 
 /// `status` of a sweep file's output.
 pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
     if let (Some(spec), Some(c)) = (sweep.auto, &s.auto) {
-        println!(
+        outln!(
             "integrator auto, target {:e}: {}",
             spec.target_rel_error,
             describe(&c.integrator)
         );
     }
     let Some(counts) = s.counts else {
-        println!(
+        outln!(
             "{} → {}: {} runs: 0 done, {} pending (integrator auto not chosen yet: {} holds no choice for this sweep)",
             file.display(),
             s.output.display(),
@@ -272,7 +273,7 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
         );
         return;
     };
-    println!(
+    outln!(
         "{} → {}: {} runs: {} done ({} ok, {} failed), {} pending",
         file.display(),
         s.output.display(),
@@ -283,7 +284,7 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
         counts.pending
     );
     for f in &s.failures {
-        println!(
+        outln!(
             "  failed: point {} ({}): {}",
             f.point,
             grid.point_label(sweep, f.point),
@@ -292,9 +293,10 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
     }
 }
 
-/// The end of `merge`.
-pub fn merged(r: &MergeReport, output: &Path) {
-    eprintln!(
+/// The end of `merge`: the counts, and the shards to run again (with the command that
+/// re-submits only them, when the output's SLURM job `scripts` (array, merge) exist).
+pub fn merged(r: &MergeReport, output: &Path, scripts: Option<(&Path, &Path)>) {
+    errln!(
         "chainsweep: merged {} shard file(s): {} runs: {} ok, {} failed, {} pending → {}",
         r.shards,
         r.points,
@@ -302,6 +304,121 @@ pub fn merged(r: &MergeReport, output: &Path) {
         r.counts.failed,
         r.counts.pending,
         output.display()
+    );
+    for a in &r.absent {
+        errln!("chainsweep: shard file not found: {}", a.display());
+    }
+    if let Some(set) = &r.shard_set {
+        shards_to_run(set, scripts);
+    }
+}
+
+/// The shards of `set` to run again: which, why, and how (SLURM array tasks count from 0).
+fn shards_to_run(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
+    let to_run = set.to_run();
+    if to_run.is_empty() {
+        return;
+    }
+    for e in set.shards.iter().filter(|e| to_run.contains(&e.k)) {
+        let why = match (&e.counts, e.state) {
+            (Some(c), ShardState::Pending) => format!("{} of its runs pending", c.pending),
+            _ => "no shard file".to_string(),
+        };
+        errln!(
+            "chainsweep: shard {}/{} (SLURM array task {}) is {}: {why}",
+            e.k,
+            set.n,
+            e.k - 1,
+            e.state.name()
+        );
+    }
+    let tasks: Vec<usize> = to_run.iter().map(|k| k - 1).collect();
+    let list: Vec<String> = tasks.iter().map(|t| t.to_string()).collect();
+    match scripts {
+        Some((array, merge)) => errln!(
+            "chainsweep: to run only those array tasks again (each resumes where it stopped), then the merge:\n  {}",
+            slurm::resubmit_command(&tasks, array, merge)
+        ),
+        None => errln!(
+            "chainsweep: to run only those array tasks again (each resumes where it stopped): sbatch --array={} ARRAY_SCRIPT, then merge again; or `chainsweep run SWEEP --shard K/{}` for each shard K above",
+            list.join(","),
+            set.n
+        ),
+    }
+}
+
+/// `status` of a shard set: one line per shard.
+pub fn shard_set_status(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
+    for e in &set.shards {
+        let detail = match (&e.counts, &e.file) {
+            (Some(c), Some(f)) => format!(
+                "{} runs: {} ok, {} failed, {} pending ({})",
+                c.ok + c.failed + c.pending,
+                c.ok,
+                c.failed,
+                c.pending,
+                f.display()
+            ),
+            _ => "no shard file".to_string(),
+        };
+        outln!(
+            "shard {}/{} (array task {}): {:<7} {detail}",
+            e.k,
+            set.n,
+            e.k - 1,
+            e.state.name()
+        );
+    }
+    let count = |st: ShardState| set.shards.iter().filter(|e| e.state == st).count();
+    outln!(
+        "{} shards: {} done, {} failed, {} pending, {} missing",
+        set.n,
+        count(ShardState::Done),
+        count(ShardState::Failed),
+        count(ShardState::Pending),
+        count(ShardState::Missing)
+    );
+    shards_to_run(set, scripts);
+}
+
+/// `run` stopped by a signal: what the output holds and how to go on.
+pub fn stopped(signal: &str, r: &RunReport, output: &Path) {
+    errln!(
+        "chainsweep: stopped by {signal}: {} holds every finished run ({} ok, {} failed), {} pending; run the same command to resume",
+        output.display(),
+        r.counts.ok,
+        r.counts.failed,
+        r.counts.pending
+    );
+}
+
+/// `slurm`: the job files written, and how to submit them.
+pub fn slurm_job(r: &JobRequest, f: &JobFiles) {
+    outln!(
+        "array job ({} tasks, task T runs shard T+1 of {}): {}",
+        r.shards,
+        r.shards,
+        f.array_script.display()
+    );
+    outln!("merge job: {}", f.merge_script.display());
+    outln!("shard files: {}/", f.shards_dir.display());
+    outln!("logs: {}/", f.logs.display());
+    outln!(
+        "submit: jid=$(sbatch --parsable {}) && sbatch --dependency=afterany:${{jid%%;*}} {}",
+        slurm::shell_quote(&f.array_script.to_string_lossy()),
+        slurm::shell_quote(&f.merge_script.to_string_lossy())
+    );
+    outln!("status: chainsweep status {}", f.dir.display());
+}
+
+/// `slurm --submit`: the job ids.
+pub fn submitted(array: &str, merge: &str, f: &JobFiles) {
+    outln!(
+        "submitted array job {array} and merge job {merge} (after the array, whatever its outcome)"
+    );
+    outln!(
+        "cancel one task: scancel {array}_T; status: chainsweep status {}",
+        f.dir.display()
     );
 }
 
@@ -359,22 +476,25 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
 /// The end of `accuracy`: the cost of each error level per method.
 pub fn study(st: &Study, output: &Path) {
     let reference = st.reference.out.as_ref().expect("reference ran");
-    println!(
+    outln!(
         "reference {} (confirmed by {} to {:.1e}); cost of a leading-peak relative error:",
         st.reference.spec.method_name(),
         st.confirmation.spec.method_name(),
         st.agreement
     );
-    println!(
+    outln!(
         "{:<9} {:>22} {:>22} {:>22}",
-        "method", "<= 1e-4", "<= 1e-6", "<= 1e-8"
+        "method",
+        "<= 1e-4",
+        "<= 1e-6",
+        "<= 1e-8"
     );
     for m in &st.methods {
         let cell = |target: f64| match cost_of(m, reference, target) {
             Some((w, e, x)) => format!("{:.2} ms/{}@{x:.0e}", w * 1e3, e),
             None => "not reached".to_string(),
         };
-        println!(
+        outln!(
             "{:<9} {:>22} {:>22} {:>22}",
             m.method,
             cell(1e-4),
@@ -382,7 +502,7 @@ pub fn study(st: &Study, output: &Path) {
             cell(1e-8)
         );
     }
-    println!(
+    outln!(
         "(wall time per run / RHS evaluations @ setting) → {}",
         output.display()
     );

@@ -15,10 +15,11 @@ use crate::store::{RunStore, WorkDir};
 use crate::sweep::Sweep;
 
 use super::assemble::{assemble, Assembly, VerifySource};
+use super::status::{self, ShardSetStatus};
 use super::{auto, check_output};
 
 /// What a merge did.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct MergeReport {
     /// Shard files merged.
     pub shards: usize,
@@ -26,10 +27,29 @@ pub struct MergeReport {
     pub points: usize,
     /// The state of those points in the merged file.
     pub counts: Counts,
+    /// Shard files given that do not exist.
+    pub absent: Vec<PathBuf>,
+    /// The state of every shard, when the files are shards of one shard count `N` (to name the
+    /// missing and incomplete ones).
+    pub shard_set: Option<ShardSetStatus>,
 }
 
 /// Merges `shards` (files made by `run --shard` from one sweep file) into `output`.
-pub fn merge(output: &Path, shards: &[PathBuf], provenance: &Provenance) -> Result<MergeReport> {
+/// Shard files that do not exist are missing shards (named in the report), as long as one exists.
+pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Result<MergeReport> {
+    let (shards, absent): (Vec<PathBuf>, Vec<PathBuf>) =
+        given.iter().cloned().partition(|p| p.exists());
+    if shards.is_empty() {
+        return Err(Error::input(
+            "SHARDS",
+            format!(
+                "none of the {} shard file(s) exists (first: {})",
+                given.len(),
+                given[0].display()
+            ),
+        ));
+    }
+    let shards = &shards[..];
     let text = common_sweep_text(shards)?;
     let first = shards[0].display().to_string();
     let mut sweep = Sweep::parse(&text).map_err(|e| e.in_file(&first))?;
@@ -85,10 +105,19 @@ pub fn merge(output: &Path, shards: &[PathBuf], provenance: &Provenance) -> Resu
             verify: &vsrc,
         },
     )?;
+    // Which shards to run again: only when the files are shards of one `N` (a merge may also
+    // combine outputs sharded differently, or whole runs).
+    let shard_set = if counts.pending > 0 {
+        status::of_shard_set(shards).ok()
+    } else {
+        None
+    };
     Ok(MergeReport {
         shards: shards.len(),
         points: grid.len(),
         counts,
+        absent,
+        shard_set,
     })
 }
 

@@ -8,7 +8,8 @@
 //!     as it finishes, with checkpoints of the output file and a stop flag;
 //!   - [`assemble`]: the output file written from the stored runs;
 //! - [`auto`]: `integrator: auto` resolved from the work directory's cache or a pilot;
-//! - [`shard`]: which grid points a shard runs;
+//! - [`shard`]: which grid points a shard runs (balanced by estimated cost);
+//! - [`slurm`]: `--shard slurm/N` of an array task, and the job scripts of `chainsweep slurm`;
 //! - [`merge`]: shard files assembled into one;
 //! - [`status`]: what an output file or a work directory holds;
 //! - [`inspect`]: a dry run, one grid point, a work-precision study.
@@ -21,6 +22,7 @@ pub mod plan;
 pub mod run;
 pub mod schedule;
 pub mod shard;
+pub mod slurm;
 pub mod status;
 
 use std::path::{Path, PathBuf};
@@ -65,6 +67,9 @@ pub trait ProgressSink {
     fn idle(&mut self) {}
     /// The output file was refreshed with every run finished so far.
     fn checkpoint(&mut self) {}
+    /// The stop flag was set: no new run starts; `in_flight` runs (at most) finish first. The
+    /// output file was just written with every run finished so far.
+    fn stopping(&mut self, _in_flight: usize) {}
     /// Every run is finished (or the sweep was stopped); the output file is written next.
     fn runs_ended(&mut self) {}
 }
@@ -153,9 +158,42 @@ pub fn thread_pool(jobs: usize) -> Result<rayon::ThreadPool> {
         .map_err(|source| Error::Threads { jobs, source })
 }
 
-/// The number of CPUs this process may use.
+/// A number as an error message shows it: plain, or in scientific notation when huge or tiny
+/// (`1e308`, not 309 digits).
+pub fn number_text(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e9).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
+/// The number of CPUs this process may use: its CPU affinity mask (what `taskset`, SLURM or a
+/// container allow), as `std::thread::available_parallelism` reads it on Linux.
 pub fn all_cpus() -> usize {
     std::thread::available_parallelism()
         .map(|n| n.get())
         .unwrap_or(1)
+}
+
+/// The environment variable by which SLURM says how many CPUs each task of a job has.
+pub const SLURM_CPUS_PER_TASK: &str = "SLURM_CPUS_PER_TASK";
+
+/// The default number of parallel runs: `SLURM_CPUS_PER_TASK` inside a SLURM job that sets it
+/// (a positive integer), else the CPUs this process may use ([`all_cpus`]).
+pub fn default_jobs() -> usize {
+    std::env::var(SLURM_CPUS_PER_TASK)
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .filter(|&n| n > 0)
+        .unwrap_or_else(all_cpus)
+}
+
+/// At most this many parallel runs per CPU ([`max_jobs`]): more only adds threads that wait.
+pub const MAX_JOBS_PER_CPU: usize = 4;
+
+/// The largest `--jobs` accepted: [`MAX_JOBS_PER_CPU`] times the CPUs this process may use (or
+/// times `SLURM_CPUS_PER_TASK`, when that is larger).
+pub fn max_jobs() -> usize {
+    MAX_JOBS_PER_CPU * all_cpus().max(default_jobs())
 }

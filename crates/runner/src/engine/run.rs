@@ -18,7 +18,13 @@ use super::assemble::{assemble, Assembly};
 use super::auto::{self, AutoOrigin};
 use super::plan::Plan;
 use super::schedule::{run_tasks, Coordinator, Executor, Schedule, SolverExecutor, Task};
-use super::{check_output, shard, thread_pool, ProgressSink, Start};
+use super::{
+    check_output, max_jobs, number_text, shard, thread_pool, ProgressSink, Start, MAX_JOBS_PER_CPU,
+};
+
+/// The longest `--checkpoint-interval`, s (a week): longer is never refreshed in practice, and
+/// the interval must stay a representable duration.
+pub const MAX_CHECKPOINT_INTERVAL_S: f64 = 7.0 * 24.0 * 3600.0;
 
 /// How many failed runs a report lists with their reasons (it counts them all).
 pub const LISTED_FAILURES: usize = 20;
@@ -47,13 +53,22 @@ pub struct RunOptions {
 impl RunOptions {
     /// Checks the options that do not depend on the sweep; an input error naming the option.
     pub fn check(jobs: usize, checkpoint_interval_s: f64, verify_fraction: f64) -> Result<()> {
-        if jobs == 0 {
-            return Err(Error::input("--jobs", "must be at least 1"));
+        let most = max_jobs();
+        if jobs == 0 || jobs > most {
+            return Err(Error::input(
+                "--jobs",
+                format!(
+                    "must be in [1, {most}] ({MAX_JOBS_PER_CPU} per CPU this process may use), got {jobs}"
+                ),
+            ));
         }
-        if !(checkpoint_interval_s.is_finite() && checkpoint_interval_s >= 0.0) {
+        if !(0.0..=MAX_CHECKPOINT_INTERVAL_S).contains(&checkpoint_interval_s) {
             return Err(Error::input(
                 "--checkpoint-interval",
-                "must be a number of seconds >= 0",
+                format!(
+                    "must be a number of seconds in [0, {MAX_CHECKPOINT_INTERVAL_S}] (0: only at the end; at most a week), got {}",
+                    number_text(checkpoint_interval_s)
+                ),
             ));
         }
         if !(0.0..=1.0).contains(&verify_fraction) {
@@ -118,7 +133,9 @@ pub fn run_sweep(
     stop: &AtomicBool,
 ) -> Result<RunReport> {
     check_output(&opts.output, opts.overwrite)?;
-    let pool = thread_pool(opts.jobs)?;
+    // Never more threads than grid points (a pool of idle threads costs time to start).
+    let points = shard::points(sweep, grid, opts.shard);
+    let pool = thread_pool(opts.jobs.min(points.len()).max(1))?;
     // `integrator: auto`: the cached choice, or a pilot (before the work directory is created,
     // so that a target no setting meets leaves nothing behind).
     let origin = auto::resolve(sweep, grid, Some(&work_dir_of(&opts.output)), &pool, sink)?;
@@ -126,7 +143,6 @@ pub fn run_sweep(
     if origin == AutoOrigin::Pilot {
         auto::cache(&work, sweep)?;
     }
-    let points = shard::points(grid.len(), opts.shard);
     let executor = SolverExecutor { sweep, grid };
     run_points(
         &work, sweep, grid, points, opts, &pool, &executor, sink, stop,
@@ -172,6 +188,11 @@ pub fn run_points(
         plan,
         sink,
     };
+    // A readable output file from the start (every point pending or resumed), so that a run
+    // killed before its first checkpoint still leaves one that `status` and h5py read.
+    if !opts.output.exists() {
+        run.assemble()?;
+    }
     let schedule = Schedule {
         pool,
         checkpoint_every: opts.checkpoint_interval,
@@ -233,6 +254,14 @@ impl Coordinator for Running<'_> {
     fn checkpoint(&mut self) -> Result<()> {
         self.assemble()?;
         self.sink.checkpoint();
+        Ok(())
+    }
+
+    fn stopping(&mut self, in_flight: usize) -> Result<()> {
+        // Written at once: a SIGKILL after the SIGTERM (SLURM's KillWait) then loses only the
+        // runs in flight, which a resume recomputes.
+        self.assemble()?;
+        self.sink.stopping(in_flight);
         Ok(())
     }
 

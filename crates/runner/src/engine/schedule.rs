@@ -5,7 +5,7 @@
 //! take no new task once the stop flag is set (by the caller, e.g. on a signal) or once storing a
 //! run failed; the tasks already running finish and are stored.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
@@ -91,6 +91,12 @@ pub trait Coordinator {
     fn idle(&mut self);
     /// A checkpoint is due: write the output with everything finished so far.
     fn checkpoint(&mut self) -> Result<()>;
+    /// The stop flag was seen set (once per run of the tasks): no new task starts, the
+    /// `in_flight` tasks running now finish and are stored. A good moment to write the output
+    /// with everything finished so far.
+    fn stopping(&mut self, _in_flight: usize) -> Result<()> {
+        Ok(())
+    }
     /// Every worker is done (also after a run could not be stored, but not after a failed
     /// checkpoint).
     fn ended(&mut self);
@@ -128,11 +134,15 @@ pub fn run_tasks(
     coordinator: &mut dyn Coordinator,
 ) -> Result<()> {
     let store_failed = AtomicBool::new(false);
+    let started = AtomicUsize::new(0);
+    let mut finished = 0usize;
+    let mut stopping_said = false;
     let mut store_error: Option<Error> = None;
     let mut last_checkpoint = Instant::now();
     std::thread::scope(|s| -> Result<()> {
         let (tx, rx) = mpsc::channel::<Finished>();
         let store_failed = &store_failed;
+        let started = &started;
         s.spawn(move || {
             schedule.pool.install(|| {
                 tasks.par_iter().for_each_with(tx, |tx, task| {
@@ -140,6 +150,7 @@ pub fn run_tasks(
                     {
                         return;
                     }
+                    started.fetch_add(1, Ordering::SeqCst);
                     let rec = run_one(executor, task);
                     let stored = store.write(&rec);
                     if stored.is_err() {
@@ -154,7 +165,11 @@ pub fn run_tasks(
             });
         });
         loop {
-            match rx.recv_timeout(IDLE_TICK) {
+            let received = rx.recv_timeout(IDLE_TICK);
+            if received.is_ok() {
+                finished += 1;
+            }
+            match received {
                 Ok(f) => match f.stored {
                     Err(e) => {
                         store_error.get_or_insert(e);
@@ -164,6 +179,13 @@ pub fn run_tasks(
                 },
                 Err(mpsc::RecvTimeoutError::Timeout) => coordinator.idle(),
                 Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            }
+            if !stopping_said && schedule.stop.load(Ordering::Relaxed) && store_error.is_none() {
+                stopping_said = true;
+                // (A task counted as started may not have begun yet: an upper bound.)
+                let in_flight = started.load(Ordering::SeqCst).saturating_sub(finished);
+                coordinator.stopping(in_flight)?;
+                last_checkpoint = Instant::now();
             }
             let due = !schedule.checkpoint_every.is_zero()
                 && last_checkpoint.elapsed() >= schedule.checkpoint_every;

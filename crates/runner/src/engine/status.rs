@@ -14,7 +14,7 @@ use crate::sweep::Sweep;
 
 use super::auto::{apply_cached, CachedChoice};
 use super::run::{Failure, LISTED_FAILURES};
-use super::shard;
+use super::shard::{self, Assignment};
 
 /// The status of an output file.
 #[derive(Debug, Clone)]
@@ -45,7 +45,9 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         Sweep::parse(&recs.sweep_text).map_err(|e| e.in_file(&file.display().to_string()))?;
     let shard = Some(Shard::parse(&recs.shard, "--shard")?).filter(|s| s.n > 1);
     let n = recs.len();
-    let in_shard = |i: usize| shard::contains(shard, i);
+    let grid = Grid::new(&sweep).map_err(|e| e.in_file(&file.display().to_string()))?;
+    let assignment = Assignment::new(&sweep, &grid, shard);
+    let in_shard = |i: usize| i < grid.len() && assignment.contains(shard, i);
     let counts = Counts {
         ok: (0..n).filter(|&i| recs.status(i) == STATUS_OK).count(),
         failed: (0..n).filter(|&i| recs.status(i) == STATUS_FAILED).count(),
@@ -98,7 +100,7 @@ pub fn of_sweep(
     shard: Option<Shard>,
 ) -> Result<(SweepStatus, Sweep, Grid)> {
     let dir = work_dir_of(&output);
-    let points = shard::points(grid.len(), shard);
+    let points = shard::points(&sweep, &grid, shard);
     let mut status = SweepStatus {
         output,
         points: points.len(),
@@ -138,4 +140,158 @@ pub fn of_sweep(
         });
     }
     Ok((status, sweep, grid))
+}
+
+/// The state of one shard of a shard set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ShardState {
+    /// Every point of the shard ran successfully.
+    Done,
+    /// Every point ran, some failed (`run --retry-failed` runs them again).
+    Failed,
+    /// The file exists with points pending (the task is running, was stopped, or was killed).
+    Pending,
+    /// No file of this shard.
+    Missing,
+}
+
+impl ShardState {
+    /// `done`, `failed`, `pending`, `missing`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShardState::Done => "done",
+            ShardState::Failed => "failed",
+            ShardState::Pending => "pending",
+            ShardState::Missing => "missing",
+        }
+    }
+}
+
+/// One shard of a shard set.
+#[derive(Debug, Clone)]
+pub struct ShardEntry {
+    /// The shard, from 1.
+    pub k: usize,
+    /// Its file, when there is one.
+    pub file: Option<PathBuf>,
+    /// Its state.
+    pub state: ShardState,
+    /// The state of its points (none when missing).
+    pub counts: Option<Counts>,
+}
+
+/// The status of the shard files of one sweep in `n` shards.
+#[derive(Debug, Clone)]
+pub struct ShardSetStatus {
+    /// Number of shards.
+    pub n: usize,
+    /// Every shard, 1 to `n`.
+    pub shards: Vec<ShardEntry>,
+}
+
+impl ShardSetStatus {
+    /// The shards (from 1) that are missing or have points pending: those to run (again).
+    pub fn to_run(&self) -> Vec<usize> {
+        self.shards
+            .iter()
+            .filter(|s| matches!(s.state, ShardState::Missing | ShardState::Pending))
+            .map(|s| s.k)
+            .collect()
+    }
+}
+
+/// The shard files among `files` (those that exist; others are ignored): the sweep text and
+/// `K/N` of each; an input error naming a file that is no shard file of the same sweep and `N`
+/// as the first.
+pub fn shard_files(files: &[PathBuf]) -> Result<Vec<(PathBuf, String, Shard)>> {
+    let mut out: Vec<(PathBuf, String, Shard)> = Vec::new();
+    for f in files.iter().filter(|f| f.exists()) {
+        let bad = |m: String| Error::Input {
+            file: Some(f.display().to_string()),
+            field: String::new(),
+            message: m,
+        };
+        let recs =
+            FileRecords::open(f).map_err(|e| bad(format!("not a chainsweep output file: {e}")))?;
+        let shard = Shard::parse(&recs.shard, "shard")
+            .map_err(|_| bad(format!("records shard `{}`, not K/N", recs.shard)))?;
+        if let Some((first, text, s0)) = out.first() {
+            if *text != recs.sweep_text || s0.n != shard.n {
+                return Err(bad(format!(
+                    "is shard {shard} of {}, not of the sweep and shard count of {} (shard {s0})",
+                    if *text == recs.sweep_text {
+                        "the same sweep"
+                    } else {
+                        "another sweep"
+                    },
+                    first.display()
+                )));
+            }
+        }
+        out.push((f.clone(), recs.sweep_text.clone(), shard));
+    }
+    Ok(out)
+}
+
+/// The status of a shard set: `files` (those that exist) hold shards of one sweep in `N` shards;
+/// every shard from 1 to `N` is done, failed, pending or missing.
+pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
+    let found = shard_files(files)?;
+    let Some((first, text, s0)) = found.first() else {
+        return Err(Error::input(
+            "FILE",
+            format!("none of the {} shard file(s) given exists", files.len()),
+        ));
+    };
+    let name = first.display().to_string();
+    let sweep = Sweep::parse(text).map_err(|e| e.in_file(&name))?;
+    let grid = Grid::new(&sweep).map_err(|e| e.in_file(&name))?;
+    let n = s0.n;
+    let assignment = Assignment::new(&sweep, &grid, Some(*s0));
+    let mut shards = Vec::with_capacity(n);
+    for k in 1..=n {
+        let Some((path, _, shard)) = found.iter().find(|(_, _, s)| s.k == k) else {
+            shards.push(ShardEntry {
+                k,
+                file: None,
+                state: ShardState::Missing,
+                counts: None,
+            });
+            continue;
+        };
+        let recs = FileRecords::open(path)?;
+        let points = assignment.points(Some(*shard));
+        let status = |i: usize| {
+            if i < recs.len() {
+                recs.status(i)
+            } else {
+                STATUS_PENDING
+            }
+        };
+        let counts = Counts {
+            ok: points.iter().filter(|&&i| status(i) == STATUS_OK).count(),
+            failed: points
+                .iter()
+                .filter(|&&i| status(i) == STATUS_FAILED)
+                .count(),
+            pending: points
+                .iter()
+                .filter(|&&i| status(i) == STATUS_PENDING)
+                .count(),
+        };
+        let state = if counts.pending > 0 {
+            ShardState::Pending
+        } else if counts.failed > 0 {
+            ShardState::Failed
+        } else {
+            ShardState::Done
+        };
+        shards.push(ShardEntry {
+            k,
+            file: Some(path.clone()),
+            state,
+            counts: Some(counts),
+        });
+    }
+    Ok(ShardSetStatus { n, shards })
 }

@@ -123,10 +123,26 @@ pub struct Column {
     pub fill: Fill,
 }
 
+/// The value a column holds where a point has none (a failed or pending run, a point not
+/// verified): the dataset's HDF5 fill value and `_FillValue` attribute, by which xarray masks it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FillValue {
+    /// NaN, in a float column.
+    F64(f64),
+    /// [`INT_FILL`], in a count.
+    I64(i64),
+}
+
 impl Column {
-    /// Whether a `fill_value` attribute ([`INT_FILL`]) marks its missing values.
-    pub fn has_fill_value(&self) -> bool {
-        matches!(self.fill, Fill::OkCount { .. })
+    /// The marker of a missing value: NaN in a float column, [`INT_FILL`] in a count. Flags
+    /// (`status`, `verified`) and text have none: every point has a flag (0 says pending or not
+    /// verified), and an empty text is a value.
+    pub fn fill_value(&self) -> Option<FillValue> {
+        match self.dtype {
+            Dtype::F64 => Some(FillValue::F64(f64::NAN)),
+            Dtype::I64 => Some(FillValue::I64(INT_FILL)),
+            Dtype::U8 | Dtype::Str => None,
+        }
     }
 }
 
@@ -525,11 +541,12 @@ impl Column {
         } else {
             n_points
         };
-        match self.dtype {
-            Dtype::F64 => ColumnData::F64(vec![f64::NAN; n]),
-            Dtype::I64 => ColumnData::I64(vec![INT_FILL; n]),
-            Dtype::U8 => ColumnData::U8(vec![0; n]),
-            Dtype::Str => ColumnData::Str(vec![String::new(); n]),
+        match (self.dtype, self.fill_value()) {
+            (Dtype::F64, Some(FillValue::F64(x))) => ColumnData::F64(vec![x; n]),
+            (Dtype::I64, Some(FillValue::I64(x))) => ColumnData::I64(vec![x; n]),
+            (Dtype::U8, None) => ColumnData::U8(vec![0; n]),
+            (Dtype::Str, None) => ColumnData::Str(vec![String::new(); n]),
+            _ => unreachable!("column {} has a fill value of another type", self.name),
         }
     }
 
@@ -634,10 +651,8 @@ pub fn markdown_table() -> String {
             Units::OfProbes => "the probes' unit".to_string(),
         };
         let mut content = c.description.to_string();
-        if c.has_fill_value() {
-            content.push_str(&format!(
-                " ({INT_FILL} where failed or pending: attr `fill_value`)"
-            ));
+        if let Some(FillValue::I64(fill)) = c.fill_value() {
+            content.push_str(&format!(" ({fill} where failed or pending: `_FillValue`)"));
         }
         if c.flags.is_some() {
             content.push_str(" (attrs `flag_values`, `flag_meanings`)");

@@ -3,9 +3,21 @@
 //! them.
 //!
 //! Layout (see `README-sweeps.md`): root attributes describing the sweep; one coordinate dataset
-//! per axis (an HDF5 dimension scale); per-run summaries as arrays shaped like the grid (plus a
-//! `probe` dimension where there is one value per probe), with the scales attached; histories
-//! under `runs/<flat index>/` in chunked, deflate-compressed datasets.
+//! per axis; per-run summaries as arrays shaped like the grid (plus a `probe` dimension where
+//! there is one value per probe); histories under `runs/run_<flat index>/` in chunked,
+//! deflate-compressed datasets.
+//!
+//! The layout is the one netCDF-4 gives HDF5, so that xarray (through h5netcdf or netCDF4) reads
+//! the file exactly as labelled. netCDF-4 names a dimension after its dimension scale, a dataset
+//! named like the dimension, and takes the last scale attached to a dimension of a dataset as
+//! that dimension. So each grid dimension has exactly one scale: the axis named like the
+//! dimension, or, for a zipped group named after none of its axes, an empty dataset marked as a
+//! netCDF dimension without a variable ([`NETCDF_DIM_ONLY`]). The other axes of a zipped group
+//! are plain datasets on that dimension (the scale attached to them), and every summary lists
+//! them in its `coordinates` attribute (the CF convention xarray follows), with `probe_units`
+//! for the per-probe ones. Every numeric summary carries its missing-value marker (NaN, or
+//! [`crate::record::INT_FILL`]) as its HDF5 fill value and as a `_FillValue` attribute of its
+//! own type, so xarray masks failed and pending points.
 
 pub mod read;
 pub mod write;
@@ -27,6 +39,19 @@ pub const DEFLATE_LEVEL: u8 = 4;
 
 /// Largest chunk of a history dataset, in samples.
 pub const HISTORY_CHUNK: usize = 16384;
+
+/// Version of the file layout, the `layout_version` root attribute. Version 2: run groups named
+/// `runs/run_<flat index>` (valid netCDF names, the same whatever the grid's size), one dimension
+/// scale per dimension named like it (zipped axes: coordinates on it), `_FillValue` on every
+/// numeric summary, a `contact` scale for minimum overlaps. Files without the attribute are
+/// version 1: run groups `runs/<flat index>` zero-padded to the width of the largest index. The
+/// runs stored are the same in both (this is no numerics version): `merge` reads either.
+pub const LAYOUT_VERSION: i64 = 2;
+
+/// The `NAME` netCDF-4 gives the dimension scale of a dimension that has no variable (followed
+/// by the dimension's length, right-aligned in 10 characters); h5netcdf and netCDF-C read a scale
+/// with this name as a dimension only.
+pub const NETCDF_DIM_ONLY: &str = "This is a netCDF dimension but not a netCDF variable.";
 
 /// The HDF5 high-level library's dimension-scale functions, which hdf5-metno does not wrap.
 mod ds {
@@ -118,6 +143,27 @@ pub(crate) fn dataset<T: H5Type>(
     Ok(d)
 }
 
+/// A dataset whose HDF5 fill value is `fill`, with the same value as its `_FillValue` attribute
+/// (of the dataset's own type, as netCDF wants it).
+pub(crate) fn filled_dataset<T: H5Type + Copy + Into<hdf5::types::OwnedDynValue>>(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[T],
+    fill: T,
+) -> Result<Dataset> {
+    let d = group
+        .new_dataset::<T>()
+        .fill_value(fill)
+        .shape(shape.to_vec())
+        .create(name)?;
+    if !data.is_empty() {
+        d.write_raw(data)?;
+    }
+    attr_scalar(&d, "_FillValue", fill)?;
+    Ok(d)
+}
+
 pub(crate) fn str_dataset(
     group: &Group,
     name: &str,
@@ -202,8 +248,22 @@ pub struct Counts {
     pub pending: usize,
 }
 
-/// Zero-padded name of a run's group under `runs/`.
-pub fn run_group_name(grid_len: usize, index: usize) -> String {
+/// Name of the group under `runs/` of the run at flat (row-major) grid index `index`: a name
+/// that starts with a letter (a valid netCDF name: `ncdump` escapes a leading digit) and does not
+/// depend on the grid's size (layout 1's zero-padding changed width as a sweep grew past 10, 100,
+/// … points), so scripts can build it: `f"runs/run_{i}"`. The flat index rather than the run hash: it says where the run lies in the
+/// grid (and is short), and the file is a function of the grid anyway; each group holds its
+/// `run_hash` as an attribute.
+pub fn run_group_name(index: usize) -> String {
+    format!("run_{index}")
+}
+
+/// The run group's name in a file of layout version `layout` (1: zero-padded to the width of the
+/// grid's largest flat index, for `grid_len` points).
+pub fn run_group_name_in(layout: i64, grid_len: usize, index: usize) -> String {
+    if layout >= 2 {
+        return run_group_name(index);
+    }
     let width = format!("{}", grid_len.saturating_sub(1)).len();
     format!("{index:0width$}")
 }
@@ -243,4 +303,20 @@ pub fn read_sweep_text(path: &Path) -> Result<String> {
         .and_then(|f| f.attr("sweep")?.read_scalar::<VarLenUnicode>())
         .map(|v| v.as_str().to_string())
         .map_err(|e| Error::from(e).hdf5_context(|| format!("reading {}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn run_groups_are_named_by_flat_index_in_either_layout() {
+        assert_eq!(run_group_name(3), "run_3");
+        assert_eq!(run_group_name_in(LAYOUT_VERSION, 12, 3), "run_3");
+        assert_eq!(run_group_name_in(LAYOUT_VERSION, 1000, 3), "run_3");
+        // layout 1: padded to the width of the largest index
+        assert_eq!(run_group_name_in(1, 12, 3), "03");
+        assert_eq!(run_group_name_in(1, 1000, 3), "003");
+        assert_eq!(run_group_name_in(1, 10, 3), "3");
+    }
 }

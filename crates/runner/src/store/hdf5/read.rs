@@ -7,8 +7,8 @@ use chainsweep_solver::probes::{History, ProbeSummary};
 use hdf5::types::VarLenUnicode;
 use hdf5::File;
 
-use super::{read_attr_str, run_group_name};
-use crate::error::Result;
+use super::{read_attr_str, run_group_name_in, LAYOUT_VERSION};
+use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::identity::RunHash;
 use crate::record::columns::{ColumnData, Dtype, Fill, COLUMNS};
@@ -22,6 +22,8 @@ pub struct FileRecords {
     pub verify_fraction: f64,
     /// The `shard` root attribute (`K/N`).
     pub shard: String,
+    /// The `layout_version` root attribute (1 in files without it).
+    pub layout_version: i64,
     file: File,
     /// Every column of [`COLUMNS`] the file has, in the table's order.
     columns: Vec<Option<ColumnData>>,
@@ -54,6 +56,18 @@ impl FileRecords {
 
     fn read(path: &Path) -> Result<FileRecords> {
         let file = File::open(path)?;
+        let has_attr =
+            |name: &str| -> Result<bool> { Ok(file.attr_names()?.iter().any(|a| a == name)) };
+        let layout_version = if has_attr("layout_version")? {
+            file.attr("layout_version")?.read_scalar::<i64>()?
+        } else {
+            1
+        };
+        if layout_version > LAYOUT_VERSION {
+            return Err(Error::Other(format!(
+                "the file has layout version {layout_version}, this chainsweep reads versions up to {LAYOUT_VERSION}: it was made by a newer chainsweep"
+            )));
+        }
         let sweep_text = read_attr_str(&file, "sweep")?;
         let shard = read_attr_str(&file, "shard")?;
         let mut columns = Vec::with_capacity(COLUMNS.len());
@@ -68,7 +82,7 @@ impl FileRecords {
             Some(ColumnData::U8(s)) => s.clone(),
             _ => unreachable!("status is a required u8 column"),
         };
-        let verify_fraction = if file.attr_names()?.iter().any(|a| a == "verify_fraction") {
+        let verify_fraction = if has_attr("verify_fraction")? {
             file.attr("verify_fraction")?.read_scalar::<f64>()?
         } else {
             0.0
@@ -77,6 +91,7 @@ impl FileRecords {
             sweep_text,
             verify_fraction,
             shard,
+            layout_version,
             file,
             n: status.len(),
             status,
@@ -176,9 +191,8 @@ impl FileRecords {
 
     /// Histories and minimum overlaps of point `i` from its group under `runs/`.
     fn read_run_group(&self, i: usize, grid: &Grid, rec: &mut RunRecord) -> Result<()> {
-        let g = self
-            .file
-            .group(&format!("runs/{}", run_group_name(grid.len(), i)))?;
+        let name = run_group_name_in(self.layout_version, grid.len(), i);
+        let g = self.file.group(&format!("runs/{name}"))?;
         if grid.history {
             let time_s = g.dataset("time_s")?.read_raw::<f64>()?;
             let mut values = Vec::with_capacity(grid.probes.len());

@@ -10,14 +10,15 @@ use hdf5::{Dataset, File, Group};
 use serde_json::Value;
 
 use super::{
-    attach_scale, attr_scalar, attr_str, attr_vec, dataset, run_group_name, set_scale, str_dataset,
-    Counts, Provenance, DEFLATE_LEVEL, HISTORY_CHUNK,
+    attach_scale, attr_scalar, attr_str, attr_vec, dataset, filled_dataset, run_group_name,
+    set_scale, str_dataset, Counts, Provenance, DEFLATE_LEVEL, HISTORY_CHUNK, LAYOUT_VERSION,
+    NETCDF_DIM_ONLY,
 };
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid, Shard};
 use crate::identity::{hex, TIGHTENING};
-use crate::record::columns::{Column, ColumnData, PointOutcome, Units, COLUMNS};
-use crate::record::{RunRecord, VerifyInfo, INT_FILL, VERIFY_OK};
+use crate::record::columns::{Column, ColumnData, FillValue, PointOutcome, Units, COLUMNS};
+use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
@@ -52,11 +53,11 @@ pub fn write_file(
         if let Some(c) = &sweep.auto_choice {
             write_auto_attrs(&file, c)?;
         }
-        let scales = write_coordinates(&file, sweep)?;
+        let dims = write_coordinates(&file, sweep)?;
         let probe_scale = write_probe_scale(&file, grid)?;
-        write_columns(&file, grid, &table.columns, &scales, probe_scale.as_ref())?;
+        write_columns(&file, grid, &table.columns, &dims, probe_scale.as_ref())?;
         file.flush()?;
-        drop(scales);
+        drop(dims);
         drop(probe_scale);
         drop(runs);
         file.close()?;
@@ -82,6 +83,7 @@ fn write_sweep_attrs(
     )?;
     attr_str(file, "engine", "chainsweep")?;
     attr_str(file, "engine_version", crate::ENGINE_VERSION)?;
+    attr_scalar(file, "layout_version", LAYOUT_VERSION)?;
     attr_str(file, "solver_version", crate::SOLVER_VERSION)?;
     attr_scalar(file, "numerics_version", crate::NUMERICS_VERSION as i64)?;
     attr_str(file, "git_revision", crate::GIT_REVISION)?;
@@ -250,28 +252,66 @@ fn coord_of(values: &[Value]) -> Coord {
     }
 }
 
-/// The coordinate of every axis, a dimension scale, grouped by dimension (with its name).
-fn write_coordinates(file: &File, sweep: &Sweep) -> Result<Vec<Vec<(Dataset, String)>>> {
-    let mut scales: Vec<Vec<(Dataset, String)>> = Vec::new();
+/// A grid dimension as written: its one dimension scale and the names of the coordinates on it
+/// that are not that scale (the other axes of a zipped group).
+struct DimScale {
+    scale: Dataset,
+    name: String,
+    others: Vec<String>,
+}
+
+fn write_axis(file: &File, name: &str, values: &[Value]) -> Result<Dataset> {
+    let shape = [values.len()];
+    match coord_of(values) {
+        Coord::F64(v) => dataset(file, name, &shape, &v),
+        Coord::I64(v) => dataset(file, name, &shape, &v),
+        Coord::Bool(v) => dataset(file, name, &shape, &v),
+        Coord::Str(v) => str_dataset(file, name, &shape, &v),
+    }
+}
+
+/// The coordinate of every axis, and the one dimension scale of every dimension: the axis named
+/// like the dimension, else (a zipped group with a name of its own) a netCDF dimension without a
+/// variable. The zipped group's other axes get the scale attached, which makes them coordinates
+/// on the dimension.
+fn write_coordinates(file: &File, sweep: &Sweep) -> Result<Vec<DimScale>> {
+    let mut dims = Vec::new();
     for dim in &sweep.dims {
-        let mut here = Vec::new();
+        let mut axes = Vec::new();
         for axis in &dim.axes {
-            let shape = [axis.values.len()];
-            let d = match coord_of(&axis.values) {
-                Coord::F64(v) => dataset(file, &axis.name, &shape, &v)?,
-                Coord::I64(v) => dataset(file, &axis.name, &shape, &v)?,
-                Coord::Bool(v) => dataset(file, &axis.name, &shape, &v)?,
-                Coord::Str(v) => str_dataset(file, &axis.name, &shape, &v)?,
-            };
+            let d = write_axis(file, &axis.name, &axis.values)?;
             attr_str(&d, "units", &axis.units)?;
             attr_str(&d, "field", &axis.field)?;
             attr_str(&d, "dimension", &dim.name)?;
-            set_scale(&d, &axis.name)?;
-            here.push((d, dim.name.clone()));
+            axes.push((d, axis.name.as_str()));
         }
-        scales.push(here);
+        let scale = match axes.iter().position(|(_, name)| *name == dim.name) {
+            Some(k) => {
+                let (d, _) = axes.remove(k);
+                set_scale(&d, &dim.name)?;
+                d
+            }
+            None => {
+                // What netCDF-4 writes for a dimension without a variable: an unwritten float
+                // dataset of the dimension's length, named like the dimension.
+                let d = file
+                    .new_dataset::<f32>()
+                    .shape(dim.len())
+                    .create(&*dim.name)?;
+                set_scale(&d, &format!("{NETCDF_DIM_ONLY}{:>10}", dim.len()))?;
+                d
+            }
+        };
+        for (d, _) in &axes {
+            attach_scale(d, &scale, 0, &dim.name)?;
+        }
+        dims.push(DimScale {
+            scale,
+            name: dim.name.clone(),
+            others: axes.iter().map(|(_, name)| name.to_string()).collect(),
+        });
     }
-    Ok(scales)
+    Ok(dims)
 }
 
 /// The `probe` coordinate (a dimension scale) and `probe_units`, when there are probes; with
@@ -298,15 +338,20 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<(Dataset, Vec<St
 }
 
 /// Every column of [`COLUMNS`] as a dataset with its attributes and dimension scales (the
-/// per-probe ones only when there are probes).
+/// per-probe ones only when there are probes), and the coordinates that are no dimension scale in
+/// its `coordinates` attribute.
 fn write_columns(
     file: &File,
     grid: &Grid,
     columns: &[ColumnData],
-    scales: &[Vec<(Dataset, String)>],
+    dims: &[DimScale],
     probe_scale: Option<&(Dataset, Vec<String>)>,
 ) -> Result<()> {
     let shape = grid.shape.clone();
+    let others: Vec<&str> = dims
+        .iter()
+        .flat_map(|d| d.others.iter().map(String::as_str))
+        .collect();
     for (c, data) in COLUMNS.iter().zip(columns) {
         let d = if c.per_probe {
             let Some((pscale, units)) = probe_scale else {
@@ -315,12 +360,18 @@ fn write_columns(
             let mut pshape = shape.clone();
             pshape.push(units.len());
             let d = write_column(file, c, &pshape, data, units)?;
-            attach_grid(&d, scales)?;
+            attach_grid(&d, dims)?;
             attach_scale(&d, pscale, shape.len(), "probe")?;
+            let mut coords = others.clone();
+            coords.push("probe_units");
+            attr_str(&d, "coordinates", &coords.join(" "))?;
             d
         } else {
             let d = write_column(file, c, &shape, data, &[])?;
-            attach_grid(&d, scales)?;
+            attach_grid(&d, dims)?;
+            if !others.is_empty() {
+                attr_str(&d, "coordinates", &others.join(" "))?;
+            }
             d
         };
         drop(d);
@@ -337,11 +388,17 @@ fn write_column(
     data: &ColumnData,
     probe_units: &[String],
 ) -> Result<Dataset> {
-    let d = match data {
-        ColumnData::F64(v) => dataset(file, c.name, shape, v)?,
-        ColumnData::I64(v) => dataset(file, c.name, shape, v)?,
-        ColumnData::U8(v) => dataset(file, c.name, shape, v)?,
-        ColumnData::Str(v) => str_dataset(file, c.name, shape, v)?,
+    let d = match (data, c.fill_value()) {
+        (ColumnData::F64(v), Some(FillValue::F64(fill))) => {
+            filled_dataset(file, c.name, shape, v, fill)?
+        }
+        (ColumnData::I64(v), Some(FillValue::I64(fill))) => {
+            filled_dataset(file, c.name, shape, v, fill)?
+        }
+        (ColumnData::F64(v), _) => dataset(file, c.name, shape, v)?,
+        (ColumnData::I64(v), _) => dataset(file, c.name, shape, v)?,
+        (ColumnData::U8(v), _) => dataset(file, c.name, shape, v)?,
+        (ColumnData::Str(v), _) => str_dataset(file, c.name, shape, v)?,
     };
     if let Some((values, meanings)) = c.flags {
         attr_vec(&d, "flag_values", values)?;
@@ -363,18 +420,13 @@ fn write_column(
     if c.long_name {
         attr_str(&d, "long_name", c.description)?;
     }
-    if c.has_fill_value() {
-        attr_scalar(&d, "fill_value", INT_FILL)?;
-    }
     Ok(d)
 }
 
-/// Attaches every axis's scale to its dimension of `d`.
-fn attach_grid(d: &Dataset, scales: &[Vec<(Dataset, String)>]) -> Result<()> {
-    for (k, here) in scales.iter().enumerate() {
-        for (s, label) in here {
-            attach_scale(d, s, k, label)?;
-        }
+/// Attaches every dimension's scale to its dimension of `d`.
+fn attach_grid(d: &Dataset, dims: &[DimScale]) -> Result<()> {
+    for (k, dim) in dims.iter().enumerate() {
+        attach_scale(d, &dim.scale, k, &dim.name)?;
     }
     Ok(())
 }
@@ -402,7 +454,7 @@ fn write_run_group(
     index: usize,
     rec: &RunRecord,
 ) -> Result<()> {
-    let g = runs.create_group(&run_group_name(grid.len(), index))?;
+    let g = runs.create_group(&run_group_name(index))?;
     attr_str(&g, "run_hash", &hex(&rec.hash))?;
     let mi: Vec<i64> = multi_index(&grid.shape, index)
         .iter()
@@ -438,7 +490,16 @@ fn write_run_group(
         }
     }
     if let Some(m) = &rec.min_overlap_m {
+        let contacts: Vec<i64> = (1..=m.len() as i64).collect();
+        let c = dataset(&g, "contact", &[m.len()], &contacts)?;
+        attr_str(
+            &c,
+            "long_name",
+            "contact j, between particles j and j+1 (the last one: the wall)",
+        )?;
+        set_scale(&c, "contact")?;
         let d = dataset(&g, "min_overlap_m", &[m.len()], m)?;
+        attach_scale(&d, &c, 0, "contact")?;
         attr_str(&d, "units", "m")?;
         attr_str(
             &d,
