@@ -45,6 +45,8 @@ EXPECTED = {
     "taper_axis_vanishing_particle": "chain.taper.ratio",
     "taper_vanishing_particle": "chain.taper.ratio",
     "truncated_json": "field",
+    "typographic_quotes": "typographic quote",
+    "unit_after_number": "duration_s",
     "unknown_chain_preset": "base.chain.preset",
     "unknown_integrator_method": "integrator.method",
     "unknown_physics_field": "dampng_kg_s",
@@ -105,3 +107,22 @@ def test_malformed_is_refused(binary, tmp_path, path):
     # --dry-run refuses it as well.
     r = run("run", path, "--dry-run")
     assert r.returncode == 2
+
+
+def test_byte_order_mark_is_accepted(binary, tmp_path):
+    """A UTF-8 byte-order mark (as Windows editors write) is not an error: the file validates."""
+    sweep = tmp_path / "bom.json"
+    sweep.write_bytes(b"\xef\xbb\xbf" + (CORPUS.parent.parent / "sweeps" / "fig08.json").read_bytes())
+    r = run("validate", sweep)
+    assert r.returncode == 0, r.stderr
+
+
+def test_truncated_file_says_so(binary, tmp_path):
+    """A file that ends inside its JSON is called truncated, naming no unrelated field and adding
+    nothing about finite numbers."""
+    sweep = tmp_path / "cut.json"
+    sweep.write_text('{"base": {"duration_s": 1e-3')
+    r = run("validate", sweep)
+    assert r.returncode == 2
+    assert "truncated" in r.stderr, r.stderr
+    assert "finite" not in r.stderr and "field `" not in r.stderr, r.stderr

@@ -496,16 +496,8 @@ fn parse_axis(a: AxisFile, origin: &str, base: &Value, auto: bool) -> Result<Axi
 
 /// The key of the innermost `"key": value` pair that starts before line `line`, column `column`
 /// (1-based): names the field where a syntax error sits.
-fn field_near(text: &str, line: usize, column: usize) -> Option<String> {
-    let mut offset = 0;
-    for (i, l) in text.split_inclusive('\n').enumerate() {
-        if i + 1 == line {
-            offset += column.min(l.len());
-            break;
-        }
-        offset += l.len();
-    }
-    let mut prefix = &text[..offset.min(text.len())];
+fn field_near(text: &str, offset: usize) -> Option<String> {
+    let mut prefix = &text[..offset];
     while let Some(colon) = prefix.rfind(':') {
         let before = prefix[..colon].trim_end();
         if let Some(body) = before.strip_suffix('"') {
@@ -514,6 +506,65 @@ fn field_near(text: &str, line: usize, column: usize) -> Option<String> {
             }
         }
         prefix = &prefix[..colon];
+    }
+    None
+}
+
+/// The byte offset in `text` of serde_json's (1-based line, byte column) position, moved back to
+/// the start of the character it falls in: a column may point inside a multi-byte character
+/// (typographic quotes, `µ`), and slicing there would panic.
+fn error_offset(text: &str, line: usize, column: usize) -> usize {
+    let mut offset = 0;
+    for (i, l) in text.split_inclusive('\n').enumerate() {
+        if i + 1 == line {
+            offset += column.min(l.len());
+            break;
+        }
+        offset += l.len();
+    }
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    offset
+}
+
+/// What to add to serde_json's message so that the user sees the cause.
+fn syntax_hint(text: &str, offset: usize, error: &serde_json::Error) -> Option<String> {
+    if error.classify() == serde_json::error::Category::Eof {
+        return Some("the file ends before its JSON is complete: is it truncated?".into());
+    }
+    // The offending token starts at or shortly before the reported position.
+    let start = text[..offset]
+        .char_indices()
+        .rev()
+        .take(12)
+        .last()
+        .map_or(offset, |(i, _)| i);
+    let mut end = (offset + 16).min(text.len());
+    while !text.is_char_boundary(end) {
+        end -= 1;
+    }
+    let near = &text[start..end];
+    let out_of_range = error.to_string().starts_with("number out of range");
+    if out_of_range
+        || ["NaN", "Infinity", "inf", "nan"]
+            .iter()
+            .any(|w| near.contains(w))
+    {
+        return Some("numbers must be finite: NaN and infinities are not JSON".into());
+    }
+    let bad = text[offset..].chars().next()?;
+    if matches!(bad, '\u{201c}' | '\u{201d}' | '\u{2018}' | '\u{2019}') {
+        return Some(format!(
+            "`{bad}` is a typographic quote: JSON strings take plain double quotes (\")"
+        ));
+    }
+    if !bad.is_ascii() {
+        return Some(format!(
+            "`{bad}` (U+{:04X}) cannot stand there: outside strings JSON is plain ASCII (units belong in field names, not after numbers)",
+            bad as u32
+        ));
     }
     None
 }
@@ -529,14 +580,19 @@ fn valid_name(name: &str) -> bool {
 
 /// The sweep file's JSON, refusing unknown fields; a syntax error names the field near it.
 fn read_json(text: &str) -> Result<SweepFile> {
+    // Editors on Windows may start a UTF-8 file with a byte-order mark, which JSON does not allow.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let raw: Value = serde_json::from_str(text).map_err(|e| {
-        let field = field_near(text, e.line(), e.column()).unwrap_or_default();
-        Error::input(
-            field,
-            format!(
-                "not valid JSON: {e} (numbers must be finite: NaN and infinities are not JSON)"
-            ),
-        )
+        let offset = error_offset(text, e.line(), e.column());
+        let field = match e.classify() {
+            serde_json::error::Category::Eof => String::new(),
+            _ => field_near(text, offset).unwrap_or_default(),
+        };
+        let message = match syntax_hint(text, offset, &e) {
+            Some(hint) => format!("not valid JSON: {e} ({hint})"),
+            None => format!("not valid JSON: {e}"),
+        };
+        Error::input(field, message)
     })?;
     from_value_at(raw, "")
 }
