@@ -50,6 +50,24 @@ def base_sweep(cylinders=10, duration_s=2e-4, history=False, probes=(2, 8)):
     }
 
 
+
+def interruptible_sweep():
+    """A 10 × 10 sweep with histories whose runs take long enough in all for signals and kills to
+    land mid-sweep (and mid-write, with frequent checkpoints)."""
+    s = base_sweep(cylinders=20, duration_s=1e-3, history=True, probes=(2, 10, 18))
+    s["axes"] = [
+        {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.1, "stop": 1.0, "num": 10}},
+        {"field": "physics.damping_kg_s", "values": [0, 2, 4, 6, 8, 10, 15, 20, 50, 100]},
+    ]
+    return s
+
+
+def segment_count(out):
+    """How many run segments the work directory of output `out` holds."""
+    d = out.parent / (out.name + ".d") / "segments"
+    return len(list(d.glob("*.seg"))) if d.exists() else 0
+
+
 def with_axes(sweep, axes):
     s = copy.deepcopy(sweep)
     s["axes"] = axes

@@ -13,21 +13,17 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import BIN, assert_files_equal, base_sweep, read_all, run, write_sweep
+from conftest import (
+    BIN,
+    assert_files_equal,
+    base_sweep,
+    interruptible_sweep,
+    read_all,
+    run,
+    segment_count,
+    write_sweep,
+)
 
-
-def kill_sweep():
-    s = base_sweep(cylinders=20, duration_s=1e-3, history=True, probes=(2, 10, 18))
-    s["axes"] = [
-        {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.1, "stop": 1.0, "num": 10}},
-        {"field": "physics.damping_kg_s", "values": [0, 2, 4, 6, 8, 10, 15, 20, 50, 100]},
-    ]
-    return s
-
-
-def segments(out):
-    d = out.parent / (out.name + ".d") / "segments"
-    return len(list(d.glob("*.seg"))) if d.exists() else 0
 
 
 def start(path, out, *extra):
@@ -63,7 +59,7 @@ def last_reported_done(stderr):
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory, binary):
     d = tmp_path_factory.mktemp("ref")
-    path = write_sweep(d / "kill.json", kill_sweep())
+    path = write_sweep(d / "kill.json", interruptible_sweep())
     out = d / "ref.h5"
     r = run("run", path, "-o", out, "--jobs", "2", "--quiet")
     assert r.returncode == 0, r.stderr
@@ -71,24 +67,24 @@ def reference(tmp_path_factory, binary):
 
 
 def test_kill_and_resume_is_bitwise_identical(reference, tmp_path):
-    path = write_sweep(tmp_path / "kill.json", kill_sweep())
+    path = write_sweep(tmp_path / "kill.json", interruptible_sweep())
     out = tmp_path / "out.h5"
     kills = []
     # Kill right at start, then after increasing numbers of finished runs.
     for target in (0, 1, 10, 35, 70, 95):
-        before = segments(out)
+        before = segment_count(out)
         p = start(path, out)
         if target == 0:
             time.sleep(0.005)
         else:
             # At least one run finishes in this process, even if the previous kill came late.
             goal = max(target, before + 1)
-            while segments(out) < goal and p.poll() is None:
+            while segment_count(out) < goal and p.poll() is None:
                 time.sleep(0.001)
         p.send_signal(signal.SIGKILL)
         _, err = p.communicate()
         assert p.returncode in (-signal.SIGKILL, 0, 3), err
-        after = segments(out)
+        after = segment_count(out)
         # Nothing finished is lost: every run reported done has its segment.
         assert after >= last_reported_done(err)
         assert after >= before
@@ -114,7 +110,7 @@ def test_kill_and_resume_is_bitwise_identical(reference, tmp_path):
     # Resume to the end with the same command.
     r = run("run", path, "-o", out, "--jobs", "2", "--checkpoint-interval", "0.01")
     assert r.returncode == 0, r.stderr
-    assert segments(out) == 100
+    assert segment_count(out) == 100
     assert_files_equal(reference, out)
     tmp = tmp_path / "out.h5.d" / "tmp"
     assert list(tmp.iterdir()) == []
@@ -122,11 +118,11 @@ def test_kill_and_resume_is_bitwise_identical(reference, tmp_path):
 
 
 def test_second_process_is_refused(tmp_path, binary):
-    path = write_sweep(tmp_path / "kill.json", kill_sweep())
+    path = write_sweep(tmp_path / "kill.json", interruptible_sweep())
     out = tmp_path / "out.h5"
     p = start(path, out)
     try:
-        while segments(out) < 1 and p.poll() is None:
+        while segment_count(out) < 1 and p.poll() is None:
             time.sleep(0.001)
         assert p.poll() is None, "first process finished too early"
         r = run("run", path, "-o", out, "--jobs", "1")

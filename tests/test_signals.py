@@ -18,21 +18,17 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import BIN, assert_files_equal, base_sweep, read_all, run, write_sweep
+from conftest import (
+    BIN,
+    assert_files_equal,
+    base_sweep,
+    interruptible_sweep,
+    read_all,
+    run,
+    segment_count,
+    write_sweep,
+)
 
-
-def stop_sweep():
-    s = base_sweep(cylinders=20, duration_s=1e-3, history=True, probes=(2, 10, 18))
-    s["axes"] = [
-        {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.1, "stop": 1.0, "num": 10}},
-        {"field": "physics.damping_kg_s", "values": [0, 2, 4, 6, 8, 10, 15, 20, 50, 100]},
-    ]
-    return s
-
-
-def segments(out):
-    d = out.parent / (out.name + ".d") / "segments"
-    return len(list(d.glob("*.seg"))) if d.exists() else 0
 
 
 def start(path, out, *extra, **popen):
@@ -45,7 +41,7 @@ def start(path, out, *extra, **popen):
 
 def wait_for_segments(out, n, proc, timeout=60):
     deadline = time.time() + timeout
-    while segments(out) < n:
+    while segment_count(out) < n:
         assert proc.poll() is None, "the sweep ended before it could be interrupted"
         assert time.time() < deadline, "the sweep made no progress"
         time.sleep(0.005)
@@ -54,7 +50,7 @@ def wait_for_segments(out, n, proc, timeout=60):
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory, binary):
     d = tmp_path_factory.mktemp("ref")
-    path = write_sweep(d / "stop.json", stop_sweep())
+    path = write_sweep(d / "stop.json", interruptible_sweep())
     out = d / "ref.h5"
     r = run("run", path, "-o", out, "--jobs", "2", "--quiet")
     assert r.returncode == 0, r.stderr
@@ -63,7 +59,7 @@ def reference(tmp_path_factory, binary):
 
 @pytest.mark.parametrize("sig,code,name", [(signal.SIGTERM, 143, "SIGTERM"), (signal.SIGINT, 130, "SIGINT")])
 def test_a_signal_stops_the_sweep_with_its_output_written_and_it_resumes(reference, tmp_path, sig, code, name):
-    path = write_sweep(tmp_path / "stop.json", stop_sweep())
+    path = write_sweep(tmp_path / "stop.json", interruptible_sweep())
     out = tmp_path / "out.h5"
     # No checkpoint before the end: only the stop writes the finished runs.
     p = start(path, out, "--checkpoint-interval", "0")
@@ -72,7 +68,7 @@ def test_a_signal_stops_the_sweep_with_its_output_written_and_it_resumes(referen
     _, err = p.communicate(timeout=60)
     assert p.returncode == code, err
     assert f"stopped by {name}" in err and "run the same command to resume" in err, err
-    stored = segments(out)
+    stored = segment_count(out)
     with h5py.File(out, "r") as f:
         status = f["status"][...]
         finished = int((status == 1).sum())
@@ -92,7 +88,7 @@ def test_a_signal_stops_the_sweep_with_its_output_written_and_it_resumes(referen
 
 
 def test_a_run_killed_before_its_first_checkpoint_leaves_a_readable_file(tmp_path):
-    path = write_sweep(tmp_path / "stop.json", stop_sweep())
+    path = write_sweep(tmp_path / "stop.json", interruptible_sweep())
     out = tmp_path / "out.h5"
     p = start(path, out)  # default checkpoint interval: 300 s
     wait_for_segments(out, 1, p)
@@ -108,7 +104,7 @@ def test_a_run_killed_before_its_first_checkpoint_leaves_a_readable_file(tmp_pat
 
 def test_a_closed_pipe_does_not_end_the_sweep(tmp_path):
     """`chainsweep run … 2>&1 | head -n 2`: progress lines go on failing, the sweep goes on."""
-    path = write_sweep(tmp_path / "stop.json", stop_sweep())
+    path = write_sweep(tmp_path / "stop.json", interruptible_sweep())
     out = tmp_path / "out.h5"
     p = start(path, out, "--progress-interval", "0.001", stderr=subprocess.STDOUT)
     lines = [p.stdout.readline() for _ in range(2)]
