@@ -15,6 +15,8 @@ EXPECTED = {
     "axis_unknown_field": "physics.dampingg",
     "axis_values_and_range": "axes[1]",
     "duplicate_axis_field": "axes[2].field",
+    "duplicate_description_key": "duplicate key `description`",
+    "duplicate_key": "duplicate key `gravity`",
     "empty_axes": "axes",
     "empty_values": "axes[0].values",
     "flat_flat_without_law": "chain.contacts",

@@ -578,11 +578,81 @@ fn valid_name(name: &str) -> bool {
         && !name.starts_with(|c: char| c.is_ascii_digit())
 }
 
+/// JSON text as a [`Value`], refusing an object that repeats a key: serde_json keeps the last
+/// one silently, so `"gravity": true, "gravity": false` would run without gravity unnoticed.
+fn parse_without_duplicate_keys(text: &str) -> serde_json::Result<Value> {
+    use serde::de::{DeserializeSeed, Deserializer, Error as _, MapAccess, SeqAccess, Visitor};
+
+    struct Strict;
+
+    impl<'de> DeserializeSeed<'de> for Strict {
+        type Value = Value;
+        fn deserialize<D: Deserializer<'de>>(self, d: D) -> std::result::Result<Value, D::Error> {
+            d.deserialize_any(self)
+        }
+    }
+
+    impl<'de> Visitor<'de> for Strict {
+        type Value = Value;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a JSON value")
+        }
+        fn visit_bool<E>(self, b: bool) -> std::result::Result<Value, E> {
+            Ok(Value::Bool(b))
+        }
+        fn visit_i64<E>(self, n: i64) -> std::result::Result<Value, E> {
+            Ok(Value::from(n))
+        }
+        fn visit_u64<E>(self, n: u64) -> std::result::Result<Value, E> {
+            Ok(Value::from(n))
+        }
+        fn visit_f64<E: serde::de::Error>(self, x: f64) -> std::result::Result<Value, E> {
+            serde_json::Number::from_f64(x)
+                .map(Value::Number)
+                .ok_or_else(|| E::custom("numbers must be finite"))
+        }
+        fn visit_str<E>(self, s: &str) -> std::result::Result<Value, E> {
+            Ok(Value::String(s.to_owned()))
+        }
+        fn visit_string<E>(self, s: String) -> std::result::Result<Value, E> {
+            Ok(Value::String(s))
+        }
+        fn visit_unit<E>(self) -> std::result::Result<Value, E> {
+            Ok(Value::Null)
+        }
+        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<Value, A::Error> {
+            let mut items = Vec::new();
+            while let Some(v) = seq.next_element_seed(Strict)? {
+                items.push(v);
+            }
+            Ok(Value::Array(items))
+        }
+        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> std::result::Result<Value, A::Error> {
+            let mut object = Map::new();
+            while let Some(key) = map.next_key::<String>()? {
+                if object.contains_key(&key) {
+                    return Err(A::Error::custom(format!(
+                        "duplicate key `{key}` (each key may appear once in an object)"
+                    )));
+                }
+                let value = map.next_value_seed(Strict)?;
+                object.insert(key, value);
+            }
+            Ok(Value::Object(object))
+        }
+    }
+
+    let mut de = serde_json::Deserializer::from_str(text);
+    let value = Strict.deserialize(&mut de)?;
+    de.end()?;
+    Ok(value)
+}
+
 /// The sweep file's JSON, refusing unknown fields; a syntax error names the field near it.
 fn read_json(text: &str) -> Result<SweepFile> {
     // Editors on Windows may start a UTF-8 file with a byte-order mark, which JSON does not allow.
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let raw: Value = serde_json::from_str(text).map_err(|e| {
+    let raw: Value = parse_without_duplicate_keys(text).map_err(|e| {
         let offset = error_offset(text, e.line(), e.column());
         let field = match e.classify() {
             serde_json::error::Category::Eof => String::new(),
