@@ -404,7 +404,6 @@ mod tests {
     #[test]
     fn general_jacobian_matches_central_differences_for_every_law_and_model() {
         use crate::contact::DissipationSpec;
-        use crate::general::{law, GeneralChainSystem, HERTZ_LAW, LINEAR_LAW, POWER_LAW};
         let models = [
             None,
             Some(DissipationSpec::LinearViscous { damping_kg_s: 7.0 }),
@@ -430,44 +429,9 @@ mod tests {
                         // keeps the central differences on one smooth piece and costs nothing
                         // in truncation.
                         let (dx, dv) = (1e-4 * min_gap, 1e-6);
-                        let e = match (law(&chain), chain.has_damping()) {
-                            (HERTZ_LAW, false) => check_system(
-                                &mut GeneralChainSystem::<HERTZ_LAW, false>::new(&chain),
-                                &y,
-                                dx,
-                                dv,
-                            ),
-                            (HERTZ_LAW, true) => check_system(
-                                &mut GeneralChainSystem::<HERTZ_LAW, true>::new(&chain),
-                                &y,
-                                dx,
-                                dv,
-                            ),
-                            (LINEAR_LAW, false) => check_system(
-                                &mut GeneralChainSystem::<LINEAR_LAW, false>::new(&chain),
-                                &y,
-                                dx,
-                                dv,
-                            ),
-                            (LINEAR_LAW, true) => check_system(
-                                &mut GeneralChainSystem::<LINEAR_LAW, true>::new(&chain),
-                                &y,
-                                dx,
-                                dv,
-                            ),
-                            (POWER_LAW, false) => check_system(
-                                &mut GeneralChainSystem::<POWER_LAW, false>::new(&chain),
-                                &y,
-                                dx,
-                                dv,
-                            ),
-                            _ => check_system(
-                                &mut GeneralChainSystem::<POWER_LAW, true>::new(&chain),
-                                &y,
-                                dx,
-                                dv,
-                            ),
-                        };
+                        let e = crate::dispatch_general_system!(&chain, |sys| check_system(
+                            &mut sys, &y, dx, dv
+                        ));
                         assert!(
                             e < 1e-6,
                             "laws {laws:?} model {model:?} clip {clip} wall {wall} trial {trial}: relative error {e:e}"

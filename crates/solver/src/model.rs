@@ -280,13 +280,6 @@ mod chain_spec_serde {
     use serde::de::{self, Deserializer, MapAccess, Visitor};
     use std::collections::BTreeMap;
 
-    const DIMER_FIELDS: &[&str] = &[
-        "cylinders",
-        "sphere",
-        "cylinder",
-        "striker",
-        "wall_material",
-    ];
     const SEQUENCE_FIELDS: &[&str] = &[
         "particles",
         "sequence",
@@ -429,7 +422,6 @@ mod chain_spec_serde {
                             Some(Striker::Sphere(s)) => s,
                             _ => return Err(de::Error::missing_field("striker")),
                         };
-                        let _ = DIMER_FIELDS;
                         Ok(ChainSpec::Dimer(DimerSpec {
                             cylinders: f
                                 .cylinders

@@ -425,33 +425,44 @@ macro_rules! dispatch_chain_system {
         if chain.is_paper_physics() {
             $crate::dispatch_paper_system!(chain, |$sys| $body)
         } else {
-            use $crate::general::GeneralChainSystem as General;
-            use $crate::general::{HERTZ_LAW, LINEAR_LAW, POWER_LAW};
-            match ($crate::general::law(chain), chain.has_damping()) {
-                (HERTZ_LAW, false) => {
-                    let mut $sys = General::<HERTZ_LAW, false>::new(chain);
-                    $body
-                }
-                (HERTZ_LAW, true) => {
-                    let mut $sys = General::<HERTZ_LAW, true>::new(chain);
-                    $body
-                }
-                (LINEAR_LAW, false) => {
-                    let mut $sys = General::<LINEAR_LAW, false>::new(chain);
-                    $body
-                }
-                (LINEAR_LAW, true) => {
-                    let mut $sys = General::<LINEAR_LAW, true>::new(chain);
-                    $body
-                }
-                (_, false) => {
-                    let mut $sys = General::<POWER_LAW, false>::new(chain);
-                    $body
-                }
-                (_, true) => {
-                    let mut $sys = General::<POWER_LAW, true>::new(chain);
-                    $body
-                }
+            $crate::dispatch_general_system!(chain, |$sys| $body)
+        }
+    }};
+}
+
+/// The general half of [`dispatch_chain_system`]: a [`crate::general::GeneralChainSystem`] whose
+/// law and damping parameters match `$chain` (whether or not it is the paper's physics).
+#[doc(hidden)]
+#[macro_export]
+macro_rules! dispatch_general_system {
+    ($chain:expr, |$sys:ident| $body:expr) => {{
+        let chain: &$crate::model::Chain = $chain;
+        use $crate::general::GeneralChainSystem as General;
+        use $crate::general::{HERTZ_LAW, LINEAR_LAW, POWER_LAW};
+        match ($crate::general::law(chain), chain.has_damping()) {
+            (HERTZ_LAW, false) => {
+                let mut $sys = General::<HERTZ_LAW, false>::new(chain);
+                $body
+            }
+            (HERTZ_LAW, true) => {
+                let mut $sys = General::<HERTZ_LAW, true>::new(chain);
+                $body
+            }
+            (LINEAR_LAW, false) => {
+                let mut $sys = General::<LINEAR_LAW, false>::new(chain);
+                $body
+            }
+            (LINEAR_LAW, true) => {
+                let mut $sys = General::<LINEAR_LAW, true>::new(chain);
+                $body
+            }
+            (_, false) => {
+                let mut $sys = General::<POWER_LAW, false>::new(chain);
+                $body
+            }
+            (_, true) => {
+                let mut $sys = General::<POWER_LAW, true>::new(chain);
+                $body
             }
         }
     }};
