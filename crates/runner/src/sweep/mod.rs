@@ -33,6 +33,77 @@ use auto::{AutoChoice, AutoSpec};
 /// Largest number of grid points a sweep may have.
 pub const MAX_GRID_POINTS: usize = 10_000_000;
 
+/// Largest sweep file read, bytes (16 MiB): a grid of a million listed values fits several times
+/// over, and the text, its parsed tree and the grid stay far below a machine's memory.
+pub const MAX_SWEEP_FILE_BYTES: u64 = 16 * 1024 * 1024;
+
+/// The text of the sweep file at `path`, refusing before reading anything that is not a regular
+/// file (`/dev/zero`, a FIFO, a directory) or is larger than [`MAX_SWEEP_FILE_BYTES`]; the read
+/// itself is bounded too (a file that grows meanwhile cannot exhaust memory). The error says why.
+pub fn read_sweep_text(path: &str) -> std::result::Result<String, String> {
+    use std::io::Read;
+    use std::os::unix::fs::{FileTypeExt, OpenOptionsExt};
+
+    let kind = |t: std::fs::FileType| {
+        if t.is_dir() {
+            "a directory"
+        } else if t.is_fifo() {
+            "a FIFO (named pipe)"
+        } else if t.is_char_device() {
+            "a character device"
+        } else if t.is_block_device() {
+            "a block device"
+        } else if t.is_socket() {
+            "a socket"
+        } else {
+            "not a regular file"
+        }
+    };
+    let check = |meta: &std::fs::Metadata| {
+        if !meta.is_file() {
+            return Err(format!(
+                "the sweep file is {}: a sweep file must be a regular file",
+                kind(meta.file_type())
+            ));
+        }
+        if meta.len() > MAX_SWEEP_FILE_BYTES {
+            return Err(format!(
+                "the sweep file has {} bytes, more than the limit of {MAX_SWEEP_FILE_BYTES} bytes (16 MiB)",
+                meta.len()
+            ));
+        }
+        Ok(())
+    };
+    let cannot = |e: std::io::Error| format!("cannot read the sweep file: {e}");
+    // Checked before opening: opening a FIFO would wait for a writer.
+    check(&std::fs::metadata(path).map_err(cannot)?)?;
+    // Non-blocking, and checked again on what was opened, in case the path changed in between.
+    let file = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(O_NONBLOCK)
+        .open(path)
+        .map_err(cannot)?;
+    check(&file.metadata().map_err(cannot)?)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_SWEEP_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > MAX_SWEEP_FILE_BYTES {
+        return Err(format!(
+            "the sweep file grew beyond the limit of {MAX_SWEEP_FILE_BYTES} bytes (16 MiB) while it was read"
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        format!(
+            "the sweep file is not UTF-8 text (invalid byte at offset {})",
+            e.utf8_error().valid_up_to()
+        )
+    })
+}
+
+/// `O_NONBLOCK` of Linux (the only platform chainsweep builds for), without a libc dependency.
+const O_NONBLOCK: i32 = 0o4000;
+
 /// Default limit on the relative energy drift of a run.
 pub const DEFAULT_ENERGY_DRIFT_MAX: f64 = 1e-3;
 
@@ -917,12 +988,13 @@ impl Sweep {
         self.auto_choice = Some(choice);
     }
 
-    /// Reads and parses a sweep file.
+    /// Reads and parses a sweep file (through [`read_sweep_text`]: a regular file of at most
+    /// [`MAX_SWEEP_FILE_BYTES`]).
     pub fn load(path: &str) -> Result<Sweep> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Input {
+        let text = read_sweep_text(path).map_err(|message| Error::Input {
             file: Some(path.to_string()),
             field: String::new(),
-            message: format!("cannot read the sweep file: {e}"),
+            message,
         })?;
         Sweep::parse(&text).map_err(|e| e.in_file(path))
     }

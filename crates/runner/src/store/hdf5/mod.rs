@@ -291,6 +291,10 @@ pub fn read_auto_choice(path: &Path) -> Result<Option<AutoChoice>> {
 pub fn is_hdf5(path: &Path) -> bool {
     use std::io::Read;
     let mut magic = [0u8; 8];
+    // Only a regular file: opening a FIFO would wait for a writer.
+    if !path.is_file() {
+        return false;
+    }
     std::fs::File::open(path)
         .and_then(|mut f| f.read_exact(&mut magic))
         .map(|_| &magic == b"\x89HDF\r\n\x1a\n")

@@ -1,0 +1,98 @@
+"""Bounded inputs, bounded runs and prompt failures (issue 11 items 3-4, issue 14 items 7, 9, 11).
+
+Every test here failed before the change it covers: an unbounded read of `/dev/zero`, a run
+without end, a checkpoint failure reported only when the sweep ended, a read-only output
+replaced silently.
+"""
+
+import json
+import os
+import resource
+import subprocess
+import time
+
+import h5py
+import pytest
+
+from conftest import BIN, base_sweep, run, write_sweep
+
+# The limit on sweep files, as the error and the docs state it.
+MAX_SWEEP_FILE_BYTES = 16 * 1024 * 1024
+# Address space allowed to a command reading a bad sweep file: far below what an unbounded read
+# of /dev/zero would take, ample for the binary and its threads.
+MEMORY_LIMIT_BYTES = 1 << 30
+
+
+def run_bounded(*args, timeout=30):
+    """Runs the binary under an address-space limit; the CompletedProcess and its wall time."""
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT_BYTES, MEMORY_LIMIT_BYTES))
+
+    start = time.monotonic()
+    p = subprocess.run(
+        [str(BIN), *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        preexec_fn=limit,
+    )
+    return p, time.monotonic() - start
+
+
+def bad_sweep_files(tmp_path):
+    """Paths that are not sweep files, with the words their error must contain."""
+    fifo = tmp_path / "fifo.json"
+    os.mkfifo(fifo)
+    huge = tmp_path / "huge.json"
+    with open(huge, "wb") as f:
+        f.truncate(4 * MAX_SWEEP_FILE_BYTES)  # sparse: no disk used
+    just_over = tmp_path / "just_over.json"
+    with open(just_over, "wb") as f:
+        f.truncate(MAX_SWEEP_FILE_BYTES + 1)
+    directory = tmp_path / "dir.json"
+    directory.mkdir()
+    return [
+        ("/dev/zero", "character device"),
+        (fifo, "FIFO"),
+        (directory, "directory"),
+        (huge, f"limit of {MAX_SWEEP_FILE_BYTES} bytes"),
+        (just_over, f"limit of {MAX_SWEEP_FILE_BYTES} bytes"),
+    ]
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["validate", "{}"],
+        ["run", "{}", "--dry-run"],
+        ["run", "{}", "-o", "{out}"],
+        ["status", "{}"],
+        ["slurm", "{}", "-o", "{out}", "--shards", "2"],
+        ["point", "{}", "0"],
+        ["accuracy", "{}", "-o", "{out}"],
+    ],
+    ids=lambda c: "-".join(a for a in c if "{" not in a),
+)
+def test_sweep_file_not_regular_or_too_large_is_refused_quickly(binary, tmp_path, command):
+    out = tmp_path / "out.h5"
+    for path, words in bad_sweep_files(tmp_path):
+        if command[0] == "status" and os.path.isdir(path):
+            continue  # `status DIR` reads a folder of shard files: another meaning
+        cmd = [str(path) if a == "{}" else a.replace("{out}", str(out)) for a in command]
+        p, wall = run_bounded(*cmd)
+        assert p.returncode == 2, (cmd, p.returncode, p.stderr)
+        assert words in p.stderr, (cmd, p.stderr)
+        assert str(path) in p.stderr, p.stderr
+        assert wall < 10, (cmd, wall)
+    assert list(tmp_path.glob("out.h5*")) == []
+
+
+def test_sweep_file_at_the_limit_is_read(binary, tmp_path):
+    # A valid sweep padded with spaces to exactly the limit: read and validated.
+    text = json.dumps(base_sweep())
+    path = tmp_path / "padded.json"
+    path.write_text(text + " " * (MAX_SWEEP_FILE_BYTES - len(text)))
+    assert path.stat().st_size == MAX_SWEEP_FILE_BYTES
+    p, _ = run_bounded("validate", path)
+    assert p.returncode == 0, p.stderr
