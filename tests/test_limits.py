@@ -96,3 +96,51 @@ def test_sweep_file_at_the_limit_is_read(binary, tmp_path):
     assert path.stat().st_size == MAX_SWEEP_FILE_BYTES
     p, _ = run_bounded("validate", path)
     assert p.returncode == 0, p.stderr
+
+
+def runaway_sweep(max_run_seconds):
+    """Two points: a sound run, and the runaway scene of issue 11 (a 1000 m/s striker into a chain
+    damped at 1e9 kg/s, whose explicit steps are held near m/μ)."""
+    s = base_sweep()
+    s["axes"] = [
+        {
+            "zip": [
+                {"field": "striker_velocity_m_s", "values": [1.3, 1000]},
+                {"field": "physics.damping_kg_s", "values": [0, 1e9]},
+            ]
+        }
+    ]
+    if max_run_seconds is not None:
+        s["limits"] = {"max_run_seconds": max_run_seconds}
+    return s
+
+
+def test_runaway_run_ends_with_a_recorded_failure_within_its_limit(binary, tmp_path):
+    path = write_sweep(tmp_path / "runaway.json", runaway_sweep(2))
+    out = tmp_path / "runaway.h5"
+    start = time.monotonic()
+    r = run("run", path, "-o", out, "--quiet", "--jobs", "2", timeout=120)
+    wall = time.monotonic() - start
+    assert r.returncode == 3, r.stderr  # partial: one run failed, the sweep went on
+    assert wall < 2 + 8, wall
+    with h5py.File(out, "r") as f:
+        status = f["status"][...]
+        reasons = f["reason"].asstr()[...]
+        wall_times = f["wall_time_s"][...]
+    assert list(status) == [1, 2], (status, reasons)
+    assert reasons[1].startswith("wall-time limit 2 s reached at t = "), reasons[1]
+    assert "limits.max_run_seconds" in reasons[1]
+    assert 2 <= wall_times[1] < 4, wall_times
+    assert "wall-time limit 2 s" in r.stdout + r.stderr
+
+
+def test_wall_time_limit_is_not_part_of_the_run_identity(binary, tmp_path):
+    """Setting the limit (to its default or not) changes no run hash: a run that finished is the
+    same run whatever the limit, and sweeps run before the limit existed resume as they were."""
+    hashes = []
+    for limit in (None, 600, 30):
+        path = write_sweep(tmp_path / f"s{limit}.json", runaway_sweep(limit))
+        r = run("point", path, "0", "--scene-only")
+        assert r.returncode == 0, r.stderr
+        hashes.append(json.loads(r.stdout)["run_hash"])
+    assert hashes[0] == hashes[1] == hashes[2]

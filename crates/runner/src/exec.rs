@@ -10,7 +10,9 @@ use std::panic::{self, AssertUnwindSafe};
 use std::sync::Once;
 use std::time::Instant;
 
-use chainsweep_solver::{run, RunOutput, Scene};
+use std::time::Duration;
+
+use chainsweep_solver::{run, run_until, RunError, RunOutput, Scene};
 
 use crate::identity::RunHash;
 use crate::record::RunRecord;
@@ -110,16 +112,33 @@ pub fn run_guarded(scene: &Scene) -> (std::result::Result<RunOutput, String>, f6
 
 fn execute_inner(scene: &Scene, hash: RunHash, limits: &Limits, index: Option<usize>) -> RunRecord {
     let start = Instant::now();
+    let deadline = start + Duration::from_secs_f64(limits.max_run_seconds);
     let result = guarded(|| {
         if let Some(i) = index.filter(|&i| injected_panic(i)) {
             panic!("injected panic for grid point {i} ({INJECT_PANIC_ENV})");
         }
-        run(scene)
+        run_until(scene, Some(deadline))
     });
     let wall = start.elapsed().as_secs_f64();
-    match result.and_then(|r| r.map_err(|e| e.to_string())) {
+    match result.and_then(|r| r.map_err(|e| failure_reason(scene, limits, &e))) {
         Err(reason) => RunRecord::failed(hash, reason, wall),
         Ok(out) => record_of(scene, hash, limits, out, wall),
+    }
+}
+
+/// Why a run failed, in words: the solver's reason, or for a run stopped at its wall-time limit
+/// how far it got and what to do.
+fn failure_reason(scene: &Scene, limits: &Limits, e: &RunError) -> String {
+    match e {
+        RunError::Deadline {
+            t_s,
+            steps,
+            rejected,
+        } => format!(
+            "wall-time limit {} s reached at t = {t_s:.3e} s of {:.3e} s after {steps} steps ({rejected} rejected attempts) (limits.max_run_seconds; raise it and run again with --retry-failed to finish this run)",
+            limits.max_run_seconds, scene.duration_s
+        ),
+        other => other.to_string(),
     }
 }
 

@@ -46,5 +46,7 @@ pub use chainsweep_cpu as cpu;
 pub use integrate::AdaptiveOptions;
 pub use model::{Chain, ChainSpec, DimerSpec, PhysicsSpec};
 pub use probes::{Probe, RecordSpec};
-pub use scene::{run, Excitation, IntegratorSpec, RunOutput, Scene};
+pub use scene::{
+    run, run_until, Excitation, IntegratorSpec, RunError, RunOutput, Scene, DEADLINE_CHECK_STEPS,
+};
 pub use sequence::SequenceSpec;

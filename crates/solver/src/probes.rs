@@ -5,6 +5,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::contact::{general_force, ContactParams, Damping, POWER};
+use std::time::Instant;
+
 use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::model::{spec_err, Chain, SpecError};
 use crate::system::{contact_force, EnergyTerms, Ledger};
@@ -645,6 +647,10 @@ impl PeakTracker {
     }
 }
 
+/// A run with a deadline reads the clock once every this many accepted steps: a few
+/// nanoseconds per step at most, and a run ends within this many steps of its deadline.
+pub const DEADLINE_CHECK_STEPS: u32 = 64;
+
 /// Options of the run observer.
 #[derive(Debug, Clone)]
 pub(crate) struct ObserverOptions {
@@ -677,6 +683,12 @@ pub(crate) struct RunObserver {
     started: bool,
     /// Whether the observer asked the integrator to stop.
     pub stopped: bool,
+    /// The run stops once this instant has passed (checked every [`DEADLINE_CHECK_STEPS`]).
+    pub deadline: Option<Instant>,
+    /// Whether the run was stopped by its deadline.
+    pub deadline_reached: bool,
+    /// Accepted steps since the clock was last read.
+    steps_since_clock: u32,
     /// The state at the end of the last accepted step, kept when the run has several legs.
     pub state: Option<Vec<f64>>,
     probes: ProbeSet,
@@ -728,6 +740,9 @@ impl RunObserver {
             probe_state,
             started: false,
             stopped: false,
+            deadline: None,
+            deadline_reached: false,
+            steps_since_clock: 0,
             state: None,
             ledger: Ledger::new(chain),
             probes,
@@ -885,6 +900,17 @@ impl StepObserver for RunObserver {
         if self.opts.stop_after_leading_pulses && self.all_leading_passed() {
             self.stopped = true;
             return Control::Stop;
+        }
+        if let Some(deadline) = self.deadline {
+            self.steps_since_clock += 1;
+            if self.steps_since_clock >= DEADLINE_CHECK_STEPS {
+                self.steps_since_clock = 0;
+                if Instant::now() >= deadline {
+                    self.deadline_reached = true;
+                    self.stopped = true;
+                    return Control::Stop;
+                }
+            }
         }
         Control::Continue
     }

@@ -11,6 +11,9 @@ use crate::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RecordSpec, RunObserver};
 use crate::system::EnergyTerms;
 
+pub use crate::probes::DEADLINE_CHECK_STEPS;
+use std::time::Instant;
+
 /// Integrator and its accuracy settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
@@ -166,7 +169,7 @@ pub struct Scene {
     /// Integrator.
     #[cfg_attr(feature = "serde", serde(default))]
     pub integrator: IntegratorSpec,
-    /// Largest number of accepted steps before the run is abandoned.
+    /// Largest number of step attempts, accepted and rejected, before the run is abandoned.
     #[cfg_attr(feature = "serde", serde(default = "default_max_steps"))]
     pub max_steps: u64,
     /// What to record.
@@ -395,6 +398,15 @@ pub enum RunError {
     Spec(SpecError),
     /// The integrator gave up.
     Integrate(IntegrateError),
+    /// The deadline given to [`run_until`] passed before the run ended.
+    Deadline {
+        /// Simulated time reached, s.
+        t_s: f64,
+        /// Accepted steps taken.
+        steps: u64,
+        /// Rejected step attempts.
+        rejected: u64,
+    },
 }
 
 impl std::fmt::Display for RunError {
@@ -402,6 +414,10 @@ impl std::fmt::Display for RunError {
         match self {
             RunError::Spec(e) => write!(f, "invalid scene: {e}"),
             RunError::Integrate(e) => write!(f, "integration failed: {e}"),
+            RunError::Deadline { t_s, steps, rejected } => write!(
+                f,
+                "deadline reached at t = {t_s:.6e} s after {steps} steps ({rejected} rejected attempts)"
+            ),
         }
     }
 }
@@ -542,7 +558,7 @@ fn integrate_legs(
     let mut t = t0;
     let mut y = y0.to_vec();
     for &t_leg in leg_ends {
-        let budget = max_steps - total.steps;
+        let budget = max_steps.saturating_sub(total.steps + total.rejected);
         let stats = integrator
             .integrate(sys, t, &y, t_leg, budget, observer)
             .map_err(|e| match e {
@@ -554,7 +570,7 @@ fn integrate_legs(
         total.events += stats.events;
         total.rhs_evals += stats.rhs_evals;
         total.stiffness_detections += stats.stiffness_detections;
-        if observer.stopped || total.steps >= max_steps {
+        if observer.stopped || total.steps + total.rejected >= max_steps {
             break;
         }
         t = t_leg;
@@ -565,6 +581,14 @@ fn integrate_legs(
 
 /// Runs a scene.
 pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
+    run_until(scene, None)
+}
+
+/// Runs a scene, giving up with [`RunError::Deadline`] once `deadline` has passed (`None`: no
+/// deadline). The clock is read every [`DEADLINE_CHECK_STEPS`] accepted steps, so the run ends
+/// within that many steps of the deadline; a run that only rejects attempts ends on its step
+/// budget ([`Scene::max_steps`]) instead.
+pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, RunError> {
     let chain = scene.validate()?;
     let scales = scene.impact_scales(&chain);
     let probes = ProbeSet::new(
@@ -589,6 +613,7 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
     let t0 = 0.0;
     let t_end = scene.duration_s;
     let mut observer = RunObserver::new(&chain, probes, opts, t0, t_end);
+    observer.deadline = deadline;
 
     let y0 = chain.initial_state(scene.initial_velocity_m_s());
     let mut leg_ends = scene.breakpoints_s();
@@ -613,6 +638,13 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
         scene.max_steps,
         &mut observer
     ))?;
+    if observer.deadline_reached {
+        return Err(RunError::Deadline {
+            t_s: observer.t_reached,
+            steps: stats.steps,
+            rejected: stats.rejected,
+        });
+    }
 
     let mut warnings = validity_warnings(scene, &chain, &scales, observer.max_overlap);
     if stats.stiffness_detections > 0 {

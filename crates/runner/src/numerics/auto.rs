@@ -337,6 +337,7 @@ impl<'a> Pilot<'a> {
         // The references are yardsticks, not results: the sweep's energy-drift limit is not theirs.
         let no_limit = Limits {
             energy_drift_max: None,
+            ..self.sweep.limits
         };
         let runs: Vec<RunRecord> = self.pool.install(|| {
             self.scenes

@@ -13,8 +13,10 @@
 //!   or `{"field": …, "range": {"start": …, "stop": …, "step": …}}` (or `"num"` instead of `"step"`),
 //!   with an optional `"name"`, or a zipped group `{"zip": [axis, axis, …]}` whose axes advance
 //!   together;
-//! - `limits`: `{"energy_drift_max": 1e-3}`, the largest relative energy drift a run may have
-//!   before it counts as failed (`null`: no limit).
+//! - `limits`: `{"energy_drift_max": 1e-3, "max_run_seconds": 600}`: the largest relative energy
+//!   drift a run may have before it counts as failed (`null`: no limit), and the wall time after
+//!   which a run is given up and recorded as failed (not part of a run's identity: a run that
+//!   finished is the same run whatever the limit).
 //!
 //! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
@@ -143,12 +145,23 @@ impl Dim {
     }
 }
 
-/// Limits that decide whether a finished run counts as failed.
+/// Limits that decide whether a run counts as failed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits {
     /// Largest relative energy drift; `None`: no limit.
     pub energy_drift_max: Option<f64>,
+    /// Wall time after which a run is given up and recorded as failed, s.
+    pub max_run_seconds: f64,
 }
+
+/// Default wall-time limit of one run, s (`limits.max_run_seconds`): ten minutes, a thousand
+/// times what a run of the paper's chains takes (0.01–1 s), so that no sound run meets it while a
+/// run that cannot end (a scene whose steps are held far below its time scales) costs a sweep at
+/// most ten minutes of one worker.
+pub const DEFAULT_MAX_RUN_SECONDS: f64 = 600.0;
+
+/// Largest `limits.max_run_seconds`: a week, as long as any batch system lets one job run.
+pub const MAX_RUN_SECONDS: f64 = 7.0 * 24.0 * 3600.0;
 
 /// A parsed, validated sweep.
 #[derive(Debug, Clone)]
@@ -189,6 +202,12 @@ struct SweepFile {
 struct LimitsFile {
     #[serde(default = "default_drift")]
     energy_drift_max: Option<f64>,
+    #[serde(default = "default_max_run_seconds")]
+    max_run_seconds: Option<f64>,
+}
+
+fn default_max_run_seconds() -> Option<f64> {
+    Some(DEFAULT_MAX_RUN_SECONDS)
 }
 
 fn default_drift() -> Option<f64> {
@@ -795,6 +814,7 @@ fn parse_limits(limits: Option<LimitsFile>) -> Result<Limits> {
     let Some(l) = limits else {
         return Ok(Limits {
             energy_drift_max: Some(DEFAULT_ENERGY_DRIFT_MAX),
+            max_run_seconds: DEFAULT_MAX_RUN_SECONDS,
         });
     };
     if let Some(x) = l.energy_drift_max {
@@ -805,8 +825,22 @@ fn parse_limits(limits: Option<LimitsFile>) -> Result<Limits> {
             ));
         }
     }
+    let max_run_seconds = l.max_run_seconds.unwrap_or(f64::NAN);
+    if !(max_run_seconds > 0.0 && max_run_seconds <= MAX_RUN_SECONDS) {
+        let got = match l.max_run_seconds {
+            Some(x) => x.to_string(),
+            None => "null (every run needs a limit)".to_string(),
+        };
+        return Err(Error::input(
+            "limits.max_run_seconds",
+            format!(
+                "must be a number of seconds in (0, {MAX_RUN_SECONDS}] (at most a week; default {DEFAULT_MAX_RUN_SECONDS}), got {got}"
+            ),
+        ));
+    }
     Ok(Limits {
         energy_drift_max: l.energy_drift_max,
+        max_run_seconds,
     })
 }
 

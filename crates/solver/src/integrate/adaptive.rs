@@ -388,7 +388,8 @@ impl<M: Method> Integrator for Adaptive<M> {
         let mut last_failure_nonfinite = false;
 
         loop {
-            if stats.steps >= max_steps {
+            // Rejected attempts count: a run that only retries must end too.
+            if stats.steps + stats.rejected >= max_steps {
                 return Err(IntegrateError::StepBudget { max_steps, t });
             }
             if h < 10.0 * f64::EPSILON * t.abs() || h < f64::MIN_POSITIVE {

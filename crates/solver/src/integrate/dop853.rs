@@ -1339,6 +1339,39 @@ mod tests {
         assert_eq!(s.rhs_evals, 1 + 15 * s.steps + 11 * s.rejected);
     }
 
+    #[test]
+    fn rejected_attempts_count_against_the_step_budget() {
+        // A far too large first step forces rejections: with a budget one short of the attempts
+        // the run needs (accepted + rejected) it fails, though it has more than enough for the
+        // accepted steps alone; with exactly the attempts it needs it succeeds.
+        let solver = Dop853 {
+            h_init: Some(8.0),
+            ..Dop853::new(1e-9, 1e-9)
+        };
+        let run = |budget: u64| {
+            solver.integrate(
+                &mut Osc { quad: false },
+                0.0,
+                &[1.0, 0.0],
+                10.0,
+                budget,
+                &mut Record::default(),
+            )
+        };
+        let s = run(100_000).unwrap();
+        assert!(s.rejected >= 3, "{s:?}");
+        let attempts = s.steps + s.rejected;
+        assert_eq!(run(attempts), Ok(s));
+        match run(attempts - 1) {
+            Err(IntegrateError::StepBudget { max_steps, .. }) => {
+                assert_eq!(max_steps, attempts - 1)
+            }
+            other => panic!("expected StepBudget, got {other:?}"),
+        }
+        // Fewer accepted steps than the budget, even with every rejection: still refused.
+        assert!(s.steps < attempts - 1);
+    }
+
     /// Fixed steps: huge tolerances so the controller always wants to grow, capped at h_max.
     fn fixed_step_error(
         sys: &mut dyn OdeSystemDyn,

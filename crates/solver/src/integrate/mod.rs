@@ -162,7 +162,7 @@ pub enum IntegrateError {
         /// Time of the failed step.
         t: f64,
     },
-    /// More than `max_steps` steps were needed.
+    /// More than `max_steps` step attempts (accepted and rejected) were needed.
     StepBudget {
         /// The budget that was exceeded.
         max_steps: u64,
@@ -188,7 +188,7 @@ impl std::fmt::Display for IntegrateError {
             }
             IntegrateError::StepBudget { max_steps, t } => write!(
                 f,
-                "step budget of {max_steps} steps exhausted at t = {t:.6e} s"
+                "step budget of {max_steps} steps exhausted at t = {t:.6e} s (max_steps: accepted and rejected attempts both count)"
             ),
             IntegrateError::StepTooSmall { t, h } => write!(
                 f,
@@ -206,7 +206,8 @@ pub trait Integrator {
     /// Short stable name (`"verlet"`, `"rk4"`, `"dop853"`).
     fn name(&self) -> &'static str;
     /// Integrates `sys` from `(t0, y0)` to `t_end`, calling `obs` after every accepted step.
-    /// `max_steps` bounds the number of accepted steps.
+    /// `max_steps` bounds the number of step attempts, accepted and rejected (event retakes
+    /// included), so that a run which keeps retrying ends too.
     fn integrate(
         &self,
         sys: &mut dyn OdeSystemDyn,
