@@ -144,3 +144,72 @@ def test_wall_time_limit_is_not_part_of_the_run_identity(binary, tmp_path):
         assert r.returncode == 0, r.stderr
         hashes.append(json.loads(r.stdout)["run_hash"])
     assert hashes[0] == hashes[1] == hashes[2]
+
+
+@pytest.mark.parametrize("with_overwrite", [False, True])
+def test_read_only_output_is_not_replaced(binary, tmp_path, with_overwrite):
+    """A read-only X.h5 (finished, its work directory still there, or a foreign file with
+    --overwrite) is refused with exit 2, and stays as it was, read-only."""
+    path = write_sweep(tmp_path / "s.json", base_sweep())
+    out = tmp_path / "s.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    if with_overwrite:
+        import shutil
+
+        shutil.rmtree(tmp_path / "s.h5.d")
+    before = out.read_bytes()
+    os.chmod(out, 0o444)
+    extra = ["--overwrite"] if with_overwrite else []
+    r = run("run", path, "-o", out, "--quiet", "--retry-failed", *extra)
+    assert r.returncode == 2, r.stderr
+    assert "is read-only; chainsweep will not replace it" in r.stderr
+    assert "--output" in r.stderr
+    assert out.read_bytes() == before
+    assert out.stat().st_mode & 0o777 == 0o444
+
+
+def interval_sweep(field, value, history=True):
+    s = base_sweep(history=history)
+    s["record"][field] = value
+    return s
+
+
+@pytest.mark.parametrize("field", ["history_interval_s", "summary_interval_s"])
+def test_intervals_below_their_bound_are_refused(binary, tmp_path, field):
+    # duration 2e-4 s: at most 1e6 history samples (2e-10 s) and 1e7 summary samples (2e-11 s).
+    smallest = {"history_interval_s": 2e-10, "summary_interval_s": 2e-11}[field]
+    most = {"history_interval_s": 1000000, "summary_interval_s": 10000000}[field]
+    path = write_sweep(tmp_path / "s.json", interval_sweep(field, 1e-15))
+    for cmd in (["validate", path], ["run", path, "--dry-run"], ["run", path, "-o", tmp_path / "o.h5"]):
+        start = time.monotonic()
+        r = run(*cmd, timeout=60)
+        assert r.returncode == 2, (cmd, r.stderr)
+        assert f"record.{field}" in r.stderr
+        assert "must lie in [2" in r.stderr and f"at most {most} " in r.stderr, r.stderr
+        assert time.monotonic() - start < 10
+    assert not (tmp_path / "o.h5").exists()
+    # At the bound it is accepted.
+    path = write_sweep(tmp_path / "ok.json", interval_sweep(field, smallest * 1.0000001))
+    r = run("validate", path)
+    assert r.returncode == 0, r.stderr
+
+
+def test_history_interval_is_free_without_histories(binary, tmp_path):
+    path = write_sweep(tmp_path / "s.json", interval_sweep("history_interval_s", 1e-15, history=False))
+    r = run("validate", path)
+    assert r.returncode == 0, r.stderr
+
+
+def test_dry_run_refuses_an_output_that_cannot_fit(binary, tmp_path):
+    # 2e5 points with histories at their finest (1e6 samples of 2 probes): 3.2 TB uncompressed.
+    s = interval_sweep("history_interval_s", 2e-10 * 1.0000001)
+    s["axes"] = [{"field": "striker_velocity_m_s", "range": {"start": 1.0, "stop": 2.0, "num": 200000}}]
+    path = write_sweep(tmp_path / "big.json", s)
+    free = os.statvfs(tmp_path).f_bavail * os.statvfs(tmp_path).f_frsize
+    assert free < 3e12, "the test needs a file system with less than 3 TB free"
+    r = run("run", path, "--dry-run", "-o", tmp_path / "big.h5", timeout=120)
+    assert r.returncode == 2, r.stderr
+    assert "record.history_interval_s" in r.stderr
+    assert "cannot fit" in r.stderr
+    assert not (tmp_path / "big.h5").exists()

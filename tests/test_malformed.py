@@ -58,6 +58,8 @@ EXPECTED = {
     "wrong_type_damping": "physics.damping_kg_s",
     "wrong_type_gravity": "physics.gravity",
     "zero_duration": "duration_s",
+    "tiny_history_interval": "record.history_interval_s",
+    "tiny_summary_interval": "record.summary_interval_s",
     "zero_max_run_seconds": "limits.max_run_seconds",
     "null_max_run_seconds": "limits.max_run_seconds",
     "huge_max_run_seconds": "limits.max_run_seconds",

@@ -727,7 +727,12 @@ impl RunObserver {
     ) -> Self {
         let n_probes = probes.len();
         let history = opts.history.then(|| {
-            let cap = ((t_end - t0) / opts.history_interval).floor() as usize + 1;
+            // Bounded whatever the caller validated: a history longer than this grows as it goes.
+            let cap = ((t_end - t0) / opts.history_interval)
+                .floor()
+                .min(crate::scene::MAX_HISTORY_SAMPLES_PER_RUN as f64)
+                as usize
+                + 1;
             History {
                 time_s: Vec::with_capacity(cap),
                 values: (0..n_probes).map(|_| Vec::with_capacity(cap)).collect(),

@@ -177,6 +177,14 @@ pub struct Scene {
     pub record: RecordSpec,
 }
 
+/// Most history samples per probe in one run (`duration_s / history_interval_s`): 8 MB per probe,
+/// a thousand times the paper's histories (1 µs over 1 ms).
+pub const MAX_HISTORY_SAMPLES_PER_RUN: u64 = 1_000_000;
+
+/// Most summary samples in one run (`duration_s / summary_interval_s`): a few seconds of
+/// sampling, two thousand times the paper's summaries (0.2 µs over 1 ms).
+pub const MAX_SUMMARY_SAMPLES_PER_RUN: u64 = 10_000_000;
+
 /// Default step budget: ample for any scene in the paper (a 1 ms run needs ~10⁴ adaptive steps).
 pub const DEFAULT_MAX_STEPS: u64 = 100_000_000;
 
@@ -279,7 +287,44 @@ impl Scene {
         }
         self.integrator.validate()?;
         self.record.validate(&chain)?;
+        self.check_sample_counts()?;
         Ok(chain)
+    }
+
+    /// The history and summary intervals against the duration: at most
+    /// [`MAX_HISTORY_SAMPLES_PER_RUN`] history samples (when histories are recorded) and
+    /// [`MAX_SUMMARY_SAMPLES_PER_RUN`] summary samples (when there are probes) per run, so that no
+    /// interval can make a run allocate without bound or sample for hours.
+    fn check_sample_counts(&self) -> Result<(), SpecError> {
+        let r = &self.record;
+        let bounds = [
+            (
+                "record.history_interval_s",
+                r.history_interval_s,
+                r.history && !r.probes.is_empty(),
+                MAX_HISTORY_SAMPLES_PER_RUN,
+                "history",
+            ),
+            (
+                "record.summary_interval_s",
+                r.summary_interval_s,
+                !r.probes.is_empty(),
+                MAX_SUMMARY_SAMPLES_PER_RUN,
+                "summary",
+            ),
+        ];
+        for (field, interval, applies, most, what) in bounds {
+            let smallest = self.duration_s / most as f64;
+            if applies && interval < smallest {
+                return Err(spec_err(
+                    field,
+                    format!(
+                        "must lie in [{smallest:e}, ∞) s: at least duration_s / {most} (at most {most} {what} samples per run), got {interval:e}"
+                    ),
+                ));
+            }
+        }
+        Ok(())
     }
 
     /// Initial velocity of particle 1: the striker's, the impulse's, or zero under a force pulse.

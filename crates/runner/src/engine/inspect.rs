@@ -66,16 +66,53 @@ pub struct DryRun {
     pub size: SizeEstimate,
 }
 
-/// A dry run of `points` of `grid` into `output`: what is stored already, and the size estimate.
+/// A dry run of `points` of `grid` into `output`: what is stored already, and the size estimate;
+/// an input error when the estimate does not fit in the space free where the output goes.
 pub fn dry_run(grid: &Grid, points: &[usize], output: &Path) -> Result<DryRun> {
     let stored = scan_segments(&work_dir_of(output))?;
     let state = |i: usize| stored.get(&grid.hashes[i]).copied();
+    let size = SizeEstimate::of(grid);
+    check_fits(grid, size.total(points.len()), output)?;
     Ok(DryRun {
         ok: points.iter().filter(|&&i| state(i) == Some(true)).count(),
         failed: points.iter().filter(|&&i| state(i) == Some(false)).count(),
         stored,
-        size: SizeEstimate::of(grid),
+        size,
     })
+}
+
+/// Refuses an estimated output of `bytes` larger than the space free on the file system that
+/// will hold `output`, naming what to change: the history interval, or the grid.
+fn check_fits(grid: &Grid, bytes: f64, output: &Path) -> Result<()> {
+    let dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    // A directory that does not exist is refused later, by `run`, with its own message.
+    let Ok(free) = fs4::available_space(dir) else {
+        return Ok(());
+    };
+    if bytes <= free as f64 {
+        return Ok(());
+    }
+    let gib = |b: f64| format!("{:.3} GiB", b / (1u64 << 30) as f64);
+    let (field, what) = if grid.history {
+        (
+            "record.history_interval_s",
+            "a longer history interval, fewer probes or fewer points",
+        )
+    } else {
+        ("axes", "fewer points, or a shard per file system")
+    };
+    Err(Error::input(
+        field,
+        format!(
+            "the sweep's output is estimated at {} (histories uncompressed), more than the {} free in {}: it cannot fit; take {what}",
+            gib(bytes),
+            gib(free as f64),
+            dir.display()
+        ),
+    ))
 }
 
 /// One grid point: its scene, hash and, when run, its record.

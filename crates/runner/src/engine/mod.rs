@@ -137,6 +137,20 @@ pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
             format!("{} is a directory", output.display()),
         ));
     }
+    // Read-only by its permission bits (root may write anyway): someone protected it, and
+    // publishing a new file would silently replace it by a writable one.
+    if let Ok(meta) = std::fs::metadata(output) {
+        use std::os::unix::fs::PermissionsExt;
+        if meta.is_file() && meta.permissions().mode() & 0o222 == 0 {
+            return Err(Error::input(
+                "--output",
+                format!(
+                    "{} is read-only; chainsweep will not replace it (make it writable, e.g. `chmod u+w`, to continue into it, or choose another output)",
+                    output.display()
+                ),
+            ));
+        }
+    }
     if output.exists() && !work_dir_of(output).is_dir() && !overwrite {
         return Err(Error::input(
             "--output",
