@@ -213,3 +213,50 @@ def test_dry_run_refuses_an_output_that_cannot_fit(binary, tmp_path):
     assert "record.history_interval_s" in r.stderr
     assert "cannot fit" in r.stderr
     assert not (tmp_path / "big.h5").exists()
+
+
+def test_checkpoint_failure_is_reported_at_once_and_stops_the_sweep(binary, tmp_path):
+    """Fault injection: once the sweep runs, its output path is taken by a non-empty directory,
+    so publishing a checkpoint fails (as a read-only parent or a work directory on another file
+    system would make it fail; permission bits do not stop root, a directory does). The error
+    comes at once, the sweep stops (well before its 400 runs of ~60 ms would end), the finished
+    runs stay stored, and the message says how to resume."""
+    from conftest import segment_count
+
+    s = base_sweep(cylinders=40, duration_s=2e-3, history=True, probes=(2, 20, 38))
+    s["axes"] = [{"field": "physics.damping_kg_s", "range": {"start": 0, "stop": 10, "num": 400}}]
+    path = write_sweep(tmp_path / "long.json", s)
+    out = tmp_path / "long.h5"
+    p = subprocess.Popen(
+        [str(BIN), "run", path, "-o", out, "--jobs", "1", "--checkpoint-interval", "0.2", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while segment_count(out) < 5 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert segment_count(out) >= 5
+        for _ in range(100):
+            try:
+                out.unlink()
+                out.mkdir()
+                break
+            except (FileNotFoundError, FileExistsError):
+                continue  # a checkpoint published in between: try again
+        (out / "blocker").write_text("not the output")
+        fault = time.monotonic()
+        _, stderr = p.communicate(timeout=120)
+        after = time.monotonic() - fault
+    finally:
+        if p.poll() is None:
+            p.kill()
+            p.wait()
+    assert p.returncode == 1, stderr
+    assert after < 5, (after, stderr)
+    assert "The sweep stops now: no new run starts" in stderr, stderr
+    assert "run the same command again to resume" in stderr
+    assert f"{out}.d" in stderr
+    stored = segment_count(out)
+    assert 5 <= stored < 300, stored

@@ -211,6 +211,14 @@ impl ProgressSink for Terminal {
         }
     }
 
+    fn checkpoint_failed(&mut self, message: &str) {
+        // Even when quiet: the sweep stops.
+        match self.runs.as_ref().filter(|_| !self.quiet) {
+            Some(r) => r.println(&format!("chainsweep: error: {message}")),
+            None => errln!("chainsweep: error: {message}"),
+        }
+    }
+
     fn runs_ended(&mut self) {
         if let Some(r) = &mut self.runs {
             r.finish();

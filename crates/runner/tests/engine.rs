@@ -434,6 +434,8 @@ struct Tally {
     finished: Vec<usize>,
     checkpoints: usize,
     fail_checkpoint: bool,
+    /// How many runs had finished when the failed checkpoint was reported.
+    failure_heard_after: Option<usize>,
     ended: bool,
 }
 
@@ -448,6 +450,10 @@ impl Coordinator for Tally {
             return Err(Error::Other("checkpoint refused".into()));
         }
         Ok(())
+    }
+    fn checkpoint_failed(&mut self, error: &Error, _in_flight: usize) {
+        assert!(error.to_string().contains("checkpoint refused"));
+        self.failure_heard_after = Some(self.finished.len());
     }
     fn ended(&mut self) {
         self.ended = true;
@@ -480,7 +486,7 @@ fn a_run_that_cannot_be_stored_stops_the_sweep_with_its_error() {
 }
 
 #[test]
-fn a_failed_checkpoint_ends_the_coordination_with_its_error() {
+fn a_failed_checkpoint_is_reported_at_once_and_stops_the_sweep() {
     let (_, grid) = sweep_and_grid();
     let tasks: Vec<Task> = (0..6).map(|i| Task::run(&grid, i)).collect();
     let store = FailingStore {
@@ -504,6 +510,16 @@ fn a_failed_checkpoint_ends_the_coordination_with_its_error() {
     };
     let err = run_tasks(&tasks, &fake, &store, &schedule, &mut tally).unwrap_err();
     assert!(err.to_string().contains("checkpoint refused"), "{err}");
+    assert!(
+        err.to_string()
+            .contains("run the same command again to resume"),
+        "{err}"
+    );
     assert_eq!(tally.checkpoints, 1);
-    assert!(!tally.ended);
+    // Heard right after the first finished run (the checkpoint then due), not at the end; the
+    // run in flight then finished and was stored, and no new one started.
+    assert_eq!(tally.failure_heard_after, Some(1));
+    assert!(fake.calls().len() <= 2, "{:?}", fake.calls());
+    assert!(tally.finished.len() <= 2, "{:?}", tally.finished);
+    assert!(tally.ended);
 }

@@ -70,6 +70,9 @@ pub trait ProgressSink {
     /// The stop flag was set: no new run starts; `in_flight` runs (at most) finish first. The
     /// output file was just written with every run finished so far.
     fn stopping(&mut self, _in_flight: usize) {}
+    /// Writing the output file failed (`message` says why and what stays): no new run starts.
+    /// Said at once, before the runs in flight finish.
+    fn checkpoint_failed(&mut self, _message: &str) {}
     /// Every run is finished (or the sweep was stopped); the output file is written next.
     fn runs_ended(&mut self) {}
 }

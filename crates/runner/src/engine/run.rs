@@ -265,6 +265,14 @@ impl Coordinator for Running<'_> {
         Ok(())
     }
 
+    fn checkpoint_failed(&mut self, error: &Error, in_flight: usize) {
+        self.sink.checkpoint_failed(&format!(
+            "writing {} failed: {error}. The sweep stops now: no new run starts, {in_flight} run(s) in flight (at most) finish. Every finished run stays stored in {}; fix the cause and run the same command again to resume from them.",
+            self.opts.output.display(),
+            work_dir_of(&self.opts.output).display()
+        ));
+    }
+
     fn ended(&mut self) {
         self.sink.runs_ended();
     }

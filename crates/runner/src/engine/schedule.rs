@@ -3,7 +3,7 @@
 //!
 //! A panic of the executor is a failed run with its message, never the end of the sweep. Workers
 //! take no new task once the stop flag is set (by the caller, e.g. on a signal) or once storing a
-//! run failed; the tasks already running finish and are stored.
+//! run or writing a checkpoint failed; the tasks already running finish and are stored.
 
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
@@ -97,8 +97,12 @@ pub trait Coordinator {
     fn stopping(&mut self, _in_flight: usize) -> Result<()> {
         Ok(())
     }
-    /// Every worker is done (also after a run could not be stored, but not after a failed
-    /// checkpoint).
+    /// A checkpoint (or the write at [`Coordinator::stopping`]) failed with `error`: no new task
+    /// starts, the `in_flight` tasks running now finish and are stored, and [`run_tasks`] then
+    /// returns the error. Called at once, so that the user hears of it now, not when the tasks
+    /// in flight have finished.
+    fn checkpoint_failed(&mut self, _error: &Error, _in_flight: usize) {}
+    /// Every worker is done (also after a run could not be stored or a checkpoint failed).
     fn ended(&mut self);
 }
 
@@ -124,8 +128,8 @@ struct Finished {
 
 /// Runs `tasks` on `schedule.pool` through `executor`, storing each record in `store` as it
 /// finishes. Returns the first error storing a run or writing a checkpoint (the runs stored
-/// before it stay stored). A checkpoint that fails ends the coordination at once; the workers
-/// finish the remaining tasks and store them.
+/// before it stay stored). After either no new task starts: a sweep whose output cannot be
+/// written must not compute for hours into nothing; the tasks in flight finish and are stored.
 pub fn run_tasks(
     tasks: &[Task],
     executor: &dyn Executor,
@@ -138,6 +142,7 @@ pub fn run_tasks(
     let mut finished = 0usize;
     let mut stopping_said = false;
     let mut store_error: Option<Error> = None;
+    let mut checkpoint_error: Option<Error> = None;
     let mut last_checkpoint = Instant::now();
     std::thread::scope(|s| -> Result<()> {
         let (tx, rx) = mpsc::channel::<Finished>();
@@ -180,26 +185,36 @@ pub fn run_tasks(
                 Err(mpsc::RecvTimeoutError::Timeout) => coordinator.idle(),
                 Err(mpsc::RecvTimeoutError::Disconnected) => break,
             }
-            if !stopping_said && schedule.stop.load(Ordering::Relaxed) && store_error.is_none() {
+            let healthy = store_error.is_none() && checkpoint_error.is_none();
+            // (A task counted as started may not have begun yet: an upper bound.)
+            let in_flight = || started.load(Ordering::SeqCst).saturating_sub(finished);
+            let mut written = Ok(());
+            if !stopping_said && schedule.stop.load(Ordering::Relaxed) && healthy {
                 stopping_said = true;
-                // (A task counted as started may not have begun yet: an upper bound.)
-                let in_flight = started.load(Ordering::SeqCst).saturating_sub(finished);
-                coordinator.stopping(in_flight)?;
+                written = coordinator.stopping(in_flight());
                 last_checkpoint = Instant::now();
             }
             let due = !schedule.checkpoint_every.is_zero()
                 && last_checkpoint.elapsed() >= schedule.checkpoint_every;
-            if due && store_error.is_none() {
-                coordinator.checkpoint()?;
+            if due && healthy && written.is_ok() {
+                written = coordinator.checkpoint();
                 last_checkpoint = Instant::now();
+            }
+            if let Err(e) = written {
+                store_failed.store(true, Ordering::Relaxed);
+                coordinator.checkpoint_failed(&e, in_flight());
+                checkpoint_error = Some(e);
             }
         }
         Ok(())
     })?;
     coordinator.ended();
-    match store_error {
-        Some(e) => Err(e),
-        None => Ok(()),
+    match (checkpoint_error, store_error) {
+        (Some(e), _) => Err(Error::Other(format!(
+            "writing the output file failed: {e}; the sweep stopped (every finished run is stored in the work directory; fix the cause and run the same command again to resume)"
+        ))),
+        (None, Some(e)) => Err(e),
+        (None, None) => Ok(()),
     }
 }
 
