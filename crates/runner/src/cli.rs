@@ -320,7 +320,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         let work_dir = crate::store::work_dir_of(&output);
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
         let points = shard::points(&sweep, &grid, shard);
-        let d = inspect::dry_run(&grid, &points, &output)?;
+        let d = inspect::dry_run(&sweep, &grid, &points, &output)?;
         show::dry_run(&sweep, &grid, &points, &output, shard, &d);
         return Ok(EXIT_OK);
     }

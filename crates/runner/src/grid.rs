@@ -29,7 +29,15 @@ pub struct Grid {
     pub max_history_samples: usize,
     /// Largest number of contacts of any point (for minimum overlaps).
     pub max_contacts: usize,
+    /// The first [`LISTED_WARNINGS`] points whose scene looks physically absurd before it runs
+    /// ([`chainsweep_solver::Scene::plausibility_warnings`]), with their warnings.
+    pub warnings: Vec<(usize, Vec<String>)>,
+    /// How many points have such warnings.
+    pub warned_points: usize,
 }
+
+/// How many points with warnings a grid lists (it counts them all).
+pub const LISTED_WARNINGS: usize = 10;
 
 /// Multi-index of flat point `index` in a grid of `shape`.
 pub fn multi_index(shape: &[usize], mut index: usize) -> Vec<usize> {
@@ -107,6 +115,8 @@ impl Grid {
             min_overlap: false,
             max_history_samples: 0,
             max_contacts: 0,
+            warnings: Vec::new(),
+            warned_points: 0,
         };
         for i in 0..n {
             let scene = grid.build(sweep, i)?;
@@ -135,6 +145,13 @@ impl Grid {
                 grid.max_history_samples = grid.max_history_samples.max(samples);
             }
             grid.max_contacts = grid.max_contacts.max(chain.n_contacts());
+            let warnings = scene.plausibility_warnings(&chain);
+            if !warnings.is_empty() {
+                grid.warned_points += 1;
+                if grid.warnings.len() < LISTED_WARNINGS {
+                    grid.warnings.push((i, warnings));
+                }
+            }
             grid.hashes
                 .push(run_hash(&scene, sweep.limits.energy_drift_max));
         }

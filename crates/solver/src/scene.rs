@@ -327,6 +327,60 @@ impl Scene {
         Ok(())
     }
 
+    /// Warnings about a scene that is valid but physically absurd, from estimates made before it
+    /// runs on its built `chain` ([`Scene::validate`]): a two-body overlap beyond
+    /// [`ABSURD_OVERLAP_RATIO`] of the sphere radius, or linear damping that holds an explicit
+    /// method's steps more than [`ABSURD_STIFFNESS_RATIO`] times below the contact time.
+    pub fn plausibility_warnings(&self, chain: &Chain) -> Vec<String> {
+        let mut warnings = Vec::new();
+        let scales = self.impact_scales(chain);
+        if let Some(radius) = chain.smallest_sphere_radius_m() {
+            let ratio = scales.overlap_m / radius;
+            if ratio > ABSURD_OVERLAP_RATIO {
+                warnings.push(format!(
+                    "the two-body overlap estimate {:.3e} m is {ratio:.3} of the sphere radius {radius:.3e} m (Hertz's law assumes < {MAX_HERTZ_OVERLAP_RATIO}; beyond 1 the spheres would pass through each other)",
+                    scales.overlap_m
+                ));
+            }
+        }
+        // A linear damper μ between masses m_a and m_b decays at μ (1/m_a + 1/m_b): an explicit
+        // method's stable step is about its inverse.
+        let explicit = !matches!(self.integrator, IntegratorSpec::Ros34pw2(_));
+        let n = chain.n_particles();
+        let stable_step = chain
+            .damping
+            .iter()
+            .enumerate()
+            .filter(|(_, &mu)| mu > 0.0)
+            .map(|(c, &mu)| {
+                let inv_mass = 1.0 / chain.mass[c]
+                    + if c + 1 < n {
+                        1.0 / chain.mass[c + 1]
+                    } else {
+                        0.0
+                    };
+                1.0 / (mu * inv_mass)
+            })
+            .reduce(f64::min);
+        if let (true, Some(h)) = (explicit, stable_step) {
+            let contact = scales.contact_duration_s();
+            let ratio = contact / h;
+            if ratio > ABSURD_STIFFNESS_RATIO {
+                let steps = self.duration_s / h;
+                warnings.push(format!(
+                    "damping holds {}'s steps near m/μ = {h:.3e} s, {ratio:.1e} times below the contact time {contact:.3e} s: about {steps:.1e} steps{} (ros34pw2 is not held by damping)",
+                    self.integrator.method_name(),
+                    if steps > self.max_steps as f64 {
+                        format!(", more than the step budget max_steps = {}", self.max_steps)
+                    } else {
+                        String::new()
+                    }
+                ));
+            }
+        }
+        warnings
+    }
+
     /// Initial velocity of particle 1: the striker's, the impulse's, or zero under a force pulse.
     pub fn initial_velocity_m_s(&self) -> f64 {
         match (self.striker_velocity_m_s, self.excitation) {
@@ -522,6 +576,15 @@ pub struct RunOutput {
 /// Largest overlap-to-radius ratio for which Hertz's law is taken as valid: the contact radius
 /// `√(Rδ)` is then at most a tenth of the sphere's radius.
 pub const MAX_HERTZ_OVERLAP_RATIO: f64 = 0.01;
+
+/// Overlap-to-radius ratio of the two-body estimate beyond which a scene is called absurd before
+/// it runs: ten times the limit of Hertz's law ([`MAX_HERTZ_OVERLAP_RATIO`]).
+pub const ABSURD_OVERLAP_RATIO: f64 = 0.1;
+
+/// Ratio of the contact time to an explicit method's damping-held stable step beyond which a
+/// scene is called absurd before it runs: four orders of magnitude, ten thousand steps per
+/// contact for stability alone.
+pub const ABSURD_STIFFNESS_RATIO: f64 = 1e4;
 
 /// Smallest ratio of the impact pulse duration to the longest sound transit time through a
 /// particle for which the static Hertz law is taken as valid ("much longer", Sec. III).

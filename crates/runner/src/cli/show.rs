@@ -39,6 +39,29 @@ fn human(bytes: f64) -> String {
 }
 
 /// `validate`: the grid, its dimensions and, for `integrator: auto`, the pilot points.
+/// The grid's physically absurd scenes, on stderr: counted, the first ones listed.
+fn plausibility(sweep: &Sweep, grid: &Grid) {
+    if grid.warned_points == 0 {
+        return;
+    }
+    errln!(
+        "chainsweep: warning: {} of {} grid points look physically absurd (estimates before running; they will run, but check them):",
+        grid.warned_points,
+        grid.len()
+    );
+    for (i, warnings) in &grid.warnings {
+        for w in warnings {
+            errln!("  point {i} ({}): {w}", grid.point_label(sweep, *i));
+        }
+    }
+    if grid.warned_points > grid.warnings.len() {
+        errln!(
+            "  … and {} more points",
+            grid.warned_points - grid.warnings.len()
+        );
+    }
+}
+
 pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> crate::error::Result<()> {
     outln!(
         "{}: valid — {} grid points (shape {}), {} probes, {}",
@@ -60,6 +83,7 @@ pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> crate::error::Resul
             .collect();
         outln!("  {} × {}", d.len(), names.join(" zipped with "));
     }
+    plausibility(sweep, grid);
     if let Some(spec) = sweep.auto {
         let pilots = pilot_points(sweep, grid, spec.pilot_points)?;
         outln!(
@@ -108,6 +132,7 @@ pub fn dry_run(
             c.summary()
         );
     }
+    plausibility(sweep, grid);
     let probe_names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
     outln!(
         "record: probes [{}]; {}{}",
@@ -141,6 +166,33 @@ pub fn dry_run(
         human(summary),
         if history > 0.0 { format!(" + {} histories, uncompressed", human(history)) } else { String::new() }
     );
+    if let Some(c) = &d.cost {
+        let how = if c.extrapolated > 0 {
+            format!(
+                "{} of them stopped after {} s and extrapolated from the simulated time they reached, so an order of magnitude at best",
+                c.extrapolated,
+                crate::engine::inspect::PILOT_SECONDS_PER_RUN
+            )
+        } else {
+            "run in full".to_string()
+        };
+        outln!(
+            "estimated cost: {:.3e} CPU-seconds for {} runs (±{:.0} %, from a pilot of {} runs on points {:?}, {how}; {:.3e} s per run)",
+            c.cpu_seconds,
+            c.runs,
+            100.0 * c.accuracy,
+            c.per_run.len(),
+            c.pilot_points,
+            c.cpu_seconds / c.runs as f64,
+        );
+        let per_run_max = c.per_run.iter().copied().fold(0.0, f64::max);
+        if per_run_max > sweep.limits.max_run_seconds {
+            errln!(
+                "chainsweep: warning: a pilot run is estimated at {per_run_max:.3e} s, more than limits.max_run_seconds = {} s: such runs will fail at the wall-time limit",
+                sweep.limits.max_run_seconds
+            );
+        }
+    }
     outln!("points (flat index, axis values, run hash):");
     let show = |i: usize| {
         let h = grid.hashes[i];

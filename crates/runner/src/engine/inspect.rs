@@ -64,16 +64,127 @@ pub struct DryRun {
     pub failed: usize,
     /// The size estimate.
     pub size: SizeEstimate,
+    /// The cost estimate of the points still to run (`None`: none is left).
+    pub cost: Option<CostEstimate>,
+}
+
+/// Most runs a dry run's pilot runs to estimate the cost.
+pub const PILOT_RUNS: usize = 3;
+
+/// Longest a pilot run runs, s: a longer run is stopped there and its cost extrapolated from the
+/// simulated time it reached.
+pub const PILOT_SECONDS_PER_RUN: f64 = 1.0;
+
+/// The stated accuracy of a cost estimate from pilot runs that all ran in full: the cost of a run
+/// varies across a grid (damping, masses and velocities change the number of steps) by more than
+/// the measurement noise of a run.
+pub const COST_ACCURACY: f64 = 0.5;
+
+/// What a sweep will cost, from a pilot of a few of its runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CostEstimate {
+    /// CPU seconds of all the runs still to run.
+    pub cpu_seconds: f64,
+    /// CPU seconds of each pilot run.
+    pub per_run: Vec<f64>,
+    /// The pilot points.
+    pub pilot_points: Vec<usize>,
+    /// Runs still to run.
+    pub runs: usize,
+    /// Relative accuracy stated for the estimate (0.5: ±50 %).
+    pub accuracy: f64,
+    /// Pilot runs stopped at [`PILOT_SECONDS_PER_RUN`], their cost extrapolated.
+    pub extrapolated: usize,
+}
+
+impl CostEstimate {
+    /// The estimate from pilot runs of up to [`PILOT_RUNS`] of `to_run` (first, middle, last),
+    /// each measured in thread CPU time.
+    pub fn pilot(sweep: &Sweep, grid: &Grid, to_run: &[usize]) -> Result<Option<CostEstimate>> {
+        if to_run.is_empty() {
+            return Ok(None);
+        }
+        let k = PILOT_RUNS.min(to_run.len());
+        let mut pilot_points: Vec<usize> = (0..k)
+            .map(|j| {
+                to_run[if k == 1 {
+                    0
+                } else {
+                    j * (to_run.len() - 1) / (k - 1)
+                }]
+            })
+            .collect();
+        pilot_points.dedup();
+        let mut per_run = Vec::new();
+        let mut extrapolated = 0;
+        for &i in &pilot_points {
+            let scene = grid.build(sweep, i)?;
+            let limit = PILOT_SECONDS_PER_RUN.min(sweep.limits.max_run_seconds);
+            let start_cpu = thread_cpu_seconds();
+            let start = std::time::Instant::now();
+            let deadline = start + std::time::Duration::from_secs_f64(limit);
+            let result = exec::guarded(|| chainsweep_solver::run_until(&scene, Some(deadline)));
+            let cpu = match (start_cpu, thread_cpu_seconds()) {
+                (Some(a), Some(b)) => b - a,
+                _ => start.elapsed().as_secs_f64(),
+            };
+            per_run.push(match result {
+                Ok(Err(chainsweep_solver::RunError::Deadline { t_s, .. })) if t_s > 0.0 => {
+                    extrapolated += 1;
+                    cpu * scene.duration_s / t_s
+                }
+                // A run stopped at once (or failed early) costs what it cost.
+                _ => cpu,
+            });
+        }
+        let mean = per_run.iter().sum::<f64>() / per_run.len() as f64;
+        let lo = per_run.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = per_run.iter().copied().fold(0.0, f64::max);
+        // At least the stated accuracy; wider when the pilot runs themselves differ more (half
+        // their range against their mean), and far wider for extrapolated runs.
+        let spread = if mean > 0.0 {
+            0.5 * (hi - lo) / mean
+        } else {
+            0.0
+        };
+        let spread = if extrapolated > 0 {
+            spread.max(9.0)
+        } else {
+            spread
+        };
+        Ok(Some(CostEstimate {
+            cpu_seconds: mean * to_run.len() as f64,
+            per_run,
+            pilot_points,
+            runs: to_run.len(),
+            accuracy: COST_ACCURACY.max(spread),
+            extrapolated,
+        }))
+    }
+}
+
+/// CPU time of the calling thread so far, s (Linux's `/proc/thread-self/schedstat`, in ns).
+fn thread_cpu_seconds() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = text.split_whitespace().next()?.parse().ok()?;
+    Some(ns * 1e-9)
 }
 
 /// A dry run of `points` of `grid` into `output`: what is stored already, and the size estimate;
 /// an input error when the estimate does not fit in the space free where the output goes.
-pub fn dry_run(grid: &Grid, points: &[usize], output: &Path) -> Result<DryRun> {
+pub fn dry_run(sweep: &Sweep, grid: &Grid, points: &[usize], output: &Path) -> Result<DryRun> {
     let stored = scan_segments(&work_dir_of(output))?;
     let state = |i: usize| stored.get(&grid.hashes[i]).copied();
     let size = SizeEstimate::of(grid);
     check_fits(grid, size.total(points.len()), output)?;
+    let to_run: Vec<usize> = points
+        .iter()
+        .copied()
+        .filter(|&i| state(i).is_none())
+        .collect();
+    let cost = CostEstimate::pilot(sweep, grid, &to_run)?;
     Ok(DryRun {
+        cost,
         ok: points.iter().filter(|&&i| state(i) == Some(true)).count(),
         failed: points.iter().filter(|&&i| state(i) == Some(false)).count(),
         stored,
