@@ -318,3 +318,17 @@ def test_dry_run_says_when_runs_will_meet_the_wall_time_limit(binary, tmp_path):
     assert r.returncode == 0, r.stderr
     assert "extrapolated from the simulated time they reached" in r.stdout
     assert "more than limits.max_run_seconds = 5 s" in r.stderr, r.stderr
+
+
+def test_history_bound_counts_every_probe(binary, tmp_path):
+    # 40 probes: at most 1e7 / 40 = 250 000 samples per probe over 2e-4 s, so 1e-9 s is refused
+    # (200 001 samples are fine for 2 probes).
+    s = interval_sweep("history_interval_s", 5e-10)
+    s["base"]["chain"]["cylinders"] = 50
+    s["record"]["probes"] = [{"kind": "gauge_force", "cylinder": c} for c in range(1, 41)]
+    r = run("validate", write_sweep(tmp_path / "many.json", s))
+    assert r.returncode == 2, r.stderr
+    assert "record.history_interval_s" in r.stderr and "at most 250000 history samples per probe" in r.stderr
+    s["record"]["history_interval_s"] = 1e-9
+    r = run("validate", write_sweep(tmp_path / "ok.json", s))
+    assert r.returncode == 0, r.stderr

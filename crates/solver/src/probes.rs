@@ -730,7 +730,7 @@ impl RunObserver {
             // Bounded whatever the caller validated: a history longer than this grows as it goes.
             let cap = ((t_end - t0) / opts.history_interval)
                 .floor()
-                .min(crate::scene::MAX_HISTORY_SAMPLES_PER_RUN as f64)
+                .min(crate::scene::max_history_samples(n_probes) as f64)
                 as usize
                 + 1;
             History {

@@ -181,6 +181,16 @@ pub struct Scene {
 /// a thousand times the paper's histories (1 µs over 1 ms).
 pub const MAX_HISTORY_SAMPLES_PER_RUN: u64 = 1_000_000;
 
+/// Most history values in one run, over all its probes: 80 MB, so that many probes cannot
+/// multiply [`MAX_HISTORY_SAMPLES_PER_RUN`] beyond what a worker holds.
+pub const MAX_HISTORY_VALUES_PER_RUN: u64 = 10_000_000;
+
+/// Most history samples per probe in a run recording `n_probes` probes: at most
+/// [`MAX_HISTORY_SAMPLES_PER_RUN`], and [`MAX_HISTORY_VALUES_PER_RUN`] over all probes.
+pub fn max_history_samples(n_probes: usize) -> u64 {
+    MAX_HISTORY_SAMPLES_PER_RUN.min(MAX_HISTORY_VALUES_PER_RUN / n_probes.max(1) as u64)
+}
+
 /// Most summary samples in one run (`duration_s / summary_interval_s`): a few seconds of
 /// sampling, two thousand times the paper's summaries (0.2 µs over 1 ms).
 pub const MAX_SUMMARY_SAMPLES_PER_RUN: u64 = 10_000_000;
@@ -292,7 +302,7 @@ impl Scene {
     }
 
     /// The history and summary intervals against the duration: at most
-    /// [`MAX_HISTORY_SAMPLES_PER_RUN`] history samples (when histories are recorded) and
+    /// [`max_history_samples`] history samples per probe (when histories are recorded) and
     /// [`MAX_SUMMARY_SAMPLES_PER_RUN`] summary samples (when there are probes) per run, so that no
     /// interval can make a run allocate without bound or sample for hours.
     fn check_sample_counts(&self) -> Result<(), SpecError> {
@@ -302,15 +312,15 @@ impl Scene {
                 "record.history_interval_s",
                 r.history_interval_s,
                 r.history && !r.probes.is_empty(),
-                MAX_HISTORY_SAMPLES_PER_RUN,
-                "history",
+                max_history_samples(r.probes.len()),
+                format!("history samples per probe per run, and {MAX_HISTORY_VALUES_PER_RUN} values over all probes"),
             ),
             (
                 "record.summary_interval_s",
                 r.summary_interval_s,
                 !r.probes.is_empty(),
                 MAX_SUMMARY_SAMPLES_PER_RUN,
-                "summary",
+                "summary samples per run".to_string(),
             ),
         ];
         for (field, interval, applies, most, what) in bounds {
@@ -319,7 +329,7 @@ impl Scene {
                 return Err(spec_err(
                     field,
                     format!(
-                        "must lie in [{smallest:e}, ∞) s: at least duration_s / {most} (at most {most} {what} samples per run), got {interval:e}"
+                        "must lie in [{smallest:e}, ∞) s: at least duration_s / {most} (at most {most} {what}), got {interval:e}"
                     ),
                 ));
             }
