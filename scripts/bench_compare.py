@@ -110,7 +110,10 @@ def main():
     ap.add_argument("--rounds", type=int, default=int(os.environ.get("BENCH_ROUNDS", "5")))
     ap.add_argument("--measurement-time", type=float, default=3.0, help="criterion seconds per benchmark")
     ap.add_argument("--base-target-dir", type=Path, help="cargo target directory of the base (default: target/bench-base)")
+    ap.add_argument("--parts", default="solver,scaling,sweep",
+                    help="comma-separated: solver (rhs, run, general_rhs), scaling, sweep (Fig. 8 wall time)")
     args = ap.parse_args()
+    parts = set(args.parts.split(","))
 
     rev = subprocess.run(["git", "rev-parse", "--short", args.base], cwd=REPO, check=True, stdout=subprocess.PIPE,
                          text=True).stdout.strip()
@@ -122,24 +125,32 @@ def main():
         head_target = Path(os.environ.get("CARGO_TARGET_DIR", REPO / "target"))
         # The base's build is kept (target/bench-base) so that the next comparison is incremental.
         base_target = args.base_target_dir or head_target / "bench-base"
-        base_exe = bench_executable(base_tree, base_target)
-        head_exe = bench_executable(REPO, head_target)
-        with_scaling_bench(base_tree)
-        scaling = {"before": bench_executable(base_tree, base_target, "scaling"),
-                   "after": bench_executable(REPO, head_target, "scaling")}
-        runner = {"before": runner_executable(base_tree, base_target), "after": runner_executable(REPO, head_target)}
+        if "solver" in parts:
+            base_exe = bench_executable(base_tree, base_target)
+            head_exe = bench_executable(REPO, head_target)
+        if "scaling" in parts:
+            with_scaling_bench(base_tree)
+            scaling = {"before": bench_executable(base_tree, base_target, "scaling"),
+                       "after": bench_executable(REPO, head_target, "scaling")}
+        if "sweep" in parts:
+            runner = {"before": runner_executable(base_tree, base_target),
+                      "after": runner_executable(REPO, head_target)}
         fig08 = REPO / "sweeps" / "fig08.json"
         shared = "^(rhs|run)/"
         samples: dict[str, dict[str, list[float]]] = {"before": {}, "after": {}}
         for r in range(args.rounds):
             print(f"round {r + 1}/{args.rounds}", flush=True)
-            for side, exe, filt in (("before", base_exe, shared), ("after", head_exe, ".")):
-                for k, v in run_once(exe, tmp / f"criterion-{side}", filt, args.measurement_time).items():
-                    samples[side].setdefault(k, []).append(v)
-                for k, v in run_once(scaling[side], tmp / f"criterion-{side}", ".", args.measurement_time).items():
-                    samples[side].setdefault(k, []).append(v)
-                wall = sweep_wall_s(runner[side], fig08, tmp / f"sweeps-{side}")
-                samples[side].setdefault("sweep/fig08_182_runs_jobs2", []).append(wall * 1e9)
+            for side, filt in (("before", shared), ("after", ".")):
+                if "solver" in parts:
+                    exe = base_exe if side == "before" else head_exe
+                    for k, v in run_once(exe, tmp / f"criterion-{side}", filt, args.measurement_time).items():
+                        samples[side].setdefault(k, []).append(v)
+                if "scaling" in parts:
+                    for k, v in run_once(scaling[side], tmp / f"criterion-{side}", ".", args.measurement_time).items():
+                        samples[side].setdefault(k, []).append(v)
+                if "sweep" in parts:
+                    wall = sweep_wall_s(runner[side], fig08, tmp / f"sweeps-{side}")
+                    samples[side].setdefault("sweep/fig08_182_runs_jobs2", []).append(wall * 1e9)
     finally:
         subprocess.run(["git", "worktree", "remove", "--force", str(base_tree)], cwd=REPO, check=False)
         shutil.rmtree(tmp, ignore_errors=True)
@@ -161,6 +172,11 @@ def main():
     for k in sorted(x for x in med["after"] if x.startswith("general_rhs/") and x.endswith(per)):
         t = med["after"][k]
         print(f"| {k.removeprefix('general_rhs/').removesuffix(per)} | {t:.3f} ns/contact | {t / ref:.2f}× |")
+    small = med["after"].get("scaling/chain055_50cyl_mu6_1ms")
+    for n in (1000, 5000):
+        big = med["after"].get(f"scaling/chain055_{n}cyl_mu6_1ms")
+        if small and big:
+            print(f"{n} cylinders cost {big / small:.2f}× the 50-cylinder run (working tree)")
     spread = max(
         (max(v) / min(v) for s in samples.values() for v in s.values() if min(v) > 0), default=1.0
     )

@@ -181,7 +181,7 @@ fn scenes_that_do_not_qualify_run_the_whole_chain() {
     let mut s = base.clone();
     s.chain = ChainSpec::chain_055(50);
     s.record.probes.truncate(3);
-    assert!(2 * 50 + 1 < MIN_PARTICLES);
+    const { assert!(2 * 50 + 1 < MIN_PARTICLES) };
     whole(&s);
     // No wall under gravity: the whole chain falls.
     let mut s = base.clone();
@@ -232,4 +232,56 @@ fn serialised_scene_leaves_the_default_out() {
     let bad = json.replace("\"off\"", "\"sometimes\"");
     let err = serde_json::from_str::<Scene>(&bad).unwrap_err().to_string();
     assert!(err.contains("auto") && err.contains("off"), "{err}");
+}
+
+#[test]
+fn excited_chains_of_the_general_kernel_integrate_their_moving_part() {
+    // 600 spheres without a striker, under gravity on a wall: a half-sine force pulse (the run is
+    // integrated in two legs, before and after the pulse ends) and a δ-force impulse, with Hertz
+    // and with a power law (the general right-hand side), against the whole chain.
+    use chainsweep_solver::problems::{monodisperse, power_law};
+    use chainsweep_solver::scene::Excitation;
+    for law in [None, Some(power_law(1e12, 1.8))] {
+        for excitation in [
+            Excitation::HalfSineForce {
+                amplitude_n: 40.0,
+                duration_s: 5e-5,
+            },
+            Excitation::Impulse { velocity_m_s: 0.5 },
+        ] {
+            let mut s = Scene::excited(monodisperse(600, law, false), excitation, 2e-4);
+            s.physics.damping_kg_s = 2.0;
+            s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-10));
+            s.record.probes = vec![
+                Probe::ParticleForce { particle: 5 },
+                Probe::ParticleForce { particle: 12 },
+                Probe::ParticleForce { particle: 300 },
+            ];
+            let part = with(&s, ActiveRegion::Auto);
+            let whole = with(&s, ActiveRegion::Off);
+            let k = part.active_particles.expect("qualifies");
+            assert!(k < 300, "{law:?} {excitation:?}: {k}");
+            for p in 0..2 {
+                let (a, b) = (part.probes[p].record_max, whole.probes[p].record_max);
+                assert!(
+                    a > 1.0 && rel(a, b, b) <= 1e-7,
+                    "{law:?} {excitation:?} probe {p}: {a} against {b}"
+                );
+            }
+            let (a, b) = (part.probes[2].record_max, whole.probes[2].record_max);
+            assert!(rel(a, b, 40.0) <= 1e-9, "{a} against {b}");
+            let scale = part.impact_energy_j;
+            let (ea, eb) = (part.final_energy.total(), whole.final_energy.total());
+            assert!(
+                rel(ea, eb, scale) <= 1e-7,
+                "{law:?} {excitation:?}: {ea} against {eb}"
+            );
+            assert!(part.energy_drift_max < 1e-7, "{}", part.energy_drift_max);
+            assert!(
+                part.momentum_residual_max < 1e-7,
+                "{}",
+                part.momentum_residual_max
+            );
+        }
+    }
 }
