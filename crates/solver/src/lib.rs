@@ -16,6 +16,7 @@
 //!   ROS34PW2 (with the chain's tridiagonal Jacobian) behind one [`integrate::Integrator`] interface;
 //! - [`probes`]: observables sampled through dense output and on-the-fly peak summaries;
 //! - [`scene`]: a whole simulation, [`scene::run`];
+//! - [`active`]: long chains integrated only where they move;
 //! - [`problems`]: reference problems with closed-form answers (tests, benchmarks, examples).
 //!
 //! Units are SI throughout. The crate knows nothing of files or command lines.
@@ -31,6 +32,7 @@
 #![warn(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod active;
 pub mod contact;
 pub mod general;
 pub mod integrate;
@@ -42,6 +44,7 @@ pub mod scene;
 pub mod sequence;
 pub mod system;
 
+pub use active::ActiveRegion;
 pub use chainsweep_cpu as cpu;
 pub use integrate::AdaptiveOptions;
 pub use model::{Chain, ChainSpec, DimerSpec, PhysicsSpec};

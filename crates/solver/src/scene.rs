@@ -3,6 +3,7 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
+use crate::active::ActiveRegion;
 use crate::integrate::{
     AdaptiveOptions, Dop853, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, Rk4,
     Ros34pw2, VelocityVerlet,
@@ -175,6 +176,13 @@ pub struct Scene {
     /// What to record.
     #[cfg_attr(feature = "serde", serde(default))]
     pub record: RecordSpec,
+    /// Whether a long chain may integrate only its moving part ([`crate::active`]); `auto` (the
+    /// default, left out of the serialised scene so that run hashes stay as they were) or `off`.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "ActiveRegion::is_auto")
+    )]
+    pub active_region: ActiveRegion,
 }
 
 /// Most history samples per probe in one run (`duration_s / history_interval_s`): 8 MB per probe,
@@ -217,6 +225,7 @@ impl Scene {
             integrator: IntegratorSpec::default(),
             max_steps: DEFAULT_MAX_STEPS,
             record: RecordSpec::default(),
+            active_region: ActiveRegion::Auto,
         }
     }
 
@@ -577,6 +586,10 @@ pub struct RunOutput {
     pub impact_energy_j: f64,
     /// Largest contact overlap over the run (at step ends), m.
     pub max_overlap_m: f64,
+    /// Particles integrated at the end when the run integrated only the moving part of its chain
+    /// ([`crate::active`]): the rest stayed at rest in static equilibrium throughout. `None` when
+    /// the whole chain was integrated.
+    pub active_particles: Option<usize>,
     /// Where the run leaves the model's own assumptions (not fatal): overlaps too large for
     /// Hertz's small-strain law, or an impact pulse not much longer than the time sound takes to
     /// cross a particle (the paper's condition for using the static Hertz law, Sec. III).
@@ -737,25 +750,46 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
     let mut leg_ends = scene.breakpoints_s();
     leg_ends.push(t_end);
 
-    let integrator: Box<dyn Integrator> = match scene.integrator {
-        IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
-        IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
-        IntegratorSpec::Dop853(options) => {
-            Box::new(Dop853::with_options(options).with_atol_scale(state_scales(&chain, &scales)))
-        }
-        IntegratorSpec::Ros34pw2(options) => {
-            Box::new(Ros34pw2::with_options(options).with_atol_scale(state_scales(&chain, &scales)))
+    let build = |c: &Chain| -> Box<dyn Integrator> {
+        match scene.integrator {
+            IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
+            IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
+            IntegratorSpec::Dop853(options) => {
+                Box::new(Dop853::with_options(options).with_atol_scale(state_scales(c, &scales)))
+            }
+            IntegratorSpec::Ros34pw2(options) => {
+                Box::new(Ros34pw2::with_options(options).with_atol_scale(state_scales(c, &scales)))
+            }
         }
     };
-    let stats = crate::dispatch_chain_system!(&chain, |sys| integrate_legs(
-        integrator.as_ref(),
-        &mut sys,
-        t0,
-        &y0,
-        &leg_ends,
-        scene.max_steps,
-        &mut observer
-    ))?;
+    let integrator = build(&chain);
+    let (stats, active_particles) = match crate::active::plan(scene, &chain, &scales, &y0) {
+        Some(plan) => {
+            let (stats, k) = crate::active::integrate(
+                &plan,
+                &build,
+                &chain,
+                t0,
+                &y0,
+                &leg_ends,
+                scene.max_steps,
+                &mut observer,
+            )?;
+            (stats, Some(k))
+        }
+        None => (
+            crate::dispatch_chain_system!(&chain, |sys| integrate_legs(
+                integrator.as_ref(),
+                &mut sys,
+                t0,
+                &y0,
+                &leg_ends,
+                scene.max_steps,
+                &mut observer
+            ))?,
+            None,
+        ),
+    };
     if observer.deadline_reached {
         return Err(RunError::Deadline {
             t_s: observer.t_reached,
@@ -774,6 +808,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
     }
     Ok(RunOutput {
         method: integrator.name(),
+        active_particles,
         max_overlap_m: observer.max_overlap,
         warnings,
         stats,

@@ -223,6 +223,8 @@ pub struct Ledger {
     top: usize,
     precompression: f64,
     pulse: Option<(f64, f64, usize)>,
+    /// Total mass, kg (summed once, in particle order).
+    total_mass: f64,
 }
 
 /// Energy terms of a state, J.
@@ -270,47 +272,57 @@ impl Ledger {
             pulse: chain
                 .force_pulse
                 .map(|(a, d)| (a, d, chain.pulse_work_index().expect("pulse quadrature"))),
+            total_mass: chain.mass.iter().sum(),
         }
     }
 
     /// Energy terms of state `y`.
     pub fn energy(&self, y: &[f64]) -> EnergyTerms {
-        dispatch(EnergyKernel { ledger: self, y })
+        self.energy_prefix(y, self.mass.len())
+    }
+
+    /// Energy terms of the first `k` particles of state `y` and of the contacts they touch (contact
+    /// `k-1` included, read with particle `k`'s position in `y`; the wall's only when `k` is every
+    /// particle): with `k = N`, [`Ledger::energy`]. The quadratures and external terms are the
+    /// whole state's.
+    pub fn energy_prefix(&self, y: &[f64], k: usize) -> EnergyTerms {
+        dispatch(EnergyKernel { ledger: self, y, k })
     }
 
     #[inline(always)]
-    fn energy_body(&self, y: &[f64]) -> EnergyTerms {
+    fn energy_body(&self, y: &[f64], k: usize) -> EnergyTerms {
         // Evaluated after every accepted step: sums run over eight partial sums so they vectorise.
         const L: usize = 8;
         let n = self.mass.len();
-        let (x, v, m) = (&y[..n], &y[n..2 * n], &self.mass[..n]);
+        let x = &y[..n];
+        let (v, m) = (&y[n..n + k], &self.mass[..k]);
         let (mut twice_kinetic, mut weight_moment) = ([0.0f64; L], [0.0f64; L]);
-        let full = n - n % L;
+        let full = k - k % L;
         for i in (0..full).step_by(L) {
-            for k in 0..L {
-                let j = i + k;
-                twice_kinetic[k] += m[j] * v[j] * v[j];
-                weight_moment[k] += m[j] * x[j];
+            for lane in 0..L {
+                let j = i + lane;
+                twice_kinetic[lane] += m[j] * v[j] * v[j];
+                weight_moment[lane] += m[j] * x[j];
             }
         }
-        for j in full..n {
+        for j in full..k {
             twice_kinetic[0] += m[j] * v[j] * v[j];
             weight_moment[0] += m[j] * x[j];
         }
         let sum = |lanes: [f64; L]| lanes.iter().sum::<f64>();
         let (elastic, max_overlap) = match &self.exponent {
-            None => self.hertz_potential(x),
-            Some(exponent) => self.general_potential(x, exponent),
+            None => self.hertz_potential(x, k),
+            Some(exponent) => self.general_potential(x, exponent, k),
         };
         let kinetic = 0.5 * sum(twice_kinetic);
         let gravitational = -self.gravity * sum(weight_moment);
-        let dissipated = self.work_index.map_or(0.0, |k| y[k]);
+        let dissipated = self.work_index.map_or(0.0, |w| y[w]);
         let mut external = 0.0;
         if self.precompression != 0.0 {
             external -= self.precompression * x[self.top];
         }
-        if let Some((_, _, k)) = self.pulse {
-            external -= y[k];
+        if let Some((_, _, w)) = self.pulse {
+            external -= y[w];
         }
         EnergyTerms {
             kinetic,
@@ -322,20 +334,21 @@ impl Ledger {
         }
     }
 
-    /// Hertz potential `(2/5) Σ A δ^{5/2}` and the largest overlap, interior contacts then the wall's.
-    fn hertz_potential(&self, x: &[f64]) -> (f64, f64) {
+    /// Hertz potential `(2/5) Σ A δ^{5/2}` and the largest overlap, interior contacts then the
+    /// wall's, of the contacts of the first `k` particles.
+    fn hertz_potential(&self, x: &[f64], k: usize) -> (f64, f64) {
         const L: usize = 8;
         let n = self.mass.len();
-        let interior = n - 1;
+        let interior = (n - 1).min(k);
         let a = &self.stiffness[..interior];
         let (mut potential, mut largest) = ([0.0f64; L], [0.0f64; L]);
         let full = interior - interior % L;
         for c0 in (0..full).step_by(L) {
-            for k in 0..L {
-                let c = c0 + k;
+            for lane in 0..L {
+                let c = c0 + lane;
                 let d = (x[c] - x[c + 1]).max(0.0);
-                potential[k] += a[c] * d * d * d.sqrt();
-                largest[k] = largest[k].max(d);
+                potential[lane] += a[c] * d * d * d.sqrt();
+                largest[lane] = largest[lane].max(d);
             }
         }
         for c in full..interior {
@@ -343,7 +356,7 @@ impl Ledger {
             potential[0] += a[c] * d * d * d.sqrt();
             largest[0] = largest[0].max(d);
         }
-        if self.stiffness.len() > interior {
+        if k == n && self.stiffness.len() > interior {
             let d = x[n - 1].max(0.0);
             potential[0] += self.stiffness[interior] * d * d * d.sqrt();
             largest[0] = largest[0].max(d);
@@ -352,11 +365,13 @@ impl Ledger {
         (elastic, largest.iter().fold(0.0f64, |a, &b| a.max(b)))
     }
 
-    /// `Σ A δ^{n+1}/(n+1)` for any exponents, and the largest overlap.
-    fn general_potential(&self, x: &[f64], exponent: &[f64]) -> (f64, f64) {
+    /// `Σ A δ^{n+1}/(n+1)` for any exponents, and the largest overlap, of the contacts of the
+    /// first `k` particles.
+    fn general_potential(&self, x: &[f64], exponent: &[f64], k: usize) -> (f64, f64) {
         let n = self.mass.len();
         let (mut elastic, mut largest) = (0.0f64, 0.0f64);
-        for (c, (&a, &e)) in self.stiffness.iter().zip(exponent).enumerate() {
+        let contacts = self.stiffness.len().min(k);
+        for (c, (&a, &e)) in self.stiffness[..contacts].iter().zip(exponent).enumerate() {
             let d = if c + 1 < n { x[c] - x[c + 1] } else { x[c] }.max(0.0);
             elastic += crate::contact::potential(a, e, d);
             largest = largest.max(d);
@@ -379,9 +394,14 @@ impl Ledger {
     /// for the exact solution (`J_wall` is the impulse the wall has taken, `J_ext` that of the
     /// precompression and the force pulse).
     pub fn momentum_residual(&self, y: &[f64], t: f64, t0: f64, p0: f64) -> f64 {
+        self.momentum_residual_prefix(y, self.mass.len(), t, t0, p0)
+    }
+
+    /// [`Ledger::momentum_residual`] for a state whose particles from `k` on are at rest.
+    pub fn momentum_residual_prefix(&self, y: &[f64], k: usize, t: f64, t0: f64, p0: f64) -> f64 {
         let n = self.mass.len();
-        let p: f64 = (0..n).map(|i| self.mass[i] * y[n + i]).sum();
-        let m_total: f64 = self.mass.iter().sum();
+        let p: f64 = (0..k).map(|i| self.mass[i] * y[n + i]).sum();
+        let m_total = self.total_mass;
         let j = self.wall_impulse_index.map_or(0.0, |k| y[k]);
         debug_assert!(self.wall || j == 0.0);
         let external = if self.precompression != 0.0 || self.pulse.is_some() {
@@ -403,13 +423,14 @@ impl Ledger {
 struct EnergyKernel<'a> {
     ledger: &'a Ledger,
     y: &'a [f64],
+    k: usize,
 }
 
 impl Kernel for EnergyKernel<'_> {
     type Output = EnergyTerms;
     #[inline(always)]
     fn run<M: MulAdd>(self) -> EnergyTerms {
-        self.ledger.energy_body(self.y)
+        self.ledger.energy_body(self.y, self.k)
     }
 }
 

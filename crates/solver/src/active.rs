@@ -1,0 +1,447 @@
+//! The moving part of a long chain: particles ahead of the leading front that still rest in their
+//! initial static equilibrium are not integrated until the front approaches them.
+//!
+//! A run that qualifies ([`plan`]) integrates the prefix `[0, k)` of its chain, a chain of its own
+//! whose last contact, with particle `k` held at its equilibrium position, takes the place of a
+//! wall (its positions are shifted by `x_eq[k]`, so that this "wall" sits at the origin as a real
+//! wall does). After every accepted step the last [`WATCH`] integrated particles are compared with
+//! their equilibrium; once one has left it by more than a threshold tied to the run's absolute
+//! tolerance, the integrator stops at the end of that step, the prefix grows by [`BLOCK`]
+//! particles (taken from their exact equilibrium), and the integrator starts afresh from that state
+//! (a new first step, a new first right-hand side: the methods see one consistent, smaller system
+//! at a time). The probes and the ledger see the whole chain throughout: the particles at rest read
+//! their equilibrium, their energy is a constant added to the ledger's, and the wall impulse grows
+//! at the equilibrium wall force.
+//!
+//! Qualifying is proved on the scene's own numbers, never assumed: an adaptive integrator (the
+//! thresholds come from its tolerance), a chain of at least [`MIN_PARTICLES`] particles (shorter
+//! ones cost little anyway and keep their bits), no static force on the chain (a precompression
+//! sends a fast linear wave ahead of the pulse), every particle beyond the first at rest with no
+//! quadrature started, and the right-hand side at the initial state giving the particles that start
+//! at rest accelerations so small that over the whole run they would move less than a hundredth of
+//! the tolerance (a chain in free fall, a free end, a misplaced particle all fail this). Scenes that
+//! do not qualify run the whole chain, unchanged.
+
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+
+use crate::integrate::{
+    Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, StepObserver,
+};
+use crate::model::Chain;
+use crate::probes::RunObserver;
+use crate::scene::{ImpactScales, Scene};
+
+/// Whether a run may integrate only the moving part of its chain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum ActiveRegion {
+    /// Integrate only the moving part when the scene qualifies (see the module docs), else the
+    /// whole chain.
+    #[default]
+    Auto,
+    /// Always integrate the whole chain.
+    Off,
+}
+
+impl ActiveRegion {
+    /// Whether this is the default, [`ActiveRegion::Auto`] (which sweep files and run hashes leave
+    /// out).
+    pub fn is_auto(&self) -> bool {
+        *self == ActiveRegion::Auto
+    }
+}
+
+/// Shortest chain (particles, striker included) that integrates only its moving part: the
+/// paper's chains (about 100 particles) are all shorter and keep their bits.
+pub const MIN_PARTICLES: usize = 512;
+
+/// Particles added to the integrated prefix at a time (and its initial length).
+pub const BLOCK: usize = 64;
+
+/// The last integrated particles watched for departure from equilibrium.
+pub const WATCH: usize = 16;
+
+/// A watched particle counts as moving once its displacement from equilibrium exceeds this
+/// fraction of the absolute tolerance on positions (`atol` times the two-body peak overlap), or its
+/// velocity this fraction of that on velocities.
+pub const THRESHOLD_FRACTION: f64 = 1e-3;
+
+/// A particle is in static equilibrium when the net force on it is at most this fraction of the
+/// forces that balance on it (its contacts' and its weight): round-off of the balance, never a
+/// real load, which leaves a fraction of order one (a chain in free fall, a particle out of place).
+pub const REST_FRACTION: f64 = 1e-6;
+
+/// How a qualifying run integrates its moving part.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ActivePlan {
+    /// Initial number of integrated particles.
+    k0: usize,
+    /// Displacement from equilibrium (m) and velocity (m/s) at which a watched particle moves.
+    threshold_x: f64,
+    threshold_v: f64,
+    /// Force of the wall at equilibrium, N (the rate of the wall impulse while the far end rests).
+    wall_force: f64,
+}
+
+/// The plan of a run of `scene` on its built `chain` from `y0`, or `None` when it does not qualify.
+pub(crate) fn plan(
+    scene: &Scene,
+    chain: &Chain,
+    scales: &ImpactScales,
+    y0: &[f64],
+) -> Option<ActivePlan> {
+    let options = scene.integrator.adaptive_options()?;
+    let n = chain.n_particles();
+    if scene.active_region == ActiveRegion::Off
+        || n < MIN_PARTICLES
+        || chain.precompression_force_n != 0.0
+    {
+        return None;
+    }
+    let k0 = BLOCK;
+    if y0[..n] != chain.equilibrium_position[..] || y0[n + 1..].iter().any(|&v| v != 0.0) {
+        return None;
+    }
+    let mut dy = vec![0.0; y0.len()];
+    crate::dispatch_chain_system!(chain, |sys| OdeSystem::rhs(&mut sys, 0.0, y0, &mut dy));
+    if !at_rest(chain, &dy, k0) {
+        return None;
+    }
+    Some(ActivePlan {
+        k0,
+        threshold_x: THRESHOLD_FRACTION * options.atol() * scales.overlap_m,
+        threshold_v: THRESHOLD_FRACTION * options.atol() * scales.velocity_m_s,
+        wall_force: chain.wall_impulse_index().map_or(0.0, |w| dy[w]),
+    })
+}
+
+/// Whether the particles from `k0` on, whose accelerations at the initial state are `dy[N..2N]`,
+/// start in static equilibrium ([`REST_FRACTION`]); their velocities are checked by the caller.
+fn at_rest(chain: &Chain, dy: &[f64], k0: usize) -> bool {
+    let n = chain.n_particles();
+    let contact = |c: usize| chain.static_force(c).abs();
+    (k0..n).all(|i| {
+        let mut balanced = chain.mass[i] * chain.gravity_m_s2.abs();
+        if i > 0 {
+            balanced += contact(i - 1);
+        }
+        if i < chain.n_contacts() {
+            balanced += contact(i);
+        }
+        chain.mass[i] * dy[n + i].abs() <= REST_FRACTION * balanced
+    })
+}
+
+/// The first `k` particles of `chain` as a chain of their own: contact `k-1`, against particle `k`
+/// at rest, becomes its wall, and positions are measured from particle `k`'s equilibrium position.
+/// The equilibrium positions are summed from the static overlaps as the whole chain's are from its
+/// wall (not differences of the whole chain's, whose round-off grows with the chain's length and
+/// would set the watched particles moving). With `k = N`, the chain itself.
+fn prefix_chain(chain: &Chain, k: usize) -> Chain {
+    let n = chain.n_particles();
+    if k == n {
+        return chain.clone();
+    }
+    let mut equilibrium_position = vec![0.0; k];
+    equilibrium_position[k - 1] = chain.static_overlap[k - 1];
+    for i in (0..k - 1).rev() {
+        equilibrium_position[i] = equilibrium_position[i + 1] + chain.static_overlap[i];
+    }
+    Chain {
+        mass: chain.mass[..k].to_vec(),
+        kind: chain.kind[..k].to_vec(),
+        shape: chain.shape[..k].to_vec(),
+        stiffness: chain.stiffness[..k].to_vec(),
+        exponent: chain.exponent[..k].to_vec(),
+        damping: chain.damping[..k].to_vec(),
+        viscoelastic_damping: chain.viscoelastic_damping[..k].to_vec(),
+        hunt_crossley_damping: chain.hunt_crossley_damping[..k].to_vec(),
+        gravity_m_s2: chain.gravity_m_s2,
+        wall: true,
+        clip_tensile: chain.clip_tensile,
+        striker: chain.striker,
+        precompression_force_n: chain.precompression_force_n,
+        force_pulse: chain.force_pulse,
+        static_overlap: chain.static_overlap[..k].to_vec(),
+        equilibrium_position,
+        cell_length_m: chain.cell_length_m,
+        materials: chain.materials[..k].to_vec(),
+    }
+}
+
+/// Where each component of the whole chain's state comes from while the prefix `[0, k)` is
+/// integrated.
+#[derive(Debug, Clone, Copy)]
+struct StateMap {
+    n: usize,
+    k: usize,
+    /// Added to the prefix's positions.
+    shift: f64,
+    /// Dissipated work: (whole, prefix) indices; no prefix index: constant (nothing dissipates).
+    work: Option<(usize, Option<usize>)>,
+    /// Wall impulse: (whole, prefix) indices; no prefix index: it grows at the equilibrium wall
+    /// force from its value at `wall_since`.
+    wall: Option<(usize, Option<usize>)>,
+    wall_since: (f64, f64),
+    wall_force: f64,
+    /// Work of the force pulse: (whole, prefix) indices.
+    pulse: Option<(usize, usize)>,
+}
+
+impl StateMap {
+    fn new(chain: &Chain, sub: &Chain, k: usize, t: f64, full: &[f64], wall_force: f64) -> Self {
+        let n = chain.n_particles();
+        let whole = k == n;
+        let wall = chain.wall_impulse_index();
+        StateMap {
+            n,
+            k,
+            shift: if whole {
+                0.0
+            } else {
+                chain.equilibrium_position[k]
+            },
+            work: chain.work_index().map(|w| (w, sub.work_index())),
+            wall: wall.map(|w| (w, whole.then_some(w))),
+            wall_since: (t, wall.map_or(0.0, |w| full[w])),
+            wall_force,
+            pulse: chain.pulse_work_index().map(|w| {
+                (
+                    w,
+                    sub.pulse_work_index().expect("the prefix keeps the pulse"),
+                )
+            }),
+        }
+    }
+
+    /// The prefix's state, taken from the whole chain's `full` (positions shifted; see
+    /// [`integrate`] for the positions of a grown prefix).
+    fn prefix_state(&self, sub: &Chain, full: &[f64]) -> Vec<f64> {
+        let (n, k) = (self.n, self.k);
+        let mut y = vec![0.0; sub.state_len()];
+        for i in 0..k {
+            y[i] = full[i] - self.shift;
+        }
+        y[k..2 * k].copy_from_slice(&full[n..n + k]);
+        if let Some((w, Some(s))) = self.work {
+            y[s] = full[w];
+        }
+        if let Some((w, Some(s))) = self.wall {
+            y[s] = full[w];
+        }
+        if let Some((w, s)) = self.pulse {
+            y[s] = full[w];
+        }
+        y
+    }
+
+    /// Component `i` of the whole chain's state at `t`, from the prefix's components `sub` and the
+    /// whole state `full` (which holds the resting particles).
+    #[inline]
+    fn value(&self, i: usize, t: f64, sub: impl Fn(usize) -> f64, full: &[f64]) -> f64 {
+        let (n, k) = (self.n, self.k);
+        if i < n {
+            return if i < k { sub(i) + self.shift } else { full[i] };
+        }
+        if i < 2 * n {
+            return if i - n < k { sub(k + i - n) } else { 0.0 };
+        }
+        if let Some((w, s)) = self.work {
+            if i == w {
+                return s.map_or(full[i], sub);
+            }
+        }
+        if let Some((w, s)) = self.wall {
+            if i == w {
+                return match s {
+                    Some(s) => sub(s),
+                    None => self.wall_since.1 + self.wall_force * (t - self.wall_since.0),
+                };
+            }
+        }
+        match self.pulse {
+            Some((w, s)) if i == w => sub(s),
+            _ => full[i],
+        }
+    }
+
+    /// Writes the prefix's state `y` at `t` into the whole chain's `full`.
+    fn update(&self, t: f64, y: &[f64], full: &mut [f64]) {
+        let (n, k) = (self.n, self.k);
+        for i in 0..k {
+            full[i] = y[i] + self.shift;
+        }
+        full[n..n + k].copy_from_slice(&y[k..2 * k]);
+        for q in 2 * n..full.len() {
+            let value = self.value(q, t, |j| y[j], full);
+            full[q] = value;
+        }
+    }
+}
+
+/// The whole chain's view of a step of the prefix.
+struct WholeStep<'a> {
+    step: &'a dyn DenseStep,
+    map: &'a StateMap,
+    full: &'a [f64],
+}
+
+impl DenseStep for WholeStep<'_> {
+    fn t_start(&self) -> f64 {
+        self.step.t_start()
+    }
+    fn t_end(&self) -> f64 {
+        self.step.t_end()
+    }
+    fn y_end(&self) -> &[f64] {
+        self.full
+    }
+    fn eval_component(&self, t: f64, i: usize) -> f64 {
+        self.map
+            .value(i, t, |j| self.step.eval_component(t, j), self.full)
+    }
+}
+
+/// Feeds the run's observer with the whole chain's view and asks for a larger prefix once a watched
+/// particle moves.
+struct PrefixObserver<'a> {
+    inner: &'a mut RunObserver,
+    map: StateMap,
+    full: &'a mut Vec<f64>,
+    /// Equilibrium positions of the watched particles in the prefix's coordinates.
+    watched_rest: Vec<f64>,
+    threshold_x: f64,
+    threshold_v: f64,
+    grow: bool,
+    /// The prefix's state at the end of the last accepted step.
+    last: Vec<f64>,
+}
+
+impl StepObserver for PrefixObserver<'_> {
+    fn on_start(&mut self, t0: f64, _y0: &[f64]) {
+        self.inner.on_start(t0, self.full);
+    }
+
+    fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+        let y = step.y_end();
+        self.map.update(step.t_end(), y, self.full);
+        self.last.copy_from_slice(y);
+        let control = self.inner.on_step(&WholeStep {
+            step,
+            map: &self.map,
+            full: self.full,
+        });
+        let k = self.map.k;
+        if control == Control::Stop || k == self.map.n {
+            return control;
+        }
+        let first = k - WATCH;
+        let moving = (first..k).any(|i| {
+            (y[i] - self.watched_rest[i - first]).abs() > self.threshold_x
+                || y[k + i].abs() > self.threshold_v
+        });
+        if moving {
+            self.grow = true;
+            return Control::Stop;
+        }
+        Control::Continue
+    }
+}
+
+/// Integrates a qualifying run ([`plan`]) over its legs (as [`crate::scene::run`] does for the
+/// whole chain), growing the integrated prefix as the front approaches its end. Returns the
+/// statistics summed over every start of the integrator and the number of particles integrated at
+/// the end.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn integrate(
+    plan: &ActivePlan,
+    build: &dyn Fn(&Chain) -> Box<dyn Integrator>,
+    chain: &Chain,
+    t0: f64,
+    y0: &[f64],
+    leg_ends: &[f64],
+    max_steps: u64,
+    observer: &mut RunObserver,
+) -> Result<(IntegrationStats, usize), IntegrateError> {
+    let n = chain.n_particles();
+    let mut k = plan.k0.min(n);
+    let mut full = y0.to_vec();
+    let mut total = IntegrationStats::default();
+    let mut t = t0;
+    let mut leg = 0;
+    observer.set_active(k, &full);
+    // The prefix's state: the initial state (the equilibrium) in its own coordinates.
+    let mut sub = prefix_chain(chain, k);
+    let mut y_sub = {
+        let map = StateMap::new(chain, &sub, k, t, &full, plan.wall_force);
+        let mut y = map.prefix_state(&sub, &full);
+        if k < n {
+            y[..k].copy_from_slice(&sub.equilibrium_position);
+        }
+        y
+    };
+    while leg < leg_ends.len() {
+        let t_leg = leg_ends[leg];
+        let map = StateMap::new(chain, &sub, k, t, &full, plan.wall_force);
+        let integrator = build(&sub);
+        let watched_rest = if k < n {
+            sub.equilibrium_position[k - WATCH..k].to_vec()
+        } else {
+            Vec::new()
+        };
+        let mut obs = PrefixObserver {
+            inner: observer,
+            map,
+            full: &mut full,
+            watched_rest,
+            threshold_x: plan.threshold_x,
+            threshold_v: plan.threshold_v,
+            grow: false,
+            last: y_sub.clone(),
+        };
+        // Accepted and rejected attempts both count against the budget, as for the whole chain.
+        let budget = max_steps.saturating_sub(total.steps + total.rejected);
+        let stats = crate::dispatch_chain_system!(&sub, |sys| integrator
+            .integrate(&mut sys, t, &y_sub, t_leg, budget, &mut obs))
+        .map_err(|e| match e {
+            IntegrateError::StepBudget { t, .. } => IntegrateError::StepBudget { max_steps, t },
+            other => other,
+        })?;
+        let (grow, last) = (obs.grow, obs.last);
+        total.steps += stats.steps;
+        total.rejected += stats.rejected;
+        total.events += stats.events;
+        total.rhs_evals += stats.rhs_evals;
+        total.stiffness_detections += stats.stiffness_detections;
+        if observer.stopped || total.steps + total.rejected >= max_steps {
+            break;
+        }
+        t = observer.t_reached;
+        y_sub = last;
+        if grow {
+            let k_old = k;
+            k = (k + BLOCK).min(n);
+            observer.set_active(k, &full);
+            sub = prefix_chain(chain, k);
+            let map = StateMap::new(chain, &sub, k, t, &full, plan.wall_force);
+            let mut y = map.prefix_state(&sub, &full);
+            if k < n {
+                // The old prefix's positions are measured from particle `k_old` at rest, which sits
+                // at its equilibrium in the new prefix's coordinates; the particles joining rest.
+                let origin = sub.equilibrium_position[k_old];
+                for i in 0..k_old {
+                    y[i] = y_sub[i] + origin;
+                }
+                y[k_old..k].copy_from_slice(&sub.equilibrium_position[k_old..k]);
+            }
+            y_sub = y;
+        }
+        if !grow || t >= t_leg {
+            leg += 1;
+            t = t_leg;
+        }
+    }
+    Ok((total, k))
+}
