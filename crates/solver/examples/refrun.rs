@@ -13,6 +13,7 @@ fn main() {
     s.physics.damping_kg_s = 6.0;
     s.integrator = IntegratorSpec::Dop853(AdaptiveOptions {
         predict_switches: args.get(3).is_some_and(|a| a == "predict"),
+        atol: std::env::var("CS_ATOL").ok().map(|v| v.parse().unwrap()),
         ..AdaptiveOptions::new(rtol)
     });
     s.record.probes = vec![
@@ -34,5 +35,9 @@ fn main() {
         times[0],
         o.stats,
         o.probes[1].leading_peak
+    );
+    println!(
+        "F4 {:.9} drift {:.3e}",
+        o.probes[0].leading_peak, o.energy_drift_max
     );
 }

@@ -306,6 +306,9 @@ const MIN_PREDICTED_FRACTION: f64 = 1e-9;
 /// sides with 8, 9 999 with 4, 18 886 with 1, 9 240 unbounded (which traps on the grazing contact
 /// of tests/dynamics.rs).
 const MAX_EVENT_STREAK: u32 = 8;
+/// How far past a crossing a step that lands on it ends, and how much shorter than the step it
+/// replaces it must be, relative.
+const EVENT_MARGIN: f64 = 1e-6;
 /// Consecutive steps on the stability boundary that flag the problem as stiff (Hairer).
 const STIFF_STEPS_TO_FLAG: u32 = 15;
 /// Calm steps that clear the count.
@@ -494,7 +497,15 @@ impl<M: Method> Integrator for Adaptive<M> {
             }
 
             if accepted && !landing && !switches.is_empty() {
-                let t_event = earliest_event(&switches, w.y(), &w.dense(t, t_new, h_step));
+                // With prediction, most accepted steps end just past a predicted crossing, which
+                // needs no retake: only a crossing early enough for `event_step` to act on is
+                // located (the plain event location looks over the whole step, as it always has).
+                let horizon = if predict {
+                    t + h_step * ((1.0 - EVENT_MARGIN) / (1.0 + EVENT_MARGIN))
+                } else {
+                    t_new
+                };
+                let t_event = earliest_event(&switches, w.y(), &w.dense(t, t_new, h_step), horizon);
                 if let Some(h_event) = t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
                 {
                     stats.rejected += 1;
@@ -728,10 +739,13 @@ fn initial_step(
 /// located on the step's dense output by the Illinois variant of regula falsi. `None` if no switch
 /// changes sign over the step. A switch exactly at zero at the start (the striker touching at
 /// t = 0, or a step that just landed on an event) is where the step begins, not an event in it.
+/// Only zeros before `horizon` (at most the end of the step) are sought: a switch whose sign at
+/// `horizon` is still that of the start is passed over without root finding.
 fn earliest_event<S: DenseStep + ?Sized>(
     switches: &[Switch],
     y_start: &[f64],
     step: &S,
+    horizon: f64,
 ) -> Option<f64> {
     let (t0, t1) = (step.t_start(), step.t_end());
     let y_end = step.y_end();
@@ -743,7 +757,7 @@ fn earliest_event<S: DenseStep + ?Sized>(
             continue;
         }
         let g = |t: f64| sw.value(|i| step.eval_component(t, i));
-        let (mut a, mut b) = (t0, earliest.unwrap_or(t1));
+        let (mut a, mut b) = (t0, earliest.unwrap_or(horizon));
         let (mut ga, mut gb) = (g0, g(b));
         if (ga > 0.0) == (gb > 0.0) {
             // This switch crosses only after an earlier event already found.
@@ -789,20 +803,22 @@ fn earliest_event<S: DenseStep + ?Sized>(
 /// ending the step there spares an attempt that would fail on the kink, or be retaken.
 fn crossing_ahead(switches: &[Switch], n_pos: usize, y: &[f64], f: &[f64], h: f64) -> Option<f64> {
     let mut earliest: Option<f64> = None;
+    let (x, v, a) = (&y[..n_pos], &f[..n_pos], &f[n_pos..2 * n_pos]);
     for sw in switches {
-        let g0 = sw.value(|i| y[i]);
-        if g0 == 0.0 {
+        let p = sw.plus;
+        // Value, slope and half the curvature; most switches are contacts between positions.
+        let (g0, b, c) = match sw.minus {
+            Some(m) if p < n_pos && m < n_pos => (x[p] - x[m], v[p] - v[m], 0.5 * (a[p] - a[m])),
+            Some(m) => (y[p] - y[m], f[p] - f[m], 0.0),
+            None if p < n_pos => (x[p], v[p], 0.5 * a[p]),
+            None => (y[p], f[p], 0.0),
+        };
+        // Most switches are far from zero: |g(s) − g0| ≤ (|b| + |c| s) s rules them out cheaply
+        // (here over the whole step, below over what is left before an earlier crossing).
+        if g0 == 0.0 || (b.abs() + c.abs() * h) * h < g0.abs() {
             continue;
         }
-        let b = sw.value(|i| f[i]);
-        let on_positions = sw.plus < n_pos && !matches!(sw.minus, Some(m) if m >= n_pos);
-        let c = if on_positions {
-            0.5 * sw.value(|i| f[i + n_pos])
-        } else {
-            0.0
-        };
         let limit = earliest.unwrap_or(h);
-        // Most switches are far from zero: |g(s) − g0| ≤ (|b| + |c| s) s rules them out cheaply.
         if (b.abs() + c.abs() * limit) * limit < g0.abs() {
             continue;
         }
@@ -874,7 +890,7 @@ fn predicted_event(switches: &[Switch], y0: &[f64], f0: &[f64], y1: &[f64], h: f
 /// in the new regime), or `None` when it would be no shorter than `limit` or too short for
 /// floating point to move the state: then the step is taken as it is.
 fn event_step(t: f64, h_step: f64, tau: f64, limit: f64) -> Option<f64> {
-    let h_event = tau * (1.0 + 1e-6);
-    (h_event < limit * (1.0 - 1e-6) && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step))
+    let h_event = tau * (1.0 + EVENT_MARGIN);
+    (h_event < limit * (1.0 - EVENT_MARGIN) && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step))
         .then_some(h_event)
 }
