@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Side-by-side timing of builds of the solver (part of `make bench`): the reference run (0.55
-# chain, 50 cylinders, mu = 6 kg/s, v0 = 1.3 m/s, 1 ms, DOP853 rtol 5e-8) and the right-hand side,
+# chain, 50 cylinders, mu = 6 kg/s, v0 = 1.3 m/s, 1 ms, DOP853 rtol 5e-8 with predict_switches;
+# a baseline revision older than that option runs it without) and the right-hand side,
 # for
 #   default    this tree, built as a user builds it (no special flags: run-time CPU dispatch)
 #   portable   the same binary pinned to the no-FMA code path (CHAINSWEEP_CPU=portable)
@@ -56,7 +57,7 @@ fi
 declare -A medians mins
 for ((r = 1; r <= ROUNDS; r++)); do
   for i in "${!names[@]}"; do
-    line=$(env ${envs[$i]} "${bins[$i]}/refrun" "$RTOL" "$REPEATS")
+    line=$(env ${envs[$i]} "${bins[$i]}/refrun" "$RTOL" "$REPEATS" predict)
     medians[$i]+="$(sed -n 's/.*median \([0-9.]*\) ms.*/\1/p' <<<"$line") "
     mins[$i]+="$(sed -n 's/.*min \([0-9.]*\) ms.*/\1/p' <<<"$line") "
     if ((r == 1)); then echo "${names[$i]}: $line"; fi
@@ -64,7 +65,7 @@ for ((r = 1; r <= ROUNDS; r++)); do
 done
 
 echo
-echo "reference run, DOP853 rtol $RTOL: $ROUNDS rounds x $REPEATS runs, alternating builds"
+echo "reference run, DOP853 rtol $RTOL, predict_switches: $ROUNDS rounds x $REPEATS runs, alternating builds"
 echo "(median: of the rounds' medians; min: fastest single run, the least disturbed by other load)"
 printf '%-20s %10s %10s %10s %10s   %s\n' build "median ms" "/default" "min ms" "/default" \
   "right-hand side (min of 30 x 20 000 calls)"

@@ -167,6 +167,15 @@ def main():
             scale = 1.0
         b, a = med["before"][key], med["after"].get(key, float("nan"))
         print(f"| {k} | {fmt.format(b * scale)} | {fmt.format(a * scale)} | {a / b:.3f} |")
+    # Runs only the working tree has (the reference run under other settings), against the base's
+    # reference run: the same scene and accuracy target.
+    ref_run = "run/chain055_50cyl_mu6_1ms"
+    extra = sorted(k for k in med["after"] if k.startswith("run/") and k not in med["before"])
+    if extra and ref_run in med["before"]:
+        print(f"\n| working tree only | after | vs before's {ref_run} |\n|---|---|---|")
+        for k in extra:
+            a = med["after"][k]
+            print(f"| {k} | {a * 1e-6:.3f} ms | {a / med['before'][ref_run]:.3f} |")
     print("\n| general kernel (working tree) | RHS cost | vs the paper's kernel (rhs/full_physics) |\n|---|---|---|")
     ref = med["after"].get("rhs/full_physics" + per, float("nan"))
     for k in sorted(x for x in med["after"] if x.startswith("general_rhs/") and x.endswith(per)):

@@ -2,8 +2,9 @@
 //! kernel under every contact law and dissipation model) and the cost of one reference run.
 //!
 //! The reference run is the issue's: the 0.55 chain (3.77 g cylinders, 50 cylinders), μ = 6 kg/s,
-//! v0 = 1.3 m/s, 1 ms simulated, DOP853 at the tolerance whose leading peak in cylinder 21 is within
-//! 1e-6 of a tight reference (checked by `tests/accuracy.rs`).
+//! v0 = 1.3 m/s, 1 ms simulated, DOP853 with `predict_switches` at the tolerance whose leading peak
+//! in cylinder 21 is within 1e-6 of a tight reference (checked by `tests/accuracy.rs`); beside it
+//! the same run under DOP853's default settings.
 
 use chainsweep_solver::contact::{DissipationSpec, LawSpec};
 use chainsweep_solver::general::{law, GeneralChainSystem, HERTZ_LAW, LINEAR_LAW, POWER_LAW};
@@ -17,7 +18,7 @@ use criterion::{
 };
 
 mod reference;
-use reference::{reference_scene, REFERENCE_RTOL};
+use reference::{benchmark_scene, reference_scene, REFERENCE_RTOL};
 
 fn mid_pulse_state(chain: &Chain) -> Vec<f64> {
     // A state with every contact compressed or open in a realistic pattern: a travelling bump of
@@ -72,16 +73,29 @@ fn bench_rhs(c: &mut Criterion) {
 }
 
 fn bench_run(c: &mut Criterion) {
-    let scene = reference_scene(REFERENCE_RTOL);
-    let out = run(&scene).unwrap();
-    eprintln!(
-        "reference run: {} steps, {} rhs evals, peak F21 = {:.9} N, energy drift {:.2e}",
-        out.stats.steps, out.stats.rhs_evals, out.probes[1].leading_peak, out.energy_drift_max
-    );
+    let scene = benchmark_scene();
+    let default = reference_scene(REFERENCE_RTOL);
+    for (what, s) in [("reference run", &scene), ("default DOP853", &default)] {
+        let out = run(s).unwrap();
+        eprintln!(
+            "{what}: {} steps, {} rejected, {} events, {} rhs evals, peak F21 = {:.9} N, energy drift {:.2e}",
+            out.stats.steps,
+            out.stats.rejected,
+            out.stats.events,
+            out.stats.rhs_evals,
+            out.probes[1].leading_peak,
+            out.energy_drift_max
+        );
+    }
     let mut group = c.benchmark_group("run");
     group.sample_size(30);
     group.bench_function("chain055_50cyl_mu6_1ms", |b| {
         b.iter(|| run(black_box(&scene)).unwrap())
+    });
+    // The same run under DOP853's default settings (no switch prediction): what sweeps that do
+    // not ask for prediction get.
+    group.bench_function("chain055_50cyl_mu6_1ms_default_dop853", |b| {
+        b.iter(|| run(black_box(&default)).unwrap())
     });
     group.finish();
 }

@@ -1,5 +1,6 @@
 //! One reference run (0.55 chain, 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s, 1 ms) repeated, for
-//! profiling: `cargo run --release -p chainsweep-solver --example refrun -- RTOL REPEATS`.
+//! profiling: `cargo run --release -p chainsweep-solver --example refrun -- RTOL REPEATS [predict]`
+//! (`predict`: with `predict_switches`).
 use chainsweep_solver::model::ChainSpec;
 use chainsweep_solver::probes::Probe;
 use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
@@ -10,7 +11,11 @@ fn main() {
     let repeats: usize = args.get(2).map_or(20, |s| s.parse().unwrap());
     let mut s = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
     s.physics.damping_kg_s = 6.0;
-    s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(rtol));
+    s.integrator = IntegratorSpec::Dop853(AdaptiveOptions {
+        predict_switches: args.get(3).is_some_and(|a| a == "predict"),
+        atol: std::env::var("CS_ATOL").ok().map(|v| v.parse().unwrap()),
+        ..AdaptiveOptions::new(rtol)
+    });
     s.record.probes = vec![
         Probe::GaugeForce { cylinder: 4 },
         Probe::GaugeForce { cylinder: 21 },
@@ -30,5 +35,9 @@ fn main() {
         times[0],
         o.stats,
         o.probes[1].leading_peak
+    );
+    println!(
+        "F4 {:.9} drift {:.3e}",
+        o.probes[0].leading_peak, o.energy_drift_max
     );
 }

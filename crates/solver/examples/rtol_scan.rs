@@ -1,6 +1,7 @@
 //! Error of the leading peak in cylinder 21 against cost, for the reference run of `make bench`
 //! (0.55 chain, 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s, 1 ms), over a ladder of settings of every
-//! integrator. Run: `cargo run --release -p chainsweep-solver --example rtol_scan`.
+//! integrator, DOP853 also with `predict_switches` (`dop853+p`). Run:
+//! `cargo run --release -p chainsweep-solver --example rtol_scan`.
 
 use chainsweep_solver::model::ChainSpec;
 use chainsweep_solver::probes::Probe;
@@ -50,10 +51,17 @@ fn main() {
         "ms (min)"
     );
     let mut ladder: Vec<IntegratorSpec> = Vec::new();
-    for rtol in [
+    let dop_rtols = [
         1e-5, 3e-6, 1e-6, 5e-7, 3e-7, 2e-7, 1e-7, 5e-8, 1e-8, 1e-9, 1e-10, 1e-11,
-    ] {
+    ];
+    for rtol in dop_rtols {
         ladder.push(IntegratorSpec::Dop853(AdaptiveOptions::new(rtol)));
+    }
+    for rtol in dop_rtols {
+        ladder.push(IntegratorSpec::Dop853(AdaptiveOptions {
+            predict_switches: true,
+            ..AdaptiveOptions::new(rtol)
+        }));
     }
     for dt in [4e-7, 2e-7, 1e-7, 5e-8] {
         ladder.push(IntegratorSpec::Rk4 { dt_s: dt });
@@ -74,11 +82,19 @@ fn main() {
                 format!("dt {dt_s:.0e}")
             }
         };
+        let predicting = matches!(
+            ig,
+            IntegratorSpec::Dop853(AdaptiveOptions {
+                predict_switches: true,
+                ..
+            })
+        );
         let (o, secs) = time_run(&scene(ig));
+        let method = if predicting { "dop853+p" } else { o.method };
         let p = &o.probes[1];
         println!(
             "{:<8} {:>10} {:>12.2e} {:>12.2e} {:>10.2e} {:>9} {:>10} {:>9.3}",
-            o.method,
+            method,
             setting,
             (p.leading_peak - f_ref).abs() / f_ref,
             (p.leading_peak_time_s - t_ref).abs(),

@@ -25,6 +25,17 @@ fn adaptive_specs_serialise_as_before() {
         json(&dop),
         r#"{"method":"dop853","rtol":3e-8,"atol":1e-10,"max_step_s":2e-7,"locate_events":false}"#
     );
+    // `predict_switches` appears only when on, so scenes without it keep their form and hash.
+    let explicit_off: IntegratorSpec =
+        serde_json::from_str(r#"{"method":"dop853","rtol":1e-9,"predict_switches":false}"#)
+            .unwrap();
+    assert_eq!(json(&explicit_off), json(&IntegratorSpec::default()));
+    let predicting: IntegratorSpec =
+        serde_json::from_str(r#"{"method":"dop853","rtol":5e-8,"predict_switches":true}"#).unwrap();
+    assert_eq!(
+        json(&predicting),
+        r#"{"method":"dop853","rtol":5e-8,"atol":null,"max_step_s":null,"locate_events":true,"predict_switches":true}"#
+    );
     let ros: IntegratorSpec = serde_json::from_str(r#"{"method":"ros34pw2","rtol":1e-8}"#).unwrap();
     assert_eq!(
         json(&ros),
