@@ -1,5 +1,5 @@
 //! A sweep file run into HDF5 in this process, exactly as `chainsweep run` runs it (resume,
-//! segments, exit codes), with progress for Python and a clean stop on Ctrl-C.
+//! run logs, exit codes), with progress for Python and a clean stop on Ctrl-C.
 //!
 //! The runner runs on a thread of its own; the calling thread waits with the GIL released and,
 //! a few times a second, takes it to check Python's signals (Ctrl-C, a notebook's interrupt) and

@@ -187,12 +187,15 @@ pub fn run_points(
         opts,
         plan,
         sink,
+        published: None,
     };
     // A readable output file from the start (every point pending or resumed), so that a run
     // killed before its first checkpoint still leaves one that `status` and h5py read.
     if !opts.output.exists() {
         run.assemble()?;
     }
+    // An output file from before holds at most the runs stored now.
+    run.published.get_or_insert(run.stored());
     let schedule = Schedule {
         pool,
         checkpoint_every: opts.checkpoint_interval,
@@ -201,6 +204,11 @@ pub fn run_points(
     run_tasks(&tasks, executor, work, &schedule, &mut run)?;
     let counts = run.assemble()?;
     let plan = &run.plan;
+    if plan.complete(grid) {
+        // The file holds every run of the sweep: the logs beside it shrink to what it lacks.
+        let needed = plan.needed(grid);
+        work.compact_after_publish(&|h| needed.contains(h))?;
+    }
     let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
     Ok(RunReport {
         points: plan.points.len(),
@@ -220,10 +228,24 @@ struct Running<'a> {
     opts: &'a RunOptions,
     plan: Plan,
     sink: &'a mut dyn ProgressSink,
+    /// Runs stored when the output file was last published (`None`: not yet by this process).
+    published: Option<usize>,
 }
 
+/// A checkpoint publishes the output file again only once the stored runs have grown by this
+/// factor since it was last published (and the end of the run always does): the publishes of a
+/// sweep then write at most `GROWTH / (GROWTH - 1)` times the final file in all, whatever the
+/// checkpoint interval, while every checkpoint makes the runs stored so far durable.
+pub const PUBLISH_GROWTH: usize = 2;
+
 impl Running<'_> {
-    fn assemble(&self) -> Result<Counts> {
+    /// Runs stored (grid runs and verification runs), the measure of the output file's size.
+    fn stored(&self) -> usize {
+        self.plan.done.len() + self.plan.verify.done.len()
+    }
+
+    fn assemble(&mut self) -> Result<Counts> {
+        self.published = Some(self.stored());
         assemble(
             self.work,
             &Assembly {
@@ -252,7 +274,13 @@ impl Coordinator for Running<'_> {
     }
 
     fn checkpoint(&mut self) -> Result<()> {
-        self.assemble()?;
+        let stored = self.stored();
+        match self.published {
+            Some(p) if stored < PUBLISH_GROWTH * p.max(1) => self.work.sync()?,
+            _ => {
+                self.assemble()?;
+            }
+        }
         self.sink.checkpoint();
         Ok(())
     }
