@@ -84,7 +84,7 @@ def log_records(out):
                 break
             rec = data[at + 8 : at + 8 + n]
             at += 8 + n
-            if len(rec) > 73 and hashlib.sha256(rec[:-32]).digest() == rec[-32:] and rec[:8] == b"CSWSEG\x00\x02":
+            if _whole(rec):
                 found.append((log.name, rec[8:40].hex(), rec[40] == 1))
     return found
 
@@ -99,10 +99,23 @@ def file_runs(out):
     return {(h.decode() if isinstance(h, bytes) else h) for h, s in zip(hashes, status) if s != 0}
 
 
+def _whole(rec):
+    return len(rec) > 73 and rec[:8] == b"CSWSEG\x00\x02" and hashlib.sha256(rec[:-32]).digest() == rec[-32:]
+
+
+def old_segments(out):
+    """Run hashes (hex) of the whole one-file segments `segments/<hash>.seg` of earlier versions."""
+    d = out.parent / (out.name + ".d") / "segments"
+    if not d.is_dir():
+        return set()
+    return {p.stem for p in d.glob("*.seg") if p.is_file() and _whole(p.read_bytes())}
+
+
 def segment_count(out):
-    """How many distinct runs are stored for output `out`: in the logs of its work directory, or
-    in the output file itself (where a complete sweep's runs are once its logs are compacted)."""
-    return len({h for _, h, _ in log_records(out)} | file_runs(out))
+    """How many distinct runs are stored for output `out`: in the logs of its work directory (or
+    its one-file segments of earlier versions), or in the output file itself (where a complete
+    sweep's runs are once its logs are compacted)."""
+    return len({h for _, h, _ in log_records(out)} | old_segments(out) | file_runs(out))
 
 
 def work_dir_files(out):
