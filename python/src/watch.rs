@@ -33,8 +33,6 @@ pub struct Progress {
     pub failed: usize,
     /// Grid points of the shard and its sampled verification runs.
     pub total: usize,
-    /// Runs made since the watch started (distinct run hashes stored since).
-    pub ran: usize,
 }
 
 /// Watches the work directory of one sweep (see the module docs).
@@ -205,7 +203,6 @@ impl Watch {
             p.done += 1;
             p.failed += usize::from(!ok);
         }
-        p.ran = self.seen.len();
         p
     }
 }

@@ -108,7 +108,9 @@ pub enum Command {
     Accuracy(AccuracyArgs),
     /// Remove from an output's work directory the runs the sweep file no longer has (after
     /// editing its axes); never a run the sweep needs. The output file is left as it is.
-    #[command(after_help = "Example:\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5")]
+    #[command(
+        after_help = "Example:\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5"
+    )]
     Gc {
         /// Sweep file (JSON).
         file: PathBuf,

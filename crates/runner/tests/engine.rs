@@ -321,7 +321,12 @@ fn checkpoints_publish_the_finished_runs_while_the_sweep_goes_on() {
     // last publish (the others only sync the log): 2 and 4 of 6 here, then the end.
     let mut published: Vec<usize> = spy.seen_ok.clone();
     published.dedup();
-    assert_eq!(published, vec![0, 2, 4], "checkpoints saw {:?}", spy.seen_ok);
+    assert_eq!(
+        published,
+        vec![0, 2, 4],
+        "checkpoints saw {:?}",
+        spy.seen_ok
+    );
 }
 
 #[test]

@@ -3,7 +3,7 @@
 //! and every point's verification run are kept, whatever `--verify` fraction a later run asks.
 
 use std::collections::HashSet;
-use std::path::PathBuf;
+use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::grid::Grid;
@@ -26,12 +26,16 @@ pub fn needed_runs(sweep: &Sweep, grid: &Grid) -> HashSet<RunHash> {
 /// Removes from the work directory of `output` every record `sweep` does not need. With
 /// `integrator: auto` not chosen yet, nothing of this sweep can have run and the hashes it
 /// needs are unknown: nothing is removed (an input error says so).
-pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &PathBuf) -> Result<Compaction> {
+pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path) -> Result<Compaction> {
     let dir = work_dir_of(output);
     if !dir.is_dir() {
         return Err(Error::input(
             "--output",
-            format!("{} has no work directory {}", output.display(), dir.display()),
+            format!(
+                "{} has no work directory {}",
+                output.display(),
+                dir.display()
+            ),
         ));
     }
     if let CachedChoice::NotChosen(cache) = apply_cached(&mut sweep, &mut grid, &dir)? {

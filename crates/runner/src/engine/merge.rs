@@ -107,8 +107,12 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
     )?;
     if counts.pending == 0 {
         // Complete: the logs beside the merged file shrink to what it lacks (verification runs).
-        let needed: std::collections::HashSet<RunHash> =
-            grid.hashes.iter().chain(vsrc.hashes.values()).copied().collect();
+        let needed: std::collections::HashSet<RunHash> = grid
+            .hashes
+            .iter()
+            .chain(vsrc.hashes.values())
+            .copied()
+            .collect();
         work.compact_after_publish(&|h| needed.contains(h))?;
     }
     // Which shards to run again: only when the files are shards of one `N` (a merge may also

@@ -120,6 +120,8 @@ pub struct RunReport {
     pub verification: VerificationReport,
     /// Whether the sweep was stopped (by the stop flag) before every run finished.
     pub stopped: bool,
+    /// Runs computed by this call (grid runs and verification runs).
+    pub ran: usize,
 }
 
 /// Runs (or resumes) `sweep` into `opts.output` with the solver: checks the output, resolves
@@ -188,6 +190,7 @@ pub fn run_points(
         plan,
         sink,
         published: None,
+        ran: 0,
     };
     // A readable output file from the start (every point pending or resumed), so that a run
     // killed before its first checkpoint still leaves one that `status` and h5py read.
@@ -217,6 +220,7 @@ pub fn run_points(
         failures,
         verification: verification_report(work, grid, plan)?,
         stopped: stop.load(Ordering::Relaxed) && counts.pending > 0,
+        ran: run.ran,
     })
 }
 
@@ -230,6 +234,8 @@ struct Running<'a> {
     sink: &'a mut dyn ProgressSink,
     /// Runs stored when the output file was last published (`None`: not yet by this process).
     published: Option<usize>,
+    /// Tasks finished by this call.
+    ran: usize,
 }
 
 /// A checkpoint publishes the output file again only once the stored runs have grown by this
@@ -263,6 +269,7 @@ impl Running<'_> {
 
 impl Coordinator for Running<'_> {
     fn finished(&mut self, task: &Task, ok: bool) {
+        self.ran += 1;
         self.plan.finish(task, ok);
         for _ in 0..self.plan.weight(task) {
             self.sink.run_finished(!ok);

@@ -664,7 +664,9 @@ impl WorkDir {
                     self.output.display()
                 )));
             };
-            stored.entries.retain(|_, l| !matches!(l, Loc::Published { .. }));
+            stored
+                .entries
+                .retain(|_, l| !matches!(l, Loc::Published { .. }));
             for (h, &(point, ok)) in &p.points {
                 stored
                     .entries
