@@ -4,7 +4,9 @@
 #   make figures   runs the paper's sweeps on a small default and draws the figures into results/
 #   make bench     benchmarks, before (BENCH_BASE, default main) and after side by side: right-hand-
 #                  side cost per contact, the reference run, each contact law and model; then the
-#                  default, no-FMA and native builds side by side (scripts/bench_builds.sh)
+#                  default, no-FMA and native builds side by side (scripts/bench_builds.sh); the
+#                  results store on a 20 000-run history sweep and a 100 000-run summary sweep
+#                  (scripts/bench_store.py: bytes written, peak memory, files, throughput)
 #   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
 #   make python    the Python package (python/) built by maturin and installed into .venv
 #
@@ -92,6 +94,7 @@ BENCH_BASELINE ?=
 bench: venv
 	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 	BENCH_BASELINE=$(BENCH_BASELINE) CARGO=$(CARGO) scripts/bench_builds.sh
+	$(PY) scripts/bench_store.py
 
 clean:
 	$(CARGO) clean

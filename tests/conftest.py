@@ -4,6 +4,7 @@ The binary is `target/release/chainsweep` (built by `make build`), or `$CHAINSWE
 """
 
 import copy
+import hashlib
 import json
 import os
 import subprocess
@@ -62,10 +63,65 @@ def interruptible_sweep():
     return s
 
 
-def segment_count(out):
-    """How many run segments the work directory of output `out` holds."""
+def log_records(out):
+    """Every whole, checksummed run record in the logs of the work directory of output `out`
+    (`X.h5.d/logs/<n>.log`: frames `u64 length | record ending in its SHA-256`), as
+    (log name, run hash hex, ok) in the order written; a torn tail or corrupt record is left out,
+    as chainsweep leaves it out."""
+    d = out.parent / (out.name + ".d") / "logs"
+    found = []
+    if not d.is_dir():
+        return found
+    for log in sorted(p for p in d.glob("*.log") if p.is_file()):
+        try:
+            data = log.read_bytes()
+        except FileNotFoundError:  # compacted away meanwhile
+            continue
+        at = 0
+        while at + 8 <= len(data):
+            n = int.from_bytes(data[at : at + 8], "little")
+            if n > len(data) - at - 8:
+                break
+            rec = data[at + 8 : at + 8 + n]
+            at += 8 + n
+            if _whole(rec):
+                found.append((log.name, rec[8:40].hex(), rec[40] == 1))
+    return found
+
+
+def file_runs(out):
+    """Run hashes (hex) of the points the output file `out` holds done (ok or failed)."""
+    if not out.exists():
+        return set()
+    with h5py.File(out, "r") as f:
+        status = f["status"][...].ravel()
+        hashes = f["run_hash"][...].ravel()
+    return {(h.decode() if isinstance(h, bytes) else h) for h, s in zip(hashes, status) if s != 0}
+
+
+def _whole(rec):
+    return len(rec) > 73 and rec[:8] == b"CSWSEG\x00\x02" and hashlib.sha256(rec[:-32]).digest() == rec[-32:]
+
+
+def old_segments(out):
+    """Run hashes (hex) of the whole one-file segments `segments/<hash>.seg` of earlier versions."""
     d = out.parent / (out.name + ".d") / "segments"
-    return len(list(d.glob("*.seg"))) if d.exists() else 0
+    if not d.is_dir():
+        return set()
+    return {p.stem for p in d.glob("*.seg") if p.is_file() and _whole(p.read_bytes())}
+
+
+def segment_count(out):
+    """How many distinct runs are stored for output `out`: in the logs of its work directory (or
+    its one-file segments of earlier versions), or in the output file itself (where a complete
+    sweep's runs are once its logs are compacted)."""
+    return len({h for _, h, _ in log_records(out)} | old_segments(out) | file_runs(out))
+
+
+def work_dir_files(out):
+    """Every regular file in the work directory of output `out` (recursively)."""
+    d = out.parent / (out.name + ".d")
+    return [p for p in d.rglob("*") if p.is_file()]
 
 
 def with_axes(sweep, axes):

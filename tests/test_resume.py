@@ -20,6 +20,7 @@ from conftest import (
     interruptible_sweep,
     read_all,
     run,
+    log_records,
     segment_count,
     write_sweep,
 )
@@ -142,9 +143,8 @@ def test_editing_the_sweep_recomputes_only_changed_points(tmp_path, binary):
     path = write_sweep(tmp_path / "edit.json", s)
     out = tmp_path / "edit.h5"
     assert run("run", path, "-o", out, "--quiet").returncode == 0
-    seg_dir = tmp_path / "edit.h5.d" / "segments"
-    old = {p.name: p.stat().st_mtime_ns for p in seg_dir.iterdir()}
-    assert len(old) == 6
+    # A complete run leaves its runs in the output file, not beside it.
+    assert segment_count(out) == 6 and log_records(out) == []
 
     # Change one damping value and add a mass ratio: 2 of the 6 old points change, 2 are new.
     s["axes"][1]["values"] = [0, 10]
@@ -156,10 +156,10 @@ def test_editing_the_sweep_recomputes_only_changed_points(tmp_path, binary):
     r = run("run", path, "-o", out)
     assert r.returncode == 0, r.stderr
     assert "3 of 8 runs already done" in r.stderr
-    new = {p.name: p.stat().st_mtime_ns for p in seg_dir.iterdir()}
-    assert len(new) == 6 + 5
-    for name, mtime in old.items():
-        assert new[name] == mtime, "a finished run was rewritten"
+    # Exactly the 5 changed or new points ran; the 3 orphans of the old sweep are gone with the
+    # old file, and nothing stays beside the new one.
+    assert "8/8 runs done" in r.stderr
+    assert segment_count(out) == 8 and log_records(out) == []
 
     # The result equals a fresh run of the edited sweep.
     fresh = tmp_path / "fresh.h5"

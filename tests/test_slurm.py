@@ -20,7 +20,7 @@ from pathlib import Path
 import h5py
 import pytest
 
-from conftest import REPO, assert_files_equal, base_sweep, run, write_sweep
+from conftest import REPO, assert_files_equal, base_sweep, run, segment_count, write_sweep
 
 sys.path.insert(0, str(REPO / "scripts"))
 import slurm_local  # noqa: E402
@@ -89,9 +89,9 @@ def test_array_cancel_resubmit_merge_is_bitwise_a_single_run(slurm, tmp_path, bi
     assert "#SBATCH --array=0-2" in (job / "array.sh").read_text()
 
     # Cancel task 1 once it has stored some runs.
-    seg = job / "shards" / "sw.shard-2-of-3.h5.d" / "segments"
+    shard_out = job / "shards" / "sw.shard-2-of-3.h5"
     deadline = time.time() + 90
-    while len(list(seg.glob("*.seg"))) < 5:
+    while segment_count(shard_out) < 5:
         assert time.time() < deadline, "array task 1 stored no runs"
         assert job_field(f"{array}_1", "JobState", env) in ("PENDING", "RUNNING", None), "task 1 ended early"
         time.sleep(0.05)

@@ -4,7 +4,7 @@ setting, the observed relative errors stored per point, resumable, and identical
 import h5py
 import numpy as np
 
-from conftest import assert_files_equal, base_sweep, run, write_sweep
+from conftest import assert_files_equal, base_sweep, log_records, run, segment_count, write_sweep
 
 VERIFY_PROBE = [
     "verify_rel_error_leading_peak",
@@ -13,7 +13,9 @@ VERIFY_PROBE = [
 ]
 
 def n_segments(out):
-    return len(list((out.parent / (out.name + ".d") / "segments").glob("*.seg")))
+    """Runs stored: the grid runs (in the output file once complete) and the verification runs
+    (kept in the work directory's log, since the file holds only their outcome)."""
+    return segment_count(out)
 
 def test_sample_is_deterministic_and_errors_are_stored(tmp_path, binary):
     sweep = base_sweep()
@@ -108,3 +110,34 @@ def test_bad_fraction_is_refused(tmp_path, binary):
         assert r.returncode == 2, (bad, r.stderr)
         assert "--verify" in r.stderr
     assert not (tmp_path / "b.h5").exists()
+
+
+def test_a_corrupt_verification_record_is_recomputed(tmp_path, binary):
+    """Issue 14 item 4: a verification record whose bytes were damaged is not counted as done;
+    the next run computes it again and the point stays verified."""
+    path = write_sweep(tmp_path / "c.json", base_sweep())
+    out = tmp_path / "c.h5"
+    assert run("run", path, "-o", out, "--verify", "0.5", "--quiet").returncode == 0
+    with h5py.File(out, "r") as f:
+        verified = f["verified"][...].copy()
+        e_first = f["verify_rel_error_max"][...].copy()
+    # After a complete run only the 3 verification records stay in the log: damage the second.
+    recs = log_records(out)
+    assert len(recs) == 3
+    log = out.parent / (out.name + ".d") / "logs" / recs[0][0]
+    data = bytearray(log.read_bytes())
+    at, n = 0, 0
+    while n < 1:
+        at += 8 + int.from_bytes(data[at : at + 8], "little")
+        n += 1
+    data[at + 8 + 60] ^= 0x10
+    log.write_bytes(bytes(data))
+    assert len(log_records(out)) == 2
+    r = run("run", path, "-o", out, "--verify", "0.5", "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    # Before the fix the damaged record counted as done and the point dropped to unverified.
+    assert "3 point(s) verified" in r.stderr
+    with h5py.File(out, "r") as f:
+        np.testing.assert_array_equal(f["verified"][...], verified)
+        np.testing.assert_array_equal(f["verify_rel_error_max"][...], e_first)
+    assert len(log_records(out)) == 3

@@ -1,5 +1,5 @@
 //! A sweep file run into HDF5 in this process, exactly as `chainsweep run` runs it (resume,
-//! segments, exit codes), with progress for Python and a clean stop on Ctrl-C.
+//! run logs, exit codes), with progress for Python and a clean stop on Ctrl-C.
 //!
 //! The runner runs on a thread of its own; the calling thread waits with the GIL released and,
 //! a few times a second, takes it to check Python's signals (Ctrl-C, a notebook's interrupt) and
@@ -49,7 +49,7 @@ pub struct SweepRequest {
 /// once set, no new run starts, the runs in flight are stored and the output is written with the
 /// rest pending. Returns the exit code the command line would (0, or 3 with failed or pending
 /// runs).
-fn run_request(req: &SweepRequest, stop: &AtomicBool) -> Result<i32> {
+fn run_request(req: &SweepRequest, stop: &AtomicBool) -> Result<(i32, usize)> {
     let (mut sweep, mut grid) = engine::load(&req.file)?;
     let shard = req
         .shard
@@ -72,11 +72,12 @@ fn run_request(req: &SweepRequest, stop: &AtomicBool) -> Result<i32> {
     let mut sink = Terminal::new(true, Duration::from_secs(10));
     let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, stop)?;
     let c = &report.counts;
-    Ok(if c.failed > 0 || c.pending > 0 {
+    let code = if c.failed > 0 || c.pending > 0 {
         EXIT_PARTIAL
     } else {
         EXIT_OK
-    })
+    };
+    Ok((code, report.ran))
 }
 
 /// How often Python's signals are checked while the sweep runs.
@@ -125,7 +126,7 @@ pub fn run_sweep(
     }
     let stop = Arc::new(AtomicBool::new(false));
     let request_stop = || stop.store(true, Ordering::SeqCst);
-    let (tx, rx) = mpsc::channel::<Result<i32>>();
+    let (tx, rx) = mpsc::channel::<Result<(i32, usize)>>();
     let runner_req = req.clone();
     let runner_stop = Arc::clone(&stop);
     let runner = std::thread::spawn(move || {
@@ -173,10 +174,8 @@ pub fn run_sweep(
         }
     };
     let _ = runner.join();
-    let mut ran = 0;
     if let Some(w) = watch.as_mut() {
         let p = py.detach(|| w.poll());
-        ran = p.ran;
         if let (Some(cb), None) = (progress.as_ref(), pending_error.as_ref()) {
             cb.call1(py, (p.done, p.failed, p.total))?;
         }
@@ -184,6 +183,7 @@ pub fn run_sweep(
     if let Some(e) = pending_error {
         return Err(e);
     }
-    let code = outcome.map_err(|e| crate::py_error(py, &e, "sweep"))?;
-    Ok((code, ran))
+    // What ran is the runner's count: the watch may not see a run whose record was compacted
+    // into the output file before it looked (a retried failure that failed again).
+    outcome.map_err(|e| crate::py_error(py, &e, "sweep"))
 }

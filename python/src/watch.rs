@@ -2,25 +2,24 @@
 //!
 //! The engine's progress sink hears of runs on the runner's thread, and only once the runs start
 //! (after an `integrator: auto` pilot); Python wants the state before anything runs, and reads
-//! it on its own thread with the GIL. Every finished run is a segment file
-//! `X.h5.d/segments/<run hash>.seg` (written whole, by an atomic rename), so progress is the
-//! number of the sweep's runs whose segment exists. This module computes the sweep's run hashes
+//! it on its own thread with the GIL. Every finished run is a checksummed record appended to a
+//! log `X.h5.d/logs/<n>.log`, and a complete sweep's runs end up in the output file itself (its
+//! logs compacted), so progress is the number of the sweep's runs stored in either. This module computes the sweep's run hashes
 //! once (the runner's own [`Sweep`], [`Grid`] and [`verify`] code, `integrator: auto` resolved
-//! from the runner's cache as soon as the pilot has written it) and then polls the directory,
-//! reading the status of each new segment once.
+//! from the runner's cache as soon as the pilot has written it) and then polls the logs,
+//! reading each new record once (from where the last poll stopped), and the output file's
+//! status column when it was published again.
 
 use std::collections::{HashMap, HashSet};
-use std::fs::File;
-use std::io::Read;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::SystemTime;
 
 use chainsweep::engine::{shard, slurm};
 use chainsweep::grid::{Grid, Shard};
-use chainsweep::identity::{hex, RunHash};
+use chainsweep::identity::RunHash;
 use chainsweep::numerics::{auto, verify};
-use chainsweep::store::segment::peek_status;
-use chainsweep::store::work_dir_of;
+use chainsweep::store::log::{self, log_seq, LOG_DIR};
+use chainsweep::store::{published_runs, work_dir_of, Stored};
 use chainsweep::sweep::Sweep;
 
 use crate::sweep::SweepRequest;
@@ -34,20 +33,14 @@ pub struct Progress {
     pub failed: usize,
     /// Grid points of the shard and its sampled verification runs.
     pub total: usize,
-    /// Runs made since the watch started (distinct run hashes whose segment is new or rewritten).
-    pub ran: usize,
-}
-
-/// A segment file as last seen: its modification time and, once read, its status.
-#[derive(Debug, Clone, Copy)]
-struct Seen {
-    modified: SystemTime,
-    ok: Option<bool>,
 }
 
 /// Watches the work directory of one sweep (see the module docs).
 pub struct Watch {
-    segments: PathBuf,
+    /// The output's work directory.
+    dir: PathBuf,
+    /// The output file.
+    output: PathBuf,
     sweep: Sweep,
     grid: Grid,
     shard: Option<Shard>,
@@ -59,44 +52,14 @@ pub struct Watch {
     /// `None` while `auto` is unresolved (the run hashes are not known yet).
     units: Option<Vec<RunHash>>,
     targets: HashSet<RunHash>,
-    at_start: HashMap<RunHash, SystemTime>,
-    seen: HashMap<RunHash, Seen>,
-}
-
-fn parse_hex(name: &str) -> Option<RunHash> {
-    let stem = name.strip_suffix(".seg")?;
-    if stem.len() != 64 {
-        return None;
-    }
-    let mut out = [0u8; 32];
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = u8::from_str_radix(stem.get(2 * i..2 * i + 2)?, 16).ok()?;
-    }
-    Some(out)
-}
-
-/// Every segment file in `dir` with its modification time.
-fn list(dir: &PathBuf) -> Vec<(RunHash, SystemTime)> {
-    let Ok(entries) = std::fs::read_dir(dir) else {
-        return Vec::new();
-    };
-    entries
-        .filter_map(|e| {
-            let e = e.ok()?;
-            let hash = parse_hex(e.file_name().to_str()?)?;
-            Some((hash, e.metadata().ok()?.modified().ok()?))
-        })
-        .collect()
-}
-
-fn peek_ok(path: PathBuf) -> Option<bool> {
-    let mut head = Vec::new();
-    File::open(path)
-        .ok()?
-        .take(4096)
-        .read_to_end(&mut head)
-        .ok()?;
-    peek_status(&head).map(|(ok, _)| ok)
+    /// What was stored when the watch started.
+    at_start: HashMap<RunHash, bool>,
+    /// Runs of the sweep stored since, and their status.
+    seen: HashMap<RunHash, bool>,
+    /// How far each log was read.
+    read_to: HashMap<PathBuf, u64>,
+    /// When the output file was last read.
+    published: Option<SystemTime>,
 }
 
 impl Watch {
@@ -109,11 +72,14 @@ impl Watch {
             Some(s) => Some(slurm::parse_shard_env(s, "--shard").ok()?),
             None => None,
         };
-        let segments = work_dir_of(&req.output).join("segments");
+        let dir = work_dir_of(&req.output);
         let auto_key = sweep.auto.map(|spec| auto::cache_key(&grid, &spec));
-        let at_start = list(&segments).into_iter().collect();
+        let at_start = Stored::scan(&dir, Some(&req.output))
+            .map(|s| s.index())
+            .unwrap_or_default();
         let mut w = Watch {
-            segments,
+            dir,
+            output: req.output.clone(),
             sweep,
             grid,
             shard,
@@ -124,7 +90,16 @@ impl Watch {
             targets: HashSet::new(),
             at_start,
             seen: HashMap::new(),
+            read_to: HashMap::new(),
+            published: None,
         };
+        // Records there at the start are not new.
+        for (path, _) in w.logs() {
+            if let Ok(end) = log::scan(&path, 0, |_| {}) {
+                w.read_to.insert(path, end.end);
+            }
+        }
+        w.published = modified(&w.output);
         w.resolve();
         Some(w)
     }
@@ -135,10 +110,7 @@ impl Watch {
             return;
         }
         if let Some(key) = &self.auto_key {
-            let Some(dir) = self.segments.parent() else {
-                return;
-            };
-            let Some(choice) = auto::read_cache(dir, key) else {
+            let Some(choice) = auto::read_cache(&self.dir, key) else {
                 return;
             };
             self.sweep.apply_auto(choice);
@@ -161,51 +133,81 @@ impl Watch {
         self.units = Some(units);
     }
 
-    /// Reads the work directory (the status of new or rewritten segments only) and counts.
+    /// The logs of the work directory (regular files named like logs), oldest first.
+    fn logs(&self) -> Vec<(PathBuf, u64)> {
+        let Ok(entries) = std::fs::read_dir(self.dir.join(LOG_DIR)) else {
+            return Vec::new();
+        };
+        let mut logs: Vec<(PathBuf, u64)> = entries
+            .filter_map(|e| {
+                let e = e.ok()?;
+                let seq = log_seq(e.file_name().to_str()?)?;
+                e.file_type().ok()?.is_file().then(|| (e.path(), seq))
+            })
+            .collect();
+        logs.sort_by_key(|(_, seq)| *seq);
+        logs
+    }
+
+    /// Notes a stored run of the sweep (new, or stored again since the start).
+    fn note(&mut self, hash: RunHash, ok: bool, from_file: bool) {
+        if !self.targets.contains(&hash) {
+            return;
+        }
+        // The output file holds runs stored before the start too: only changes are new.
+        if from_file && self.at_start.get(&hash) == Some(&ok) {
+            return;
+        }
+        self.seen.insert(hash, ok);
+    }
+
+    /// Reads what was stored since the last poll (new log records; the output file when it
+    /// was published again) and counts.
     pub fn poll(&mut self) -> Progress {
         self.resolve();
-        let Some(units) = &self.units else {
+        let Some(units) = self.units.clone() else {
             return Progress {
                 total: shard::points(&self.sweep, &self.grid, self.shard).len(),
                 ..Progress::default()
             };
         };
-        for (hash, modified) in list(&self.segments) {
-            if !self.targets.contains(&hash) {
-                continue;
+        for (path, _) in self.logs() {
+            let from = self.read_to.get(&path).copied().unwrap_or(0);
+            let mut found = Vec::new();
+            if let Ok(end) = log::scan(&path, from, |f| found.push((f.hash, f.ok))) {
+                self.read_to.insert(path, end.end);
             }
-            if self.seen.get(&hash).map(|s| s.modified) == Some(modified) {
-                continue;
+            for (h, ok) in found {
+                self.note(h, ok, false);
             }
-            let path = self.segments.join(format!("{}.seg", hex(&hash)));
-            self.seen.insert(
-                hash,
-                Seen {
-                    modified,
-                    ok: peek_ok(path),
-                },
-            );
         }
+        let now = modified(&self.output);
+        if now.is_some() && now != self.published {
+            self.published = now;
+            for (h, ok) in published_runs(&self.output) {
+                self.note(h, ok, true);
+            }
+        }
+        let units = &units;
         let mut p = Progress {
             total: units.len(),
             ..Progress::default()
         };
         for h in units {
-            let Some(s) = self.seen.get(h) else { continue };
-            let Some(ok) = s.ok else { continue };
-            let old = self.at_start.get(h) == Some(&s.modified);
-            // With `retry_failed`, a failed run from before counts once it has run again.
-            if old && self.retry_failed && !ok {
-                continue;
-            }
+            let ok = match (self.seen.get(h), self.at_start.get(h)) {
+                (Some(&ok), _) => ok,
+                // With `retry_failed`, a failed run from before counts once it has run again.
+                (None, Some(&ok)) if ok || !self.retry_failed => ok,
+                _ => continue,
+            };
             p.done += 1;
             p.failed += usize::from(!ok);
         }
-        p.ran = self
-            .seen
-            .iter()
-            .filter(|(h, s)| s.ok.is_some() && self.at_start.get(*h) != Some(&s.modified))
-            .count();
         p
     }
+}
+
+/// When `path` was last modified; `None` when it does not exist.
+fn modified(path: &Path) -> Option<SystemTime> {
+    std::fs::metadata(path).and_then(|m| m.modified()).ok()
 }

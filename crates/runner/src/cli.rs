@@ -106,6 +106,18 @@ pub enum Command {
         after_help = "Examples:\n  chainsweep accuracy sweeps/mass-damping.json -o results/work_precision_fig08.h5\n  chainsweep accuracy sweeps/mass-damping.json --point 17 --methods dop853,ros34pw2\n  python scripts/plot_work_precision.py results/work_precision_fig08.h5"
     )]
     Accuracy(AccuracyArgs),
+    /// Remove from an output's work directory the runs the sweep file no longer has (after
+    /// editing its axes); never a run the sweep needs. The output file is left as it is.
+    #[command(
+        after_help = "Example:\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5"
+    )]
+    Gc {
+        /// Sweep file (JSON).
+        file: PathBuf,
+        /// Output file [default: the sweep file's name with `.h5` in the current directory].
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Assemble shard files into one file, identical to a single-machine run.
     #[command(
         after_help = "Example:\n  chainsweep merge -o results/sweep.h5 part-1.h5 part-2.h5 part-3.h5"
@@ -265,6 +277,7 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
         } => cmd_status(&files, output, shard.as_deref()),
         Command::Slurm(args) => cmd_slurm(&args),
         Command::Merge { output, shards } => cmd_merge(&output, &shards),
+        Command::Gc { file, output } => cmd_gc(&file, output),
         Command::Accuracy(args) => cmd_accuracy(&args),
         Command::Point {
             file,
@@ -430,6 +443,20 @@ fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -
     let (s, sweep, grid) = status::of_sweep(sweep, grid, output, shard)?;
     show::sweep_status(file, &sweep, &grid, &s);
     Ok(s.counts.as_ref().map_or(EXIT_PARTIAL, exit_for))
+}
+
+fn cmd_gc(file: &Path, output: Option<PathBuf>) -> Result<i32> {
+    let (sweep, grid) = engine::load(file)?;
+    let output = output.unwrap_or_else(|| engine::default_output(file, None));
+    let c = engine::gc::collect(sweep, grid, &output)?;
+    outln!(
+        "{}: removed {} run(s) the sweep no longer has; kept {} beside the output file ({} file(s) removed)",
+        crate::store::work_dir_of(&output).display(),
+        c.removed,
+        c.kept,
+        c.files_removed
+    );
+    Ok(EXIT_OK)
 }
 
 /// `status` of shard files, or of a folder of them (`OUT.h5.slurm`, its `shards/`, any folder).

@@ -14,8 +14,8 @@
 //! - [`grid`]: expand the axes into grid points, each a complete [`chainsweep_solver::Scene`] with
 //!   its run hash;
 //! - [`exec`]: run one scene under `catch_unwind` and turn its output into a run record;
-//! - [`store`]: crash-safe segment files (one per finished run), the lock on the work directory,
-//!   and the HDF5 file assembled from the segments in grid order;
+//! - [`store`]: crash-safe append-only logs of finished runs, the lock on the work directory,
+//!   and the HDF5 file assembled from the stored runs in grid order;
 //! - [`numerics`]: `run --verify`, `integrator: auto` and work-precision studies;
 //! - [`engine`]: planning, scheduling with checkpoints, assembling, merging, status: what the
 //!   commands do, as a library that prints nothing;

@@ -317,6 +317,16 @@ fn checkpoints_publish_the_finished_runs_while_the_sweep_goes_on() {
         spy.seen_ok
     );
     assert!(spy.seen_ok.windows(2).all(|w| w[0] <= w[1]));
+    // A checkpoint publishes the file again only once the stored runs have doubled since the
+    // last publish (the others only sync the log): 2 and 4 of 6 here, then the end.
+    let mut published: Vec<usize> = spy.seen_ok.clone();
+    published.dedup();
+    assert_eq!(
+        published,
+        vec![0, 2, 4],
+        "checkpoints saw {:?}",
+        spy.seen_ok
+    );
 }
 
 #[test]

@@ -161,3 +161,62 @@ fn example_sweeps_are_valid() {
     }
     assert!(n >= 1);
 }
+
+/// A failed record of hash `[n; 32]`: enough to exercise the store.
+fn fake_record(n: u8) -> chainsweep::record::RunRecord {
+    chainsweep::record::RunRecord::failed([n; 32], format!("reason {n}"), 0.25)
+}
+
+#[test]
+fn logs_stay_few_survive_torn_tails_and_prune_only_what_is_not_needed() {
+    use chainsweep::store::RunStore;
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.h5");
+    // One process after another, each storing one run: each has a log of its own, and the
+    // next to open compacts them once there are more than MAX_LOGS.
+    for n in 1..=40u8 {
+        let work = WorkDir::open(&out).unwrap();
+        assert_eq!(work.index().unwrap().len(), usize::from(n) - 1);
+        work.write(&fake_record(n)).unwrap();
+        work.sync().unwrap();
+        assert!(work.store_files() <= chainsweep::store::MAX_LOGS + 1);
+    }
+    let logs = |d: &std::path::Path| std::fs::read_dir(d.join("t.h5.d/logs")).unwrap().count();
+    assert!(logs(dir.path()) <= chainsweep::store::MAX_LOGS + 1);
+    // A torn tail (a process killed mid-write) and a flipped byte are left out, nothing else.
+    let log_dir = dir.path().join("t.h5.d/logs");
+    let mut last: Vec<_> = std::fs::read_dir(&log_dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    last.sort();
+    let newest = last.last().unwrap().clone();
+    let mut bytes = std::fs::read(&newest).unwrap();
+    let whole = bytes.len();
+    bytes.extend_from_slice(&[200, 0, 0, 0, 0, 0, 0, 0, 1, 2, 3]);
+    std::fs::write(&newest, &bytes).unwrap();
+    let work = WorkDir::open(&out).unwrap();
+    assert_eq!(work.index().unwrap().len(), 40);
+    for n in 1..=40u8 {
+        assert_eq!(
+            encode(&work.read(&[n; 32]).unwrap().unwrap()),
+            encode(&fake_record(n))
+        );
+    }
+    drop(work);
+    bytes[whole - 40] ^= 1;
+    std::fs::write(&newest, &bytes[..whole]).unwrap();
+    let work = WorkDir::open(&out).unwrap();
+    let index = work.index().unwrap();
+    assert_eq!(index.len(), 39, "exactly the corrupt record is missing");
+    // Pruning keeps every run named as needed, removes the others.
+    let c = work.prune(&|h| h[0] <= 10).unwrap();
+    assert_eq!(c.removed, 29);
+    let index = work.index().unwrap();
+    assert!((1..=10u8).all(|n| index.contains_key(&[n; 32])));
+    assert_eq!(index.len(), 10);
+    assert_eq!(work.store_files(), 1);
+    drop(work);
+    let again = scan_segments(&dir.path().join("t.h5.d")).unwrap();
+    assert_eq!(again.len(), 10);
+}

@@ -335,6 +335,12 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
         counts.failed,
         counts.pending
     );
+    for p in &s.ignored {
+        outln!(
+            "  ignored (not a regular file where a run log is expected; remove it): {}",
+            p.display()
+        );
+    }
     for f in &s.failures {
         outln!(
             "  failed: point {} ({}): {}",

@@ -75,8 +75,10 @@ pub struct Assembly<'a> {
 }
 
 /// Writes the output file of `work` from the stored runs and publishes it atomically: the
-/// output is always either its previous complete version or the new one.
+/// output is always either its previous complete version or the new one. The runs it holds are
+/// made durable in the work directory first.
 pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
+    work.sync()?;
     let tmp = work.tmp_path("assemble.h5");
     let counts = hdf5::write_file(
         &tmp,

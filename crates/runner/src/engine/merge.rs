@@ -105,6 +105,16 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
             verify: &vsrc,
         },
     )?;
+    if counts.pending == 0 {
+        // Complete: the logs beside the merged file shrink to what it lacks (verification runs).
+        let needed: std::collections::HashSet<RunHash> = grid
+            .hashes
+            .iter()
+            .chain(vsrc.hashes.values())
+            .copied()
+            .collect();
+        work.compact_after_publish(&|h| needed.contains(h))?;
+    }
     // Which shards to run again: only when the files are shards of one `N` (a merge may also
     // combine outputs sharded differently, or whole runs).
     let shard_set = if counts.pending > 0 {

@@ -11,11 +11,13 @@
 //! - [`shard`]: which grid points a shard runs (balanced by estimated cost);
 //! - [`slurm`]: `--shard slurm/N` of an array task, and the job scripts of `chainsweep slurm`;
 //! - [`merge`]: shard files assembled into one;
+//! - [`gc`]: records of runs an edited sweep no longer has removed from its work directory;
 //! - [`status`]: what an output file or a work directory holds;
 //! - [`inspect`]: a dry run, one grid point, a work-precision study.
 
 pub mod assemble;
 pub mod auto;
+pub mod gc;
 pub mod inspect;
 pub mod merge;
 pub mod plan;

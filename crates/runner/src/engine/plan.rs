@@ -7,7 +7,7 @@ use crate::error::Result;
 use crate::grid::Grid;
 use crate::identity::RunHash;
 use crate::numerics::verify;
-use crate::store::RunStore;
+use crate::store::{RunStore, SegmentIndex};
 use crate::sweep::Sweep;
 
 use super::assemble::VerifySource;
@@ -50,7 +50,9 @@ impl Plan {
         retry_failed: bool,
         fraction: f64,
     ) -> Result<Plan> {
-        // Every stored run of these points, read whole (a corrupt one is run again).
+        // Every stored run of these points: the store's index lists only whole, checksummed
+        // records (a corrupt one is run again).
+        let index = store.index()?;
         let mut done: HashMap<RunHash, bool> = HashMap::new();
         let mut multiplicity: HashMap<RunHash, usize> = HashMap::new();
         let mut pending: Vec<usize> = Vec::new();
@@ -61,15 +63,15 @@ impl Plan {
             if seen {
                 continue;
             }
-            match store.read(&h)? {
-                Some(rec) if rec.ok || !retry_failed => {
-                    done.insert(h, rec.ok);
+            match index.get(&h) {
+                Some(&ok) if ok || !retry_failed => {
+                    done.insert(h, ok);
                 }
                 _ => pending.push(i),
             }
         }
         let (verify, sampled, vpending, vcounts) =
-            plan_verification(sweep, grid, &points, store, retry_failed, fraction)?;
+            plan_verification(sweep, grid, &points, &index, retry_failed, fraction)?;
         let tasks: Vec<Task> = pending
             .iter()
             .map(|&i| Task::run(grid, i))
@@ -106,6 +108,28 @@ impl Plan {
         }
     }
 
+    /// Whether every point of the plan and every sampled verification run is finished.
+    pub fn complete(&self, grid: &Grid) -> bool {
+        self.points
+            .iter()
+            .all(|&i| self.done.contains_key(&grid.hashes[i]))
+            && self
+                .points
+                .iter()
+                .filter(|&&i| self.sampled[i])
+                .all(|i| self.verify.done.contains_key(&self.verify.hashes[i]))
+    }
+
+    /// The runs this sweep needs kept: every grid point's run and the verification run of every
+    /// point of the plan (sampled now or not: a larger `--verify` later takes them).
+    pub fn needed(&self, grid: &Grid) -> HashSet<RunHash> {
+        grid.hashes
+            .iter()
+            .chain(self.verify.hashes.values())
+            .copied()
+            .collect()
+    }
+
     /// How many runs of the progress count a finished task stands for: one per grid point
     /// sharing its hash, one for a verification run.
     pub fn weight(&self, task: &Task) -> usize {
@@ -131,12 +155,11 @@ fn plan_verification(
     sweep: &Sweep,
     grid: &Grid,
     points: &[usize],
-    store: &dyn RunStore,
+    index: &SegmentIndex,
     retry_failed: bool,
     fraction: f64,
 ) -> Result<(VerifySource, Vec<bool>, Vec<usize>, VerifyCounts)> {
     let mut source = VerifySource::empty(fraction);
-    let index = store.index()?;
     let sampled = verify::sample(grid, fraction);
     let mut pending: Vec<usize> = Vec::new();
     let mut seen: HashSet<RunHash> = HashSet::new();

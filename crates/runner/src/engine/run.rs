@@ -120,6 +120,8 @@ pub struct RunReport {
     pub verification: VerificationReport,
     /// Whether the sweep was stopped (by the stop flag) before every run finished.
     pub stopped: bool,
+    /// Runs computed by this call (grid runs and verification runs).
+    pub ran: usize,
 }
 
 /// Runs (or resumes) `sweep` into `opts.output` with the solver: checks the output, resolves
@@ -187,12 +189,16 @@ pub fn run_points(
         opts,
         plan,
         sink,
+        published: None,
+        ran: 0,
     };
     // A readable output file from the start (every point pending or resumed), so that a run
     // killed before its first checkpoint still leaves one that `status` and h5py read.
     if !opts.output.exists() {
         run.assemble()?;
     }
+    // An output file from before holds at most the runs stored now.
+    run.published.get_or_insert(run.stored());
     let schedule = Schedule {
         pool,
         checkpoint_every: opts.checkpoint_interval,
@@ -201,6 +207,11 @@ pub fn run_points(
     run_tasks(&tasks, executor, work, &schedule, &mut run)?;
     let counts = run.assemble()?;
     let plan = &run.plan;
+    if plan.complete(grid) {
+        // The file holds every run of the sweep: the logs beside it shrink to what it lacks.
+        let needed = plan.needed(grid);
+        work.compact_after_publish(&|h| needed.contains(h))?;
+    }
     let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
     Ok(RunReport {
         points: plan.points.len(),
@@ -209,6 +220,7 @@ pub fn run_points(
         failures,
         verification: verification_report(work, grid, plan)?,
         stopped: stop.load(Ordering::Relaxed) && counts.pending > 0,
+        ran: run.ran,
     })
 }
 
@@ -220,10 +232,26 @@ struct Running<'a> {
     opts: &'a RunOptions,
     plan: Plan,
     sink: &'a mut dyn ProgressSink,
+    /// Runs stored when the output file was last published (`None`: not yet by this process).
+    published: Option<usize>,
+    /// Tasks finished by this call.
+    ran: usize,
 }
 
+/// A checkpoint publishes the output file again only once the stored runs have grown by this
+/// factor since it was last published (and the end of the run always does): the publishes of a
+/// sweep then write at most `GROWTH / (GROWTH - 1)` times the final file in all, whatever the
+/// checkpoint interval, while every checkpoint makes the runs stored so far durable.
+pub const PUBLISH_GROWTH: usize = 2;
+
 impl Running<'_> {
-    fn assemble(&self) -> Result<Counts> {
+    /// Runs stored (grid runs and verification runs), the measure of the output file's size.
+    fn stored(&self) -> usize {
+        self.plan.done.len() + self.plan.verify.done.len()
+    }
+
+    fn assemble(&mut self) -> Result<Counts> {
+        self.published = Some(self.stored());
         assemble(
             self.work,
             &Assembly {
@@ -241,6 +269,7 @@ impl Running<'_> {
 
 impl Coordinator for Running<'_> {
     fn finished(&mut self, task: &Task, ok: bool) {
+        self.ran += 1;
         self.plan.finish(task, ok);
         for _ in 0..self.plan.weight(task) {
             self.sink.run_finished(!ok);
@@ -252,7 +281,13 @@ impl Coordinator for Running<'_> {
     }
 
     fn checkpoint(&mut self) -> Result<()> {
-        self.assemble()?;
+        let stored = self.stored();
+        match self.published {
+            Some(p) if stored < PUBLISH_GROWTH * p.max(1) => self.work.sync()?,
+            _ => {
+                self.assemble()?;
+            }
+        }
         self.sink.checkpoint();
         Ok(())
     }

@@ -8,7 +8,7 @@ use crate::grid::{Grid, Shard};
 use crate::identity::hex;
 use crate::record::{STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use crate::store::hdf5::{Counts, FileRecords};
-use crate::store::{read_segment_in, scan_segments, work_dir_of};
+use crate::store::{scan_segments, work_dir_of, Stored};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
@@ -90,6 +90,9 @@ pub struct SweepStatus {
     pub auto_cache: Option<PathBuf>,
     /// The first [`LISTED_FAILURES`] failed points, with their reasons.
     pub failures: Vec<Failure>,
+    /// What the work directory holds that is not a regular file where a log or segment is
+    /// expected (left out).
+    pub ignored: Vec<PathBuf>,
 }
 
 /// The status of `sweep`'s output `output` (its work directory), for `shard`.
@@ -108,6 +111,7 @@ pub fn of_sweep(
         counts: None,
         auto_cache: None,
         failures: Vec::new(),
+        ignored: Vec::new(),
     };
     match apply_cached(&mut sweep, &mut grid, &dir)? {
         CachedChoice::NotAuto => {}
@@ -117,10 +121,12 @@ pub fn of_sweep(
             return Ok((status, sweep, grid));
         }
     }
-    let segs = scan_segments(&dir)?;
-    let state = |i: usize| segs.get(&grid.hashes[i]).copied();
+    // Only whole, checksummed records count: the runs `run` finds done.
+    let stored = Stored::scan(&dir, Some(&status.output))?;
+    let state = |i: usize| stored.get(&grid.hashes[i]);
     let ok = points.iter().filter(|&&i| state(i) == Some(true)).count();
     let failed = points.iter().filter(|&&i| state(i) == Some(false)).count();
+    status.ignored = stored.ignored().to_vec();
     status.counts = Some(Counts {
         ok,
         failed,
@@ -131,7 +137,8 @@ pub fn of_sweep(
         .filter(|&&i| state(i) == Some(false))
         .take(LISTED_FAILURES)
     {
-        let reason = read_segment_in(&dir, &grid.hashes[point])?
+        let reason = stored
+            .read(&grid.hashes[point])?
             .map(|r| r.reason)
             .unwrap_or_default();
         status.failures.push(Failure {

@@ -8,7 +8,7 @@
 //! - The tighter setting: DOP853 and ROS34PW2 at `rtol / 100` (and `atol / 100` when given),
 //!   RK4 and Verlet at `dt / 4`; the step budget is multiplied by 4 (fixed-step methods need four
 //!   times the steps); histories and minimum overlaps are not recorded by verification runs.
-//! - A verification run is a run like any other: its record is a segment in the work directory,
+//! - A verification run is a run like any other: its record is stored in the work directory,
 //!   under the hash of the tightened scene with a marker ([`verify_hash`]), so an interrupted
 //!   verification resumes, and a point once verified stays verified in later assemblies.
 

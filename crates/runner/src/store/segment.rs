@@ -172,6 +172,21 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     })
 }
 
+/// The run hash and status of segment bytes whose checksum holds; `None` if they are truncated,
+/// corrupt or not a segment of this format. Reads no more than the header past the checksum.
+pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
+    if bytes.len() < MAGIC.len() + 32 + 1 + 32 {
+        return None;
+    }
+    let (body, sum) = bytes.split_at(bytes.len() - 32);
+    let check: [u8; 32] = Sha256::digest(body).into();
+    if check != sum || &body[..8] != MAGIC {
+        return None;
+    }
+    let hash: RunHash = body[8..40].try_into().ok()?;
+    Some((hash, body[40] == 1))
+}
+
 /// Reads only the status part of segment bytes (no checksum check): `(ok, reason)`.
 pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
     let mut r = Reader { b: bytes, at: 0 };
@@ -270,10 +285,12 @@ mod tests {
         );
         assert_eq!(back.warnings, "first\nsecond ü");
         assert_eq!(peek_status(&bytes), Some((true, String::new())));
+        assert_eq!(verify(&bytes), Some(([7; 32], true)));
         // Any truncation or flipped byte is detected.
         assert!(decode(&bytes[..bytes.len() - 1]).is_none());
         let mut bad = bytes.clone();
         bad[50] ^= 1;
         assert!(decode(&bad).is_none());
+        assert!(verify(&bad).is_none());
     }
 }

@@ -1,0 +1,162 @@
+#!/usr/bin/env python3
+"""Benchmark of the results store (issue 11): what a large sweep costs on disk and in memory.
+
+Two sweeps of small, fast scenes (4 cylinders, 0.1 ms, so that the store, not the solver, is
+what is measured):
+
+- `history`: 20 000 runs recording histories (about 100 samples of 3 series each);
+- `summary`: 100 000 runs recording summaries only.
+
+For each: wall time; bytes the `chainsweep run` process wrote (`wchar` of /proc/self/io: the
+kernel adds a reaped child's I/O counts to its parent, so the difference around the run is the
+child's, every write() and pwrite() counted, whatever the file system does with them) and
+`write_bytes` (what reached the block layer, 0 on tmpfs); its peak resident memory (from
+wait4's rusage); the final file's size; the files and bytes left in the work directory; and
+for histories the write throughput (final file size over the wall time of re-assembling the
+complete file from itself, which reads every run back and writes it compressed again).
+
+    python scripts/bench_store.py [--bin target/release/chainsweep] [--dir DIR] [--scale 1.0]
+
+`--scale 0.1` runs sweeps ten times smaller (a quick check). Prints a table and writes
+`DIR/bench_store.json`.
+"""
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def sweep(n_a, n_b, history):
+    return {
+        "description": "store benchmark",
+        "base": {
+            "chain": {
+                "preset": "chain_055",
+                "cylinders": 4,
+                "cylinder": {"mass": {"heavy_cylinders": {"mass_ratio": 0.55}}, "height_m": None},
+            },
+            "physics": {"gravity": True, "damping_kg_s": 0.0, "wall": True},
+            "striker_velocity_m_s": 1.3,
+            "duration_s": 1e-4,
+            "integrator": {"method": "dop853", "rtol": 1e-6},
+        },
+        "record": {
+            "probes": [{"kind": "gauge_force", "cylinder": c} for c in (1, 3)],
+            "history": history,
+            "history_interval_s": 1e-6,
+        },
+        "axes": [
+            {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.1, "stop": 1.0, "num": n_a}},
+            {"field": "physics.damping_kg_s", "range": {"start": 0.0, "stop": 20.0, "num": n_b}},
+        ],
+    }
+
+
+def io_counts():
+    out = {}
+    with open("/proc/self/io") as f:
+        for line in f:
+            k, v = line.split(":")
+            out[k.strip()] = int(v)
+    return out
+
+
+def run_measured(args):
+    """Runs a command; returns (wall s, wchar, write_bytes, peak RSS MiB, returncode, stderr)."""
+    before = io_counts()
+    t0 = time.perf_counter()
+    p = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    err_chunks = []
+    # (stderr read to the end first, so the child never blocks on a full pipe)
+    err_chunks.append(p.stderr.read())
+    _, status, usage = os.wait4(p.pid, 0)
+    wall = time.perf_counter() - t0
+    after = io_counts()
+    p.returncode = os.waitstatus_to_exitcode(status)
+    return {
+        "wall_s": wall,
+        "wchar": after["wchar"] - before["wchar"],
+        "write_bytes": after["write_bytes"] - before["write_bytes"],
+        "peak_rss_mib": usage.ru_maxrss / 1024,
+        "rc": p.returncode,
+        "stderr": "".join(err_chunks),
+    }
+
+
+def dir_usage(d):
+    files = [p for p in Path(d).rglob("*") if p.is_file()]
+    return len(files), sum(p.stat().st_size for p in files)
+
+
+def bench(binary, work, name, spec, jobs, checkpoint):
+    d = Path(work) / name
+    shutil.rmtree(d, ignore_errors=True)
+    d.mkdir(parents=True)
+    path = d / f"{name}.json"
+    path.write_text(json.dumps(spec))
+    out = d / f"{name}.h5"
+    m = run_measured([str(binary), "run", str(path), "-o", str(out), "--jobs", str(jobs),
+                      "--checkpoint-interval", str(checkpoint), "--progress-interval", "60"])
+    if m["rc"] != 0:
+        sys.exit(f"{name}: chainsweep exited {m['rc']}:\n{m['stderr'][-2000:]}")
+    size = out.stat().st_size
+    files, used = dir_usage(str(out) + ".d")
+    runs = spec["axes"][0]["range"]["num"] * spec["axes"][1]["range"]["num"]
+    res = {
+        "runs": runs,
+        "wall_s": round(m["wall_s"], 2),
+        "final_file_mb": round(size / 1e6, 3),
+        "written_mb": round(m["wchar"] / 1e6, 3),
+        "written_over_final": round(m["wchar"] / size, 2),
+        "block_written_mb": round(m["write_bytes"] / 1e6, 3),
+        "peak_rss_mib": round(m["peak_rss_mib"], 1),
+        "work_dir_files": files,
+        "work_dir_bytes": used,
+    }
+    # Re-assembling the complete file from itself: every run read back and written again.
+    again = run_measured([str(binary), "run", str(path), "-o", str(out), "--jobs", str(jobs), "--quiet"])
+    if again["rc"] != 0:
+        sys.exit(f"{name} (again): chainsweep exited {again['rc']}:\n{again['stderr'][-2000:]}")
+    res["reassemble_s"] = round(again["wall_s"], 2)
+    res["reassemble_mb_s"] = round(size / 1e6 / again["wall_s"], 1)
+    res["reassemble_peak_rss_mib"] = round(again["peak_rss_mib"], 1)
+    return res
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--bin", default=str(REPO / "target" / "release" / "chainsweep"))
+    ap.add_argument("--dir", default=None, help="where to run (default: a temporary folder)")
+    ap.add_argument("--scale", type=float, default=1.0, help="fraction of the default sweep sizes")
+    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 2)
+    ap.add_argument("--checkpoint-interval", type=float, default=1.0)
+    a = ap.parse_args()
+    work = a.dir or tempfile.mkdtemp(prefix="bench_store.")
+    k = a.scale ** 0.5
+    cases = {
+        "history": sweep(max(2, round(200 * k)), max(2, round(100 * k)), True),
+        "summary": sweep(max(2, round(400 * k)), max(2, round(250 * k)), False),
+    }
+    results = {}
+    for name, spec in cases.items():
+        results[name] = bench(a.bin, work, name, spec, a.jobs, a.checkpoint_interval)
+        r = results[name]
+        print(f"{name}: {r['runs']} runs in {r['wall_s']} s; final file {r['final_file_mb']} MB; "
+              f"written {r['written_mb']} MB ({r['written_over_final']}x the final file; "
+              f"{r['block_written_mb']} MB to the block layer); peak RSS {r['peak_rss_mib']} MiB; "
+              f"work dir after: {r['work_dir_files']} files, {r['work_dir_bytes']} bytes; "
+              f"re-assembly {r['reassemble_mb_s']} MB/s ({r['reassemble_s']} s)", flush=True)
+    Path(work, "bench_store.json").write_text(json.dumps(results, indent=2))
+    print(f"results: {Path(work, 'bench_store.json')}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,297 @@
+"""The store at scale (issue 11) and its hardening (issue 14 items 4-6, 11): append-only,
+checksummed run logs in the work directory, compacted into the output file once a sweep is
+complete.
+
+- kill storms: many SIGKILLs at random moments, with checkpoints every 10 ms so that kills land
+  in the middle of appending to a log and of publishing the output, with and without histories;
+  the resumed result is bitwise an uninterrupted run's;
+- a full disk (a small tmpfs): a clear error, nothing stored is lost, the same command resumes
+  once space is freed;
+- few files and no double storage: a 2 000-run sweep leaves a handful of files, and after a
+  complete run the work directory is at most 20 % of the output file;
+- a torn or corrupt record is computed again, and `status` counts exactly the runs `run` finds;
+- a directory where a log or segment is expected is left out with a note, never a failure;
+- one-file segments of earlier versions are read and moved into one log;
+- `gc` removes the runs an edited sweep no longer has, never one it needs.
+"""
+
+import random
+import re
+import signal
+import subprocess
+import time
+
+import pytest
+
+from conftest import (
+    BIN,
+    assert_files_equal,
+    base_sweep,
+    interruptible_sweep,
+    log_records,
+    run,
+    segment_count,
+    work_dir_files,
+    write_sweep,
+)
+
+
+def start(path, out, *extra, checkpoint="0.01"):
+    return subprocess.Popen(
+        [str(BIN), "run", str(path), "-o", str(out), "--jobs", "2", "--checkpoint-interval", checkpoint,
+         "--progress-interval", "0.02", *extra],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def wait_stored(out, n, p, timeout=120):
+    deadline = time.time() + timeout
+    while len({h for _, h, _ in log_records(out)}) < n:
+        assert p.poll() is None, "the sweep ended before it could be interrupted"
+        assert time.time() < deadline, "the sweep made no progress"
+        time.sleep(0.002)
+
+
+def killed_partway(path, out, n):
+    """Starts the sweep with no checkpoint and SIGKILLs it once `n` runs are in its log: those
+    runs are then stored in the log only (the output file holds none of them)."""
+    p = start(path, out, checkpoint="0")
+    wait_stored(out, n, p)
+    p.send_signal(signal.SIGKILL)
+    p.communicate()
+
+
+def already_done(stderr):
+    m = re.search(r"(\d+) of (\d+) runs already done", stderr)
+    return int(m.group(1)) if m else 0
+
+
+def status_done(path, out):
+    r = run("status", path, "-o", out)
+    m = re.search(r"(\d+) runs: (\d+) done", r.stdout)
+    assert m, r.stdout + r.stderr
+    return int(m.group(2)), r.stdout
+
+
+def no_history():
+    s = interruptible_sweep()
+    s["record"]["history"] = False
+    return s
+
+
+@pytest.fixture(scope="module")
+def references(tmp_path_factory, binary):
+    d = tmp_path_factory.mktemp("ref")
+    refs = {}
+    for name, sweep in (("history", interruptible_sweep()), ("summary", no_history())):
+        path = write_sweep(d / f"{name}.json", sweep)
+        out = d / f"{name}.h5"
+        r = run("run", path, "-o", out, "--jobs", "2", "--quiet")
+        assert r.returncode == 0, r.stderr
+        refs[name] = out
+    return refs
+
+
+@pytest.mark.parametrize("kind", ["history", "summary"])
+def test_kill_storm_resumes_bitwise(references, tmp_path, kind):
+    sweep = interruptible_sweep() if kind == "history" else no_history()
+    path = write_sweep(tmp_path / "storm.json", sweep)
+    out = tmp_path / "storm.h5"
+    rng = random.Random(11 if kind == "history" else 14)
+    kills = 0
+    finished_early = 0
+    while kills < 24:
+        before = segment_count(out)
+        p = start(path, out)
+        time.sleep(rng.uniform(0.002, 0.12))
+        if p.poll() is not None:
+            # Finished before the kill: start over from scratch in a new output.
+            finished_early += 1
+            assert p.returncode == 0, p.communicate()[1]
+            out = tmp_path / f"storm{finished_early}.h5"
+            continue
+        p.send_signal(signal.SIGKILL)
+        _, err = p.communicate()
+        kills += 1
+        # Nothing stored is lost; what a process says is stored, is.
+        after = segment_count(out)
+        assert after >= before
+        reported = [int(m) for m in re.findall(r"chainsweep: (\d+)/\d+ runs done", err)]
+        assert after >= max(reported, default=0)
+        if before:
+            assert already_done(err) == before or "already done" not in err, (before, err)
+        # Few files whatever the number of processes: each leaves at most one log.
+        logs = [f for f in work_dir_files(out) if f.suffix == ".log"]
+        assert len(logs) <= 17, logs
+    r = run("run", path, "-o", out, "--jobs", "2", "--checkpoint-interval", "0.01")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(references[kind], out)
+    # Complete: every run is in the output file; nothing of it is kept beside it.
+    assert log_records(out) == []
+    assert [f.name for f in work_dir_files(out)] == ["lock"]
+    print(f"{kind}: {kills} kills, {finished_early} runs finished before their kill")
+
+
+def test_full_disk_is_a_clear_error_and_resumes(references, tmp_path):
+    disk = tmp_path / "disk"
+    disk.mkdir()
+    subprocess.run(["mount", "-t", "tmpfs", "-o", "size=2m", "tmpfs", str(disk)], check=True)
+    try:
+        path = write_sweep(tmp_path / "full.json", interruptible_sweep())
+        out = disk / "full.h5"
+        r = run("run", path, "-o", out, "--jobs", "2", "--checkpoint-interval", "0.01")
+        assert r.returncode not in (0, 3), r.stderr
+        assert "No space left on device" in r.stderr, r.stderr
+        stored = segment_count(out)
+        assert 0 < stored < 100
+        # Nothing stored was lost: the same command, once space is freed, resumes from there.
+        subprocess.run(["mount", "-o", "remount,size=64m", str(disk)], check=True)
+        r = run("run", path, "-o", out, "--jobs", "2")
+        assert r.returncode == 0, r.stderr
+        assert already_done(r.stderr) >= stored - 2, (stored, r.stderr)
+        assert_files_equal(references["history"], out)
+        assert not list((disk / "full.h5.d" / "tmp").iterdir())
+    finally:
+        subprocess.run(["umount", str(disk)], check=True)
+
+
+def test_few_files_and_a_small_work_directory(tmp_path, binary):
+    s = base_sweep(cylinders=4, duration_s=4e-5, history=True, probes=(1, 3))
+    s["axes"] = [
+        {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.2, "stop": 1.0, "num": 40}},
+        {"field": "physics.damping_kg_s", "range": {"start": 0.0, "stop": 10.0, "num": 50}},
+    ]
+    path = write_sweep(tmp_path / "many.json", s)
+    out = tmp_path / "many.h5"
+    # Interrupted twice, then completed: three processes, never one file per run.
+    for delay in (0.3, 0.6):
+        p = start(path, out, "--verify", "0.02", checkpoint="0.05")
+        time.sleep(delay)
+        p.send_signal(signal.SIGKILL)
+        p.communicate()
+        assert len(work_dir_files(out)) <= 4, work_dir_files(out)
+    r = run("run", path, "-o", out, "--jobs", "2", "--verify", "0.02")
+    assert r.returncode == 0, r.stderr
+    assert "2000 runs: 2000 ok" in r.stderr
+    files = work_dir_files(out)
+    assert len(files) <= 2, files
+    used = sum(f.stat().st_size for f in files)
+    assert used <= 0.2 * out.stat().st_size, (used, out.stat().st_size)
+    # The verification runs (the file holds only their outcome) are what stays.
+    assert len(log_records(out)) == 40
+    assert status_done(path, out)[0] == 2000
+    # Resuming the complete sweep reads its runs back from the file: nothing runs again.
+    r = run("run", path, "-o", out, "--jobs", "2", "--verify", "0.02")
+    assert r.returncode == 0 and "2000 of 2000 runs already done" in r.stderr, r.stderr
+    assert "2040/2040 runs done" in r.stderr
+
+
+def test_torn_and_corrupt_records_are_recomputed_and_status_agrees(references, tmp_path):
+    path = write_sweep(tmp_path / "c.json", no_history())
+    out = tmp_path / "c.h5"
+    killed_partway(path, out, 12)
+    recs = log_records(out)
+    assert len(recs) >= 12
+    log = out.parent / (out.name + ".d") / "logs" / recs[0][0]
+    data = bytearray(log.read_bytes())
+    # Flip a byte inside the third record, and tear the last one in half.
+    starts, at = [], 0
+    while at + 8 <= len(data):
+        n = int.from_bytes(data[at : at + 8], "little")
+        if n > len(data) - at - 8:
+            break
+        starts.append((at, n))
+        at += 8 + n
+    third, n3 = starts[2]
+    data[third + 8 + n3 // 2] ^= 0x01
+    last, nl = starts[-1]
+    data = data[: last + 8 + nl // 2]
+    log.write_bytes(bytes(data))
+    valid = len({h for _, h, _ in log_records(out)})
+    assert valid == len(starts) - 2
+    # `status` counts only whole, checksummed records: exactly what `run` finds done.
+    done, _ = status_done(path, out)
+    assert done == valid
+    r = run("run", path, "-o", out, "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    assert already_done(r.stderr) == valid
+    assert_files_equal(references["summary"], out)
+
+
+def test_a_directory_named_like_a_log_or_segment_is_left_out(references, tmp_path):
+    path = write_sweep(tmp_path / "d.json", no_history())
+    out = tmp_path / "d.h5"
+    work = tmp_path / "d.h5.d"
+    (work / "logs" / "00000001.log").mkdir(parents=True)
+    (work / "segments" / ("ab" * 32 + ".seg")).mkdir(parents=True)
+    done, text = status_done(path, out)
+    assert done == 0 and "ignored" in text and "00000001.log" in text
+    killed_partway(path, out, 5)
+    done, text = status_done(path, out)
+    assert done >= 5 and "00000001.log" in text and "ab" * 32 + ".seg" in text
+    r = run("run", path, "-o", out, "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    assert already_done(r.stderr) == done
+    assert_files_equal(references["summary"], out)
+
+
+def test_one_file_segments_of_earlier_versions_resume(references, tmp_path):
+    path = write_sweep(tmp_path / "old.json", no_history())
+    out = tmp_path / "old.h5"
+    killed_partway(path, out, 10)
+    # Rewrite the work directory as an earlier version left it: one segment file per run.
+    work = tmp_path / "old.h5.d"
+    seg = work / "segments"
+    seg.mkdir()
+    n = 0
+    for log in sorted((work / "logs").glob("*.log")):
+        data, at = log.read_bytes(), 0
+        while at + 8 <= len(data):
+            k = int.from_bytes(data[at : at + 8], "little")
+            if k > len(data) - at - 8:
+                break
+            rec = data[at + 8 : at + 8 + k]
+            (seg / (rec[8:40].hex() + ".seg")).write_bytes(rec)
+            n += 1
+            at += 8 + k
+        log.unlink()
+    stored = segment_count(out)
+    assert stored >= 10
+    assert status_done(path, out)[0] == stored
+    r = run("run", path, "-o", out, "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    assert already_done(r.stderr) == stored
+    assert not seg.exists()
+    assert_files_equal(references["summary"], out)
+
+
+def test_gc_removes_orphans_and_never_a_needed_run(tmp_path, binary):
+    s = no_history()
+    path = write_sweep(tmp_path / "g.json", s)
+    out = tmp_path / "g.h5"
+    killed_partway(path, out, 40)
+    before = {h for _, h, _ in log_records(out)}
+    # Edit the sweep: half of the damping values change, so their points' runs become orphans.
+    s["axes"][1]["values"] = [0, 2, 4, 6, 8, 11, 16, 21, 51, 101]
+    write_sweep(path, s)
+    needed, _ = status_done(path, out)
+    assert 0 < needed < len(before)
+    r = run("gc", path, "-o", out)
+    assert r.returncode == 0, r.stderr
+    removed = int(re.search(r"removed (\d+) run", r.stdout).group(1))
+    after = {h for _, h, _ in log_records(out)}
+    assert removed == len(before) - needed == len(before - after)
+    assert after <= before
+    # Every run the edited sweep needs is still there, and it resumes from them.
+    assert status_done(path, out)[0] == needed
+    r = run("run", path, "-o", out, "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    assert already_done(r.stderr) == needed
+    fresh = tmp_path / "fresh.h5"
+    assert run("run", path, "-o", fresh, "--jobs", "2", "--quiet").returncode == 0
+    assert_files_equal(fresh, out)
+    # A second gc finds nothing to remove.
+    r = run("gc", path, "-o", out)
+    assert r.returncode == 0 and "removed 0 run" in r.stdout, r.stdout
