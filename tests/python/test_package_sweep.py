@@ -203,9 +203,9 @@ def test_progress_bar_and_plain_lines(tmp_path, monkeypatch, capfd):
     assert capfd.readouterr().err == ""
 
 
-def slow_spec() -> dict:
-    """100 runs of about 10 ms each: long enough to be interrupted."""
-    spec = sweep_spec(cylinders=50, duration_s=1e-3, probes=(4, 21))
+def slow_spec(duration_s: float = 1e-3) -> dict:
+    """100 runs of about 10 ms each per ms of `duration_s`: long enough to be interrupted."""
+    spec = sweep_spec(cylinders=50, duration_s=duration_s, probes=(4, 21))
     spec["axes"] = [
         {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio",
          "range": {"start": 0.1, "stop": 1.0, "num": 50}},
@@ -245,7 +245,9 @@ print("finished", flush=True)
 def test_ctrl_c_stops_cleanly_and_the_same_call_resumes(tmp_path):
     out = tmp_path / "s.h5"
     proc = subprocess.Popen(
-        [sys.executable, "-c", INTERRUPTED, json.dumps(slow_spec()), str(out)],
+        # 5 ms runs (about 5 s in all on one worker): a loaded machine still delivers the signal
+        # long before the sweep could end by itself.
+        [sys.executable, "-c", INTERRUPTED, json.dumps(slow_spec(5e-3)), str(out)],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -266,5 +268,5 @@ def test_ctrl_c_stops_cleanly_and_the_same_call_resumes(tmp_path):
     assert ok >= 3 and pending > 0 and ok + pending == 100
     assert segment_count(out) == ok
     assert not list((Path(f"{out}.d") / "tmp").iterdir())
-    rest = chainsweep.sweep(slow_spec(), out, jobs=2, progress=False)
+    rest = chainsweep.sweep(slow_spec(5e-3), out, jobs=2, progress=False)
     assert rest.complete and rest.ran == pending
