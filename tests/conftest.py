@@ -90,8 +90,9 @@ def log_records(out):
 
 
 def file_runs(out):
-    """Run hashes (hex) of the points the output file `out` holds done (ok or failed)."""
-    if not out.exists():
+    """Run hashes (hex) of the points the output file `out` holds done (ok or failed); none when
+    `out` is not a file (missing, or a directory a fault-injection test put in its place)."""
+    if not out.is_file():
         return set()
     with h5py.File(out, "r") as f:
         status = f["status"][...].ravel()
