@@ -937,6 +937,43 @@ impl DenseStep for Dop853Step<'_> {
             out[i] = Self::contd8(&self.coefficients(i), s);
         }
     }
+    fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
+        const MAX: usize = 16;
+        let m = indices.len();
+        if m > MAX || m == 0 {
+            for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
+                for (o, &i) in row.iter_mut().zip(indices) {
+                    *o = self.eval_component(t, i);
+                }
+            }
+            return;
+        }
+        // The coefficients of the components side by side (row r: coefficient r of each), so
+        // that one sample evaluates `contd8` for all of them in vector lanes; the arithmetic of
+        // each lane is `contd8`'s, operation for operation.
+        let mut c = [[0.0f64; MAX]; 8];
+        for (j, &i) in indices.iter().enumerate() {
+            for (r, v) in self.coefficients(i).into_iter().enumerate() {
+                c[r][j] = v;
+            }
+        }
+        for (&t, row) in times.iter().zip(out.chunks_exact_mut(m)) {
+            if t == self.t1 {
+                for (o, &i) in row.iter_mut().zip(indices) {
+                    *o = self.w.y_new[i];
+                }
+                continue;
+            }
+            let s = (t - self.t0) / self.h;
+            let s1 = 1.0 - s;
+            let mut lanes = [0.0f64; MAX];
+            for j in 0..MAX {
+                let conpar = c[4][j] + s * (c[5][j] + s1 * (c[6][j] + s * c[7][j]));
+                lanes[j] = c[0][j] + s * (c[1][j] + s1 * (c[2][j] + s * (c[3][j] + s1 * conpar)));
+            }
+            row.copy_from_slice(&lanes[..m]);
+        }
+    }
 }
 
 impl Stepper for Work {
