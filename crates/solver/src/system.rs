@@ -211,6 +211,8 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
 #[derive(Debug, Clone)]
 pub struct Ledger {
     mass: Vec<f64>,
+    /// `Σ m`, summed once: the momentum residual needs it after every step.
+    total_mass: f64,
     stiffness: Vec<f64>,
     /// Exponents of the contact laws, when any is not Hertz's 3/2.
     exponent: Option<Vec<f64>>,
@@ -255,6 +257,7 @@ impl Ledger {
     pub fn new(chain: &Chain) -> Self {
         Ledger {
             mass: chain.mass.clone(),
+            total_mass: chain.mass.iter().sum(),
             stiffness: chain.stiffness.clone(),
             exponent: chain
                 .exponent
@@ -323,6 +326,9 @@ impl Ledger {
     }
 
     /// Hertz potential `(2/5) Σ A δ^{5/2}` and the largest overlap, interior contacts then the wall's.
+    /// Inlined into [`EnergyKernel`] so that its square roots run in the dispatched kernel's
+    /// vector width (a square root is exact whatever the width: the same bits).
+    #[inline(always)]
     fn hertz_potential(&self, x: &[f64]) -> (f64, f64) {
         const L: usize = 8;
         let n = self.mass.len();
@@ -380,8 +386,8 @@ impl Ledger {
     /// precompression and the force pulse).
     pub fn momentum_residual(&self, y: &[f64], t: f64, t0: f64, p0: f64) -> f64 {
         let n = self.mass.len();
-        let p: f64 = (0..n).map(|i| self.mass[i] * y[n + i]).sum();
-        let m_total: f64 = self.mass.iter().sum();
+        let p: f64 = self.mass.iter().zip(&y[n..2 * n]).map(|(m, v)| m * v).sum();
+        let m_total = self.total_mass;
         let j = self.wall_impulse_index.map_or(0.0, |k| y[k]);
         debug_assert!(self.wall || j == 0.0);
         let external = if self.precompression != 0.0 || self.pulse.is_some() {
