@@ -1268,6 +1268,50 @@ mod tests {
         assert!(obs.max_err < 1e-8, "dense error {:e}", obs.max_err);
     }
 
+    /// Compares, on every step, the batched interpolation of a few components at several times
+    /// (the step's end among them) with the per-component one, bit for bit.
+    struct BatchCheck {
+        steps: usize,
+    }
+    impl StepObserver for BatchCheck {
+        fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
+        fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+            let (t0, t1) = (step.t_start(), step.t_end());
+            let times: Vec<f64> = (1..=7).map(|k| t0 + (t1 - t0) * k as f64 / 7.0).collect();
+            let indices = [2, 0, 1];
+            let mut out = vec![f64::NAN; times.len() * indices.len()];
+            step.eval_components_at(&times, &indices, &mut out);
+            for (r, &t) in times.iter().enumerate() {
+                for (j, &i) in indices.iter().enumerate() {
+                    let one = step.eval_component(t, i);
+                    assert_eq!(
+                        out[r * indices.len() + j].to_bits(),
+                        one.to_bits(),
+                        "t {t}, i {i}"
+                    );
+                }
+            }
+            self.steps += 1;
+            Control::Continue
+        }
+    }
+
+    #[test]
+    fn dop853_batched_dense_output_is_bitwise_the_scalar_one() {
+        let mut check = BatchCheck { steps: 0 };
+        Dop853::new(1e-9, 1e-9)
+            .integrate(
+                &mut Osc { quad: true },
+                0.0,
+                &[1.0, 0.0, 0.0],
+                6.0,
+                100_000,
+                &mut check,
+            )
+            .unwrap();
+        assert!(check.steps > 10, "{} steps", check.steps);
+    }
+
     #[test]
     fn dop853_quadrature_component() {
         let t_end = 7.5;
