@@ -967,7 +967,8 @@ impl DenseStep for Dop853Step<'_> {
             let s = (t - self.t0) / self.h;
             let s1 = 1.0 - s;
             let mut lanes = [0.0f64; MAX];
-            for j in 0..MAX {
+            // Whole vectors of four lanes (the lanes past `m` hold zeros and are not read).
+            for j in 0..m.div_ceil(4) * 4 {
                 let conpar = c[4][j] + s * (c[5][j] + s1 * (c[6][j] + s * c[7][j]));
                 lanes[j] = c[0][j] + s * (c[1][j] + s1 * (c[2][j] + s * (c[3][j] + s1 * conpar)));
             }
