@@ -722,7 +722,12 @@ pub(crate) struct RunObserver {
     frozen_energy: (f64, f64),
     /// Largest overlap of the contacts between particles at rest, m.
     frozen_max_overlap: f64,
+    /// Those components at up to [`SAMPLE_BATCH`] sample times, one row per time.
+    batch_values: Vec<f64>,
 }
+
+/// Most samples interpolated in one call ([`DenseStep::eval_components_at`]).
+const SAMPLE_BATCH: usize = 32;
 
 impl RunObserver {
     pub fn new(
@@ -748,6 +753,7 @@ impl RunObserver {
         let probe_components = probes.components();
         let probe_state = vec![0.0; probe_components.last().map_or(0, |i| i + 1)];
         RunObserver {
+            batch_values: vec![0.0; SAMPLE_BATCH * probe_components.len()],
             probe_components,
             probe_state,
             started: false,
@@ -917,34 +923,74 @@ impl StepObserver for RunObserver {
         let t1 = step.t_end();
         let n_probes = self.probes.len();
         if n_probes > 0 {
+            let m = self.probe_components.len();
+            // The samples of the step in batches: one interpolant set-up for all of them, the
+            // probes then fed in time order exactly as one sample at a time.
+            let mut times = [0.0f64; SAMPLE_BATCH];
             loop {
-                let ts = self.t0 + self.next_summary as f64 * self.opts.summary_interval;
-                if ts > t1 || ts > self.t_end {
+                let mut count = 0;
+                while count < SAMPLE_BATCH {
+                    let ts = self.t0
+                        + (self.next_summary + count as u64) as f64 * self.opts.summary_interval;
+                    if ts > t1 || ts > self.t_end {
+                        break;
+                    }
+                    times[count] = ts;
+                    count += 1;
+                }
+                if count == 0 {
                     break;
                 }
-                step.eval_components(ts, &self.probe_components, &mut self.probe_state);
-                let state = &self.probe_state;
-                let g = |i: usize| state[i];
-                for k in 0..n_probes {
-                    let s = self.probes.value(k, &g);
-                    self.trackers[k].sample(ts, s);
+                let values = &mut self.batch_values[..count * m];
+                step.eval_components_at(&times[..count], &self.probe_components, values);
+                for (&ts, row) in times[..count].iter().zip(values.chunks_exact(m.max(1))) {
+                    for (&i, &v) in self.probe_components.iter().zip(row) {
+                        self.probe_state[i] = v;
+                    }
+                    let state = &self.probe_state;
+                    let g = |i: usize| state[i];
+                    for (k, tracker) in self.trackers.iter_mut().enumerate() {
+                        tracker.sample(ts, self.probes.value(k, &g));
+                    }
                 }
-                self.next_summary += 1;
+                self.next_summary += count as u64;
+                if count < SAMPLE_BATCH {
+                    break;
+                }
             }
             if let Some(h) = &mut self.history {
                 loop {
-                    let th = self.t0 + self.next_history as f64 * self.opts.history_interval;
-                    if th > t1 || th > self.t_end {
+                    let mut count = 0;
+                    while count < SAMPLE_BATCH {
+                        let th = self.t0
+                            + (self.next_history + count as u64) as f64
+                                * self.opts.history_interval;
+                        if th > t1 || th > self.t_end {
+                            break;
+                        }
+                        times[count] = th;
+                        count += 1;
+                    }
+                    if count == 0 {
                         break;
                     }
-                    step.eval_components(th, &self.probe_components, &mut self.probe_state);
-                    let state = &self.probe_state;
-                    let g = |i: usize| state[i];
-                    h.time_s.push(th);
-                    for (k, series) in h.values.iter_mut().enumerate() {
-                        series.push(self.probes.value(k, &g));
+                    let values = &mut self.batch_values[..count * m];
+                    step.eval_components_at(&times[..count], &self.probe_components, values);
+                    for (&th, row) in times[..count].iter().zip(values.chunks_exact(m.max(1))) {
+                        for (&i, &v) in self.probe_components.iter().zip(row) {
+                            self.probe_state[i] = v;
+                        }
+                        let state = &self.probe_state;
+                        let g = |i: usize| state[i];
+                        h.time_s.push(th);
+                        for (k, series) in h.values.iter_mut().enumerate() {
+                            series.push(self.probes.value(k, &g));
+                        }
                     }
-                    self.next_history += 1;
+                    self.next_history += count as u64;
+                    if count < SAMPLE_BATCH {
+                        break;
+                    }
                 }
             }
         }

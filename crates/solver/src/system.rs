@@ -211,6 +211,8 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
 #[derive(Debug, Clone)]
 pub struct Ledger {
     mass: Vec<f64>,
+    /// `Σ m`, summed once: the momentum residual needs it after every step.
+    total_mass: f64,
     stiffness: Vec<f64>,
     /// Exponents of the contact laws, when any is not Hertz's 3/2.
     exponent: Option<Vec<f64>>,
@@ -223,8 +225,6 @@ pub struct Ledger {
     top: usize,
     precompression: f64,
     pulse: Option<(f64, f64, usize)>,
-    /// Total mass, kg (summed once, in particle order).
-    total_mass: f64,
 }
 
 /// Energy terms of a state, J.
@@ -257,6 +257,7 @@ impl Ledger {
     pub fn new(chain: &Chain) -> Self {
         Ledger {
             mass: chain.mass.clone(),
+            total_mass: chain.mass.iter().sum(),
             stiffness: chain.stiffness.clone(),
             exponent: chain
                 .exponent
@@ -272,7 +273,6 @@ impl Ledger {
             pulse: chain
                 .force_pulse
                 .map(|(a, d)| (a, d, chain.pulse_work_index().expect("pulse quadrature"))),
-            total_mass: chain.mass.iter().sum(),
         }
     }
 
@@ -335,7 +335,10 @@ impl Ledger {
     }
 
     /// Hertz potential `(2/5) Σ A δ^{5/2}` and the largest overlap, interior contacts then the
-    /// wall's, of the contacts of the first `k` particles.
+    /// wall's, of the contacts of the first `k` particles. Inlined into [`EnergyKernel`] so that its
+    /// square roots run in the dispatched kernel's vector width (a square root is exact whatever
+    /// the width: the same bits).
+    #[inline(always)]
     fn hertz_potential(&self, x: &[f64], k: usize) -> (f64, f64) {
         const L: usize = 8;
         let n = self.mass.len();
@@ -400,7 +403,7 @@ impl Ledger {
     /// [`Ledger::momentum_residual`] for a state whose particles from `k` on are at rest.
     pub fn momentum_residual_prefix(&self, y: &[f64], k: usize, t: f64, t0: f64, p0: f64) -> f64 {
         let n = self.mass.len();
-        let p: f64 = (0..k).map(|i| self.mass[i] * y[n + i]).sum();
+        let p: f64 = self.mass[..k].iter().zip(&y[n..n + k]).map(|(m, v)| m * v).sum();
         let m_total = self.total_mass;
         let j = self.wall_impulse_index.map_or(0.0, |k| y[k]);
         debug_assert!(self.wall || j == 0.0);

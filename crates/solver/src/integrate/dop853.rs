@@ -937,6 +937,44 @@ impl DenseStep for Dop853Step<'_> {
             out[i] = Self::contd8(&self.coefficients(i), s);
         }
     }
+    fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
+        const MAX: usize = 16;
+        let m = indices.len();
+        if m > MAX || m == 0 {
+            for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
+                for (o, &i) in row.iter_mut().zip(indices) {
+                    *o = self.eval_component(t, i);
+                }
+            }
+            return;
+        }
+        // The coefficients of the components side by side (row r: coefficient r of each), so
+        // that one sample evaluates `contd8` for all of them in vector lanes; the arithmetic of
+        // each lane is `contd8`'s, operation for operation.
+        let mut c = [[0.0f64; MAX]; 8];
+        for (j, &i) in indices.iter().enumerate() {
+            for (r, v) in self.coefficients(i).into_iter().enumerate() {
+                c[r][j] = v;
+            }
+        }
+        for (&t, row) in times.iter().zip(out.chunks_exact_mut(m)) {
+            if t == self.t1 {
+                for (o, &i) in row.iter_mut().zip(indices) {
+                    *o = self.w.y_new[i];
+                }
+                continue;
+            }
+            let s = (t - self.t0) / self.h;
+            let s1 = 1.0 - s;
+            let mut lanes = [0.0f64; MAX];
+            // Whole vectors of four lanes (the lanes past `m` hold zeros and are not read).
+            for j in 0..m.div_ceil(4) * 4 {
+                let conpar = c[4][j] + s * (c[5][j] + s1 * (c[6][j] + s * c[7][j]));
+                lanes[j] = c[0][j] + s * (c[1][j] + s1 * (c[2][j] + s * (c[3][j] + s1 * conpar)));
+            }
+            row.copy_from_slice(&lanes[..m]);
+        }
+    }
 }
 
 impl Stepper for Work {
@@ -1229,6 +1267,50 @@ mod tests {
             obs.max_err
         );
         assert!(obs.max_err < 1e-8, "dense error {:e}", obs.max_err);
+    }
+
+    /// Compares, on every step, the batched interpolation of a few components at several times
+    /// (the step's end among them) with the per-component one, bit for bit.
+    struct BatchCheck {
+        steps: usize,
+    }
+    impl StepObserver for BatchCheck {
+        fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
+        fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+            let (t0, t1) = (step.t_start(), step.t_end());
+            let times: Vec<f64> = (1..=7).map(|k| t0 + (t1 - t0) * k as f64 / 7.0).collect();
+            let indices = [2, 0, 1];
+            let mut out = vec![f64::NAN; times.len() * indices.len()];
+            step.eval_components_at(&times, &indices, &mut out);
+            for (r, &t) in times.iter().enumerate() {
+                for (j, &i) in indices.iter().enumerate() {
+                    let one = step.eval_component(t, i);
+                    assert_eq!(
+                        out[r * indices.len() + j].to_bits(),
+                        one.to_bits(),
+                        "t {t}, i {i}"
+                    );
+                }
+            }
+            self.steps += 1;
+            Control::Continue
+        }
+    }
+
+    #[test]
+    fn dop853_batched_dense_output_is_bitwise_the_scalar_one() {
+        let mut check = BatchCheck { steps: 0 };
+        Dop853::new(1e-9, 1e-9)
+            .integrate(
+                &mut Osc { quad: true },
+                0.0,
+                &[1.0, 0.0, 0.0],
+                6.0,
+                100_000,
+                &mut check,
+            )
+            .unwrap();
+        assert!(check.steps > 10, "{} steps", check.steps);
     }
 
     #[test]

@@ -118,6 +118,19 @@ pub trait DenseStep {
             out[i] = self.eval_component(t, i);
         }
     }
+    /// Interpolated components `indices` at each of `times`: row `r` of `out` (the `indices.len()`
+    /// values from `out[r * indices.len()]`) holds them at `times[r]`, in the order of `indices`
+    /// (the same values as [`DenseStep::eval_component`]). One call for all the samples a step
+    /// holds lets a method set up its interpolant once and evaluate it for several components at
+    /// a time.
+    fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
+        let m = indices.len();
+        for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
+            for (o, &i) in row.iter_mut().zip(indices) {
+                *o = self.eval_component(t, i);
+            }
+        }
+    }
 }
 
 /// What an observer tells the integrator after a step.
