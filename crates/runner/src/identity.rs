@@ -36,7 +36,10 @@ pub fn from_hex(text: &str) -> Option<RunHash> {
 }
 
 /// Identity of the run of `scene` under the energy-drift limit `energy_drift_max` (`None`: no
-/// limit).
+/// limit). A run that integrates only the moving part of its chain
+/// ([`chainsweep_solver::integrates_moving_part`]) adds a line saying so: its results differ from
+/// the whole chain's in the last digits, so runs stored before that path existed are recomputed
+/// rather than mixed with its results, while every other run keeps its hash.
 pub fn run_hash(scene: &Scene, energy_drift_max: Option<f64>) -> RunHash {
     let scene_json = serde_json::to_string(scene).expect("Scene serialises");
     let limit = match energy_drift_max {
@@ -48,6 +51,9 @@ pub fn run_hash(scene: &Scene, energy_drift_max: Option<f64>) -> RunHash {
     h.update(format!("numerics_version={}\n", crate::NUMERICS_VERSION).as_bytes());
     h.update(format!("solver_version={}\n", crate::SOLVER_VERSION).as_bytes());
     h.update(format!("energy_drift_max={limit}\n").as_bytes());
+    if chainsweep_solver::integrates_moving_part(scene) {
+        h.update(b"moving_part=1\n");
+    }
     h.update(b"scene=");
     h.update(scene_json.as_bytes());
     h.finalize().into()

@@ -4,7 +4,7 @@
 
 use chainsweep_solver::active::{BLOCK, MIN_PARTICLES};
 use chainsweep_solver::scene::{run, IntegratorSpec, RunOutput, Scene};
-use chainsweep_solver::{ActiveRegion, AdaptiveOptions, ChainSpec, Probe};
+use chainsweep_solver::{integrates_moving_part, ActiveRegion, AdaptiveOptions, ChainSpec, Probe};
 
 /// The paper's 0.55 chain (μ = 6 kg/s, 1.3 m/s) lengthened to `cylinders`, 1 ms, DOP853 at
 /// `rtol`, gauges in cylinders 4, 21 and 30 (reached by the pulse), 60 and 250 (not reached), the
@@ -172,6 +172,7 @@ fn scenes_that_do_not_qualify_run_the_whole_chain() {
     let whole = |s: &Scene| {
         let out = run(s).unwrap();
         assert_eq!(out.active_particles, None, "{s:?}");
+        assert!(!integrates_moving_part(s), "{s:?}");
     };
     // Off.
     let mut s = base.clone();
@@ -197,8 +198,9 @@ fn scenes_that_do_not_qualify_run_the_whole_chain() {
     s.integrator = IntegratorSpec::Rk4 { dt_s: 1e-8 };
     s.duration_s = 2e-5;
     whole(&s);
-    // And a scene that qualifies does use it.
+    // And a scene that qualifies does use it, as the run identity is told beforehand.
     assert!(run(&base).unwrap().active_particles.is_some());
+    assert!(integrates_moving_part(&base));
 }
 
 #[test]
