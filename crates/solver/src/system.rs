@@ -403,7 +403,11 @@ impl Ledger {
     /// [`Ledger::momentum_residual`] for a state whose particles from `k` on are at rest.
     pub fn momentum_residual_prefix(&self, y: &[f64], k: usize, t: f64, t0: f64, p0: f64) -> f64 {
         let n = self.mass.len();
-        let p: f64 = self.mass[..k].iter().zip(&y[n..n + k]).map(|(m, v)| m * v).sum();
+        let p: f64 = self.mass[..k]
+            .iter()
+            .zip(&y[n..n + k])
+            .map(|(m, v)| m * v)
+            .sum();
         let m_total = self.total_mass;
         let j = self.wall_impulse_index.map_or(0.0, |k| y[k]);
         debug_assert!(self.wall || j == 0.0);
