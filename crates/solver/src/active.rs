@@ -422,7 +422,7 @@ pub(crate) fn integrate(
             last: y_sub.clone(),
         };
         // Accepted and rejected attempts both count against the budget, as for the whole chain.
-        let budget = max_steps.saturating_sub(total.steps + total.rejected);
+        let budget = max_steps.saturating_sub(total.attempts());
         let stats = crate::dispatch_chain_system!(&sub, |sys| integrator
             .integrate(&mut sys, t, &y_sub, t_leg, budget, &mut obs))
         .map_err(|e| match e {
@@ -430,12 +430,8 @@ pub(crate) fn integrate(
             other => other,
         })?;
         let (grow, last) = (obs.grow, obs.last);
-        total.steps += stats.steps;
-        total.rejected += stats.rejected;
-        total.events += stats.events;
-        total.rhs_evals += stats.rhs_evals;
-        total.stiffness_detections += stats.stiffness_detections;
-        if observer.stopped || total.steps + total.rejected >= max_steps {
+        total.add(&stats);
+        if observer.stopped || total.attempts() >= max_steps {
             break;
         }
         t = observer.t_reached;

@@ -689,19 +689,15 @@ fn integrate_legs(
     let mut t = t0;
     let mut y = y0.to_vec();
     for &t_leg in leg_ends {
-        let budget = max_steps.saturating_sub(total.steps + total.rejected);
+        let budget = max_steps.saturating_sub(total.attempts());
         let stats = integrator
             .integrate(sys, t, &y, t_leg, budget, observer)
             .map_err(|e| match e {
                 IntegrateError::StepBudget { t, .. } => IntegrateError::StepBudget { max_steps, t },
                 other => other,
             })?;
-        total.steps += stats.steps;
-        total.rejected += stats.rejected;
-        total.events += stats.events;
-        total.rhs_evals += stats.rhs_evals;
-        total.stiffness_detections += stats.stiffness_detections;
-        if observer.stopped || total.steps + total.rejected >= max_steps {
+        total.add(&stats);
+        if observer.stopped || total.attempts() >= max_steps {
             break;
         }
         t = t_leg;

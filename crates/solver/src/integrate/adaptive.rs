@@ -430,7 +430,7 @@ impl<M: Method> Integrator for Adaptive<M> {
 
         loop {
             // Rejected attempts count: a run that only retries must end too.
-            if stats.steps + stats.rejected >= max_steps {
+            if stats.attempts() >= max_steps {
                 return Err(IntegrateError::StepBudget { max_steps, t });
             }
             if h < 10.0 * f64::EPSILON * t.abs() || h < f64::MIN_POSITIVE {

@@ -167,6 +167,22 @@ pub struct IntegrationStats {
     pub stiffness_detections: u64,
 }
 
+impl IntegrationStats {
+    /// Step attempts, accepted and rejected: what a step budget (`max_steps`) counts.
+    pub fn attempts(&self) -> u64 {
+        self.steps + self.rejected
+    }
+
+    /// Adds the counters of a further stretch of the same run (a leg, or a restart).
+    pub fn add(&mut self, more: &IntegrationStats) {
+        self.steps += more.steps;
+        self.rejected += more.rejected;
+        self.events += more.events;
+        self.rhs_evals += more.rhs_evals;
+        self.stiffness_detections += more.stiffness_detections;
+    }
+}
+
 /// Why an integration stopped before reaching its end time.
 #[derive(Debug, Clone, PartialEq)]
 pub enum IntegrateError {
