@@ -726,6 +726,29 @@ pub(crate) struct RunObserver {
     batch_values: Vec<f64>,
 }
 
+/// Fills `times` with the sample times `t0 + j·interval`, `j = first, first + 1, …`, up to `until`
+/// (at most [`SAMPLE_BATCH`] of them) and returns how many there are: one sampling grid for the
+/// summaries and the histories alike.
+#[inline]
+fn batch_times(
+    t0: f64,
+    first: u64,
+    interval: f64,
+    until: f64,
+    times: &mut [f64; SAMPLE_BATCH],
+) -> usize {
+    let mut count = 0;
+    while count < SAMPLE_BATCH {
+        let t = t0 + (first + count as u64) as f64 * interval;
+        if t > until {
+            break;
+        }
+        times[count] = t;
+        count += 1;
+    }
+    count
+}
+
 /// Most samples interpolated in one call ([`DenseStep::eval_components_at`]).
 const SAMPLE_BATCH: usize = 32;
 
@@ -928,16 +951,13 @@ impl StepObserver for RunObserver {
             // probes then fed in time order exactly as one sample at a time.
             let mut times = [0.0f64; SAMPLE_BATCH];
             loop {
-                let mut count = 0;
-                while count < SAMPLE_BATCH {
-                    let ts = self.t0
-                        + (self.next_summary + count as u64) as f64 * self.opts.summary_interval;
-                    if ts > t1 || ts > self.t_end {
-                        break;
-                    }
-                    times[count] = ts;
-                    count += 1;
-                }
+                let count = batch_times(
+                    self.t0,
+                    self.next_summary,
+                    self.opts.summary_interval,
+                    t1.min(self.t_end),
+                    &mut times,
+                );
                 if count == 0 {
                     break;
                 }
@@ -960,17 +980,13 @@ impl StepObserver for RunObserver {
             }
             if let Some(h) = &mut self.history {
                 loop {
-                    let mut count = 0;
-                    while count < SAMPLE_BATCH {
-                        let th = self.t0
-                            + (self.next_history + count as u64) as f64
-                                * self.opts.history_interval;
-                        if th > t1 || th > self.t_end {
-                            break;
-                        }
-                        times[count] = th;
-                        count += 1;
-                    }
+                    let count = batch_times(
+                        self.t0,
+                        self.next_history,
+                        self.opts.history_interval,
+                        t1.min(self.t_end),
+                        &mut times,
+                    );
                     if count == 0 {
                         break;
                     }
