@@ -148,7 +148,6 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
         let v = &rest[..n];
         let (dx, rest) = dy.split_at_mut(n);
         let (dv, dq) = rest.split_at_mut(n);
-        dx.copy_from_slice(v);
 
         // Interior contacts 0..n-1, contact c between particles c and c+1. Forces and the power
         // each contact dissipates come out of one vectorised pass; the power is summed in a second
@@ -160,7 +159,11 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
         let contact_power = &mut self.power[..m];
         let a = &self.stiffness[..m];
         let mu = &self.damping[..m];
+        // `x' = v` is copied in the pass that reads `v` anyway (a separate copy was a memcpy
+        // call per evaluation, 3.6 % of the reference run's instructions).
+        let dx = &mut dx[..n];
         for c in 0..m {
+            dx[c] = v[c];
             let (fc, p) = contact_force::<D, C>(a[c], mu[c], x[c] - x[c + 1], v[c] - v[c + 1]);
             force[c] = fc;
             if D {
@@ -177,6 +180,7 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
                 }
             }
         }
+        dx[m] = v[m];
         let (wall_force, wall_power) = if W {
             contact_force::<D, C>(
                 self.stiffness[n - 1],

@@ -507,7 +507,13 @@ impl<M: Method> Integrator for Adaptive<M> {
                 } else {
                     t_new
                 };
-                let t_event = earliest_event(&switches, w.y(), &w.dense(t, t_new, h_step), horizon);
+                let t_event = earliest_event(
+                    &switches,
+                    adjacent,
+                    w.y(),
+                    &w.dense(t, t_new, h_step),
+                    horizon,
+                );
                 if let Some(h_event) = t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
                 {
                     stats.rejected += 1;
@@ -745,6 +751,7 @@ fn initial_step(
 /// `horizon` is still that of the start is passed over without root finding.
 fn earliest_event<S: DenseStep + ?Sized>(
     switches: &[Switch],
+    adjacent: usize,
     y_start: &[f64],
     step: &S,
     horizon: f64,
@@ -752,10 +759,29 @@ fn earliest_event<S: DenseStep + ?Sized>(
     let (t0, t1) = (step.t_start(), step.t_end());
     let y_end = step.y_end();
     let mut earliest: Option<f64> = None;
-    for sw in switches {
+    let changes_sign = |g0: f64, g1: f64| (g0 != 0.0) & ((g0 > 0.0) != (g1 > 0.0));
+    // The first `adjacent` switches are contacts between neighbours (`x[k] − x[k+1]`, see
+    // `adjacent_pairs`): eight at a time, from contiguous slices, a vectorised test finds the
+    // windows where one changes sign; only those are looked at switch by switch, in the same
+    // order as the rest, so the result is the same.
+    let full = adjacent - adjacent % 8;
+    let mut candidates = (0..full)
+        .step_by(8)
+        .filter(|&k0| {
+            let window = |s: &[f64]| -> [f64; 9] { s[k0..k0 + 9].try_into().expect("nine values") };
+            let (a, b) = (window(y_start), window(y_end));
+            let mut any = false;
+            for j in 0..8 {
+                any |= changes_sign(a[j] - a[j + 1], b[j] - b[j + 1]);
+            }
+            any
+        })
+        .flat_map(|k0| &switches[k0..k0 + 8])
+        .chain(&switches[full..]);
+    for sw in &mut candidates {
         let g0 = sw.value(|i| y_start[i]);
         let g1 = sw.value(|i| y_end[i]);
-        if g0 == 0.0 || (g0 > 0.0) == (g1 > 0.0) {
+        if !changes_sign(g0, g1) {
             continue;
         }
         let g = |t: f64| sw.value(|i| step.eval_component(t, i));
