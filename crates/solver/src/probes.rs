@@ -286,6 +286,9 @@ enum Compiled {
     Contacts {
         first: usize,
         count: usize,
+        /// `1/count`, exact for a count of 1 or 2: multiplying by it gives the quotient's bits
+        /// without a division's latency on every probe sample.
+        inv_count: f64,
         offset: f64,
     },
     Overlap {
@@ -367,9 +370,11 @@ impl ProbeSet {
                 Preload::Include => 0.0,
                 Preload::Subtract => static_mean(c, s),
             };
+            debug_assert!(s == 1 || s == 2, "a probe averages one or two contacts");
             compiled.push(Compiled::Contacts {
                 first: c,
                 count: s,
+                inv_count: 1.0 / s as f64,
                 offset,
             });
             scale.push(force_scale);
@@ -447,13 +452,14 @@ impl ProbeSet {
             Compiled::Contacts {
                 first,
                 count,
+                inv_count,
                 offset,
             } => {
                 let mut s = 0.0;
                 for c in first..first + count {
                     s += self.contact_force(c, get);
                 }
-                s / count as f64 - offset
+                s * inv_count - offset
             }
             Compiled::Overlap { contact } => {
                 if contact + 1 < self.n {

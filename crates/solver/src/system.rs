@@ -351,10 +351,14 @@ impl Ledger {
         let (mut potential, mut largest) = ([0.0f64; L], [0.0f64; L]);
         let full = interior - interior % L;
         for c0 in (0..full).step_by(L) {
+            // Fixed-size windows (c0 + 8 <= interior <= n − 1, so nine positions are there): no
+            // bounds check per element, so the lanes and their square roots vectorise (indexed
+            // `x[c + 1]`, this loop ran scalar, 5 % of the reference run).
+            let xs: [f64; L + 1] = x[c0..c0 + L + 1].try_into().expect("nine positions");
+            let aw: [f64; L] = a[c0..c0 + L].try_into().expect("eight stiffnesses");
             for lane in 0..L {
-                let c = c0 + lane;
-                let d = (x[c] - x[c + 1]).max(0.0);
-                potential[lane] += a[c] * d * d * d.sqrt();
+                let d = (xs[lane] - xs[lane + 1]).max(0.0);
+                potential[lane] += aw[lane] * d * d * d.sqrt();
                 largest[lane] = largest[lane].max(d);
             }
         }
