@@ -541,7 +541,7 @@ pub fn study(st: &Study, output: &Path) {
         st.agreement
     );
     outln!(
-        "{:<9} {:>22} {:>22} {:>22}",
+        "{:<14} {:>22} {:>22} {:>22}",
         "method",
         "<= 1e-4",
         "<= 1e-6",
@@ -553,7 +553,7 @@ pub fn study(st: &Study, output: &Path) {
             None => "not reached".to_string(),
         };
         outln!(
-            "{:<9} {:>22} {:>22} {:>22}",
+            "{:<14} {:>22} {:>22} {:>22}",
             m.method,
             cell(1e-4),
             cell(1e-6),

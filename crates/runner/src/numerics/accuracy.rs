@@ -11,7 +11,7 @@
 
 use std::path::Path;
 
-use chainsweep_solver::{IntegratorSpec, RunOutput, Scene};
+use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, RunOutput, Scene};
 use hdf5::File;
 
 use super::{max_ignoring_nan, probe_errors, round3};
@@ -160,8 +160,19 @@ pub const DT_DIVISORS: &[f64] = &[
     10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0, 100000.0,
 ];
 
+/// The methods a study can compare (`--methods`); `dop853-predict` is DOP853 with
+/// `predict_switches`.
+pub const METHODS: &[&str] = &["dop853", "dop853-predict", "ros34pw2", "rk4", "verlet"];
+
 /// Runs a work-precision study of `scene`; `log` receives progress lines.
 pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> Result<Study> {
+    // Before any run: a misspelt method must not cost the ladders before it.
+    if let Some(other) = opts.methods.iter().find(|m| !METHODS.contains(&m.as_str())) {
+        return Err(Error::input(
+            "--methods",
+            format!("unknown method `{other}`; allowed: {}", METHODS.join(", ")),
+        ));
+    }
     let scales = scene_scales(scene)?;
     let stiff = scales.stiffness_ratio > STIFF_RATIO;
     let mut scene = scene.clone();
@@ -218,6 +229,20 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
                 .collect(),
                 "rtol",
             ),
+            // DOP853 with steps ended on predicted contact switches, on DOP853's ladder, so
+            // that the two lines of the diagram compare like with like.
+            "dop853-predict" => (
+                DOP853_LADDER
+                    .iter()
+                    .map(|&r| {
+                        IntegratorSpec::Dop853(AdaptiveOptions {
+                            predict_switches: true,
+                            ..AdaptiveOptions::new(r)
+                        })
+                    })
+                    .collect(),
+                "rtol",
+            ),
             "rk4" | "verlet" => (
                 DT_DIVISORS
                     .iter()
@@ -232,12 +257,7 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
                     .collect(),
                 "dt_s",
             ),
-            other => {
-                return Err(Error::input(
-                    "--methods",
-                    format!("unknown method `{other}`; allowed: dop853, ros34pw2, rk4, verlet"),
-                ))
-            }
+            other => unreachable!("method `{other}` passed the check above"),
         };
         for spec in settings {
             let (x, _) = setting_of(&spec);
@@ -257,7 +277,7 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
                 Some(o) => {
                     let e = errors_against(o, &ref_out);
                     log(&format!(
-                        "{m:<8} {setting_name} {x:.3e}: leading-peak error {:.2e}, time error {:.2e}, drift {:.2e}, {} RHS evals, {:.4} s",
+                        "{m:<14} {setting_name} {x:.3e}: leading-peak error {:.2e}, time error {:.2e}, drift {:.2e}, {} RHS evals, {:.4} s",
                         max_ignoring_nan(e.iter().map(|v| v[0])),
                         max_ignoring_nan(e.iter().map(|v| v[1])),
                         o.energy_drift_max,
@@ -266,7 +286,7 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
                     ));
                 }
                 None => log(&format!(
-                    "{m:<8} {setting_name} {x:.3e}: failed: {}",
+                    "{m:<14} {setting_name} {x:.3e}: failed: {}",
                     meas.reason
                 )),
             }
