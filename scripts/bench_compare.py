@@ -10,8 +10,9 @@ criterion's point estimates, and the ratio after/before. The benchmarks only the
 In the same rounds: the scaling bench `crates/solver/benches/scaling.rs` (the reference scene with
 50, 1 000 and 5 000 cylinders; it uses only the solver's long-standing interface, so the working
 tree's file is built at the base too when the base has none), and the wall time of the Fig. 8
-sweep (`chainsweep run sweeps/fig08.json --jobs 2`, the working tree's sweep file) with each side's
-`chainsweep` binary.
+sweep (`chainsweep run sweeps/fig08.json --jobs 2`) with each side's `chainsweep` binary and each
+side's own sweep file: the sweep as each tree ships it (the base's binary may not know an integrator
+option the working tree's file uses, such as `predict_switches`).
 
     python scripts/bench_compare.py [--base REV] [--rounds N] [--measurement-time S]
 """
@@ -135,7 +136,7 @@ def main():
         if "sweep" in parts:
             runner = {"before": runner_executable(base_tree, base_target),
                       "after": runner_executable(REPO, head_target)}
-        fig08 = REPO / "sweeps" / "fig08.json"
+        fig08 = {"before": base_tree / "sweeps" / "fig08.json", "after": REPO / "sweeps" / "fig08.json"}
         shared = "^(rhs|run)/"
         samples: dict[str, dict[str, list[float]]] = {"before": {}, "after": {}}
         for r in range(args.rounds):
@@ -149,7 +150,7 @@ def main():
                     for k, v in run_once(scaling[side], tmp / f"criterion-{side}", ".", args.measurement_time).items():
                         samples[side].setdefault(k, []).append(v)
                 if "sweep" in parts:
-                    wall = sweep_wall_s(runner[side], fig08, tmp / f"sweeps-{side}")
+                    wall = sweep_wall_s(runner[side], fig08[side], tmp / f"sweeps-{side}")
                     samples[side].setdefault("sweep/fig08_182_runs_jobs2", []).append(wall * 1e9)
     finally:
         subprocess.run(["git", "worktree", "remove", "--force", str(base_tree)], cwd=REPO, check=False)

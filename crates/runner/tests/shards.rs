@@ -1,7 +1,9 @@
 //! Balanced shards: on the paper's Fig. 8 grid and on a grid whose last axis (10 damping values)
 //! is a multiple of the number of shards, the shards' real costs (right-hand-side evaluations of
 //! their runs, a noise-free measure of CPU time) differ by at most 15 %, where every-N-th
-//! assignment gave 20 % and 70 %; every point belongs to exactly one shard, and the assignment
+//! assignment gave 20 % and 70 % (on Fig. 8, 11 % since its sweep ends steps on predicted contact
+//! switches, which narrowed the gap between its μ = 0 and μ = 6 runs); every point belongs to
+//! exactly one shard, and the assignment
 //! is the same every time it is computed.
 
 use std::path::Path;
@@ -66,7 +68,7 @@ fn check(file: &str, shards: &[usize], every_nth_worse_than: f64) {
 #[test]
 fn shards_of_the_fig8_grid_cost_the_same_within_15_percent() {
     // 91 mass ratios × 2 damping values: every-N-th gives shard pairs one damping each.
-    check("fig08.json", &[2, 4], 0.15);
+    check("fig08.json", &[2, 4], 0.1);
 }
 
 #[test]

@@ -220,3 +220,52 @@ fn logs_stay_few_survive_torn_tails_and_prune_only_what_is_not_needed() {
     let again = scan_segments(&dir.path().join("t.h5.d")).unwrap();
     assert_eq!(again.len(), 10);
 }
+
+/// After a complete file is published, the store reads its runs back from it: with the grid the
+/// caller gives when the file's run hashes are that grid's, and with the grid of the file's own
+/// sweep otherwise (here a grid whose record block differs: no histories, which would lose them).
+/// Either way every record reads back bitwise, and the logs beside the file are dropped.
+#[test]
+fn compaction_reads_the_published_file_back_with_its_own_grid() {
+    let sweep = Sweep::parse(SWEEP).unwrap();
+    let grid = Grid::new(&sweep).unwrap();
+    let other = Sweep::parse(&SWEEP.replace(r#""history": true"#, r#""history": false"#)).unwrap();
+    let other_grid = Grid::new(&other).unwrap();
+    assert!(grid.history && !other_grid.history);
+    for given in [&grid, &other_grid] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("t.h5");
+        let work = WorkDir::open(&out).unwrap();
+        let records: Vec<_> = (0..grid.len())
+            .map(|i| {
+                let rec = execute(
+                    &grid.build(&sweep, i).unwrap(),
+                    grid.hashes[i],
+                    &sweep.limits,
+                    i,
+                );
+                work.write_segment(&rec).unwrap();
+                rec
+            })
+            .collect();
+        let points: Vec<usize> = (0..grid.len()).collect();
+        write_file(
+            &out,
+            &sweep,
+            &grid,
+            &points,
+            None,
+            &prov(),
+            0.0,
+            |i| Ok(Some(records[i].clone())),
+            |_, _| Ok(VerifyInfo::none(1)),
+        )
+        .unwrap();
+        work.compact_after_publish(given, &|_| false).unwrap();
+        assert!(scan_segments(&work.dir).unwrap().is_empty());
+        for (i, rec) in records.iter().enumerate() {
+            let back = work.read_segment(&grid.hashes[i]).unwrap().unwrap();
+            assert_eq!(encode(&back), encode(rec), "point {i}");
+        }
+    }
+}

@@ -113,7 +113,7 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
             .chain(vsrc.hashes.values())
             .copied()
             .collect();
-        work.compact_after_publish(&|h| needed.contains(h))?;
+        work.compact_after_publish(&grid, &|h| needed.contains(h))?;
     }
     // Which shards to run again: only when the files are shards of one `N` (a merge may also
     // combine outputs sharded differently, or whole runs).

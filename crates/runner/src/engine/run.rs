@@ -210,7 +210,7 @@ pub fn run_points(
     if plan.complete(grid) {
         // The file holds every run of the sweep: the logs beside it shrink to what it lacks.
         let needed = plan.needed(grid);
-        work.compact_after_publish(&|h| needed.contains(h))?;
+        work.compact_after_publish(grid, &|h| needed.contains(h))?;
     }
     let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
     Ok(RunReport {
