@@ -100,8 +100,16 @@ def file_runs(out):
     return {(h.decode() if isinstance(h, bytes) else h) for h, s in zip(hashes, status) if s != 0}
 
 
+# Record formats chainsweep reads: 3 (this one), and 2 (without what the run integrated).
+SEGMENT_MAGICS = (b"CSWSEG\x00\x03", b"CSWSEG\x00\x02")
+
+
 def _whole(rec):
-    return len(rec) > 73 and rec[:8] == b"CSWSEG\x00\x02" and hashlib.sha256(rec[:-32]).digest() == rec[-32:]
+    return (
+        len(rec) > 73
+        and rec[:8] in SEGMENT_MAGICS
+        and hashlib.sha256(rec[:-32]).digest() == rec[-32:]
+    )
 
 
 def old_segments(out):

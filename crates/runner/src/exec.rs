@@ -167,6 +167,15 @@ fn record_of(
             );
         }
     }
+    // The whole chain's length: the run validated the scene already, so this cannot fail; if it
+    // did, how much was integrated is simply not known.
+    let integrated = match out.active_particles {
+        Some(k) => Some((true, k as u64)),
+        None => scene
+            .validate()
+            .ok()
+            .map(|chain| (false, chain.n_particles() as u64)),
+    };
     RunRecord {
         hash,
         ok: true,
@@ -183,6 +192,8 @@ fn record_of(
         wall_time_s: wall,
         max_overlap_m: out.max_overlap_m,
         warnings: out.warnings.join("\n"),
+        integrated_particles: integrated.map(|(_, n)| n),
+        moving_part: integrated.map(|(moving, _)| moving),
         probes: out.probes,
         min_overlap_m: out.min_overlap_m,
         history: out.history,

@@ -9,7 +9,7 @@ use serde_json::Value;
 use chainsweep_solver::{Probe, Scene};
 
 use crate::error::{Error, Result};
-use crate::identity::{run_hash, RunHash};
+use crate::identity::{run_hash_with, RunHash};
 use crate::sweep::{from_value_at, set_path, split_path, Sweep};
 
 /// The expanded grid of a sweep.
@@ -29,6 +29,13 @@ pub struct Grid {
     pub max_history_samples: usize,
     /// Largest number of contacts of any point (for minimum overlaps).
     pub max_contacts: usize,
+    /// Whether some point integrates only the moving part of its chain
+    /// ([`chainsweep_solver::integrates_moving_part`]): the output file then says, per run, how
+    /// much of its chain each run integrated.
+    pub moving_part: bool,
+    /// Particles of every point's chain, striker included (row-major): what a run that
+    /// integrated its whole chain integrated.
+    pub particles: Vec<u32>,
     /// The first [`LISTED_WARNINGS`] points whose scene looks physically absurd before it runs
     /// ([`chainsweep_solver::Scene::plausibility_warnings`]), with their warnings.
     pub warnings: Vec<(usize, Vec<String>)>,
@@ -115,6 +122,8 @@ impl Grid {
             min_overlap: false,
             max_history_samples: 0,
             max_contacts: 0,
+            moving_part: false,
+            particles: Vec::with_capacity(n),
             warnings: Vec::new(),
             warned_points: 0,
         };
@@ -145,6 +154,8 @@ impl Grid {
                 grid.max_history_samples = grid.max_history_samples.max(samples);
             }
             grid.max_contacts = grid.max_contacts.max(chain.n_contacts());
+            // At most MAX_PARTICLES (2 000 002), checked by validate.
+            grid.particles.push(chain.n_particles() as u32);
             let warnings = scene.plausibility_warnings(&chain);
             if !warnings.is_empty() {
                 grid.warned_points += 1;
@@ -152,8 +163,13 @@ impl Grid {
                     grid.warnings.push((i, warnings));
                 }
             }
-            grid.hashes
-                .push(run_hash(&scene, sweep.limits.energy_drift_max));
+            let moving_part = chainsweep_solver::integrates_moving_part(&scene);
+            grid.moving_part |= moving_part;
+            grid.hashes.push(run_hash_with(
+                &scene,
+                sweep.limits.energy_drift_max,
+                moving_part,
+            ));
         }
         Ok(grid)
     }

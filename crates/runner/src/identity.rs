@@ -41,6 +41,14 @@ pub fn from_hex(text: &str) -> Option<RunHash> {
 /// the whole chain's in the last digits, so runs stored before that path existed are recomputed
 /// rather than mixed with its results, while every other run keeps its hash.
 pub fn run_hash(scene: &Scene, energy_drift_max: Option<f64>) -> RunHash {
+    let moving_part = chainsweep_solver::integrates_moving_part(scene);
+    run_hash_with(scene, energy_drift_max, moving_part)
+}
+
+/// [`run_hash`] for a scene of which the caller already knows whether it integrates only its
+/// moving part (`moving_part`: [`chainsweep_solver::integrates_moving_part`] of the scene), which
+/// costs a right-hand side of the whole chain to find out.
+pub fn run_hash_with(scene: &Scene, energy_drift_max: Option<f64>, moving_part: bool) -> RunHash {
     let scene_json = serde_json::to_string(scene).expect("Scene serialises");
     let limit = match energy_drift_max {
         Some(x) => serde_json::to_string(&x).expect("f64 serialises"),
@@ -51,7 +59,7 @@ pub fn run_hash(scene: &Scene, energy_drift_max: Option<f64>) -> RunHash {
     h.update(format!("numerics_version={}\n", crate::NUMERICS_VERSION).as_bytes());
     h.update(format!("solver_version={}\n", crate::SOLVER_VERSION).as_bytes());
     h.update(format!("energy_drift_max={limit}\n").as_bytes());
-    if chainsweep_solver::integrates_moving_part(scene) {
+    if moving_part {
         h.update(b"moving_part=1\n");
     }
     h.update(b"scene=");

@@ -76,6 +76,10 @@ fn record(task: &Task) -> RunRecord {
     rec.momentum_residual_max = 1e-12;
     rec.impact_energy_j = 0.0017 + p;
     rec.max_overlap_m = 2e-6;
+    // The whole 8-cylinder chain (18 particles), as the runner records it: too short for the
+    // moving part.
+    rec.integrated_particles = Some(18);
+    rec.moving_part = Some(false);
     rec.probes = (0..2)
         .map(|k| ProbeSummary {
             leading_peak: (100.0 + p + k as f64) * scale,

@@ -2,7 +2,7 @@
 
 use chainsweep::exec::execute;
 use chainsweep::grid::Grid;
-use chainsweep::record::columns::{COLUMNS, LAYOUT_NAMES};
+use chainsweep::record::columns::{Written, COLUMNS, LAYOUT_NAMES};
 use chainsweep::record::{VerifyInfo, VERIFY_NONE, VERIFY_OK};
 use chainsweep::store::hdf5::{write_file, FileRecords, Provenance};
 use chainsweep::store::segment::encode;
@@ -80,11 +80,14 @@ fn records_survive_segments_and_hdf5_bitwise() {
     )
     .unwrap();
     assert_eq!((counts.ok, counts.failed, counts.pending), (2, 2, 0));
-    // The file's root holds the axes, the layout's names and exactly the table's columns.
+    // The file's root holds the axes, the layout's names and exactly the table's columns: those
+    // of the moving part only where some point integrates only its moving part (none here).
+    assert!(!grid.moving_part);
     let mut names = hdf5::File::open(&out).unwrap().member_names().unwrap();
     names.sort();
     let mut want: Vec<String> = COLUMNS
         .iter()
+        .filter(|c| c.written == Written::Always)
         .map(|c| c.name)
         .chain(LAYOUT_NAMES.iter().copied())
         .chain(["damping_kg_s", "max_steps"])
@@ -104,6 +107,85 @@ fn records_survive_segments_and_hdf5_bitwise() {
     assert_eq!(&v.errors[0][..2], &[1e-9, 2e-10]);
     assert!(v.errors[0][2].is_nan());
     assert_eq!(back.verify_info(1, 1).status, VERIFY_NONE);
+}
+
+/// A long chain (601 particles: it qualifies) with the moving part on and off, and a failed run.
+const LONG_SWEEP: &str = r#"{
+  "base": {
+    "chain": {"preset": "chain_055", "cylinders": 300},
+    "physics": {"gravity": true, "damping_kg_s": 6.0, "wall": true},
+    "striker_velocity_m_s": 1.3,
+    "duration_s": 2e-4,
+    "integrator": {"method": "dop853", "rtol": 1e-7}
+  },
+  "record": {"probes": [{"kind": "gauge_force", "cylinder": 4}]},
+  "axes": [
+    {"field": "active_region", "values": ["auto", "off"]},
+    {"field": "max_steps", "values": [100000000, 3]}
+  ]
+}"#;
+
+#[test]
+fn what_each_run_integrated_survives_logs_and_hdf5_bitwise() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = Sweep::parse(LONG_SWEEP).unwrap();
+    let grid = Grid::new(&sweep).unwrap();
+    assert!(grid.moving_part);
+    assert_eq!(grid.particles, vec![602; 4]);
+    let out = dir.path().join("long.h5");
+    let work = WorkDir::open(&out).unwrap();
+    let records: Vec<_> = (0..grid.len())
+        .map(|i| {
+            let scene = grid.build(&sweep, i).unwrap();
+            let rec = execute(&scene, grid.hashes[i], &sweep.limits, i);
+            work.write_segment(&rec).unwrap();
+            rec
+        })
+        .collect();
+    // auto: the moving part, a prefix shorter than the chain; off: the whole chain; the runs
+    // stopped by their step budget: not known.
+    assert_eq!(records[0].moving_part, Some(true));
+    let k = records[0].integrated_particles.unwrap();
+    assert!((64..602).contains(&k), "{k}");
+    assert_eq!(
+        (records[2].moving_part, records[2].integrated_particles),
+        (Some(false), Some(602))
+    );
+    assert!(!records[1].ok && !records[3].ok);
+    assert_eq!(
+        (records[1].moving_part, records[1].integrated_particles),
+        (None, None)
+    );
+    for rec in &records {
+        let back = work.read_segment(&rec.hash).unwrap().unwrap();
+        assert_eq!(encode(&back), encode(rec));
+    }
+    let points: Vec<usize> = (0..grid.len()).collect();
+    write_file(
+        &out,
+        &sweep,
+        &grid,
+        &points,
+        None,
+        &prov(),
+        0.0,
+        |i| Ok(Some(records[i].clone())),
+        |_, _| Ok(VerifyInfo::none(1)),
+    )
+    .unwrap();
+    let f = hdf5::File::open(&out).unwrap();
+    let n = f.dataset("integrated_particles").unwrap();
+    assert_eq!(n.read_raw::<i64>().unwrap(), vec![k as i64, -1, 602, -1]);
+    assert_eq!(
+        f.dataset("moving_part").unwrap().read_raw::<u8>().unwrap(),
+        vec![2, 0, 1, 0]
+    );
+    drop((n, f));
+    let back = FileRecords::open(&out).unwrap();
+    for (i, rec) in records.iter().enumerate() {
+        let r = back.record(i, grid.hashes[i], &grid).unwrap().unwrap();
+        assert_eq!(encode(&r), encode(rec), "point {i}");
+    }
 }
 
 #[test]

@@ -518,6 +518,8 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
             "rhs_evals": rec.rhs_evals,
             "events": rec.events,
             "max_overlap_m": num(rec.max_overlap_m),
+            "integrated_particles": rec.integrated_particles,
+            "moving_part": rec.moving_part,
             "warnings": rec.warnings.lines().collect::<Vec<_>>(),
             "t_end_s": num(rec.t_end_s),
             "energy_drift_max": num(rec.energy_drift_max),

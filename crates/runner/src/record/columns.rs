@@ -6,6 +6,7 @@
 use chainsweep_solver::probes::ProbeSummary;
 
 use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use super::{MOVING_PART_ONLY, MOVING_PART_UNKNOWN, MOVING_PART_WHOLE_CHAIN};
 use super::{VERIFY_FAILED, VERIFY_NONE, VERIFY_OK};
 
 /// Element type of a column.
@@ -68,6 +69,20 @@ pub enum Fill {
         /// Puts it back.
         set: fn(&mut RunRecord, u64),
     },
+    /// A count of a successful run where it is known; [`INT_FILL`] elsewhere.
+    OkOptCount {
+        /// The value in a record.
+        get: fn(&RunRecord) -> Option<u64>,
+        /// Puts it back.
+        set: fn(&mut RunRecord, Option<u64>),
+    },
+    /// A flag of a successful run; 0 elsewhere.
+    OkFlag {
+        /// The value in a record.
+        get: fn(&RunRecord) -> u8,
+        /// Puts it back.
+        set: fn(&mut RunRecord, u8),
+    },
     /// Text of a successful run; empty elsewhere.
     OkText {
         /// The value in a record.
@@ -97,6 +112,18 @@ pub enum Fill {
     VerifyProbe(usize),
 }
 
+/// Which output files have a column.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Written {
+    /// Every file (per-probe columns: every file with probes).
+    Always,
+    /// Files of grids where some point integrates only the moving part of its chain
+    /// ([`chainsweep_solver::integrates_moving_part`]): elsewhere every run integrates its whole
+    /// chain, and the column would repeat the chain's length (nothing on disk for a path not
+    /// taken).
+    WithMovingPart,
+}
+
 /// One stored column.
 #[derive(Clone, Copy)]
 pub struct Column {
@@ -119,6 +146,8 @@ pub struct Column {
     /// Whether every output file has it; the others read as their fill where absent (files
     /// without probes have no per-probe columns, older files lack later columns).
     pub required: bool,
+    /// Which files have it.
+    pub written: Written,
     /// How it is filled.
     pub fill: Fill,
 }
@@ -150,6 +179,11 @@ const STATUS_FLAGS: &[u8] = &[STATUS_PENDING, STATUS_OK, STATUS_FAILED];
 const VERIFY_ERROR_NOTE: &str =
     "NaN where not verified or where neither run has the value, inf where only one has it";
 const VERIFY_FLAGS: &[u8] = &[VERIFY_NONE, VERIFY_OK, VERIFY_FAILED];
+const MOVING_PART_FLAGS: &[u8] = &[
+    MOVING_PART_UNKNOWN,
+    MOVING_PART_WHOLE_CHAIN,
+    MOVING_PART_ONLY,
+];
 
 /// Every stored column, in the order the writer creates them.
 pub const COLUMNS: &[Column] = &[
@@ -163,6 +197,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkF64 {
             get: |r| r.t_end_s,
             set: |r, x| r.t_end_s = x,
@@ -178,6 +213,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkF64 {
             get: |r| r.energy_drift_max,
             set: |r, x| r.energy_drift_max = x,
@@ -193,6 +229,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkF64 {
             get: |r| r.energy_drift_final,
             set: |r, x| r.energy_drift_final = x,
@@ -208,6 +245,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkF64 {
             get: |r| r.momentum_residual_max,
             set: |r, x| r.momentum_residual_max = x,
@@ -223,6 +261,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkF64 {
             get: |r| r.impact_energy_j,
             set: |r, x| r.impact_energy_j = x,
@@ -238,6 +277,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "the one summary that differs between otherwise identical files",
         required: true,
+        written: Written::Always,
         fill: Fill::RunF64 {
             get: |r| r.wall_time_s,
             set: |r, x| r.wall_time_s = x,
@@ -253,6 +293,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: false,
+        written: Written::Always,
         fill: Fill::OkF64 {
             get: |r| r.max_overlap_m,
             set: |r, x| r.max_overlap_m = x,
@@ -268,6 +309,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkCount {
             get: |r| r.steps,
             set: |r, x| r.steps = x,
@@ -283,6 +325,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkCount {
             get: |r| r.rejected,
             set: |r, x| r.rejected = x,
@@ -298,6 +341,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::OkCount {
             get: |r| r.rhs_evals,
             set: |r, x| r.rhs_evals = x,
@@ -313,9 +357,42 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: false,
+        written: Written::Always,
         fill: Fill::OkCount {
             get: |r| r.events,
             set: |r, x| r.events = x,
+        },
+    },
+    Column {
+        name: "integrated_particles",
+        dtype: Dtype::I64,
+        per_probe: false,
+        units: Units::Fixed("1"),
+        description: "particles integrated at the end of the run (striker included): the chain's count when the whole chain was integrated, the final length of the growing prefix when only its moving part was",
+        long_name: true,
+        flags: None,
+        note: "-1 also where not known (a run stored by a version that did not keep it)",
+        required: false,
+        written: Written::WithMovingPart,
+        fill: Fill::OkOptCount {
+            get: |r| r.integrated_particles,
+            set: |r, x| r.integrated_particles = x,
+        },
+    },
+    Column {
+        name: "moving_part",
+        dtype: Dtype::U8,
+        per_probe: false,
+        units: Units::None,
+        description: "whether the run integrated only the moving part of its chain",
+        long_name: true,
+        flags: Some((MOVING_PART_FLAGS, "not_known whole_chain moving_part")),
+        note: "0 failed, pending or not known, 1 the whole chain, 2 only the moving part (a prefix that grew with the front, possibly to the whole chain)",
+        required: false,
+        written: Written::WithMovingPart,
+        fill: Fill::OkFlag {
+            get: RunRecord::moving_part_flag,
+            set: RunRecord::set_moving_part_flag,
         },
     },
     Column {
@@ -328,6 +405,7 @@ pub const COLUMNS: &[Column] = &[
         flags: Some((STATUS_FLAGS, "pending ok failed")),
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::Status,
     },
     Column {
@@ -340,6 +418,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::Reason,
     },
     Column {
@@ -352,6 +431,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "overlaps over 1 % of the radius (Hertz's law stretched), impact pulse shorter than 10 sound transit times through a particle; not failures",
         required: false,
+        written: Written::Always,
         fill: Fill::OkText {
             get: |r| &r.warnings,
             set: |r, x| r.warnings = x,
@@ -367,6 +447,7 @@ pub const COLUMNS: &[Column] = &[
         flags: Some((VERIFY_FLAGS, "not_verified verified verification_failed")),
         note: "0 not verified, 1 verified, 2 the verification run failed",
         required: false,
+        written: Written::Always,
         fill: Fill::Verified,
     },
     Column {
@@ -379,6 +460,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: false,
+        written: Written::Always,
         fill: Fill::VerifyMax,
     },
     Column {
@@ -392,6 +474,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: true,
+        written: Written::Always,
         fill: Fill::RunHash,
     },
     Column {
@@ -404,6 +487,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: false,
+        written: Written::Always,
         fill: Fill::ProbeF64 {
             get: |s| s.leading_peak,
             set: |s, x| s.leading_peak = x,
@@ -419,6 +503,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: false,
+        written: Written::Always,
         fill: Fill::ProbeF64 {
             get: |s| s.leading_peak_time_s,
             set: |s, x| s.leading_peak_time_s = x,
@@ -434,6 +519,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: false,
+        written: Written::Always,
         fill: Fill::ProbeF64 {
             get: |s| s.record_max,
             set: |s, x| s.record_max = x,
@@ -449,6 +535,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: "",
         required: false,
+        written: Written::Always,
         fill: Fill::ProbeF64 {
             get: |s| s.record_max_time_s,
             set: |s, x| s.record_max_time_s = x,
@@ -464,6 +551,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: VERIFY_ERROR_NOTE,
         required: false,
+        written: Written::Always,
         fill: Fill::VerifyProbe(0),
     },
     Column {
@@ -476,6 +564,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: VERIFY_ERROR_NOTE,
         required: false,
+        written: Written::Always,
         fill: Fill::VerifyProbe(1),
     },
     Column {
@@ -488,6 +577,7 @@ pub const COLUMNS: &[Column] = &[
         flags: None,
         note: VERIFY_ERROR_NOTE,
         required: false,
+        written: Written::Always,
         fill: Fill::VerifyProbe(2),
     },
 ];
@@ -570,6 +660,16 @@ impl Column {
                     d[i] = get(r) as i64;
                 }
             }
+            (Fill::OkOptCount { get, .. }, ColumnData::I64(d)) => {
+                if let Some(x) = ok.and_then(get) {
+                    d[i] = x as i64;
+                }
+            }
+            (Fill::OkFlag { get, .. }, ColumnData::U8(d)) => {
+                if let Some(r) = ok {
+                    d[i] = get(r);
+                }
+            }
             (Fill::OkText { get, .. }, ColumnData::Str(d)) => {
                 if let Some(r) = ok {
                     d[i] = get(r).to_string();
@@ -623,6 +723,10 @@ impl Column {
             (Fill::OkF64 { set, .. }, ColumnData::F64(d)) if rec.ok => set(rec, d[i]),
             (Fill::RunF64 { set, .. }, ColumnData::F64(d)) => set(rec, d[i]),
             (Fill::OkCount { set, .. }, ColumnData::I64(d)) if rec.ok => set(rec, d[i] as u64),
+            (Fill::OkOptCount { set, .. }, ColumnData::I64(d)) if rec.ok => {
+                set(rec, (d[i] != INT_FILL).then_some(d[i] as u64))
+            }
+            (Fill::OkFlag { set, .. }, ColumnData::U8(d)) if rec.ok => set(rec, d[i]),
             (Fill::OkText { set, .. }, ColumnData::Str(d)) if rec.ok => set(rec, d[i].clone()),
             (Fill::Reason, ColumnData::Str(d)) if !rec.ok => rec.reason = d[i].clone(),
             (Fill::ProbeF64 { set, .. }, ColumnData::F64(d)) if rec.ok => {
@@ -660,6 +764,11 @@ pub fn markdown_table() -> String {
         if !c.note.is_empty() {
             content.push_str(&format!("; {}", c.note));
         }
+        if c.written == Written::WithMovingPart {
+            content.push_str(
+                "; only in files where some point integrates only the moving part of its chain",
+            );
+        }
         let content = content.replace('|', "\\|");
         out.push_str(&format!(
             "| `{}` | {shape} | {} | {units} | {content} |\n",
@@ -688,9 +797,9 @@ mod tests {
                 | Fill::ProbeF64 { .. }
                 | Fill::VerifyMax
                 | Fill::VerifyProbe(_) => Dtype::F64,
-                Fill::OkCount { .. } => Dtype::I64,
+                Fill::OkCount { .. } | Fill::OkOptCount { .. } => Dtype::I64,
                 Fill::OkText { .. } | Fill::Reason | Fill::RunHash => Dtype::Str,
-                Fill::Status | Fill::Verified => Dtype::U8,
+                Fill::Status | Fill::Verified | Fill::OkFlag { .. } => Dtype::U8,
             };
             assert_eq!(c.dtype, dtype, "{}", c.name);
             let per_probe = matches!(c.fill, Fill::ProbeF64 { .. } | Fill::VerifyProbe(_));

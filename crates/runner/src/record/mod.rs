@@ -20,6 +20,13 @@ pub const STATUS_FAILED: u8 = 2;
 /// Fill value of the integer summaries (steps, …) where a run failed or is pending.
 pub const INT_FILL: i64 = -1;
 
+/// `moving_part` flag: not known (a failed or pending run, or one stored before it was kept).
+pub const MOVING_PART_UNKNOWN: u8 = 0;
+/// `moving_part` flag: the whole chain was integrated.
+pub const MOVING_PART_WHOLE_CHAIN: u8 = 1;
+/// `moving_part` flag: only the moving part of the chain was integrated.
+pub const MOVING_PART_ONLY: u8 = 2;
+
 /// `verified` flag: the point was not verified.
 pub const VERIFY_NONE: u8 = 0;
 /// `verified` flag: verified; the errors are stored.
@@ -60,6 +67,15 @@ pub struct RunRecord {
     pub max_overlap_m: f64,
     /// Physical-validity warnings of the solver, one per line (empty when none).
     pub warnings: String,
+    /// Particles integrated at the end of the run (striker included): the chain's particle count
+    /// when the whole chain was integrated, the final length of the integrated prefix when only
+    /// its moving part was (it may have grown to the whole chain). `None` for failed runs and for
+    /// runs stored before it was kept (segment format 2, files without the column).
+    pub integrated_particles: Option<u64>,
+    /// Whether the run integrated only the moving part of its chain (a growing prefix, see the
+    /// solver's `active` module) rather than the whole chain; `None` where `integrated_particles`
+    /// is (the two are kept together).
+    pub moving_part: Option<bool>,
     /// Summary of each probe (empty for failed runs).
     pub probes: Vec<ProbeSummary>,
     /// Minimum overlap of every contact, m, when recorded.
@@ -69,6 +85,25 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
+    /// The `moving_part` flag of this record: [`MOVING_PART_UNKNOWN`], [`MOVING_PART_WHOLE_CHAIN`]
+    /// or [`MOVING_PART_ONLY`].
+    pub fn moving_part_flag(&self) -> u8 {
+        match self.moving_part {
+            None => MOVING_PART_UNKNOWN,
+            Some(false) => MOVING_PART_WHOLE_CHAIN,
+            Some(true) => MOVING_PART_ONLY,
+        }
+    }
+
+    /// Sets [`RunRecord::moving_part`] from its flag (an unknown value reads as not known).
+    pub fn set_moving_part_flag(&mut self, flag: u8) {
+        self.moving_part = match flag {
+            MOVING_PART_WHOLE_CHAIN => Some(false),
+            MOVING_PART_ONLY => Some(true),
+            _ => None,
+        };
+    }
+
     /// A failed run: only its reason and wall time are kept.
     pub fn failed(hash: RunHash, reason: String, wall_time_s: f64) -> Self {
         RunRecord {
@@ -87,6 +122,8 @@ impl RunRecord {
             wall_time_s,
             max_overlap_m: f64::NAN,
             warnings: String::new(),
+            integrated_particles: None,
+            moving_part: None,
             probes: Vec::new(),
             min_overlap_m: None,
             history: None,

@@ -4,7 +4,7 @@
 //! endian, ending in the SHA-256 of everything before it:
 //!
 //! ```text
-//! magic "CSWSEG\0\2" | run hash (32) | ok (u8) | reason (u32 length + UTF-8)
+//! magic "CSWSEG\0\3" | run hash (32) | ok (u8) | reason (u32 length + UTF-8)
 //! steps, rejected, rhs_evals, events (u64 ×4)
 //! t_end_s, energy_drift_max, energy_drift_final, momentum_residual_max, impact_energy_j, wall_time_s,
 //!   max_overlap_m (f64 ×7)
@@ -12,14 +12,19 @@
 //! n_probes (u32) | per probe: leading_peak, leading_peak_time_s, record_max, record_max_time_s (f64 ×4)
 //! has_min_overlap (u8) [n (u32) | f64 ×n]
 //! has_history (u8) [n_series (u32) | n_samples (u64) | time_s f64 ×n_samples | series f64 ×n_samples each]
+//! has_integrated (u8) [moving_part (u8: 0 whole chain, 1 moving part) | integrated_particles (u64)]
 //! checksum (32)
 //! ```
 //!
 //! Floats are stored as their bits, so a record read back is bitwise the record written.
 //!
-//! Format 2 (this one) added `events`, `max_overlap_m` and `warnings`. Segments of format 1 are not
-//! decoded (they read as missing); they cannot be looked up anyway, since their runs were hashed
-//! with numerics version 1 and are recomputed.
+//! Format 3 (this one) added `has_integrated` and what follows it: how much of the chain the run
+//! integrated. Format 2 is format 3 without it; its records are read (their runs keep their
+//! hashes: the numerics did not change) with that part not known (`None`), so stores written by
+//! earlier versions resume and merge without recomputing anything. Format 2 added `events`,
+//! `max_overlap_m` and `warnings`. Segments of format 1 are not decoded (they read as missing);
+//! they cannot be looked up anyway, since their runs were hashed with numerics version 1 and are
+//! recomputed.
 
 use chainsweep_solver::probes::{History, ProbeSummary};
 use sha2::{Digest, Sha256};
@@ -27,8 +32,10 @@ use sha2::{Digest, Sha256};
 use crate::identity::RunHash;
 use crate::record::RunRecord;
 
-const MAGIC: &[u8; 8] = b"CSWSEG\x00\x02";
-/// Magic of the previous segment format (read only by [`peek_status`]).
+const MAGIC: &[u8; 8] = b"CSWSEG\x00\x03";
+/// Magic of format 2: format 3 without what the run integrated (read, that part not known).
+const MAGIC_V2: &[u8; 8] = b"CSWSEG\x00\x02";
+/// Magic of format 1 (read only by [`peek_status`]).
 const MAGIC_V1: &[u8; 8] = b"CSWSEG\x00\x01";
 
 /// Encodes a record as segment bytes.
@@ -86,6 +93,14 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
             }
         }
     }
+    match (rec.moving_part, rec.integrated_particles) {
+        (Some(moving), Some(n)) => {
+            b.push(1);
+            b.push(moving as u8);
+            b.extend_from_slice(&n.to_le_bytes());
+        }
+        _ => b.push(0),
+    }
     let sum: [u8; 32] = Sha256::digest(&b).into();
     b.extend_from_slice(&sum);
     b
@@ -102,7 +117,8 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
         return None;
     }
     let mut r = Reader { b: body, at: 0 };
-    if r.take(8)? != MAGIC {
+    let magic = r.take(8)?;
+    if magic != MAGIC && magic != MAGIC_V2 {
         return None;
     }
     let hash: RunHash = r.take(32)?.try_into().ok()?;
@@ -147,6 +163,12 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
+    let (moving_part, integrated_particles) = if magic == MAGIC && r.take(1)?[0] == 1 {
+        let moving = r.take(1)?[0] == 1;
+        (Some(moving), Some(r.u64()?))
+    } else {
+        (None, None)
+    };
     if r.at != body.len() {
         return None;
     }
@@ -166,6 +188,8 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
         wall_time_s: f[5],
         max_overlap_m: f[6],
         warnings,
+        integrated_particles,
+        moving_part,
         probes,
         min_overlap_m,
         history,
@@ -173,14 +197,14 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
 }
 
 /// The run hash and status of segment bytes whose checksum holds; `None` if they are truncated,
-/// corrupt or not a segment of this format. Reads no more than the header past the checksum.
+/// corrupt or not a segment of a format [`decode`] reads (3 or 2). Reads no more than the header past the checksum.
 pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
     if bytes.len() < MAGIC.len() + 32 + 1 + 32 {
         return None;
     }
     let (body, sum) = bytes.split_at(bytes.len() - 32);
     let check: [u8; 32] = Sha256::digest(body).into();
-    if check != sum || &body[..8] != MAGIC {
+    if check != sum || (&body[..8] != MAGIC && &body[..8] != MAGIC_V2) {
         return None;
     }
     let hash: RunHash = body[8..40].try_into().ok()?;
@@ -191,7 +215,7 @@ pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
 pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
     let mut r = Reader { b: bytes, at: 0 };
     let magic = r.take(8)?;
-    if magic != MAGIC && magic != MAGIC_V1 {
+    if magic != MAGIC && magic != MAGIC_V2 && magic != MAGIC_V1 {
         return None;
     }
     r.take(32)?;
@@ -263,6 +287,8 @@ mod tests {
             wall_time_s: 0.01,
             max_overlap_m: 2.5e-6,
             warnings: "first\nsecond ü".to_string(),
+            integrated_particles: Some(192),
+            moving_part: Some(true),
             probes: vec![ProbeSummary {
                 leading_peak: 100.0,
                 leading_peak_time_s: f64::NAN,
@@ -284,6 +310,20 @@ mod tests {
             (12, 2.5e-6f64.to_bits())
         );
         assert_eq!(back.warnings, "first\nsecond ü");
+        assert_eq!(
+            (back.integrated_particles, back.moving_part),
+            (Some(192), Some(true))
+        );
+        let whole = RunRecord {
+            integrated_particles: Some(601),
+            moving_part: Some(false),
+            ..rec.clone()
+        };
+        let back = decode(&encode(&whole)).unwrap();
+        assert_eq!(
+            (back.integrated_particles, back.moving_part),
+            (Some(601), Some(false))
+        );
         assert_eq!(peek_status(&bytes), Some((true, String::new())));
         assert_eq!(verify(&bytes), Some(([7; 32], true)));
         // Any truncation or flipped byte is detected.
@@ -292,5 +332,51 @@ mod tests {
         bad[50] ^= 1;
         assert!(decode(&bad).is_none());
         assert!(verify(&bad).is_none());
+    }
+
+    /// Segment bytes of format 2, as earlier versions wrote them: format 3 without the trailing
+    /// `has_integrated` byte, under the format-2 magic, with their own checksum.
+    fn as_format_2(rec: &RunRecord) -> Vec<u8> {
+        assert!(rec.integrated_particles.is_none() && rec.moving_part.is_none());
+        let v3 = encode(rec);
+        let mut body = v3[..v3.len() - 33].to_vec();
+        assert_eq!(v3[v3.len() - 33], 0, "the trailing has_integrated byte");
+        body[..8].copy_from_slice(MAGIC_V2);
+        let sum: [u8; 32] = Sha256::digest(&body).into();
+        body.extend_from_slice(&sum);
+        body
+    }
+
+    #[test]
+    fn format_2_is_read_with_the_integrated_part_not_known() {
+        let mut rec = RunRecord::failed([9; 32], String::new(), 0.25);
+        rec.ok = true;
+        rec.steps = 77;
+        rec.probes = vec![ProbeSummary {
+            leading_peak: 1.5,
+            leading_peak_time_s: 2e-5,
+            record_max: 1.75,
+            record_max_time_s: 3e-5,
+        }];
+        let old = as_format_2(&rec);
+        assert_eq!(&old[..8], b"CSWSEG\x00\x02");
+        assert_eq!(verify(&old), Some(([9; 32], true)));
+        assert_eq!(peek_status(&old), Some((true, String::new())));
+        let back = decode(&old).expect("format 2 decodes");
+        assert_eq!((back.integrated_particles, back.moving_part), (None, None));
+        assert_eq!((back.steps, back.probes[0].record_max), (77, 1.75));
+        // What format 2 ends with is not read as format 3's part, nor the other way round.
+        let mut v3_magic = old.clone();
+        v3_magic[..8].copy_from_slice(MAGIC);
+        let n = v3_magic.len() - 32;
+        let sum: [u8; 32] = Sha256::digest(&v3_magic[..n]).into();
+        v3_magic[n..].copy_from_slice(&sum);
+        assert!(decode(&v3_magic).is_none());
+        // A format-3 record that knows the part grows by its 10 bytes, and keeps them.
+        rec.integrated_particles = Some(128);
+        rec.moving_part = Some(true);
+        let new = encode(&rec);
+        assert_eq!(new.len(), old.len() + 1 + 1 + 8);
+        assert_eq!(decode(&new).unwrap().integrated_particles, Some(128));
     }
 }

@@ -11,7 +11,7 @@ use super::{read_attr_str, run_group_name_in, LAYOUT_VERSION};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::identity::RunHash;
-use crate::record::columns::{ColumnData, Dtype, Fill, COLUMNS};
+use crate::record::columns::{ColumnData, Dtype, Fill, Written, COLUMNS};
 use crate::record::{RunRecord, VerifyInfo, STATUS_FAILED, STATUS_PENDING, VERIFY_NONE, VERIFY_OK};
 
 /// A sweep file's records read back from an HDF5 file.
@@ -182,6 +182,17 @@ impl FileRecords {
             if let Some(d) = data {
                 c.restore(d, i, np, &mut rec);
             }
+        }
+        // Files of grids where no point integrates only its moving part leave out how much each
+        // run integrated: its whole chain, whichever version ran it. (A file of a grid where some
+        // point does, without the columns, was written before they existed: not known.)
+        let has_moving_part = COLUMNS
+            .iter()
+            .zip(&self.columns)
+            .any(|(c, d)| c.written == Written::WithMovingPart && d.is_some());
+        if rec.ok && !has_moving_part && !grid.moving_part {
+            rec.moving_part = Some(false);
+            rec.integrated_particles = Some(u64::from(grid.particles[i]));
         }
         if rec.ok && (grid.history || grid.min_overlap) {
             self.read_run_group(i, grid, &mut rec)?;

@@ -17,7 +17,9 @@ use super::{
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid, Shard};
 use crate::identity::{hex, TIGHTENING};
-use crate::record::columns::{Column, ColumnData, FillValue, PointOutcome, Units, COLUMNS};
+use crate::record::columns::{
+    Column, ColumnData, FillValue, PointOutcome, Units, Written, COLUMNS,
+};
 use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
@@ -338,7 +340,8 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<(Dataset, Vec<St
 }
 
 /// Every column of [`COLUMNS`] as a dataset with its attributes and dimension scales (the
-/// per-probe ones only when there are probes), and the coordinates that are no dimension scale in
+/// per-probe ones only when there are probes, those of the moving part only when some point of
+/// the grid integrates only its moving part), and the coordinates that are no dimension scale in
 /// its `coordinates` attribute.
 fn write_columns(
     file: &File,
@@ -353,6 +356,9 @@ fn write_columns(
         .flat_map(|d| d.others.iter().map(String::as_str))
         .collect();
     for (c, data) in COLUMNS.iter().zip(columns) {
+        if c.written == Written::WithMovingPart && !grid.moving_part {
+            continue;
+        }
         let d = if c.per_probe {
             let Some((pscale, units)) = probe_scale else {
                 continue;
