@@ -224,7 +224,7 @@ pub struct AccuracyArgs {
     /// ladder after a run that did.
     #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
     pub max_run_seconds: f64,
-    /// Methods to study, comma separated.
+    /// Methods to study, comma separated: dop853, vern6, ros34pw2, rk4, verlet.
     #[arg(
         long,
         value_delimiter = ',',
