@@ -208,40 +208,41 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
     for m in &opts.methods {
         let mut runs = Vec::new();
         let mut skipped = Vec::new();
-        let (settings, setting_name): (Vec<IntegratorSpec>, &'static str) =
-            match m.as_str() {
-                "dop853" | "ros34pw2" | "vern6" => (
-                    match m.as_str() {
-                        "dop853" => DOP853_LADDER,
-                        "vern6" => VERN6_LADDER,
-                        _ => ROS34PW2_LADDER,
-                    }
+        let (settings, setting_name): (Vec<IntegratorSpec>, &'static str) = match m.as_str() {
+            "dop853" | "ros34pw2" | "vern6" => (
+                match m.as_str() {
+                    "dop853" => DOP853_LADDER,
+                    "vern6" => VERN6_LADDER,
+                    _ => ROS34PW2_LADDER,
+                }
+                .iter()
+                .map(|&r| adaptive(m, r))
+                .collect(),
+                "rtol",
+            ),
+            "rk4" | "verlet" => (
+                DT_DIVISORS
                     .iter()
-                    .map(|&r| adaptive(m, r))
+                    .map(|&k| {
+                        let dt = round3(scales.contact_time_s / k);
+                        if m == "rk4" {
+                            IntegratorSpec::Rk4 { dt_s: dt }
+                        } else {
+                            IntegratorSpec::Verlet { dt_s: dt }
+                        }
+                    })
                     .collect(),
-                    "rtol",
-                ),
-                "rk4" | "verlet" => (
-                    DT_DIVISORS
-                        .iter()
-                        .map(|&k| {
-                            let dt = round3(scales.contact_time_s / k);
-                            if m == "rk4" {
-                                IntegratorSpec::Rk4 { dt_s: dt }
-                            } else {
-                                IntegratorSpec::Verlet { dt_s: dt }
-                            }
-                        })
-                        .collect(),
-                    "dt_s",
-                ),
-                other => return Err(Error::input(
+                "dt_s",
+            ),
+            other => {
+                return Err(Error::input(
                     "--methods",
                     format!(
                         "unknown method `{other}`; allowed: dop853, vern6, ros34pw2, rk4, verlet"
                     ),
-                )),
-            };
+                ))
+            }
+        };
         for spec in settings {
             let (x, _) = setting_of(&spec);
             if setting_name == "dt_s" {
