@@ -21,6 +21,7 @@ import numpy as np  # noqa: E402
 
 STYLE = {
     "dop853": dict(color="tab:blue", marker="o"),
+    "vern6": dict(color="tab:orange", marker="D"),
     "ros34pw2": dict(color="tab:red", marker="s"),
     "rk4": dict(color="tab:green", marker="^"),
     "verlet": dict(color="tab:purple", marker="v"),
@@ -44,7 +45,7 @@ def plot(path, out):
             ("energy_drift", "energy-ledger drift / impact energy"),
         ]
         for ax, (name, ylabel) in zip(axes, panels):
-            for method in ["dop853", "ros34pw2", "rk4", "verlet"]:
+            for method in STYLE:
                 if method not in f:
                     continue
                 g = f[method]
