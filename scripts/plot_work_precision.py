@@ -22,6 +22,7 @@ import numpy as np  # noqa: E402
 STYLE = {
     "dop853": dict(color="tab:blue", marker="o"),
     "dop853-predict": dict(color="tab:cyan", marker="D"),
+    "vern6": dict(color="tab:orange", marker="P"),
     "ros34pw2": dict(color="tab:red", marker="s"),
     "rk4": dict(color="tab:green", marker="^"),
     "verlet": dict(color="tab:purple", marker="v"),

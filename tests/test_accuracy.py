@@ -45,6 +45,6 @@ def test_unknown_method_is_refused_before_any_run(binary, tmp_path):
     p = run("accuracy", small_scene(tmp_path), "-o", out, "--methods", "dop853,dop853_predict")
     assert p.returncode == 2, (p.returncode, p.stderr)
     assert "--methods" in p.stderr and "dop853_predict" in p.stderr, p.stderr
-    assert "allowed: dop853, dop853-predict, ros34pw2, rk4, verlet" in p.stderr, p.stderr
+    assert "allowed: dop853, dop853-predict, vern6, ros34pw2, rk4, verlet" in p.stderr, p.stderr
     assert "rtol" not in p.stdout + p.stderr  # no ladder ran
     assert not out.exists()

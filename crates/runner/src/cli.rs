@@ -225,11 +225,11 @@ pub struct AccuracyArgs {
     #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
     pub max_run_seconds: f64,
     /// Methods to study, comma separated: dop853, dop853-predict (DOP853 with
-    /// `predict_switches`), ros34pw2, rk4, verlet.
+    /// `predict_switches`), vern6, ros34pw2, rk4, verlet.
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "dop853,dop853-predict,ros34pw2,rk4,verlet"
+        default_value = "dop853,dop853-predict,vern6,ros34pw2,rk4,verlet"
     )]
     pub methods: Vec<String>,
     /// No progress lines.

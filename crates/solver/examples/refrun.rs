@@ -1,6 +1,6 @@
 //! One reference run (0.55 chain, 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s, 1 ms) repeated, for
-//! profiling: `cargo run --release -p chainsweep-solver --example refrun -- RTOL REPEATS [predict]`
-//! (`predict`: with `predict_switches`).
+//! profiling: `cargo run --release -p chainsweep-solver --example refrun -- RTOL REPEATS [predict|plain]
+//! [dop853|vern6]` (`predict`: with `predict_switches`; the method, DOP853 by default).
 use chainsweep_solver::model::ChainSpec;
 use chainsweep_solver::probes::Probe;
 use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
@@ -11,11 +11,16 @@ fn main() {
     let repeats: usize = args.get(2).map_or(20, |s| s.parse().unwrap());
     let mut s = Scene::new(ChainSpec::chain_055(50), 1.3, 1e-3);
     s.physics.damping_kg_s = 6.0;
-    s.integrator = IntegratorSpec::Dop853(AdaptiveOptions {
+    let options = AdaptiveOptions {
         predict_switches: args.get(3).is_some_and(|a| a == "predict"),
         atol: std::env::var("CS_ATOL").ok().map(|v| v.parse().unwrap()),
         ..AdaptiveOptions::new(rtol)
-    });
+    };
+    s.integrator = match args.get(4).map_or("dop853", String::as_str) {
+        "dop853" => IntegratorSpec::Dop853(options),
+        "vern6" => IntegratorSpec::Vern6(options),
+        other => panic!("unknown method `{other}`; allowed: dop853, vern6"),
+    };
     s.record.probes = vec![
         Probe::GaugeForce { cylinder: 4 },
         Probe::GaugeForce { cylinder: 21 },
@@ -30,7 +35,8 @@ fn main() {
     times.sort_by(|a, b| a.partial_cmp(b).unwrap());
     let o = out.unwrap();
     println!(
-        "rtol {rtol:e}: median {:.3} ms, min {:.3} ms; {:?}; F21 {:.9}",
+        "{} rtol {rtol:e}: median {:.3} ms, min {:.3} ms; {:?}; F21 {:.9}",
+        o.method,
         times[times.len() / 2],
         times[0],
         o.stats,

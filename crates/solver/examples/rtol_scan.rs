@@ -1,6 +1,6 @@
 //! Error of the leading peak in cylinder 21 against cost, for the reference run of `make bench`
 //! (0.55 chain, 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s, 1 ms), over a ladder of settings of every
-//! integrator, DOP853 also with `predict_switches` (`dop853+p`). Run:
+//! integrator, DOP853 and Verner's 6(5) also with `predict_switches` (`dop853+p`, `vern6+p`). Run:
 //! `cargo run --release -p chainsweep-solver --example rtol_scan`.
 
 use chainsweep_solver::model::ChainSpec;
@@ -63,6 +63,17 @@ fn main() {
             ..AdaptiveOptions::new(rtol)
         }));
     }
+    let vern_rtols = [
+        1e-5, 3e-6, 1e-6, 5e-7, 3e-7, 2e-7, 1e-7, 5e-8, 3e-8, 2e-8, 1e-8, 1e-9, 1e-10,
+    ];
+    for predict_switches in [false, true] {
+        for rtol in vern_rtols {
+            ladder.push(IntegratorSpec::Vern6(AdaptiveOptions {
+                predict_switches,
+                ..AdaptiveOptions::new(rtol)
+            }));
+        }
+    }
     for dt in [4e-7, 2e-7, 1e-7, 5e-8] {
         ladder.push(IntegratorSpec::Rk4 { dt_s: dt });
     }
@@ -75,6 +86,7 @@ fn main() {
     for ig in ladder {
         let setting = match ig {
             IntegratorSpec::Dop853(AdaptiveOptions { rtol, .. })
+            | IntegratorSpec::Vern6(AdaptiveOptions { rtol, .. })
             | IntegratorSpec::Ros34pw2(AdaptiveOptions { rtol, .. }) => {
                 format!("rtol {rtol:.0e}")
             }
@@ -82,15 +94,13 @@ fn main() {
                 format!("dt {dt_s:.0e}")
             }
         };
-        let predicting = matches!(
-            ig,
-            IntegratorSpec::Dop853(AdaptiveOptions {
-                predict_switches: true,
-                ..
-            })
-        );
+        let predicting = ig.adaptive_options().is_some_and(|o| o.predict_switches);
         let (o, secs) = time_run(&scene(ig));
-        let method = if predicting { "dop853+p" } else { o.method };
+        let method = if predicting {
+            format!("{}+p", o.method)
+        } else {
+            o.method.to_string()
+        };
         let p = &o.probes[1];
         println!(
             "{:<8} {:>10} {:>12.2e} {:>12.2e} {:>10.2e} {:>9} {:>10} {:>9.3}",

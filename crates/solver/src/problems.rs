@@ -6,7 +6,7 @@
 use std::collections::BTreeMap;
 
 use crate::contact::{impact_duration_factor, ln_gamma, DissipationSpec, LawSpec};
-use crate::integrate::{Control, DenseStep, StepObserver};
+use crate::integrate::{Control, DenseStep, OdeSystem, StepObserver};
 use crate::model::Material;
 use crate::sequence::{ContactRule, ParticleType, SequenceItem, SequenceSpec, SphereType};
 
@@ -91,6 +91,82 @@ pub fn monodisperse(n: usize, law: Option<LawSpec>, striker: bool) -> SequenceSp
         striker.then_some("ball"),
         contacts,
     )
+}
+
+/// The harmonic oscillator `x'' = −x` (state `[x, v]`, exact solution `x = cos t` from
+/// `[1, 0]`), optionally with the quadrature `q' = x²` (`q = t/2 + sin(2t)/4`): a smooth problem
+/// for the integrators' convergence and dense-output orders.
+#[derive(Debug, Clone, Copy)]
+pub struct HarmonicOscillator {
+    /// Whether the state carries the quadrature `q' = x²`.
+    pub quadrature: bool,
+}
+
+impl OdeSystem for HarmonicOscillator {
+    fn n_pos(&self) -> usize {
+        1
+    }
+    fn n_quad(&self) -> usize {
+        usize::from(self.quadrature)
+    }
+    fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = -y[0];
+        if self.quadrature {
+            dy[2] = y[0] * y[0];
+        }
+    }
+}
+
+/// The forced decay `y' = −y + sin t` (a lone quadrature component), whose solution from
+/// `y(0) = 1` is [`ForcedDecay::exact`]: a smooth, non-autonomous problem for the integrators'
+/// convergence and dense-output orders.
+#[derive(Debug, Clone, Copy)]
+pub struct ForcedDecay;
+
+impl ForcedDecay {
+    /// The solution from `y(0) = 1`: `1.5 e^{−t} + (sin t − cos t)/2`.
+    pub fn exact(t: f64) -> f64 {
+        1.5 * (-t).exp() + 0.5 * (t.sin() - t.cos())
+    }
+}
+
+impl OdeSystem for ForcedDecay {
+    fn n_pos(&self) -> usize {
+        0
+    }
+    fn n_quad(&self) -> usize {
+        1
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = -y[0] + t.sin();
+    }
+}
+
+/// `y' = y²` (a lone quadrature component), whose solution from `y(0) = y0 > 0` is
+/// [`QuadraticGrowth::exact`], growing without bound towards `t = 1/y0`: a smooth nonlinear
+/// problem whose derivatives all grow along the solution, for orders that linear problems
+/// overstate (their error involves only some of a method's order conditions).
+#[derive(Debug, Clone, Copy)]
+pub struct QuadraticGrowth;
+
+impl QuadraticGrowth {
+    /// The solution from `y(0) = y0`: `1 / (1/y0 − t)`.
+    pub fn exact(y0: f64, t: f64) -> f64 {
+        1.0 / (1.0 / y0 - t)
+    }
+}
+
+impl OdeSystem for QuadraticGrowth {
+    fn n_pos(&self) -> usize {
+        0
+    }
+    fn n_quad(&self) -> usize {
+        1
+    }
+    fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[0] * y[0];
+    }
 }
 
 /// Two-body impact of particle 1 (mass `m1`) at `v` on a free particle 2 (`m2`) under

@@ -106,6 +106,44 @@ fn two_body_power_law_impacts_match_the_closed_form() {
 }
 
 #[test]
+fn vern6_two_body_impacts_match_the_closed_form() {
+    // Verner's 6(5) through the scene API: peak force and its time (located on its 6th-order
+    // dense output), and the ledger of an elastic impact, against the closed forms.
+    let (m1, m2, v0) = (2.085e-3, 3.1e-3, 0.7);
+    for (n, a) in [(1.0, 2.0e7), (1.5, 9.0e9), (2.5, 4.0e15)] {
+        let spec = chain(
+            &[
+                ("s", sphere(STEEL, 8e-3, m1)),
+                ("t", sphere(STEEL, 8e-3, m2)),
+            ],
+            vec![repeat(1, "t")],
+            Some("s"),
+            vec![rule("s", "t", Some(power_law(a, n)), None)],
+        );
+        let exact = PowerLawImpact::new(m1, m2, a, n, v0);
+        let mut scene = Scene::new(spec, v0, 2.0 * exact.duration_s);
+        scene.physics = free();
+        scene.integrator = IntegratorSpec::Vern6(chainsweep_solver::AdaptiveOptions::new(1e-11));
+        scene.record.probes = vec![Probe::ContactForce { contact: 1 }];
+        scene.record.summary_interval_s = exact.duration_s / 200.0;
+        let out = run(&scene).unwrap();
+        assert_eq!(out.method, "vern6");
+        let peak = out.probes[0].leading_peak;
+        assert!(
+            (peak / exact.peak_force_n - 1.0).abs() < 1e-8,
+            "n = {n}: peak force {peak} vs {}",
+            exact.peak_force_n
+        );
+        assert!((out.probes[0].leading_peak_time_s / (0.5 * exact.duration_s) - 1.0).abs() < 1e-6);
+        assert!(
+            out.energy_drift_max < 1e-9,
+            "n = {n}: drift {:e}",
+            out.energy_drift_max
+        );
+    }
+}
+
+#[test]
 fn hertz_impact_of_unequal_spheres_of_different_materials() {
     // A 12 mm steel sphere on a 5 mm glass sphere: Eq. (1) with R* = R1R2/(R1+R2) and
     // 1/E* = (1−ν1²)/E1 + (1−ν2²)/E2, F = (4/3) E* √R* δ^{3/2}.

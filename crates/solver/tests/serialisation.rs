@@ -49,6 +49,14 @@ fn adaptive_specs_serialise_as_before() {
         json(&ros),
         r#"{"method":"ros34pw2","rtol":1e-6,"atol":1e-9,"max_step_s":1e-6,"locate_events":false}"#
     );
+    // Verner's 6(5) takes the same options, in the same form.
+    let vern: IntegratorSpec =
+        serde_json::from_str(r#"{"method":"vern6","rtol":1e-8,"predict_switches":true}"#).unwrap();
+    assert_eq!(vern.method_name(), "vern6");
+    assert_eq!(
+        json(&vern),
+        r#"{"method":"vern6","rtol":1e-8,"atol":null,"max_step_s":null,"locate_events":true,"predict_switches":true}"#
+    );
     for fixed in [
         r#"{"method":"rk4","dt_s":1e-8}"#,
         r#"{"method":"verlet","dt_s":2.5e-9}"#,
@@ -65,11 +73,19 @@ fn adaptive_specs_refuse_unknown_and_missing_fields() {
         (r#"{"method":"ros34pw2","rtol":1e-8,"dt_s":1e-9}"#, "dt_s"),
         (r#"{"method":"dop853","atol":1e-8}"#, "rtol"),
         (r#"{"method":"rk45","rtol":1e-8}"#, "rk45"),
+        (r#"{"method":"vern6","rtol":1e-8,"dt_s":1e-9}"#, "dt_s"),
     ] {
         let e = serde_json::from_str::<IntegratorSpec>(bad)
             .unwrap_err()
             .to_string();
         assert!(e.contains(needle), "{bad}: {e}");
+    }
+    // An unknown method's error lists the allowed ones.
+    let e = serde_json::from_str::<IntegratorSpec>(r#"{"method":"rk45","rtol":1e-8}"#)
+        .unwrap_err()
+        .to_string();
+    for allowed in ["verlet", "rk4", "dop853", "ros34pw2", "vern6"] {
+        assert!(e.contains(allowed), "{e}");
     }
 }
 

@@ -1,8 +1,8 @@
 //! Work-precision studies (`chainsweep accuracy`), and the measurements `integrator: auto`
 //! ([`super::auto`]) shares with them.
 //!
-//! A study runs one scene with every integrator over a ladder of settings (DOP853 and ROS34PW2:
-//! `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds`), and compares the
+//! A study runs one scene with every integrator over a ladder of settings (DOP853, Verner's
+//! 6(5) and ROS34PW2: `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds`), and compares the
 //! leading-peak force and time at every probe with a reference solution: DOP853 at rtol 1e-12, or
 //! ROS34PW2 at rtol 1e-10 when damping dominates (the stiffness ratio `μ τ / m_min` of the
 //! largest damping coefficient, the contact duration and the lightest particle exceeds
@@ -153,6 +153,8 @@ pub struct Study {
 
 /// Rungs of the adaptive ladders.
 pub const DOP853_LADDER: &[f64] = &[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
+/// Rungs of the Verner 6(5) ladder (rounding limits it near 1e-12: its weights reach ±176).
+pub const VERN6_LADDER: &[f64] = &[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11];
 /// Rungs of the ROS34PW2 ladder.
 pub const ROS34PW2_LADDER: &[f64] = &[1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9];
 /// Fixed steps as fractions of the contact duration.
@@ -162,7 +164,14 @@ pub const DT_DIVISORS: &[f64] = &[
 
 /// The methods a study can compare (`--methods`); `dop853-predict` is DOP853 with
 /// `predict_switches`.
-pub const METHODS: &[&str] = &["dop853", "dop853-predict", "ros34pw2", "rk4", "verlet"];
+pub const METHODS: &[&str] = &[
+    "dop853",
+    "dop853-predict",
+    "vern6",
+    "ros34pw2",
+    "rk4",
+    "verlet",
+];
 
 /// Runs a work-precision study of `scene`; `log` receives progress lines.
 pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> Result<Study> {
@@ -218,11 +227,11 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
         let mut runs = Vec::new();
         let mut skipped = Vec::new();
         let (settings, setting_name): (Vec<IntegratorSpec>, &'static str) = match m.as_str() {
-            "dop853" | "ros34pw2" => (
-                if m == "dop853" {
-                    DOP853_LADDER
-                } else {
-                    ROS34PW2_LADDER
+            "dop853" | "ros34pw2" | "vern6" => (
+                match m.as_str() {
+                    "dop853" => DOP853_LADDER,
+                    "vern6" => VERN6_LADDER,
+                    _ => ROS34PW2_LADDER,
                 }
                 .iter()
                 .map(|&r| adaptive(m, r))

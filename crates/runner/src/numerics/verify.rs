@@ -28,6 +28,7 @@ pub fn tighten(spec: IntegratorSpec) -> IntegratorSpec {
         IntegratorSpec::Rk4 { dt_s } => IntegratorSpec::Rk4 { dt_s: dt_s / 4.0 },
         IntegratorSpec::Dop853(o) => IntegratorSpec::Dop853(tighten_adaptive(o)),
         IntegratorSpec::Ros34pw2(o) => IntegratorSpec::Ros34pw2(tighten_adaptive(o)),
+        IntegratorSpec::Vern6(o) => IntegratorSpec::Vern6(tighten_adaptive(o)),
     }
 }
 

@@ -102,10 +102,11 @@ impl AutoSpec {
     }
 }
 
-/// An adaptive method (`ros34pw2`, else DOP853) at `rtol` with defaults otherwise.
+/// An adaptive method (`ros34pw2`, `vern6`, else DOP853) at `rtol` with defaults otherwise.
 pub fn adaptive(method: &str, rtol: f64) -> IntegratorSpec {
     match method {
         "ros34pw2" => IntegratorSpec::Ros34pw2(AdaptiveOptions::new(rtol)),
+        "vern6" => IntegratorSpec::Vern6(AdaptiveOptions::new(rtol)),
         _ => IntegratorSpec::Dop853(AdaptiveOptions::new(rtol)),
     }
 }
@@ -114,7 +115,8 @@ pub fn adaptive(method: &str, rtol: f64) -> IntegratorSpec {
 pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
     match *spec {
         IntegratorSpec::Dop853(AdaptiveOptions { rtol, .. })
-        | IntegratorSpec::Ros34pw2(AdaptiveOptions { rtol, .. }) => (rtol, "rtol"),
+        | IntegratorSpec::Ros34pw2(AdaptiveOptions { rtol, .. })
+        | IntegratorSpec::Vern6(AdaptiveOptions { rtol, .. }) => (rtol, "rtol"),
         IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => (dt_s, "dt_s"),
     }
 }

@@ -12,12 +12,14 @@ mod hermite;
 mod rk4;
 mod rosenbrock;
 mod verlet;
+mod vern6;
 
 pub use adaptive::{Adaptive, AdaptiveOptions};
 pub use dop853::{Dop853, Dop853Method};
 pub use rk4::Rk4;
 pub use rosenbrock::{Ros34pw2, Ros34pw2Method};
 pub use verlet::VelocityVerlet;
+pub use vern6::{Vern6, Vern6Method};
 
 /// A first-order system `y' = f(t, y)` with the state layout `[x, v, q]` described in the module docs.
 pub trait OdeSystem {
