@@ -1032,26 +1032,7 @@ mod tests {
     use crate::integrate::{
         Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver,
     };
-
-    /// x'' = -x, optionally with the quadrature q' = x^2.
-    struct Osc {
-        quad: bool,
-    }
-    impl OdeSystem for Osc {
-        fn n_pos(&self) -> usize {
-            1
-        }
-        fn n_quad(&self) -> usize {
-            usize::from(self.quad)
-        }
-        fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-            dy[0] = y[1];
-            dy[1] = -y[0];
-            if self.quad {
-                dy[2] = y[0] * y[0];
-            }
-        }
-    }
+    use crate::problems::{ForcedDecay, HarmonicOscillator};
 
     /// Counts its own right-hand-side calls; optionally returns NaN for t > `nan_after`.
     struct Counted {
@@ -1075,23 +1056,6 @@ mod tests {
                 dy[1] = -y[0];
             }
         }
-    }
-
-    /// y' = -y + sin t (a lone "quadrature" component: DOP853 does not care about the layout).
-    struct Forced;
-    impl OdeSystem for Forced {
-        fn n_pos(&self) -> usize {
-            0
-        }
-        fn n_quad(&self) -> usize {
-            1
-        }
-        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
-            dy[0] = -y[0] + t.sin();
-        }
-    }
-    fn forced_exact(t: f64) -> f64 {
-        1.5 * (-t).exp() + 0.5 * (t.sin() - t.cos())
     }
 
     /// Records the final state and every step interval.
@@ -1133,7 +1097,7 @@ mod tests {
     fn osc_error(tol: f64, t_end: f64) -> (f64, IntegrationStats) {
         let (r, rec) = run(
             &Dop853::new(tol, tol),
-            &mut Osc { quad: false },
+            &mut HarmonicOscillator { quadrature: false },
             &[1.0, 0.0],
             t_end,
         );
@@ -1251,7 +1215,7 @@ mod tests {
         };
         let stats = Dop853::new(1e-10, 1e-10)
             .integrate(
-                &mut Osc { quad: false },
+                &mut HarmonicOscillator { quadrature: false },
                 0.0,
                 &[1.0, 0.0],
                 t_end,
@@ -1302,7 +1266,7 @@ mod tests {
         let mut check = BatchCheck { steps: 0 };
         Dop853::new(1e-9, 1e-9)
             .integrate(
-                &mut Osc { quad: true },
+                &mut HarmonicOscillator { quadrature: true },
                 0.0,
                 &[1.0, 0.0, 0.0],
                 6.0,
@@ -1318,7 +1282,7 @@ mod tests {
         let t_end = 7.5;
         let (r, rec) = run(
             &Dop853::new(1e-10, 1e-10),
-            &mut Osc { quad: true },
+            &mut HarmonicOscillator { quadrature: true },
             &[1.0, 0.0, 0.0],
             t_end,
         );
@@ -1334,7 +1298,7 @@ mod tests {
     fn dop853_step_budget() {
         let mut rec = Record::default();
         let r = Dop853::new(1e-10, 1e-10).integrate(
-            &mut Osc { quad: false },
+            &mut HarmonicOscillator { quadrature: false },
             0.0,
             &[1.0, 0.0],
             20.0,
@@ -1451,7 +1415,7 @@ mod tests {
         };
         let run = |budget: u64| {
             solver.integrate(
-                &mut Osc { quad: false },
+                &mut HarmonicOscillator { quadrature: false },
                 0.0,
                 &[1.0, 0.0],
                 10.0,
@@ -1496,17 +1460,27 @@ mod tests {
     fn dop853_convergence_order() {
         // y' = -y + sin t on [0, 10].
         let t_end = 10.0;
-        let (h1, y1) = fixed_step_error(&mut Forced, &[1.0], t_end, 10);
-        let (h2, y2) = fixed_step_error(&mut Forced, &[1.0], t_end, 20);
-        let e1 = (y1[0] - forced_exact(t_end)).abs();
-        let e2 = (y2[0] - forced_exact(t_end)).abs();
+        let (h1, y1) = fixed_step_error(&mut ForcedDecay, &[1.0], t_end, 10);
+        let (h2, y2) = fixed_step_error(&mut ForcedDecay, &[1.0], t_end, 20);
+        let e1 = (y1[0] - ForcedDecay::exact(t_end)).abs();
+        let e2 = (y2[0] - ForcedDecay::exact(t_end)).abs();
         let p = (e1 / e2).ln() / (h1 / h2).ln();
         eprintln!("forced decay: order {p} (e1 {e1:e}, e2 {e2:e})");
         assert!(p > 7.5 && p < 9.0, "order {p} (e1 {e1:e}, e2 {e2:e})");
 
         // Harmonic oscillator on [0, 10].
-        let (h1, y1) = fixed_step_error(&mut Osc { quad: false }, &[1.0, 0.0], t_end, 10);
-        let (h2, y2) = fixed_step_error(&mut Osc { quad: false }, &[1.0, 0.0], t_end, 20);
+        let (h1, y1) = fixed_step_error(
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            t_end,
+            10,
+        );
+        let (h2, y2) = fixed_step_error(
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            t_end,
+            20,
+        );
         let err = |y: &[f64]| (y[0] - t_end.cos()).abs().max((y[1] + t_end.sin()).abs());
         let (e1, e2) = (err(&y1), err(&y2));
         let p = (e1 / e2).ln() / (h1 / h2).ln();
@@ -1529,7 +1503,7 @@ mod tests {
                     let t = a + (b - a) * f64::from(j) / 10.0;
                     // Compare with the exact solution through the step's own start value, so only
                     // the local (interpolation) error counts.
-                    let e = (step.eval_component(t, 0) - forced_exact(t)).abs();
+                    let e = (step.eval_component(t, 0) - ForcedDecay::exact(t)).abs();
                     self.max_err = self.max_err.max(e);
                 }
                 Control::Stop
@@ -1539,7 +1513,7 @@ mod tests {
             let solver = Dop853::new(1e3, 1e3).with_initial_step(h).with_max_step(h);
             let mut obs = Mid { max_err: 0.0 };
             solver
-                .integrate(&mut Forced, 0.0, &[1.0], 10.0, 10, &mut obs)
+                .integrate(&mut ForcedDecay, 0.0, &[1.0], 10.0, 10, &mut obs)
                 .unwrap();
             obs.max_err
         };
@@ -1573,7 +1547,7 @@ mod tests {
         let mut obs = StopAfter(3, 0, false);
         let s = Dop853::new(1e-10, 1e-10)
             .integrate(
-                &mut Osc { quad: false },
+                &mut HarmonicOscillator { quadrature: false },
                 0.0,
                 &[1.0, 0.0],
                 20.0,
@@ -1589,7 +1563,12 @@ mod tests {
     #[test]
     fn dop853_h_max_is_respected() {
         let solver = Dop853::new(1e-6, 1e-6).with_max_step(0.1);
-        let (r, rec) = run(&solver, &mut Osc { quad: false }, &[1.0, 0.0], 3.05);
+        let (r, rec) = run(
+            &solver,
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            3.05,
+        );
         r.unwrap();
         for &(a, b) in &rec.steps {
             assert!(b - a <= 0.1 * 1.01 + 1e-15, "step {}", b - a);
@@ -1606,8 +1585,18 @@ mod tests {
             atol_scale: Some(vec![1e-3, 1e-3]),
             ..Dop853::new(1e-14, 1e-6)
         };
-        let (ra, a) = run(&base, &mut Osc { quad: false }, &[1.0, 0.0], 5.0);
-        let (rb, b) = run(&scaled, &mut Osc { quad: false }, &[1.0, 0.0], 5.0);
+        let (ra, a) = run(
+            &base,
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            5.0,
+        );
+        let (rb, b) = run(
+            &scaled,
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            5.0,
+        );
         assert_eq!(ra.unwrap(), rb.unwrap());
         assert_eq!(a.steps, b.steps);
         // Loosening only the velocity tolerance takes fewer steps than the uniform one.
@@ -1615,27 +1604,42 @@ mod tests {
             atol_scale: Some(vec![1.0, 1e3]),
             ..Dop853::new(1e-14, 1e-9)
         };
-        let (rc, _) = run(&loose_v, &mut Osc { quad: false }, &[1.0, 0.0], 5.0);
+        let (rc, _) = run(
+            &loose_v,
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            5.0,
+        );
         assert!(rc.unwrap().steps <= a.steps.len() as u64);
         let bad = Dop853 {
             atol_scale: Some(vec![1.0]),
             ..Dop853::new(1e-6, 1e-6)
         };
-        let (r, _) = run(&bad, &mut Osc { quad: false }, &[1.0, 0.0], 1.0);
+        let (r, _) = run(
+            &bad,
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            1.0,
+        );
         assert!(matches!(r, Err(IntegrateError::InvalidSettings(_))));
         let bad = Dop853 {
             atol_scale: Some(vec![1.0, f64::NAN]),
             ..Dop853::new(1e-6, 1e-6)
         };
-        let (r, _) = run(&bad, &mut Osc { quad: false }, &[1.0, 0.0], 1.0);
+        let (r, _) = run(
+            &bad,
+            &mut HarmonicOscillator { quadrature: false },
+            &[1.0, 0.0],
+            1.0,
+        );
         assert!(matches!(r, Err(IntegrateError::InvalidSettings(_))));
     }
 
     #[test]
     fn dop853_invalid_settings() {
-        let mut sys = Osc { quad: false };
+        let mut sys = HarmonicOscillator { quadrature: false };
         let y0 = [1.0, 0.0];
-        let bad = |s: Dop853, y0: &[f64], t_end: f64, sys: &mut Osc| {
+        let bad = |s: Dop853, y0: &[f64], t_end: f64, sys: &mut HarmonicOscillator| {
             let r = s.integrate(sys, 0.0, y0, t_end, 100, &mut Record::default());
             assert!(
                 matches!(r, Err(IntegrateError::InvalidSettings(_))),
