@@ -6,7 +6,10 @@
 use std::collections::BTreeMap;
 
 use crate::contact::{impact_duration_factor, ln_gamma, DissipationSpec, LawSpec};
-use crate::integrate::{Control, DenseStep, OdeSystem, StepObserver};
+use crate::integrate::{
+    Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, OdeSystemDyn,
+    StepObserver,
+};
 use crate::model::Material;
 use crate::sequence::{ContactRule, ParticleType, SequenceItem, SequenceSpec, SphereType};
 
@@ -91,6 +94,46 @@ pub fn monodisperse(n: usize, law: Option<LawSpec>, striker: bool) -> SequenceSp
         striker.then_some("ball"),
         contacts,
     )
+}
+
+/// A step observer for the integrators' tests: the state at the last accepted step and every
+/// step's interval, asserting that the steps are contiguous.
+#[derive(Debug, Default)]
+pub struct StepRecord {
+    /// End of the last accepted step (the start before the first).
+    pub t: f64,
+    /// State at `t`.
+    pub y: Vec<f64>,
+    /// `(t_start, t_end)` of every accepted step.
+    pub steps: Vec<(f64, f64)>,
+}
+
+impl StepObserver for StepRecord {
+    fn on_start(&mut self, t0: f64, y0: &[f64]) {
+        self.t = t0;
+        self.y = y0.to_vec();
+    }
+    fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+        assert_eq!(step.t_start(), self.t, "steps must be contiguous");
+        self.t = step.t_end();
+        self.y.clear();
+        self.y.extend_from_slice(step.y_end());
+        self.steps.push((step.t_start(), step.t_end()));
+        Control::Continue
+    }
+}
+
+/// Integrates `sys` from `(0, y0)` to `t_end` with a budget of a million steps, recording the
+/// steps ([`StepRecord`]).
+pub fn run_recorded(
+    solver: &dyn Integrator,
+    sys: &mut dyn OdeSystemDyn,
+    y0: &[f64],
+    t_end: f64,
+) -> (Result<IntegrationStats, IntegrateError>, StepRecord) {
+    let mut rec = StepRecord::default();
+    let r = solver.integrate(sys, 0.0, y0, t_end, 1_000_000, &mut rec);
+    (r, rec)
 }
 
 /// The harmonic oscillator `x'' = −x` (state `[x, v]`, exact solution `x = cos t` from

@@ -1032,7 +1032,7 @@ mod tests {
     use crate::integrate::{
         Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver,
     };
-    use crate::problems::{ForcedDecay, HarmonicOscillator};
+    use crate::problems::{run_recorded, ForcedDecay, HarmonicOscillator, StepRecord};
 
     /// Counts its own right-hand-side calls; optionally returns NaN for t > `nan_after`.
     struct Counted {
@@ -1058,40 +1058,13 @@ mod tests {
         }
     }
 
-    /// Records the final state and every step interval.
-    #[derive(Default)]
-    struct Record {
-        started: bool,
-        t: f64,
-        y: Vec<f64>,
-        steps: Vec<(f64, f64)>,
-    }
-    impl StepObserver for Record {
-        fn on_start(&mut self, t0: f64, y0: &[f64]) {
-            self.started = true;
-            self.t = t0;
-            self.y = y0.to_vec();
-        }
-        fn on_step(&mut self, step: &dyn DenseStep) -> Control {
-            assert!(self.started);
-            assert_eq!(step.t_start(), self.t, "steps must be contiguous");
-            self.t = step.t_end();
-            self.y.clear();
-            self.y.extend_from_slice(step.y_end());
-            self.steps.push((step.t_start(), step.t_end()));
-            Control::Continue
-        }
-    }
-
     fn run(
         solver: &Dop853,
         sys: &mut dyn OdeSystemDyn,
         y0: &[f64],
         t_end: f64,
-    ) -> (Result<IntegrationStats, IntegrateError>, Record) {
-        let mut rec = Record::default();
-        let r = solver.integrate(sys, 0.0, y0, t_end, 1_000_000, &mut rec);
-        (r, rec)
+    ) -> (Result<IntegrationStats, IntegrateError>, StepRecord) {
+        run_recorded(solver, sys, y0, t_end)
     }
 
     fn osc_error(tol: f64, t_end: f64) -> (f64, IntegrationStats) {
@@ -1296,7 +1269,7 @@ mod tests {
 
     #[test]
     fn dop853_step_budget() {
-        let mut rec = Record::default();
+        let mut rec = StepRecord::default();
         let r = Dop853::new(1e-10, 1e-10).integrate(
             &mut HarmonicOscillator { quadrature: false },
             0.0,
@@ -1321,7 +1294,7 @@ mod tests {
             calls: 0,
             nan_after: 1.0,
         };
-        let mut rec = Record::default();
+        let mut rec = StepRecord::default();
         let r =
             Dop853::new(1e-8, 1e-8).integrate(&mut sys, 0.0, &[1.0, 0.0], 5.0, 100_000, &mut rec);
         match r {
@@ -1371,7 +1344,7 @@ mod tests {
             calls: 0,
             nan_after: f64::INFINITY,
         };
-        let mut rec = Record::default();
+        let mut rec = StepRecord::default();
         let s = Dop853::new(1e-9, 1e-9)
             .integrate(&mut sys, 0.0, &[1.0, 0.0], 10.0, 100_000, &mut rec)
             .unwrap();
@@ -1395,7 +1368,7 @@ mod tests {
                 &[1.0, 0.0],
                 10.0,
                 100_000,
-                &mut Record::default(),
+                &mut StepRecord::default(),
             )
             .unwrap();
         eprintln!("forced rejections: {s:?}");
@@ -1420,7 +1393,7 @@ mod tests {
                 &[1.0, 0.0],
                 10.0,
                 budget,
-                &mut Record::default(),
+                &mut StepRecord::default(),
             )
         };
         let s = run(100_000).unwrap();
@@ -1640,7 +1613,7 @@ mod tests {
         let mut sys = HarmonicOscillator { quadrature: false };
         let y0 = [1.0, 0.0];
         let bad = |s: Dop853, y0: &[f64], t_end: f64, sys: &mut HarmonicOscillator| {
-            let r = s.integrate(sys, 0.0, y0, t_end, 100, &mut Record::default());
+            let r = s.integrate(sys, 0.0, y0, t_end, 100, &mut StepRecord::default());
             assert!(
                 matches!(r, Err(IntegrateError::InvalidSettings(_))),
                 "{r:?}"

@@ -563,7 +563,7 @@ mod tests {
         Control, IntegrateError, IntegrationStats, Integrator, OdeSystem, OdeSystemDyn,
         StepObserver,
     };
-    use crate::problems::{HarmonicOscillator, QuadraticGrowth};
+    use crate::problems::{run_recorded, HarmonicOscillator, QuadraticGrowth, StepRecord};
 
     /// The twelve-stage tableau (stages 10–12 are the interpolant's), rows `A[i][j]`, nodes.
     fn tableau() -> ([[f64; 12]; 12], [f64; 12]) {
@@ -774,37 +774,13 @@ mod tests {
         }
     }
 
-    /// Records the final state and every step interval.
-    #[derive(Default)]
-    struct Record {
-        t: f64,
-        y: Vec<f64>,
-        steps: Vec<(f64, f64)>,
-    }
-    impl StepObserver for Record {
-        fn on_start(&mut self, t0: f64, y0: &[f64]) {
-            self.t = t0;
-            self.y = y0.to_vec();
-        }
-        fn on_step(&mut self, step: &dyn DenseStep) -> Control {
-            assert_eq!(step.t_start(), self.t, "steps must be contiguous");
-            self.t = step.t_end();
-            self.y.clear();
-            self.y.extend_from_slice(step.y_end());
-            self.steps.push((step.t_start(), step.t_end()));
-            Control::Continue
-        }
-    }
-
     fn run(
         solver: &Vern6,
         sys: &mut dyn OdeSystemDyn,
         y0: &[f64],
         t_end: f64,
-    ) -> (Result<IntegrationStats, IntegrateError>, Record) {
-        let mut rec = Record::default();
-        let r = solver.integrate(sys, 0.0, y0, t_end, 1_000_000, &mut rec);
-        (r, rec)
+    ) -> (Result<IntegrationStats, IntegrateError>, StepRecord) {
+        run_recorded(solver, sys, y0, t_end)
     }
 
     fn oscillator_error(tol: f64, t_end: f64) -> (f64, IntegrationStats) {
@@ -988,7 +964,7 @@ mod tests {
                 &[1.0, 0.0],
                 10.0,
                 100_000,
-                &mut Record::default(),
+                &mut StepRecord::default(),
             )
             .unwrap();
         assert_eq!(s.rhs_evals, sys.0);
@@ -1003,7 +979,7 @@ mod tests {
                 &[1.0, 0.0],
                 10.0,
                 100_000,
-                &mut Record::default(),
+                &mut StepRecord::default(),
             )
             .unwrap();
         assert!(s.rejected >= 1, "{s:?}");
