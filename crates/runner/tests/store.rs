@@ -30,6 +30,28 @@ fn prov() -> Provenance {
     }
 }
 
+/// Writes the file of a complete sweep: every grid point with its record, none verified.
+fn publish_every_point(
+    out: &std::path::Path,
+    sweep: &Sweep,
+    grid: &Grid,
+    records: &[chainsweep::record::RunRecord],
+) {
+    let points: Vec<usize> = (0..grid.len()).collect();
+    write_file(
+        out,
+        sweep,
+        grid,
+        &points,
+        None,
+        &prov(),
+        0.0,
+        |i| Ok(Some(records[i].clone())),
+        |_, _| Ok(VerifyInfo::none(1)),
+    )
+    .unwrap();
+}
+
 #[test]
 fn records_survive_segments_and_hdf5_bitwise() {
     let dir = tempfile::tempdir().unwrap();
@@ -160,19 +182,7 @@ fn what_each_run_integrated_survives_logs_and_hdf5_bitwise() {
         let back = work.read_segment(&rec.hash).unwrap().unwrap();
         assert_eq!(encode(&back), encode(rec));
     }
-    let points: Vec<usize> = (0..grid.len()).collect();
-    write_file(
-        &out,
-        &sweep,
-        &grid,
-        &points,
-        None,
-        &prov(),
-        0.0,
-        |i| Ok(Some(records[i].clone())),
-        |_, _| Ok(VerifyInfo::none(1)),
-    )
-    .unwrap();
+    publish_every_point(&out, &sweep, &grid, &records);
     let f = hdf5::File::open(&out).unwrap();
     let n = f.dataset("integrated_particles").unwrap();
     assert_eq!(n.read_raw::<i64>().unwrap(), vec![k as i64, -1, 602, -1]);
@@ -330,19 +340,7 @@ fn compaction_reads_the_published_file_back_with_its_own_grid() {
                 rec
             })
             .collect();
-        let points: Vec<usize> = (0..grid.len()).collect();
-        write_file(
-            &out,
-            &sweep,
-            &grid,
-            &points,
-            None,
-            &prov(),
-            0.0,
-            |i| Ok(Some(records[i].clone())),
-            |_, _| Ok(VerifyInfo::none(1)),
-        )
-        .unwrap();
+        publish_every_point(&out, &sweep, &grid, &records);
         work.compact_after_publish(given, &|_| false).unwrap();
         assert!(scan_segments(&work.dir).unwrap().is_empty());
         for (i, rec) in records.iter().enumerate() {
