@@ -220,8 +220,9 @@ pub struct AccuracyArgs {
     /// Repeats of every setting; the wall time is their median.
     #[arg(long, default_value_t = 3)]
     pub repeats: usize,
-    /// Skip fixed-step settings estimated to take longer than this per run, and stop an adaptive
-    /// ladder after a run that did.
+    /// Skip fixed-step settings estimated to take longer than this per run, stop any run of a
+    /// ladder that reaches it (recorded as failed), and end the ladder there. The reference run
+    /// and its confirmation are bounded by the sweep file's `limits.max_run_seconds`.
     #[arg(long, default_value_t = 3.0, value_name = "SECONDS")]
     pub max_run_seconds: f64,
     /// Methods to study, comma separated: dop853, dop853-predict (DOP853 with
@@ -534,6 +535,7 @@ fn cmd_accuracy(args: &AccuracyArgs) -> Result<i32> {
     let opts = StudyOptions {
         repeats: args.repeats,
         max_run_s: args.max_run_seconds,
+        reference_limit_s: sweep.limits.max_run_seconds,
         methods: args.methods.clone(),
     };
     let quiet = args.quiet;

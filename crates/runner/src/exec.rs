@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use std::time::Duration;
 
-use chainsweep_solver::{run, run_until, RunError, RunOutput, Scene};
+use chainsweep_solver::{run_until, RunError, RunOutput, Scene};
 
 use crate::identity::RunHash;
 use crate::record::RunRecord;
@@ -103,10 +103,29 @@ pub fn execute_pilot(scene: &Scene, limits: &Limits) -> RunRecord {
     execute_inner(scene, [0u8; 32], limits, None)
 }
 
-/// Runs `scene` under [`guarded`]: its output and wall time, or why it failed.
-pub fn run_guarded(scene: &Scene) -> (std::result::Result<RunOutput, String>, f64) {
+/// Runs `scene` under [`guarded`], stopped once it has run `limit.0` seconds: its output and wall
+/// time, or why it failed. A run stopped at the limit says how far it got and names the setting
+/// that set the limit (`limit.1`, such as `--max-run-seconds`).
+pub fn run_guarded(
+    scene: &Scene,
+    limit: (f64, &str),
+) -> (std::result::Result<RunOutput, String>, f64) {
+    let (seconds, setting) = limit;
     let start = Instant::now();
-    let result = guarded(|| run(scene)).and_then(|r| r.map_err(|e| e.to_string()));
+    let deadline = start + Duration::from_secs_f64(seconds);
+    let result = guarded(|| run_until(scene, Some(deadline))).and_then(|r| {
+        r.map_err(|e| match e {
+            RunError::Deadline {
+                t_s,
+                steps,
+                rejected,
+            } => format!(
+                "wall-time limit {seconds} s ({setting}) reached at t = {t_s:.3e} s of {:.3e} s after {steps} steps ({rejected} rejected attempts)",
+                scene.duration_s
+            ),
+            other => other.to_string(),
+        })
+    });
     (result, start.elapsed().as_secs_f64())
 }
 

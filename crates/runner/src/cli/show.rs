@@ -536,11 +536,21 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
 /// The end of `accuracy`: the cost of each error level per method.
 pub fn study(st: &Study, output: &Path) {
     let reference = st.reference.out.as_ref().expect("reference ran");
+    let confirmation = if st.confirmation.out.is_some() {
+        format!(
+            "confirmed by {} to {:.1e}",
+            st.confirmation.spec.method_name(),
+            st.agreement
+        )
+    } else {
+        format!(
+            "not confirmed: the {} run failed",
+            st.confirmation.spec.method_name()
+        )
+    };
     outln!(
-        "reference {} (confirmed by {} to {:.1e}); cost of a leading-peak relative error:",
+        "reference {} ({confirmation}); cost of a leading-peak relative error:",
         st.reference.spec.method_name(),
-        st.confirmation.spec.method_name(),
-        st.agreement
     );
     outln!(
         "{:<14} {:>22} {:>22} {:>22}",

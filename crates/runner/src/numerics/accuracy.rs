@@ -2,7 +2,8 @@
 //! ([`super::auto`]) shares with them.
 //!
 //! A study runs one scene with every integrator over a ladder of settings (DOP853, Verner's
-//! 6(5) and ROS34PW2: `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds`), and compares the
+//! 6(5) and ROS34PW2: `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds` and stopping a ladder at a run
+//! that reaches it), and compares the
 //! leading-peak force and time at every probe with a reference solution: DOP853 at rtol 1e-12, or
 //! ROS34PW2 at rtol 1e-10 when damping dominates (the stiffness ratio `μ τ / m_min` of the
 //! largest damping coefficient, the contact duration and the lightest particle exceeds
@@ -76,8 +77,14 @@ impl Measurement {
     }
 }
 
-/// Runs `scene` with `spec` `repeats` times (at least once; failures are not repeated).
-pub fn measure(scene: &Scene, spec: IntegratorSpec, repeats: usize) -> Measurement {
+/// Runs `scene` with `spec` `repeats` times (at least once; failures are not repeated), each run
+/// stopped (and failed) once it has run `limit.0` seconds, a limit set by `limit.1`.
+pub fn measure(
+    scene: &Scene,
+    spec: IntegratorSpec,
+    repeats: usize,
+    limit: (f64, &str),
+) -> Measurement {
     let mut s = scene.clone();
     s.integrator = spec;
     s.record.history = false;
@@ -86,7 +93,7 @@ pub fn measure(scene: &Scene, spec: IntegratorSpec, repeats: usize) -> Measureme
     let mut out = None;
     let mut reason = String::new();
     for _ in 0..repeats.max(1) {
-        let (r, wall) = exec::run_guarded(&s);
+        let (r, wall) = exec::run_guarded(&s, limit);
         walls.push(wall);
         match r {
             Ok(o) => out = Some(o),
@@ -117,8 +124,12 @@ pub fn errors_against(out: &RunOutput, reference: &RunOutput) -> Vec<[f64; 3]> {
 pub struct StudyOptions {
     /// Repeats per setting (wall time = median).
     pub repeats: usize,
-    /// Settings whose estimated run time exceeds this are skipped, s.
+    /// Settings whose estimated run time exceeds this are skipped, and a run of a ladder is
+    /// stopped (failed) when it reaches it, s.
     pub max_run_s: f64,
+    /// Wall-time limit of the reference run and of its confirmation, s (the sweep file's
+    /// `limits.max_run_seconds`).
+    pub reference_limit_s: f64,
     /// Methods to study.
     pub methods: Vec<String>,
 }
@@ -204,20 +215,26 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
         conf_spec.method_name(),
         setting_of(&conf_spec).0
     ));
-    let reference = measure(&scene, ref_spec, 1);
+    let reference_limit = (opts.reference_limit_s, "limits.max_run_seconds");
+    let reference = measure(&scene, ref_spec, 1, reference_limit);
     let Some(ref_out) = reference.out.clone() else {
         return Err(Error::Other(format!(
             "the reference run failed: {}",
             reference.reason
         )));
     };
-    let confirmation = measure(&scene, conf_spec, 1);
+    let confirmation = measure(&scene, conf_spec, 1, reference_limit);
     let agreement = match &confirmation.out {
         Some(o) => max_ignoring_nan(errors_against(o, &ref_out).into_iter().flatten()),
         None => f64::NAN,
     };
+    let confirmed = if confirmation.out.is_some() {
+        format!("confirmation differs by {agreement:.2e} (largest relative difference of the probe summaries)")
+    } else {
+        format!("confirmation failed: {}", confirmation.reason)
+    };
     log(&format!(
-        "reference: {} RHS evals, {:.3} s; confirmation differs by {agreement:.2e} (largest relative difference of the probe summaries)",
+        "reference: {} RHS evals, {:.3} s; {confirmed}",
         ref_out.stats.rhs_evals,
         reference.wall_median(),
     ));
@@ -281,7 +298,12 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
                     continue;
                 }
             }
-            let meas = measure(&scene, spec, opts.repeats);
+            let meas = measure(
+                &scene,
+                spec,
+                opts.repeats,
+                (opts.max_run_s, "--max-run-seconds"),
+            );
             match &meas.out {
                 Some(o) => {
                     let e = errors_against(o, &ref_out);
@@ -299,8 +321,10 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
                     meas.reason
                 )),
             }
-            // An adaptive ladder that takes too long stops there.
-            let slow = meas.wall_median() > opts.max_run_s;
+            // An adaptive ladder that takes too long stops there (a run stopped at the limit took
+            // as long).
+            let slow = meas.out.is_none() && meas.reason.starts_with("wall-time limit")
+                || meas.wall_median() > opts.max_run_s;
             runs.push(meas);
             if slow {
                 log(&format!(
