@@ -68,8 +68,8 @@ def test_a_ladder_run_is_stopped_at_max_run_seconds_and_ends_its_ladder(binary, 
         assert list(g["ok"][:]) == [0], g["ok"][:]
         assert list(g["setting"][:]) == [1e-4]
         reason = g["reason"].asstr()[0]
-        assert reason.startswith("wall-time limit 0.00001 s (--max-run-seconds) reached at t = "), reason
-        assert " of 1.000e-3 s after " in reason, reason
+        assert reason.startswith("wall-time limit 0.00001 s reached at t = "), reason
+        assert " of 1.000e-3 s after " in reason and reason.endswith(" (--max-run-seconds)"), reason
         assert f.attrs["reference"].startswith("dop853 rtol 1e-12")
     assert "stopping the ladder" in p.stderr, p.stderr
 
@@ -91,7 +91,8 @@ def test_a_runaway_scene_ends_its_study_within_the_limits(binary, tmp_path):
     wall = time.monotonic() - start
     assert p.returncode == 0, (p.returncode, p.stderr)
     assert wall < 2 + 1 + 10, wall
-    assert "confirmation failed: wall-time limit 2 s (limits.max_run_seconds)" in p.stderr, p.stderr
+    assert "confirmation failed: wall-time limit 2 s reached at t = " in p.stderr, p.stderr
+    assert "(limits.max_run_seconds)" in p.stderr, p.stderr
     assert "reference ros34pw2 (not confirmed: the dop853 run failed)" in p.stdout, p.stdout
     with h5py.File(out) as f:
         assert f.attrs["reference"].startswith("ros34pw2")
@@ -99,7 +100,8 @@ def test_a_runaway_scene_ends_its_study_within_the_limits(binary, tmp_path):
         g = f["dop853"]
         assert list(g["ok"][:]) == [0], g["ok"][:]
         reason = g["reason"].asstr()[0]
-        assert reason.startswith("wall-time limit 1 s (--max-run-seconds) reached at t = "), reason
+        assert reason.startswith("wall-time limit 1 s reached at t = "), reason
+        assert reason.endswith(" (--max-run-seconds)"), reason
         assert 1 <= g["wall_time"][0] < 3, g["wall_time"][:]
 
 
@@ -117,5 +119,6 @@ def test_the_reference_run_is_bounded_by_the_sweeps_wall_time_limit(binary, tmp_
     wall = time.monotonic() - start
     assert p.returncode == 1, (p.returncode, p.stderr)
     assert wall < 2 + 8, wall
-    assert "the reference run failed: wall-time limit 2 s (limits.max_run_seconds) reached at t = " in p.stderr, p.stderr
+    assert "the reference run failed: wall-time limit 2 s reached at t = " in p.stderr, p.stderr
+    assert "(limits.max_run_seconds)" in p.stderr, p.stderr
     assert not out.exists()

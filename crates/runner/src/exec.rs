@@ -104,58 +104,56 @@ pub fn execute_pilot(scene: &Scene, limits: &Limits) -> RunRecord {
 }
 
 /// Runs `scene` under [`guarded`], stopped once it has run `limit.0` seconds: its output and wall
-/// time, or why it failed. A run stopped at the limit says how far it got and names the setting
-/// that set the limit (`limit.1`, such as `--max-run-seconds`).
+/// time, or why it failed. A run stopped at the limit says how far it got and, in parentheses,
+/// `limit.1`: the setting that set the limit (such as `--max-run-seconds`).
 pub fn run_guarded(
     scene: &Scene,
     limit: (f64, &str),
 ) -> (std::result::Result<RunOutput, String>, f64) {
-    let (seconds, setting) = limit;
-    let start = Instant::now();
-    let deadline = start + Duration::from_secs_f64(seconds);
-    let result = guarded(|| run_until(scene, Some(deadline))).and_then(|r| {
-        r.map_err(|e| match e {
-            RunError::Deadline {
-                t_s,
-                steps,
-                rejected,
-            } => format!(
-                "wall-time limit {seconds} s ({setting}) reached at t = {t_s:.3e} s of {:.3e} s after {steps} steps ({rejected} rejected attempts)",
-                scene.duration_s
-            ),
-            other => other.to_string(),
-        })
-    });
-    (result, start.elapsed().as_secs_f64())
+    run_bounded(scene, limit, None)
 }
 
-fn execute_inner(scene: &Scene, hash: RunHash, limits: &Limits, index: Option<usize>) -> RunRecord {
+/// [`run_guarded`], with the injected panic of grid point `index` (the end-to-end tests' aid).
+fn run_bounded(
+    scene: &Scene,
+    (limit_s, setting): (f64, &str),
+    index: Option<usize>,
+) -> (std::result::Result<RunOutput, String>, f64) {
     let start = Instant::now();
-    let deadline = start + Duration::from_secs_f64(limits.max_run_seconds);
+    let deadline = start + Duration::from_secs_f64(limit_s);
     let result = guarded(|| {
         if let Some(i) = index.filter(|&i| injected_panic(i)) {
             panic!("injected panic for grid point {i} ({INJECT_PANIC_ENV})");
         }
         run_until(scene, Some(deadline))
-    });
-    let wall = start.elapsed().as_secs_f64();
-    match result.and_then(|r| r.map_err(|e| failure_reason(scene, limits, &e))) {
+    })
+    .and_then(|r| r.map_err(|e| failure_reason(scene, (limit_s, setting), &e)));
+    (result, start.elapsed().as_secs_f64())
+}
+
+/// What a sweep's run stopped at its wall-time limit says of the limit.
+const SWEEP_LIMIT: &str =
+    "limits.max_run_seconds; raise it and run again with --retry-failed to finish this run";
+
+fn execute_inner(scene: &Scene, hash: RunHash, limits: &Limits, index: Option<usize>) -> RunRecord {
+    let (result, wall) = run_bounded(scene, (limits.max_run_seconds, SWEEP_LIMIT), index);
+    match result {
         Err(reason) => RunRecord::failed(hash, reason, wall),
         Ok(out) => record_of(scene, hash, limits, out, wall),
     }
 }
 
 /// Why a run failed, in words: the solver's reason, or for a run stopped at its wall-time limit
-/// how far it got and what to do.
-fn failure_reason(scene: &Scene, limits: &Limits, e: &RunError) -> String {
+/// how far it got and the setting of the limit.
+fn failure_reason(scene: &Scene, (limit_s, setting): (f64, &str), e: &RunError) -> String {
     match e {
         RunError::Deadline {
             t_s,
             steps,
             rejected,
         } => format!(
-            "wall-time limit {} s reached at t = {t_s:.3e} s of {:.3e} s after {steps} steps ({rejected} rejected attempts) (limits.max_run_seconds; raise it and run again with --retry-failed to finish this run)",
-            limits.max_run_seconds, scene.duration_s
+            "wall-time limit {limit_s} s reached at t = {t_s:.3e} s of {:.3e} s after {steps} steps ({rejected} rejected attempts) ({setting})",
+            scene.duration_s
         ),
         other => other.to_string(),
     }

@@ -321,10 +321,9 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
                     meas.reason
                 )),
             }
-            // An adaptive ladder that takes too long stops there (a run stopped at the limit took
-            // as long).
-            let slow = meas.out.is_none() && meas.reason.starts_with("wall-time limit")
-                || meas.wall_median() > opts.max_run_s;
+            // An adaptive ladder that takes too long stops there (so does one whose run was
+            // stopped at the limit: it ran at least as long).
+            let slow = meas.wall_median() >= opts.max_run_s;
             runs.push(meas);
             if slow {
                 log(&format!(
