@@ -334,3 +334,31 @@ def test_merge_keeps_what_each_run_integrated(reference, tmp_path):
     ds = xr.open_dataset(merged, engine="h5netcdf")
     assert ds["integrated_particles"].dims == ("active_region", "damping_kg_s")
     assert (ds["integrated_particles"].sel(active_region="off") == LONG_PARTICLES).all()
+
+
+def test_chainsweep_run_says_how_much_of_its_chain_it_integrated(reference):
+    """chainsweep.run keeps the two as a file does: for a scene that can integrate only its moving
+    part, with the file's values and labels; not for a scene that cannot (a short chain, or the
+    long one with `active_region: off`), where they would repeat the chain's length."""
+    _, out = reference
+    spec = store_sweep()
+    ds = chainsweep.open(out)
+    scene = copy.deepcopy(spec["base"])
+    scene["physics"]["damping_kg_s"] = 6.0
+    one = chainsweep.run(scene, record=spec["record"])
+    want = ds.sel(active_region="auto", damping_kg_s=6.0)
+    assert one.integrated_particles.dtype == np.int64
+    assert one.integrated_particles.item() == want.integrated_particles.item()
+    assert BLOCK <= one.integrated_particles.item() < LONG_PARTICLES
+    assert one.moving_part.item() == want.moving_part.item() == 2
+    for name in STORED:
+        for key in ("units", "long_name", "flag_meanings"):
+            assert one[name].attrs.get(key) == want[name].attrs.get(key), (name, key)
+    assert list(one.moving_part.attrs["flag_values"]) == [0, 1, 2]
+    plain = chainsweep.run(scene, record=spec["record"], as_dataset=False)
+    assert (plain["integrated_particles"], plain["moving_part"]) == (one.integrated_particles.item(), 2)
+    scene["active_region"] = "off"
+    short = base_sweep()
+    for other in (chainsweep.run(scene, record=spec["record"]),
+                  chainsweep.run(dict(short["base"], record=short["record"]))):
+        assert not any(name in other for name in STORED), list(other.data_vars)

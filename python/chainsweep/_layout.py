@@ -1,7 +1,9 @@
 """Names, units and descriptions of a run's summaries, as the HDF5 files of the runner store them.
 
 :func:`chainsweep.run` labels its Dataset with these; :func:`chainsweep.open` takes the same from
-each file's own attributes. ``tests/python/test_layout.py`` checks that the two agree.
+each file's own attributes. ``test_units_of_run_and_open_agree`` (``tests/python/test_package_open.py``)
+and ``test_chainsweep_run_says_how_much_of_its_chain_it_integrated`` (``tests/test_active_region.py``)
+check that the two agree.
 """
 
 from __future__ import annotations
@@ -40,6 +42,25 @@ RUN_COUNTERS: dict[str, tuple[str, str]] = {
     "events": ("1", "steps retaken to end on a contact opening or closing (located events)"),
 }
 
+#: Per-run columns of a scene that can integrate only the moving part of its chain (a long chain
+#: struck at one end): name -> (units, long_name). The files have them only where some grid point
+#: can, :func:`chainsweep.run` only for such a scene; elsewhere they would repeat the chain's length.
+MOVING_PART_COLUMNS: dict[str, tuple[str | None, str]] = {
+    "integrated_particles": (
+        "1",
+        "particles integrated at the end of the run (striker included): the chain's count when the "
+        "whole chain was integrated, the final length of the growing prefix when only its moving "
+        "part was",
+    ),
+    "moving_part": (None, "whether the run integrated only the moving part of its chain"),
+}
+#: `moving_part`: 0 failed, pending or not known, 1 the whole chain, 2 only the moving part.
+MOVING_PART_NOT_KNOWN = 0
+MOVING_PART_ATTRS = {
+    "flag_values": np.array([0, 1, 2], dtype=np.uint8),
+    "flag_meanings": "not_known whole_chain moving_part",
+}
+
 #: Per-probe summaries: name -> (units, long_name); units None: the probes' own unit.
 PROBE_SUMMARIES: dict[str, tuple[str | None, str]] = {
     "leading_peak": (None, "peak of the leading pulse (first excursion), refined between samples"),
@@ -65,6 +86,7 @@ ORDER: list[str] = [
     *PROBE_SUMMARIES,
     *RUN_FLOATS,
     *RUN_COUNTERS,
+    *MOVING_PART_COLUMNS,
     "status",
     "reason",
     "warnings",

@@ -46,6 +46,10 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
     for name in L.RUN_COUNTERS:
         # A failed run counted nothing that is kept: NaN, as chainsweep.open masks the file's -1.
         out[name] = np.int64(raw[name]) if ok else np.float64(np.nan)
+    if raw["moving_part_recorded"]:
+        n = raw["integrated_particles"]
+        out["integrated_particles"] = np.float64(np.nan) if n is None else np.int64(n)
+        out["moving_part"] = np.uint8(raw["moving_part"])
     out["status"] = np.uint8(L.STATUS_OK if ok else L.STATUS_FAILED)
     out["reason"] = str(raw["reason"])
     out["warnings"] = str(raw["warnings"])
@@ -93,6 +97,18 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
         data[name] = ("probe", a[name], {"units": u, "long_name": long_name})
     for name, (unit, long_name) in {**L.RUN_FLOATS, **L.RUN_COUNTERS}.items():
         data[name] = ((), a[name], {"units": unit, "long_name": long_name})
+    if "moving_part" in a:
+        unit, long_name = L.MOVING_PART_COLUMNS["integrated_particles"]
+        data["integrated_particles"] = (
+            (),
+            a["integrated_particles"],
+            {"units": unit, "long_name": long_name},
+        )
+        data["moving_part"] = (
+            (),
+            a["moving_part"],
+            {"long_name": L.MOVING_PART_COLUMNS["moving_part"][1], **L.MOVING_PART_ATTRS},
+        )
     data["status"] = ((), a["status"], dict(L.STATUS_ATTRS))
     for name, long_name in L.RUN_STRINGS.items():
         data[name] = ((), np.array(a[name], dtype=object), {"long_name": long_name})
@@ -163,7 +179,10 @@ def run(
     ``probe_units``); per-probe ``leading_peak``, ``leading_peak_time_s``, ``record_max``,
     ``record_max_time_s``; per-run ``t_end_s``, ``energy_drift_max``, ``energy_drift_final``,
     ``momentum_residual_max``, ``impact_energy_j``, ``wall_time_s``, ``max_overlap_m``,
-    ``steps``, ``rejected_steps``, ``rhs_evals``, ``events`` (int64), ``status`` (1 ok),
+    ``steps``, ``rejected_steps``, ``rhs_evals``, ``events`` (int64), for a scene that can
+    integrate only the moving part of its chain (a long chain, see the solver's ``active_region``)
+    ``integrated_particles`` (int64) and ``moving_part`` (uint8: 1 the whole chain, 2 only the
+    moving part), ``status`` (1 ok),
     ``reason``, ``warnings`` (one per line), ``run_hash``; ``history`` over (``probe``,
     ``time_s``) when ``record.history`` is on; ``min_overlap_m`` over ``contact`` (1-based) when
     ``record.min_overlap`` is on. Every variable has ``units``; ``attrs`` hold the scene as run

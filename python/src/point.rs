@@ -154,6 +154,14 @@ pub fn run_scene<'py>(
         d.set_item(name, n)?;
     }
     d.set_item("warnings", &rec.warnings)?;
+    // Kept as a sweep file keeps them: only for a scene that can integrate only the moving part
+    // of its chain (elsewhere they would repeat the chain's length).
+    d.set_item(
+        "moving_part_recorded",
+        chainsweep_solver::integrates_moving_part(&run.scene),
+    )?;
+    d.set_item("integrated_particles", rec.integrated_particles)?;
+    d.set_item("moving_part", rec.moving_part_flag())?;
     d.set_item("probe", PyList::new(py, probes.iter().map(|p| p.name()))?)?;
     d.set_item(
         "probe_units",
