@@ -6,7 +6,9 @@
 #                  side cost per contact, the reference run, each contact law and model; then the
 #                  default, no-FMA and native builds side by side (scripts/bench_builds.sh); the
 #                  results store on a 20 000-run history sweep and a 100 000-run summary sweep
-#                  (scripts/bench_store.py: bytes written, peak memory, files, throughput)
+#                  (scripts/bench_store.py: bytes written, peak memory, files, throughput); and
+#                  the reference run against a physicist's scipy script of the same chain at the
+#                  same accuracy (scripts/bench_scipy.py)
 #   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
 #   make python    the Python package (python/) built by maturin and installed into .venv
 #
@@ -91,10 +93,11 @@ test: lint test-rust test-python
 BENCH_BASE ?= main
 BENCH_ROUNDS ?= 5
 BENCH_BASELINE ?=
-bench: venv
+bench: venv python
 	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 	BENCH_BASELINE=$(BENCH_BASELINE) CARGO=$(CARGO) scripts/bench_builds.sh
 	$(PY) scripts/bench_store.py
+	$(PY) scripts/bench_scipy.py
 
 clean:
 	$(CARGO) clean
