@@ -55,7 +55,6 @@ MOVING_PART_COLUMNS: dict[str, tuple[str | None, str]] = {
     "moving_part": (None, "whether the run integrated only the moving part of its chain"),
 }
 #: `moving_part`: 0 failed, pending or not known, 1 the whole chain, 2 only the moving part.
-MOVING_PART_NOT_KNOWN = 0
 MOVING_PART_ATTRS = {
     "flag_values": np.array([0, 1, 2], dtype=np.uint8),
     "flag_meanings": "not_known whole_chain moving_part",

@@ -2,9 +2,10 @@
 //! ([`super::auto`]) shares with them.
 //!
 //! A study runs one scene with every integrator over a ladder of settings (DOP853, Verner's
-//! 6(5) and ROS34PW2: `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … / 100 000, skipping settings estimated to run longer than `--max-run-seconds` and stopping a ladder at a run
-//! that reaches it), and compares the
-//! leading-peak force and time at every probe with a reference solution: DOP853 at rtol 1e-12, or
+//! 6(5) and ROS34PW2: `rtol`; RK4 and Verlet: `dt_s`, the two-body contact duration / 10 … /
+//! 100 000, skipping settings estimated to run longer than `--max-run-seconds` and stopping a
+//! ladder at a run that reaches it), and compares the leading-peak force and time at every probe
+//! with a reference solution: DOP853 at rtol 1e-12, or
 //! ROS34PW2 at rtol 1e-10 when damping dominates (the stiffness ratio `μ τ / m_min` of the
 //! largest damping coefficient, the contact duration and the lightest particle exceeds
 //! [`STIFF_RATIO`]). The reference is confirmed by the tightest setting of the other adaptive
