@@ -99,12 +99,15 @@ class PaperChain:
         f = self.contact_forces(y[:n], y[n:])
         return 0.5 * (f[2 * cylinder - 1] + f[2 * cylinder])
 
-    def impact_force_n(self):
-        """Peak force of the striker on a free first sphere (two-body Hertz impact), N."""
+    def impact_overlap_m(self):
+        """Peak overlap of the striker on a free first sphere (two-body Hertz impact), m: the
+        impact's kinetic energy stored as (2/5) A δ^{5/2}."""
         m = 1 / (1 / self.mass[0] + 1 / self.mass[1])
-        v = self.v0[0]
-        delta = (5 * m * v**2 / (4 * self.a[0])) ** 0.4
-        return self.a[0] * delta**1.5
+        return (5 * m * self.v0[0] ** 2 / (4 * self.a[0])) ** 0.4
+
+    def impact_force_n(self):
+        """Peak force of that impact, N."""
+        return self.a[0] * self.impact_overlap_m() ** 1.5
 
     def leading_peaks(self, duration_s, cylinders, method="DOP853", rtol=1e-9, atol=None,
                       sample_s=2e-7, arrival_fraction=0.01, release_fraction=0.5):
@@ -115,9 +118,8 @@ class PaperChain:
         the two-body peak overlap for positions and the striker velocity for velocities."""
         n = self.n
         if atol is None:
-            m = 1 / (1 / self.mass[0] + 1 / self.mass[1])
-            overlap = (5 * m * self.v0[0] ** 2 / (4 * self.a[0])) ** 0.4
-            atol = np.concatenate([np.full(n, rtol * overlap), np.full(n, rtol * self.v0[0])])
+            atol = np.concatenate([np.full(n, rtol * self.impact_overlap_m()),
+                                   np.full(n, rtol * self.v0[0])])
         y0 = np.concatenate([self.x0, self.v0])
         start = time.perf_counter()
         sol = solve_ivp(self.rhs, (0.0, duration_s), y0, method=method, rtol=rtol, atol=atol,

@@ -97,18 +97,12 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
         data[name] = ("probe", a[name], {"units": u, "long_name": long_name})
     for name, (unit, long_name) in {**L.RUN_FLOATS, **L.RUN_COUNTERS}.items():
         data[name] = ((), a[name], {"units": unit, "long_name": long_name})
-    if "moving_part" in a:
-        unit, long_name = L.MOVING_PART_COLUMNS["integrated_particles"]
-        data["integrated_particles"] = (
-            (),
-            a["integrated_particles"],
-            {"units": unit, "long_name": long_name},
-        )
-        data["moving_part"] = (
-            (),
-            a["moving_part"],
-            {"long_name": L.MOVING_PART_COLUMNS["moving_part"][1], **L.MOVING_PART_ATTRS},
-        )
+    for name, (unit, long_name) in L.MOVING_PART_COLUMNS.items():
+        if name in a:
+            attrs = {"long_name": long_name} if unit is None else {"units": unit, "long_name": long_name}
+            if name == "moving_part":
+                attrs.update(L.MOVING_PART_ATTRS)
+            data[name] = ((), a[name], attrs)
     data["status"] = ((), a["status"], dict(L.STATUS_ATTRS))
     for name, long_name in L.RUN_STRINGS.items():
         data[name] = ((), np.array(a[name], dtype=object), {"long_name": long_name})
