@@ -19,7 +19,8 @@ BIN = Path(os.environ.get("CHAINSWEEP_BIN", REPO / "target" / "release" / "chain
 
 # Root attributes and datasets that legitimately differ between two runs of the same sweep.
 VOLATILE_ATTRS = {"created_utc", "command_line"}
-VOLATILE_DATASETS = {"wall_time_s"}
+# (`summary_checksum` covers every value of its point, the measured `wall_time_s` included.)
+VOLATILE_DATASETS = {"wall_time_s", "summary_checksum"}
 # HDF5 bookkeeping attributes holding object references (compared through the scale names).
 REFERENCE_ATTRS = {"DIMENSION_LIST", "REFERENCE_LIST"}
 

@@ -93,7 +93,7 @@ def test_auto_meets_target_records_and_caches_choice(tmp_path, binary):
     r = run("run", path, "-o", out, "--verify", "1", "--jobs", "2")
     assert r.returncode == 0, r.stderr
     assert "pilot" not in r.stderr
-    assert "(chosen earlier:" in r.stderr and "resuming" in r.stderr
+    assert "(chosen earlier:" in r.stderr and "nothing to do" in r.stderr
     assert_files_equal(out, again)
 
     # status and point read the cache; point's scene is the file's run.

@@ -87,6 +87,8 @@ def test_names_shapes_dtypes(produced):
             "reason",
             "run_hash",
             "runs",
+            "summary_checksum",
+            "history_checksum",
         }
         assert set(f.keys()) == expected
         assert f["mass_ratio"].shape == (3,) and f["mass_ratio"].dtype == np.float64
@@ -163,7 +165,7 @@ def test_histories(produced):
     with h5py.File(out, "r") as f:
         # run_<flat index>: a valid netCDF name, whatever the grid's size
         assert sorted(f["runs"].keys()) == [f"run_{i}" for i in range(6)]
-        assert int(f.attrs["layout_version"]) == 2
+        assert int(f.attrs["layout_version"]) == 3
         for i in range(6):
             g = f["runs"][f"run_{i}"]
             assert int(g.attrs["flat_index"]) == i

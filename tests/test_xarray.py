@@ -239,7 +239,7 @@ def test_an_old_layout_resumes_into_the_new_one(tmp_path, binary):
     r = run("run", path, "-o", out)
     assert r.returncode == 3 and "6 of 6 runs already done" in r.stderr, r.stderr
     with h5py.File(out, "r") as f:
-        assert int(f.attrs["layout_version"]) == 2
+        assert int(f.attrs["layout_version"]) == 3
         assert sorted(f["runs"]) == ["run_0", "run_2", "run_4"]
 
 
@@ -283,7 +283,7 @@ def test_a_newer_layout_is_refused(tmp_path, binary):
     out = tmp_path / "s.h5"
     assert run("run", path, "-o", out, "--quiet").returncode == 0
     with h5py.File(out, "r+") as f:
-        f.attrs["layout_version"] = np.int64(3)
+        f.attrs["layout_version"] = np.int64(4)
     r = run("status", out)
     assert r.returncode != 0
-    assert "layout version 3" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout
+    assert "layout version 4" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout

@@ -19,6 +19,7 @@ use chainsweep::grid::{Grid, Shard};
 use chainsweep::identity::RunHash;
 use chainsweep::numerics::{auto, verify};
 use chainsweep::store::log::{self, log_seq, LOG_DIR};
+use chainsweep::store::published::Check;
 use chainsweep::store::{published_runs, work_dir_of, Stored};
 use chainsweep::sweep::Sweep;
 
@@ -74,7 +75,7 @@ impl Watch {
         };
         let dir = work_dir_of(&req.output);
         let auto_key = sweep.auto.map(|spec| auto::cache_key(&grid, &spec));
-        let at_start = Stored::scan(&dir, Some(&req.output))
+        let at_start = Stored::scan(&dir, Some(&req.output), Some(&grid), Check::Summaries)
             .map(|s| s.index())
             .unwrap_or_default();
         let mut w = Watch {

@@ -107,9 +107,11 @@ pub enum Command {
     )]
     Accuracy(AccuracyArgs),
     /// Remove from an output's work directory the runs the sweep file no longer has (after
-    /// editing its axes); never a run the sweep needs. The output file is left as it is.
+    /// editing its axes) and the damaged output files kept there; never a run the sweep needs.
+    /// Lists every run and file it removes. The output file is left as it is. The only command
+    /// that removes finished runs: try it with `--dry-run` first.
     #[command(
-        after_help = "Example:\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5"
+        after_help = "Examples:\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5 --dry-run\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5"
     )]
     Gc {
         /// Sweep file (JSON).
@@ -117,6 +119,9 @@ pub enum Command {
         /// Output file [default: the sweep file's name with `.h5` in the current directory].
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// List what would be removed; remove nothing.
+        #[arg(long)]
+        dry_run: bool,
     },
     /// Assemble shard files into one file, identical to a single-machine run.
     #[command(
@@ -279,7 +284,11 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
         } => cmd_status(&files, output, shard.as_deref()),
         Command::Slurm(args) => cmd_slurm(&args),
         Command::Merge { output, shards } => cmd_merge(&output, &shards),
-        Command::Gc { file, output } => cmd_gc(&file, output),
+        Command::Gc {
+            file,
+            output,
+            dry_run,
+        } => cmd_gc(&file, output, dry_run),
         Command::Accuracy(args) => cmd_accuracy(&args),
         Command::Point {
             file,
@@ -434,30 +443,42 @@ fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -
         return cmd_shard_set_status(files);
     }
     let file = &files[0];
-    if is_hdf5(file) {
+    if is_hdf5(file) || looks_like_output(file) {
         let s = status::of_file(file)?;
         show::file_status(file, &s);
-        return Ok(exit_for(&s.counts));
+        return Ok(if s.damage.any() {
+            EXIT_PARTIAL
+        } else {
+            exit_for(&s.counts)
+        });
     }
     let (sweep, grid) = engine::load(file)?;
     let shard = parse_shard(shard)?;
     let output = output.unwrap_or_else(|| engine::default_output(file, shard));
     let (s, sweep, grid) = status::of_sweep(sweep, grid, output, shard)?;
     show::sweep_status(file, &sweep, &grid, &s);
-    Ok(s.counts.as_ref().map_or(EXIT_PARTIAL, exit_for))
+    Ok(match &s.counts {
+        Some(c) if !s.damage.any() => exit_for(c),
+        _ => EXIT_PARTIAL,
+    })
 }
 
-fn cmd_gc(file: &Path, output: Option<PathBuf>) -> Result<i32> {
+/// Whether `file`, which does not start with the HDF5 signature, is meant as an output file: it
+/// has a work directory beside it (a damaged output) or an HDF5 file's extension. `status` then
+/// says what is wrong with it rather than reading it as a sweep file.
+fn looks_like_output(file: &Path) -> bool {
+    crate::store::work_dir_of(file).is_dir()
+        || file
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| ["h5", "hdf5", "he5", "nc"].contains(&e.to_ascii_lowercase().as_str()))
+}
+
+fn cmd_gc(file: &Path, output: Option<PathBuf>, dry_run: bool) -> Result<i32> {
     let (sweep, grid) = engine::load(file)?;
     let output = output.unwrap_or_else(|| engine::default_output(file, None));
-    let c = engine::gc::collect(sweep, grid, &output)?;
-    outln!(
-        "{}: removed {} run(s) the sweep no longer has; kept {} beside the output file ({} file(s) removed)",
-        crate::store::work_dir_of(&output).display(),
-        c.removed,
-        c.kept,
-        c.files_removed
-    );
+    let r = engine::gc::collect(sweep, grid, &output, dry_run)?;
+    show::gc(&output, &r);
     Ok(EXIT_OK)
 }
 

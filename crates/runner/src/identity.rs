@@ -18,6 +18,15 @@ pub type RunHash = [u8; 32];
 pub const TIGHTENING: &str =
     "dop853/ros34pw2: rtol/100 (atol/100 when given); rk4/verlet: dt_s/4; max_steps x4";
 
+/// The first 8 bytes (little endian) of the SHA-256 of what `feed` writes into it: the checksums
+/// an output file stores. 64 bits: a damaged value goes unnoticed with probability 2^-64.
+pub fn checksum64(feed: impl FnOnce(&mut Sha256)) -> u64 {
+    let mut h = Sha256::new();
+    feed(&mut h);
+    let d: [u8; 32] = h.finalize().into();
+    u64::from_le_bytes(d[..8].try_into().expect("8 bytes"))
+}
+
 /// Lower-case hex of a run hash.
 pub fn hex(hash: &RunHash) -> String {
     hash.iter().map(|b| format!("{b:02x}")).collect()

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
-use crate::engine::{AutoResolution, ProgressSink, Start};
+use crate::engine::{AutoResolution, DamageReport, ProgressSink, Start};
 use crate::sweep::auto::describe;
 
 enum Mode {
@@ -155,7 +155,65 @@ impl Terminal {
     }
 }
 
+/// How many damaged runs a report lists (it counts them all).
+pub const LISTED_DAMAGE: usize = 20;
+
+/// The lines that say what damage was found in an output file and what becomes of it (said even
+/// when quiet: it changes what the sweep computes).
+pub fn damage_lines(r: &DamageReport) -> Vec<String> {
+    let out = r.output.display();
+    let mut lines = Vec::new();
+    if let Some(why) = &r.file {
+        lines.push(format!("{out} is damaged: {why}"));
+    }
+    if let Some(why) = &r.header {
+        lines.push(format!("{out} is damaged: {why}"));
+    }
+    if !r.restored.is_empty() {
+        lines.push(format!(
+            "{out}: {} damaged run(s) restored from its snapshot (nothing lost):",
+            r.restored.len()
+        ));
+        for l in r.restored.iter().take(LISTED_DAMAGE) {
+            lines.push(format!("  {}: {}", l.label, l.why));
+        }
+        if r.restored.len() > LISTED_DAMAGE {
+            lines.push(format!("  … and {} more", r.restored.len() - LISTED_DAMAGE));
+        }
+    }
+    if !r.lost.is_empty() {
+        lines.push(format!(
+            "{out}: {} run(s) cannot be read back and will be computed again:",
+            r.lost.len()
+        ));
+        for l in r.lost.iter().take(LISTED_DAMAGE) {
+            lines.push(format!("  {}: {}", l.label, l.why));
+        }
+        if r.lost.len() > LISTED_DAMAGE {
+            lines.push(format!("  … and {} more", r.lost.len() - LISTED_DAMAGE));
+        }
+    }
+    if let Some(why) = &r.snapshot {
+        lines.push(format!("{out}: its snapshot is damaged: {why}"));
+    }
+    if r.file.is_some() {
+        lines.push(format!(
+            "{out}: the damaged file is kept in {} when the new one replaces it",
+            crate::store::work_dir_of(&r.output)
+                .join(crate::store::DAMAGED_DIR)
+                .display()
+        ));
+    }
+    lines
+}
+
 impl ProgressSink for Terminal {
+    fn damage_found(&mut self, report: &DamageReport) {
+        for l in damage_lines(report) {
+            errln!("chainsweep: {l}");
+        }
+    }
+
     fn pilot(&mut self, line: &str) {
         if !self.quiet {
             errln!("chainsweep: auto: {line}");

@@ -14,6 +14,7 @@ use chainsweep::error::{Error, Result};
 use chainsweep::grid::{Grid, Shard};
 use chainsweep::identity::RunHash;
 use chainsweep::record::{RunRecord, STATUS_FAILED, STATUS_OK, STATUS_PENDING, VERIFY_OK};
+use chainsweep::store::hdf5::read::PointRead;
 use chainsweep::store::hdf5::{FileRecords, Provenance};
 use chainsweep::store::segment::encode;
 use chainsweep::store::{RunStore, SegmentIndex, WorkDir};
@@ -156,7 +157,7 @@ fn run_with(
     sink: &mut dyn ProgressSink,
     stop: &AtomicBool,
 ) -> RunReport {
-    let work = WorkDir::open(&opts.output).unwrap();
+    let work = WorkDir::open(&opts.output, None).unwrap();
     let pool = thread_pool(opts.jobs).unwrap();
     let points = shard::points(&s.sweep, &s.grid, opts.shard);
     run_points(
@@ -173,10 +174,10 @@ fn run(s: &Setup, opts: &RunOptions, executor: &dyn Executor) -> RunReport {
 fn file_records(s: &Setup) -> Vec<Option<Vec<u8>>> {
     let recs = FileRecords::open(&s.output).unwrap();
     (0..s.grid.len())
-        .map(|i| {
-            recs.record(i, s.grid.hashes[i], &s.grid)
-                .unwrap()
-                .map(|r| encode(&r))
+        .map(|i| match recs.record(i, s.grid.hashes[i], &s.grid) {
+            PointRead::Run(r) => Some(encode(&r)),
+            PointRead::Pending => None,
+            PointRead::Damaged(why) => panic!("point {i} damaged: {why}"),
         })
         .collect()
 }
@@ -382,7 +383,7 @@ fn verification_runs_are_tasks_like_the_others_and_resume() {
     assert!((worst - 1e-6).abs() < 1e-9, "{worst}");
     let recs = FileRecords::open(&s.output).unwrap();
     let verified: Vec<usize> = (0..6)
-        .filter(|&i| recs.verify_info(i, 2).status == VERIFY_OK)
+        .filter(|&i| recs.verify_info(i).status == VERIFY_OK)
         .collect();
     assert_eq!(verified.len(), 3);
     assert_eq!(recs.verify_fraction, 0.5);

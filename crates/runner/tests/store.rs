@@ -2,8 +2,10 @@
 
 use chainsweep::exec::execute;
 use chainsweep::grid::Grid;
-use chainsweep::record::columns::{Written, COLUMNS, LAYOUT_NAMES};
+use chainsweep::record::columns::{COLUMNS, LAYOUT_NAMES};
 use chainsweep::record::{VerifyInfo, VERIFY_NONE, VERIFY_OK};
+use chainsweep::store::hdf5::read::PointRead;
+use chainsweep::store::hdf5::write::presence;
 use chainsweep::store::hdf5::{write_file, FileRecords, Provenance};
 use chainsweep::store::segment::encode;
 use chainsweep::store::{scan_segments, WorkDir};
@@ -59,7 +61,7 @@ fn records_survive_segments_and_hdf5_bitwise() {
     let grid = Grid::new(&sweep).unwrap();
     assert_eq!(grid.shape, vec![2, 2]);
     let out = dir.path().join("t.h5");
-    let work = WorkDir::open(&out).unwrap();
+    let work = WorkDir::open(&out, None).unwrap();
     let mut records = Vec::new();
     for i in 0..grid.len() {
         let scene = grid.build(&sweep, i).unwrap();
@@ -101,6 +103,7 @@ fn records_survive_segments_and_hdf5_bitwise() {
         },
     )
     .unwrap();
+    let counts = counts.counts;
     assert_eq!((counts.ok, counts.failed, counts.pending), (2, 2, 0));
     // The file's root holds the axes, the layout's names and exactly the table's columns: those
     // of the moving part only where some point integrates only its moving part (none here).
@@ -109,7 +112,7 @@ fn records_survive_segments_and_hdf5_bitwise() {
     names.sort();
     let mut want: Vec<String> = COLUMNS
         .iter()
-        .filter(|c| c.written == Written::Always)
+        .filter(|c| c.is_written(presence(&grid)))
         .map(|c| c.name)
         .chain(LAYOUT_NAMES.iter().copied())
         .chain(["damping_kg_s", "max_steps"])
@@ -120,15 +123,17 @@ fn records_survive_segments_and_hdf5_bitwise() {
     let back = FileRecords::open(&out).unwrap();
     assert_eq!(back.sweep_text, SWEEP);
     for (i, rec) in records.iter().enumerate() {
-        let r = back.record(i, grid.hashes[i], &grid).unwrap().unwrap();
+        let PointRead::Run(r) = back.record(i, grid.hashes[i], &grid) else {
+            panic!("point {i} reads back");
+        };
         assert_eq!(encode(&r), encode(rec), "point {i}");
     }
     assert_eq!(back.verify_fraction, 0.5);
-    let v = back.verify_info(0, 1);
+    let v = back.verify_info(0);
     assert_eq!(v.status, VERIFY_OK);
     assert_eq!(&v.errors[0][..2], &[1e-9, 2e-10]);
     assert!(v.errors[0][2].is_nan());
-    assert_eq!(back.verify_info(1, 1).status, VERIFY_NONE);
+    assert_eq!(back.verify_info(1).status, VERIFY_NONE);
 }
 
 /// A long chain (601 particles: it qualifies) with the moving part on and off, and a failed run.
@@ -155,7 +160,7 @@ fn what_each_run_integrated_survives_logs_and_hdf5_bitwise() {
     assert!(grid.moving_part);
     assert_eq!(grid.particles, vec![602; 4]);
     let out = dir.path().join("long.h5");
-    let work = WorkDir::open(&out).unwrap();
+    let work = WorkDir::open(&out, None).unwrap();
     let records: Vec<_> = (0..grid.len())
         .map(|i| {
             let scene = grid.build(&sweep, i).unwrap();
@@ -193,7 +198,9 @@ fn what_each_run_integrated_survives_logs_and_hdf5_bitwise() {
     drop((n, f));
     let back = FileRecords::open(&out).unwrap();
     for (i, rec) in records.iter().enumerate() {
-        let r = back.record(i, grid.hashes[i], &grid).unwrap().unwrap();
+        let PointRead::Run(r) = back.record(i, grid.hashes[i], &grid) else {
+            panic!("point {i} reads back");
+        };
         assert_eq!(encode(&r), encode(rec), "point {i}");
     }
 }
@@ -202,15 +209,15 @@ fn what_each_run_integrated_survives_logs_and_hdf5_bitwise() {
 fn a_second_lock_on_the_same_output_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.h5");
-    let first = WorkDir::open(&out).unwrap();
-    let err = WorkDir::open(&out).unwrap_err().to_string();
+    let first = WorkDir::open(&out, None).unwrap();
+    let err = WorkDir::open(&out, None).unwrap_err().to_string();
     assert!(err.contains("another chainsweep process"), "{err}");
     assert!(
         err.contains(&format!("pid {}", std::process::id())),
         "{err}"
     );
     drop(first);
-    WorkDir::open(&out).unwrap();
+    WorkDir::open(&out, None).unwrap();
 }
 
 #[test]
@@ -267,7 +274,7 @@ fn logs_stay_few_survive_torn_tails_and_prune_only_what_is_not_needed() {
     // One process after another, each storing one run: each has a log of its own, and the
     // next to open compacts them once there are more than MAX_LOGS.
     for n in 1..=40u8 {
-        let work = WorkDir::open(&out).unwrap();
+        let work = WorkDir::open(&out, None).unwrap();
         assert_eq!(work.index().unwrap().len(), usize::from(n) - 1);
         work.write(&fake_record(n)).unwrap();
         work.sync().unwrap();
@@ -287,7 +294,7 @@ fn logs_stay_few_survive_torn_tails_and_prune_only_what_is_not_needed() {
     let whole = bytes.len();
     bytes.extend_from_slice(&[200, 0, 0, 0, 0, 0, 0, 0, 1, 2, 3]);
     std::fs::write(&newest, &bytes).unwrap();
-    let work = WorkDir::open(&out).unwrap();
+    let work = WorkDir::open(&out, None).unwrap();
     assert_eq!(work.index().unwrap().len(), 40);
     for n in 1..=40u8 {
         assert_eq!(
@@ -298,11 +305,11 @@ fn logs_stay_few_survive_torn_tails_and_prune_only_what_is_not_needed() {
     drop(work);
     bytes[whole - 40] ^= 1;
     std::fs::write(&newest, &bytes[..whole]).unwrap();
-    let work = WorkDir::open(&out).unwrap();
+    let work = WorkDir::open(&out, None).unwrap();
     let index = work.index().unwrap();
     assert_eq!(index.len(), 39, "exactly the corrupt record is missing");
     // Pruning keeps every run named as needed, removes the others.
-    let c = work.prune(&|h| h[0] <= 10).unwrap();
+    let c = work.prune(&|h| h[0] <= 10, false).unwrap();
     assert_eq!(c.removed, 29);
     let index = work.index().unwrap();
     assert!((1..=10u8).all(|n| index.contains_key(&[n; 32])));
@@ -327,7 +334,7 @@ fn compaction_reads_the_published_file_back_with_its_own_grid() {
     for given in [&grid, &other_grid] {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("t.h5");
-        let work = WorkDir::open(&out).unwrap();
+        let work = WorkDir::open(&out, None).unwrap();
         let records: Vec<_> = (0..grid.len())
             .map(|i| {
                 let rec = execute(
@@ -341,7 +348,7 @@ fn compaction_reads_the_published_file_back_with_its_own_grid() {
             })
             .collect();
         publish_every_point(&out, &sweep, &grid, &records);
-        work.compact_after_publish(given, &|_| false).unwrap();
+        work.compact_after_publish(given).unwrap();
         assert!(scan_segments(&work.dir).unwrap().is_empty());
         for (i, rec) in records.iter().enumerate() {
             let back = work.read_segment(&grid.hashes[i]).unwrap().unwrap();

@@ -2,15 +2,18 @@
 
 use std::path::Path;
 
+use crate::engine::gc::GcReport;
 use crate::engine::inspect::{DryRun, Point};
 use crate::engine::merge::MergeReport;
 use crate::engine::run::{Failure, RunReport};
 use crate::engine::slurm::{self, JobFiles, JobRequest};
 use crate::engine::status::{FileStatus, ShardSetStatus, ShardState, SweepStatus};
+use crate::engine::DamageReport;
 use crate::grid::{multi_index, Grid, Shard};
 use crate::identity::hex;
 use crate::numerics::accuracy::{cost_of, Study};
 use crate::numerics::auto::{pilot_points, SAFETY_FACTOR};
+use crate::progress::damage_lines;
 use crate::sweep::auto::describe;
 use crate::sweep::Sweep;
 
@@ -216,9 +219,33 @@ pub fn dry_run(
     }
 }
 
+/// What status found damaged, on stdout, each line indented.
+fn damage_status(d: &DamageReport) {
+    if d.unchecked {
+        outln!(
+            "  this file carries no checksums (written by an earlier chainsweep): its values cannot be checked; running its sweep again rewrites it with them"
+        );
+    }
+    for l in damage_lines(d) {
+        outln!("  {l}");
+    }
+    if d.any() {
+        outln!(
+            "  `chainsweep run` of its sweep into {} repairs it: runs restored from the snapshot are kept, the others computed again",
+            d.output.display()
+        );
+    }
+}
+
 /// The end of `run`: failed runs (always), failed verification runs (always), the largest
 /// verified error and the counts (unless `quiet`).
 pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quiet: bool) {
+    if r.nothing_to_do && !quiet {
+        errln!(
+            "chainsweep: nothing to do: {} already holds every run of this sweep; it was left as it is",
+            output.display()
+        );
+    }
     if r.failed > 0 {
         errln!("chainsweep: {} failed run(s):", r.failed);
         list_failures(sweep, grid, &r.failures, "(reason unreadable)");
@@ -273,6 +300,37 @@ fn list_failures(sweep: &Sweep, grid: &Grid, failures: &[Failure], unreadable: &
     }
 }
 
+/// What `gc` removed (or would remove): every run, by hash, and every damaged file.
+pub fn gc(output: &Path, r: &GcReport) {
+    let verb = if r.dry_run { "would remove" } else { "removed" };
+    let c = &r.compaction;
+    for (h, ok) in &c.removed_runs {
+        outln!(
+            "{verb}: run {} ({}), of a point the sweep no longer has",
+            hex(h),
+            if *ok { "ok" } else { "failed" }
+        );
+    }
+    for f in &r.damaged_files {
+        outln!("{verb}: damaged output file kept aside: {}", f.display());
+    }
+    outln!(
+        "{}: {verb} {} run(s) the sweep no longer has and {} damaged file(s); kept {} run(s) beside the output file{}",
+        crate::store::work_dir_of(output).display(),
+        c.removed,
+        r.damaged_files.len(),
+        c.kept,
+        if r.dry_run {
+            " (dry run: nothing removed; run again without --dry-run to remove them)".to_string()
+        } else {
+            format!(" ({} file(s) removed)", c.files_removed)
+        }
+    );
+    for l in damage_lines(&r.damage) {
+        outln!("  {l}");
+    }
+}
+
 /// `status` of an output file.
 pub fn file_status(file: &Path, s: &FileStatus) {
     outln!(
@@ -292,6 +350,12 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             s.newer
         );
     }
+    if s.other_shards > 0 {
+        outln!(
+            "  it also holds {} run(s) of other shards (kept from the output it was run into)",
+            s.other_shards
+        );
+    }
     for (shown, (i, reason)) in s.failures.iter().enumerate() {
         if shown == LISTED_IN_STATUS {
             outln!("  …");
@@ -303,6 +367,7 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             .collect();
         outln!("  failed: point {i} [{}]: {reason}", mi.join(", "));
     }
+    damage_status(&s.damage);
 }
 
 /// `status` of a sweep file's output.
@@ -349,6 +414,7 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
             f.reason.as_deref().unwrap_or("")
         );
     }
+    damage_status(&s.damage);
 }
 
 /// The end of `merge`: the counts, and the shards to run again (with the command that
@@ -365,6 +431,18 @@ pub fn merged(r: &MergeReport, output: &Path, scripts: Option<(&Path, &Path)>) {
     );
     for a in &r.absent {
         errln!("chainsweep: shard file not found: {}", a.display());
+    }
+    for d in &r.damage {
+        for l in damage_lines(d) {
+            errln!("chainsweep: {l}");
+        }
+        if !d.lost.is_empty() && d.output != output {
+            errln!(
+                "chainsweep: its damaged runs are pending in {}: run the command that made {} again (it computes them), then merge again",
+                output.display(),
+                d.output.display()
+            );
+        }
     }
     if let Some(set) = &r.shard_set {
         shards_to_run(set, scripts);

@@ -1,14 +1,14 @@
 //! The output file, written from the stored runs in grid order and published atomically.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use crate::error::Result;
 use crate::grid::{Grid, Shard};
 use crate::identity::RunHash;
 use crate::numerics::verify;
-use crate::record::{RunRecord, VerifyInfo};
+use crate::record::{RunRecord, VerifyInfo, STATUS_PENDING};
 use crate::store::hdf5::{self, Counts, Provenance};
-use crate::store::{RunStore, WorkDir};
+use crate::store::{published, RunStore, WorkDir};
 use crate::sweep::Sweep;
 
 /// Where the verification outcome of each point comes from when a file is assembled.
@@ -74,13 +74,19 @@ pub struct Assembly<'a> {
     pub verify: &'a VerifySource,
 }
 
-/// Writes the output file of `work` from the stored runs and publishes it atomically: the
-/// output is always either its previous complete version or the new one. The runs it holds are
-/// made durable in the work directory first.
+/// Writes the output file of `work` from the stored runs and publishes it atomically, with its
+/// snapshot: the output is always either its previous complete version or the new one. The runs
+/// it holds are made durable in the work directory first. It holds every finished run of its
+/// points, and every other point of the grid whose run the work directory holds (a shard run
+/// into an output that holds other shards' runs keeps them); `Counts` are of its points.
 pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
     work.sync()?;
     let tmp = work.tmp_path("assemble.h5");
-    let counts = hdf5::write_file(
+    let mut in_points = vec![false; a.grid.len()];
+    for &i in a.points {
+        in_points[i] = true;
+    }
+    let written = hdf5::write_file(
         &tmp,
         a.sweep,
         a.grid,
@@ -90,7 +96,7 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
         a.verify.fraction,
         |i| {
             let h = a.grid.hashes[i];
-            if a.done.contains_key(&h) {
+            if a.done.contains_key(&h) || !in_points[i] {
                 work.read(&h)
             } else {
                 Ok(None)
@@ -98,13 +104,28 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
         },
         |i, rec| a.verify.info(work, a.grid, i, rec),
     );
-    let counts = match counts {
-        Ok(c) => c,
+    let written = match written {
+        Ok(w) => w,
         Err(e) => {
             let _ = std::fs::remove_file(&tmp);
             return Err(e);
         }
     };
-    work.publish(&tmp)?;
-    Ok(counts)
+    let shard = a.shard.unwrap_or(Shard { k: 1, n: 1 }).to_string();
+    let snapshot = published::snapshot_of(
+        a.sweep,
+        a.grid,
+        &written.table,
+        &shard,
+        &a.provenance.created_utc,
+    );
+    let held: HashSet<RunHash> = (0..a.grid.len())
+        .filter(|&i| written.table.status(i) != STATUS_PENDING)
+        .map(|i| a.grid.hashes[i])
+        .collect();
+    if let Err(e) = work.publish(&tmp, &snapshot, &|h| held.contains(h)) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(e);
+    }
+    Ok(written.counts)
 }

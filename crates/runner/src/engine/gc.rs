@@ -1,18 +1,21 @@
 //! `gc`: the records of runs a sweep no longer has (orphans of an edited sweep) removed from its
-//! output's work directory. A record the sweep needs is never removed: every grid point's run
-//! and every point's verification run are kept, whatever `--verify` fraction a later run asks.
+//! output's work directory, and the damaged output files kept there. A record the sweep needs is
+//! never removed: every grid point's run and every point's verification run are kept, whatever
+//! `--verify` fraction a later run asks. The only command that removes finished runs: it says
+//! which, and with `dry_run` only says so.
 
 use std::collections::HashSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::identity::RunHash;
 use crate::numerics::verify;
-use crate::store::{work_dir_of, Compaction, WorkDir};
+use crate::store::{work_dir_of, Compaction, WorkDir, DAMAGED_DIR};
 use crate::sweep::Sweep;
 
 use super::auto::{apply_cached, CachedChoice};
+use super::DamageReport;
 
 /// Every run `sweep` may need stored: each grid point's run and its verification run.
 pub fn needed_runs(sweep: &Sweep, grid: &Grid) -> HashSet<RunHash> {
@@ -26,7 +29,7 @@ pub fn needed_runs(sweep: &Sweep, grid: &Grid) -> HashSet<RunHash> {
 /// Removes from the work directory of `output` every record `sweep` does not need. With
 /// `integrator: auto` not chosen yet, nothing of this sweep can have run and the hashes it
 /// needs are unknown: nothing is removed (an input error says so).
-pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path) -> Result<Compaction> {
+pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path, dry_run: bool) -> Result<GcReport> {
     let dir = work_dir_of(output);
     if !dir.is_dir() {
         return Err(Error::input(
@@ -48,6 +51,41 @@ pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path) -> Result<Compac
         ));
     }
     let needed = needed_runs(&sweep, &grid);
-    let work = WorkDir::open(output)?;
-    work.prune(&|h| needed.contains(h))
+    let work = WorkDir::open(output, Some(&grid))?;
+    let damage = DamageReport::new(output, &work.damage(), &sweep, &grid);
+    let compaction = work.prune(&|h| needed.contains(h), dry_run)?;
+    let damaged_dir = dir.join(DAMAGED_DIR);
+    let mut damaged_files: Vec<PathBuf> = match std::fs::read_dir(&damaged_dir) {
+        Ok(entries) => entries
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+            .map(|e| e.path())
+            .collect(),
+        Err(_) => Vec::new(),
+    };
+    damaged_files.sort();
+    if !dry_run {
+        for f in &damaged_files {
+            std::fs::remove_file(f).map_err(Error::io("remove", f))?;
+        }
+    }
+    Ok(GcReport {
+        compaction,
+        damaged_files,
+        damage,
+        dry_run,
+    })
+}
+
+/// What `gc` removed (or, with `--dry-run`, would remove).
+#[derive(Debug, Clone)]
+pub struct GcReport {
+    /// The records of runs the sweep does not have.
+    pub compaction: Compaction,
+    /// Damaged output files kept in the work directory's `damaged/`.
+    pub damaged_files: Vec<PathBuf>,
+    /// Damage found in the output file (its damaged runs are computed again by `run`).
+    pub damage: DamageReport,
+    /// Whether nothing was removed (a dry run).
+    pub dry_run: bool,
 }

@@ -11,6 +11,7 @@ use crate::grid::Grid;
 use crate::identity::RunHash;
 use crate::numerics::accuracy::{self, Study, StudyOptions};
 use crate::record::RunRecord;
+use crate::store::published::Check;
 use crate::store::{work_dir_of, SegmentIndex, Stored};
 use crate::sweep::{from_value_at, Sweep};
 
@@ -173,7 +174,13 @@ fn thread_cpu_seconds() -> Option<f64> {
 /// A dry run of `points` of `grid` into `output`: what is stored already, and the size estimate;
 /// an input error when the estimate does not fit in the space free where the output goes.
 pub fn dry_run(sweep: &Sweep, grid: &Grid, points: &[usize], output: &Path) -> Result<DryRun> {
-    let stored = Stored::scan(&work_dir_of(output), Some(output))?.index();
+    let stored = Stored::scan(
+        &work_dir_of(output),
+        Some(output),
+        Some(grid),
+        Check::Summaries,
+    )?
+    .index();
     let state = |i: usize| stored.get(&grid.hashes[i]).copied();
     let size = SizeEstimate::of(grid);
     check_fits(grid, size.total(points.len()), output)?;

@@ -10,13 +10,15 @@ use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::identity::{hex, RunHash};
 use crate::numerics::verify;
-use crate::store::hdf5::{self, Counts, FileRecords, Provenance};
+use crate::record::STATUS_PENDING;
+use crate::store::hdf5::{self, Counts, Provenance};
+use crate::store::published::{Check, PublishedFile};
 use crate::store::{RunStore, WorkDir};
 use crate::sweep::Sweep;
 
 use super::assemble::{assemble, Assembly, VerifySource};
 use super::status::{self, ShardSetStatus};
-use super::{auto, check_output};
+use super::{auto, check_output, DamageReport};
 
 /// What a merge did.
 #[derive(Debug, Clone)]
@@ -32,6 +34,9 @@ pub struct MergeReport {
     /// The state of every shard, when the files are shards of one shard count `N` (to name the
     /// missing and incomplete ones).
     pub shard_set: Option<ShardSetStatus>,
+    /// Damage found in shard files (and the output's own file): each damaged run is left
+    /// pending in the merged file, to be run again in its shard.
+    pub damage: Vec<DamageReport>,
 }
 
 /// Merges `shards` (files made by `run --shard` from one sweep file) into `output`.
@@ -65,12 +70,20 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
             "must not be one of the shard files",
         ));
     }
-    let work = WorkDir::open(output)?;
+    let work = WorkDir::open(output, Some(&grid))?;
     auto::cache(&work, &sweep)?;
+    let mut damage = Vec::new();
+    let own = DamageReport::new(output, &work.damage(), &sweep, &grid);
+    if own.any() {
+        damage.push(own);
+    }
     let mut done: HashMap<RunHash, bool> = HashMap::new();
     let mut vsrc = VerifySource::empty(0.0);
     for s in shards {
-        take_shard(s, &grid, &work, &mut done, &mut vsrc)?;
+        let d = take_shard(s, &sweep, &grid, &work, &mut done, &mut vsrc)?;
+        if d.any() {
+            damage.push(d);
+        }
     }
     // Runs already in the output's work directory count too.
     for &h in &grid.hashes {
@@ -107,13 +120,7 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
     )?;
     if counts.pending == 0 {
         // Complete: the logs beside the merged file shrink to what it lacks (verification runs).
-        let needed: std::collections::HashSet<RunHash> = grid
-            .hashes
-            .iter()
-            .chain(vsrc.hashes.values())
-            .copied()
-            .collect();
-        work.compact_after_publish(&grid, &|h| needed.contains(h))?;
+        work.compact_after_publish(&grid)?;
     }
     // Which shards to run again: only when the files are shards of one `N` (a merge may also
     // combine outputs sharded differently, or whole runs).
@@ -128,6 +135,7 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
         counts,
         absent,
         shard_set,
+        damage,
     })
 }
 
@@ -160,16 +168,26 @@ fn common_sweep_text(shards: &[PathBuf]) -> Result<String> {
     Ok(text.expect("at least one shard"))
 }
 
-/// Copies the finished runs of shard file `path` into `work` (those not there yet), and takes
-/// their verification outcomes as they are.
+/// Copies the finished runs of shard file `path` into `work` (those not there yet), every value
+/// checked, and takes their verification outcomes as they are. A damaged run the shard's snapshot
+/// does not give back is left out (pending), and reported.
 fn take_shard(
     path: &Path,
+    sweep: &Sweep,
     grid: &Grid,
     work: &WorkDir,
     done: &mut HashMap<RunHash, bool>,
     vsrc: &mut VerifySource,
-) -> Result<()> {
-    let recs = FileRecords::open(path)?;
+) -> Result<DamageReport> {
+    let Some(p) = PublishedFile::open(path, Some(grid), Check::Everything) else {
+        return Err(Error::Other(format!("{}: cannot be read", path.display())));
+    };
+    let report = DamageReport::new(path, &p.damage, sweep, grid);
+    let Some(recs) = p.file() else {
+        // Unreadable: what its snapshot holds is all there is (reported).
+        take_runs(&p, grid, work, done, vsrc)?;
+        return Ok(report);
+    };
     vsrc.fraction = vsrc.fraction.max(recs.verify_fraction);
     if recs.len() != grid.len() {
         return Err(Error::Other(format!(
@@ -181,10 +199,8 @@ fn take_shard(
     }
     for i in 0..grid.len() {
         let h = grid.hashes[i];
-        if done.contains_key(&h) {
-            continue;
-        }
-        if recs.hash_hex(i) != hex(&h) {
+        let finished = recs.damage(i).is_none() && recs.status(i) != STATUS_PENDING;
+        if finished && !recs.holds(i, &h) {
             return Err(Error::Other(format!(
                 "{}: point {i} has run hash {}, this chainsweep computes {}: the shard was made by a different engine version",
                 path.display(),
@@ -192,12 +208,33 @@ fn take_shard(
                 hex(&h)
             )));
         }
-        if let Some(rec) = recs.record(i, h, grid)? {
-            if work.read(&h)?.is_none() {
-                work.write(&rec)?;
-            }
-            done.insert(h, rec.ok);
-            vsrc.given.insert(i, recs.verify_info(i, grid.probes.len()));
+    }
+    take_runs(&p, grid, work, done, vsrc)?;
+    Ok(report)
+}
+
+/// Takes every run of `grid` that the shard file `p` gives back and `done` does not hold yet.
+fn take_runs(
+    p: &PublishedFile,
+    grid: &Grid,
+    work: &WorkDir,
+    done: &mut HashMap<RunHash, bool>,
+    vsrc: &mut VerifySource,
+) -> Result<()> {
+    for i in 0..grid.len() {
+        let h = grid.hashes[i];
+        if done.contains_key(&h) || !p.holds(&h) {
+            continue;
+        }
+        let Some(rec) = p.read(&h) else {
+            continue;
+        };
+        if work.read(&h)?.is_none() {
+            work.write(&rec)?;
+        }
+        done.insert(h, rec.ok);
+        if let Some(v) = p.verify_info(&h) {
+            vsrc.given.insert(i, v);
         }
     }
     Ok(())

@@ -27,10 +27,13 @@ pub mod shard;
 pub mod slurm;
 pub mod status;
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
+use crate::identity::RunHash;
+use crate::store::published::{Damage, DamagedRun};
 use crate::store::work_dir_of;
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
@@ -52,11 +55,95 @@ pub enum AutoResolution<'a> {
     },
 }
 
+/// A run of an output file that cannot be read back (it is computed again by `run`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LostRun {
+    /// Its grid point in the sweep the report is made for (`None`: a point that sweep does not
+    /// have, or whose run hash is unknown).
+    pub point: Option<usize>,
+    /// Its axis values (`mass_ratio=0.3 damping_kg_s=6`), or which point of the file it was.
+    pub label: String,
+    /// Why it cannot be read back.
+    pub why: String,
+}
+
+/// The damage found in an output file and its snapshot, with every damaged run named by its
+/// grid point and axis values.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DamageReport {
+    /// The output file.
+    pub output: PathBuf,
+    /// Why it cannot be read at all.
+    pub file: Option<String>,
+    /// What is wrong with its header.
+    pub header: Option<String>,
+    /// Damaged runs the snapshot gave back (nothing lost).
+    pub restored: Vec<LostRun>,
+    /// What is wrong with the snapshot.
+    pub snapshot: Option<String>,
+    /// Runs that cannot be read back.
+    pub lost: Vec<LostRun>,
+    /// The output file's layout carries no checksums (written by an earlier version): its values
+    /// cannot be checked until it is written again.
+    pub unchecked: bool,
+}
+
+impl DamageReport {
+    /// The report of `damage` found in `output`, its runs labelled by the points of `grid` of
+    /// `sweep` (by run hash).
+    pub fn new(output: &Path, damage: &Damage, sweep: &Sweep, grid: &Grid) -> DamageReport {
+        let at: HashMap<&RunHash, usize> = if damage.lost.is_empty() && damage.restored.is_empty() {
+            HashMap::new()
+        } else {
+            grid.hashes
+                .iter()
+                .enumerate()
+                .map(|(i, h)| (h, i))
+                .collect()
+        };
+        let label = |d: &DamagedRun| {
+            let point = d.hash.as_ref().and_then(|h| at.get(h).copied());
+            LostRun {
+                point,
+                label: match point {
+                    Some(i) => format!("point {i} ({})", grid.point_label(sweep, i)),
+                    None => format!(
+                        "point {} of the file (a point this sweep does not have)",
+                        d.point
+                    ),
+                },
+                why: d.why.clone(),
+            }
+        };
+        DamageReport {
+            output: output.to_path_buf(),
+            file: damage.file.clone(),
+            header: damage.header.clone(),
+            restored: damage.restored.iter().map(label).collect(),
+            snapshot: damage.snapshot.clone(),
+            lost: damage.lost.iter().map(label).collect(),
+            unchecked: false,
+        }
+    }
+
+    /// Whether anything is damaged.
+    pub fn any(&self) -> bool {
+        self.file.is_some()
+            || self.header.is_some()
+            || !self.restored.is_empty()
+            || self.snapshot.is_some()
+            || !self.lost.is_empty()
+    }
+}
+
 /// Receives what happens while the engine works: the display of a command line, a notebook
 /// widget, a test's log. Every method has an empty default.
 pub trait ProgressSink {
     /// A line of `integrator: auto`'s pilot, as it runs.
     fn pilot(&mut self, _line: &str) {}
+    /// The output file was found damaged when the sweep started: what the snapshot gave back,
+    /// and the runs that will be computed again.
+    fn damage_found(&mut self, _report: &DamageReport) {}
     /// `integrator: auto` was resolved.
     fn auto_resolved(&mut self, _resolution: AutoResolution<'_>) {}
     /// The runs start: `total` runs (verification runs included), `done` of them finished

@@ -19,7 +19,8 @@ use super::auto::{self, AutoOrigin};
 use super::plan::Plan;
 use super::schedule::{run_tasks, Coordinator, Executor, Schedule, SolverExecutor, Task};
 use super::{
-    check_output, max_jobs, number_text, shard, thread_pool, ProgressSink, Start, MAX_JOBS_PER_CPU,
+    check_output, max_jobs, number_text, shard, thread_pool, DamageReport, ProgressSink, Start,
+    MAX_JOBS_PER_CPU,
 };
 
 /// The longest `--checkpoint-interval`, s (a week): longer is never refreshed in practice, and
@@ -122,6 +123,11 @@ pub struct RunReport {
     pub stopped: bool,
     /// Runs computed by this call (grid runs and verification runs).
     pub ran: usize,
+    /// What was found damaged in the output file when the sweep started.
+    pub damage: DamageReport,
+    /// The output file already held every run of the sweep and nothing was to be done: it was
+    /// left as it was (a shard run into a complete output, a complete sweep run again).
+    pub nothing_to_do: bool,
 }
 
 /// Runs (or resumes) `sweep` into `opts.output` with the solver: checks the output, resolves
@@ -141,7 +147,7 @@ pub fn run_sweep(
     // `integrator: auto`: the cached choice, or a pilot (before the work directory is created,
     // so that a target no setting meets leaves nothing behind).
     let origin = auto::resolve(sweep, grid, Some(&work_dir_of(&opts.output)), &pool, sink)?;
-    let work = WorkDir::open(&opts.output)?;
+    let work = WorkDir::open(&opts.output, Some(grid))?;
     if origin == AutoOrigin::Pilot {
         auto::cache(&work, sweep)?;
     }
@@ -165,6 +171,10 @@ pub fn run_points(
     sink: &mut dyn ProgressSink,
     stop: &AtomicBool,
 ) -> Result<RunReport> {
+    let damage = DamageReport::new(&opts.output, &work.damage(), sweep, grid);
+    if damage.any() {
+        sink.damage_found(&damage);
+    }
     let plan = Plan::new(
         sweep,
         grid,
@@ -173,6 +183,31 @@ pub fn run_points(
         opts.retry_failed,
         opts.verify_fraction,
     )?;
+    if plan.tasks.is_empty() && !damage.any() && holds_every_run(work, grid, &plan) {
+        // Nothing to run, and the file already holds it all (as written by this version, with
+        // its snapshot): it is left as it is, whatever shard was asked for. (Logs a process
+        // killed after publishing it left beside it are compacted, as that process would have.)
+        if work.store_files() > 0 {
+            work.compact_after_publish(grid)?;
+        }
+        let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
+        let counts = Counts {
+            ok: plan.points.len() - failed,
+            failed,
+            pending: 0,
+        };
+        return Ok(RunReport {
+            points: plan.points.len(),
+            counts,
+            failed,
+            failures,
+            verification: verification_report(work, grid, &plan)?,
+            stopped: false,
+            ran: 0,
+            damage,
+            nothing_to_do: true,
+        });
+    }
     sink.started(&Start {
         total: plan.total,
         done: plan.done_before,
@@ -209,8 +244,7 @@ pub fn run_points(
     let plan = &run.plan;
     if plan.complete(grid) {
         // The file holds every run of the sweep: the logs beside it shrink to what it lacks.
-        let needed = plan.needed(grid);
-        work.compact_after_publish(grid, &|h| needed.contains(h))?;
+        work.compact_after_publish(grid)?;
     }
     let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
     Ok(RunReport {
@@ -221,7 +255,33 @@ pub fn run_points(
         verification: verification_report(work, grid, plan)?,
         stopped: stop.load(Ordering::Relaxed) && counts.pending > 0,
         ran: run.ran,
+        damage,
+        nothing_to_do: false,
     })
+}
+
+/// Whether the published output file holds every run of the grid (and every verification run
+/// the plan samples, with its outcome), as written by this version (with its snapshot) and with
+/// `--verify` no larger than it was: then running again changes nothing.
+fn holds_every_run(work: &WorkDir, grid: &Grid, plan: &Plan) -> bool {
+    let Some(p) = work.published_file() else {
+        return false;
+    };
+    let current = p
+        .file()
+        .is_some_and(|f| f.checked() && f.layout_version == crate::store::hdf5::LAYOUT_VERSION)
+        && p.snapshot().is_some();
+    let fraction_kept = p
+        .file()
+        .is_some_and(|f| f.verify_fraction >= plan.verify.fraction);
+    current
+        && fraction_kept
+        && grid.hashes.iter().all(|h| p.holds(h))
+        && plan.points.iter().all(|&i| {
+            !plan.sampled[i]
+                || p.verify_info(&grid.hashes[i])
+                    .is_some_and(|v| v.status != crate::record::VERIFY_NONE)
+        })
 }
 
 /// The state of a run while its tasks execute: the coordinator of the scheduler.

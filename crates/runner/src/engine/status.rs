@@ -1,13 +1,14 @@
 //! `status`: what an output file holds, or what the work directory of a sweep's output holds.
 
-use std::collections::HashSet;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
-use crate::identity::hex;
+use crate::identity::RunHash;
 use crate::record::{STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use crate::store::hdf5::{Counts, FileRecords};
+use crate::store::published::{Check, PublishedFile};
 use crate::store::{scan_segments, work_dir_of, Stored};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
@@ -15,6 +16,7 @@ use crate::sweep::Sweep;
 use super::auto::{apply_cached, CachedChoice};
 use super::run::{Failure, LISTED_FAILURES};
 use super::shard::{self, Assignment};
+use super::DamageReport;
 
 /// The status of an output file.
 #[derive(Debug, Clone)]
@@ -25,52 +27,118 @@ pub struct FileStatus {
     pub shape: Vec<usize>,
     /// The file's `shard` attribute (`K/N`).
     pub shard: String,
-    /// Successful, failed and pending points.
+    /// Successful, failed and pending points of its shard (damaged runs count as pending: they
+    /// are computed again).
     pub counts: Counts,
+    /// Points of other shards the file holds too (a shard run into an output that held them).
+    pub other_shards: usize,
     /// Points pending in the file whose run has finished since (a sweep is running, or was
     /// interrupted).
     pub newer: usize,
     /// Every failed point with its reason, in grid order.
     pub failures: Vec<(usize, String)>,
+    /// What was found damaged in the file and its snapshot.
+    pub damage: DamageReport,
 }
 
-/// The status of the output file `file`.
+/// The status of the output file `file`, every value checked (a damaged file's state from what
+/// can be read back, its snapshot included).
 pub fn of_file(file: &Path) -> Result<FileStatus> {
-    let recs = FileRecords::open(file).map_err(|e| Error::Input {
-        file: Some(file.display().to_string()),
+    let name = file.display().to_string();
+    let ours = work_dir_of(file).is_dir();
+    let not_ours = |m: String| Error::Input {
+        file: Some(name.clone()),
         field: String::new(),
-        message: format!("not a chainsweep output file: {e}"),
-    })?;
-    let sweep =
-        Sweep::parse(&recs.sweep_text).map_err(|e| e.in_file(&file.display().to_string()))?;
-    let shard = Some(Shard::parse(&recs.shard, "--shard")?).filter(|s| s.n > 1);
-    let n = recs.len();
-    let grid = Grid::new(&sweep).map_err(|e| e.in_file(&file.display().to_string()))?;
-    let assignment = Assignment::new(&sweep, &grid, shard);
-    let in_shard = |i: usize| i < grid.len() && assignment.contains(shard, i);
-    let counts = Counts {
-        ok: (0..n).filter(|&i| recs.status(i) == STATUS_OK).count(),
-        failed: (0..n).filter(|&i| recs.status(i) == STATUS_FAILED).count(),
-        pending: (0..n)
-            .filter(|&i| in_shard(i) && recs.status(i) == STATUS_PENDING)
-            .count(),
+        message: format!("not a chainsweep output file: {m}"),
     };
+    let Some(p) = PublishedFile::open(file, None, Check::Everything) else {
+        return Err(not_ours("it does not exist".into()));
+    };
+    let header = match (p.file(), p.snapshot()) {
+        (Some(r), _) if r.header_damage.is_none() => Some((r.sweep_text.clone(), r.shard.clone())),
+        (_, Some(s)) => Some((s.header.sweep.clone(), s.header.shard.clone())),
+        _ => None,
+    };
+    let (Some((text, shard_text)), Some(grid)) = (header, p.grid()) else {
+        let why = p
+            .damage
+            .file
+            .clone()
+            .or_else(|| p.damage.header.clone())
+            .unwrap_or_else(|| "its sweep cannot be read".into());
+        if !ours && p.file().is_none() {
+            return Err(not_ours(why));
+        }
+        return Err(Error::Other(format!(
+            "{name} is damaged: {why}; {} holds no usable snapshot of it{}, so what it held cannot be told",
+            work_dir_of(file).display(),
+            p.damage
+                .snapshot
+                .as_ref()
+                .map(|s| format!(" ({s})"))
+                .unwrap_or_default()
+        )));
+    };
+    let sweep = Sweep::parse(&text).map_err(|e| e.in_file(&name))?;
+    let shard = Some(Shard::parse(&shard_text, "--shard")?).filter(|s| s.n > 1);
+    let assignment = Assignment::new(&sweep, grid, shard);
+    let mut counts = Counts::default();
+    let mut other_shards = 0;
+    let mut total = 0;
+    let mut failures = Vec::new();
+    let mut held: HashMap<&RunHash, (usize, bool)> = HashMap::new();
+    for (h, i, ok) in p.runs() {
+        held.insert(h, (i, ok));
+    }
+    for i in 0..grid.len() {
+        let in_shard = assignment.contains(shard, i);
+        total += usize::from(in_shard);
+        match held.get(&grid.hashes[i]) {
+            Some(&(_, ok)) if in_shard => {
+                if ok {
+                    counts.ok += 1;
+                } else {
+                    counts.failed += 1;
+                }
+            }
+            Some(_) => other_shards += 1,
+            None if in_shard => counts.pending += 1,
+            None => {}
+        }
+    }
+    for i in 0..grid.len() {
+        if held.get(&grid.hashes[i]).is_some_and(|&(_, ok)| !ok) {
+            let reason = p
+                .read(&grid.hashes[i])
+                .map(|r| r.reason)
+                .unwrap_or_default();
+            failures.push((i, reason));
+        }
+    }
     // Runs finished since the file was last assembled (it is refreshed by `run`).
-    let segs: HashSet<String> = scan_segments(&work_dir_of(file))?.keys().map(hex).collect();
-    let newer = (0..n)
-        .filter(|&i| in_shard(i) && recs.status(i) == STATUS_PENDING)
-        .filter(|&i| segs.contains(recs.hash_hex(i)))
+    let segs = scan_segments(&work_dir_of(file))?;
+    let newer = (0..grid.len())
+        .filter(|&i| assignment.contains(shard, i) && !held.contains_key(&grid.hashes[i]))
+        .filter(|&i| segs.contains_key(&grid.hashes[i]))
         .count();
+    let mut damage = DamageReport::new(file, &p.damage, &sweep, grid);
+    damage.unchecked = p.file().is_some_and(|f| !f.checked());
+    if let (Some(f), None) = (p.file(), &damage.header) {
+        // Coordinates and probes are functions of the (checked) sweep.
+        let coords = f.coordinate_damage(&sweep, grid);
+        if !coords.is_empty() {
+            damage.header = Some(coords.join("; "));
+        }
+    }
     Ok(FileStatus {
-        total: (0..n).filter(|&i| in_shard(i)).count(),
+        total,
         shape: sweep.shape(),
-        shard: recs.shard.clone(),
+        shard: shard_text,
         counts,
+        other_shards,
         newer,
-        failures: (0..n)
-            .filter(|&i| recs.status(i) == STATUS_FAILED)
-            .map(|i| (i, recs.reason(i).to_string()))
-            .collect(),
+        failures,
+        damage,
     })
 }
 
@@ -93,6 +161,8 @@ pub struct SweepStatus {
     /// What the work directory holds that is not a regular file where a log or segment is
     /// expected (left out).
     pub ignored: Vec<PathBuf>,
+    /// What was found damaged in the output file and its snapshot.
+    pub damage: DamageReport,
 }
 
 /// The status of `sweep`'s output `output` (its work directory), for `shard`.
@@ -112,6 +182,7 @@ pub fn of_sweep(
         auto_cache: None,
         failures: Vec::new(),
         ignored: Vec::new(),
+        damage: DamageReport::default(),
     };
     match apply_cached(&mut sweep, &mut grid, &dir)? {
         CachedChoice::NotAuto => {}
@@ -122,7 +193,12 @@ pub fn of_sweep(
         }
     }
     // Only whole, checksummed records count: the runs `run` finds done.
-    let stored = Stored::scan(&dir, Some(&status.output))?;
+    let stored = Stored::scan(&dir, Some(&status.output), Some(&grid), Check::Everything)?;
+    status.damage = DamageReport::new(&status.output, stored.damage(), &sweep, &grid);
+    status.damage.unchecked = stored
+        .published()
+        .and_then(|p| p.file())
+        .is_some_and(|f| !f.checked());
     let state = |i: usize| stored.get(&grid.hashes[i]);
     let ok = points.iter().filter(|&&i| state(i) == Some(true)).count();
     let failed = points.iter().filter(|&&i| state(i) == Some(false)).count();

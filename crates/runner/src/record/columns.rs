@@ -1,13 +1,21 @@
 //! The one table of stored summary columns: every dataset the output file holds per grid point,
 //! with its name, dtype, shape, units, description, and how it is filled from a point's run and
-//! verification (and read back into a run record). The HDF5 writer and reader, the check that no
-//! axis takes a stored name, and the table in `README-sweeps.md` all come from [`COLUMNS`].
+//! verification (and read back into a run record). The HDF5 writer and reader, the store's
+//! snapshot, the check that no axis takes a stored name, and the table in `README-sweeps.md` all
+//! come from [`COLUMNS`].
+//!
+//! Every stored value of a point is covered by its checksum ([`Table::point_checksum`]): the
+//! `summary_checksum` column holds, per point, the first 8 bytes of the SHA-256 of every other
+//! column's value at that point (the `history_checksum` of its run group included), so that a
+//! reader finds out which points of a damaged file it can still trust.
 
-use chainsweep_solver::probes::ProbeSummary;
+use chainsweep_solver::probes::{History, ProbeSummary};
+use sha2::{Digest, Sha256};
 
 use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use super::{MOVING_PART_ONLY, MOVING_PART_UNKNOWN, MOVING_PART_WHOLE_CHAIN};
 use super::{VERIFY_FAILED, VERIFY_NONE, VERIFY_OK};
+use crate::identity::{checksum64, RunHash};
 
 /// Element type of a column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -18,6 +26,8 @@ pub enum Dtype {
     I64,
     /// 8-bit unsigned integer (a flag).
     U8,
+    /// 64-bit unsigned integer (a checksum).
+    U64,
     /// Variable-length UTF-8 string.
     Str,
 }
@@ -29,6 +39,7 @@ impl Dtype {
             Dtype::F64 => "float64",
             Dtype::I64 => "int64",
             Dtype::U8 => "uint8",
+            Dtype::U64 => "uint64",
             Dtype::Str => "str",
         }
     }
@@ -107,6 +118,11 @@ pub enum Fill {
     Verified,
     /// The largest verification error of a verified point; NaN elsewhere.
     VerifyMax,
+    /// The checksum of a successful run's group under `runs/` ([`history_checksum`]); 0 elsewhere.
+    HistoryChecksum,
+    /// The checksum of every other column's value at the point ([`Table::point_checksum`]),
+    /// computed once the point's other columns are filled.
+    SummaryChecksum,
     /// Verification error `k` of [`VerifyInfo::errors`] per probe of a verified point; NaN
     /// elsewhere.
     VerifyProbe(usize),
@@ -122,6 +138,19 @@ pub enum Written {
     /// chain, and the column would repeat the chain's length (nothing on disk for a path not
     /// taken).
     WithMovingPart,
+    /// Files whose runs have a group under `runs/` (histories or minimum overlaps).
+    WithRunGroups,
+}
+
+/// What decides which columns a file has: its grid's probes and recorded arrays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Presence {
+    /// Probes per point (per-probe columns only when there are some).
+    pub probes: usize,
+    /// Whether some point integrates only the moving part of its chain.
+    pub moving_part: bool,
+    /// Whether runs have a group under `runs/`.
+    pub run_groups: bool,
 }
 
 /// One stored column.
@@ -163,6 +192,17 @@ pub enum FillValue {
 }
 
 impl Column {
+    /// Whether a file of this `presence` has this column (files of layout 3 and later: earlier
+    /// layouts lack the checksum columns, and their readers take absent columns as fills).
+    pub fn is_written(&self, presence: Presence) -> bool {
+        (!self.per_probe || presence.probes > 0)
+            && match self.written {
+                Written::Always => true,
+                Written::WithMovingPart => presence.moving_part,
+                Written::WithRunGroups => presence.run_groups,
+            }
+    }
+
     /// The marker of a missing value: NaN in a float column, [`INT_FILL`] in a count. Flags
     /// (`status`, `verified`) and text have none: every point has a flag (0 says pending or not
     /// verified), and an empty text is a value.
@@ -170,7 +210,7 @@ impl Column {
         match self.dtype {
             Dtype::F64 => Some(FillValue::F64(f64::NAN)),
             Dtype::I64 => Some(FillValue::I64(INT_FILL)),
-            Dtype::U8 | Dtype::Str => None,
+            Dtype::U8 | Dtype::U64 | Dtype::Str => None,
         }
     }
 }
@@ -580,6 +620,32 @@ pub const COLUMNS: &[Column] = &[
         written: Written::Always,
         fill: Fill::VerifyProbe(2),
     },
+    Column {
+        name: "history_checksum",
+        dtype: Dtype::U64,
+        per_probe: false,
+        units: Units::None,
+        description: "checksum of the run's group under runs/ (its histories and minimum overlaps)",
+        long_name: true,
+        flags: None,
+        note: "the first 8 bytes of a SHA-256, little endian; 0 where the run has no group (failed or pending)",
+        required: false,
+        written: Written::WithRunGroups,
+        fill: Fill::HistoryChecksum,
+    },
+    Column {
+        name: "summary_checksum",
+        dtype: Dtype::U64,
+        per_probe: false,
+        units: Units::None,
+        description: "checksum of every other value the file stores for the point (run hash, status, summaries, verification, history_checksum)",
+        long_name: true,
+        flags: None,
+        note: "the first 8 bytes of a SHA-256, little endian; pending points included. A point whose values do not match it is damaged: chainsweep reports it and computes it again",
+        required: false,
+        written: Written::Always,
+        fill: Fill::SummaryChecksum,
+    },
 ];
 
 /// Names the file uses at its root beside the columns: the probe coordinate, the probes' units
@@ -607,6 +673,8 @@ pub enum ColumnData {
     I64(Vec<i64>),
     /// [`Dtype::U8`].
     U8(Vec<u8>),
+    /// [`Dtype::U64`].
+    U64(Vec<u64>),
     /// [`Dtype::Str`].
     Str(Vec<String>),
 }
@@ -635,6 +703,7 @@ impl Column {
             (Dtype::F64, Some(FillValue::F64(x))) => ColumnData::F64(vec![x; n]),
             (Dtype::I64, Some(FillValue::I64(x))) => ColumnData::I64(vec![x; n]),
             (Dtype::U8, None) => ColumnData::U8(vec![0; n]),
+            (Dtype::U64, None) => ColumnData::U64(vec![0; n]),
             (Dtype::Str, None) => ColumnData::Str(vec![String::new(); n]),
             _ => unreachable!("column {} has a fill value of another type", self.name),
         }
@@ -712,6 +781,12 @@ impl Column {
                     }
                 }
             }
+            (Fill::HistoryChecksum, ColumnData::U64(d)) => {
+                if let Some(r) = ok {
+                    d[i] = history_checksum(r.history.as_ref(), r.min_overlap_m.as_deref());
+                }
+            }
+            (Fill::SummaryChecksum, ColumnData::U64(_)) => {}
             _ => unreachable!("column {} holds data of another type", self.name),
         }
     }
@@ -736,6 +811,214 @@ impl Column {
             }
             _ => {}
         }
+    }
+}
+
+/// The checksum of a run's group under `runs/`: its time samples and history per probe, and its
+/// minimum overlaps, as stored (bit for bit); 0 for a run without a group (never 0 otherwise).
+pub fn history_checksum(history: Option<&History>, min_overlap_m: Option<&[f64]>) -> u64 {
+    if history.is_none() && min_overlap_m.is_none() {
+        return 0;
+    }
+    let sum = checksum64(|h| {
+        h.update(b"chainsweep run group checksum v1\n");
+        let series = |h: &mut Sha256, name: &[u8], v: &[f64]| {
+            h.update(name);
+            h.update((v.len() as u64).to_le_bytes());
+            for x in v {
+                h.update(x.to_bits().to_le_bytes());
+            }
+        };
+        if let Some(hist) = history {
+            series(h, b"time_s", &hist.time_s);
+            for v in &hist.values {
+                series(h, b"probe", v);
+            }
+        }
+        if let Some(m) = min_overlap_m {
+            series(h, b"min_overlap_m", m);
+        }
+    });
+    sum.max(1)
+}
+
+/// A file's columns in memory: every column of [`COLUMNS`] the file has, in the table's order
+/// (`None` where it has not), over `n` grid points of `np` probes. What the writer fills, the
+/// reader reads back and the snapshot keeps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// Grid points.
+    pub n: usize,
+    /// Probes per point.
+    pub np: usize,
+    /// Every column, in [`COLUMNS`] order.
+    pub columns: Vec<Option<ColumnData>>,
+}
+
+impl Table {
+    /// The columns a file of `presence` has over `n` points, every value its fill (status
+    /// pending).
+    pub fn empty(n: usize, presence: Presence) -> Table {
+        Table {
+            n,
+            np: presence.probes,
+            columns: COLUMNS
+                .iter()
+                .map(|c| c.is_written(presence).then(|| c.empty(n, presence.probes)))
+                .collect(),
+        }
+    }
+
+    /// The data of column `name`, if the table has it.
+    pub fn get(&self, name: &str) -> Option<&ColumnData> {
+        let at = COLUMNS
+            .iter()
+            .position(|c| c.name == name)
+            .expect("a column of the table");
+        self.columns[at].as_ref()
+    }
+
+    /// The status code stored for point `i` (pending where the table has no status).
+    pub fn status(&self, i: usize) -> u8 {
+        match self.get("status") {
+            Some(ColumnData::U8(s)) => s[i],
+            _ => STATUS_PENDING,
+        }
+    }
+
+    /// The text of string column `name` at point `i` (empty where the table has no such column).
+    pub fn str_at(&self, name: &str, i: usize) -> &str {
+        match self.get(name) {
+            Some(ColumnData::Str(v)) => &v[i],
+            _ => "",
+        }
+    }
+
+    /// The value of checksum column `name` at point `i` (0 where the table has no such column).
+    pub fn checksum_at(&self, name: &str, i: usize) -> u64 {
+        match self.get(name) {
+            Some(ColumnData::U64(v)) => v[i],
+            _ => 0,
+        }
+    }
+
+    /// Fills in point `i` from its outcome `o`: every column, then the point's checksum.
+    pub fn fill_point(&mut self, i: usize, o: &PointOutcome) {
+        let np = self.np;
+        for (c, data) in COLUMNS.iter().zip(&mut self.columns) {
+            if let Some(d) = data {
+                c.fill_point(d, i, np, o);
+            }
+        }
+        let sum = self.point_checksum(i);
+        let at = COLUMNS
+            .iter()
+            .position(|c| matches!(c.fill, Fill::SummaryChecksum))
+            .expect("the summary checksum is a column");
+        if let Some(ColumnData::U64(v)) = &mut self.columns[at] {
+            v[i] = sum;
+        }
+    }
+
+    /// The checksum of every value the table holds for point `i` but the checksum itself: each
+    /// column's name and its values at the point (a string as its length and UTF-8 bytes, a
+    /// number as its bits), in [`COLUMNS`] order. What `summary_checksum` stores.
+    pub fn point_checksum(&self, i: usize) -> u64 {
+        checksum64(|h| {
+            h.update(b"chainsweep point checksum v1\n");
+            for (c, data) in COLUMNS.iter().zip(&self.columns) {
+                let Some(d) = data else { continue };
+                if matches!(c.fill, Fill::SummaryChecksum) {
+                    continue;
+                }
+                h.update(c.name.as_bytes());
+                h.update(b"=");
+                let k = if c.per_probe { self.np } else { 1 };
+                let at = i * k..(i + 1) * k;
+                match d {
+                    ColumnData::F64(v) => v[at]
+                        .iter()
+                        .for_each(|x| h.update(x.to_bits().to_le_bytes())),
+                    ColumnData::I64(v) => v[at].iter().for_each(|x| h.update(x.to_le_bytes())),
+                    ColumnData::U8(v) => h.update(&v[at]),
+                    ColumnData::U64(v) => v[at].iter().for_each(|x| h.update(x.to_le_bytes())),
+                    ColumnData::Str(v) => v[at].iter().for_each(|s| {
+                        h.update((s.len() as u64).to_le_bytes());
+                        h.update(s.as_bytes());
+                    }),
+                }
+                h.update(b"\n");
+            }
+        })
+    }
+
+    /// The verification outcome stored for point `i`.
+    pub fn verify_info(&self, i: usize) -> VerifyInfo {
+        let np = self.np;
+        let status = match self.get("verified") {
+            Some(ColumnData::U8(v)) => v[i],
+            _ => VERIFY_NONE,
+        };
+        let mut errors = vec![[f64::NAN; 3]; np];
+        let per_probe: Vec<(usize, &Vec<f64>)> = COLUMNS
+            .iter()
+            .zip(&self.columns)
+            .filter_map(|(c, data)| match (c.fill, data) {
+                (Fill::VerifyProbe(k), Some(ColumnData::F64(v))) => Some((k, v)),
+                _ => None,
+            })
+            .collect();
+        if status == VERIFY_OK && per_probe.len() == 3 {
+            for (p, e) in errors.iter_mut().enumerate() {
+                for &(k, v) in &per_probe {
+                    e[k] = v[i * np + p];
+                }
+            }
+        }
+        VerifyInfo { status, errors }
+    }
+
+    /// The record of point `i` as the table holds it (without the run's group: histories and
+    /// minimum overlaps), under the run hash `hash`; `None` where pending. `whole_chain`: the
+    /// particles of the point's chain when no point of its grid integrates only its moving part
+    /// (a table without the moving-part columns then says its runs integrated the whole chain).
+    pub fn record(&self, i: usize, hash: RunHash, whole_chain: Option<u64>) -> Option<RunRecord> {
+        let st = self.status(i);
+        if st == STATUS_PENDING {
+            return None;
+        }
+        let np = self.np;
+        let mut rec = RunRecord::failed(hash, String::new(), f64::NAN);
+        if st != STATUS_FAILED {
+            rec.ok = true;
+            rec.probes = vec![
+                ProbeSummary {
+                    leading_peak: f64::NAN,
+                    leading_peak_time_s: f64::NAN,
+                    record_max: f64::NAN,
+                    record_max_time_s: f64::NAN,
+                };
+                np
+            ];
+        }
+        // A column the table lacks leaves the value of a failed run's record (NaN, 0, empty).
+        for (c, data) in COLUMNS.iter().zip(&self.columns) {
+            if let Some(d) = data {
+                c.restore(d, i, np, &mut rec);
+            }
+        }
+        // Tables of grids where no point integrates only its moving part leave out how much each
+        // run integrated: its whole chain, whichever version ran it. (A table of a grid where
+        // some point does, without the columns, was written before they existed: not known.)
+        let has_moving_part = COLUMNS
+            .iter()
+            .zip(&self.columns)
+            .any(|(c, d)| c.written == Written::WithMovingPart && d.is_some());
+        if let (true, false, Some(n)) = (rec.ok, has_moving_part, whole_chain) {
+            rec.moving_part = Some(false);
+            rec.integrated_particles = Some(n);
+        }
+        Some(rec)
     }
 }
 
@@ -764,10 +1047,14 @@ pub fn markdown_table() -> String {
         if !c.note.is_empty() {
             content.push_str(&format!("; {}", c.note));
         }
-        if c.written == Written::WithMovingPart {
-            content.push_str(
+        match c.written {
+            Written::Always => {}
+            Written::WithMovingPart => content.push_str(
                 "; only in files where some point integrates only the moving part of its chain",
-            );
+            ),
+            Written::WithRunGroups => {
+                content.push_str("; only in files that record histories or minimum overlaps")
+            }
         }
         let content = content.replace('|', "\\|");
         out.push_str(&format!(
@@ -800,6 +1087,7 @@ mod tests {
                 Fill::OkCount { .. } | Fill::OkOptCount { .. } => Dtype::I64,
                 Fill::OkText { .. } | Fill::Reason | Fill::RunHash => Dtype::Str,
                 Fill::Status | Fill::Verified | Fill::OkFlag { .. } => Dtype::U8,
+                Fill::HistoryChecksum | Fill::SummaryChecksum => Dtype::U64,
             };
             assert_eq!(c.dtype, dtype, "{}", c.name);
             let per_probe = matches!(c.fill, Fill::ProbeF64 { .. } | Fill::VerifyProbe(_));

@@ -12,13 +12,23 @@
 //! - `X.h5.d/tmp/`: temporary files, emptied by the next process that takes the lock.
 //! - `X.h5.d/auto.json`: what `integrator: auto` chose ([`AutoChoice`]), written atomically.
 //!
+//! - `X.h5.d/snapshot`: a compact, checksummed copy of the summaries `X.h5` holds, written with
+//!   it ([`snapshot`]); what damage to `X.h5` takes, it gives back.
+//! - `X.h5.d/damaged/`: an output file that could not be read at all, kept (never deleted by a
+//!   command other than `gc`) when a new one replaces it.
+//!
 //! `X.h5` itself is only ever replaced by renaming a completely written and `fsync`ed file over it
 //! ([`WorkDir::publish`]), so it is always either the previous complete version or the new one.
-//! It is a store of runs too: a run it holds (ok or failed) is read back from it
-//! ([`hdf5::FileRecords::record`], bitwise the record written). So once a sweep is complete and
-//! its file published, the logs are compacted ([`WorkDir::compact_after_publish`]): only the
-//! records the file does not hold and the sweep needs (its verification runs) stay, in one log;
-//! the runs of points the sweep no longer has (orphans of an edited sweep) go.
+//! It is a store of runs too: a run it holds (ok or failed) is read back from it, every value
+//! checked against its checksum ([`published`]; bitwise the record written). So once a sweep is
+//! complete and its file published, the logs are compacted ([`WorkDir::compact_after_publish`]):
+//! only the records the file does not hold stay, in one log (verification runs, and the runs of
+//! points the sweep no longer has: orphans of an edited sweep, which only `gc` removes). No
+//! publish drops a run: one the previous file held that the new one does not is moved into the
+//! log first.
+//!
+//! The work directory's own paths (`lock`, `logs/`, `tmp/`, `segments/`, `snapshot`, `damaged/`)
+//! are never followed through a symbolic link: one there is an error that names it.
 //!
 //! Work directories of earlier versions hold one file per run, `segments/<runhash>.seg` (the
 //! same record format, see [`segment`]); they are read, and moved into one log by the next
@@ -26,7 +36,9 @@
 
 pub mod hdf5;
 pub mod log;
+pub mod published;
 pub mod segment;
+pub mod snapshot;
 
 use std::collections::HashMap;
 use std::fs::{self, File, OpenOptions};
@@ -41,12 +53,12 @@ use fs4::fs_std::FileExt as _;
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::identity::{from_hex, hex, RunHash};
-use crate::record::{RunRecord, STATUS_OK, STATUS_PENDING};
+use crate::record::RunRecord;
 use crate::sweep::auto::AutoChoice;
-use crate::sweep::Sweep;
 
-use self::hdf5::FileRecords;
 use self::log::{frame, log_name, log_seq, LOG_DIR};
+use self::published::{Check, Damage, PublishedFile};
+use self::snapshot::SNAPSHOT_FILE;
 
 /// Path of the work directory of an output file: `X.h5` → `X.h5.d`.
 pub fn work_dir_of(output: &Path) -> PathBuf {
@@ -82,6 +94,10 @@ pub const AUTO_CHOICE_FILE: &str = "auto.json";
 /// The folder of one-file-per-run segments of earlier versions.
 const SEGMENT_DIR: &str = "segments";
 
+/// The folder where an output file that could not be read at all is kept when a new one
+/// replaces it.
+pub const DAMAGED_DIR: &str = "damaged";
+
 /// At most this many logs before the next process that takes the lock compacts them into one
 /// (each process writes its own: a sweep resumed many times would otherwise leave many files).
 pub const MAX_LOGS: usize = 16;
@@ -102,8 +118,8 @@ enum Loc {
         len: u64,
         ok: bool,
     },
-    /// In the published output file, at grid point `point`.
-    Published { point: usize, ok: bool },
+    /// In the published output file (or restored from its snapshot).
+    Published { ok: bool },
 }
 
 impl Loc {
@@ -114,65 +130,6 @@ impl Loc {
     }
 }
 
-/// The published output file as a store of runs: its records by hash, read back with its own
-/// grid (the one its points index).
-struct PublishedFile {
-    recs: FileRecords,
-    grid: Grid,
-    points: HashMap<RunHash, (usize, bool)>,
-}
-
-impl PublishedFile {
-    /// The runs of the output file `path`; `None` when there is none, or it is no readable
-    /// chainsweep file (its runs are then computed again).
-    fn open(path: &Path) -> Option<PublishedFile> {
-        Self::open_with(path, None)
-    }
-
-    /// As [`PublishedFile::open`], with `known`, the grid the caller just wrote the file from:
-    /// taken instead of expanding the file's sweep again (182 points: 49 M instructions, on the
-    /// serial path at the end of every sweep) when every run the file holds has that grid's run
-    /// hash at its point, which the run hash of a scene (probes and record block included)
-    /// makes the same grid for reading them back. Otherwise the file's own sweep is expanded.
-    fn open_with(path: &Path, known: Option<&Grid>) -> Option<PublishedFile> {
-        if !path.is_file() || !hdf5::is_hdf5(path) {
-            return None;
-        }
-        let recs = FileRecords::open(path).ok()?;
-        let mut points = HashMap::new();
-        for i in 0..recs.len() {
-            let st = recs.status(i);
-            if st == STATUS_PENDING {
-                continue;
-            }
-            if let Some(h) = from_hex(recs.hash_hex(i)) {
-                points.insert(h, (i, st == STATUS_OK));
-            }
-        }
-        let matches =
-            |g: &Grid| g.len() == recs.len() && points.iter().all(|(h, &(i, _))| g.hashes[i] == *h);
-        let grid = match known {
-            Some(g) if matches(g) => g.clone(),
-            _ => {
-                let sweep = Sweep::parse(&recs.sweep_text).ok()?;
-                let grid = Grid::new(&sweep).ok()?;
-                if grid.len() != recs.len() {
-                    return None;
-                }
-                grid
-            }
-        };
-        Some(PublishedFile { recs, grid, points })
-    }
-
-    fn read(&self, hash: &RunHash, point: usize) -> Result<Option<RunRecord>> {
-        if self.recs.hash_hex(point) != hex(hash) {
-            return Ok(None);
-        }
-        self.recs.record(point, *hash, &self.grid)
-    }
-}
-
 /// What a work directory (and its published output file) holds, as found by a scan: where each
 /// stored run's record is. Memory: a few dozen bytes per run, never the records themselves.
 pub struct Stored {
@@ -180,7 +137,8 @@ pub struct Stored {
     entries: HashMap<RunHash, Loc>,
     logs: Vec<PathBuf>,
     segments: usize,
-    published: Option<Mutex<PublishedFile>>,
+    published: Option<PublishedFile>,
+    damage: Damage,
     ignored: Vec<PathBuf>,
     corrupt: usize,
     next_seq: u64,
@@ -203,29 +161,39 @@ fn is_file(entry: &fs::DirEntry) -> bool {
 }
 
 impl Stored {
-    /// Scans work directory `dir` (absent: empty) and, when given, the published output file:
-    /// every whole record is found (its checksum checked, so every run it lists can be read),
-    /// torn and corrupt ones are left out. A later record of a run wins over an earlier one (a
-    /// run retried with `--retry-failed`), a log's over the output file's. Anything that is not
-    /// a regular file where a log or segment is expected is left out (see [`Stored::ignored`]).
-    pub fn scan(dir: &Path, output: Option<&Path>) -> Result<Stored> {
+    /// Scans work directory `dir` (absent: empty) and, when given, the published output file
+    /// (checked as `check` says; `known`: the caller's grid, see [`PublishedFile::open`]): every
+    /// whole record is found (its checksum checked, so every run it lists can be read), torn and
+    /// corrupt ones are left out, and so are the damaged runs of the output file (reported in
+    /// [`Stored::damage`]). A later record of a run wins over an earlier one (a run retried with
+    /// `--retry-failed`), a log's over the output file's. Anything that is not a regular file
+    /// where a log or segment is expected is left out (see [`Stored::ignored`]); a symbolic link
+    /// in place of the work directory's `logs/` or `segments/` is an error.
+    pub fn scan(
+        dir: &Path,
+        output: Option<&Path>,
+        known: Option<&Grid>,
+        check: Check,
+    ) -> Result<Stored> {
         let mut s = Stored {
             dir: dir.to_path_buf(),
             entries: HashMap::new(),
             logs: Vec::new(),
             segments: 0,
             published: None,
+            damage: Damage::default(),
             ignored: Vec::new(),
             corrupt: 0,
             next_seq: 1,
         };
-        if let Some(p) = output.and_then(PublishedFile::open) {
-            for (h, &(point, ok)) in &p.points {
-                s.entries.insert(*h, Loc::Published { point, ok });
+        if let Some(p) = output.and_then(|o| PublishedFile::open(o, known, check)) {
+            for (h, _, ok) in p.runs() {
+                s.entries.insert(*h, Loc::Published { ok });
             }
-            s.published = Some(Mutex::new(p));
+            s.damage = p.damage.clone();
+            s.published = Some(p);
         }
-        let seg_dir = dir.join(SEGMENT_DIR);
+        let seg_dir = no_link(&dir.join(SEGMENT_DIR))?;
         for entry in list_dir(&seg_dir)? {
             let Some(hash) = entry.file_name().to_str().and_then(segment_hash) else {
                 continue;
@@ -245,7 +213,7 @@ impl Stored {
                 Err(_) => s.corrupt += 1,
             }
         }
-        let log_dir = dir.join(LOG_DIR);
+        let log_dir = no_link(&dir.join(LOG_DIR))?;
         let mut logs: Vec<(u64, PathBuf)> = Vec::new();
         for entry in list_dir(&log_dir)? {
             let Some(seq) = entry.file_name().to_str().and_then(log_seq) else {
@@ -310,6 +278,16 @@ impl Stored {
         self.corrupt
     }
 
+    /// What was found damaged in the published output file and its snapshot.
+    pub fn damage(&self) -> &Damage {
+        &self.damage
+    }
+
+    /// The published output file, when there is one.
+    pub fn published(&self) -> Option<&PublishedFile> {
+        self.published.as_ref()
+    }
+
     /// Logs and one-file segments in the work directory.
     pub fn files(&self) -> usize {
         self.logs.len() + self.segments
@@ -321,11 +299,11 @@ impl Stored {
             return Ok(None);
         };
         let bytes = match loc {
-            Loc::Published { point, .. } => {
+            Loc::Published { .. } => {
                 let Some(p) = &self.published else {
                     return Ok(None);
                 };
-                return lock(p).read(hash, point);
+                return Ok(p.read(hash));
             }
             Loc::Segment { .. } => {
                 let path = self
@@ -388,18 +366,47 @@ fn list_dir(dir: &Path) -> Result<Vec<fs::DirEntry>> {
     }
 }
 
-/// The runs the output file `path` holds (ok or failed), by hash; none when it is no readable
-/// chainsweep file.
+/// The runs the output file `path` gives back (ok or failed), by hash, their summaries checked;
+/// none when it is no readable chainsweep file.
 pub fn published_runs(path: &Path) -> SegmentIndex {
-    PublishedFile::open(path)
-        .map(|p| p.points.iter().map(|(h, &(_, ok))| (*h, ok)).collect())
+    PublishedFile::open(path, None, Check::Summaries)
+        .map(|p| p.runs().map(|(h, _, ok)| (*h, ok)).collect())
         .unwrap_or_default()
 }
 
 /// Lists the runs stored in work directory `dir` (not counting its output file) with their
 /// status, checksums checked. A missing directory is an empty index.
 pub fn scan_segments(dir: &Path) -> Result<SegmentIndex> {
-    Ok(Stored::scan(dir, None)?.index())
+    Ok(Stored::scan(dir, None, None, Check::Summaries)?.index())
+}
+
+/// `path` itself when it is not a symbolic link (or does not exist); an error naming it when it
+/// is one: the work directory's own paths are never followed through links (clearing `tmp/`
+/// through one would empty the folder it points to).
+fn no_link(path: &Path) -> Result<PathBuf> {
+    match fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => Err(Error::Other(format!(
+            "{} is a symbolic link; chainsweep does not follow links inside a work directory (remove it, and the work directory is used as it is)",
+            path.display()
+        ))),
+        _ => Ok(path.to_path_buf()),
+    }
+}
+
+/// The published output file of a locked work directory, held while borrowed.
+pub struct PublishedGuard<'a> {
+    st: MutexGuard<'a, State>,
+}
+
+impl std::ops::Deref for PublishedGuard<'_> {
+    type Target = PublishedFile;
+    fn deref(&self) -> &PublishedFile {
+        self.st
+            .stored
+            .published
+            .as_ref()
+            .expect("checked when made")
+    }
 }
 
 /// The log this process appends to.
@@ -418,7 +425,7 @@ struct State {
 }
 
 /// What a compaction did.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Compaction {
     /// Records kept (moved into one log).
     pub kept: usize,
@@ -426,6 +433,8 @@ pub struct Compaction {
     pub published: usize,
     /// Records of runs not needed, removed.
     pub removed: usize,
+    /// Those runs, by hash, and whether each succeeded.
+    pub removed_runs: Vec<(RunHash, bool)>,
     /// Files removed (logs and segments).
     pub files_removed: usize,
 }
@@ -484,10 +493,13 @@ fn write_atomic(tmp: &Path, dest: &Path, bytes: &[u8]) -> Result<()> {
     fsync_dir(dest.parent().expect("a file in a directory"))
 }
 
+/// Most bytes of a lock file read to name its holder (a pid).
+const LOCK_READ_BYTES: u64 = 64;
+
 /// Takes the lock of the work directory `dir` of `output`; an error naming the holder's pid when
 /// another process has it.
 fn take_lock(dir: &Path, output: &Path) -> Result<File> {
-    let lock_path = dir.join("lock");
+    let lock_path = no_link(&dir.join("lock"))?;
     let mut lock = OpenOptions::new()
         .read(true)
         .write(true)
@@ -499,8 +511,11 @@ fn take_lock(dir: &Path, output: &Path) -> Result<File> {
         .try_lock_exclusive()
         .map_err(Error::io("lock", &lock_path))?;
     if !got {
+        // The holder's pid: a few bytes (never read a damaged, huge lock file whole).
         let mut holder = String::new();
-        let _ = lock.read_to_string(&mut holder);
+        let _ = Read::by_ref(&mut lock)
+            .take(LOCK_READ_BYTES)
+            .read_to_string(&mut holder);
         let holder = holder.trim();
         return Err(Error::Locked {
             output: output.to_path_buf(),
@@ -517,28 +532,35 @@ fn take_lock(dir: &Path, output: &Path) -> Result<File> {
 
 impl WorkDir {
     /// Creates (if needed) and locks the work directory of `output`, clears its `tmp/`, and finds
-    /// what it (and `output`) holds. One-file segments of an earlier version, and more than
+    /// what it (and `output`, every value checked) holds; `known`: the caller's grid (see
+    /// [`PublishedFile::open`]). One-file segments of an earlier version, and more than
     /// [`MAX_LOGS`] logs, are moved into one log. Fails with a clear message when another
-    /// process holds the lock.
-    pub fn open(output: &Path) -> Result<WorkDir> {
+    /// process holds the lock, or when a path of the work directory is a symbolic link.
+    pub fn open(output: &Path, known: Option<&Grid>) -> Result<WorkDir> {
         let dir = work_dir_of(output);
-        fs::create_dir_all(dir.join(LOG_DIR)).map_err(Error::io("create", &dir))?;
-        fs::create_dir_all(dir.join("tmp")).map_err(Error::io("create", &dir))?;
+        let logs = no_link(&dir.join(LOG_DIR))?;
+        let tmp = no_link(&dir.join("tmp"))?;
+        fs::create_dir_all(&logs).map_err(Error::io("create", &dir))?;
+        fs::create_dir_all(&tmp).map_err(Error::io("create", &dir))?;
         let lock_file = take_lock(&dir, output)?;
         // Nobody else can be writing: leftovers in tmp/ are from a process that died, and so are
-        // empty logs (a process that stored nothing).
-        let tmp = dir.join("tmp");
+        // empty logs (a process that stored nothing). (Checked again under the lock: `tmp/` is
+        // never emptied through a link.)
+        let tmp = no_link(&tmp)?;
         for entry in fs::read_dir(&tmp).map_err(Error::io("list", &tmp))? {
-            let _ = fs::remove_file(entry.map_err(Error::io("list", &tmp))?.path());
+            let entry = entry.map_err(Error::io("list", &tmp))?;
+            if entry.file_type().is_ok_and(|t| !t.is_dir()) {
+                let _ = fs::remove_file(entry.path());
+            }
         }
-        for entry in list_dir(&dir.join(LOG_DIR))? {
+        for entry in list_dir(&logs)? {
             let empty = entry.metadata().map(|m| m.is_file() && m.len() == 0);
             let named = entry.file_name().to_str().and_then(log_seq).is_some();
             if named && empty.unwrap_or(false) {
                 let _ = fs::remove_file(entry.path());
             }
         }
-        let stored = Stored::scan(&dir, Some(output))?;
+        let stored = Stored::scan(&dir, Some(output), known, Check::Everything)?;
         let work = WorkDir {
             output: output.to_path_buf(),
             dir,
@@ -554,7 +576,7 @@ impl WorkDir {
             (st.stored.segments, st.stored.logs.len())
         };
         if segments > 0 || logs > MAX_LOGS {
-            work.compact(&|_| true, false)?;
+            work.compact(&|_| true, false, false)?;
         }
         Ok(work)
     }
@@ -641,6 +663,19 @@ impl WorkDir {
         lock(&self.state).stored.read(hash)
     }
 
+    /// What was found damaged in the output file and its snapshot when the work directory was
+    /// opened (or since last published).
+    pub fn damage(&self) -> Damage {
+        lock(&self.state).stored.damage.clone()
+    }
+
+    /// The published output file as opened (or last re-read), when there is one.
+    pub fn published_file(&self) -> Option<PublishedGuard<'_>> {
+        let st = lock(&self.state);
+        st.stored.published.as_ref()?;
+        Some(PublishedGuard { st })
+    }
+
     /// What the scan at [`WorkDir::open`] left out (not regular files), and how many records it
     /// found torn or corrupt.
     pub fn scan_notes(&self) -> (Vec<PathBuf>, usize) {
@@ -653,12 +688,30 @@ impl WorkDir {
         lock(&self.state).stored.files()
     }
 
-    /// Replaces the output file by the finished file at `tmp` (fsync, rename, fsync of the directory).
-    pub fn publish(&self, tmp: &Path) -> Result<()> {
+    /// Replaces the output file by the finished file at `tmp`, which holds the runs `holds`
+    /// names, with its snapshot `snapshot`. No run is dropped: every run the current output file
+    /// gives back that the new one does not hold (a point an edited sweep no longer has) is
+    /// appended to the log first. An output file that could not be read at all is kept in
+    /// `damaged/` (a hard link, or a copy). Then the snapshot and the file are renamed into place,
+    /// each written, synced and its directory synced: each is always its previous complete
+    /// version or the new one.
+    pub fn publish(
+        &self,
+        tmp: &Path,
+        snapshot: &[u8],
+        holds: &dyn Fn(&RunHash) -> bool,
+    ) -> Result<()> {
+        self.keep_runs_not_held(holds)?;
         {
             let f = File::open(tmp).map_err(Error::io("open", tmp))?;
             f.sync_all().map_err(Error::io("sync", tmp))?;
         }
+        self.keep_unreadable_output()?;
+        write_atomic(
+            &self.tmp_path("snapshot"),
+            &self.dir.join(SNAPSHOT_FILE),
+            snapshot,
+        )?;
         fs::rename(tmp, &self.output).map_err(Error::rename(tmp, &self.output))?;
         let parent = match self.output.parent() {
             Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
@@ -667,20 +720,72 @@ impl WorkDir {
         fsync_dir(&parent)
     }
 
+    /// Appends to the log (and syncs) every run that only the published output file (or its
+    /// snapshot) holds and `holds` does not name.
+    fn keep_runs_not_held(&self, holds: &dyn Fn(&RunHash) -> bool) -> Result<()> {
+        let records: Vec<RunRecord> = {
+            let st = lock(&self.state);
+            let Some(p) = &st.stored.published else {
+                return Ok(());
+            };
+            p.runs()
+                .map(|(h, _, _)| h)
+                .filter(|h| {
+                    !holds(h) && matches!(st.stored.entries.get(*h), Some(Loc::Published { .. }))
+                })
+                .filter_map(|h| p.read(h))
+                .collect()
+        };
+        if records.is_empty() {
+            return Ok(());
+        }
+        for rec in &records {
+            self.write_segment(rec)?;
+        }
+        self.sync()
+    }
+
+    /// Keeps an output file that could not be read at all in `damaged/`, once: before a new one
+    /// replaces it, whatever it still holds stays for a closer look (`gc` removes it).
+    fn keep_unreadable_output(&self) -> Result<()> {
+        let mut st = lock(&self.state);
+        if st.stored.damage.file.is_none() || !self.output.is_file() {
+            return Ok(());
+        }
+        let dir = no_link(&self.dir.join(DAMAGED_DIR))?;
+        fs::create_dir_all(&dir).map_err(Error::io("create", &dir))?;
+        let name = self
+            .output
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "output.h5".into());
+        let stamp = hdf5::utc_now().replace(':', "");
+        let dest = (0..)
+            .map(|k| dir.join(format!("{stamp}-{k}-{name}")))
+            .find(|d| !d.exists())
+            .expect("a free name");
+        if fs::hard_link(&self.output, &dest).is_err() {
+            fs::copy(&self.output, &dest).map_err(Error::io("copy to", &dest))?;
+        }
+        fsync_dir(&dir)?;
+        st.stored.damage.file = None;
+        Ok(())
+    }
+
     /// After a complete output file was published: reads which runs it holds, and keeps beside
-    /// it only the records it does not hold that `needed` says the sweep needs (its verification
-    /// runs), in one log. The records it holds are read back from it from now on; records of
-    /// runs not needed (orphans of an edited sweep) are removed. `grid`: the grid the file was
-    /// just assembled from (used to read its records back when its run hashes are the file's).
-    pub fn compact_after_publish(
-        &self,
-        grid: &Grid,
-        needed: &dyn Fn(&RunHash) -> bool,
-    ) -> Result<Compaction> {
+    /// it only the records it does not hold, in one log (verification runs, and orphans of an
+    /// edited sweep, which only `gc` removes). The records it holds are read back from it from
+    /// now on. `grid`: the grid the file was just assembled from (used to read its records back
+    /// when its run hashes are the file's).
+    pub fn compact_after_publish(&self, grid: &Grid) -> Result<Compaction> {
         {
             let mut st = lock(&self.state);
             let stored = &mut st.stored;
-            let Some(p) = PublishedFile::open_with(&self.output, Some(grid)) else {
+            // Just written from checked records: its summaries are checked again (a disk that
+            // changed them since is caught), its histories at the next open.
+            let p = PublishedFile::open(&self.output, Some(grid), Check::Summaries)
+                .filter(|p| p.damage.file.is_none() && p.damage.lost.is_empty());
+            let Some(p) = p else {
                 return Err(Error::Other(format!(
                     "{}: the output file just published cannot be read back",
                     self.output.display()
@@ -689,29 +794,32 @@ impl WorkDir {
             stored
                 .entries
                 .retain(|_, l| !matches!(l, Loc::Published { .. }));
-            for (h, &(point, ok)) in &p.points {
-                stored
-                    .entries
-                    .entry(*h)
-                    .or_insert(Loc::Published { point, ok });
+            for (h, _, ok) in p.runs() {
+                stored.entries.entry(*h).or_insert(Loc::Published { ok });
             }
-            stored.published = Some(Mutex::new(p));
+            stored.damage = p.damage.clone();
+            stored.published = Some(p);
         }
-        self.compact(needed, true)
+        self.compact(&|_| true, true, false)
     }
 
     /// Removes the records of runs that `needed` does not name (`chainsweep gc`): orphans of an
-    /// edited sweep. The output file is left as it is.
-    pub fn prune(&self, needed: &dyn Fn(&RunHash) -> bool) -> Result<Compaction> {
-        self.compact(needed, false)
+    /// edited sweep; with `dry_run`, only says which. The output file is left as it is.
+    pub fn prune(&self, needed: &dyn Fn(&RunHash) -> bool, dry_run: bool) -> Result<Compaction> {
+        self.compact(needed, false, dry_run)
     }
 
     /// Rewrites every record in a log or segment that `keep` names, and (with `drop_published`)
     /// that the published output file does not hold with the same outcome, into one new log;
     /// then removes the other logs and segments. Crash-safe: the new log is written to `tmp/`,
     /// synced and renamed into place before anything is removed, and holds only records that
-    /// were already stored.
-    fn compact(&self, keep: &dyn Fn(&RunHash) -> bool, drop_published: bool) -> Result<Compaction> {
+    /// were already stored. With `dry_run`, only reports what it would remove.
+    fn compact(
+        &self,
+        keep: &dyn Fn(&RunHash) -> bool,
+        drop_published: bool,
+        dry_run: bool,
+    ) -> Result<Compaction> {
         let mut st = lock(&self.state);
         let State { stored, writer } = &mut *st;
         let mut report = Compaction::default();
@@ -724,18 +832,20 @@ impl WorkDir {
             let in_file = stored
                 .published
                 .as_ref()
-                .and_then(|p| lock(p).points.get(h).copied());
-            if drop_published && in_file.map(|(_, ok)| ok) == Some(loc.ok()) {
+                .and_then(|p| p.holds(h).then(|| p.read(h).map(|r| r.ok)).flatten());
+            if drop_published && in_file == Some(loc.ok()) {
                 report.published += 1;
                 gone.push(*h);
             } else if keep(h) {
                 moved.push((*h, loc));
             } else {
                 report.removed += 1;
+                report.removed_runs.push((*h, loc.ok()));
                 gone.push(*h);
             }
         }
-        if gone.is_empty() && stored.segments == 0 && stored.logs.len() <= 1 {
+        report.removed_runs.sort();
+        if dry_run || (gone.is_empty() && stored.segments == 0 && stored.logs.len() <= 1) {
             return Ok(report);
         }
         // In the order stored (sequential reads).
@@ -820,11 +930,8 @@ impl WorkDir {
         stored.entries.extend(new_entries);
         // Runs whose log record went but the output file holds: read from it.
         if let Some(p) = &stored.published {
-            for (h, &(point, ok)) in &lock(p).points {
-                stored
-                    .entries
-                    .entry(*h)
-                    .or_insert(Loc::Published { point, ok });
+            for (h, _, ok) in p.runs() {
+                stored.entries.entry(*h).or_insert(Loc::Published { ok });
             }
         }
         Ok(report)

@@ -40,13 +40,19 @@ pub const DEFLATE_LEVEL: u8 = 4;
 /// Largest chunk of a history dataset, in samples.
 pub const HISTORY_CHUNK: usize = 16384;
 
-/// Version of the file layout, the `layout_version` root attribute. Version 2: run groups named
+/// Version of the file layout, the `layout_version` root attribute. Version 3: every value is
+/// checked. Per point, `summary_checksum` covers every stored value and `history_checksum` the
+/// run's group ([`crate::record::columns::Table::point_checksum`]); the root attribute
+/// `header_checksum` covers the attributes that say what the file is ([`header_checksum`]);
+/// numeric datasets are chunked with HDF5's Fletcher-32 filter, so that any reader (h5py, xarray)
+/// raises rather than returns a damaged chunk; and the file is written in HDF5's 1.10 format,
+/// whose metadata (superblock, object headers, chunk indexes) HDF5 checksums itself. Version 2: run groups named
 /// `runs/run_<flat index>` (valid netCDF names, the same whatever the grid's size), one dimension
 /// scale per dimension named like it (zipped axes: coordinates on it), `_FillValue` on every
 /// numeric summary, a `contact` scale for minimum overlaps. Files without the attribute are
 /// version 1: run groups `runs/<flat index>` zero-padded to the width of the largest index. The
 /// runs stored are the same in both (this is no numerics version): `merge` reads either.
-pub const LAYOUT_VERSION: i64 = 2;
+pub const LAYOUT_VERSION: i64 = 3;
 
 /// The `NAME` netCDF-4 gives the dimension scale of a dimension that has no variable (followed
 /// by the dimension's length, right-aligned in 10 characters); h5netcdf and netCDF-C read a scale
@@ -102,6 +108,149 @@ fn attach_scale(data: &Dataset, scale: &Dataset, dim: usize, label: &str) -> Res
     Ok(())
 }
 
+/// The text of a stored string, decoded checked: invalid UTF-8 (a damaged byte) becomes U+FFFD
+/// (the checksums covering the string then report the damage), never undefined behaviour.
+pub(crate) fn text_of(v: &VarLenUnicode) -> String {
+    String::from_utf8_lossy(v.as_bytes()).into_owned()
+}
+
+/// Largest chunk of a summary or coordinate dataset, bytes: a damaged byte makes HDF5's
+/// Fletcher-32 check fail for its whole chunk in a reader that checks (h5py, xarray), and small
+/// chunks keep what such a reader loses small, while larger ones cost fewer chunk-index entries.
+pub const SUMMARY_CHUNK_BYTES: usize = 1 << 16;
+
+/// The chunk shape of a dataset of `shape` whose elements take `item` bytes: the trailing
+/// dimensions whole while the chunk stays within [`SUMMARY_CHUNK_BYTES`], then as much of the
+/// next one as fits (at least one).
+pub fn chunk_shape(shape: &[usize], item: usize) -> Vec<usize> {
+    let mut chunk = vec![1; shape.len()];
+    let mut bytes = item.max(1);
+    for d in (0..shape.len()).rev() {
+        let n = shape[d].max(1);
+        if bytes * n <= SUMMARY_CHUNK_BYTES {
+            chunk[d] = n;
+            bytes *= n;
+        } else {
+            chunk[d] = (SUMMARY_CHUNK_BYTES / bytes).clamp(1, n);
+            break;
+        }
+    }
+    chunk
+}
+
+/// A numeric dataset holding `data`, chunked ([`chunk_shape`]) with the Fletcher-32 filter.
+pub(crate) fn checked_dataset<T: H5Type>(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[T],
+) -> Result<Dataset> {
+    let d = group
+        .new_dataset::<T>()
+        .chunk(chunk_shape(shape, std::mem::size_of::<T>()))
+        .fletcher32()
+        .shape(shape.to_vec())
+        .create(name)?;
+    if !data.is_empty() {
+        d.write_raw(data)?;
+    }
+    Ok(d)
+}
+
+/// [`checked_dataset`] whose HDF5 fill value is `fill`, with the same value as its `_FillValue`
+/// attribute (of the dataset's own type, as netCDF wants it), by which xarray masks it.
+pub(crate) fn filled_checked_dataset<T: H5Type + Copy + Into<hdf5::types::OwnedDynValue>>(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[T],
+    fill: T,
+) -> Result<Dataset> {
+    let d = group
+        .new_dataset::<T>()
+        .chunk(chunk_shape(shape, std::mem::size_of::<T>()))
+        .fletcher32()
+        .fill_value(fill)
+        .shape(shape.to_vec())
+        .create(name)?;
+    if !data.is_empty() {
+        d.write_raw(data)?;
+    }
+    attr_scalar(&d, "_FillValue", fill)?;
+    Ok(d)
+}
+
+/// The checksum of what says what a file is (the `header_checksum` root attribute): its sweep
+/// file's text, its shard (`K/N`), its dimensions (the `dimensions` JSON) and grid shape, and
+/// what `integrator: auto` chose (the `auto` JSON; empty without). Coordinates and probes are
+/// functions of the sweep text, checked against it.
+pub fn header_checksum(
+    sweep_text: &str,
+    shard: &str,
+    dimensions: &str,
+    grid_shape: &[i64],
+    auto: &str,
+) -> u64 {
+    crate::identity::checksum64(|h| {
+        use sha2::Digest;
+        h.update(b"chainsweep header checksum v1\n");
+        for (name, text) in [
+            ("sweep", sweep_text),
+            ("shard", shard),
+            ("dimensions", dimensions),
+            ("auto", auto),
+        ] {
+            h.update(name.as_bytes());
+            h.update((text.len() as u64).to_le_bytes());
+            h.update(text.as_bytes());
+        }
+        h.update(b"grid_shape");
+        for x in grid_shape {
+            h.update(x.to_le_bytes());
+        }
+    })
+}
+
+/// Reads every element of a numeric dataset without HDF5's error-detection check (Fletcher-32):
+/// a damaged chunk then reads as it is stored, and the per-point checksums say which of its
+/// points are damaged, rather than HDF5 refusing the whole chunk.
+pub(crate) fn read_unchecked<T: H5Type + Copy + Default>(d: &Dataset) -> Result<Vec<T>> {
+    use hdf5_sys::h5d::H5Dread;
+    use hdf5_sys::h5p::{H5Pclose, H5Pcreate, H5Pset_edc_check};
+    use hdf5_sys::h5s::H5S_ALL;
+    use hdf5_sys::h5z::H5Z_EDC_t;
+    let n = d.size();
+    let mut buf = vec![T::default(); n];
+    let mem = hdf5::Datatype::from_type::<T>()?;
+    // SAFETY: `d.id()` and `mem.id()` are open ids (borrowed for the call); `buf` holds exactly
+    // the dataset's `n` elements of the memory type `T` (H5S_ALL selects them all, and HDF5
+    // converts to `mem`, `T`'s own type); the property list is created and closed here; all under
+    // hdf5-metno's global lock, as every call into the library must be.
+    let r = hdf5::sync::sync(|| unsafe {
+        let xfer = H5Pcreate(*hdf5::globals::H5P_DATASET_XFER);
+        if xfer < 0 {
+            return -1;
+        }
+        let mut r = H5Pset_edc_check(xfer, H5Z_EDC_t::H5Z_DISABLE_EDC);
+        if r >= 0 && n > 0 {
+            r = H5Dread(
+                d.id(),
+                mem.id(),
+                H5S_ALL,
+                H5S_ALL,
+                xfer,
+                buf.as_mut_ptr().cast(),
+            );
+        }
+        H5Pclose(xfer);
+        r
+    });
+    if r < 0 {
+        return Err(Error::Other(format!("reading dataset {} failed", d.name())));
+    }
+    Ok(buf)
+}
+
 pub(crate) fn vlen(s: &str) -> Result<VarLenUnicode> {
     s.replace('\0', "\u{FFFD}")
         .parse::<VarLenUnicode>()
@@ -140,27 +289,6 @@ pub(crate) fn dataset<T: H5Type>(
     if !data.is_empty() {
         d.write_raw(data)?;
     }
-    Ok(d)
-}
-
-/// A dataset whose HDF5 fill value is `fill`, with the same value as its `_FillValue` attribute
-/// (of the dataset's own type, as netCDF wants it).
-pub(crate) fn filled_dataset<T: H5Type + Copy + Into<hdf5::types::OwnedDynValue>>(
-    group: &Group,
-    name: &str,
-    shape: &[usize],
-    data: &[T],
-    fill: T,
-) -> Result<Dataset> {
-    let d = group
-        .new_dataset::<T>()
-        .fill_value(fill)
-        .shape(shape.to_vec())
-        .create(name)?;
-    if !data.is_empty() {
-        d.write_raw(data)?;
-    }
-    attr_scalar(&d, "_FillValue", fill)?;
     Ok(d)
 }
 
@@ -270,7 +398,7 @@ pub fn run_group_name_in(layout: i64, grid_len: usize, index: usize) -> String {
 
 fn read_attr_str(loc: &Location, name: &str) -> Result<String> {
     let v: VarLenUnicode = loc.attr(name)?.read_scalar()?;
-    Ok(v.as_str().to_string())
+    Ok(text_of(&v))
 }
 
 /// Reads what `integrator: auto` chose from an output file's `auto` attribute (`None` when the
@@ -305,7 +433,7 @@ pub fn is_hdf5(path: &Path) -> bool {
 pub fn read_sweep_text(path: &Path) -> Result<String> {
     File::open(path)
         .and_then(|f| f.attr("sweep")?.read_scalar::<VarLenUnicode>())
-        .map(|v| v.as_str().to_string())
+        .map(|v| text_of(&v))
         .map_err(|e| Error::from(e).hdf5_context(|| format!("reading {}", path.display())))
 }
 

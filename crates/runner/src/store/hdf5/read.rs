@@ -1,22 +1,47 @@
-//! The reader: an output file's records read back (for `merge` and `status`), column by column
-//! as [`COLUMNS`] defines them.
+//! The reader: an output file's records read back (for resume, `merge` and `status`), column by
+//! column as [`COLUMNS`] defines them, every point checked against its checksum.
+//!
+//! A damaged file is read as far as it can be: a column HDF5 cannot read, or a point whose values
+//! do not match its `summary_checksum`, damages only the points concerned
+//! ([`FileRecords::damage`]), each with the reason; the others are served as stored. Only a file
+//! whose points cannot be told apart (no readable `status` or `run_hash`) fails to open. Numeric
+//! columns are read without HDF5's Fletcher-32 check, so that a damaged chunk costs the points
+//! whose checksums fail, not every point of the chunk.
 
 use std::path::Path;
 
-use chainsweep_solver::probes::{History, ProbeSummary};
+use chainsweep_solver::probes::History;
 use hdf5::types::VarLenUnicode;
 use hdf5::File;
 
-use super::{read_attr_str, run_group_name_in, LAYOUT_VERSION};
+use super::write::{coord_of, Coord};
+use super::{
+    header_checksum, read_attr_str, read_unchecked, run_group_name_in, text_of, LAYOUT_VERSION,
+};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::identity::RunHash;
-use crate::record::columns::{ColumnData, Dtype, Fill, Written, COLUMNS};
-use crate::record::{RunRecord, VerifyInfo, STATUS_FAILED, STATUS_PENDING, VERIFY_NONE, VERIFY_OK};
+use crate::identity::{hex, RunHash};
+use crate::record::columns::{history_checksum, ColumnData, Dtype, Table, COLUMNS};
+use crate::record::{RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use crate::sweep::Sweep;
+
+/// The first layout whose files carry checksums.
+pub const CHECKED_LAYOUT: i64 = 3;
+
+/// A point of a file, read back.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PointRead {
+    /// Not run (or not in this file's shard).
+    Pending,
+    /// A finished run (ok or failed), its stored values checked.
+    Run(Box<RunRecord>),
+    /// Its stored values cannot be trusted: why.
+    Damaged(String),
+}
 
 /// A sweep file's records read back from an HDF5 file.
 pub struct FileRecords {
-    /// The `sweep` root attribute (the sweep file's text).
+    /// The `sweep` root attribute (the sweep file's text; empty when it cannot be read).
     pub sweep_text: String,
     /// The `verify_fraction` root attribute (0 in files without it).
     pub verify_fraction: f64,
@@ -24,31 +49,50 @@ pub struct FileRecords {
     pub shard: String,
     /// The `layout_version` root attribute (1 in files without it).
     pub layout_version: i64,
+    /// What is wrong with the attributes that say what the file is (its sweep, shard, shape):
+    /// they do not match their checksum, or cannot be read. Its points may still be sound: a
+    /// caller that knows the sweep checks them by their run hashes.
+    pub header_damage: Option<String>,
     file: File,
-    /// Every column of [`COLUMNS`] the file has, in the table's order.
-    columns: Vec<Option<ColumnData>>,
-    status: Vec<u8>,
-    n: usize,
+    /// Every summary column the file has.
+    table: Table,
+    /// Columns HDF5 could not read, with the error.
+    unreadable: Vec<(&'static str, String)>,
+    /// Per point: why its values cannot be trusted.
+    damage: Vec<Option<String>>,
 }
 
 fn read_column(file: &File, name: &str, dtype: Dtype) -> Result<ColumnData> {
     let d = file.dataset(name)?;
     Ok(match dtype {
-        Dtype::F64 => ColumnData::F64(d.read_raw()?),
-        Dtype::I64 => ColumnData::I64(d.read_raw()?),
-        Dtype::U8 => ColumnData::U8(d.read_raw()?),
-        Dtype::Str => ColumnData::Str(
-            d.read_raw::<VarLenUnicode>()?
-                .iter()
-                .map(|s| s.as_str().to_string())
-                .collect(),
-        ),
+        Dtype::F64 => ColumnData::F64(read_unchecked(&d)?),
+        Dtype::I64 => ColumnData::I64(read_unchecked(&d)?),
+        Dtype::U8 => ColumnData::U8(read_unchecked(&d)?),
+        Dtype::U64 => ColumnData::U64(read_unchecked(&d)?),
+        Dtype::Str => ColumnData::Str(d.read_raw::<VarLenUnicode>()?.iter().map(text_of).collect()),
     })
 }
 
+fn column_len(d: &ColumnData) -> usize {
+    match d {
+        ColumnData::F64(v) => v.len(),
+        ColumnData::I64(v) => v.len(),
+        ColumnData::U8(v) => v.len(),
+        ColumnData::U64(v) => v.len(),
+        ColumnData::Str(v) => v.len(),
+    }
+}
+
+/// An HDF5 error as a reader reports it: the library's message without its error stack.
+fn brief(e: &Error) -> String {
+    let t = e.to_string();
+    t.lines().next().unwrap_or("").to_string()
+}
+
 impl FileRecords {
-    /// Opens a file and reads its columns (a required column missing is an error; the others
-    /// read as their fill).
+    /// Opens a file and reads and checks its columns. An error only when HDF5 cannot open it or
+    /// its points cannot be told apart (`status` or `run_hash` unreadable); other damage is kept
+    /// per point ([`FileRecords::damage`]) and in [`FileRecords::header_damage`].
     pub fn open(path: &Path) -> Result<FileRecords> {
         FileRecords::read(path)
             .map_err(|e| e.hdf5_context(|| format!("reading {}", path.display())))
@@ -56,9 +100,8 @@ impl FileRecords {
 
     fn read(path: &Path) -> Result<FileRecords> {
         let file = File::open(path)?;
-        let has_attr =
-            |name: &str| -> Result<bool> { Ok(file.attr_names()?.iter().any(|a| a == name)) };
-        let layout_version = if has_attr("layout_version")? {
+        let has_attr = |name: &str| file.attr_names().is_ok_and(|a| a.iter().any(|x| x == name));
+        let layout_version = if has_attr("layout_version") {
             file.attr("layout_version")?.read_scalar::<i64>()?
         } else {
             1
@@ -68,162 +111,354 @@ impl FileRecords {
                 "the file has layout version {layout_version}, this chainsweep reads versions up to {LAYOUT_VERSION}: it was made by a newer chainsweep"
             )));
         }
-        let sweep_text = read_attr_str(&file, "sweep")?;
-        let shard = read_attr_str(&file, "shard")?;
+        let mut header_damage = None;
+        let mut attr = |name: &str| match read_attr_str(&file, name) {
+            Ok(t) => t,
+            Err(e) => {
+                header_damage.get_or_insert(format!(
+                    "its `{name}` attribute cannot be read ({})",
+                    brief(&e)
+                ));
+                String::new()
+            }
+        };
+        let sweep_text = attr("sweep");
+        let shard = attr("shard");
+        let verify_fraction = if has_attr("verify_fraction") {
+            file.attr("verify_fraction")
+                .and_then(|a| a.read_scalar::<f64>())
+                .unwrap_or(f64::NAN)
+        } else {
+            0.0
+        };
+        let mut unreadable = Vec::new();
         let mut columns = Vec::with_capacity(COLUMNS.len());
         for c in COLUMNS {
             columns.push(if c.required || file.link_exists(c.name) {
-                Some(read_column(&file, c.name, c.dtype)?)
+                match read_column(&file, c.name, c.dtype) {
+                    Ok(d) => Some(d),
+                    Err(e) => {
+                        unreadable.push((c.name, brief(&e)));
+                        None
+                    }
+                }
             } else {
                 None
             });
         }
-        let status = match column_data(&columns, "status") {
-            Some(ColumnData::U8(s)) => s.clone(),
-            _ => unreachable!("status is a required u8 column"),
+        let at = |name: &str| {
+            COLUMNS
+                .iter()
+                .position(|c| c.name == name)
+                .expect("a column")
         };
-        let verify_fraction = if has_attr("verify_fraction")? {
-            file.attr("verify_fraction")?.read_scalar::<f64>()?
-        } else {
-            0.0
+        let n = match (&columns[at("status")], &columns[at("run_hash")]) {
+            (Some(s), Some(h)) if column_len(s) == column_len(h) => column_len(s),
+            _ => {
+                let why = unreadable
+                    .iter()
+                    .map(|(name, e)| format!("`{name}`: {e}"))
+                    .collect::<Vec<_>>()
+                    .join("; ");
+                return Err(Error::Other(format!(
+                    "its points cannot be told apart: the `status` and `run_hash` datasets cannot be read ({why})"
+                )));
+            }
         };
-        Ok(FileRecords {
+        // Probes: the width of the per-probe columns.
+        let np = COLUMNS
+            .iter()
+            .zip(&columns)
+            .find_map(|(c, d)| d.as_ref().filter(|_| c.per_probe).map(column_len))
+            .map_or(0, |len| len.checked_div(n).unwrap_or(0));
+        // A column of the wrong length is damaged (its shape was): left out, like an unreadable one.
+        for (c, d) in COLUMNS.iter().zip(columns.iter_mut()) {
+            let want = if c.per_probe { n * np } else { n };
+            if d.as_ref().is_some_and(|d| column_len(d) != want) {
+                unreadable.push((c.name, "holds the wrong number of values".to_string()));
+                *d = None;
+            }
+        }
+        let table = Table { n, np, columns };
+        let has_auto = has_attr("auto");
+        let mut recs = FileRecords {
             sweep_text,
             verify_fraction,
             shard,
             layout_version,
+            header_damage,
             file,
-            n: status.len(),
-            status,
-            columns,
-        })
+            table,
+            unreadable,
+            damage: vec![None; n],
+        };
+        recs.check_points(has_auto);
+        Ok(recs)
+    }
+
+    /// Finds every damaged point: a status outside the known codes, and (layout 3 and later) a
+    /// point whose values do not match its `summary_checksum`; checks the header.
+    fn check_points(&mut self, has_auto: bool) {
+        let unreadable = self
+            .unreadable
+            .iter()
+            .map(|(name, e)| format!("`{name}` cannot be read: {e}"))
+            .collect::<Vec<_>>()
+            .join("; ");
+        let checked = self.layout_version >= CHECKED_LAYOUT;
+        for i in 0..self.table.n {
+            let st = self.table.status(i);
+            let why = if ![STATUS_PENDING, STATUS_OK, STATUS_FAILED].contains(&st) {
+                Some(format!(
+                    "its status code {st} is none of 0 (pending), 1 (ok), 2 (failed)"
+                ))
+            } else if checked
+                && self.table.point_checksum(i) != self.table.checksum_at("summary_checksum", i)
+            {
+                Some(if unreadable.is_empty() {
+                    "its stored values do not match their checksum (summary_checksum)".to_string()
+                } else {
+                    unreadable.clone()
+                })
+            } else {
+                None
+            };
+            self.damage[i] = why;
+        }
+        if checked && self.header_damage.is_none() {
+            let read = || -> Result<(String, Vec<i64>, String, u64)> {
+                let dims = read_attr_str(&self.file, "dimensions")?;
+                let shape = self.file.attr("grid_shape")?.read_raw::<i64>()?;
+                let auto = if has_auto {
+                    read_attr_str(&self.file, "auto")?
+                } else {
+                    String::new()
+                };
+                let sum = self.file.attr("header_checksum")?.read_scalar::<u64>()?;
+                Ok((dims, shape, auto, sum))
+            };
+            self.header_damage = match read() {
+                Err(e) => Some(format!("its header cannot be read ({})", brief(&e))),
+                Ok((dims, shape, auto, sum)) => (header_checksum(
+                    &self.sweep_text,
+                    &self.shard,
+                    &dims,
+                    &shape,
+                    &auto,
+                ) != sum)
+                    .then(|| {
+                        "its header (sweep, shard, dimensions, shape) does not match its checksum (header_checksum)"
+                            .to_string()
+                    }),
+            };
+        }
+    }
+
+    /// Whether the file carries checksums (layout 3 and later): its values are verified.
+    pub fn checked(&self) -> bool {
+        self.layout_version >= CHECKED_LAYOUT
     }
 
     /// Number of grid points in the file.
     pub fn len(&self) -> usize {
-        self.n
+        self.table.n
     }
 
     /// Whether the file has no grid points.
     pub fn is_empty(&self) -> bool {
-        self.n == 0
+        self.table.n == 0
+    }
+
+    /// Probes per point.
+    pub fn probes(&self) -> usize {
+        self.table.np
+    }
+
+    /// The summary columns as read.
+    pub fn table(&self) -> &Table {
+        &self.table
     }
 
     /// Status code of point `i` ([`crate::record::STATUS_OK`], [`STATUS_FAILED`] or
-    /// [`STATUS_PENDING`]).
+    /// [`STATUS_PENDING`]; a damaged point may hold any other).
     pub fn status(&self, i: usize) -> u8 {
-        self.status[i]
+        self.table.status(i)
+    }
+
+    /// Why point `i`'s summaries cannot be trusted (`None`: they match their checksum, or the
+    /// file has none).
+    pub fn damage(&self, i: usize) -> Option<&str> {
+        self.damage[i].as_deref()
+    }
+
+    /// The points whose summaries cannot be trusted, with why.
+    pub fn damaged(&self) -> impl Iterator<Item = (usize, &str)> + '_ {
+        self.damage
+            .iter()
+            .enumerate()
+            .filter_map(|(i, d)| d.as_deref().map(|d| (i, d)))
     }
 
     /// Why point `i` failed (empty unless it did).
     pub fn reason(&self, i: usize) -> &str {
-        self.str_at("reason", i)
+        self.table.str_at("reason", i)
     }
 
     /// Run hash (hex) stored for point `i`.
     pub fn hash_hex(&self, i: usize) -> &str {
-        self.str_at("run_hash", i)
+        self.table.str_at("run_hash", i)
     }
 
-    fn str_at(&self, name: &str, i: usize) -> &str {
-        match column_data(&self.columns, name) {
-            Some(ColumnData::Str(v)) => &v[i],
-            _ => unreachable!("{name} is a required string column"),
+    /// The verification outcome stored for point `i`.
+    pub fn verify_info(&self, i: usize) -> VerifyInfo {
+        self.table.verify_info(i)
+    }
+
+    /// Point `i` read back under the run hash `hash` (the one the file stores there): its record
+    /// with its run group, checked; `Damaged` when its summaries or its run group are damaged.
+    /// `grid`: the file's grid (for what its runs record).
+    pub fn record(&self, i: usize, hash: RunHash, grid: &Grid) -> PointRead {
+        if let Some(why) = &self.damage[i] {
+            return PointRead::Damaged(why.clone());
         }
+        let whole_chain = (!grid.moving_part).then(|| u64::from(grid.particles[i]));
+        let Some(mut rec) = self.table.record(i, hash, whole_chain) else {
+            return PointRead::Pending;
+        };
+        if rec.ok && (grid.history || grid.min_overlap) {
+            match self.read_group(i, grid, self.table.checksum_at("history_checksum", i)) {
+                Ok((history, min_overlap)) => {
+                    rec.history = history;
+                    rec.min_overlap_m = min_overlap;
+                }
+                Err(why) => return PointRead::Damaged(why),
+            }
+        }
+        PointRead::Run(Box::new(rec))
     }
 
-    /// The verification outcome stored for point `i` (`np` probes).
-    pub fn verify_info(&self, i: usize, np: usize) -> VerifyInfo {
-        let status = match column_data(&self.columns, "verified") {
-            Some(ColumnData::U8(v)) => v[i],
-            _ => VERIFY_NONE,
+    /// Histories and minimum overlaps of point `i` from its group under `runs/`, checked against
+    /// `checksum` (its `history_checksum`, or the snapshot's) in files that carry checksums; why
+    /// not when they cannot be read or do not match.
+    pub fn read_group(
+        &self,
+        i: usize,
+        grid: &Grid,
+        checksum: u64,
+    ) -> std::result::Result<(Option<History>, Option<Vec<f64>>), String> {
+        let name = run_group_name_in(self.layout_version, grid.len(), i);
+        let path = format!("runs/{name}");
+        let read = || -> Result<(Option<History>, Option<Vec<f64>>)> {
+            let g = self.file.group(&path)?;
+            let history = if grid.history {
+                let time_s = g.dataset("time_s")?.read_raw::<f64>()?;
+                let mut values = Vec::with_capacity(grid.probes.len());
+                for p in &grid.probes {
+                    values.push(g.dataset(&p.name())?.read_raw::<f64>()?);
+                }
+                Some(History { time_s, values })
+            } else {
+                None
+            };
+            let min_overlap = if grid.min_overlap {
+                Some(g.dataset("min_overlap_m")?.read_raw::<f64>()?)
+            } else {
+                None
+            };
+            Ok((history, min_overlap))
         };
-        let mut errors = vec![[f64::NAN; 3]; np];
-        let per_probe: Vec<(usize, &Vec<f64>)> = COLUMNS
-            .iter()
-            .zip(&self.columns)
-            .filter_map(|(c, data)| match (c.fill, data) {
-                (Fill::VerifyProbe(k), Some(ColumnData::F64(v))) => Some((k, v)),
-                _ => None,
-            })
-            .collect();
-        if status == VERIFY_OK && per_probe.len() == 3 {
-            for (p, e) in errors.iter_mut().enumerate() {
-                for &(k, v) in &per_probe {
-                    e[k] = v[i * np + p];
+        let (history, min_overlap) =
+            read().map_err(|e| format!("its group {path} cannot be read ({})", brief(&e)))?;
+        if self.checked() && history_checksum(history.as_ref(), min_overlap.as_deref()) != checksum
+        {
+            return Err(format!(
+                "its group {path} (histories, minimum overlaps) does not match its checksum (history_checksum)"
+            ));
+        }
+        Ok((history, min_overlap))
+    }
+
+    /// The `auto` root attribute (what `integrator: auto` chose, JSON), when the file has one.
+    pub fn auto_text(&self) -> Option<String> {
+        let has = self
+            .file
+            .attr_names()
+            .is_ok_and(|a| a.iter().any(|x| x == "auto"));
+        has.then(|| read_attr_str(&self.file, "auto").ok())
+            .flatten()
+    }
+
+    /// What is wrong with the coordinates and probes of the file against those of its sweep
+    /// (`sweep`, `grid`: the file's, from its checked sweep text): each axis's values and the probe
+    /// names and units are functions of the sweep, so a coordinate that differs is damaged.
+    pub fn coordinate_damage(&self, sweep: &Sweep, grid: &Grid) -> Vec<String> {
+        let mut out = Vec::new();
+        for dim in &sweep.dims {
+            for axis in &dim.axes {
+                let same = (|| -> Result<bool> {
+                    let d = self.file.dataset(&axis.name)?;
+                    Ok(match coord_of(&axis.values) {
+                        Coord::F64(v) => {
+                            read_unchecked::<f64>(&d)?
+                                .iter()
+                                .zip(&v)
+                                .all(|(a, b)| a.to_bits() == b.to_bits())
+                                && d.size() == v.len()
+                        }
+                        Coord::I64(v) => read_unchecked::<i64>(&d)? == v,
+                        Coord::Bool(v) => {
+                            read_unchecked::<u8>(&d)?
+                                == v.iter().map(|&b| b as u8).collect::<Vec<_>>()
+                        }
+                        Coord::Str(v) => {
+                            d.read_raw::<VarLenUnicode>()?
+                                .iter()
+                                .map(text_of)
+                                .collect::<Vec<_>>()
+                                == v
+                        }
+                    })
+                })();
+                match same {
+                    Ok(true) => {}
+                    Ok(false) => out.push(format!(
+                        "the coordinate `{}` does not hold the values its sweep gives it",
+                        axis.name
+                    )),
+                    Err(e) => out.push(format!(
+                        "the coordinate `{}` cannot be read ({})",
+                        axis.name,
+                        brief(&e)
+                    )),
                 }
             }
         }
-        VerifyInfo { status, errors }
-    }
-
-    /// The record of point `i`, or `None` if it is pending in this file.
-    pub fn record(&self, i: usize, hash: RunHash, grid: &Grid) -> Result<Option<RunRecord>> {
-        let st = self.status[i];
-        if st == STATUS_PENDING {
-            return Ok(None);
-        }
-        let np = grid.probes.len();
-        let mut rec = RunRecord::failed(hash, String::new(), f64::NAN);
-        if st != STATUS_FAILED {
-            rec.ok = true;
-            rec.probes = vec![
-                ProbeSummary {
-                    leading_peak: f64::NAN,
-                    leading_peak_time_s: f64::NAN,
-                    record_max: f64::NAN,
-                    record_max_time_s: f64::NAN,
-                };
-                np
-            ];
-        }
-        // A column the file lacks leaves the value of a failed run's record (NaN, 0, empty).
-        for (c, data) in COLUMNS.iter().zip(&self.columns) {
-            if let Some(d) = data {
-                c.restore(d, i, np, &mut rec);
+        if !grid.probes.is_empty() {
+            let names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
+            let units: Vec<String> = grid.probes.iter().map(|p| p.unit().to_string()).collect();
+            for (name, want) in [("probe", names), ("probe_units", units)] {
+                let got = self
+                    .file
+                    .dataset(name)
+                    .and_then(|d| d.read_raw::<VarLenUnicode>())
+                    .map(|v| v.iter().map(text_of).collect::<Vec<_>>());
+                match got {
+                    Ok(v) if v == want => {}
+                    Ok(_) => out.push(format!(
+                        "the coordinate `{name}` does not hold the probes of its sweep"
+                    )),
+                    Err(e) => out.push(format!(
+                        "the coordinate `{name}` cannot be read ({})",
+                        brief(&Error::from(e))
+                    )),
+                }
             }
         }
-        // Files of grids where no point integrates only its moving part leave out how much each
-        // run integrated: its whole chain, whichever version ran it. (A file of a grid where some
-        // point does, without the columns, was written before they existed: not known.)
-        let has_moving_part = COLUMNS
-            .iter()
-            .zip(&self.columns)
-            .any(|(c, d)| c.written == Written::WithMovingPart && d.is_some());
-        if rec.ok && !has_moving_part && !grid.moving_part {
-            rec.moving_part = Some(false);
-            rec.integrated_particles = Some(u64::from(grid.particles[i]));
-        }
-        if rec.ok && (grid.history || grid.min_overlap) {
-            self.read_run_group(i, grid, &mut rec)?;
-        }
-        Ok(Some(rec))
+        out
     }
 
-    /// Histories and minimum overlaps of point `i` from its group under `runs/`.
-    fn read_run_group(&self, i: usize, grid: &Grid, rec: &mut RunRecord) -> Result<()> {
-        let name = run_group_name_in(self.layout_version, grid.len(), i);
-        let g = self.file.group(&format!("runs/{name}"))?;
-        if grid.history {
-            let time_s = g.dataset("time_s")?.read_raw::<f64>()?;
-            let mut values = Vec::with_capacity(grid.probes.len());
-            for p in &grid.probes {
-                values.push(g.dataset(&p.name())?.read_raw::<f64>()?);
-            }
-            rec.history = Some(History { time_s, values });
-        }
-        if grid.min_overlap {
-            rec.min_overlap_m = Some(g.dataset("min_overlap_m")?.read_raw::<f64>()?);
-        }
-        Ok(())
+    /// Whether point `i` holds the run hash `hash`.
+    pub fn holds(&self, i: usize, hash: &RunHash) -> bool {
+        self.hash_hex(i) == hex(hash)
     }
-}
-
-/// The data of column `name` among `columns` (in [`COLUMNS`] order), if the file has it.
-fn column_data<'a>(columns: &'a [Option<ColumnData>], name: &str) -> Option<&'a ColumnData> {
-    let at = COLUMNS
-        .iter()
-        .position(|c| c.name == name)
-        .expect("a column of the table");
-    columns[at].as_ref()
 }

@@ -10,24 +10,43 @@ use hdf5::{Dataset, File, Group};
 use serde_json::Value;
 
 use super::{
-    attach_scale, attr_scalar, attr_str, attr_vec, dataset, filled_dataset, run_group_name,
-    set_scale, str_dataset, Counts, Provenance, DEFLATE_LEVEL, HISTORY_CHUNK, LAYOUT_VERSION,
-    NETCDF_DIM_ONLY,
+    attach_scale, attr_scalar, attr_str, attr_vec, checked_dataset, filled_checked_dataset,
+    header_checksum, run_group_name, set_scale, str_dataset, Counts, Provenance, DEFLATE_LEVEL,
+    HISTORY_CHUNK, LAYOUT_VERSION, NETCDF_DIM_ONLY,
 };
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid, Shard};
 use crate::identity::{hex, TIGHTENING};
 use crate::record::columns::{
-    Column, ColumnData, FillValue, PointOutcome, Units, Written, COLUMNS,
+    Column, ColumnData, FillValue, PointOutcome, Presence, Table, Units, COLUMNS,
 };
 use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
-/// Writes the HDF5 file of a sweep to `path` from the records `get(index)` returns for the points
-/// in `points` (others are pending), in grid order, with the verification outcome
-/// `get_verify(index, record)` of each finished point. `shard` and `verify_fraction` (0 when
-/// `--verify` was not given) are recorded as attributes.
+/// What a written file holds: the counts of its points, and its summary columns (every point's
+/// values and checksums, as a reader reads them back).
+pub struct Written {
+    /// The state of the points.
+    pub counts: Counts,
+    /// Every summary column of the file, in memory.
+    pub table: Table,
+}
+
+/// The columns a file of `grid` has.
+pub fn presence(grid: &Grid) -> Presence {
+    Presence {
+        probes: grid.probes.len(),
+        moving_part: grid.moving_part,
+        run_groups: grid.history || grid.min_overlap,
+    }
+}
+
+/// Writes the HDF5 file of a sweep to `path` from the records `get(index)` returns for every grid
+/// point (`None`: pending), in grid order, with the verification outcome `get_verify(index,
+/// record)` of each finished point. `points` are the points of this run (its shard): the counts
+/// are theirs. `shard` and `verify_fraction` (0 when `--verify` was not given) are recorded as
+/// attributes.
 #[allow(clippy::too_many_arguments)]
 pub fn write_file(
     path: &Path,
@@ -39,9 +58,18 @@ pub fn write_file(
     verify_fraction: f64,
     get: impl FnMut(usize) -> Result<Option<RunRecord>>,
     get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
-) -> Result<Counts> {
-    let write = move || -> Result<Counts> {
+) -> Result<Written> {
+    let write = move || -> Result<Written> {
+        // HDF5's 1.10 format: the library checksums its own metadata (superblock, object
+        // headers, chunk indexes), so damage to it is an error, never a misread. (HDF5 1.10
+        // readers, netCDF-C and h5py read it.)
         let file = File::with_options()
+            .with_fapl(|p| {
+                p.libver_bounds(
+                    hdf5::file::LibraryVersion::V110,
+                    hdf5::file::LibraryVersion::V110,
+                )
+            })
             .with_fcpl(|p| p.obj_track_times(false))
             .create(path)?;
         write_sweep_attrs(&file, sweep, grid, shard, prov)?;
@@ -52,18 +80,37 @@ pub fn write_file(
         };
         let table = fill_columns(sweep, grid, points, runs.as_ref(), get, get_verify)?;
         write_outcome_attrs(&file, points, &table, verify_fraction)?;
-        if let Some(c) = &sweep.auto_choice {
-            write_auto_attrs(&file, c)?;
-        }
+        let auto = match &sweep.auto_choice {
+            Some(c) => {
+                write_auto_attrs(&file, c)?;
+                c.to_json()
+            }
+            None => String::new(),
+        };
+        let (dims_json, shape) = header_values(sweep, grid);
+        attr_scalar(
+            &file,
+            "header_checksum",
+            header_checksum(
+                &sweep.text,
+                &shard.unwrap_or(Shard { k: 1, n: 1 }).to_string(),
+                &dims_json,
+                &shape,
+                &auto,
+            ),
+        )?;
         let dims = write_coordinates(&file, sweep)?;
         let probe_scale = write_probe_scale(&file, grid)?;
-        write_columns(&file, grid, &table.columns, &dims, probe_scale.as_ref())?;
+        write_columns(&file, &table.table, &dims, probe_scale.as_ref())?;
         file.flush()?;
         drop(dims);
         drop(probe_scale);
         drop(runs);
         file.close()?;
-        Ok(table.counts)
+        Ok(Written {
+            counts: table.counts,
+            table: table.table,
+        })
     };
     write().map_err(|e| e.hdf5_context(|| format!("writing {}", path.display())))
 }
@@ -93,14 +140,9 @@ fn write_sweep_attrs(
     attr_str(file, "command_line", &prov.command_line)?;
     let shard = shard.unwrap_or(Shard { k: 1, n: 1 });
     attr_str(file, "shard", &shard.to_string())?;
-    let dims: Vec<&str> = sweep.dims.iter().map(|d| d.name.as_str()).collect();
-    attr_str(
-        file,
-        "dimensions",
-        &serde_json::to_string(&dims).expect("json"),
-    )?;
-    let shape_i: Vec<i64> = grid.shape.iter().map(|&x| x as i64).collect();
-    attr_vec(file, "grid_shape", &shape_i)?;
+    let (dims, shape) = header_values(sweep, grid);
+    attr_str(file, "dimensions", &dims)?;
+    attr_vec(file, "grid_shape", &shape)?;
     attr_scalar(
         file,
         "energy_drift_limit",
@@ -109,9 +151,16 @@ fn write_sweep_attrs(
     Ok(())
 }
 
+/// The `dimensions` (JSON list of names) and `grid_shape` root attributes of a file of `grid`.
+pub fn header_values(sweep: &Sweep, grid: &Grid) -> (String, Vec<i64>) {
+    let dims: Vec<&str> = sweep.dims.iter().map(|d| d.name.as_str()).collect();
+    let shape: Vec<i64> = grid.shape.iter().map(|&x| x as i64).collect();
+    (serde_json::to_string(&dims).expect("json"), shape)
+}
+
 /// Every column's values, and the counts of the points.
-struct Table {
-    columns: Vec<ColumnData>,
+struct Filled {
+    table: Table,
     counts: Counts,
     n_verified: usize,
 }
@@ -125,10 +174,9 @@ fn fill_columns(
     runs: Option<&Group>,
     mut get: impl FnMut(usize) -> Result<Option<RunRecord>>,
     mut get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
-) -> Result<Table> {
+) -> Result<Filled> {
     let n = grid.len();
-    let np = grid.probes.len();
-    let mut columns: Vec<ColumnData> = COLUMNS.iter().map(|c| c.empty(n, np)).collect();
+    let mut table = Table::empty(n, presence(grid));
     let mut counts = Counts::default();
     let mut n_verified = 0;
     let mut in_points = vec![false; n];
@@ -137,7 +185,7 @@ fn fill_columns(
     }
     for (i, &in_run) in in_points.iter().enumerate() {
         let hash_hex = hex(&grid.hashes[i]);
-        let record = if in_run { get(i)? } else { None };
+        let record = get(i)?;
         if in_run && record.is_none() {
             counts.pending += 1;
         }
@@ -155,23 +203,21 @@ fn fill_columns(
             record: record.as_ref(),
             verify: verify.as_ref(),
         };
-        for (c, data) in COLUMNS.iter().zip(&mut columns) {
-            c.fill_point(data, i, np, &outcome);
-        }
+        table.fill_point(i, &outcome);
         n_verified += verify.as_ref().is_some_and(|v| v.status == VERIFY_OK) as usize;
         match &record {
             Some(rec) if rec.ok => {
-                counts.ok += 1;
+                counts.ok += usize::from(in_run);
                 if let Some(runs) = runs {
                     write_run_group(runs, grid, sweep, i, rec)?;
                 }
             }
-            Some(_) => counts.failed += 1,
+            Some(_) => counts.failed += usize::from(in_run),
             None => {}
         }
     }
-    Ok(Table {
-        columns,
+    Ok(Filled {
+        table,
         counts,
         n_verified,
     })
@@ -181,7 +227,7 @@ fn fill_columns(
 fn write_outcome_attrs(
     file: &File,
     points: &[usize],
-    table: &Table,
+    table: &Filled,
     verify_fraction: f64,
 ) -> Result<()> {
     attr_scalar(file, "n_runs", points.len() as i64)?;
@@ -228,14 +274,14 @@ fn write_auto_attrs(file: &File, c: &AutoChoice) -> Result<()> {
 }
 
 /// Values of one coordinate, typed for HDF5.
-enum Coord {
+pub(super) enum Coord {
     F64(Vec<f64>),
     I64(Vec<i64>),
     Bool(Vec<bool>),
     Str(Vec<String>),
 }
 
-fn coord_of(values: &[Value]) -> Coord {
+pub(super) fn coord_of(values: &[Value]) -> Coord {
     if values.iter().all(|v| v.is_i64()) {
         Coord::I64(values.iter().map(|v| v.as_i64().expect("i64")).collect())
     } else if values.iter().all(|v| v.is_number()) {
@@ -259,15 +305,16 @@ fn coord_of(values: &[Value]) -> Coord {
 struct DimScale {
     scale: Dataset,
     name: String,
+    len: usize,
     others: Vec<String>,
 }
 
 fn write_axis(file: &File, name: &str, values: &[Value]) -> Result<Dataset> {
     let shape = [values.len()];
     match coord_of(values) {
-        Coord::F64(v) => dataset(file, name, &shape, &v),
-        Coord::I64(v) => dataset(file, name, &shape, &v),
-        Coord::Bool(v) => dataset(file, name, &shape, &v),
+        Coord::F64(v) => checked_dataset(file, name, &shape, &v),
+        Coord::I64(v) => checked_dataset(file, name, &shape, &v),
+        Coord::Bool(v) => checked_dataset(file, name, &shape, &v),
         Coord::Str(v) => str_dataset(file, name, &shape, &v),
     }
 }
@@ -310,6 +357,7 @@ fn write_coordinates(file: &File, sweep: &Sweep) -> Result<Vec<DimScale>> {
         dims.push(DimScale {
             scale,
             name: dim.name.clone(),
+            len: dim.len(),
             others: axes.iter().map(|(_, name)| name.to_string()).collect(),
         });
     }
@@ -345,20 +393,19 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<(Dataset, Vec<St
 /// its `coordinates` attribute.
 fn write_columns(
     file: &File,
-    grid: &Grid,
-    columns: &[ColumnData],
+    table: &Table,
     dims: &[DimScale],
     probe_scale: Option<&(Dataset, Vec<String>)>,
 ) -> Result<()> {
-    let shape = grid.shape.clone();
+    let shape: Vec<usize> = dims.iter().map(|d| d.len).collect();
     let others: Vec<&str> = dims
         .iter()
         .flat_map(|d| d.others.iter().map(String::as_str))
         .collect();
-    for (c, data) in COLUMNS.iter().zip(columns) {
-        if c.written == Written::WithMovingPart && !grid.moving_part {
+    for (c, data) in COLUMNS.iter().zip(&table.columns) {
+        let Some(data) = data else {
             continue;
-        }
+        };
         let d = if c.per_probe {
             let Some((pscale, units)) = probe_scale else {
                 continue;
@@ -396,14 +443,15 @@ fn write_column(
 ) -> Result<Dataset> {
     let d = match (data, c.fill_value()) {
         (ColumnData::F64(v), Some(FillValue::F64(fill))) => {
-            filled_dataset(file, c.name, shape, v, fill)?
+            filled_checked_dataset(file, c.name, shape, v, fill)?
         }
         (ColumnData::I64(v), Some(FillValue::I64(fill))) => {
-            filled_dataset(file, c.name, shape, v, fill)?
+            filled_checked_dataset(file, c.name, shape, v, fill)?
         }
-        (ColumnData::F64(v), _) => dataset(file, c.name, shape, v)?,
-        (ColumnData::I64(v), _) => dataset(file, c.name, shape, v)?,
-        (ColumnData::U8(v), _) => dataset(file, c.name, shape, v)?,
+        (ColumnData::F64(v), _) => checked_dataset(file, c.name, shape, v)?,
+        (ColumnData::I64(v), _) => checked_dataset(file, c.name, shape, v)?,
+        (ColumnData::U8(v), _) => checked_dataset(file, c.name, shape, v)?,
+        (ColumnData::U64(v), _) => checked_dataset(file, c.name, shape, v)?,
         (ColumnData::Str(v), _) => str_dataset(file, c.name, shape, v)?,
     };
     if let Some((values, meanings)) = c.flags {
@@ -444,6 +492,7 @@ fn write_history_series(g: &Group, name: &str, data: &[f64], units: &str) -> Res
         .chunk(n.clamp(1, HISTORY_CHUNK))
         .shuffle()
         .deflate(DEFLATE_LEVEL)
+        .fletcher32()
         .shape(n)
         .create(name)?;
     if n > 0 {
@@ -497,14 +546,14 @@ fn write_run_group(
     }
     if let Some(m) = &rec.min_overlap_m {
         let contacts: Vec<i64> = (1..=m.len() as i64).collect();
-        let c = dataset(&g, "contact", &[m.len()], &contacts)?;
+        let c = checked_dataset(&g, "contact", &[m.len()], &contacts)?;
         attr_str(
             &c,
             "long_name",
             "contact j, between particles j and j+1 (the last one: the wall)",
         )?;
         set_scale(&c, "contact")?;
-        let d = dataset(&g, "min_overlap_m", &[m.len()], m)?;
+        let d = checked_dataset(&g, "min_overlap_m", &[m.len()], m)?;
         attach_scale(&d, &c, 0, "contact")?;
         attr_str(&d, "units", "m")?;
         attr_str(

@@ -1,0 +1,544 @@
+//! The snapshot: a compact, checksummed second copy of the summaries the published output file
+//! holds, `X.h5.d/snapshot`, written with every publish of `X.h5`.
+//!
+//! Once a sweep is complete its logs are compacted, and `X.h5` holds the only full copy of its
+//! runs. When a damaged byte, a truncation or a lost superblock makes runs of `X.h5` unreadable,
+//! the snapshot gives their summaries back, checked, without running them again; a run whose
+//! histories were lost with it (they are kept in `X.h5` only, as they are most of its size) is
+//! run again. The snapshot holds the file's summary columns ([`COLUMNS`], without the run hash
+//! and the point checksum) in blocks of [`BLOCK_POINTS`] points, each column byte-shuffled and the
+//! block deflate-compressed; each point is named by the first 8 bytes of its run hash. On the
+//! paper's summary sweeps it takes about a quarter of the output file's size.
+//!
+//! Format (little endian):
+//!
+//! ```text
+//! magic "CSWSNAP\0" | version u32
+//! sections, each: kind u8 | length u64 | payload (deflate) | SHA-256 of kind, length, payload
+//!   kind 1, header: JSON (Header)
+//!   kind 2, block: start u64 | count u64 | run-hash prefix u64 × count (0: pending) | columns
+//!     a number column: its values' bytes shuffled (every value's byte 0, then byte 1, …);
+//!     a string column: per value, length u32 | UTF-8
+//! ```
+//!
+//! A section whose checksum fails is skipped: its points are not in the snapshot.
+
+use std::collections::HashMap;
+use std::io::{Read, Write};
+
+use flate2::read::DeflateDecoder;
+use flate2::write::DeflateEncoder;
+use flate2::Compression;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use crate::identity::RunHash;
+use crate::record::columns::{ColumnData, Fill, Presence, Table, COLUMNS};
+use crate::record::{RunRecord, STATUS_PENDING};
+
+/// The snapshot's file name in a work directory.
+pub const SNAPSHOT_FILE: &str = "snapshot";
+
+const MAGIC: &[u8; 8] = b"CSWSNAP\0";
+const VERSION: u32 = 1;
+const KIND_HEADER: u8 = 1;
+const KIND_BLOCK: u8 = 2;
+
+/// Points per block: the unit a damaged byte of the snapshot costs.
+pub const BLOCK_POINTS: usize = 4096;
+
+/// What the snapshot is a copy of.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// The output file's layout version.
+    pub layout_version: i64,
+    /// Grid points.
+    pub points: usize,
+    /// Probes per point.
+    pub probes: usize,
+    /// Whether the grid has the moving-part columns.
+    pub moving_part: bool,
+    /// Whether runs have a group under `runs/` (histories, minimum overlaps): those are not in
+    /// the snapshot.
+    pub run_groups: bool,
+    /// The sweep file's text.
+    pub sweep: String,
+    /// What `integrator: auto` chose (JSON; empty without).
+    pub auto: String,
+    /// The shard (`K/N`).
+    pub shard: String,
+    /// When the output file it copies was written.
+    pub created_utc: String,
+}
+
+impl Header {
+    fn presence(&self) -> Presence {
+        Presence {
+            probes: self.probes,
+            moving_part: self.moving_part,
+            run_groups: self.run_groups,
+        }
+    }
+}
+
+/// The run-hash prefix naming a point in a snapshot.
+fn prefix(hash: &RunHash) -> u64 {
+    u64::from_le_bytes(hash[..8].try_into().expect("8 bytes"))
+}
+
+/// Whether a column is kept in the snapshot: not the run hash (its prefix names the point) nor
+/// the point checksum (recomputed from the values when a file is written again).
+fn kept(fill: Fill) -> bool {
+    !matches!(fill, Fill::RunHash | Fill::SummaryChecksum)
+}
+
+fn section(out: &mut Vec<u8>, kind: u8, raw: &[u8]) {
+    let mut enc = DeflateEncoder::new(Vec::new(), Compression::new(3));
+    enc.write_all(raw).expect("writing to memory");
+    let payload = enc.finish().expect("writing to memory");
+    let start = out.len();
+    out.push(kind);
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&payload);
+    let sum: [u8; 32] = Sha256::digest(&out[start..]).into();
+    out.extend_from_slice(&sum);
+}
+
+fn shuffled<const K: usize>(out: &mut Vec<u8>, values: impl ExactSizeIterator<Item = [u8; K]>) {
+    let n = values.len();
+    let at = out.len();
+    out.resize(at + n * K, 0);
+    for (i, v) in values.enumerate() {
+        for (b, byte) in v.iter().enumerate() {
+            out[at + b * n + i] = *byte;
+        }
+    }
+}
+
+/// The snapshot of a file whose summary columns are `table`, whose points have the run hashes
+/// `hashes` (the grid's), described by `header`.
+pub fn encode(header: &Header, table: &Table, hashes: &[RunHash]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(64 + table.n * 64);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    section(
+        &mut out,
+        KIND_HEADER,
+        serde_json::to_string(header).expect("json").as_bytes(),
+    );
+    let mut start = 0;
+    while start < table.n {
+        let count = BLOCK_POINTS.min(table.n - start);
+        let mut raw = Vec::new();
+        raw.extend_from_slice(&(start as u64).to_le_bytes());
+        raw.extend_from_slice(&(count as u64).to_le_bytes());
+        for (i, h) in hashes.iter().enumerate().skip(start).take(count) {
+            let p = if table.status(i) == STATUS_PENDING {
+                0
+            } else {
+                prefix(h)
+            };
+            raw.extend_from_slice(&p.to_le_bytes());
+        }
+        for (c, data) in COLUMNS.iter().zip(&table.columns) {
+            let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
+                continue;
+            };
+            let k = if c.per_probe { table.np } else { 1 };
+            let range = start * k..(start + count) * k;
+            match d {
+                ColumnData::F64(v) => {
+                    shuffled(&mut raw, v[range].iter().map(|x| x.to_bits().to_le_bytes()))
+                }
+                ColumnData::I64(v) => shuffled(&mut raw, v[range].iter().map(|x| x.to_le_bytes())),
+                ColumnData::U64(v) => shuffled(&mut raw, v[range].iter().map(|x| x.to_le_bytes())),
+                ColumnData::U8(v) => raw.extend_from_slice(&v[range]),
+                ColumnData::Str(v) => {
+                    for s in &v[range] {
+                        raw.extend_from_slice(&(s.len() as u32).to_le_bytes());
+                        raw.extend_from_slice(s.as_bytes());
+                    }
+                }
+            }
+        }
+        section(&mut out, KIND_BLOCK, &raw);
+        start += count;
+    }
+    out
+}
+
+/// A snapshot read back.
+#[derive(Debug, Clone)]
+pub struct Snapshot {
+    /// What it is a copy of.
+    pub header: Header,
+    table: Table,
+    by_prefix: HashMap<u64, usize>,
+    /// Blocks whose checksum failed (their points are not in the snapshot).
+    pub damaged_blocks: usize,
+}
+
+/// Why a snapshot cannot be used at all.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Unusable(pub String);
+
+struct Sections<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+/// A section: its kind and payload, `None` when its checksum fails.
+type Section<'a> = (u8, Option<&'a [u8]>);
+
+impl<'a> Iterator for Sections<'a> {
+    type Item = Section<'a>;
+    fn next(&mut self) -> Option<Section<'a>> {
+        let rest = &self.b[self.at..];
+        if rest.len() < 9 + 32 {
+            return None;
+        }
+        let kind = rest[0];
+        let len = u64::from_le_bytes(rest[1..9].try_into().expect("8 bytes"));
+        // A damaged length: nothing after it can be found.
+        let end = usize::try_from(len)
+            .ok()
+            .and_then(|l| l.checked_add(9))
+            .filter(|&e| e.checked_add(32).is_some_and(|t| t <= rest.len()))?;
+        let sum: [u8; 32] = Sha256::digest(&rest[..end]).into();
+        self.at += end + 32;
+        let ok = sum[..] == rest[end..end + 32];
+        Some((kind, ok.then(|| &rest[9..end])))
+    }
+}
+
+/// Inflates `payload`, refusing more than `limit` bytes (a damaged stream cannot exhaust memory).
+fn inflate(payload: &[u8], limit: u64) -> Option<Vec<u8>> {
+    let mut out = Vec::new();
+    DeflateDecoder::new(payload)
+        .take(limit + 1)
+        .read_to_end(&mut out)
+        .ok()?;
+    (out.len() as u64 <= limit).then_some(out)
+}
+
+struct Cursor<'a> {
+    b: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Cursor<'a> {
+    fn take(&mut self, n: usize) -> Option<&'a [u8]> {
+        let end = self.at.checked_add(n)?;
+        let s = self.b.get(self.at..end)?;
+        self.at = end;
+        Some(s)
+    }
+    fn u64(&mut self) -> Option<u64> {
+        Some(u64::from_le_bytes(self.take(8)?.try_into().ok()?))
+    }
+    fn unshuffled<const K: usize>(&mut self, n: usize) -> Option<Vec<[u8; K]>> {
+        let bytes = self.take(n.checked_mul(K)?)?;
+        Some(
+            (0..n)
+                .map(|i| std::array::from_fn(|b| bytes[b * n + i]))
+                .collect(),
+        )
+    }
+}
+
+/// Most bytes a block inflates to: far more than any block of [`BLOCK_POINTS`] points holds
+/// (strings included), so that only a damaged stream reaches it.
+const BLOCK_LIMIT: u64 = 1 << 30;
+
+impl Snapshot {
+    /// Reads snapshot bytes; an error when they are no snapshot or its header is damaged. Damaged
+    /// blocks are skipped and counted.
+    pub fn decode(bytes: &[u8]) -> std::result::Result<Snapshot, Unusable> {
+        if bytes.len() < 12 || &bytes[..8] != MAGIC {
+            return Err(Unusable("it is not a chainsweep snapshot".into()));
+        }
+        let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+        if version != VERSION {
+            return Err(Unusable(format!(
+                "its format version {version} is not {VERSION}"
+            )));
+        }
+        let mut sections = Sections { b: bytes, at: 12 };
+        let header: Header = match sections.next() {
+            Some((KIND_HEADER, Some(p))) => inflate(p, 1 << 28)
+                .and_then(|raw| serde_json::from_slice(&raw).ok())
+                .ok_or_else(|| Unusable("its header cannot be decoded".into()))?,
+            _ => return Err(Unusable("its header is damaged".into())),
+        };
+        let mut table = Table::empty(header.points, header.presence());
+        let mut by_prefix = HashMap::new();
+        let mut damaged_blocks = 0;
+        let mut seen = 0;
+        for (kind, payload) in sections {
+            if kind != KIND_BLOCK {
+                damaged_blocks += 1;
+                continue;
+            }
+            let decoded = payload
+                .and_then(|p| inflate(p, BLOCK_LIMIT))
+                .and_then(|raw| Self::read_block(&raw, &mut table, &mut by_prefix));
+            match decoded {
+                Some(count) => seen += count,
+                None => damaged_blocks += 1,
+            }
+        }
+        // A truncated snapshot: the blocks cut off are damaged too.
+        let expected = header.points.div_ceil(BLOCK_POINTS);
+        let whole = seen.div_ceil(BLOCK_POINTS);
+        damaged_blocks = damaged_blocks.max(expected.saturating_sub(whole));
+        for (c, d) in COLUMNS.iter().zip(table.columns.iter_mut()) {
+            if !kept(c.fill) {
+                *d = None;
+            }
+        }
+        Ok(Snapshot {
+            header,
+            table,
+            by_prefix,
+            damaged_blocks,
+        })
+    }
+
+    /// Decodes one block into `table`; its point count, `None` when it is malformed (nothing of
+    /// it is then taken).
+    fn read_block(
+        raw: &[u8],
+        table: &mut Table,
+        by_prefix: &mut HashMap<u64, usize>,
+    ) -> Option<usize> {
+        let mut r = Cursor { b: raw, at: 0 };
+        let start = usize::try_from(r.u64()?).ok()?;
+        let count = usize::try_from(r.u64()?).ok()?;
+        if count > BLOCK_POINTS || start.checked_add(count)? > table.n {
+            return None;
+        }
+        let prefixes: Vec<u64> = (0..count).map(|_| r.u64()).collect::<Option<_>>()?;
+        let np = table.np;
+        // Decoded into new columns first: a block malformed halfway changes nothing.
+        let mut decoded: Vec<(usize, ColumnData)> = Vec::new();
+        for (at, (c, data)) in COLUMNS.iter().zip(&table.columns).enumerate() {
+            let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
+                continue;
+            };
+            let n = count * if c.per_probe { np } else { 1 };
+            let col = match d {
+                ColumnData::F64(_) => ColumnData::F64(
+                    r.unshuffled::<8>(n)?
+                        .into_iter()
+                        .map(|b| f64::from_bits(u64::from_le_bytes(b)))
+                        .collect(),
+                ),
+                ColumnData::I64(_) => ColumnData::I64(
+                    r.unshuffled::<8>(n)?
+                        .into_iter()
+                        .map(i64::from_le_bytes)
+                        .collect(),
+                ),
+                ColumnData::U64(_) => ColumnData::U64(
+                    r.unshuffled::<8>(n)?
+                        .into_iter()
+                        .map(u64::from_le_bytes)
+                        .collect(),
+                ),
+                ColumnData::U8(_) => ColumnData::U8(r.take(n)?.to_vec()),
+                ColumnData::Str(_) => ColumnData::Str(
+                    (0..n)
+                        .map(|_| {
+                            let len = u32::from_le_bytes(r.take(4)?.try_into().ok()?) as usize;
+                            String::from_utf8(r.take(len)?.to_vec()).ok()
+                        })
+                        .collect::<Option<_>>()?,
+                ),
+            };
+            decoded.push((at, col));
+        }
+        if r.at != raw.len() {
+            return None;
+        }
+        for (at, col) in decoded {
+            let k = if COLUMNS[at].per_probe { np } else { 1 };
+            let range = start * k..(start + count) * k;
+            match (table.columns[at].as_mut(), col) {
+                (Some(ColumnData::F64(v)), ColumnData::F64(c)) => v[range].copy_from_slice(&c),
+                (Some(ColumnData::I64(v)), ColumnData::I64(c)) => v[range].copy_from_slice(&c),
+                (Some(ColumnData::U64(v)), ColumnData::U64(c)) => v[range].copy_from_slice(&c),
+                (Some(ColumnData::U8(v)), ColumnData::U8(c)) => v[range].copy_from_slice(&c),
+                (Some(ColumnData::Str(v)), ColumnData::Str(c)) => {
+                    v[range].iter_mut().zip(c).for_each(|(a, b)| *a = b)
+                }
+                _ => unreachable!("decoded as the table's own type"),
+            }
+        }
+        for (j, p) in prefixes.into_iter().enumerate() {
+            if p != 0 && table.status(start + j) != STATUS_PENDING {
+                by_prefix.insert(p, start + j);
+            }
+        }
+        Some(count)
+    }
+
+    /// Runs the snapshot holds (ok or failed), in intact blocks.
+    pub fn len(&self) -> usize {
+        self.by_prefix.len()
+    }
+
+    /// Whether it holds no run.
+    pub fn is_empty(&self) -> bool {
+        self.by_prefix.is_empty()
+    }
+
+    /// The point holding the run `hash`, if the snapshot has it (in an intact block).
+    pub fn find(&self, hash: &RunHash) -> Option<usize> {
+        self.by_prefix.get(&prefix(hash)).copied()
+    }
+
+    /// The summaries of the run `hash` (without its run group), if the snapshot holds it;
+    /// `whole_chain` as for [`Table::record`]. With the checksum of its run group (0: none).
+    pub fn record(&self, hash: &RunHash, whole_chain: Option<u64>) -> Option<(RunRecord, u64)> {
+        let j = self.find(hash)?;
+        let rec = self.table.record(j, *hash, whole_chain)?;
+        Some((rec, self.table.checksum_at("history_checksum", j)))
+    }
+
+    /// Whether point `j` of the snapshot succeeded (`None`: not in the snapshot).
+    pub fn ok(&self, hash: &RunHash) -> Option<bool> {
+        self.find(hash)
+            .map(|j| self.table.status(j) == crate::record::STATUS_OK)
+    }
+
+    /// The verification outcome of the run `hash`, if the snapshot holds it.
+    pub fn verify_info(&self, hash: &RunHash) -> Option<crate::record::VerifyInfo> {
+        self.find(hash).map(|j| self.table.verify_info(j))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::columns::PointOutcome;
+    use crate::record::VerifyInfo;
+    use chainsweep_solver::probes::ProbeSummary;
+
+    fn header(n: usize) -> Header {
+        Header {
+            layout_version: 3,
+            points: n,
+            probes: 2,
+            moving_part: false,
+            run_groups: false,
+            sweep: "{}".into(),
+            auto: String::new(),
+            shard: "1/1".into(),
+            created_utc: "2026-01-01T00:00:00Z".into(),
+        }
+    }
+
+    /// A table of `n` points: every third pending, every fifth failed, the rest ok.
+    fn table(n: usize) -> (Table, Vec<RunHash>) {
+        let presence = Presence {
+            probes: 2,
+            moving_part: false,
+            run_groups: false,
+        };
+        let mut t = Table::empty(n, presence);
+        let hashes: Vec<RunHash> = (0..n)
+            .map(|i| {
+                let mut h = [0u8; 32];
+                h[..8].copy_from_slice(&(i as u64 * 7919 + 1).to_le_bytes());
+                h[31] = i as u8;
+                h
+            })
+            .collect();
+        for (i, hash) in hashes.iter().enumerate() {
+            let mut rec = RunRecord::failed(*hash, format!("failed {i}"), 0.5);
+            if i % 5 != 0 {
+                rec.ok = true;
+                rec.reason.clear();
+                rec.steps = i as u64;
+                rec.t_end_s = 1e-3 * i as f64;
+                rec.warnings = if i % 2 == 0 {
+                    "w".into()
+                } else {
+                    String::new()
+                };
+                rec.probes = vec![
+                    ProbeSummary {
+                        leading_peak: i as f64,
+                        leading_peak_time_s: 2.0,
+                        record_max: 3.0,
+                        record_max_time_s: f64::NAN,
+                    };
+                    2
+                ];
+            }
+            let verify = VerifyInfo::none(2);
+            let hex = crate::identity::hex(hash);
+            let pending = i % 3 == 0;
+            t.fill_point(
+                i,
+                &PointOutcome {
+                    hash_hex: &hex,
+                    record: (!pending).then_some(&rec),
+                    verify: (!pending).then_some(&verify),
+                },
+            );
+        }
+        (t, hashes)
+    }
+
+    #[test]
+    fn a_snapshot_gives_back_every_finished_run_bitwise() {
+        let n = 2 * BLOCK_POINTS + 17;
+        let (t, hashes) = table(n);
+        let bytes = encode(&header(n), &t, &hashes);
+        let s = Snapshot::decode(&bytes).unwrap();
+        assert_eq!(s.header, header(n));
+        assert_eq!(s.damaged_blocks, 0);
+        for (i, h) in hashes.iter().enumerate() {
+            let want = t.record(i, *h, Some(12));
+            let got = s.record(h, Some(12)).map(|(r, _)| r);
+            assert_eq!(
+                want.as_ref().map(crate::store::segment::encode),
+                got.as_ref().map(crate::store::segment::encode),
+                "point {i}"
+            );
+        }
+        assert_eq!(s.len(), (0..n).filter(|i| i % 3 != 0).count());
+    }
+
+    #[test]
+    fn a_damaged_block_costs_its_points_only() {
+        let n = 3 * BLOCK_POINTS;
+        let (t, hashes) = table(n);
+        let mut bytes = encode(&header(n), &t, &hashes);
+        // A byte in the middle of the file: inside the second block (the header is short).
+        let at = bytes.len() / 2;
+        bytes[at] ^= 0x10;
+        let s = Snapshot::decode(&bytes).unwrap();
+        assert_eq!(s.damaged_blocks, 1);
+        let held: Vec<usize> = (0..n).filter(|&i| s.find(&hashes[i]).is_some()).collect();
+        assert!(held.iter().all(|&i| i % 3 != 0));
+        let lost = (0..n).filter(|&i| i % 3 != 0).count() - held.len();
+        assert!(lost > 0 && lost <= BLOCK_POINTS, "{lost}");
+        // Every run it still gives is the original.
+        for &i in &held {
+            let (r, _) = s.record(&hashes[i], None).unwrap();
+            let want = t.record(i, hashes[i], None).unwrap();
+            let enc = crate::store::segment::encode;
+            assert_eq!(enc(&r), enc(&want));
+        }
+        // Truncated: the blocks cut off are gone, the others stay.
+        let cut = Snapshot::decode(&bytes[..bytes.len() - 100]).unwrap();
+        assert_eq!(cut.damaged_blocks, 2);
+        // A damaged header: unusable, said so.
+        let mut bad = encode(&header(n), &t, &hashes);
+        bad[20] ^= 1;
+        assert!(Snapshot::decode(&bad).is_err());
+        assert!(Snapshot::decode(b"CSWSEG\x00\x03").is_err());
+    }
+}
