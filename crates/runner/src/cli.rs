@@ -315,14 +315,20 @@ fn parse_shard(s: Option<&str>) -> Result<Option<Shard>> {
 /// The longest `--progress-interval`, s (a day).
 const MAX_PROGRESS_INTERVAL_S: f64 = 24.0 * 3600.0;
 
+/// [`engine::load`], showing the progress of a large grid's expansion on stderr.
+fn load(file: &Path, quiet: bool) -> Result<(crate::sweep::Sweep, crate::grid::Grid)> {
+    let shown = crate::progress::GridProgress::new(quiet);
+    engine::load_showing(file, &|done, total| shown.show(done, total))
+}
+
 fn cmd_validate(file: &Path) -> Result<i32> {
-    let (sweep, grid) = engine::load(file)?;
+    let (sweep, grid) = load(file, false)?;
     show::validated(file, &sweep, &grid)?;
     Ok(EXIT_OK)
 }
 
 fn cmd_run(args: &RunArgs) -> Result<i32> {
-    let (mut sweep, mut grid) = engine::load(&args.file)?;
+    let (mut sweep, mut grid) = load(&args.file, args.quiet)?;
     let shard = parse_shard(args.shard.as_deref())?;
     let fraction = args.verify.unwrap_or(0.0);
     let jobs = args.jobs.unwrap_or_else(engine::default_jobs);
@@ -452,7 +458,7 @@ fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -
             exit_for(&s.counts)
         });
     }
-    let (sweep, grid) = engine::load(file)?;
+    let (sweep, grid) = load(file, false)?;
     let shard = parse_shard(shard)?;
     let output = output.unwrap_or_else(|| engine::default_output(file, shard));
     let (s, sweep, grid) = status::of_sweep(sweep, grid, output, shard)?;
@@ -475,7 +481,7 @@ fn looks_like_output(file: &Path) -> bool {
 }
 
 fn cmd_gc(file: &Path, output: Option<PathBuf>, dry_run: bool) -> Result<i32> {
-    let (sweep, grid) = engine::load(file)?;
+    let (sweep, grid) = load(file, false)?;
     let output = output.unwrap_or_else(|| engine::default_output(file, None));
     let r = engine::gc::collect(sweep, grid, &output, dry_run)?;
     show::gc(&output, &r);

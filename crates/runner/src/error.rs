@@ -209,6 +209,16 @@ impl From<hdf5::Error> for Error {
 /// Result with the runner's [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// A number as an error message shows it: plain, or in scientific notation when huge or tiny
+/// (`1e308`, not 309 digits).
+pub fn number_text(x: f64) -> String {
+    if x != 0.0 && !(1e-4..1e9).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

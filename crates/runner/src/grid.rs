@@ -10,7 +10,7 @@ use chainsweep_solver::{Probe, Scene};
 
 use crate::error::{Error, Result};
 use crate::identity::{run_hash_with, RunHash};
-use crate::sweep::{from_value_at, set_path, split_path, Sweep};
+use crate::sweep::{from_ref_at, from_value_at, set_path, split_path, Sweep};
 
 /// The expanded grid of a sweep.
 #[derive(Debug, Clone)]
@@ -96,10 +96,40 @@ fn locate(sweep: &Sweep, shape: &[usize], index: usize, field: &str, message: &s
     )
 }
 
+/// Points a worker expands at a time (and between two calls of the progress callback).
+const CHUNK_POINTS: usize = 4096;
+
+/// What the points of one chunk add to the grid beside their hashes and particle counts.
+#[derive(Default)]
+struct ChunkInfo {
+    max_history_samples: usize,
+    max_contacts: usize,
+    moving_part: bool,
+    warnings: Vec<(usize, Vec<String>)>,
+    warned_points: usize,
+}
+
+/// What every point must share with the first: the record block (one layout for the arrays).
+struct Record<'a> {
+    probes: &'a [Probe],
+    history: bool,
+    min_overlap: bool,
+}
+
 impl Grid {
     /// Expands and validates every point of the sweep: an invalid point is an input error naming
-    /// the field and the axis value that made it.
+    /// the field and the axis value that made it (the first such point in grid order).
     pub fn new(sweep: &Sweep) -> Result<Grid> {
+        Grid::expand(sweep, &|_| {})
+    }
+
+    /// [`Grid::new`], calling `progress` with the number of points expanded so far every few
+    /// thousand points (from the worker threads). The points are expanded in parallel on rayon's
+    /// global pool, in chunks; the grid is the same as a sequential expansion's, whatever the
+    /// threads (every value is computed per point, and a chunk's findings are merged in order).
+    pub fn expand(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> Result<Grid> {
+        use rayon::prelude::*;
+        use std::sync::atomic::{AtomicUsize, Ordering};
         let shape = sweep.shape();
         let n = shape.iter().try_fold(1usize, |acc, &x| acc.checked_mul(x));
         let n = match n {
@@ -108,7 +138,12 @@ impl Grid {
                 return Err(Error::input(
                     "axes",
                     format!(
-                        "the grid {shape:?} has more than {} points",
+                        "the grid {} has more than {} points",
+                        shape
+                            .iter()
+                            .map(|x| x.to_string())
+                            .collect::<Vec<_>>()
+                            .join(" × "),
                         crate::sweep::MAX_GRID_POINTS
                     ),
                 ))
@@ -116,62 +151,137 @@ impl Grid {
         };
         let mut grid = Grid {
             shape,
-            hashes: Vec::with_capacity(n),
+            hashes: vec![[0; 32]; n],
             probes: Vec::new(),
             history: false,
             min_overlap: false,
             max_history_samples: 0,
             max_contacts: 0,
             moving_part: false,
-            particles: Vec::with_capacity(n),
+            particles: vec![0; n],
             warnings: Vec::new(),
             warned_points: 0,
         };
-        for i in 0..n {
-            let scene = grid.build(sweep, i)?;
-            let chain = scene
-                .validate()
-                .map_err(|e| locate(sweep, &grid.shape, i, &e.field, &e.message))?;
-            if i == 0 {
-                grid.probes = scene.record.probes.clone();
-                grid.history = scene.record.history;
-                grid.min_overlap = scene.record.min_overlap;
-            } else if scene.record.probes != grid.probes
-                || scene.record.history != grid.history
-                || scene.record.min_overlap != grid.min_overlap
-            {
-                return Err(locate(
-                    sweep,
-                    &grid.shape,
-                    i,
-                    "record",
-                    "must be the same at every grid point (probes, history, min_overlap): the stored arrays share one layout",
-                ));
+        // The first point sets the record block every point must share.
+        let first = grid.build(sweep, 0)?;
+        grid.probes = first.record.probes.clone();
+        grid.history = first.record.history;
+        grid.min_overlap = first.record.min_overlap;
+        let record = Record {
+            probes: &grid.probes,
+            history: grid.history,
+            min_overlap: grid.min_overlap,
+        };
+        let shape = &grid.shape;
+        let done = AtomicUsize::new(0);
+        let expand_chunk = |c: usize, hashes: &mut [RunHash], particles: &mut [u32]| {
+            let start = c * CHUNK_POINTS;
+            let mut info = ChunkInfo::default();
+            // One copy of the base scene per chunk, every axis value set in it per point (every
+            // point sets every axis, in the same order, so it equals a fresh copy's).
+            let mut value = sweep.base.clone();
+            for (k, (hash, parts)) in hashes.iter_mut().zip(particles.iter_mut()).enumerate() {
+                let i = start + k;
+                Grid::point(sweep, shape, i, &record, &mut value, hash, parts, &mut info)?;
             }
-            if scene.record.history {
-                let samples =
-                    (scene.duration_s / scene.record.history_interval_s).floor() as usize + 1;
-                grid.max_history_samples = grid.max_history_samples.max(samples);
-            }
-            grid.max_contacts = grid.max_contacts.max(chain.n_contacts());
-            // At most MAX_PARTICLES (2 000 002), checked by validate.
-            grid.particles.push(chain.n_particles() as u32);
-            let warnings = scene.plausibility_warnings(&chain);
-            if !warnings.is_empty() {
-                grid.warned_points += 1;
+            let total = done.fetch_add(hashes.len(), Ordering::Relaxed) + hashes.len();
+            progress(total);
+            Ok(info)
+        };
+        // A grid of one chunk is expanded on this thread; a larger one on a pool of a thread per
+        // CPU this process may use, made for it and gone after (no thread outlives it).
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        let chunks: Vec<Result<ChunkInfo>> = if n <= CHUNK_POINTS || threads == 1 {
+            vec![expand_chunk(0, &mut grid.hashes, &mut grid.particles)]
+        } else {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .map_err(|source| Error::Threads {
+                    jobs: threads,
+                    source,
+                })?;
+            pool.install(|| {
+                grid.hashes
+                    .par_chunks_mut(CHUNK_POINTS)
+                    .zip(grid.particles.par_chunks_mut(CHUNK_POINTS))
+                    .enumerate()
+                    .map(|(c, (hashes, particles))| expand_chunk(c, hashes, particles))
+                    .collect()
+            })
+        };
+        for c in chunks {
+            let c = c?;
+            grid.max_history_samples = grid.max_history_samples.max(c.max_history_samples);
+            grid.max_contacts = grid.max_contacts.max(c.max_contacts);
+            grid.moving_part |= c.moving_part;
+            grid.warned_points += c.warned_points;
+            for w in c.warnings {
                 if grid.warnings.len() < LISTED_WARNINGS {
-                    grid.warnings.push((i, warnings));
+                    grid.warnings.push(w);
                 }
             }
-            let moving_part = chainsweep_solver::integrates_moving_part(&scene);
-            grid.moving_part |= moving_part;
-            grid.hashes.push(run_hash_with(
-                &scene,
-                sweep.limits.energy_drift_max,
-                moving_part,
-            ));
         }
         Ok(grid)
+    }
+
+    /// Expands point `i` into `value` (the base scene with every axis value of the point set),
+    /// validates it, and writes its run hash and particle count; what it adds to the chunk goes
+    /// to `info`.
+    #[allow(clippy::too_many_arguments)]
+    fn point(
+        sweep: &Sweep,
+        shape: &[usize],
+        i: usize,
+        record: &Record<'_>,
+        value: &mut Value,
+        hash: &mut RunHash,
+        particles: &mut u32,
+        info: &mut ChunkInfo,
+    ) -> Result<()> {
+        let mi = multi_index(shape, i);
+        for (d, dim) in sweep.dims.iter().enumerate() {
+            for axis in &dim.axes {
+                set_path(value, &axis.field, axis.values[mi[d]].clone());
+            }
+        }
+        let scene: Scene = from_ref_at(value, "").map_err(|e| match e {
+            Error::Input { field, message, .. } => locate(sweep, shape, i, &field, &message),
+            other => other,
+        })?;
+        let chain = scene
+            .validate()
+            .map_err(|e| locate(sweep, shape, i, &e.field, &e.message))?;
+        if scene.record.probes != record.probes
+            || scene.record.history != record.history
+            || scene.record.min_overlap != record.min_overlap
+        {
+            return Err(locate(
+                sweep,
+                shape,
+                i,
+                "record",
+                "must be the same at every grid point (probes, history, min_overlap): the stored arrays share one layout",
+            ));
+        }
+        if scene.record.history {
+            let samples = (scene.duration_s / scene.record.history_interval_s).floor() as usize + 1;
+            info.max_history_samples = info.max_history_samples.max(samples);
+        }
+        info.max_contacts = info.max_contacts.max(chain.n_contacts());
+        // At most MAX_PARTICLES (2 000 002), checked by validate.
+        *particles = chain.n_particles() as u32;
+        let warnings = scene.plausibility_warnings(&chain);
+        if !warnings.is_empty() {
+            info.warned_points += 1;
+            if info.warnings.len() < LISTED_WARNINGS {
+                info.warnings.push((i, warnings));
+            }
+        }
+        let moving_part = chainsweep_solver::integrates_moving_part_of(&scene, &chain);
+        info.moving_part |= moving_part;
+        *hash = run_hash_with(&scene, sweep.limits.energy_drift_max, moving_part);
+        Ok(())
     }
 
     /// Number of points.

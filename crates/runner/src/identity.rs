@@ -58,22 +58,40 @@ pub fn run_hash(scene: &Scene, energy_drift_max: Option<f64>) -> RunHash {
 /// moving part (`moving_part`: [`chainsweep_solver::integrates_moving_part`] of the scene), which
 /// costs a right-hand side of the whole chain to find out.
 pub fn run_hash_with(scene: &Scene, energy_drift_max: Option<f64>, moving_part: bool) -> RunHash {
-    let scene_json = serde_json::to_string(scene).expect("Scene serialises");
-    let limit = match energy_drift_max {
-        Some(x) => serde_json::to_string(&x).expect("f64 serialises"),
-        None => "null".to_string(),
-    };
-    let mut h = Sha256::new();
-    h.update(b"chainsweep run identity v1\n");
-    h.update(format!("numerics_version={}\n", crate::NUMERICS_VERSION).as_bytes());
-    h.update(format!("solver_version={}\n", crate::SOLVER_VERSION).as_bytes());
-    h.update(format!("energy_drift_max={limit}\n").as_bytes());
-    if moving_part {
-        h.update(b"moving_part=1\n");
+    use std::io::Write as _;
+    let mut h = HashWriter(Sha256::new());
+    h.0.update(b"chainsweep run identity v1\n");
+    // Written straight into the hash (no string is built: a grid hashes millions of scenes).
+    let _ = writeln!(h, "numerics_version={}", crate::NUMERICS_VERSION);
+    let _ = write!(
+        h,
+        "solver_version={}\nenergy_drift_max=",
+        crate::SOLVER_VERSION
+    );
+    match energy_drift_max {
+        Some(x) => serde_json::to_writer(&mut h, &x).expect("f64 serialises"),
+        None => h.0.update(b"null"),
     }
-    h.update(b"scene=");
-    h.update(scene_json.as_bytes());
-    h.finalize().into()
+    h.0.update(b"\n");
+    if moving_part {
+        h.0.update(b"moving_part=1\n");
+    }
+    h.0.update(b"scene=");
+    serde_json::to_writer(&mut h, scene).expect("Scene serialises");
+    h.0.finalize().into()
+}
+
+/// Bytes written into a SHA-256.
+struct HashWriter(Sha256);
+
+impl std::io::Write for HashWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.update(buf);
+        Ok(buf.len())
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
 }
 
 /// Identity of the verification run of the point whose run hash is `base` and whose verification

@@ -155,6 +155,52 @@ impl Terminal {
     }
 }
 
+/// Grids of at least this many points show their expansion's progress.
+pub const SHOWN_GRID_POINTS: usize = 100_000;
+
+/// Seconds between two lines of a grid's expansion progress.
+const GRID_PROGRESS_EVERY_S: f64 = 2.0;
+
+/// The progress of a large grid's expansion on stderr (`chainsweep: expanding the grid: …`),
+/// a line every few seconds; nothing for small grids or when `quiet`.
+pub struct GridProgress {
+    quiet: bool,
+    started: Instant,
+    last: std::sync::Mutex<Option<Instant>>,
+}
+
+impl GridProgress {
+    /// A display of the expansion, from now.
+    pub fn new(quiet: bool) -> Self {
+        GridProgress {
+            quiet,
+            started: Instant::now(),
+            last: std::sync::Mutex::new(None),
+        }
+    }
+
+    /// `done` of `total` points expanded.
+    pub fn show(&self, done: usize, total: usize) {
+        if self.quiet || total < SHOWN_GRID_POINTS {
+            return;
+        }
+        let mut last = self.last.lock().unwrap_or_else(|e| e.into_inner());
+        let now = Instant::now();
+        let due = match *last {
+            None => now.duration_since(self.started).as_secs_f64() >= 0.5,
+            Some(t) => now.duration_since(t).as_secs_f64() >= GRID_PROGRESS_EVERY_S,
+        };
+        if due || done == total && last.is_some() {
+            *last = Some(now);
+            errln!(
+                "chainsweep: expanding the grid: {done} of {total} points ({:.0} %), {:.1} s",
+                100.0 * done as f64 / total as f64,
+                now.duration_since(self.started).as_secs_f64()
+            );
+        }
+    }
+}
+
 /// How many damaged runs a report lists (it counts them all).
 pub const LISTED_DAMAGE: usize = 20;
 

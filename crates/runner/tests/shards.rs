@@ -46,7 +46,7 @@ fn check(file: &str, shards: &[usize], every_nth_worse_than: f64) {
         let a = Assignment::new(&sweep, &grid, Some(Shard { k: 1, n }));
         let mut seen = vec![0; grid.len()];
         for k in 1..=n {
-            for i in a.points(Some(Shard { k, n })) {
+            for i in a.points(Some(Shard { k, n }), grid.len()) {
                 assert_eq!(a.shard_of(i), k);
                 seen[i] += 1;
             }

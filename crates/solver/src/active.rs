@@ -129,12 +129,22 @@ pub fn integrates_moving_part(scene: &Scene) -> bool {
     let Ok(chain) = scene.validate() else {
         return false;
     };
-    if chain.n_particles() < MIN_PARTICLES {
+    integrates_moving_part_of(scene, &chain)
+}
+
+/// [`integrates_moving_part`] of a scene whose chain the caller has built already (`chain`:
+/// `scene.validate()`'s), which spares building it again (expanding a grid of ten million points,
+/// say).
+pub fn integrates_moving_part_of(scene: &Scene, chain: &Chain) -> bool {
+    if scene.active_region == ActiveRegion::Off
+        || scene.integrator.adaptive_options().is_none()
+        || chain.n_particles() < MIN_PARTICLES
+    {
         return false;
     }
-    let scales = scene.impact_scales(&chain);
+    let scales = scene.impact_scales(chain);
     let y0 = chain.initial_state(scene.initial_velocity_m_s());
-    plan(scene, &chain, &scales, &y0).is_some()
+    plan(scene, chain, &scales, &y0).is_some()
 }
 
 /// Whether the particles from `k0` on, whose accelerations at the initial state are `dy[N..2N]`,

@@ -44,7 +44,7 @@ pub mod scene;
 pub mod sequence;
 pub mod system;
 
-pub use active::{integrates_moving_part, ActiveRegion};
+pub use active::{integrates_moving_part, integrates_moving_part_of, ActiveRegion};
 pub use chainsweep_cpu as cpu;
 pub use integrate::AdaptiveOptions;
 pub use model::{Chain, ChainSpec, DimerSpec, PhysicsSpec};

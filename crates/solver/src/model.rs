@@ -617,7 +617,10 @@ pub(crate) fn check_positive(field: &str, v: f64) -> Result<(), SpecError> {
 }
 
 pub(crate) fn check_material(field: &str, m: &Material) -> Result<(), SpecError> {
-    check_positive(&format!("{field}.youngs_modulus_pa"), m.youngs_modulus_pa)?;
+    let e = m.youngs_modulus_pa;
+    if !(e.is_finite() && e > 0.0) {
+        check_positive(&format!("{field}.youngs_modulus_pa"), e)?;
+    }
     if !(m.poisson_ratio.is_finite() && m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
         return Err(spec_err(
             &format!("{field}.poisson_ratio"),
@@ -628,6 +631,18 @@ pub(crate) fn check_material(field: &str, m: &Material) -> Result<(), SpecError>
 }
 
 fn check_sphere(field: &str, s: &SphereSpec) -> Result<(), SpecError> {
+    // The common case, checked without building a field name (a grid checks millions of them).
+    let m = &s.material;
+    let positive = |v: f64| v.is_finite() && v > 0.0;
+    if positive(m.youngs_modulus_pa)
+        && m.poisson_ratio.is_finite()
+        && m.poisson_ratio > -1.0
+        && m.poisson_ratio < 0.5
+        && positive(s.diameter_m)
+        && positive(s.mass_kg)
+    {
+        return Ok(());
+    }
     check_material(&format!("{field}.material"), &s.material)?;
     check_positive(&format!("{field}.diameter_m"), s.diameter_m)?;
     check_positive(&format!("{field}.mass_kg"), s.mass_kg)

@@ -17,6 +17,9 @@ use crate::progress::damage_lines;
 use crate::sweep::auto::describe;
 use crate::sweep::Sweep;
 
+/// How many values at each end of a long axis a dry run lists.
+const LISTED_AXIS_VALUES: usize = 5;
+
 /// How many failed points `status` of an output file lists.
 const LISTED_IN_STATUS: usize = 20;
 
@@ -118,12 +121,25 @@ pub fn dry_run(
     );
     for (k, dim) in sweep.dims.iter().enumerate() {
         for a in &dim.axes {
-            let vals: Vec<String> = a.values.iter().map(|v| v.to_string()).collect();
+            // A long axis shows its ends (the count says how many there are).
+            let n = a.values.len();
+            let text = |v: &[serde_json::Value]| -> Vec<String> {
+                v.iter().map(|x| x.to_string()).collect()
+            };
+            let vals = if n > 2 * LISTED_AXIS_VALUES {
+                format!(
+                    "{}, … ({} values), {}",
+                    text(&a.values[..LISTED_AXIS_VALUES]).join(", "),
+                    n,
+                    text(&a.values[n - LISTED_AXIS_VALUES..]).join(", ")
+                )
+            } else {
+                text(&a.values).join(", ")
+            };
             outln!(
-                "  dim {k} `{}`: {} = [{}] ({})",
+                "  dim {k} `{}`: {} = [{vals}] ({})",
                 dim.name,
                 a.field,
-                vals.join(", "),
                 a.units
             );
         }

@@ -72,6 +72,13 @@ pub struct DryRun {
 /// Most runs a dry run's pilot runs to estimate the cost.
 pub const PILOT_RUNS: usize = 3;
 
+/// A pilot run shorter than this, s, is repeated until its repeats take this long (the estimate
+/// is their mean).
+pub const PILOT_MIN_SECONDS: f64 = 0.05;
+
+/// Most repeats of a short pilot run.
+pub const PILOT_MAX_REPEATS: u32 = 1000;
+
 /// Longest a pilot run runs, s: a longer run is stopped there and its cost extrapolated from the
 /// simulated time it reached.
 pub const PILOT_SECONDS_PER_RUN: f64 = 1.0;
@@ -121,22 +128,36 @@ impl CostEstimate {
         for &i in &pilot_points {
             let scene = grid.build(sweep, i)?;
             let limit = PILOT_SECONDS_PER_RUN.min(sweep.limits.max_run_seconds);
-            let start_cpu = thread_cpu_seconds();
-            let start = std::time::Instant::now();
-            let deadline = start + std::time::Duration::from_secs_f64(limit);
-            let result = exec::guarded(|| chainsweep_solver::run_until(&scene, Some(deadline)));
-            let cpu = match (start_cpu, thread_cpu_seconds()) {
-                (Some(a), Some(b)) => b - a,
-                _ => start.elapsed().as_secs_f64(),
-            };
-            per_run.push(match result {
-                Ok(Err(chainsweep_solver::RunError::Deadline { t_s, .. })) if t_s > 0.0 => {
-                    extrapolated += 1;
-                    cpu * scene.duration_s / t_s
+            // A short run is repeated until the repeats take PILOT_MIN_SECONDS: its cost is then
+            // their mean, above the clock's resolution and the noise of one run.
+            let mut cpu_total = 0.0;
+            let mut repeats = 0u32;
+            let began = std::time::Instant::now();
+            let cost = loop {
+                let start_cpu = thread_cpu_seconds();
+                let start = std::time::Instant::now();
+                let deadline = start + std::time::Duration::from_secs_f64(limit);
+                let result = exec::guarded(|| chainsweep_solver::run_until(&scene, Some(deadline)));
+                let cpu = match (start_cpu, thread_cpu_seconds()) {
+                    (Some(a), Some(b)) => b - a,
+                    _ => start.elapsed().as_secs_f64(),
+                };
+                if let Ok(Err(chainsweep_solver::RunError::Deadline { t_s, .. })) = result {
+                    if t_s > 0.0 {
+                        extrapolated += 1;
+                        break cpu * scene.duration_s / t_s;
+                    }
                 }
-                // A run stopped at once (or failed early) costs what it cost.
-                _ => cpu,
-            });
+                // A run that ran in full (or stopped at once, or failed early) costs what it cost.
+                cpu_total += cpu;
+                repeats += 1;
+                if began.elapsed().as_secs_f64() >= PILOT_MIN_SECONDS
+                    || repeats >= PILOT_MAX_REPEATS
+                {
+                    break cpu_total / f64::from(repeats);
+                }
+            };
+            per_run.push(cost);
         }
         let mean = per_run.iter().sum::<f64>() / per_run.len() as f64;
         let lo = per_run.iter().copied().fold(f64::INFINITY, f64::min);
@@ -164,11 +185,17 @@ impl CostEstimate {
     }
 }
 
-/// CPU time of the calling thread so far, s (Linux's `/proc/thread-self/schedstat`, in ns).
+/// CPU time of the calling thread so far, s (`clock_gettime(CLOCK_THREAD_CPUTIME_ID)`: exact to
+/// the nanosecond on Linux, even for a thread that has not been descheduled since).
 fn thread_cpu_seconds() -> Option<f64> {
-    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
-    let ns: f64 = text.split_whitespace().next()?.parse().ok()?;
-    Some(ns * 1e-9)
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the duration of the call; the clock id is a
+    // constant the C library defines.
+    let r = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (r == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
 }
 
 /// A dry run of `points` of `grid` into `output`: what is stored already, and the size estimate;
@@ -184,11 +211,17 @@ pub fn dry_run(sweep: &Sweep, grid: &Grid, points: &[usize], output: &Path) -> R
     let state = |i: usize| stored.get(&grid.hashes[i]).copied();
     let size = SizeEstimate::of(grid);
     check_fits(grid, size.total(points.len()), output)?;
-    let to_run: Vec<usize> = points
-        .iter()
-        .copied()
-        .filter(|&i| state(i).is_none())
-        .collect();
+    // (Nothing stored: every point is to run, and no second list of them is made.)
+    let to_run: std::borrow::Cow<[usize]> = if stored.is_empty() {
+        points.into()
+    } else {
+        points
+            .iter()
+            .copied()
+            .filter(|&i| state(i).is_none())
+            .collect::<Vec<_>>()
+            .into()
+    };
     let cost = CostEstimate::pilot(sweep, grid, &to_run)?;
     Ok(DryRun {
         cost,

@@ -124,8 +124,9 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
     }
     // Which shards to run again: only when the files are shards of one `N` (a merge may also
     // combine outputs sharded differently, or whole runs).
+    // (Unsharded files, of one shard of 1, are no shard set: there is no task to run again.)
     let shard_set = if counts.pending > 0 {
-        status::of_shard_set(shards).ok()
+        status::of_shard_set(shards).ok().filter(|set| set.n > 1)
     } else {
         None
     };

@@ -191,9 +191,19 @@ impl ProgressSink for Silent {}
 
 /// Reads, parses and expands a sweep file; errors name the file.
 pub fn load(file: &Path) -> Result<(Sweep, Grid)> {
+    load_showing(file, &|_, _| {})
+}
+
+/// [`load`], calling `progress(points expanded, points in all)` now and then while the grid is
+/// expanded (from worker threads: a grid of ten million points takes seconds).
+pub fn load_showing(
+    file: &Path,
+    progress: &(dyn Fn(usize, usize) + Sync),
+) -> Result<(Sweep, Grid)> {
     let name = file.display().to_string();
     let sweep = Sweep::load(&name)?;
-    let grid = Grid::new(&sweep).map_err(|e| e.in_file(&name))?;
+    let n = sweep.n_points();
+    let grid = Grid::expand(&sweep, &|done| progress(done, n)).map_err(|e| e.in_file(&name))?;
     Ok((sweep, grid))
 }
 
@@ -264,15 +274,7 @@ pub fn thread_pool(jobs: usize) -> Result<rayon::ThreadPool> {
         .map_err(|source| Error::Threads { jobs, source })
 }
 
-/// A number as an error message shows it: plain, or in scientific notation when huge or tiny
-/// (`1e308`, not 309 digits).
-pub fn number_text(x: f64) -> String {
-    if x != 0.0 && !(1e-4..1e9).contains(&x.abs()) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
-}
+pub use crate::error::number_text;
 
 /// The number of CPUs this process may use: its CPU affinity mask (what `taskset`, SLURM or a
 /// container allow), as `std::thread::available_parallelism` reads it on Linux.

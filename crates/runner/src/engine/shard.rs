@@ -113,7 +113,7 @@ pub fn assign(shape: &[usize], costs: &[u64], n: usize) -> Vec<usize> {
 /// Which grid points belong to which shard, for one sweep and `N`.
 #[derive(Debug, Clone)]
 pub struct Assignment {
-    /// The shard (`k`, from 1) of every grid point; all 1 without sharding.
+    /// The shard (`k`, from 1) of every grid point; empty without sharding (every point is 1's).
     shard_of: Vec<usize>,
     /// Estimated (quantised) cost of every grid point.
     pub costs: Vec<u64>,
@@ -125,7 +125,7 @@ impl Assignment {
     pub fn new(sweep: &Sweep, grid: &Grid, shard: Option<Shard>) -> Assignment {
         match shard {
             None => Assignment {
-                shard_of: vec![1; grid.len()],
+                shard_of: Vec::new(),
                 costs: Vec::new(),
             },
             Some(Shard { n, .. }) => {
@@ -146,20 +146,23 @@ impl Assignment {
 
     /// The shard (from 1) of grid point `index`.
     pub fn shard_of(&self, index: usize) -> usize {
-        self.shard_of[index]
+        self.shard_of.get(index).copied().unwrap_or(1)
     }
 
-    /// The grid points of `shard`, in grid order.
-    pub fn points(&self, shard: Option<Shard>) -> Vec<usize> {
-        (0..self.shard_of.len())
-            .filter(|&i| self.contains(shard, i))
-            .collect()
+    /// The grid points of `shard`, in grid order (every point of `grid_len` without a shard).
+    pub fn points(&self, shard: Option<Shard>, grid_len: usize) -> Vec<usize> {
+        match shard {
+            None => (0..grid_len).collect(),
+            Some(_) => (0..self.shard_of.len())
+                .filter(|&i| self.contains(shard, i))
+                .collect(),
+        }
     }
 }
 
 /// The grid points of `shard` of `sweep`'s grid, in grid order (every point without a shard).
 pub fn points(sweep: &Sweep, grid: &Grid, shard: Option<Shard>) -> Vec<usize> {
-    Assignment::new(sweep, grid, shard).points(shard)
+    Assignment::new(sweep, grid, shard).points(shard, grid.len())
 }
 
 #[cfg(test)]

@@ -343,7 +343,7 @@ pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
             continue;
         };
         let recs = FileRecords::open(path)?;
-        let points = assignment.points(Some(*shard));
+        let points = assignment.points(Some(*shard), grid.len());
         let status = |i: usize| {
             if i < recs.len() {
                 recs.status(i)

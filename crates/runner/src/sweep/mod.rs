@@ -249,6 +249,22 @@ pub fn from_value_at<T: serde::de::DeserializeOwned>(value: Value, prefix: &str)
     })
 }
 
+/// [`from_value_at`] reading a borrowed value (no copy of it is made). Read plainly first, and
+/// again tracking the path only when that fails (tracking it costs a third of a grid's expansion).
+pub fn from_ref_at<'de, T: serde::de::Deserialize<'de>>(
+    value: &'de Value,
+    prefix: &str,
+) -> Result<T> {
+    if let Ok(t) = T::deserialize(value) {
+        return Ok(t);
+    }
+    serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
+        let path = e.path().to_string();
+        let field = join_path(prefix, if path == "." { "" } else { &path });
+        Error::input(field, e.into_inner().to_string())
+    })
+}
+
 fn join_path(prefix: &str, path: &str) -> String {
     match (prefix.is_empty(), path.is_empty()) {
         (true, _) => path.to_string(),
@@ -502,20 +518,28 @@ fn expand_range(r: &RangeFile, origin: &str) -> Result<Vec<Value>> {
             }
             let ints = ints && step_n.is_i64();
             let span = (stop - start) / step;
-            let n = (span + 1e-9 * span.abs().max(1.0)).floor() as u64 + 1;
-            if n as usize > MAX_GRID_POINTS {
+            // Counted in floating point and checked before it becomes an integer: a tiny step
+            // gives a count far beyond any integer (a cast would saturate, and + 1 wrap to 0).
+            let count = (span + 1e-9 * span.abs().max(1.0)).floor() + 1.0;
+            if count.is_nan() || count > MAX_GRID_POINTS as f64 {
                 return Err(Error::input(
-                    format!("{origin}.range"),
-                    format!("gives {n} values, at most {MAX_GRID_POINTS} allowed"),
+                    format!("{origin}.range.step"),
+                    format!(
+                        "gives {} values from {} to {} in steps of {step_n}; a range may give at most {MAX_GRID_POINTS} (make the step larger)",
+                        crate::error::number_text(span.abs().floor() + 1.0),
+                        crate::error::number_text(start),
+                        crate::error::number_text(stop)
+                    ),
                 ));
             }
+            let n = count as u64;
             Ok((0..n).map(|i| num_to_value(start + i as f64 * step, ints)).collect())
         }
         (None, Some(num)) => {
-            if num == 0 || num as usize > MAX_GRID_POINTS {
+            if num == 0 || num > MAX_GRID_POINTS as u64 {
                 return Err(Error::input(
                     format!("{origin}.range.num"),
-                    format!("must lie in 1..={MAX_GRID_POINTS}, got {num}"),
+                    format!("must be a whole number from 1 to {MAX_GRID_POINTS}, got {num}"),
                 ));
             }
             if num == 1 {
