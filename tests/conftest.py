@@ -18,7 +18,8 @@ REPO = Path(__file__).resolve().parent.parent
 BIN = Path(os.environ.get("CHAINSWEEP_BIN", REPO / "target" / "release" / "chainsweep")).resolve()
 
 # Root attributes and datasets that legitimately differ between two runs of the same sweep.
-VOLATILE_ATTRS = {"created_utc", "command_line"}
+# (`header_checksum` covers every text attribute, `created_utc` and `command_line` included.)
+VOLATILE_ATTRS = {"created_utc", "command_line", "header_checksum"}
 # (`summary_checksum` covers every value of its point, the measured `wall_time_s` included.)
 VOLATILE_DATASETS = {"wall_time_s", "summary_checksum"}
 # HDF5 bookkeeping attributes holding object references (compared through the scale names).

@@ -6,7 +6,8 @@ as labelled xarray Datasets.
 - :func:`open` — a result file as a Dataset labelled by the grid's axes and the probes.
 
 Errors: :class:`InputError` (bad input; ``.field`` names the field), :class:`RunError` (a run
-failed; ``.reason``), :class:`SweepError` (I/O, a locked output); all are :class:`Error`.
+failed; ``.reason``), :class:`SweepError` (I/O, a locked output), :class:`DamagedFileError` (a
+result file whose values do not match their checksums; ``.damaged``); all are :class:`Error`.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from ._chainsweep import ENGINE_VERSION as __version__
 from ._open import open
 from ._run import run
 from ._sweep import Failure, SweepResult, sweep
-from .errors import Error, InputError, RunError, SweepError
+from .errors import DamagedFileError, Error, InputError, RunError, SweepError
 
 __all__ = [
     "run",
@@ -27,5 +28,6 @@ __all__ = [
     "InputError",
     "RunError",
     "SweepError",
+    "DamagedFileError",
     "__version__",
 ]

@@ -25,8 +25,18 @@ import h5py
 import numpy as np
 import xarray as xr
 
+from . import _chainsweep as _native
 from . import _layout as L
-from .errors import InputError
+from .errors import DamagedFileError, InputError
+
+# How many damaged points a DamagedFileError's message lists (`.damaged` holds them all).
+_LISTED_DAMAGE = 10
+
+_REPAIR = (
+    "`chainsweep run SWEEP -o {path}` (the sweep that made it) repairs it: runs restored from the "
+    "snapshot in its work directory are kept, the others computed again; "
+    "chainsweep.open(path, damaged=\"mask\") serves the intact points, the damaged ones masked"
+)
 
 # HDF5 bookkeeping attributes (dimension scales, netCDF-4 markers): not data.
 _INTERNAL_ATTRS = {
@@ -65,12 +75,20 @@ def _attrs(obj: h5py.HLObject) -> dict[str, Any]:
     return {k: _value(v) for k, v in obj.attrs.items() if k not in _INTERNAL_ATTRS}
 
 
-def _read(ds: h5py.Dataset) -> tuple[np.ndarray, dict[str, Any]]:
-    """A dataset's values and attributes: strings as `str`, integer fills masked to NaN."""
+def _read(ds: h5py.Dataset, path: str | None = None) -> tuple[np.ndarray, dict[str, Any]]:
+    """A dataset's values and attributes: strings as `str`, integer fills masked to NaN. With
+    `path` (the file's, when damaged points are to be masked), a numeric dataset whose chunk HDF5's
+    Fletcher-32 check refuses is read without the check: its damaged points are masked after."""
     attrs = _attrs(ds)
     if h5py.check_string_dtype(ds.dtype) is not None:
         return np.asarray(ds.asstr()[()], dtype=object), attrs
-    values = ds[()]
+    try:
+        values = ds[()]
+    except OSError:
+        if path is None:
+            raise
+        data, dtype, shape = _native.read_unchecked(path, ds.name.lstrip("/"))
+        values = np.frombuffer(data, dtype=np.dtype(dtype).newbyteorder("<")).reshape(shape)
     fills = [attrs.pop(a) for a in _FILL_ATTRS if a in attrs]
     fill = fills[0] if fills else None
     if fill is not None and values.dtype.kind in "iu":
@@ -138,15 +156,26 @@ def _history_of(g: h5py.Group, probes: list[str]) -> tuple[np.ndarray, np.ndarra
     """LAYOUT: one run's time samples and its history per probe, (probes, samples)."""
     if "time_s" not in g:
         return None
-    time = g["time_s"][()]
-    series = [g[p][()] if p in g else np.full(len(time), np.nan) for p in probes]
+    try:
+        time = g["time_s"][()]
+    except OSError:  # damaged (a run masked by open's damaged="mask")
+        return None
+    def series_of(p: str) -> np.ndarray:
+        try:
+            return g[p][()] if p in g else np.full(len(time), np.nan)
+        except OSError:  # damaged: masked
+            return np.full(len(time), np.nan)
+    series = [series_of(p) for p in probes]
     values = np.stack(series) if series else np.zeros((0, len(time)))
     return time, values
 
 
 def _min_overlap_of(g: h5py.Group) -> np.ndarray | None:
     """LAYOUT: one run's minimum overlap of every contact."""
-    return g["min_overlap_m"][()] if "min_overlap_m" in g else None
+    try:
+        return g["min_overlap_m"][()] if "min_overlap_m" in g else None
+    except OSError:  # damaged (masked by open's damaged="mask")
+        return None
 
 
 def _stack_histories(
@@ -206,7 +235,76 @@ def _stack_min_overlaps(
     return data, coords
 
 
-def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (chainsweep.open)
+def _check(
+    path: str, histories: bool, damaged: str
+) -> tuple[list[tuple[int, str, str]], list[tuple[str, str, bool]]]:
+    """The engine's check of every stored value (its histories too with `histories`): the
+    damaged points, or a DamagedFileError when they cannot be served (`damaged="raise"`, or a
+    file, header or coordinate that is damaged), and the summary datasets HDF5 cannot read."""
+    if damaged not in ("raise", "mask"):
+        raise InputError("damaged", f"must be \"raise\" or \"mask\", got {damaged!r}")
+    if not os.path.isfile(path):
+        raise InputError("path", f"{path} is not a file")
+    try:
+        with h5py.File(path, "r") as f:
+            ours = "dimensions" in f.attrs and "grid_shape" in f.attrs
+    except Exception:  # noqa: BLE001 (unreadable: the engine's check says what is wrong)
+        ours = True
+    if not ours:
+        raise InputError("path", f"{path} is not a chainsweep result file (no grid attributes)")
+    c = _native.check_file(path, histories)
+    repair = _REPAIR.format(path=path)
+    if c["file"]:
+        raise DamagedFileError(path, f"{path} is damaged: {c['file']}. {repair}", [])
+    if c["header"]:
+        raise DamagedFileError(path, f"{path} is damaged: {c['header']}. {repair}", [])
+    points = [tuple(p) for p in c["damaged"]]
+    if points and damaged == "raise":
+        listed = "; ".join(
+            f"point {i} ({label}): {why}" if label else f"point {i}: {why}"
+            for i, label, why in points[:_LISTED_DAMAGE]
+        )
+        more = f" and {len(points) - _LISTED_DAMAGE} more" if len(points) > _LISTED_DAMAGE else ""
+        raise DamagedFileError(
+            path,
+            f"{path}: {len(points)} point(s) hold values that do not match their checksums: "
+            f"{listed}{more}. {repair}",
+            points,
+        )
+    return points, [tuple(u) for u in c["unreadable"]]
+
+
+def _mask(data: dict[str, Any], grid: "_Grid", points: list[tuple[int, str, str]]) -> None:
+    """Masks the damaged points of every variable over the grid: numbers NaN, strings empty,
+    `status` pending; adds `damaged` (True where masked)."""
+    n = int(np.prod(grid.shape))
+    flags = np.zeros(n, dtype=bool)
+    flags[[i for i, _, _ in points]] = True
+    flags = flags.reshape(grid.shape)
+    for name, (dims, values, attrs) in list(data.items()):
+        if tuple(dims[: len(grid.dims)]) != tuple(grid.dims):
+            continue
+        values = np.array(values)
+        if name == "status":
+            values[flags] = L.STATUS_PENDING
+        elif values.dtype == object:
+            values[flags] = ""
+        elif values.dtype.kind == "f":
+            values[flags] = np.nan
+        else:
+            values = values.astype(np.float64)
+            values[flags] = np.nan
+        data[name] = (dims, values, attrs)
+    data["damaged"] = (
+        tuple(grid.dims),
+        flags,
+        {"long_name": "whether the point's stored values were damaged (masked here)"},
+    )
+
+
+def open(  # noqa: A001 (chainsweep.open)
+    path: PathLike, histories: bool = False, damaged: str = "raise"
+) -> xr.Dataset:
     """Opens a sweep's result file (made by :func:`chainsweep.sweep` or ``chainsweep run``).
 
     Returns an ``xarray.Dataset`` read into memory (the file is closed again) whose dimensions are
@@ -226,7 +324,17 @@ def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (
     ``probe``, ``time_s``), NaN where a run failed, is pending or stopped earlier. When the runs
     were sampled at different instants (the history interval an axis), the last dimension is
     ``sample`` and ``time_s`` a coordinate over (grid…, ``sample``).
+
+    Every value is first checked against the checksums the file stores (histories too with
+    ``histories=True``). A damaged point raises :class:`DamagedFileError`, naming each damaged
+    point by its index and axis values; with ``damaged="mask"`` the intact points are served and
+    the damaged ones masked (NaN, empty strings, ``status`` pending), with a boolean ``damaged``
+    variable saying which. A file whose header or coordinates are damaged always raises. Files of
+    earlier versions carry no checksums and are served as they stand.
     """
+    fspath = os.fspath(path)
+    points, unreadable = _check(fspath, histories, damaged)
+    unchecked = fspath if points else None
     with h5py.File(path, "r") as f:
         if "dimensions" not in f.attrs or "grid_shape" not in f.attrs:
             raise InputError(
@@ -240,7 +348,7 @@ def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (
             dims = grid.dims_of(obj)
             if dims is None:
                 continue
-            values, attrs = _read(obj)
+            values, attrs = _read(obj, unchecked)
             data[name] = (dims, values, attrs)
         coords: dict[str, Any] = dict(grid.coords)
         extras = [_stack_min_overlaps(f, grid)]
@@ -251,6 +359,14 @@ def open(path: PathLike, histories: bool = False) -> xr.Dataset:  # noqa: A001 (
                 data.update(extra[0])
                 coords.update(extra[1])
         attrs = _attrs(f)
+    for name, why, per_probe in unreadable:
+        # A dataset HDF5 cannot read at all: every point of it masked (they are damaged), never
+        # left out.
+        dims = (*grid.dims, "probe") if per_probe else tuple(grid.dims)
+        shape = (*grid.shape, len(grid.probes)) if per_probe else grid.shape
+        data[name] = (dims, np.full(shape, np.nan), {"long_name": f"unreadable: {why}"})
+    if points:
+        _mask(data, grid, points)
     data = {name: data[name] for name in L.ordered(data)}
     ds = xr.Dataset(data, coords=coords, attrs=attrs)
     # Every field of a zipped dimension indexes it (the one named like the dimension already

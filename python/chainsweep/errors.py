@@ -7,8 +7,10 @@
   run recorded (status, reason, wall time; NaN elsewhere).
 - :class:`SweepError` (a ``RuntimeError``): a sweep could not go on for a reason other than its
   input (I/O, HDF5, the output locked by another process): the command line's exit code 1.
+- :class:`DamagedFileError` (an ``OSError``): a result file whose stored values do not match
+  their checksums; ``.damaged`` lists the damaged points as ``(flat index, axis values, why)``.
 
-All three derive from :class:`Error`.
+All four derive from :class:`Error`.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from __future__ import annotations
 import re
 from typing import Any
 
-__all__ = ["Error", "InputError", "RunError", "SweepError", "from_runner"]
+__all__ = ["Error", "InputError", "RunError", "SweepError", "DamagedFileError", "from_runner"]
 
 
 class Error(Exception):
@@ -50,6 +52,19 @@ class RunError(Error, RuntimeError):
 
 class SweepError(Error, RuntimeError):
     """A sweep stopped by something other than its input (I/O, HDF5, a locked output)."""
+
+
+class DamagedFileError(Error, OSError):
+    """A result file that cannot be served as it stands: ``path``; ``damaged`` holds the damaged
+    points as ``(flat index, axis values, why)`` (empty when the whole file, its header or its
+    coordinates are damaged). ``chainsweep run`` of its sweep into the same file repairs it (runs
+    restored from the snapshot in its work directory are kept, the others computed again);
+    ``chainsweep.open(path, damaged="mask")`` serves the intact points, the damaged ones masked."""
+
+    def __init__(self, path: str, message: str, damaged: list[tuple[int, str, str]]):
+        self.path = path
+        self.damaged = damaged
+        super().__init__(message)
 
 
 # The command line's option names as the arguments of chainsweep.sweep.

@@ -5,7 +5,9 @@
 //!
 //! - [`run_scene`]: one scene, exactly as `chainsweep point` runs a grid point ([`point`]);
 //! - [`run_sweep`]: a sweep file into HDF5, exactly as `chainsweep run` does ([`sweep`]), with
-//!   progress ([`watch`]) and Ctrl-C.
+//!   progress ([`watch`]) and Ctrl-C;
+//! - [`check_file`]: a result file's every value checked against its checksums, before
+//!   `chainsweep.open` serves it ([`check`]).
 //!
 //! Both release the GIL while the solver runs, so Python threads run scenes in parallel.
 //! Errors reach Python as the package's own exceptions (`chainsweep.InputError`, …), made by
@@ -13,6 +15,7 @@
 
 use pyo3::prelude::*;
 
+mod check;
 mod point;
 mod sweep;
 mod watch;
@@ -39,6 +42,8 @@ fn py_error(py: Python<'_>, e: &chainsweep::error::Error, context: &str) -> PyEr
 fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(point::run_scene, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::run_sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(check::check_file, m)?)?;
+    m.add_function(wrap_pyfunction!(check::read_unchecked, m)?)?;
     m.add("ENGINE_VERSION", chainsweep::ENGINE_VERSION)?;
     m.add("SOLVER_VERSION", chainsweep::SOLVER_VERSION)?;
     m.add("NUMERICS_VERSION", chainsweep::NUMERICS_VERSION)?;

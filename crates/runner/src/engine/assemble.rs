@@ -112,12 +112,20 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
         }
     };
     let shard = a.shard.unwrap_or(Shard { k: 1, n: 1 }).to_string();
+    let Some(digest) = published::file_sha256(&tmp) else {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(crate::error::Error::Other(format!(
+            "{}: the file just written cannot be read back",
+            tmp.display()
+        )));
+    };
     let snapshot = published::snapshot_of(
         a.sweep,
         a.grid,
         &written.table,
         &shard,
         &a.provenance.created_utc,
+        digest,
     );
     let held: HashSet<RunHash> = (0..a.grid.len())
         .filter(|&i| written.table.status(i) != STATUS_PENDING)

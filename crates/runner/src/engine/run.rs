@@ -260,22 +260,24 @@ pub fn run_points(
     })
 }
 
-/// Whether the published output file holds every run of the grid (and every verification run
-/// the plan samples, with its outcome), as written by this version (with its snapshot) and with
-/// `--verify` no larger than it was: then running again changes nothing.
+/// Whether the published output file is of this grid and holds every run of it (and every
+/// verification run the plan samples, with its outcome), as written by this version (with its
+/// snapshot) and with `--verify` no larger than it was: then running again changes nothing.
 fn holds_every_run(work: &WorkDir, grid: &Grid, plan: &Plan) -> bool {
     let Some(p) = work.published_file() else {
         return false;
     };
-    let current = p
-        .file()
-        .is_some_and(|f| f.checked() && f.layout_version == crate::store::hdf5::LAYOUT_VERSION)
-        && p.snapshot().is_some();
+    // Its bytes exactly as published with its snapshot (so by this version, and undamaged even
+    // where no checksum of a value reaches: scales, coordinates, padding).
+    let current = p.intact();
     let fraction_kept = p
         .file()
         .is_some_and(|f| f.verify_fraction >= plan.verify.fraction);
+    // The file's grid must be this sweep's (an edited sweep's file is written again).
+    let same_grid = p.grid().is_some_and(|g| g.hashes == grid.hashes);
     current
         && fraction_kept
+        && same_grid
         && grid.hashes.iter().all(|h| p.holds(h))
         && plan.points.iter().all(|&i| {
             !plan.sampled[i]

@@ -142,6 +142,93 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
     })
 }
 
+/// What a reader of an output file (h5py, xarray) would be served: which of its points hold
+/// values that do not match their checksums, read as the file stands (no snapshot).
+#[derive(Debug, Clone, Default)]
+pub struct FileCheck {
+    /// Whether the file carries checksums (layout 3 and later).
+    pub checked: bool,
+    /// Why it cannot be read at all.
+    pub file: Option<String>,
+    /// What is wrong with its header, coordinates or probes.
+    pub header: Option<String>,
+    /// Damaged points: flat index, axis values (when the file's sweep can be read), why.
+    pub damaged: Vec<(usize, String, String)>,
+    /// Summary columns HDF5 cannot read: name, why, and whether it holds a value per probe.
+    pub unreadable: Vec<(String, String, bool)>,
+}
+
+/// Checks every value of the output file `path` as it stands (its histories too with
+/// `histories`), for a reader that takes the file as it is (`chainsweep.open`).
+pub fn check_file(path: &Path, histories: bool) -> FileCheck {
+    let mut c = FileCheck::default();
+    if !crate::store::hdf5::is_hdf5(path) {
+        c.file = Some("it does not start with the HDF5 signature".into());
+        return c;
+    }
+    let recs = match FileRecords::open(path) {
+        Ok(r) => r,
+        Err(e) => {
+            c.file = Some(format!("HDF5 cannot read it: {e}"));
+            return c;
+        }
+    };
+    c.checked = recs.checked();
+    c.header = recs.header_damage.clone();
+    c.unreadable = recs
+        .unreadable()
+        .iter()
+        .map(|(n, e)| {
+            let per_probe = crate::record::columns::column(n).is_some_and(|c| c.per_probe);
+            (n.to_string(), e.clone(), per_probe)
+        })
+        .collect();
+    // The file's own sweep and grid (from its checked header) label its points.
+    let labelled = c.header.is_none().then(|| {
+        let mut sweep = Sweep::parse(&recs.sweep_text).ok()?;
+        if let Some(auto) = recs.auto_text() {
+            sweep.apply_auto(crate::sweep::auto::AutoChoice::from_json(&auto).ok()?);
+        }
+        let grid = Grid::new(&sweep).ok()?;
+        (grid.len() == recs.len()).then_some((sweep, grid))
+    });
+    let labelled = labelled.flatten();
+    if let Some((sweep, grid)) = &labelled {
+        let coords = recs.coordinate_damage(sweep, grid);
+        if !coords.is_empty() {
+            c.header = Some(coords.join("; "));
+        }
+    } else if c.header.is_none() {
+        c.header = Some("its sweep cannot be expanded into a grid of its points".into());
+    }
+    let label = |i: usize| match &labelled {
+        Some((sweep, grid)) => grid.point_label(sweep, i),
+        None => String::new(),
+    };
+    for i in 0..recs.len() {
+        let why = match recs.damage(i) {
+            Some(why) => Some(why.to_string()),
+            None => match &labelled {
+                Some((_, grid))
+                    if histories
+                        && (grid.history || grid.min_overlap)
+                        && recs.status(i) == STATUS_OK =>
+                {
+                    match recs.record(i, grid.hashes[i], grid) {
+                        crate::store::hdf5::read::PointRead::Damaged(why) => Some(why),
+                        _ => None,
+                    }
+                }
+                _ => None,
+            },
+        };
+        if let Some(why) = why {
+            c.damaged.push((i, label(i), why));
+        }
+    }
+    c
+}
+
 /// The status of a sweep file's output, from its work directory.
 #[derive(Debug, Clone)]
 pub struct SweepStatus {

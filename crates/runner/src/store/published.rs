@@ -82,6 +82,8 @@ pub struct PublishedFile {
     /// The file's grid (the one its points index).
     grid: Option<Grid>,
     points: HashMap<RunHash, (usize, bool, Source)>,
+    /// Whether the file's bytes are exactly those published with its snapshot.
+    intact: bool,
     /// What was found damaged.
     pub damage: Damage,
 }
@@ -155,15 +157,24 @@ impl PublishedFile {
                 }
             }
         };
+        // Bytes exactly as published (their hash the snapshot's): every value is as it was written
+        // and checked then, so the run groups need not be read to be checked again.
+        let intact = check == Check::Everything
+            && recs.is_some()
+            && snapshot.as_ref().is_some_and(|s| {
+                !s.header.file_sha256.is_empty()
+                    && file_sha256(path).as_deref() == Some(s.header.file_sha256.as_str())
+            });
         let mut p = PublishedFile {
             grid: None,
             points: HashMap::new(),
+            intact,
             damage,
             recs,
             snapshot,
         };
         p.grid = p.find_grid(known);
-        p.index(check);
+        p.index(if intact { Check::Summaries } else { check });
         if p.recs.is_none() && p.points.is_empty() && p.damage.lost.is_empty() && !exists {
             // Only a snapshot of nothing: no published file at all.
             return None;
@@ -251,7 +262,12 @@ impl PublishedFile {
                         lost.push(DamagedRun {
                             point: i,
                             hash: Some(h),
-                            why: format!("{why}; its summaries are in the snapshot, but {e}"),
+                            // (Its group was what was damaged: the snapshot has no histories.)
+                            why: if e == why {
+                                why
+                            } else {
+                                format!("{why}; its summaries are in the snapshot, but {e}")
+                            },
                         });
                         return;
                     }
@@ -329,6 +345,12 @@ impl PublishedFile {
         self.damage.restored = restored;
     }
 
+    /// Whether the file's bytes are exactly those published with its snapshot (nothing in it has
+    /// changed since, damaged or not; known only when opened to check everything).
+    pub fn intact(&self) -> bool {
+        self.intact
+    }
+
     /// Every run the file gives back: its point in the file's grid, and whether it succeeded.
     pub fn runs(&self) -> impl Iterator<Item = (&RunHash, usize, bool)> + '_ {
         self.points.iter().map(|(h, &(i, ok, _))| (h, i, ok))
@@ -397,13 +419,32 @@ impl PublishedFile {
     }
 }
 
-/// The snapshot bytes of a file just written from `table` for `grid` (whose sweep is `sweep`).
+/// The SHA-256 (hex) of the file at `path`, read through once; `None` when it cannot be read.
+pub fn file_sha256(path: &Path) -> Option<String> {
+    use sha2::{Digest, Sha256};
+    use std::io::Read;
+    let mut f = std::fs::File::open(path).ok()?;
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = f.read(&mut buf).ok()?;
+        if n == 0 {
+            break;
+        }
+        h.update(&buf[..n]);
+    }
+    Some(crate::identity::hex(&h.finalize().into()))
+}
+
+/// The snapshot bytes of a file just written from `table` for `grid` (whose sweep is `sweep`),
+/// whose bytes hash to `file_sha256`.
 pub fn snapshot_of(
     sweep: &Sweep,
     grid: &Grid,
     table: &crate::record::columns::Table,
     shard: &str,
     created_utc: &str,
+    file_sha256: String,
 ) -> Vec<u8> {
     let header = snapshot::Header {
         layout_version: hdf5::LAYOUT_VERSION,
@@ -419,6 +460,7 @@ pub fn snapshot_of(
             .unwrap_or_default(),
         shard: shard.to_string(),
         created_utc: created_utc.to_string(),
+        file_sha256,
     };
     snapshot::encode(&header, table, &grid.hashes)
 }

@@ -69,6 +69,9 @@ pub struct Header {
     pub shard: String,
     /// When the output file it copies was written.
     pub created_utc: String,
+    /// The SHA-256 (hex) of the whole output file it was published with: a file whose bytes
+    /// still hash to it is exactly what was published.
+    pub file_sha256: String,
 }
 
 impl Header {
@@ -435,6 +438,7 @@ mod tests {
             auto: String::new(),
             shard: "1/1".into(),
             created_utc: "2026-01-01T00:00:00Z".into(),
+            file_sha256: String::new(),
         }
     }
 

@@ -180,35 +180,76 @@ pub(crate) fn filled_checked_dataset<T: H5Type + Copy + Into<hdf5::types::OwnedD
     Ok(d)
 }
 
-/// The checksum of what says what a file is (the `header_checksum` root attribute): its sweep
-/// file's text, its shard (`K/N`), its dimensions (the `dimensions` JSON) and grid shape, and
-/// what `integrator: auto` chose (the `auto` JSON; empty without). Coordinates and probes are
-/// functions of the sweep text, checked against it.
-pub fn header_checksum(
-    sweep_text: &str,
-    shard: &str,
-    dimensions: &str,
-    grid_shape: &[i64],
-    auto: &str,
-) -> u64 {
+/// The text attributes of `loc` (name, text), by name: HDF5 checksums the other attributes itself
+/// (they lie in object headers), but keeps text in a heap it does not check.
+fn text_attrs(loc: &Location) -> Result<Vec<(String, String)>> {
+    use hdf5::types::TypeDescriptor;
+    let mut out = Vec::new();
+    for name in loc.attr_names()? {
+        if name == "header_checksum" {
+            continue;
+        }
+        let a = loc.attr(&name)?;
+        // (HDF5's own attributes, dimension-scale references among them, are no text.)
+        if let Ok(TypeDescriptor::VarLenUnicode) = a.dtype().and_then(|d| d.to_descriptor()) {
+            let v: VarLenUnicode = a.read_scalar()?;
+            out.push((name, text_of(&v)));
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+fn text_checksum(entries: &[(String, String, String)], shape: &[i64]) -> u64 {
     crate::identity::checksum64(|h| {
         use sha2::Digest;
-        h.update(b"chainsweep header checksum v1\n");
-        for (name, text) in [
-            ("sweep", sweep_text),
-            ("shard", shard),
-            ("dimensions", dimensions),
-            ("auto", auto),
-        ] {
-            h.update(name.as_bytes());
-            h.update((text.len() as u64).to_le_bytes());
-            h.update(text.as_bytes());
+        h.update(b"chainsweep text checksum v1\n");
+        for (object, name, text) in entries {
+            for part in [object, name, text] {
+                h.update((part.len() as u64).to_le_bytes());
+                h.update(part.as_bytes());
+            }
         }
         h.update(b"grid_shape");
-        for x in grid_shape {
+        for x in shape {
             h.update(x.to_le_bytes());
         }
     })
+}
+
+/// The checksum of what says what a file is (the `header_checksum` root attribute): every text
+/// attribute of its root (its sweep, shard, dimensions, what `integrator: auto` chose, and the
+/// `column_checksums` of the summary columns' own attributes) and of its datasets other than the
+/// summary columns (the coordinates: units, field, dimension), and its grid shape. Coordinate
+/// values and probes are functions of the sweep text, checked against it.
+pub fn header_checksum(file: &File) -> Result<u64> {
+    let mut entries: Vec<(String, String, String)> = text_attrs(file)?
+        .into_iter()
+        .map(|(n, t)| ("/".to_string(), n, t))
+        .collect();
+    for member in file.member_names()? {
+        if crate::record::columns::column(&member).is_some() {
+            continue;
+        }
+        if let Ok(d) = file.dataset(&member) {
+            for (n, t) in text_attrs(&d)? {
+                entries.push((member.clone(), n, t));
+            }
+        }
+    }
+    let shape = file.attr("grid_shape")?.read_raw::<i64>()?;
+    Ok(text_checksum(&entries, &shape))
+}
+
+/// The checksum of a summary column's own text attributes (its units, long name, coordinates,
+/// flag meanings): kept per column in the root attribute `column_checksums` (JSON, name to
+/// checksum), so that a column whose dataset cannot be read costs its points, not the file.
+pub fn column_text_checksum(d: &Dataset) -> Result<u64> {
+    let entries: Vec<(String, String, String)> = text_attrs(d)?
+        .into_iter()
+        .map(|(n, t)| (String::new(), n, t))
+        .collect();
+    Ok(text_checksum(&entries, &[]))
 }
 
 /// Reads every element of a numeric dataset without HDF5's error-detection check (Fletcher-32):
@@ -249,6 +290,52 @@ pub(crate) fn read_unchecked<T: H5Type + Copy + Default>(d: &Dataset) -> Result<
         return Err(Error::Other(format!("reading dataset {} failed", d.name())));
     }
     Ok(buf)
+}
+
+/// The values of numeric dataset `name` of the file `path`, read without the Fletcher-32 check
+/// (for a reader that masks the damaged points of a chunk and serves the others): their bytes
+/// (little endian, C order), their numpy dtype name, and the dataset's shape.
+pub fn read_numeric_unchecked(
+    path: &Path,
+    name: &str,
+) -> Result<(Vec<u8>, &'static str, Vec<usize>)> {
+    use hdf5::types::{FloatSize, IntSize, TypeDescriptor};
+    let f = File::open(path)?;
+    let d = f.dataset(name)?;
+    let shape = d.shape();
+    let le = |b: Vec<[u8; 8]>| b.concat();
+    Ok(match d.dtype()?.to_descriptor()? {
+        TypeDescriptor::Float(FloatSize::U8) => (
+            le(read_unchecked::<f64>(&d)?
+                .iter()
+                .map(|x| x.to_le_bytes())
+                .collect()),
+            "float64",
+            shape,
+        ),
+        TypeDescriptor::Integer(IntSize::U8) => (
+            le(read_unchecked::<i64>(&d)?
+                .iter()
+                .map(|x| x.to_le_bytes())
+                .collect()),
+            "int64",
+            shape,
+        ),
+        TypeDescriptor::Unsigned(IntSize::U8) => (
+            le(read_unchecked::<u64>(&d)?
+                .iter()
+                .map(|x| x.to_le_bytes())
+                .collect()),
+            "uint64",
+            shape,
+        ),
+        TypeDescriptor::Unsigned(IntSize::U1) => (read_unchecked::<u8>(&d)?, "uint8", shape),
+        other => {
+            return Err(Error::Other(format!(
+                "dataset {name} holds {other:?}, not numbers"
+            )))
+        }
+    })
 }
 
 pub(crate) fn vlen(s: &str) -> Result<VarLenUnicode> {

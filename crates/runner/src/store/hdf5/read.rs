@@ -16,7 +16,8 @@ use hdf5::File;
 
 use super::write::{coord_of, Coord};
 use super::{
-    header_checksum, read_attr_str, read_unchecked, run_group_name_in, text_of, LAYOUT_VERSION,
+    column_text_checksum, header_checksum, read_attr_str, read_unchecked, run_group_name_in,
+    text_of, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
 use crate::grid::Grid;
@@ -180,7 +181,6 @@ impl FileRecords {
             }
         }
         let table = Table { n, np, columns };
-        let has_auto = has_attr("auto");
         let mut recs = FileRecords {
             sweep_text,
             verify_fraction,
@@ -192,13 +192,13 @@ impl FileRecords {
             unreadable,
             damage: vec![None; n],
         };
-        recs.check_points(has_auto);
+        recs.check_points();
         Ok(recs)
     }
 
     /// Finds every damaged point: a status outside the known codes, and (layout 3 and later) a
     /// point whose values do not match its `summary_checksum`; checks the header.
-    fn check_points(&mut self, has_auto: bool) {
+    fn check_points(&mut self) {
         let unreadable = self
             .unreadable
             .iter()
@@ -226,32 +226,63 @@ impl FileRecords {
             self.damage[i] = why;
         }
         if checked && self.header_damage.is_none() {
-            let read = || -> Result<(String, Vec<i64>, String, u64)> {
-                let dims = read_attr_str(&self.file, "dimensions")?;
-                let shape = self.file.attr("grid_shape")?.read_raw::<i64>()?;
-                let auto = if has_auto {
-                    read_attr_str(&self.file, "auto")?
-                } else {
-                    String::new()
-                };
-                let sum = self.file.attr("header_checksum")?.read_scalar::<u64>()?;
-                Ok((dims, shape, auto, sum))
-            };
-            self.header_damage = match read() {
-                Err(e) => Some(format!("its header cannot be read ({})", brief(&e))),
-                Ok((dims, shape, auto, sum)) => (header_checksum(
-                    &self.sweep_text,
-                    &self.shard,
-                    &dims,
-                    &shape,
-                    &auto,
-                ) != sum)
-                    .then(|| {
-                        "its header (sweep, shard, dimensions, shape) does not match its checksum (header_checksum)"
-                            .to_string()
-                    }),
+            let stored = self
+                .file
+                .attr("header_checksum")
+                .and_then(|a| a.read_scalar::<u64>());
+            self.header_damage = match (stored, header_checksum(&self.file)) {
+                (Ok(want), Ok(got)) if want == got => None,
+                (Ok(_), Ok(_)) => Some(
+                    "its header (its sweep, dimensions, units and the other text attributes) does not match its checksum (header_checksum)"
+                        .to_string(),
+                ),
+                (Err(e), _) => Some(format!(
+                    "its header checksum cannot be read ({})",
+                    brief(&Error::from(e))
+                )),
+                (_, Err(e)) => Some(format!("its header cannot be read ({})", brief(&e))),
             };
         }
+        if checked && self.header_damage.is_none() {
+            self.header_damage = self.column_attr_damage();
+        }
+    }
+
+    /// What is wrong with the text attributes of the readable summary columns (units, long
+    /// names, coordinates) against `column_checksums`. (A column that cannot be read costs its
+    /// points already.)
+    fn column_attr_damage(&self) -> Option<String> {
+        let sums: serde_json::Map<String, serde_json::Value> =
+            read_attr_str(&self.file, "column_checksums")
+                .ok()
+                .and_then(|t| serde_json::from_str(&t).ok())?;
+        let mut bad = Vec::new();
+        for (c, data) in COLUMNS.iter().zip(&self.table.columns) {
+            if data.is_none() {
+                continue;
+            }
+            let want = sums.get(c.name).and_then(|v| v.as_str());
+            let got = self
+                .file
+                .dataset(c.name)
+                .map_err(Error::from)
+                .and_then(|d| column_text_checksum(&d))
+                .map(|x| x.to_string());
+            if want.is_none() || got.ok().as_deref() != want {
+                bad.push(c.name);
+            }
+        }
+        (!bad.is_empty()).then(|| {
+            format!(
+                "the attributes (units, long name, coordinates) of {} do not match their checksums (column_checksums)",
+                bad.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ")
+            )
+        })
+    }
+
+    /// The columns HDF5 could not read, with why.
+    pub fn unreadable(&self) -> &[(&'static str, String)] {
+        &self.unreadable
     }
 
     /// Whether the file carries checksums (layout 3 and later): its values are verified.

@@ -10,9 +10,9 @@ use hdf5::{Dataset, File, Group};
 use serde_json::Value;
 
 use super::{
-    attach_scale, attr_scalar, attr_str, attr_vec, checked_dataset, filled_checked_dataset,
-    header_checksum, run_group_name, set_scale, str_dataset, Counts, Provenance, DEFLATE_LEVEL,
-    HISTORY_CHUNK, LAYOUT_VERSION, NETCDF_DIM_ONLY,
+    attach_scale, attr_scalar, attr_str, attr_vec, checked_dataset, column_text_checksum,
+    filled_checked_dataset, header_checksum, run_group_name, set_scale, str_dataset, Counts,
+    Provenance, DEFLATE_LEVEL, HISTORY_CHUNK, LAYOUT_VERSION, NETCDF_DIM_ONLY,
 };
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid, Shard};
@@ -80,28 +80,26 @@ pub fn write_file(
         };
         let table = fill_columns(sweep, grid, points, runs.as_ref(), get, get_verify)?;
         write_outcome_attrs(&file, points, &table, verify_fraction)?;
-        let auto = match &sweep.auto_choice {
-            Some(c) => {
-                write_auto_attrs(&file, c)?;
-                c.to_json()
-            }
-            None => String::new(),
-        };
-        let (dims_json, shape) = header_values(sweep, grid);
-        attr_scalar(
-            &file,
-            "header_checksum",
-            header_checksum(
-                &sweep.text,
-                &shard.unwrap_or(Shard { k: 1, n: 1 }).to_string(),
-                &dims_json,
-                &shape,
-                &auto,
-            ),
-        )?;
+        if let Some(c) = &sweep.auto_choice {
+            write_auto_attrs(&file, c)?;
+        }
         let dims = write_coordinates(&file, sweep)?;
         let probe_scale = write_probe_scale(&file, grid)?;
         write_columns(&file, &table.table, &dims, probe_scale.as_ref())?;
+        // Last: over every text attribute written above.
+        let mut sums = serde_json::Map::new();
+        for (c, data) in COLUMNS.iter().zip(&table.table.columns) {
+            if data.is_some() {
+                let sum = column_text_checksum(&file.dataset(c.name)?)?;
+                sums.insert(c.name.to_string(), Value::from(sum.to_string()));
+            }
+        }
+        attr_str(
+            &file,
+            "column_checksums",
+            &serde_json::to_string(&sums).expect("json"),
+        )?;
+        attr_scalar(&file, "header_checksum", header_checksum(&file)?)?;
         file.flush()?;
         drop(dims);
         drop(probe_scale);
