@@ -829,10 +829,7 @@ impl WorkDir {
             if matches!(loc, Loc::Published { .. }) {
                 continue;
             }
-            let in_file = stored
-                .published
-                .as_ref()
-                .and_then(|p| p.holds(h).then(|| p.read(h).map(|r| r.ok)).flatten());
+            let in_file = stored.published.as_ref().and_then(|p| p.ok(h));
             if drop_published && in_file == Some(loc.ok()) {
                 report.published += 1;
                 gone.push(*h);

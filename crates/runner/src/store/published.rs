@@ -361,6 +361,11 @@ impl PublishedFile {
         self.points.contains_key(hash)
     }
 
+    /// Whether the run `hash` the file gives back succeeded (`None`: it gives back no such run).
+    pub fn ok(&self, hash: &RunHash) -> Option<bool> {
+        self.points.get(hash).map(|&(_, ok, _)| ok)
+    }
+
     /// Runs the file gives back.
     pub fn len(&self) -> usize {
         self.points.len()
