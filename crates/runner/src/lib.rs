@@ -13,6 +13,8 @@
 //!   `integrator: auto` request and choice as data);
 //! - [`grid`]: expand the axes into grid points, each a complete [`chainsweep_solver::Scene`] with
 //!   its run hash;
+//! - [`search`]: the methods of searches (minima, roots, refined curves), pure functions of the
+//!   values found;
 //! - [`exec`]: run one scene under `catch_unwind` and turn its output into a run record;
 //! - [`store`]: crash-safe append-only logs of finished runs, the lock on the work directory,
 //!   and the HDF5 file assembled from the stored runs in grid order;
@@ -51,6 +53,7 @@ pub mod identity;
 pub mod numerics;
 pub mod progress;
 pub mod record;
+pub mod search;
 pub mod store;
 pub mod sweep;
 

@@ -648,9 +648,22 @@ pub const COLUMNS: &[Column] = &[
     },
 ];
 
-/// Names the file uses at its root beside the columns: the probe coordinate, the probes' units
-/// and the group of full histories.
-pub const LAYOUT_NAMES: &[&str] = &["probe", "probe_units", "runs"];
+/// Names the file uses at its root beside the columns: the probe coordinate, the probes' units,
+/// the group of full histories, and what a search adds (its evaluations, objective, outcome).
+pub const LAYOUT_NAMES: &[&str] = &[
+    "probe",
+    "probe_units",
+    "runs",
+    "evaluation",
+    "objective",
+    "search_status",
+    "search_runs",
+    "search_reason",
+    "refine_error",
+    "minimum",
+    "maximum",
+    "root",
+];
 
 /// Every name an axis may not take: the columns' and the layout's.
 pub fn reserved_names() -> Vec<&'static str> {

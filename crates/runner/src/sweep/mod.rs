@@ -16,12 +16,15 @@
 //! - `limits`: `{"energy_drift_max": 1e-3, "max_run_seconds": 600}`: the largest relative energy
 //!   drift a run may have before it counts as failed (`null`: no limit), and the wall time after
 //!   which a run is given up and recorded as failed (not part of a run's identity: a run that
-//!   finished is the same run whatever the limit).
+//!   finished is the same run whatever the limit);
+//! - `search` (optional): a search over continuous fields run at every point of the axes (which
+//!   may then be empty), see [`search`].
 //!
 //! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
 
 pub mod auto;
+pub mod search;
 
 use serde::Deserialize;
 use serde_json::{Map, Value};
@@ -31,6 +34,7 @@ use chainsweep_solver::{ChainSpec, Scene};
 use crate::error::{Error, Result};
 use crate::record::columns::reserved_names;
 use auto::{AutoChoice, AutoSpec};
+use search::SearchSpec;
 
 /// Largest number of grid points a sweep may have.
 pub const MAX_GRID_POINTS: usize = 10_000_000;
@@ -182,6 +186,8 @@ pub struct Sweep {
     pub auto: Option<AutoSpec>,
     /// What `auto` chose, once resolved (`base.integrator` is then the chosen setting).
     pub auto_choice: Option<AutoChoice>,
+    /// The search run at every point of the axes, when the sweep has one ([`search`]).
+    pub search: Option<SearchSpec>,
 }
 
 #[derive(Deserialize)]
@@ -192,9 +198,12 @@ struct SweepFile {
     base: Map<String, Value>,
     #[serde(default)]
     record: Option<Map<String, Value>>,
+    #[serde(default)]
     axes: Vec<AxisFile>,
     #[serde(default)]
     limits: Option<LimitsFile>,
+    #[serde(default)]
+    search: Option<search::SearchFile>,
 }
 
 #[derive(Deserialize)]
@@ -869,11 +878,11 @@ fn parse_limits(limits: Option<LimitsFile>) -> Result<Limits> {
 }
 
 /// The grid's dimensions from the `axes` list: one per axis or zipped group.
-fn parse_dims(axes: Vec<AxisFile>, base: &Value, auto: bool) -> Result<Vec<Dim>> {
-    if axes.is_empty() {
+fn parse_dims(axes: Vec<AxisFile>, base: &Value, auto: bool, search: bool) -> Result<Vec<Dim>> {
+    if axes.is_empty() && !search {
         return Err(Error::input(
             "axes",
-            "at least one axis is required (a single run is an axis with one value)",
+            "at least one axis is required (a single run is an axis with one value), unless the sweep has a `search`",
         ));
     }
     let mut dims = Vec::new();
@@ -1019,8 +1028,12 @@ impl Sweep {
         let file = read_json(text)?;
         let (base, auto) = normalise_base(file.base, file.record)?;
         let limits = parse_limits(file.limits)?;
-        let dims = parse_dims(file.axes, &base, auto.is_some())?;
+        let dims = parse_dims(file.axes, &base, auto.is_some(), file.search.is_some())?;
         check_names_and_fields(&dims)?;
+        let search = file
+            .search
+            .map(|s| search::parse(s, &base, &dims))
+            .transpose()?;
         Ok(Sweep {
             text: text.to_string(),
             description: file.description,
@@ -1029,6 +1042,7 @@ impl Sweep {
             limits,
             auto,
             auto_choice: None,
+            search,
         })
     }
 

@@ -1,0 +1,420 @@
+//! The objective over one or two fields, sampled until interpolating the samples is accurate to
+//! the objective tolerance: points go where the curve bends or jumps, as python-adaptive's
+//! learners put them, but as a pure function of the values (see [`super`]).
+//!
+//! - A curve (one field) is interpolated linearly between its samples. The error of an interval
+//!   of width h is estimated from the curvature at its ends, h²/8 · |f''| (the bound of linear
+//!   interpolation), f'' the second divided difference over each end and its neighbours. The
+//!   `round` intervals of largest estimate are halved at a time, until every estimate is within
+//!   the tolerance, or the intervals still above it are narrower than twice the field's
+//!   tolerance (a jump, located to that tolerance).
+//! - A surface (two fields) is a tree of rectangular cells, interpolated bilinearly in each. Every
+//!   cell is sampled at its corners and its centre; its error is the centre's distance from the
+//!   mean of its corners (the bilinear interpolant there). The `round` cells of largest error are
+//!   split into four at a time (their edge midpoints and the centres of the four children
+//!   sampled), until every cell is within the tolerance or too small to split.
+//!
+//! A run that failed (or gave no number) leaves a gap (`failed: gap`): the intervals or cells
+//! touching it are not refined, and the outcome counts them.
+
+use std::collections::BTreeMap;
+
+use super::{linspace, Outcome, SearchStatus, Streams, Value};
+use crate::sweep::search::{OnFailure, SearchSpec};
+
+/// Most rounds of a refinement (far more than any budget allows: this bounds only a tolerance
+/// below the floating-point resolution).
+const MAX_ROUNDS: usize = 100_000;
+
+fn failed(spec: &SearchSpec, at: &[f64]) -> Outcome {
+    let place: Vec<String> = spec
+        .fields
+        .iter()
+        .zip(at)
+        .map(|(f, x)| format!("{} = {x}", f.name))
+        .collect();
+    Outcome {
+        status: SearchStatus::Failed,
+        items: Vec::new(),
+        refine_error: f64::NAN,
+        note: format!(
+            "the run at {} failed or gave no number (failed: stop)",
+            place.join(", ")
+        ),
+    }
+}
+
+/// The estimated interpolation error of every interval of the samples `xs`, `ys` (sorted by
+/// `x`); `None` for an interval touching a sample without a number.
+pub fn interval_errors(xs: &[f64], ys: &[Value]) -> Vec<Option<f64>> {
+    let n = xs.len();
+    // f'' at every interior sample with numbers on both sides.
+    let d2: Vec<Option<f64>> = (0..n)
+        .map(|j| {
+            if j == 0 || j + 1 == n {
+                return None;
+            }
+            let (a, b, c) = (ys[j - 1]?, ys[j]?, ys[j + 1]?);
+            let right = (c - b) / (xs[j + 1] - xs[j]);
+            let left = (b - a) / (xs[j] - xs[j - 1]);
+            Some(2.0 * (right - left) / (xs[j + 1] - xs[j - 1]))
+        })
+        .collect();
+    (0..n.saturating_sub(1))
+        .map(|i| {
+            ys[i]?;
+            ys[i + 1]?;
+            let curvature = [d2[i], d2[i + 1]]
+                .iter()
+                .flatten()
+                .fold(None, |m: Option<f64>, v| {
+                    Some(m.map_or(v.abs(), |m| m.max(v.abs())))
+                });
+            let h = xs[i + 1] - xs[i];
+            Some(curvature.map_or(0.0, |c| h * h / 8.0 * c))
+        })
+        .collect()
+}
+
+/// A curve: the objective over one field.
+pub fn curve(spec: &SearchSpec, s: &mut Streams) -> Outcome {
+    let f = &spec.fields[0];
+    let tol = spec.objective_tolerance;
+    let mut xs = linspace(f.min, f.max, spec.scan);
+    let points: Vec<Vec<f64>> = xs.iter().map(|&x| vec![x]).collect();
+    let Some(mut ys) = s.eval(0, &points) else {
+        return Outcome::running(Vec::new(), f64::NAN);
+    };
+    for _ in 0..MAX_ROUNDS {
+        if spec.on_failure == OnFailure::Stop {
+            if let Some(i) = ys.iter().position(|y| y.is_none()) {
+                return failed(spec, &[xs[i]]);
+            }
+        }
+        let errors = interval_errors(&xs, &ys);
+        let largest =
+            errors
+                .iter()
+                .flatten()
+                .fold(f64::NAN, |m, &e| if m.is_nan() || e > m { e } else { m });
+        // Intervals above the tolerance that may still be halved.
+        let mut todo: Vec<(usize, f64)> = errors
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| e.filter(|&e| e > tol).map(|e| (i, e)))
+            .filter(|&(i, _)| 0.5 * (xs[i + 1] - xs[i]) >= f.tolerance)
+            .collect();
+        if todo.is_empty() {
+            let unresolved = errors.iter().flatten().filter(|&&e| e > tol).count();
+            let gaps = errors.iter().filter(|e| e.is_none()).count();
+            let mut note = format!(
+                "{} samples; largest estimated interpolation error {largest:.3e} (tolerance {tol:e})",
+                xs.len()
+            );
+            if unresolved > 0 {
+                note += &format!(
+                    "; {unresolved} interval(s) narrower than twice the tolerance of {} still above it (a jump or a kink, located to that tolerance)",
+                    f.name
+                );
+            }
+            if gaps > 0 {
+                note += &format!("; {gaps} interval(s) next to a failed run left as gaps");
+            }
+            return Outcome {
+                status: if unresolved > 0 {
+                    SearchStatus::Stalled
+                } else {
+                    SearchStatus::Converged
+                },
+                items: Vec::new(),
+                refine_error: largest,
+                note,
+            };
+        }
+        // The largest first (ties: lower x); then in x order.
+        todo.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        todo.truncate(spec.round);
+        todo.sort_by_key(|&(i, _)| i);
+        let mids: Vec<Vec<f64>> = todo
+            .iter()
+            .map(|&(i, _)| vec![0.5 * (xs[i] + xs[i + 1])])
+            .collect();
+        let Some(new) = s.eval(0, &mids) else {
+            return Outcome::running(Vec::new(), largest);
+        };
+        for (m, y) in mids.iter().zip(new).rev() {
+            let at = xs.partition_point(|&x| x < m[0]);
+            xs.insert(at, m[0]);
+            ys.insert(at, y);
+        }
+    }
+    Outcome {
+        status: SearchStatus::Stalled,
+        items: Vec::new(),
+        refine_error: f64::NAN,
+        note: "the refinement did not end within its rounds".into(),
+    }
+}
+
+/// A cell of a surface: its corners on the integer lattice of the surface.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    a0: u64,
+    a1: u64,
+    b0: u64,
+    b1: u64,
+}
+
+/// Halvings of the first scan's cells the lattice can hold (exact midpoints down to 2^-30 of a
+/// scan cell, far below any field's tolerance).
+const LATTICE_BITS: u32 = 30;
+
+/// A surface: the objective over two fields.
+pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
+    let (fx, fy) = (&spec.fields[0], &spec.fields[1]);
+    let tol = spec.objective_tolerance;
+    let n = spec.scan as u64;
+    let step = 1u64 << LATTICE_BITS;
+    let top = (n - 1) * step;
+    // A lattice coordinate in field units, both ends exact.
+    let at = |k: u64, min: f64, max: f64| {
+        if k == top {
+            max
+        } else {
+            min + (max - min) * (k as f64 / top as f64)
+        }
+    };
+    let point = |a: u64, b: u64| vec![at(a, fx.min, fx.max), at(b, fy.min, fy.max)];
+    let mut values: BTreeMap<(u64, u64), Value> = BTreeMap::new();
+    let mut cells: Vec<Cell> = Vec::new();
+    for i in 0..n - 1 {
+        for j in 0..n - 1 {
+            cells.push(Cell {
+                a0: i * step,
+                a1: (i + 1) * step,
+                b0: j * step,
+                b1: (j + 1) * step,
+            });
+        }
+    }
+    // The first scan: the grid's points and every cell's centre.
+    let mut first: Vec<(u64, u64)> = Vec::new();
+    for i in 0..n {
+        for j in 0..n {
+            first.push((i * step, j * step));
+        }
+    }
+    first.extend(cells.iter().map(|c| ((c.a0 + c.a1) / 2, (c.b0 + c.b1) / 2)));
+    let batch: Vec<Vec<f64>> = first.iter().map(|&(a, b)| point(a, b)).collect();
+    let Some(ys) = s.eval(0, &batch) else {
+        return Outcome::running(Vec::new(), f64::NAN);
+    };
+    values.extend(first.into_iter().zip(ys));
+    let error = |c: &Cell, values: &BTreeMap<(u64, u64), Value>| -> Option<f64> {
+        let v = |a, b| values.get(&(a, b)).copied().flatten();
+        let corners = v(c.a0, c.b0)? + v(c.a1, c.b0)? + v(c.a0, c.b1)? + v(c.a1, c.b1)?;
+        Some((v((c.a0 + c.a1) / 2, (c.b0 + c.b1) / 2)? - 0.25 * corners).abs())
+    };
+    let splittable = |c: &Cell| {
+        let half_x = 0.5 * (at(c.a1, fx.min, fx.max) - at(c.a0, fx.min, fx.max));
+        let half_y = 0.5 * (at(c.b1, fy.min, fy.max) - at(c.b0, fy.min, fy.max));
+        c.a1 - c.a0 >= 4 && c.b1 - c.b0 >= 4 && half_x >= fx.tolerance && half_y >= fy.tolerance
+    };
+    for _ in 0..MAX_ROUNDS {
+        if spec.on_failure == OnFailure::Stop {
+            if let Some((&(a, b), _)) = values.iter().find(|(_, v)| v.is_none()) {
+                return failed(spec, &point(a, b));
+            }
+        }
+        let errors: Vec<Option<f64>> = cells.iter().map(|c| error(c, &values)).collect();
+        let largest =
+            errors
+                .iter()
+                .flatten()
+                .fold(f64::NAN, |m, &e| if m.is_nan() || e > m { e } else { m });
+        let mut todo: Vec<(usize, f64)> = errors
+            .iter()
+            .enumerate()
+            .filter_map(|(i, e)| e.filter(|&e| e > tol).map(|e| (i, e)))
+            .filter(|&(i, _)| splittable(&cells[i]))
+            .collect();
+        if todo.is_empty() {
+            let unresolved = errors.iter().flatten().filter(|&&e| e > tol).count();
+            let gaps = errors.iter().filter(|e| e.is_none()).count();
+            let mut note = format!(
+                "{} samples in {} cells; largest estimated interpolation error {largest:.3e} (tolerance {tol:e})",
+                values.len(),
+                cells.len()
+            );
+            if unresolved > 0 {
+                note += &format!(
+                    "; {unresolved} cell(s) at the fields' tolerance still above it (a jump or a kink)"
+                );
+            }
+            if gaps > 0 {
+                note += &format!("; {gaps} cell(s) next to a failed run left as gaps");
+            }
+            return Outcome {
+                status: if unresolved > 0 {
+                    SearchStatus::Stalled
+                } else {
+                    SearchStatus::Converged
+                },
+                items: Vec::new(),
+                refine_error: largest,
+                note,
+            };
+        }
+        todo.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        todo.truncate(spec.round);
+        todo.sort_by_key(|&(i, _)| i);
+        // Each split cell's four children, and the points they need that are not known yet.
+        let mut children: Vec<(usize, [Cell; 4])> = Vec::new();
+        let mut new: Vec<(u64, u64)> = Vec::new();
+        for &(i, _) in &todo {
+            let c = cells[i];
+            let (am, bm) = ((c.a0 + c.a1) / 2, (c.b0 + c.b1) / 2);
+            let kids = [
+                Cell {
+                    a0: c.a0,
+                    a1: am,
+                    b0: c.b0,
+                    b1: bm,
+                },
+                Cell {
+                    a0: am,
+                    a1: c.a1,
+                    b0: c.b0,
+                    b1: bm,
+                },
+                Cell {
+                    a0: c.a0,
+                    a1: am,
+                    b0: bm,
+                    b1: c.b1,
+                },
+                Cell {
+                    a0: am,
+                    a1: c.a1,
+                    b0: bm,
+                    b1: c.b1,
+                },
+            ];
+            let mut want = vec![(am, c.b0), (am, c.b1), (c.a0, bm), (c.a1, bm)];
+            want.extend(kids.iter().map(|k| ((k.a0 + k.a1) / 2, (k.b0 + k.b1) / 2)));
+            for p in want {
+                if !values.contains_key(&p) && !new.contains(&p) {
+                    new.push(p);
+                }
+            }
+            children.push((i, kids));
+        }
+        let batch: Vec<Vec<f64>> = new.iter().map(|&(a, b)| point(a, b)).collect();
+        let Some(ys) = s.eval(0, &batch) else {
+            return Outcome::running(Vec::new(), largest);
+        };
+        values.extend(new.into_iter().zip(ys));
+        // Children replace their parents, in place (the order of cells is a function of the
+        // splits only).
+        for (i, kids) in children.into_iter().rev() {
+            cells.splice(i..=i, kids);
+        }
+    }
+    Outcome {
+        status: SearchStatus::Stalled,
+        items: Vec::new(),
+        refine_error: f64::NAN,
+        note: "the refinement did not end within its rounds".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::testing::{solve, spec};
+    use super::super::*;
+    use crate::sweep::search::Goal;
+
+    /// The largest error of interpolating `f` linearly between `points` (sorted), checked at
+    /// 20 001 points.
+    fn linear_error(points: &[(f64, f64)], f: &dyn Fn(f64) -> f64, min: f64, max: f64) -> f64 {
+        let mut worst: f64 = 0.0;
+        for k in 0..=20_000 {
+            let x = min + (max - min) * k as f64 / 20_000.0;
+            let i = points
+                .partition_point(|p| p.0 <= x)
+                .clamp(1, points.len() - 1);
+            let ((x0, y0), (x1, y1)) = (points[i - 1], points[i]);
+            let y = y0 + (y1 - y0) * (x - x0) / (x1 - x0);
+            worst = worst.max((y - f(x)).abs());
+        }
+        worst
+    }
+
+    #[test]
+    fn a_curve_with_a_kink_gets_its_points_where_it_bends() {
+        // Smooth but for a kink at 0.3 and a sharp bump at 0.7.
+        let f = |x: f64| (x - 0.3).abs() + 0.2 * (-(x - 0.7).powi(2) / 0.001).exp();
+        let mut sp = spec(Goal::Refine, &[(0.0, 1.0, 1e-4)]);
+        sp.objective_tolerance = 1e-3;
+        sp.scan = 11;
+        let (out, points) = solve(&sp, |x| Some(f(x[0])));
+        assert_eq!(out.status, SearchStatus::Converged, "{}", out.note);
+        assert!(out.refine_error <= 1e-3);
+        let mut samples: Vec<(f64, f64)> = points.iter().map(|p| (p[0], f(p[0]))).collect();
+        samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let adaptive = linear_error(&samples, &f, 0.0, 1.0);
+        // A uniform grid of as many points does far worse.
+        let n = samples.len();
+        let uniform: Vec<(f64, f64)> = (0..n)
+            .map(|i| {
+                let x = i as f64 / (n - 1) as f64;
+                (x, f(x))
+            })
+            .collect();
+        let grid = linear_error(&uniform, &f, 0.0, 1.0);
+        assert!(
+            adaptive < 0.5 * grid,
+            "adaptive {adaptive}, uniform {grid} with {n} points"
+        );
+        assert!(adaptive < 3e-3, "{adaptive}");
+        // Denser around the bump than far from it.
+        let near = samples.iter().filter(|p| (p.0 - 0.7).abs() < 0.1).count();
+        let far = samples.iter().filter(|p| p.0 > 0.85).count();
+        assert!(near > 3 * far, "{near} near the bump, {far} far");
+    }
+
+    #[test]
+    fn a_jump_is_located_to_the_field_tolerance_and_said_so() {
+        let f = |x: &[f64]| Some(if x[0] < 0.4123 { 0.0 } else { 1.0 });
+        let mut sp = spec(Goal::Refine, &[(0.0, 1.0, 1e-3)]);
+        sp.objective_tolerance = 1e-2;
+        let (out, points) = solve(&sp, f);
+        assert_eq!(out.status, SearchStatus::Stalled, "{}", out.note);
+        assert!(out.note.contains("a jump"), "{}", out.note);
+        let mut xs: Vec<f64> = points.iter().map(|p| p[0]).collect();
+        xs.sort_by(f64::total_cmp);
+        let i = xs.partition_point(|&x| x < 0.4123);
+        assert!(xs[i] - xs[i - 1] < 2e-3, "{} {}", xs[i - 1], xs[i]);
+        // Failed runs: gaps, counted.
+        // (4/9 is a point of the 10-point scan.)
+        let holed = |x: &[f64]| ((x[0] - 4.0 / 9.0).abs() > 1e-12).then(|| x[0] * x[0]);
+        let (out, _) = solve(&sp, holed);
+        assert!(out.note.contains("left as gaps"), "{}", out.note);
+    }
+
+    #[test]
+    fn a_surface_is_refined_where_it_varies() {
+        // A ridge along x = 0.6 on a plane.
+        let f = |x: &[f64]| Some(0.1 * x[1] + 1.0 / (1.0 + ((x[0] - 0.6) / 0.1).powi(2)));
+        let mut sp = spec(Goal::Refine, &[(0.0, 1.0, 1e-3), (0.0, 2.0, 1e-3)]);
+        sp.objective_tolerance = 5e-3;
+        sp.scan = 5;
+        sp.round = 8;
+        let (out, points) = solve(&sp, f);
+        assert_eq!(out.status, SearchStatus::Converged, "{}", out.note);
+        let near = points.iter().filter(|p| (p[0] - 0.6).abs() < 0.1).count();
+        assert!(near * 2 > points.len(), "{near} of {}", points.len());
+        // Again: the same points.
+        assert_eq!(solve(&sp, f).1, points);
+    }
+}

@@ -1,0 +1,819 @@
+//! The `search` block of a sweep file: instead of a value of each field at every grid point, a
+//! search over continuous fields, run once for every point of the sweep's axes.
+//!
+//! ```json
+//! "search": {
+//!   "goal": "minimise",
+//!   "fields": [{"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "name": "mass_ratio",
+//!               "min": 0.4, "max": 0.8, "tolerance": 1e-4}],
+//!   "objective": {"ratio": [{"summary": "leading_peak", "probe": "gauge_force_cyl21"},
+//!                           {"summary": "leading_peak", "probe": "gauge_force_cyl4"}]},
+//!   "budget": 60
+//! }
+//! ```
+//!
+//! This module reads and checks the block ([`SearchSpec`]); the methods themselves are in
+//! [`crate::search`].
+
+use serde::Deserialize;
+use serde_json::Value;
+
+use chainsweep_solver::{Probe, Scene};
+
+use super::{check_settable, from_ref_at, set_path, split_path, units_of, Dim};
+use crate::error::{Error, Result};
+use crate::record::columns::{column, Fill, COLUMNS};
+use crate::record::RunRecord;
+
+/// What a search looks for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Goal {
+    /// Every local minimum (one field), or the lowest point (several fields).
+    Minimise,
+    /// The same for the largest values.
+    Maximise,
+    /// Every crossing of a level (one field).
+    Root,
+    /// The objective over one or two fields, sampled until its interpolation is accurate.
+    Refine,
+}
+
+impl Goal {
+    /// The goal's name in a sweep file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Goal::Minimise => "minimise",
+            Goal::Maximise => "maximise",
+            Goal::Root => "root",
+            Goal::Refine => "refine",
+        }
+    }
+
+    /// The name of what it finds, one of each per found item (the output file's dimension):
+    /// `minimum`, `maximum`, `root`; refine finds no items.
+    pub fn item(self) -> &'static str {
+        match self {
+            Goal::Minimise => "minimum",
+            Goal::Maximise => "maximum",
+            Goal::Root => "root",
+            Goal::Refine => "sample",
+        }
+    }
+}
+
+/// One searched field: a continuous scene field and its interval.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SearchField {
+    /// Its name (coordinate name in the output file).
+    pub name: String,
+    /// Dotted path of the scene field.
+    pub field: String,
+    /// Lower end of the interval.
+    pub min: f64,
+    /// Upper end.
+    pub max: f64,
+    /// Tolerance in the field: how closely a minimum or root is located (minimise, maximise,
+    /// root), or the smallest spacing a refinement goes down to (refine).
+    pub tolerance: f64,
+    /// Unit from the field's name.
+    pub units: String,
+}
+
+/// How two values are combined.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Combine {
+    /// a / b.
+    Ratio,
+    /// a - b.
+    Difference,
+    /// ln(a / b).
+    LogRatio,
+}
+
+impl Combine {
+    fn parse(name: &str) -> Option<Combine> {
+        match name {
+            "ratio" => Some(Combine::Ratio),
+            "difference" => Some(Combine::Difference),
+            "log_ratio" => Some(Combine::LogRatio),
+            _ => None,
+        }
+    }
+
+    /// Its name in a sweep file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Combine::Ratio => "ratio",
+            Combine::Difference => "difference",
+            Combine::LogRatio => "log_ratio",
+        }
+    }
+
+    /// `a` combined with `b`; `None` (no value) where either is missing or the result is not
+    /// finite (a ratio over 0, the logarithm of a negative ratio).
+    pub fn apply(self, a: Option<f64>, b: Option<f64>) -> Option<f64> {
+        let (a, b) = (a?, b?);
+        let v = match self {
+            Combine::Ratio => a / b,
+            Combine::Difference => a - b,
+            Combine::LogRatio => (a / b).ln(),
+        };
+        v.is_finite().then_some(v)
+    }
+}
+
+/// One summary of a run: a stored column, of one probe where the column has one value per probe.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// The column's name (`leading_peak`, `t_end_s`, …).
+    pub column: &'static str,
+    /// The probe's index in the record block, and its name, for per-probe columns.
+    pub probe: Option<(usize, String)>,
+}
+
+impl Summary {
+    /// The value in `rec`; `None` for a failed run, or a value that is not finite (NaN).
+    pub fn of(&self, rec: &RunRecord) -> Option<f64> {
+        if !rec.ok {
+            return None;
+        }
+        let c = column(self.column).expect("checked at parse time");
+        let v = match (c.fill, &self.probe) {
+            (Fill::ProbeF64 { get, .. }, Some((p, _))) => get(rec.probes.get(*p)?),
+            (Fill::OkF64 { get, .. }, None) => get(rec),
+            (Fill::OkCount { get, .. }, None) => get(rec) as f64,
+            _ => unreachable!("checked at parse time"),
+        };
+        v.is_finite().then_some(v)
+    }
+
+    /// How it reads: `leading_peak[gauge_force_cyl21]`, `t_end_s`.
+    pub fn describe(&self) -> String {
+        match &self.probe {
+            Some((_, name)) => format!("{}[{name}]", self.column),
+            None => self.column.to_string(),
+        }
+    }
+}
+
+/// The objective of a search: one summary of a run, or two combined.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Objective {
+    /// One summary.
+    One(Summary),
+    /// Two summaries of the same run, combined.
+    Two(Combine, Summary, Summary),
+}
+
+impl Objective {
+    /// Its value for the run `rec`; `None` where the run failed or the value is not finite.
+    pub fn of(&self, rec: &RunRecord) -> Option<f64> {
+        match self {
+            Objective::One(s) => s.of(rec),
+            Objective::Two(c, a, b) => c.apply(a.of(rec), b.of(rec)),
+        }
+    }
+
+    /// How it reads: `leading_peak[gauge_force_cyl21] / leading_peak[gauge_force_cyl4]`.
+    pub fn describe(&self) -> String {
+        match self {
+            Objective::One(s) => s.describe(),
+            Objective::Two(Combine::Ratio, a, b) => format!("{} / {}", a.describe(), b.describe()),
+            Objective::Two(Combine::Difference, a, b) => {
+                format!("{} - {}", a.describe(), b.describe())
+            }
+            Objective::Two(Combine::LogRatio, a, b) => {
+                format!("ln({} / {})", a.describe(), b.describe())
+            }
+        }
+    }
+}
+
+/// The objective taken across two values of an axis: each evaluation runs the scene at both, and
+/// combines the objective of the two runs (the attenuation of one chain against another's).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Across {
+    /// The dimension (index into the sweep's dimensions) of the axis.
+    pub dim: usize,
+    /// How the two values combine: `combine(objective at points[0], objective at points[1])`.
+    pub combine: Combine,
+    /// The two indices along the dimension.
+    pub points: [usize; 2],
+}
+
+/// What a failed run, or one whose objective is not a number, counts as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OnFailure {
+    /// It ends its search (or the part of it that asked for it), recorded as `failed_run`.
+    Stop,
+    /// Worse than any number (minimise, maximise): the search goes on around it.
+    Worst,
+    /// A gap in a refined curve or surface: the intervals or cells next to it are not refined.
+    Gap,
+}
+
+impl OnFailure {
+    /// Its name in a sweep file.
+    pub fn name(self) -> &'static str {
+        match self {
+            OnFailure::Stop => "stop",
+            OnFailure::Worst => "worst",
+            OnFailure::Gap => "gap",
+        }
+    }
+}
+
+/// A parsed, checked `search` block.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SearchSpec {
+    /// What it looks for.
+    pub goal: Goal,
+    /// The searched fields.
+    pub fields: Vec<SearchField>,
+    /// The objective.
+    pub objective: Objective,
+    /// The objective across two values of an axis, if so.
+    pub across: Option<Across>,
+    /// The level whose crossings a root search finds.
+    pub level: f64,
+    /// How accurately a refinement interpolates the objective (its units).
+    pub objective_tolerance: f64,
+    /// Points of the first scan along each field.
+    pub scan: usize,
+    /// Most runs of one search.
+    pub budget: usize,
+    /// Most points a search proposes at once (the same whatever the number of parallel runs).
+    pub round: usize,
+    /// What a failed run counts as.
+    pub on_failure: OnFailure,
+    /// Starting points of a search over several fields (the best local minima of its scan).
+    pub starts: usize,
+}
+
+impl SearchSpec {
+    /// Runs each evaluation takes: one, or two with `across`.
+    pub fn runs_per_evaluation(&self) -> usize {
+        if self.across.is_some() {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Evaluations of the first scan.
+    pub fn scan_evaluations(&self) -> usize {
+        match (self.goal, self.fields.len()) {
+            (_, 1) => self.scan,
+            (_, d) => self.scan.saturating_pow(d as u32),
+        }
+    }
+
+    /// How it reads in one line: `minimise leading_peak[…] over mass_ratio in [0.4, 0.8] to ±0.0001`.
+    pub fn describe(&self) -> String {
+        let fields: Vec<String> = self
+            .fields
+            .iter()
+            .map(|f| format!("{} in [{}, {}]", f.name, f.min, f.max))
+            .collect();
+        let what = match &self.across {
+            Some(a) => format!(
+                "{} of ({}) across points {} and {} of dimension {}",
+                a.combine.name(),
+                self.objective.describe(),
+                a.points[0],
+                a.points[1],
+                a.dim
+            ),
+            None => self.objective.describe(),
+        };
+        let to = match self.goal {
+            Goal::Refine => format!("to ±{} in the objective", self.objective_tolerance),
+            _ => {
+                let t: Vec<String> = self
+                    .fields
+                    .iter()
+                    .map(|f| format!("±{} in {}", f.tolerance, f.name))
+                    .collect();
+                format!("to {}", t.join(", "))
+            }
+        };
+        let level = if self.goal == Goal::Root {
+            format!(" = {}", self.level)
+        } else {
+            String::new()
+        };
+        format!(
+            "{} {what}{level} over {} {to}, at most {} runs",
+            self.goal.name(),
+            fields.join(" × "),
+            self.budget
+        )
+    }
+}
+
+/// Default points of the first scan along each field.
+pub const DEFAULT_SCAN: usize = 10;
+/// Default points proposed at once.
+pub const DEFAULT_ROUND: usize = 4;
+/// Default most runs of one search.
+pub const DEFAULT_BUDGET: usize = 200;
+/// Default starting points of a search over several fields.
+pub const DEFAULT_STARTS: usize = 2;
+/// Most runs of one search.
+pub const MAX_BUDGET: usize = 1_000_000;
+/// Most fields of a minimisation (Nelder–Mead is for a few).
+pub const MAX_MINIMISE_FIELDS: usize = 4;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct SearchFile {
+    goal: String,
+    fields: Vec<FieldFile>,
+    objective: Value,
+    #[serde(default)]
+    across: Option<AcrossFile>,
+    #[serde(default)]
+    level: Option<f64>,
+    #[serde(default)]
+    objective_tolerance: Option<f64>,
+    #[serde(default)]
+    scan: Option<u64>,
+    #[serde(default)]
+    budget: Option<u64>,
+    #[serde(default)]
+    round: Option<u64>,
+    #[serde(default)]
+    failed: Option<String>,
+    #[serde(default)]
+    starts: Option<u64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FieldFile {
+    field: String,
+    #[serde(default)]
+    name: Option<String>,
+    min: f64,
+    max: f64,
+    #[serde(default)]
+    tolerance: Option<f64>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AcrossFile {
+    axis: String,
+    op: String,
+    points: Vec<usize>,
+}
+
+fn bad(field: impl Into<String>, message: impl Into<String>) -> Error {
+    Error::input(field, message)
+}
+
+/// The probe names of the base scene's record block.
+fn probe_names(base: &Value) -> Vec<String> {
+    base.get("record")
+        .and_then(|r| r.get("probes"))
+        .and_then(|p| serde_json::from_value::<Vec<Probe>>(p.clone()).ok())
+        .map(|ps| ps.iter().map(|p| p.name()).collect())
+        .unwrap_or_default()
+}
+
+fn parse_summary(v: &Value, at: &str, probes: &[String]) -> Result<Summary> {
+    let Value::Object(m) = v else {
+        return Err(bad(at, "must be an object: {\"summary\": …, \"probe\": …}"));
+    };
+    if let Some(k) = m.keys().find(|k| *k != "summary" && *k != "probe") {
+        return Err(bad(
+            format!("{at}.{k}"),
+            "unknown key: a summary is {\"summary\": NAME} or {\"summary\": NAME, \"probe\": PROBE}",
+        ));
+    }
+    let allowed: Vec<&str> = COLUMNS
+        .iter()
+        .filter(|c| {
+            matches!(
+                c.fill,
+                Fill::ProbeF64 { .. } | Fill::OkF64 { .. } | Fill::OkCount { .. }
+            )
+        })
+        .map(|c| c.name)
+        .collect();
+    let name = m.get("summary").and_then(|s| s.as_str()).ok_or_else(|| {
+        bad(
+            format!("{at}.summary"),
+            format!(
+                "missing: the name of a run's summary, one of {}",
+                allowed.join(", ")
+            ),
+        )
+    })?;
+    let c = COLUMNS
+        .iter()
+        .find(|c| c.name == name && allowed.contains(&c.name))
+        .ok_or_else(|| {
+            bad(
+                format!("{at}.summary"),
+                format!(
+                    "`{name}` is no summary of a run; one of {}",
+                    allowed.join(", ")
+                ),
+            )
+        })?;
+    let probe = match (c.per_probe, m.get("probe")) {
+        (true, Some(p)) => {
+            let p = p
+                .as_str()
+                .ok_or_else(|| bad(format!("{at}.probe"), "must be a probe's name"))?;
+            let i = probes.iter().position(|n| n == p).ok_or_else(|| {
+                bad(
+                    format!("{at}.probe"),
+                    format!(
+                        "`{p}` is not a probe of the record block; its probes: {}",
+                        if probes.is_empty() {
+                            "none".to_string()
+                        } else {
+                            probes.join(", ")
+                        }
+                    ),
+                )
+            })?;
+            Some((i, p.to_string()))
+        }
+        (true, None) => {
+            return Err(bad(
+                format!("{at}.probe"),
+                format!(
+                    "missing: `{name}` has a value per probe; name one of {}",
+                    probes.join(", ")
+                ),
+            ))
+        }
+        (false, Some(_)) => {
+            return Err(bad(
+                format!("{at}.probe"),
+                format!("`{name}` is one value per run: it takes no probe"),
+            ))
+        }
+        (false, None) => None,
+    };
+    Ok(Summary {
+        column: c.name,
+        probe,
+    })
+}
+
+fn parse_objective(v: &Value, probes: &[String]) -> Result<Objective> {
+    let at = "search.objective";
+    let Value::Object(m) = v else {
+        return Err(bad(at, "must be an object: a summary {\"summary\": …, \"probe\": …}, or {\"ratio\" | \"difference\" | \"log_ratio\": [summary, summary]}"));
+    };
+    if m.contains_key("summary") {
+        return Ok(Objective::One(parse_summary(v, at, probes)?));
+    }
+    if m.len() != 1 {
+        return Err(bad(
+            at,
+            "give one summary, or one of `ratio`, `difference`, `log_ratio` of two summaries",
+        ));
+    }
+    let (op, pair) = m.iter().next().expect("one key");
+    let combine = Combine::parse(op).ok_or_else(|| {
+        bad(
+            format!("{at}.{op}"),
+            "unknown: an objective is a summary, or `ratio`, `difference` or `log_ratio` of two",
+        )
+    })?;
+    let items = pair
+        .as_array()
+        .filter(|a| a.len() == 2)
+        .ok_or_else(|| bad(format!("{at}.{op}"), "must be a list of two summaries"))?;
+    Ok(Objective::Two(
+        combine,
+        parse_summary(&items[0], &format!("{at}.{op}[0]"), probes)?,
+        parse_summary(&items[1], &format!("{at}.{op}[1]"), probes)?,
+    ))
+}
+
+/// Whether `field` takes any number in `[min, max]` in the scene `base` (a continuous field):
+/// the scene built with the field at both ends and between reads the value back unchanged.
+fn check_continuous(base: &Value, field: &str, min: f64, max: f64, at: &str) -> Result<()> {
+    for (x, end) in [(min, "min"), (max, "max"), (0.5 * (min + max), "min")] {
+        let mut v = base.clone();
+        set_path(&mut v, field, Value::from(x));
+        let scene: Scene = from_ref_at(&v, "").map_err(|e| match e {
+            Error::Input { message, .. } => bad(
+                format!("{at}.{end}"),
+                format!(
+                    "`{field}` cannot be set to {x}: {message} (a search needs a continuous field: a number that may take any value in its interval)"
+                ),
+            ),
+            other => other,
+        })?;
+        let back = serde_json::to_value(&scene).expect("Scene serialises");
+        let got = super::lookup(&back, field).ok().and_then(|v| v.as_f64());
+        if got != Some(x) {
+            return Err(bad(
+                format!("{at}.field"),
+                format!(
+                    "`{field}` is not a continuous field: set to {x}, the scene holds {} (a search needs a number that may take any value in its interval)",
+                    got.map_or("no number".to_string(), |g| g.to_string())
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Reads and checks the `search` block against the normalised `base` scene and the sweep's
+/// dimensions `dims`.
+pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchSpec> {
+    let goal = match f.goal.as_str() {
+        "minimise" | "minimize" => Goal::Minimise,
+        "maximise" | "maximize" => Goal::Maximise,
+        "root" => Goal::Root,
+        "refine" => Goal::Refine,
+        other => {
+            return Err(bad(
+                "search.goal",
+                format!("`{other}` is none of minimise, maximise, root, refine"),
+            ))
+        }
+    };
+    let most = match goal {
+        Goal::Root => 1,
+        Goal::Refine => 2,
+        Goal::Minimise | Goal::Maximise => MAX_MINIMISE_FIELDS,
+    };
+    if f.fields.is_empty() || f.fields.len() > most {
+        return Err(bad(
+            "search.fields",
+            format!(
+                "a {} search takes 1 to {most} field(s), got {}",
+                goal.name(),
+                f.fields.len()
+            ),
+        ));
+    }
+    let mut fields: Vec<SearchField> = Vec::new();
+    for (i, ff) in f.fields.into_iter().enumerate() {
+        let at = format!("search.fields[{i}]");
+        check_settable(base, &ff.field).map_err(|m| bad(format!("{at}.field"), m))?;
+        if split_path(&ff.field)[0] == "record" {
+            return Err(bad(
+                format!("{at}.field"),
+                "the record block is the same for every run: it cannot be searched",
+            ));
+        }
+        if !(ff.min.is_finite() && ff.max.is_finite() && ff.min < ff.max) {
+            return Err(bad(
+                format!("{at}.max"),
+                format!(
+                    "the interval [{}, {}] is empty: give finite numbers with min < max",
+                    ff.min, ff.max
+                ),
+            ));
+        }
+        let width = ff.max - ff.min;
+        let tolerance = match (goal, ff.tolerance) {
+            (_, Some(t)) if t.is_finite() && t > 0.0 && t < width => t,
+            (_, Some(t)) => {
+                return Err(bad(
+                    format!("{at}.tolerance"),
+                    format!("must be a number > 0 and below the interval's width {width}, got {t}"),
+                ))
+            }
+            (Goal::Refine, None) => width * 1e-3,
+            (_, None) => {
+                return Err(bad(
+                    format!("{at}.tolerance"),
+                    format!(
+                        "missing: how closely to locate the {} in this field (its units)",
+                        goal.item()
+                    ),
+                ))
+            }
+        };
+        check_continuous(base, &ff.field, ff.min, ff.max, &at)?;
+        let name = ff
+            .name
+            .unwrap_or_else(|| split_path(&ff.field).last().cloned().unwrap_or_default());
+        let field_segs = split_path(&ff.field);
+        for d in dims {
+            for a in &d.axes {
+                let a_segs = split_path(&a.field);
+                let n = a_segs.len().min(field_segs.len());
+                if a_segs[..n] == field_segs[..n] {
+                    return Err(bad(
+                        format!("{at}.field"),
+                        format!(
+                            "`{}` overlaps `{}` set by {}: a field is searched or swept, not both",
+                            ff.field, a.field, a.origin
+                        ),
+                    ));
+                }
+                if a.name == name {
+                    return Err(bad(
+                        format!("{at}.name"),
+                        format!("name `{name}` is already used by {}", a.origin),
+                    ));
+                }
+            }
+        }
+        if let Some(other) = fields.iter().find(|g| {
+            let s = split_path(&g.field);
+            let n = s.len().min(field_segs.len());
+            s[..n] == field_segs[..n] || g.name == name
+        }) {
+            return Err(bad(
+                format!("{at}.field"),
+                format!(
+                    "overlaps the searched field `{}` (each field once)",
+                    other.field
+                ),
+            ));
+        }
+        fields.push(SearchField {
+            units: units_of(&ff.field),
+            name,
+            field: ff.field,
+            min: ff.min,
+            max: ff.max,
+            tolerance,
+        });
+    }
+    let probes = probe_names(base);
+    let objective = parse_objective(&f.objective, &probes)?;
+    let across = match f.across {
+        None => None,
+        Some(a) => {
+            let dim = dims
+                .iter()
+                .position(|d| d.name == a.axis || d.axes.iter().any(|x| x.name == a.axis))
+                .ok_or_else(|| {
+                    let names: Vec<&str> = dims.iter().map(|d| d.name.as_str()).collect();
+                    bad(
+                        "search.across.axis",
+                        format!(
+                            "`{}` names no axis of the sweep; its dimensions: {}",
+                            a.axis,
+                            if names.is_empty() {
+                                "none".to_string()
+                            } else {
+                                names.join(", ")
+                            }
+                        ),
+                    )
+                })?;
+            let combine = Combine::parse(&a.op).ok_or_else(|| {
+                bad(
+                    "search.across.op",
+                    format!("`{}` is none of ratio, difference, log_ratio", a.op),
+                )
+            })?;
+            let n = dims[dim].len();
+            if a.points.len() != 2 || a.points[0] == a.points[1] || a.points.iter().any(|&p| p >= n)
+            {
+                return Err(bad(
+                    "search.across.points",
+                    format!(
+                        "must be two different indices along `{}` (0 to {}), got {:?}",
+                        a.axis,
+                        n - 1,
+                        a.points
+                    ),
+                ));
+            }
+            Some(Across {
+                dim,
+                combine,
+                points: [a.points[0], a.points[1]],
+            })
+        }
+    };
+    let level = match (goal, f.level) {
+        (Goal::Root, Some(l)) if l.is_finite() => l,
+        (Goal::Root, Some(l)) => {
+            return Err(bad(
+                "search.level",
+                format!("must be a finite number, got {l}"),
+            ))
+        }
+        (Goal::Root, None) => 0.0,
+        (_, Some(_)) => return Err(bad("search.level", "only a root search has a level")),
+        (_, None) => f64::NAN,
+    };
+    let objective_tolerance = match (goal, f.objective_tolerance) {
+        (Goal::Refine, Some(t)) if t.is_finite() && t > 0.0 => t,
+        (Goal::Refine, Some(t)) => {
+            return Err(bad("search.objective_tolerance", format!("must be a number > 0, got {t}")))
+        }
+        (Goal::Refine, None) => {
+            return Err(bad(
+                "search.objective_tolerance",
+                "missing: how accurately the refined samples must interpolate the objective (its units)",
+            ))
+        }
+        (_, Some(_)) => {
+            return Err(bad(
+                "search.objective_tolerance",
+                "only a refine search has one (the others locate to `tolerance` in each field)",
+            ))
+        }
+        (_, None) => f64::NAN,
+    };
+    let d = fields.len();
+    let min_scan = if d == 1 && goal != Goal::Root { 3 } else { 2 };
+    let scan = f
+        .scan
+        .unwrap_or(if d == 1 { DEFAULT_SCAN as u64 } else { 5 });
+    if scan < min_scan || scan > 100_000 {
+        return Err(bad(
+            "search.scan",
+            format!("must be a whole number from {min_scan} to 100000, got {scan}"),
+        ));
+    }
+    let round = f.round.unwrap_or(DEFAULT_ROUND as u64);
+    if !(1..=10_000).contains(&round) {
+        return Err(bad(
+            "search.round",
+            format!("must be a whole number from 1 to 10000, got {round}"),
+        ));
+    }
+    let starts = f.starts.unwrap_or(DEFAULT_STARTS as u64);
+    if !(1..=100).contains(&starts) {
+        return Err(bad(
+            "search.starts",
+            format!("must be a whole number from 1 to 100, got {starts}"),
+        ));
+    }
+    if f.starts.is_some() && !(d > 1 && matches!(goal, Goal::Minimise | Goal::Maximise)) {
+        return Err(bad(
+            "search.starts",
+            "only a minimisation or maximisation over several fields has starting points",
+        ));
+    }
+    let on_failure = match (goal, f.failed.as_deref()) {
+        (Goal::Minimise | Goal::Maximise, None | Some("worst")) => OnFailure::Worst,
+        (Goal::Root, None) | (_, Some("stop")) => OnFailure::Stop,
+        (Goal::Refine, None | Some("gap")) => OnFailure::Gap,
+        (_, Some(other)) => {
+            let allowed = match goal {
+                Goal::Minimise | Goal::Maximise => "worst, stop",
+                Goal::Root => "stop",
+                Goal::Refine => "gap, stop",
+            };
+            return Err(bad(
+                "search.failed",
+                format!(
+                    "`{other}` is not a rule of a {} search; allowed: {allowed}",
+                    goal.name()
+                ),
+            ));
+        }
+    };
+    let mut spec = SearchSpec {
+        goal,
+        fields,
+        objective,
+        across,
+        level,
+        objective_tolerance,
+        scan: scan as usize,
+        budget: 0,
+        round: round as usize,
+        on_failure,
+        starts: starts as usize,
+    };
+    let budget = f.budget.unwrap_or(DEFAULT_BUDGET as u64);
+    let first = spec
+        .scan_evaluations()
+        .saturating_mul(spec.runs_per_evaluation());
+    if budget == 0 || budget > MAX_BUDGET as u64 {
+        return Err(bad(
+            "search.budget",
+            format!("must be a whole number of runs from 1 to {MAX_BUDGET}, got {budget}"),
+        ));
+    }
+    if (budget as usize) < first {
+        return Err(bad(
+            "search.budget",
+            format!(
+                "{budget} runs do not cover the first scan: {} point(s){} take {first} runs (lower `scan` or raise the budget)",
+                spec.scan_evaluations(),
+                if spec.across.is_some() { " of two runs each" } else { "" }
+            ),
+        ));
+    }
+    spec.budget = budget as usize;
+    Ok(spec)
+}
+
+/// `base` with the searched `fields` set to `values` (one per field).
+pub fn set_fields(base: &mut Value, fields: &[SearchField], values: &[f64]) {
+    for (f, &x) in fields.iter().zip(values) {
+        set_path(base, &f.field, Value::from(x));
+    }
+}
