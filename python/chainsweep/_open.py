@@ -134,7 +134,11 @@ class _Grid:
         )
 
     def dims_of(self, ds: h5py.Dataset) -> tuple[str, ...] | None:
-        """The dimensions of a grid-shaped dataset (None: not grid-shaped)."""
+        """The dimensions of a dataset: the labels of its dimension scales (a search's tables
+        span some of the grid's dimensions), else by its shape (None: not grid-shaped)."""
+        labels = tuple(d.label for d in ds.dims)
+        if len(labels) == ds.ndim and ds.ndim > 0 and all(labels):
+            return labels
         if ds.shape == self.shape:
             return tuple(self.dims)
         if self.probes and ds.shape == (*self.shape, len(self.probes)):
@@ -342,15 +346,20 @@ def open(  # noqa: A001 (chainsweep.open)
             )
         grid = _Grid(f)
         data: dict[str, Any] = {}
+        # Coordinates that are no dimension's scale (a search's fields over its evaluations).
+        auxiliary: set[str] = set()
         for name, obj in f.items():
             if not isinstance(obj, h5py.Dataset) or name in grid.coords or _dimension_only(obj):
                 continue
             dims = grid.dims_of(obj)
             if dims is None:
                 continue
+            auxiliary.update(_value(obj.attrs.get("coordinates", "")).split())
             values, attrs = _read(obj, unchecked)
             data[name] = (dims, values, attrs)
         coords: dict[str, Any] = dict(grid.coords)
+        for name in auxiliary & set(data):
+            coords[name] = data.pop(name)
         extras = [_stack_min_overlaps(f, grid)]
         if histories:
             extras.append(_stack_histories(f, grid))

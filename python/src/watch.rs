@@ -68,6 +68,10 @@ impl Watch {
     /// sweep cannot be read: the runner then reports why, and there is no progress to show.
     pub fn new(req: &SweepRequest) -> Option<Watch> {
         let sweep = Sweep::load(req.file.to_str()?).ok()?;
+        // A search's runs are not known before they are proposed: no count of them to show.
+        if sweep.search.is_some() {
+            return None;
+        }
         let grid = Grid::new(&sweep).ok()?;
         let shard = match &req.shard {
             Some(s) => Some(slurm::parse_shard_env(s, "--shard").ok()?),

@@ -349,6 +349,11 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         let pool = engine::thread_pool(jobs)?;
         let work_dir = crate::store::work_dir_of(&output);
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
+        if sweep.search.is_some() {
+            let d = inspect::dry_run_search(&sweep, &grid, shard, &output)?;
+            show::dry_run_search(&sweep, &grid, &output, &d);
+            return Ok(EXIT_OK);
+        }
         let points = shard::points(&sweep, &grid, shard);
         let d = inspect::dry_run(&sweep, &grid, &points, &output)?;
         show::dry_run(&sweep, &grid, &points, &output, shard, &d);

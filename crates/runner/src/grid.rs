@@ -41,6 +41,21 @@ pub struct Grid {
     pub warnings: Vec<(usize, Vec<String>)>,
     /// How many points have such warnings.
     pub warned_points: usize,
+    /// The points of a search's grid: each a point of the sweep's own grid with the searched
+    /// fields set (`None` for a sweep's own grid).
+    pub searched: Option<Searched>,
+}
+
+/// Where the points of a search's grid come from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Searched {
+    /// The searched fields (dotted paths).
+    pub fields: Vec<String>,
+    /// Their names.
+    pub names: Vec<String>,
+    /// Per point: its point of the sweep's own grid and the searched fields' values (empty:
+    /// no run at this point).
+    pub points: Vec<(usize, Vec<f64>)>,
 }
 
 /// How many points with warnings a grid lists (it counts them all).
@@ -161,6 +176,7 @@ impl Grid {
             particles: vec![0; n],
             warnings: Vec::new(),
             warned_points: 0,
+            searched: None,
         };
         // The first point sets the record block every point must share.
         let first = grid.build(sweep, 0)?;
@@ -294,25 +310,48 @@ impl Grid {
         self.hashes.is_empty()
     }
 
-    /// Describes point `index` by its axis values: `mass_ratio=0.3 damping_kg_s=6`.
+    /// Describes point `index` by its axis values: `mass_ratio=0.3 damping_kg_s=6` (and, in a
+    /// search's grid, the searched fields' values).
     pub fn point_label(&self, sweep: &Sweep, index: usize) -> String {
-        let mi = multi_index(&self.shape, index);
+        let (own, values) = self.own_point(index);
+        let mi = multi_index(&sweep.shape(), own);
         let mut parts = Vec::new();
         for (d, dim) in sweep.dims.iter().enumerate() {
             for a in &dim.axes {
                 parts.push(format!("{}={}", a.name, a.values[mi[d]]));
             }
         }
+        if let (Some(s), Some(values)) = (&self.searched, values) {
+            for (name, x) in s.names.iter().zip(values) {
+                parts.push(format!("{name}={x}"));
+            }
+        }
         parts.join(" ")
     }
 
-    /// The scene JSON of point `index`: the base with every axis value applied.
+    /// The point of the sweep's own grid that point `index` is, and (a search's grid) the
+    /// searched values set in it.
+    fn own_point(&self, index: usize) -> (usize, Option<&[f64]>) {
+        match &self.searched {
+            Some(s) => (s.points[index].0, Some(&s.points[index].1[..])),
+            None => (index, None),
+        }
+    }
+
+    /// The scene JSON of point `index`: the base with every axis value applied (and, in a
+    /// search's grid, the searched fields' values).
     pub fn point_value(&self, sweep: &Sweep, index: usize) -> Value {
-        let mi = multi_index(&self.shape, index);
+        let (own, values) = self.own_point(index);
+        let mi = multi_index(&sweep.shape(), own);
         let mut v = sweep.base.clone();
         for (d, dim) in sweep.dims.iter().enumerate() {
             for axis in &dim.axes {
                 set_path(&mut v, &axis.field, axis.values[mi[d]].clone());
+            }
+        }
+        if let (Some(s), Some(values)) = (&self.searched, values) {
+            for (field, &x) in s.fields.iter().zip(values) {
+                set_path(&mut v, field, Value::from(x));
             }
         }
         v

@@ -94,6 +94,16 @@ impl std::io::Write for HashWriter {
     }
 }
 
+/// Identity of a search point whose scene is invalid (it is stored as a failed run, with why):
+/// the numerics version and the scene's JSON as it stands (no scene could be built to hash).
+pub fn invalid_scene_hash(scene: &serde_json::Value) -> RunHash {
+    let mut h = Sha256::new();
+    h.update(b"chainsweep invalid scene v1\n");
+    h.update(format!("numerics_version={}\n", crate::NUMERICS_VERSION).as_bytes());
+    h.update(serde_json::to_string(scene).expect("json").as_bytes());
+    h.finalize().into()
+}
+
 /// Identity of the verification run of the point whose run hash is `base` and whose verification
 /// scene is `tight`: a different marker than run hashes, so the two never collide.
 pub fn verify_hash(base: &RunHash, tight: &Scene) -> RunHash {

@@ -1,7 +1,9 @@
 //! The one table of stored columns is what the documentation shows, what the writer writes and
 //! what axes may not be named.
 
-use chainsweep::record::columns::{markdown_table, reserved_names, COLUMNS, LAYOUT_NAMES};
+use chainsweep::record::columns::{
+    markdown_table, reserved_names, COLUMNS, LAYOUT_NAMES, SEARCH_LAYOUT_NAMES,
+};
 use chainsweep::sweep::Sweep;
 
 const BEGIN: &str =
@@ -27,7 +29,10 @@ fn the_docs_table_is_the_column_table() {
 #[test]
 fn an_axis_may_take_no_stored_name() {
     let names = reserved_names();
-    assert_eq!(names.len(), COLUMNS.len() + LAYOUT_NAMES.len());
+    assert_eq!(
+        names.len(),
+        COLUMNS.len() + LAYOUT_NAMES.len() + SEARCH_LAYOUT_NAMES.len()
+    );
     for name in names {
         let text = format!(
             r#"{{"base": {{"chain": {{"preset": "chain_055", "cylinders": 4}}, "physics": {{"gravity": true, "damping_kg_s": 0.0, "wall": true}}, "striker_velocity_m_s": 1.3, "duration_s": 1e-5}},

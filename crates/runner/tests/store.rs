@@ -50,6 +50,7 @@ fn publish_every_point(
         0.0,
         |i| Ok(Some(records[i].clone())),
         |_, _| Ok(VerifyInfo::none(1)),
+        None,
     )
     .unwrap();
 }
@@ -101,6 +102,7 @@ fn records_survive_segments_and_hdf5_bitwise() {
                 VerifyInfo::none(1)
             })
         },
+        None,
     )
     .unwrap();
     let counts = counts.counts;

@@ -3,9 +3,10 @@
 use std::path::Path;
 
 use crate::engine::gc::GcReport;
-use crate::engine::inspect::{DryRun, Point};
+use crate::engine::inspect::{DryRun, Point, SearchDryRun};
 use crate::engine::merge::MergeReport;
 use crate::engine::run::{Failure, RunReport};
+use crate::engine::search::{self, SearchReport};
 use crate::engine::slurm::{self, JobFiles, JobRequest};
 use crate::engine::status::{FileStatus, ShardSetStatus, ShardState, SweepStatus};
 use crate::engine::DamageReport;
@@ -99,6 +100,46 @@ pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> crate::error::Resul
         );
     }
     Ok(())
+}
+
+/// `run --dry-run` of a sweep with a search: the search, its budget, what is stored, the cost.
+pub fn dry_run_search(sweep: &Sweep, grid: &Grid, output: &Path, d: &SearchDryRun) {
+    let driver = search::Driver::new(sweep, grid);
+    outln!("search: {}", driver.spec.describe());
+    let outer: Vec<&str> = driver
+        .layout
+        .outer_dims
+        .iter()
+        .map(|&k| sweep.dims[k].name.as_str())
+        .collect();
+    outln!(
+        "searches: {}{}",
+        d.searches,
+        if outer.is_empty() {
+            String::new()
+        } else {
+            format!(" (one per point of {})", outer.join(" × "))
+        }
+    );
+    outln!(
+        "runs: at most {} (their budgets; the first scans take {}); {} stored, {} of {} searches ended → {}",
+        d.most_runs,
+        d.first_scan_runs,
+        d.stored_runs,
+        d.finished,
+        d.searches,
+        output.display()
+    );
+    if let Some(c) = &d.cost {
+        outln!(
+            "estimated cost: at most {:.3e} CPU-seconds for the {} runs left of the budgets (±{:.0} %, {:.3e} s per run from a pilot of {} run(s) at the searched fields' midpoints)",
+            c.cpu_seconds,
+            c.runs,
+            100.0 * c.accuracy,
+            c.per_run.iter().sum::<f64>() / c.per_run.len() as f64,
+            c.per_run.len()
+        );
+    }
 }
 
 /// `run --dry-run`: the grid, the record block, what is done, the size estimate, every point.
@@ -256,6 +297,10 @@ fn damage_status(d: &DamageReport) {
 /// The end of `run`: failed runs (always), failed verification runs (always), the largest
 /// verified error and the counts (unless `quiet`).
 pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quiet: bool) {
+    if let Some(s) = &r.search {
+        search_report(sweep, grid, s, output, quiet);
+        return;
+    }
     if r.nothing_to_do && !quiet {
         errln!(
             "chainsweep: nothing to do: {} already holds every run of this sweep; it was left as it is",
@@ -300,6 +345,54 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
             r.counts.ok,
             r.counts.failed,
             r.counts.pending,
+            output.display()
+        );
+    }
+}
+
+/// The end of a search sweep: every search's outcome (always: it is the answer), the counts
+/// (unless `quiet`).
+fn search_report(sweep: &Sweep, grid: &Grid, r: &SearchReport, output: &Path, quiet: bool) {
+    let driver = search::Driver::new(sweep, grid);
+    let spec = driver.spec;
+    errln!("chainsweep: {}", spec.describe());
+    for s in &r.searches {
+        let label = search::outer_label(sweep, &driver.layout, s.outer);
+        let at = if label.is_empty() {
+            String::new()
+        } else {
+            format!("{label}: ")
+        };
+        errln!(
+            "  {at}{} after {} run(s): {}",
+            s.outcome.status.name(),
+            s.runs(),
+            s.outcome.note
+        );
+        for it in &s.outcome.items {
+            errln!(
+                "    {} {}",
+                spec.goal.item(),
+                search::describe_item(spec, it)
+            );
+        }
+        if spec.goal == crate::sweep::search::Goal::Refine && !s.outcome.refine_error.is_nan() {
+            errln!(
+                "    largest estimated interpolation error {:.3e} (tolerance {:e})",
+                s.outcome.refine_error,
+                spec.objective_tolerance
+            );
+        }
+    }
+    if let (n, Some(e)) = r.verified {
+        errln!("chainsweep: {n} evaluation point(s) verified at a tighter setting; largest relative error {e:.2e}");
+    }
+    if !quiet {
+        errln!(
+            "chainsweep: {} search(es), {} run(s) computed now ({} failed) → {}",
+            r.searches.len(),
+            r.ran,
+            r.failed,
             output.display()
         );
     }
@@ -383,7 +476,22 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             .collect();
         outln!("  failed: point {i} [{}]: {reason}", mi.join(", "));
     }
+    if let Some(lines) = &s.searches {
+        search_lines(lines);
+    }
     damage_status(&s.damage);
+}
+
+/// Each search of a sweep with a search, a line each.
+fn search_lines(lines: &[crate::engine::status::SearchLine]) {
+    for l in lines {
+        let at = if l.label.is_empty() {
+            "search".to_string()
+        } else {
+            format!("search at {}", l.label)
+        };
+        outln!("  {at}: {} after {} run(s); {}", l.status, l.runs, l.note);
+    }
 }
 
 /// `status` of a sweep file's output.
@@ -429,6 +537,9 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
             grid.point_label(sweep, f.point),
             f.reason.as_deref().unwrap_or("")
         );
+    }
+    if let Some(lines) = &s.searches {
+        search_lines(lines);
     }
     damage_status(&s.damage);
 }

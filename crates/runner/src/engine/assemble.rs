@@ -72,6 +72,8 @@ pub struct Assembly<'a> {
     pub provenance: &'a Provenance,
     /// Verification outcomes.
     pub verify: &'a VerifySource,
+    /// What a search adds to the file (its evaluations' coordinates, its outcome).
+    pub search: Option<&'a hdf5::search::SearchTables>,
 }
 
 /// Writes the output file of `work` from the stored runs and publishes it atomically, with its
@@ -103,6 +105,7 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
             }
         },
         |i, rec| a.verify.info(work, a.grid, i, rec),
+        a.search,
     );
     let written = match written {
         Ok(w) => w,

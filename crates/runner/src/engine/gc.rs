@@ -50,8 +50,23 @@ pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path, dry_run: bool) -
             ),
         ));
     }
-    let needed = needed_runs(&sweep, &grid);
     let work = WorkDir::open(output, Some(&grid))?;
+    let needed = if sweep.search.is_some() {
+        // A search needs the runs its replay reaches (and their verification runs).
+        let driver = super::search::Driver::new(&sweep, &grid);
+        let outer: Vec<usize> = (0..driver.layout.n_outer()).collect();
+        let reached = super::search::reached_runs(&driver, &outer, &work)?;
+        let searches = driver.replay_stored(&outer, &work)?;
+        let file_grid = driver.file_grid(&searches);
+        let file_sweep = driver.file_sweep(&searches);
+        let mut needed = reached;
+        for i in (0..file_grid.len()).filter(|&i| file_grid.hashes[i] != [0; 32]) {
+            needed.insert(verify::point_verification(&file_sweep, &file_grid, i).1);
+        }
+        needed
+    } else {
+        needed_runs(&sweep, &grid)
+    };
     let damage = DamageReport::new(output, &work.damage(), &sweep, &grid);
     let compaction = work.prune(&|h| needed.contains(h), dry_run)?;
     let damaged_dir = dir.join(DAMAGED_DIR);

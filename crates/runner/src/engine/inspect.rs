@@ -232,6 +232,67 @@ pub fn dry_run(sweep: &Sweep, grid: &Grid, points: &[usize], output: &Path) -> R
     })
 }
 
+/// What a dry run of a sweep with a search says: the budget, what is stored, the cost.
+#[derive(Debug, Clone)]
+pub struct SearchDryRun {
+    /// Searches of this run (or shard).
+    pub searches: usize,
+    /// Most runs they may take (their budgets).
+    pub most_runs: usize,
+    /// Runs their first scans take.
+    pub first_scan_runs: usize,
+    /// Runs they have used so far (stored).
+    pub stored_runs: usize,
+    /// Searches already ended.
+    pub finished: usize,
+    /// The cost of a run, from a pilot at the searched fields' midpoints (`None`: nothing left).
+    pub cost: Option<CostEstimate>,
+}
+
+/// A dry run of the searches of `sweep` (of `shard`'s outer points) into `output`.
+pub fn dry_run_search(
+    sweep: &Sweep,
+    grid: &Grid,
+    shard: Option<crate::grid::Shard>,
+    output: &Path,
+) -> Result<SearchDryRun> {
+    let driver = super::search::Driver::new(sweep, grid);
+    let spec = driver.spec;
+    let outer = super::search::outer_points(&driver.layout, shard);
+    let stored = Stored::scan(&work_dir_of(output), Some(output), None, Check::Summaries)?;
+    let replayed = driver.replay_stored(&outer, &stored)?;
+    let stored_runs: usize = replayed.iter().map(|s| s.runs()).sum();
+    let finished = replayed.iter().filter(|s| s.finished).count();
+    // Pilot runs: each outer point's first run with the searched fields at their midpoints.
+    let mid: Vec<f64> = spec.fields.iter().map(|f| 0.5 * (f.min + f.max)).collect();
+    let mut pilot = grid.clone();
+    pilot.searched = Some(crate::grid::Searched {
+        fields: spec.fields.iter().map(|f| f.field.clone()).collect(),
+        names: spec.fields.iter().map(|f| f.name.clone()).collect(),
+        points: (0..grid.len()).map(|i| (i, mid.clone())).collect(),
+    });
+    let unfinished: Vec<usize> = replayed
+        .iter()
+        .filter(|s| !s.finished)
+        .map(|s| driver.layout.own_points(s.outer)[0])
+        .collect();
+    let cost = CostEstimate::pilot(sweep, &pilot, &unfinished)?;
+    let most_runs = spec.budget * outer.len();
+    Ok(SearchDryRun {
+        searches: outer.len(),
+        most_runs,
+        first_scan_runs: spec.scan_evaluations() * spec.runs_per_evaluation() * outer.len(),
+        stored_runs,
+        finished,
+        cost: cost.map(|mut c| {
+            // At most the budgets' runs still to run.
+            c.runs = most_runs.saturating_sub(stored_runs);
+            c.cpu_seconds = c.per_run.iter().sum::<f64>() / c.per_run.len() as f64 * c.runs as f64;
+            c
+        }),
+    })
+}
+
 /// Refuses an estimated output of `bytes` larger than the space free on the file system that
 /// will hold `output`, naming what to change: the history interval, or the grid.
 fn check_fits(grid: &Grid, bytes: f64, output: &Path) -> Result<()> {

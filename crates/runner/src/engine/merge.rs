@@ -70,6 +70,26 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
             "must not be one of the shard files",
         ));
     }
+    if sweep.search.is_some() {
+        let work = WorkDir::open(output, None)?;
+        auto::cache(&work, &sweep)?;
+        let (searches, _, damage) =
+            super::search::merge_searches(&work, &sweep, &grid, shards, provenance)?;
+        // The searches are the points: ended, or not (a shard missing or stopped early).
+        let ended = searches.iter().filter(|s| s.finished).count();
+        return Ok(MergeReport {
+            shards: shards.len(),
+            points: searches.len(),
+            counts: Counts {
+                ok: ended,
+                failed: 0,
+                pending: searches.len() - ended,
+            },
+            absent,
+            shard_set: None,
+            damage,
+        });
+    }
     let work = WorkDir::open(output, Some(&grid))?;
     auto::cache(&work, &sweep)?;
     let mut damage = Vec::new();
@@ -116,6 +136,7 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
             done: &done,
             provenance,
             verify: &vsrc,
+            search: None,
         },
     )?;
     if counts.pending == 0 {

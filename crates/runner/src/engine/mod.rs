@@ -23,6 +23,7 @@ pub mod merge;
 pub mod plan;
 pub mod run;
 pub mod schedule;
+pub mod search;
 pub mod shard;
 pub mod slurm;
 pub mod status;

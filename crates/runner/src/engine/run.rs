@@ -128,6 +128,45 @@ pub struct RunReport {
     /// The output file already held every run of the sweep and nothing was to be done: it was
     /// left as it was (a shard run into a complete output, a complete sweep run again).
     pub nothing_to_do: bool,
+    /// A sweep with a search: what its searches did. `counts` are then of its searches: ok
+    /// those that ended (located everything, found nothing, or stalled), failed those a failed
+    /// run stopped, pending those stopped by their budget or by a signal.
+    pub search: Option<super::search::SearchReport>,
+}
+
+impl RunReport {
+    /// The report of a search sweep: its searches counted as the points.
+    fn of_search(r: super::search::SearchReport) -> RunReport {
+        use crate::search::SearchStatus;
+        let mut counts = Counts::default();
+        for s in &r.searches {
+            match s.outcome.status {
+                SearchStatus::Converged | SearchStatus::NotFound | SearchStatus::Stalled => {
+                    counts.ok += 1
+                }
+                SearchStatus::Failed => counts.failed += 1,
+                SearchStatus::Budget | SearchStatus::Running => counts.pending += 1,
+            }
+        }
+        RunReport {
+            points: r.searches.len(),
+            counts,
+            failed: counts.failed,
+            failures: Vec::new(),
+            verification: VerificationReport {
+                requested: 0,
+                verified: r.verified.0,
+                worst: r.verified.1.map(|e| (e, 0)),
+                failed: 0,
+                failures: Vec::new(),
+            },
+            stopped: r.stopped,
+            ran: r.ran,
+            damage: r.damage.clone(),
+            nothing_to_do: false,
+            search: Some(r),
+        }
+    }
 }
 
 /// Runs (or resumes) `sweep` into `opts.output` with the solver: checks the output, resolves
@@ -140,6 +179,10 @@ pub fn run_sweep(
     sink: &mut dyn ProgressSink,
     stop: &AtomicBool,
 ) -> Result<RunReport> {
+    if sweep.search.is_some() {
+        let r = super::search::run_search(sweep, grid, opts, sink, stop)?;
+        return Ok(RunReport::of_search(r));
+    }
     check_output(&opts.output, opts.overwrite)?;
     // Never more threads than grid points (a pool of idle threads costs time to start).
     let points = shard::points(sweep, grid, opts.shard);
@@ -206,6 +249,7 @@ pub fn run_points(
             ran: 0,
             damage,
             nothing_to_do: true,
+            search: None,
         });
     }
     sink.started(&Start {
@@ -257,6 +301,7 @@ pub fn run_points(
         ran: run.ran,
         damage,
         nothing_to_do: false,
+        search: None,
     })
 }
 
@@ -324,6 +369,7 @@ impl Running<'_> {
                 done: &self.plan.done,
                 provenance: &self.opts.provenance,
                 verify: &self.plan.verify,
+                search: None,
             },
         )
     }

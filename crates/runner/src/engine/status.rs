@@ -16,7 +16,8 @@ use crate::sweep::Sweep;
 use super::auto::{apply_cached, CachedChoice};
 use super::run::{Failure, LISTED_FAILURES};
 use super::shard::{self, Assignment};
-use super::DamageReport;
+use super::{search, DamageReport};
+use crate::search::{SearchStatus, SEARCH_FLAGS};
 
 /// The status of an output file.
 #[derive(Debug, Clone)]
@@ -39,6 +40,21 @@ pub struct FileStatus {
     pub failures: Vec<(usize, String)>,
     /// What was found damaged in the file and its snapshot.
     pub damage: DamageReport,
+    /// A search's output: each search by its outer axis values, how it ended, its runs, why.
+    pub searches: Option<Vec<SearchLine>>,
+}
+
+/// One search of a sweep with a search, as `status` says it.
+#[derive(Debug, Clone)]
+pub struct SearchLine {
+    /// Its outer axis values.
+    pub label: String,
+    /// How it stands (`converged`, `running`, …; `pending` when it has not started).
+    pub status: String,
+    /// Runs it used.
+    pub runs: i64,
+    /// Where it stands or why it ended.
+    pub note: String,
 }
 
 /// The status of the output file `file`, every value checked (a damaged file's state from what
@@ -121,6 +137,31 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         .filter(|&i| assignment.contains(shard, i) && !held.contains_key(&grid.hashes[i]))
         .filter(|&i| segs.contains_key(&grid.hashes[i]))
         .count();
+    let searches = match &sweep.search {
+        None => None,
+        Some(spec) => {
+            let layout = search::Layout::new(&sweep, spec);
+            let outcomes = crate::store::hdf5::search::read_outcomes(file).map_err(|e| {
+                Error::Other(format!("{name}: its search's outcome cannot be read: {e}"))
+            })?;
+            outcomes.map(|o| {
+                o.into_iter()
+                    .enumerate()
+                    .map(|(k, (status, runs, note))| SearchLine {
+                        label: search::outer_label(&sweep, &layout, k),
+                        status: SEARCH_FLAGS
+                            .1
+                            .split(' ')
+                            .nth(status as usize)
+                            .unwrap_or("unknown")
+                            .to_string(),
+                        runs,
+                        note,
+                    })
+                    .collect()
+            })
+        }
+    };
     let mut damage = DamageReport::new(file, &p.damage, &sweep, grid);
     damage.unchecked = p.file().is_some_and(|f| !f.checked());
     if let (Some(f), None) = (p.file(), &damage.header) {
@@ -139,6 +180,7 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         newer,
         failures,
         damage,
+        searches,
     })
 }
 
@@ -189,7 +231,11 @@ pub fn check_file(path: &Path, histories: bool) -> FileCheck {
         if let Some(auto) = recs.auto_text() {
             sweep.apply_auto(crate::sweep::auto::AutoChoice::from_json(&auto).ok()?);
         }
-        let grid = Grid::new(&sweep).ok()?;
+        let grid = match sweep.search {
+            // (A search's points are the file's: its grid from the run hashes it stores.)
+            Some(_) => crate::store::published::search_grid(&sweep, &recs)?,
+            None => Grid::new(&sweep).ok()?,
+        };
         (grid.len() == recs.len()).then_some((sweep, grid))
     });
     let labelled = labelled.flatten();
@@ -202,8 +248,10 @@ pub fn check_file(path: &Path, histories: bool) -> FileCheck {
         c.header = Some("its sweep cannot be expanded into a grid of its points".into());
     }
     let label = |i: usize| match &labelled {
-        Some((sweep, grid)) => grid.point_label(sweep, i),
-        None => String::new(),
+        Some((sweep, grid)) if grid.searched.is_some() || sweep.search.is_none() => {
+            grid.point_label(sweep, i)
+        }
+        _ => String::new(),
     };
     for i in 0..recs.len() {
         let why = match recs.damage(i) {
@@ -250,6 +298,8 @@ pub struct SweepStatus {
     pub ignored: Vec<PathBuf>,
     /// What was found damaged in the output file and its snapshot.
     pub damage: DamageReport,
+    /// A sweep with a search: each search of this output, replayed through the stored runs.
+    pub searches: Option<Vec<SearchLine>>,
 }
 
 /// The status of `sweep`'s output `output` (its work directory), for `shard`.
@@ -270,6 +320,7 @@ pub fn of_sweep(
         failures: Vec::new(),
         ignored: Vec::new(),
         damage: DamageReport::default(),
+        searches: None,
     };
     match apply_cached(&mut sweep, &mut grid, &dir)? {
         CachedChoice::NotAuto => {}
@@ -280,6 +331,46 @@ pub fn of_sweep(
         }
     }
     // Only whole, checksummed records count: the runs `run` finds done.
+    if sweep.search.is_some() {
+        let stored = Stored::scan(&dir, Some(&status.output), None, Check::Everything)?;
+        status.damage = DamageReport::new(&status.output, stored.damage(), &sweep, &grid);
+        let driver = search::Driver::new(&sweep, &grid);
+        let outer = search::outer_points(&driver.layout, shard);
+        let replayed = driver.replay_stored(&outer, &stored)?;
+        let mut counts = Counts::default();
+        let mut lines = Vec::new();
+        for s in &replayed {
+            let started = !s.evals.is_empty();
+            match s.outcome.status {
+                SearchStatus::Running | SearchStatus::Budget if !s.finished => counts.pending += 1,
+                SearchStatus::Budget => counts.pending += 1,
+                SearchStatus::Failed => counts.failed += 1,
+                _ => counts.ok += 1,
+            }
+            let rel = s.outcome.relative_uncertainty(driver.spec);
+            let note = if s.finished {
+                s.outcome.note.clone()
+            } else if rel.is_finite() {
+                format!("largest uncertainty {rel:.3} × its tolerance so far")
+            } else {
+                String::new()
+            };
+            lines.push(SearchLine {
+                label: search::outer_label(&sweep, &driver.layout, s.outer),
+                status: if started || s.finished {
+                    s.outcome.status.name().to_string()
+                } else {
+                    "pending".to_string()
+                },
+                runs: s.runs() as i64,
+                note,
+            });
+        }
+        status.points = outer.len();
+        status.counts = Some(counts);
+        status.searches = Some(lines);
+        return Ok((status, sweep, grid));
+    }
     let stored = Stored::scan(&dir, Some(&status.output), Some(&grid), Check::Everything)?;
     status.damage = DamageReport::new(&status.output, stored.damage(), &sweep, &grid);
     status.damage.unchecked = stored

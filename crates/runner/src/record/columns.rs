@@ -648,12 +648,12 @@ pub const COLUMNS: &[Column] = &[
     },
 ];
 
-/// Names the file uses at its root beside the columns: the probe coordinate, the probes' units,
-/// the group of full histories, and what a search adds (its evaluations, objective, outcome).
-pub const LAYOUT_NAMES: &[&str] = &[
-    "probe",
-    "probe_units",
-    "runs",
+/// Names the file uses at its root beside the columns: the probe coordinate, the probes' units
+/// and the group of full histories.
+pub const LAYOUT_NAMES: &[&str] = &["probe", "probe_units", "runs"];
+
+/// Names a search's file adds at its root: its evaluations, objective and outcome.
+pub const SEARCH_LAYOUT_NAMES: &[&str] = &[
     "evaluation",
     "objective",
     "search_status",
@@ -669,6 +669,7 @@ pub const LAYOUT_NAMES: &[&str] = &[
 pub fn reserved_names() -> Vec<&'static str> {
     let mut names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
     names.extend_from_slice(LAYOUT_NAMES);
+    names.extend_from_slice(SEARCH_LAYOUT_NAMES);
     names
 }
 

@@ -2,12 +2,18 @@
 //! the objective tolerance: points go where the curve bends or jumps, as python-adaptive's
 //! learners put them, but as a pure function of the values (see [`super`]).
 //!
-//! - A curve (one field) is interpolated linearly between its samples. The error of an interval
-//!   of width h is estimated from the curvature at its ends, h²/8 · |f''| (the bound of linear
-//!   interpolation), f'' the second divided difference over each end and its neighbours. The
-//!   `round` intervals of largest estimate are halved at a time, until every estimate is within
-//!   the tolerance, or the intervals still above it are narrower than twice the field's
-//!   tolerance (a jump, located to that tolerance).
+//! - A curve (one field) is interpolated linearly between its samples. The objectives of
+//!   chains are smooth between kinks and jumps (a leading peak changes its nature at some mass
+//!   ratios), and the error of a chord across a kink is what a curvature estimate misses: the
+//!   error of an interval is estimated by how far its ends fall from its neighbours' lines
+//!   extended over it (half the larger miss, which bounds the chord's error when the curve is
+//!   two lines meeting inside the interval, and is four times the h²/8 · |f''| of a smooth
+//!   curve: conservative there); and, for an interval made by halving another, by half the error
+//!   measured when it was made (its parent's chord missed the new point by the surplus s; the
+//!   halves can miss by s/4 where the curve is smooth, by s/2 at a kink). The `round` intervals
+//!   of largest estimate are halved at a time, until every estimate is within the tolerance, or
+//!   the intervals still above it are narrower than twice the field's tolerance (a jump, located
+//!   to that tolerance).
 //! - A surface (two fields) is a tree of rectangular cells, interpolated bilinearly in each. Every
 //!   cell is sampled at its corners and its centre; its error is the centre's distance from the
 //!   mean of its corners (the bilinear interpolant there). The `round` cells of largest error are
@@ -45,33 +51,26 @@ fn failed(spec: &SearchSpec, at: &[f64]) -> Outcome {
 }
 
 /// The estimated interpolation error of every interval of the samples `xs`, `ys` (sorted by
-/// `x`); `None` for an interval touching a sample without a number.
-pub fn interval_errors(xs: &[f64], ys: &[Value]) -> Vec<Option<f64>> {
+/// `x`), `surplus[i]` the error measured when interval `i` was made by halving (see the module
+/// docs); `None` for an interval touching a sample without a number.
+pub fn interval_errors(xs: &[f64], ys: &[Value], surplus: &[Option<f64>]) -> Vec<Option<f64>> {
     let n = xs.len();
-    // f'' at every interior sample with numbers on both sides.
-    let d2: Vec<Option<f64>> = (0..n)
-        .map(|j| {
-            if j == 0 || j + 1 == n {
-                return None;
-            }
-            let (a, b, c) = (ys[j - 1]?, ys[j]?, ys[j + 1]?);
-            let right = (c - b) / (xs[j + 1] - xs[j]);
-            let left = (b - a) / (xs[j] - xs[j - 1]);
-            Some(2.0 * (right - left) / (xs[j + 1] - xs[j - 1]))
-        })
-        .collect();
+    let slope = |i: usize| -> Option<f64> { Some((ys[i + 1]? - ys[i]?) / (xs[i + 1] - xs[i])) };
     (0..n.saturating_sub(1))
         .map(|i| {
-            ys[i]?;
-            ys[i + 1]?;
-            let curvature = [d2[i], d2[i + 1]]
-                .iter()
-                .flatten()
-                .fold(None, |m: Option<f64>, v| {
-                    Some(m.map_or(v.abs(), |m| m.max(v.abs())))
-                });
+            let (a, b) = (ys[i]?, ys[i + 1]?);
             let h = xs[i + 1] - xs[i];
-            Some(curvature.map_or(0.0, |c| h * h / 8.0 * c))
+            // How far each end falls from the line of the neighbouring interval on the other side.
+            let left = (i >= 1)
+                .then(|| slope(i - 1))
+                .flatten()
+                .map(|s| (b - (a + s * h)).abs());
+            let right = (i + 2 < n)
+                .then(|| slope(i + 1))
+                .flatten()
+                .map(|s| (a - (b - s * h)).abs());
+            let miss = [left, right].into_iter().flatten().fold(0.0, f64::max);
+            Some((0.5 * miss).max(surplus[i].map_or(0.0, |s| 0.5 * s)))
         })
         .collect()
 }
@@ -85,13 +84,15 @@ pub fn curve(spec: &SearchSpec, s: &mut Streams) -> Outcome {
     let Some(mut ys) = s.eval(0, &points) else {
         return Outcome::running(Vec::new(), f64::NAN);
     };
+    // The error measured when each interval was made (none for the scan's).
+    let mut surplus: Vec<Option<f64>> = vec![None; xs.len() - 1];
     for _ in 0..MAX_ROUNDS {
         if spec.on_failure == OnFailure::Stop {
             if let Some(i) = ys.iter().position(|y| y.is_none()) {
                 return failed(spec, &[xs[i]]);
             }
         }
-        let errors = interval_errors(&xs, &ys);
+        let errors = interval_errors(&xs, &ys, &surplus);
         let largest =
             errors
                 .iter()
@@ -142,10 +143,16 @@ pub fn curve(spec: &SearchSpec, s: &mut Streams) -> Outcome {
         let Some(new) = s.eval(0, &mids) else {
             return Outcome::running(Vec::new(), largest);
         };
-        for (m, y) in mids.iter().zip(new).rev() {
-            let at = xs.partition_point(|&x| x < m[0]);
-            xs.insert(at, m[0]);
-            ys.insert(at, y);
+        // (From the last, so that the earlier intervals keep their indices.)
+        for (&(i, _), (m, y)) in todo.iter().zip(mids.iter().zip(new)).rev() {
+            let miss = match (ys[i], ys[i + 1], y) {
+                (Some(a), Some(b), Some(c)) => Some((c - 0.5 * (a + b)).abs()),
+                _ => None,
+            };
+            xs.insert(i + 1, m[0]);
+            ys.insert(i + 1, y);
+            surplus[i] = miss;
+            surplus.insert(i + 1, miss);
         }
     }
     Outcome {

@@ -451,6 +451,23 @@ pub struct WorkDir {
     state: Mutex<State>,
 }
 
+/// What a scan found, as a store that only reads (`status`: nothing is written).
+impl RunStore for Stored {
+    fn read(&self, hash: &RunHash) -> Result<Option<RunRecord>> {
+        Stored::read(self, hash)
+    }
+
+    fn write(&self, _rec: &RunRecord) -> Result<()> {
+        Err(Error::Other(
+            "the runs a scan found are read only (no work directory is locked)".into(),
+        ))
+    }
+
+    fn index(&self) -> Result<SegmentIndex> {
+        Ok(Stored::index(self))
+    }
+}
+
 impl RunStore for WorkDir {
     fn read(&self, hash: &RunHash) -> Result<Option<RunRecord>> {
         self.read_segment(hash)

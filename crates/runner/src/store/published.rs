@@ -88,14 +88,41 @@ pub struct PublishedFile {
     pub damage: Damage,
 }
 
-/// The sweep and grid of a file from its sweep text and the JSON of its `integrator: auto`
-/// choice (empty: none).
-fn grid_of(sweep_text: &str, auto: &str) -> Option<Grid> {
+/// The sweep of a file from its sweep text and the JSON of its `integrator: auto` choice (empty:
+/// none).
+fn sweep_of(sweep_text: &str, auto: &str) -> Option<Sweep> {
     let mut sweep = Sweep::parse(sweep_text).ok()?;
     if !auto.is_empty() {
         sweep.apply_auto(AutoChoice::from_json(auto).ok()?);
     }
-    Grid::new(&sweep).ok()
+    Some(sweep)
+}
+
+/// The grid of a file from its sweep text and auto choice (a sweep without a search).
+fn grid_of(sweep_text: &str, auto: &str) -> Option<Grid> {
+    let sweep = sweep_of(sweep_text, auto)?;
+    (sweep.search.is_none())
+        .then(|| Grid::new(&sweep).ok())
+        .flatten()
+}
+
+/// The grid of a search's output file, to read its runs back: the sweep's own grid and the
+/// `evaluation` dimension, each point's run hash the one the file stores (the points a search
+/// made are the file's, not a function of the sweep alone).
+pub fn search_grid(sweep: &Sweep, recs: &FileRecords) -> Option<Grid> {
+    let own = Grid::new(sweep).ok()?;
+    let n = recs.len();
+    if own.is_empty() || n % own.len() != 0 {
+        return None;
+    }
+    let e = n / own.len();
+    let mut g = own.clone();
+    g.shape.push(e);
+    g.hashes = (0..n)
+        .map(|i| from_hex(recs.hash_hex(i)).unwrap_or([0; 32]))
+        .collect();
+    g.particles = (0..n).map(|i| own.particles[i / e]).collect();
+    Some(g)
 }
 
 /// The snapshot beside output `path`: `None` when there is none, `Err` when it cannot be used.
@@ -201,7 +228,11 @@ impl PublishedFile {
             }
             if recs.header_damage.is_none() {
                 let auto = recs.auto_text().unwrap_or_default();
-                if let Some(g) = grid_of(&recs.sweep_text, &auto).filter(|g| g.len() == n) {
+                let sweep = sweep_of(&recs.sweep_text, &auto)?;
+                if sweep.search.is_some() {
+                    return search_grid(&sweep, recs);
+                }
+                if let Some(g) = Grid::new(&sweep).ok().filter(|g| g.len() == n) {
                     return Some(g);
                 }
             }

@@ -195,6 +195,8 @@ impl Objective {
 pub struct Across {
     /// The dimension (index into the sweep's dimensions) of the axis.
     pub dim: usize,
+    /// Its name.
+    pub name: String,
     /// How the two values combine: `combine(objective at points[0], objective at points[1])`.
     pub combine: Combine,
     /// The two indices along the dimension.
@@ -270,29 +272,30 @@ impl SearchSpec {
 
     /// How it reads in one line: `minimise leading_peak[…] over mass_ratio in [0.4, 0.8] to ±0.0001`.
     pub fn describe(&self) -> String {
+        use crate::error::number_text as num;
         let fields: Vec<String> = self
             .fields
             .iter()
-            .map(|f| format!("{} in [{}, {}]", f.name, f.min, f.max))
+            .map(|f| format!("{} in [{}, {}]", f.name, num(f.min), num(f.max)))
             .collect();
         let what = match &self.across {
             Some(a) => format!(
-                "{} of ({}) across points {} and {} of dimension {}",
+                "{} of ({}) between points {} and {} of {}",
                 a.combine.name(),
                 self.objective.describe(),
                 a.points[0],
                 a.points[1],
-                a.dim
+                a.name
             ),
             None => self.objective.describe(),
         };
         let to = match self.goal {
-            Goal::Refine => format!("to ±{} in the objective", self.objective_tolerance),
+            Goal::Refine => format!("to ±{} in the objective", num(self.objective_tolerance)),
             _ => {
                 let t: Vec<String> = self
                     .fields
                     .iter()
-                    .map(|f| format!("±{} in {}", f.tolerance, f.name))
+                    .map(|f| format!("±{} in {}", num(f.tolerance), f.name))
                     .collect();
                 format!("to {}", t.join(", "))
             }
@@ -688,6 +691,7 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
             }
             Some(Across {
                 dim,
+                name: dims[dim].name.clone(),
                 combine,
                 points: [a.points[0], a.points[1]],
             })

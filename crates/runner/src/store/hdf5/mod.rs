@@ -20,6 +20,7 @@
 //! own type, so xarray masks failed and pending points.
 
 pub mod read;
+pub mod search;
 pub mod write;
 
 pub use read::FileRecords;

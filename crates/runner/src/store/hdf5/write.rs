@@ -9,6 +9,7 @@ use std::path::Path;
 use hdf5::{Dataset, File, Group};
 use serde_json::Value;
 
+use super::search::{self, SearchTables};
 use super::{
     attach_scale, attr_scalar, attr_str, attr_vec, checked_dataset, column_text_checksum,
     filled_checked_dataset, header_checksum, run_group_name, set_scale, str_dataset, Counts,
@@ -58,6 +59,7 @@ pub fn write_file(
     verify_fraction: f64,
     get: impl FnMut(usize) -> Result<Option<RunRecord>>,
     get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
+    search: Option<&SearchTables>,
 ) -> Result<Written> {
     let write = move || -> Result<Written> {
         // HDF5's 1.10 format: the library checksums its own metadata (superblock, object
@@ -85,7 +87,30 @@ pub fn write_file(
         }
         let dims = write_coordinates(&file, sweep)?;
         let probe_scale = write_probe_scale(&file, grid)?;
-        write_columns(&file, &table.table, &dims, probe_scale.as_ref())?;
+        let mut extra_coordinates = Vec::new();
+        if let Some(t) = search {
+            let scale = |name: &str| {
+                dims.iter()
+                    .find(|d| d.name == name)
+                    .map(|d| &d.scale)
+                    .ok_or_else(|| Error::Other(format!("no dimension `{name}` for the search")))
+            };
+            let outer = t
+                .outer
+                .dims
+                .iter()
+                .map(|(name, _)| Ok((scale(name)?, name.as_str())))
+                .collect::<Result<Vec<_>>>()?;
+            search::write(&file, t, &outer, scale("evaluation")?)?;
+            extra_coordinates = search::coordinate_names(t);
+        }
+        write_columns(
+            &file,
+            &table.table,
+            &dims,
+            probe_scale.as_ref(),
+            &extra_coordinates,
+        )?;
         // Last: over every text attribute written above.
         let mut sums = serde_json::Map::new();
         for (c, data) in COLUMNS.iter().zip(&table.table.columns) {
@@ -182,7 +207,12 @@ fn fill_columns(
         in_points[i] = true;
     }
     for (i, &in_run) in in_points.iter().enumerate() {
-        let hash_hex = hex(&grid.hashes[i]);
+        // (A point of a search's grid without a run has no hash.)
+        let hash_hex = if grid.hashes[i] == [0; 32] {
+            String::new()
+        } else {
+            hex(&grid.hashes[i])
+        };
         let record = get(i)?;
         if in_run && record.is_none() {
             counts.pending += 1;
@@ -394,11 +424,13 @@ fn write_columns(
     table: &Table,
     dims: &[DimScale],
     probe_scale: Option<&(Dataset, Vec<String>)>,
+    extra_coordinates: &[String],
 ) -> Result<()> {
     let shape: Vec<usize> = dims.iter().map(|d| d.len).collect();
     let others: Vec<&str> = dims
         .iter()
         .flat_map(|d| d.others.iter().map(String::as_str))
+        .chain(extra_coordinates.iter().map(String::as_str))
         .collect();
     for (c, data) in COLUMNS.iter().zip(&table.columns) {
         let Some(data) = data else {
