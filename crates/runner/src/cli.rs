@@ -457,7 +457,14 @@ fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -
     if is_hdf5(file) || looks_like_output(file) {
         let s = status::of_file(file)?;
         show::file_status(file, &s);
-        return Ok(if s.damage.any() {
+        // A search sweep is partial while a search is unfinished (stopped by its budget, or
+        // not run to its end) or stopped by a failed run, as `status SWEEP` counts it.
+        let searches_unfinished = s.searches.as_ref().is_some_and(|lines| {
+            lines
+                .iter()
+                .any(|l| matches!(l.status.as_str(), "pending" | "running" | "budget" | "failed_run"))
+        });
+        return Ok(if s.damage.any() || searches_unfinished {
             EXIT_PARTIAL
         } else {
             exit_for(&s.counts)

@@ -442,17 +442,34 @@ pub fn gc(output: &Path, r: &GcReport) {
 
 /// `status` of an output file.
 pub fn file_status(file: &Path, s: &FileStatus) {
-    outln!(
-        "{}: {} runs (grid {}, shard {}): {} done ({} ok, {} failed), {} pending",
-        file.display(),
-        s.total,
-        shape_text(&s.shape),
-        s.shard,
-        s.counts.ok + s.counts.failed,
-        s.counts.ok,
-        s.counts.failed,
-        s.counts.pending
-    );
+    match &s.searches {
+        // A search's runs are what its searches chose to evaluate: none is pending.
+        Some(lines) => outln!(
+            "{}: {} search(es) ({}shard {}), {} runs ({} ok, {} failed)",
+            file.display(),
+            lines.len(),
+            if s.shape.is_empty() {
+                String::new()
+            } else {
+                format!("outer grid {}, ", shape_text(&s.shape))
+            },
+            s.shard,
+            s.counts.ok + s.counts.failed,
+            s.counts.ok,
+            s.counts.failed,
+        ),
+        None => outln!(
+            "{}: {} runs (grid {}, shard {}): {} done ({} ok, {} failed), {} pending",
+            file.display(),
+            s.total,
+            shape_text(&s.shape),
+            s.shard,
+            s.counts.ok + s.counts.failed,
+            s.counts.ok,
+            s.counts.failed,
+            s.counts.pending
+        ),
+    }
     if s.newer > 0 {
         outln!(
             "  {} more runs have finished since the file was written (a sweep is running, or was interrupted): re-run the same `chainsweep run` command to bring the file up to date",
@@ -490,7 +507,11 @@ fn search_lines(lines: &[crate::engine::status::SearchLine]) {
         } else {
             format!("search at {}", l.label)
         };
-        outln!("  {at}: {} after {} run(s); {}", l.status, l.runs, l.note);
+        if l.note.is_empty() {
+            outln!("  {at}: {} after {} run(s)", l.status, l.runs);
+        } else {
+            outln!("  {at}: {} after {} run(s); {}", l.status, l.runs, l.note);
+        }
     }
 }
 
@@ -514,16 +535,30 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
         );
         return;
     };
-    outln!(
-        "{} → {}: {} runs: {} done ({} ok, {} failed), {} pending",
-        file.display(),
-        s.output.display(),
-        s.points,
-        counts.ok + counts.failed,
-        counts.ok,
-        counts.failed,
-        counts.pending
-    );
+    if s.searches.is_some() {
+        // The counts of a search sweep are of its searches (ok: ended; pending: running or
+        // stopped by its budget; failed: stopped by a failed run).
+        outln!(
+            "{} → {}: {} search(es): {} ended, {} failed, {} unfinished",
+            file.display(),
+            s.output.display(),
+            s.points,
+            counts.ok,
+            counts.failed,
+            counts.pending
+        );
+    } else {
+        outln!(
+            "{} → {}: {} runs: {} done ({} ok, {} failed), {} pending",
+            file.display(),
+            s.output.display(),
+            s.points,
+            counts.ok + counts.failed,
+            counts.ok,
+            counts.failed,
+            counts.pending
+        );
+    }
     for p in &s.ignored {
         outln!(
             "  ignored (not a regular file where a run log is expected; remove it): {}",

@@ -106,7 +106,10 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
     for (h, i, ok) in p.runs() {
         held.insert(h, (i, ok));
     }
-    for i in 0..grid.len() {
+    // A search file's grid has a slot per evaluation a search could have made; the slots it
+    // did not make (hash zero) are no runs.
+    let is_run = |i: usize| grid.hashes[i] != [0; 32];
+    for i in (0..grid.len()).filter(|&i| is_run(i)) {
         let in_shard = assignment.contains(shard, i);
         total += usize::from(in_shard);
         match held.get(&grid.hashes[i]) {
@@ -122,7 +125,7 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
             None => {}
         }
     }
-    for i in 0..grid.len() {
+    for i in (0..grid.len()).filter(|&i| is_run(i)) {
         if held.get(&grid.hashes[i]).is_some_and(|&(_, ok)| !ok) {
             let reason = p
                 .read(&grid.hashes[i])
@@ -134,7 +137,8 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
     // Runs finished since the file was last assembled (it is refreshed by `run`).
     let segs = scan_segments(&work_dir_of(file))?;
     let newer = (0..grid.len())
-        .filter(|&i| assignment.contains(shard, i) && !held.contains_key(&grid.hashes[i]))
+        .filter(|&i| is_run(i) && assignment.contains(shard, i))
+        .filter(|&i| !held.contains_key(&grid.hashes[i]))
         .filter(|&i| segs.contains_key(&grid.hashes[i]))
         .count();
     let searches = match &sweep.search {

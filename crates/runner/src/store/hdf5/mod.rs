@@ -139,6 +139,19 @@ pub fn chunk_shape(shape: &[usize], item: usize) -> Vec<usize> {
     chunk
 }
 
+/// A dataset builder whose data HDF5 checks: chunked ([`chunk_shape`]) with the Fletcher-32
+/// filter, or for a scalar (which cannot be chunked: a search without outer axes has scalar
+/// outcomes) compact, its value inside the object header that the 1.10 format checksums.
+fn checked_builder<T: H5Type>(group: &Group, shape: &[usize]) -> hdf5::DatasetBuilderEmpty {
+    let b = group.new_dataset::<T>();
+    if shape.is_empty() {
+        b.layout(hdf5::plist::dataset_create::Layout::Compact)
+    } else {
+        b.chunk(chunk_shape(shape, std::mem::size_of::<T>()))
+            .fletcher32()
+    }
+}
+
 /// A numeric dataset holding `data`, chunked ([`chunk_shape`]) with the Fletcher-32 filter.
 pub(crate) fn checked_dataset<T: H5Type>(
     group: &Group,
@@ -146,10 +159,7 @@ pub(crate) fn checked_dataset<T: H5Type>(
     shape: &[usize],
     data: &[T],
 ) -> Result<Dataset> {
-    let d = group
-        .new_dataset::<T>()
-        .chunk(chunk_shape(shape, std::mem::size_of::<T>()))
-        .fletcher32()
+    let d = checked_builder::<T>(group, shape)
         .shape(shape.to_vec())
         .create(name)?;
     if !data.is_empty() {
@@ -167,10 +177,7 @@ pub(crate) fn filled_checked_dataset<T: H5Type + Copy + Into<hdf5::types::OwnedD
     data: &[T],
     fill: T,
 ) -> Result<Dataset> {
-    let d = group
-        .new_dataset::<T>()
-        .chunk(chunk_shape(shape, std::mem::size_of::<T>()))
-        .fletcher32()
+    let d = checked_builder::<T>(group, shape)
         .fill_value(fill)
         .shape(shape.to_vec())
         .create(name)?;
