@@ -127,8 +127,10 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 
 # Chains beyond the paper's (docs/CHAINS.md): every sweep of sweeps/examples/ into
 # results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
-# attenuation table of the delta-force dimer. About 10 s on two cores.
-EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse
+# attenuation table of the delta-force dimer; the search examples (docs/SEARCHES.md) drawn with
+# their points and the minima and roots they found. About 15 s on two cores.
+EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
+  dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum
 
 examples: build
 	@mkdir -p results/examples; \

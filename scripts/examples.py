@@ -1,5 +1,7 @@
-"""One figure per example sweep of sweeps/examples/ (docs/CHAINS.md), from results/examples/NAME.h5
-into results/examples/NAME.png, and the attenuation table of the delta-force dimer example.
+"""One figure per example sweep of sweeps/examples/ (docs/CHAINS.md, docs/SEARCHES.md), from
+results/examples/NAME.h5 into results/examples/NAME.png, and the attenuation table of the
+delta-force dimer example. Searches are drawn with every point they evaluated, and the minima and
+roots they found marked with their uncertainty.
 
 Run by `make examples` after it has run the sweeps; `python examples.py NAME…` draws only those.
 """
@@ -12,6 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+import chainsweep  # noqa: E402
 from chainplot import RESULTS, Sweep, savefig  # noqa: E402
 
 EXAMPLES = RESULTS / "examples"
@@ -138,12 +141,162 @@ def dimer_impulse():
             print(f"| {e:.3f} | " + " | ".join(f"{a[i]:.4f}" for a in att.values()) + " |")
 
 
+def open_search(name: str):
+    """The output of a search example, read by chainsweep.open (points, outcomes, statuses)."""
+    return chainsweep.open(EXAMPLES / f"{name}.h5")
+
+
+def objective_label(ds) -> str:
+    return ds.objective.attrs.get("long_name", "objective")
+
+
+def evaluated(ds, field: str, **outer):
+    """The evaluated points of one search (field value, objective), sorted along the field,
+    failed or pending evaluations left out."""
+    sel = ds.sel(**outer) if outer else ds
+    x = np.asarray(sel[field].values, dtype=float)
+    y = np.asarray(sel.objective.values, dtype=float)
+    keep = np.isfinite(x) & np.isfinite(y)
+    order = np.argsort(x[keep])
+    return x[keep][order], y[keep][order]
+
+
+def dimer_minimum():
+    """The minimum of the dimer's attenuation over eps, found per damping, on top of the grid."""
+    with open_search("dimer-minimum") as ds:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for k, mu in enumerate(ds.damping_kg_s.values):
+            x, y = evaluated(ds, "cylinder_mass_kg", damping_kg_s=mu)
+            (line,) = ax.plot(x / SPHERE_MASS_KG, y, ".", label=f"μ = {mu:g} kg/s: {len(x)} runs")
+            at = ds.sel(damping_kg_s=mu)
+            for m in range(at.sizes["minimum"]):
+                xm = float(at.minimum_cylinder_mass_kg[m]) / SPHERE_MASS_KG
+                if not np.isfinite(xm):
+                    continue
+                dx = float(at.minimum_cylinder_mass_kg_uncertainty[m]) / SPHERE_MASS_KG
+                ym = float(at.minimum_objective[m])
+                ax.errorbar(xm, ym, xerr=dx, marker="*", ms=12, color=line.get_color(), capsize=3)
+                ax.annotate(f"ε = {xm:.5f} ± {dx:.0e}\n{ym:.4f}", (xm, ym), textcoords="offset points",
+                            xytext=(10, -28) if k == 0 else (10, 14), fontsize=8, color=line.get_color())
+        ax.set_xlabel("mass ratio ε = m_cylinder / m_sphere")
+        ax.set_ylabel("leading force, cylinder 35 / cylinder 5")
+        ax.set_title("δ-force dimer: minimum attenuation located by a search (★)", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        savefig(fig, "examples/dimer-minimum")
+
+
+def critical_damping_root():
+    """The difference of the two chains' attenuation against damping, and its root."""
+    with open_search("critical-damping-root") as ds:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for v in ds.striker_velocity_m_s.values:
+            x, y = evaluated(ds, "damping_kg_s", striker_velocity_m_s=v)
+            (line,) = ax.plot(x, y, "o-", ms=4, label=f"striker {v:g} m/s: {len(x)} evaluations ({2 * len(x)} runs)")
+            at = ds.sel(striker_velocity_m_s=v)
+            for r in range(at.sizes["root"]):
+                xr = float(at.root_damping_kg_s[r])
+                if np.isfinite(xr):
+                    dx = float(at.root_damping_kg_s_uncertainty[r])
+                    ax.plot(xr, 0.0, "*", ms=14, color=line.get_color())
+                    ax.annotate(f"μ* = {xr:.4f} ± {dx:.0e} kg/s", (xr, 0.0), textcoords="offset points",
+                                xytext=(-150, -22) if v < 1.2 else (10, 10), fontsize=8, color=line.get_color())
+        ax.axhline(0.0, color="k", lw=0.7)
+        ax.set_xlabel("damping μ (kg/s)")
+        ax.set_ylabel("A21/A4: 0.98 chain − 0.55 chain")
+        ax.set_title("Critical damping of Fig. 15: a root across the two chains (★)", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        savefig(fig, "examples/critical-damping-root")
+
+
+def fig08_refined():
+    """The refined Fig. 8 curves: each point the search chose, and where it put them."""
+    with open_search("fig08-refined") as ds:
+        fig, (ax, hist) = plt.subplots(2, 1, figsize=(6, 5.5), sharex=True, height_ratios=[3, 1])
+        for mu in ds.damping_kg_s.values:
+            x, y = evaluated(ds, "mass_ratio", damping_kg_s=mu)
+            err = float(ds.refine_error.sel(damping_kg_s=mu))
+            (line,) = ax.plot(x, y, "-", lw=1)
+            ax.plot(x, y, ".", color=line.get_color(),
+                    label=f"μ = {mu:g} kg/s: {len(x)} runs, interpolation error ≤ {err:.1e}")
+            hist.plot(x, np.full_like(x, mu), "|", ms=12, color=line.get_color())
+        ax.set_ylabel("F21 / F4")
+        ax.set_title("Fig. 8 refined: points go where the curve bends or jumps", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        hist.set_xlabel("mass ratio ε")
+        hist.set_ylabel("μ (kg/s)")
+        hist.set_yticks(ds.damping_kg_s.values)
+        hist.set_ylim(-3, 9)
+        fig.tight_layout()
+        savefig(fig, "examples/fig08-refined")
+
+
+def fig08_surface():
+    """The refined surface over mass ratio and damping, on the triangulation of its points."""
+    import matplotlib.tri as mtri
+
+    with open_search("fig08-surface") as ds:
+        x = np.asarray(ds.mass_ratio.values, dtype=float)
+        y = np.asarray(ds.damping_kg_s.values, dtype=float)
+        z = np.asarray(ds.objective.values, dtype=float)
+        keep = np.isfinite(x) & np.isfinite(y) & np.isfinite(z)
+        x, y, z = x[keep], y[keep], z[keep]
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        tri = mtri.Triangulation(x, y)
+        c = ax.tripcolor(tri, z, shading="gouraud", cmap="viridis")
+        ax.plot(x, y, "k.", ms=2)
+        fig.colorbar(c, ax=ax, label="F21 / F4")
+        ax.set_xlabel("mass ratio ε")
+        ax.set_ylabel("damping μ (kg/s)")
+        ax.set_title(f"F21/F4 refined in two dimensions: {len(x)} runs, "
+                     f"interpolation error ≤ {float(ds.refine_error):.1e}", fontsize=10)
+        fig.tight_layout()
+        savefig(fig, "examples/fig08-surface")
+
+
+def alternating_dimer_minimum():
+    """The Nelder-Mead search over two cylinder masses: its points, and the optimum."""
+    with open_search("alternating-dimer-minimum") as ds:
+        a = np.asarray(ds.cylinder_a_mass_kg.values, dtype=float) / SPHERE_MASS_KG
+        b = np.asarray(ds.cylinder_b_mass_kg.values, dtype=float) / SPHERE_MASS_KG
+        z = np.asarray(ds.objective.values, dtype=float)
+        keep = np.isfinite(a) & np.isfinite(b) & np.isfinite(z)
+        fig, ax = plt.subplots(figsize=(6, 5))
+        c = ax.scatter(a[keep], b[keep], c=z[keep], s=14, cmap="viridis_r")
+        fig.colorbar(c, ax=ax, label="leading force, particle 70 / particle 10")
+        for m in range(ds.sizes["minimum"]):
+            am = float(ds.minimum_cylinder_a_mass_kg[m]) / SPHERE_MASS_KG
+            bm = float(ds.minimum_cylinder_b_mass_kg[m]) / SPHERE_MASS_KG
+            if np.isfinite(am):
+                ax.plot(am, bm, "r*", ms=14)
+                if m == 0:
+                    ax.annotate(f"ε_A = {am:.4f}, ε_B = {bm:.4f}\n{float(ds.minimum_objective[m]):.5f}", (am, bm),
+                                textcoords="offset points", xytext=(10, 10), fontsize=8, color="r")
+        ax.plot([0.3, 0.9], [0.3, 0.9], color="0.6", lw=0.7, label="equal masses (the plain dimer)")
+        ax.set_xlabel("ε_A = m_cylinder A / m_sphere")
+        ax.set_ylabel("ε_B = m_cylinder B / m_sphere")
+        ax.set_title(f"Alternating-mass dimer: Nelder–Mead over two masses, {int(keep.sum())} runs", fontsize=10)
+        ax.legend(fontsize=8, loc="upper right")
+        ax.set_aspect("equal")
+        fig.tight_layout()
+        savefig(fig, "examples/alternating-dimer-minimum")
+
+
 PLOTS = {
     "trimer": trimer,
     "tapered": tapered,
     "disordered": disordered,
     "precompressed": precompressed,
     "dimer-impulse": dimer_impulse,
+    "dimer-minimum": dimer_minimum,
+    "critical-damping-root": critical_damping_root,
+    "fig08-refined": fig08_refined,
+    "fig08-surface": fig08_surface,
+    "alternating-dimer-minimum": alternating_dimer_minimum,
 }
 
 

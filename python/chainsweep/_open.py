@@ -83,7 +83,7 @@ def _read(ds: h5py.Dataset, path: str | None = None) -> tuple[np.ndarray, dict[s
     if h5py.check_string_dtype(ds.dtype) is not None:
         return np.asarray(ds.asstr()[()], dtype=object), attrs
     try:
-        values = ds[()]
+        values = np.asarray(ds[()])  # an array also for a scalar dataset
     except OSError:
         if path is None:
             raise
@@ -136,8 +136,10 @@ class _Grid:
     def dims_of(self, ds: h5py.Dataset) -> tuple[str, ...] | None:
         """The dimensions of a dataset: the labels of its dimension scales (a search's tables
         span some of the grid's dimensions), else by its shape (None: not grid-shaped)."""
+        if ds.ndim == 0:  # a search's outcome when the sweep has no axes besides the search
+            return ()
         labels = tuple(d.label for d in ds.dims)
-        if len(labels) == ds.ndim and ds.ndim > 0 and all(labels):
+        if len(labels) == ds.ndim and all(labels):
             return labels
         if ds.shape == self.shape:
             return tuple(self.dims)
