@@ -460,9 +460,12 @@ fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -
         // A search sweep is partial while a search is unfinished (stopped by its budget, or
         // not run to its end) or stopped by a failed run, as `status SWEEP` counts it.
         let searches_unfinished = s.searches.as_ref().is_some_and(|lines| {
-            lines
-                .iter()
-                .any(|l| matches!(l.status.as_str(), "pending" | "running" | "budget" | "failed_run"))
+            lines.iter().any(|l| {
+                matches!(
+                    l.status.as_str(),
+                    "pending" | "running" | "budget" | "failed_run"
+                )
+            })
         });
         return Ok(if s.damage.any() || searches_unfinished {
             EXIT_PARTIAL

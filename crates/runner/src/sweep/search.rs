@@ -503,10 +503,34 @@ fn parse_objective(v: &Value, probes: &[String]) -> Result<Objective> {
 /// Whether `field` takes any number in `[min, max]` in the scene `base` (a continuous field):
 /// the scene built with the field at both ends and between reads the value back unchanged.
 fn check_continuous(base: &Value, field: &str, min: f64, max: f64, at: &str) -> Result<()> {
+    // A field that holds something other than a number in the scene (a list, a flag, a name)
+    // is named as the wrong field, not as a wrong end of its interval.
+    if let Ok(scene) = from_ref_at::<Scene>(base, "") {
+        let current = serde_json::to_value(&scene).expect("Scene serialises");
+        if let Ok(v) = super::lookup(&current, field) {
+            if !v.is_number() && !v.is_null() {
+                let kind = match v {
+                    Value::Bool(_) => "a flag (true or false)",
+                    Value::String(_) => "a name",
+                    Value::Array(_) => "a list",
+                    _ => "an object",
+                };
+                return Err(bad(
+                    format!("{at}.field"),
+                    format!("`{field}` is {kind}, not a number: a search needs a continuous field, a number that may take any value in its interval"),
+                ));
+            }
+        }
+    }
     for (x, end) in [(min, "min"), (max, "max"), (0.5 * (min + max), "min")] {
         let mut v = base.clone();
         set_path(&mut v, field, Value::from(x));
         let scene: Scene = from_ref_at(&v, "").map_err(|e| match e {
+            // A misspelt field is the field's fault, not its interval's.
+            Error::Input { message, .. } if message.contains("unknown field") => bad(
+                format!("{at}.field"),
+                format!("`{field}` is no field of the scene: {message}"),
+            ),
             Error::Input { message, .. } => bad(
                 format!("{at}.{end}"),
                 format!(
