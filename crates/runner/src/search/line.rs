@@ -34,7 +34,7 @@ fn failed_at(spec: &SearchSpec, x: f64) -> String {
 /// Every local minimum (`sign` 1) or maximum (`sign` -1) of the objective over the one field.
 pub fn extrema(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
     let f = &spec.fields[0];
-    let xs = linspace(f.min, f.max, spec.scan);
+    let xs = linspace(f.min, f.max, spec.scan[0]);
     let points: Vec<Vec<f64>> = xs.iter().map(|&x| vec![x]).collect();
     let Some(ys) = s.eval(0, &points) else {
         return Outcome::running(Vec::new(), f64::NAN);
@@ -225,7 +225,7 @@ fn brent_minimum(
 /// Every crossing of the level by the objective over the one field.
 pub fn roots(spec: &SearchSpec, s: &mut Streams) -> Outcome {
     let f = &spec.fields[0];
-    let xs = linspace(f.min, f.max, spec.scan);
+    let xs = linspace(f.min, f.max, spec.scan[0]);
     let points: Vec<Vec<f64>> = xs.iter().map(|&x| vec![x]).collect();
     let Some(ys) = s.eval(0, &points) else {
         return Outcome::running(Vec::new(), f64::NAN);
@@ -279,7 +279,7 @@ pub fn roots(spec: &SearchSpec, s: &mut Streams) -> Outcome {
                 spec.level,
                 f.min,
                 f.max,
-                spec.scan,
+                spec.scan[0],
                 lo + spec.level,
                 hi + spec.level
             ),
@@ -409,7 +409,7 @@ mod tests {
             Some((x - 0.3).powi(2) * (x - 0.8).powi(2) + 0.001 * x)
         };
         let mut sp = spec(Goal::Minimise, &[(0.0, 1.0, 1e-6)]);
-        sp.scan = 11;
+        sp.scan = vec![11];
         let (out, points) = solve(&sp, f);
         assert_eq!(out.status, SearchStatus::Converged, "{out:?}");
         assert_eq!(out.items.len(), 2);
@@ -448,7 +448,7 @@ mod tests {
     fn maxima_bounds_and_failed_runs() {
         let f = |x: &[f64]| Some((x[0] * 3.0).sin());
         let mut sp = spec(Goal::Maximise, &[(0.0, 3.0, 1e-5)]);
-        sp.scan = 7;
+        sp.scan = vec![7];
         let (out, _) = solve(&sp, f);
         let xs: Vec<f64> = out.items.iter().map(|i| i.x[0]).collect();
         // sin 3x is largest at π/6 and 5π/6 in [0, 3].
@@ -487,7 +487,7 @@ mod tests {
     fn every_crossing_is_located_and_a_level_never_crossed_is_not_found() {
         let f = |x: &[f64]| Some((x[0] - 1.0) * (x[0] - 2.5) * (x[0] - 4.0));
         let mut sp = spec(Goal::Root, &[(0.0, 5.0, 1e-4)]);
-        sp.scan = 6;
+        sp.scan = vec![6];
         let (out, points) = solve(&sp, f);
         assert_eq!(out.status, SearchStatus::Converged, "{out:?}");
         let roots: Vec<f64> = out.items.iter().map(|i| i.x[0]).collect();

@@ -318,7 +318,7 @@ pub(crate) mod testing {
             across: None,
             level: 0.0,
             objective_tolerance: 1e-3,
-            scan: 10,
+            scan: vec![10; fields.len()],
             budget: 10_000,
             round: 4,
             on_failure: match goal {

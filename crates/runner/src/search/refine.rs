@@ -9,16 +9,23 @@
 //!   extended over it (half the larger miss, which bounds the chord's error when the curve is
 //!   two lines meeting inside the interval, and is four times the h²/8 · |f''| of a smooth
 //!   curve: conservative there); and, for an interval made by halving another, by half the error
-//!   measured when it was made (its parent's chord missed the new point by the surplus s; the
-//!   halves can miss by s/4 where the curve is smooth, by s/2 at a kink). The `round` intervals
-//!   of largest estimate are halved at a time, until every estimate is within the tolerance, or
-//!   the intervals still above it are narrower than twice the field's tolerance (a jump, located
-//!   to that tolerance).
-//! - A surface (two fields) is a tree of rectangular cells, interpolated bilinearly in each. Every
-//!   cell is sampled at its corners and its centre; its error is the centre's distance from the
-//!   mean of its corners (the bilinear interpolant there). The `round` cells of largest error are
-//!   split into four at a time (their edge midpoints and the centres of the four children
-//!   sampled), until every cell is within the tolerance or too small to split.
+//!   measured when it was made (its parent's chord missed the new point by the surplus s; where
+//!   the curve is smooth the halves miss by about s/4; a half holding a kink can miss by more, up
+//!   to 2s when the kink lies near the parent's end, which the neighbours' lines then bound). The
+//!   `round` intervals of largest estimate are halved at a time, until every estimate is within
+//!   the tolerance, or the intervals still above it are narrower than twice the field's tolerance
+//!   (a jump, located to that tolerance).
+//! - A surface (two fields) is a tree of rectangular cells, sampled at their corners and
+//!   interpolated bilinearly in each. A cell's error along each field is the curve's estimate on
+//!   the lines of its two edges along that field (half the larger miss of the neighbouring
+//!   samples' lines extended over the edge). For a smooth surface the interior bends as its
+//!   edges do; a saddle, whose centre is the mean of its corners, shows on its edges too. The
+//!   `round` cells of largest error are halved at a time along the fields whose estimate is at
+//!   least half the larger one, so that a surface that bends along one field is refined along
+//!   that one only; until every cell is within the tolerance or too small to halve (each
+//!   field's `tolerance`). A feature that lies wholly inside a first-scan cell and does not
+//!   reach its edges is not seen: the scan (`scan`, per field) must be fine enough to see every
+//!   feature.
 //!
 //! A run that failed (or gave no number) leaves a gap (`failed: gap`): the intervals or cells
 //! touching it are not refined, and the outcome counts them.
@@ -79,7 +86,7 @@ pub fn interval_errors(xs: &[f64], ys: &[Value], surplus: &[Option<f64>]) -> Vec
 pub fn curve(spec: &SearchSpec, s: &mut Streams) -> Outcome {
     let f = &spec.fields[0];
     let tol = spec.objective_tolerance;
-    let mut xs = linspace(f.min, f.max, spec.scan);
+    let mut xs = linspace(f.min, f.max, spec.scan[0]);
     let points: Vec<Vec<f64>> = xs.iter().map(|&x| vec![x]).collect();
     let Some(mut ys) = s.eval(0, &points) else {
         return Outcome::running(Vec::new(), f64::NAN);
@@ -176,26 +183,32 @@ struct Cell {
 /// scan cell, far below any field's tolerance).
 const LATTICE_BITS: u32 = 30;
 
+/// The weight of an edge's miss in a cell's error: half, as for a curve's interval
+/// (`interval_errors`), bounds the error of a kink along that edge.
+const EDGE_WEIGHT: f64 = 0.5;
+
 /// A surface: the objective over two fields.
 pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
     let (fx, fy) = (&spec.fields[0], &spec.fields[1]);
     let tol = spec.objective_tolerance;
-    let n = spec.scan as u64;
+    let (na, nb) = (spec.scan[0] as u64, spec.scan[1] as u64);
     let step = 1u64 << LATTICE_BITS;
-    let top = (n - 1) * step;
+    let (top_a, top_b) = ((na - 1) * step, (nb - 1) * step);
     // A lattice coordinate in field units, both ends exact.
-    let at = |k: u64, min: f64, max: f64| {
+    let at = |k: u64, top: u64, min: f64, max: f64| {
         if k == top {
             max
         } else {
             min + (max - min) * (k as f64 / top as f64)
         }
     };
-    let point = |a: u64, b: u64| vec![at(a, fx.min, fx.max), at(b, fy.min, fy.max)];
+    let at_a = |k: u64| at(k, top_a, fx.min, fx.max);
+    let at_b = |k: u64| at(k, top_b, fy.min, fy.max);
+    let point = |a: u64, b: u64| vec![at_a(a), at_b(b)];
     let mut values: BTreeMap<(u64, u64), Value> = BTreeMap::new();
     let mut cells: Vec<Cell> = Vec::new();
-    for i in 0..n - 1 {
-        for j in 0..n - 1 {
+    for i in 0..na - 1 {
+        for j in 0..nb - 1 {
             cells.push(Cell {
                 a0: i * step,
                 a1: (i + 1) * step,
@@ -204,28 +217,67 @@ pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
             });
         }
     }
-    // The first scan: the grid's points and every cell's centre.
+    // The first scan: the grid's points.
     let mut first: Vec<(u64, u64)> = Vec::new();
-    for i in 0..n {
-        for j in 0..n {
+    for i in 0..na {
+        for j in 0..nb {
             first.push((i * step, j * step));
         }
     }
-    first.extend(cells.iter().map(|c| ((c.a0 + c.a1) / 2, (c.b0 + c.b1) / 2)));
     let batch: Vec<Vec<f64>> = first.iter().map(|&(a, b)| point(a, b)).collect();
     let Some(ys) = s.eval(0, &batch) else {
         return Outcome::running(Vec::new(), f64::NAN);
     };
     values.extend(first.into_iter().zip(ys));
-    let error = |c: &Cell, values: &BTreeMap<(u64, u64), Value>| -> Option<f64> {
+    // A cell's estimated error along each field: a curve's interval's estimate (see
+    // `interval_errors`) on the lines of its two edges along that field. (The larger, along the
+    // first field, along the second.)
+    let error = |c: &Cell, values: &BTreeMap<(u64, u64), Value>| -> Option<(f64, f64, f64)> {
         let v = |a, b| values.get(&(a, b)).copied().flatten();
-        let corners = v(c.a0, c.b0)? + v(c.a1, c.b0)? + v(c.a0, c.b1)? + v(c.a1, c.b1)?;
-        Some((v((c.a0 + c.a1) / 2, (c.b0 + c.b1) / 2)? - 0.25 * corners).abs())
+        // Its corners hold numbers (a failed one leaves the cell a gap).
+        v(c.a0, c.b0)?;
+        v(c.a1, c.b0)?;
+        v(c.a0, c.b1)?;
+        v(c.a1, c.b1)?;
+        // How far a corner falls from the line through the two samples beyond the opposite
+        // corner on the same edge line, extended over the cell.
+        let miss =
+            |near: Option<f64>, beyond: Option<f64>, far: Option<f64>| match (near, beyond, far) {
+                (Some(n), Some(b), Some(f)) => (f - (2.0 * n - b)).abs(),
+                _ => 0.0,
+            };
+        let (wa, wb) = (c.a1 - c.a0, c.b1 - c.b0);
+        let mut along_a = 0.0f64;
+        for b in [c.b0, c.b1] {
+            let before = c.a0.checked_sub(wa).and_then(|a| v(a, b));
+            along_a = along_a.max(miss(v(c.a0, b), before, v(c.a1, b))).max(miss(
+                v(c.a1, b),
+                v(c.a1 + wa, b),
+                v(c.a0, b),
+            ));
+        }
+        let mut along_b = 0.0f64;
+        for a in [c.a0, c.a1] {
+            let before = c.b0.checked_sub(wb).and_then(|b| v(a, b));
+            along_b = along_b.max(miss(v(a, c.b0), before, v(a, c.b1))).max(miss(
+                v(a, c.b1),
+                v(a, c.b1 + wb),
+                v(a, c.b0),
+            ));
+        }
+        let (along_a, along_b) = (EDGE_WEIGHT * along_a, EDGE_WEIGHT * along_b);
+        Some((along_a.max(along_b), along_a, along_b))
     };
-    let splittable = |c: &Cell| {
-        let half_x = 0.5 * (at(c.a1, fx.min, fx.max) - at(c.a0, fx.min, fx.max));
-        let half_y = 0.5 * (at(c.b1, fy.min, fy.max) - at(c.b0, fy.min, fy.max));
-        c.a1 - c.a0 >= 4 && c.b1 - c.b0 >= 4 && half_x >= fx.tolerance && half_y >= fy.tolerance
+    let can_split = |lo: u64, hi: u64, at: &dyn Fn(u64) -> f64, tolerance: f64| {
+        hi - lo >= 2 && 0.5 * (at(hi) - at(lo)) >= tolerance
+    };
+    // Along which fields a cell above the tolerance is halved: along those whose estimate is at
+    // least half the larger one (a surface that bends along one field is refined along that one
+    // only), never along a field at its tolerance.
+    let split_along = |c: &Cell, (top, ea, eb): (f64, f64, f64)| -> (bool, bool) {
+        let ok_a = can_split(c.a0, c.a1, &at_a, fx.tolerance);
+        let ok_b = can_split(c.b0, c.b1, &at_b, fy.tolerance);
+        (ok_a && ea >= 0.5 * top, ok_b && eb >= 0.5 * top)
     };
     for _ in 0..MAX_ROUNDS {
         if spec.on_failure == OnFailure::Stop {
@@ -233,20 +285,24 @@ pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
                 return failed(spec, &point(a, b));
             }
         }
-        let errors: Vec<Option<f64>> = cells.iter().map(|c| error(c, &values)).collect();
+        let errors: Vec<Option<(f64, f64, f64)>> =
+            cells.iter().map(|c| error(c, &values)).collect();
         let largest =
-            errors
-                .iter()
-                .flatten()
-                .fold(f64::NAN, |m, &e| if m.is_nan() || e > m { e } else { m });
-        let mut todo: Vec<(usize, f64)> = errors
+            errors.iter().flatten().fold(
+                f64::NAN,
+                |m, &(e, _, _)| if m.is_nan() || e > m { e } else { m },
+            );
+        let mut todo: Vec<(usize, f64, (bool, bool))> = errors
             .iter()
             .enumerate()
-            .filter_map(|(i, e)| e.filter(|&e| e > tol).map(|e| (i, e)))
-            .filter(|&(i, _)| splittable(&cells[i]))
+            .filter_map(|(i, e)| {
+                e.filter(|e| e.0 > tol)
+                    .map(|e| (i, e.0, split_along(&cells[i], e)))
+            })
+            .filter(|&(_, _, (a, b))| a || b)
             .collect();
         if todo.is_empty() {
-            let unresolved = errors.iter().flatten().filter(|&&e| e > tol).count();
+            let unresolved = errors.iter().flatten().filter(|e| e.0 > tol).count();
             let gaps = errors.iter().filter(|e| e.is_none()).count();
             let mut note = format!(
                 "{} samples in {} cells; largest estimated interpolation error {largest:.3e} (tolerance {tol:e})",
@@ -274,41 +330,33 @@ pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
         }
         todo.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         todo.truncate(spec.round);
-        todo.sort_by_key(|&(i, _)| i);
-        // Each split cell's four children, and the points they need that are not known yet.
-        let mut children: Vec<(usize, [Cell; 4])> = Vec::new();
+        todo.sort_by_key(|&(i, _, _)| i);
+        // Each split cell's children, and the points they need that are not known yet.
+        let mut children: Vec<(usize, Vec<Cell>)> = Vec::new();
         let mut new: Vec<(u64, u64)> = Vec::new();
-        for &(i, _) in &todo {
+        for &(i, _, (along_a, along_b)) in &todo {
             let c = cells[i];
             let (am, bm) = ((c.a0 + c.a1) / 2, (c.b0 + c.b1) / 2);
-            let kids = [
-                Cell {
-                    a0: c.a0,
-                    a1: am,
-                    b0: c.b0,
-                    b1: bm,
-                },
-                Cell {
-                    a0: am,
-                    a1: c.a1,
-                    b0: c.b0,
-                    b1: bm,
-                },
-                Cell {
-                    a0: c.a0,
-                    a1: am,
-                    b0: bm,
-                    b1: c.b1,
-                },
-                Cell {
-                    a0: am,
-                    a1: c.a1,
-                    b0: bm,
-                    b1: c.b1,
-                },
-            ];
-            let mut want = vec![(am, c.b0), (am, c.b1), (c.a0, bm), (c.a1, bm)];
-            want.extend(kids.iter().map(|k| ((k.a0 + k.a1) / 2, (k.b0 + k.b1) / 2)));
+            let a_parts: &[(u64, u64)] = if along_a {
+                &[(c.a0, am), (am, c.a1)]
+            } else {
+                &[(c.a0, c.a1)]
+            };
+            let b_parts: &[(u64, u64)] = if along_b {
+                &[(c.b0, bm), (bm, c.b1)]
+            } else {
+                &[(c.b0, c.b1)]
+            };
+            let mut kids = Vec::new();
+            for &(b0, b1) in b_parts {
+                for &(a0, a1) in a_parts {
+                    kids.push(Cell { a0, a1, b0, b1 });
+                }
+            }
+            let mut want = Vec::new();
+            for k in &kids {
+                want.extend([(k.a0, k.b0), (k.a1, k.b0), (k.a0, k.b1), (k.a1, k.b1)]);
+            }
             for p in want {
                 if !values.contains_key(&p) && !new.contains(&p) {
                     new.push(p);
@@ -363,7 +411,7 @@ mod tests {
         let f = |x: f64| (x - 0.3).abs() + 0.2 * (-(x - 0.7).powi(2) / 0.001).exp();
         let mut sp = spec(Goal::Refine, &[(0.0, 1.0, 1e-4)]);
         sp.objective_tolerance = 1e-3;
-        sp.scan = 11;
+        sp.scan = vec![11; sp.fields.len()];
         let (out, points) = solve(&sp, |x| Some(f(x[0])));
         assert_eq!(out.status, SearchStatus::Converged, "{}", out.note);
         assert!(out.refine_error <= 1e-3);
@@ -410,18 +458,44 @@ mod tests {
     }
 
     #[test]
-    fn a_surface_is_refined_where_it_varies() {
-        // A ridge along x = 0.6 on a plane.
+    fn a_surface_is_refined_where_it_varies_and_along_the_field_it_varies_in() {
+        // A ridge along x = 0.6 on a plane: curved across x only.
         let f = |x: &[f64]| Some(0.1 * x[1] + 1.0 / (1.0 + ((x[0] - 0.6) / 0.1).powi(2)));
         let mut sp = spec(Goal::Refine, &[(0.0, 1.0, 1e-3), (0.0, 2.0, 1e-3)]);
         sp.objective_tolerance = 5e-3;
-        sp.scan = 5;
+        sp.scan = vec![5; sp.fields.len()];
         sp.round = 8;
         let (out, points) = solve(&sp, f);
         assert_eq!(out.status, SearchStatus::Converged, "{}", out.note);
-        let near = points.iter().filter(|p| (p[0] - 0.6).abs() < 0.1).count();
-        assert!(near * 2 > points.len(), "{near} of {}", points.len());
+        let near = points.iter().filter(|p| (p[0] - 0.6).abs() < 0.2).count();
+        assert!(near * 10 > points.len() * 6, "{near} of {}", points.len());
+        // Never halved along y, where the surface is linear: the scan's 5 lines only.
+        let mut ys: Vec<f64> = points.iter().map(|p| p[1]).collect();
+        ys.sort_by(f64::total_cmp);
+        ys.dedup();
+        assert_eq!(ys.len(), 5, "{ys:?}");
         // Again: the same points.
         assert_eq!(solve(&sp, f).1, points);
+    }
+
+    #[test]
+    fn a_saddle_is_refined_although_its_centres_sit_on_their_corners_mean() {
+        // x² − y² on square cells: the centre is exactly the mean of the corners, so only the
+        // edges show the curvature. Bilinear interpolation errs by up to h²/4 on a cell of
+        // side h: 5e-3 needs h ≤ 0.141, at least 8 cells a side.
+        let f = |x: &[f64]| Some(x[0] * x[0] - x[1] * x[1]);
+        let mut sp = spec(Goal::Refine, &[(0.0, 1.0, 1e-3), (0.0, 1.0, 1e-3)]);
+        sp.objective_tolerance = 5e-3;
+        sp.scan = vec![3; sp.fields.len()];
+        sp.round = 8;
+        let (out, points) = solve(&sp, f);
+        assert_eq!(out.status, SearchStatus::Converged, "{}", out.note);
+        for k in 0..2 {
+            let mut xs: Vec<f64> = points.iter().map(|p| p[k]).collect();
+            xs.sort_by(f64::total_cmp);
+            xs.dedup();
+            let widest = xs.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+            assert!(widest <= 0.1415, "field {k}: lines {widest} apart");
+        }
     }
 }

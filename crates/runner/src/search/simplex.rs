@@ -48,16 +48,16 @@ fn clamp(u: Vec<f64>) -> Vec<f64> {
 /// The lowest (`sign` 1) or highest (`sign` -1) point of the objective over the fields.
 pub fn minimise(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
     let d = spec.fields.len();
-    let n = spec.scan;
-    let axis = linspace(0.0, 1.0, n);
+    let n = &spec.scan;
+    let axes: Vec<Vec<f64>> = n.iter().map(|&k| linspace(0.0, 1.0, k)).collect();
     // The scan: every combination, the last field fastest.
-    let total = n.pow(d as u32);
+    let total: usize = n.iter().product();
     let grid: Vec<Vec<f64>> = (0..total)
         .map(|mut k| {
             let mut u = vec![0.0; d];
             for i in (0..d).rev() {
-                u[i] = axis[k % n];
-                k /= n;
+                u[i] = axes[i][k % n[i]];
+                k /= n[i];
             }
             u
         })
@@ -76,14 +76,14 @@ pub fn minimise(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
         .map(|y| y.map_or(f64::INFINITY, |y| sign * y))
         .collect();
     // Local minima of the scan: no lower neighbour along any field.
-    let strides: Vec<usize> = (0..d).map(|i| n.pow((d - 1 - i) as u32)).collect();
+    let strides: Vec<usize> = (0..d).map(|i| n[i + 1..].iter().product()).collect();
     let mut minima: Vec<usize> = (0..total)
         .filter(|&k| g[k].is_finite())
         .filter(|&k| {
             (0..d).all(|i| {
-                let pos = (k / strides[i]) % n;
+                let pos = (k / strides[i]) % n[i];
                 let lower = pos > 0 && g[k - strides[i]] < g[k];
-                let upper = pos + 1 < n && g[k + strides[i]] < g[k];
+                let upper = pos + 1 < n[i] && g[k + strides[i]] < g[k];
                 !lower && !upper
             })
         })
@@ -98,12 +98,20 @@ pub fn minimise(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
     }
     minima.sort_by(|&a, &b| g[a].total_cmp(&g[b]).then(a.cmp(&b)));
     minima.truncate(spec.starts);
-    let h = 1.0 / (n - 1) as f64;
+    // One scan spacing along each field (in the unit box).
+    let h: Vec<f64> = n.iter().map(|&k| 1.0 / (k - 1) as f64).collect();
     let mut items = Vec::new();
     let mut open = false;
     for (k, &start) in minima.iter().enumerate() {
-        let (item, more) =
-            nelder_mead(spec, s, k + 1, &grid[start], (g[start], ys[start]), h, sign);
+        let (item, more) = nelder_mead(
+            spec,
+            s,
+            k + 1,
+            &grid[start],
+            (g[start], ys[start]),
+            &h,
+            sign,
+        );
         open |= more;
         items.push(item);
     }
@@ -149,7 +157,7 @@ fn nelder_mead(
     stream: usize,
     u0: &[f64],
     f0: (f64, Value),
-    h: f64,
+    h: &[f64],
     sign: f64,
 ) -> (Item, bool) {
     let d = u0.len();
@@ -187,7 +195,11 @@ fn nelder_mead(
         (0..d)
             .map(|i| {
                 let mut v = c.to_vec();
-                v[i] = if c[i] + h <= 1.0 { c[i] + h } else { c[i] - h };
+                v[i] = if c[i] + h[i] <= 1.0 {
+                    c[i] + h[i]
+                } else {
+                    c[i] - h[i]
+                };
                 v
             })
             .collect()
@@ -313,7 +325,7 @@ mod tests {
     fn the_lowest_point_of_a_bowl_and_of_a_valley() {
         let bowl = |x: &[f64]| Some((x[0] - 0.31).powi(2) + 3.0 * (x[1] - 1.42).powi(2));
         let mut sp = spec(Goal::Minimise, &[(0.0, 1.0, 1e-4), (0.0, 2.0, 1e-4)]);
-        sp.scan = 5;
+        sp.scan = vec![5; sp.fields.len()];
         let (out, points) = solve(&sp, bowl);
         assert_eq!(out.status, SearchStatus::Converged, "{out:?}");
         let best = &out.items[0];
@@ -325,7 +337,7 @@ mod tests {
         // Rosenbrock's valley (minimum at (1, 1)), in a box that holds it.
         let rosen = |x: &[f64]| Some((1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2));
         let mut sp = spec(Goal::Minimise, &[(-1.5, 1.5, 1e-4), (-0.5, 2.0, 1e-4)]);
-        sp.scan = 5;
+        sp.scan = vec![5; sp.fields.len()];
         let (out, _) = solve(&sp, rosen);
         let best = &out.items[0];
         assert!(
@@ -341,7 +353,7 @@ mod tests {
         // Lowest at x0 = 0 (the bound), x1 = 0.7.
         let f = |x: &[f64]| Some(x[0] + (x[1] - 0.7).powi(2));
         let mut sp = spec(Goal::Minimise, &[(0.0, 1.0, 1e-4), (0.0, 1.0, 1e-4)]);
-        sp.scan = 4;
+        sp.scan = vec![4; sp.fields.len()];
         let (out, _) = solve(&sp, f);
         let best = &out.items[0];
         assert!(
@@ -349,7 +361,7 @@ mod tests {
             "{best:?}"
         );
         let mut sp = spec(Goal::Maximise, &[(0.0, 1.0, 1e-4), (0.0, 1.0, 1e-4)]);
-        sp.scan = 4;
+        sp.scan = vec![4; sp.fields.len()];
         let (out, _) = solve(&sp, |x: &[f64]| {
             Some(-(x[0] - 0.2).powi(2) - (x[1] - 0.9).powi(2))
         });

@@ -240,8 +240,8 @@ pub struct SearchSpec {
     pub level: f64,
     /// How accurately a refinement interpolates the objective (its units).
     pub objective_tolerance: f64,
-    /// Points of the first scan along each field.
-    pub scan: usize,
+    /// Points of the first scan along each field (one number per field).
+    pub scan: Vec<usize>,
     /// Most runs of one search.
     pub budget: usize,
     /// Most points a search proposes at once (the same whatever the number of parallel runs).
@@ -264,10 +264,7 @@ impl SearchSpec {
 
     /// Evaluations of the first scan.
     pub fn scan_evaluations(&self) -> usize {
-        match (self.goal, self.fields.len()) {
-            (_, 1) => self.scan,
-            (_, d) => self.scan.saturating_pow(d as u32),
-        }
+        self.scan.iter().fold(1usize, |n, &k| n.saturating_mul(k))
     }
 
     /// How it reads in one line: `minimise leading_peak[…] over mass_ratio in [0.4, 0.8] to ±0.0001`.
@@ -340,7 +337,7 @@ pub(super) struct SearchFile {
     #[serde(default)]
     objective_tolerance: Option<f64>,
     #[serde(default)]
-    scan: Option<u64>,
+    scan: Option<ScanFile>,
     #[serde(default)]
     budget: Option<u64>,
     #[serde(default)]
@@ -349,6 +346,14 @@ pub(super) struct SearchFile {
     failed: Option<String>,
     #[serde(default)]
     starts: Option<u64>,
+}
+
+/// `scan`: one number for every field, or a list of one per field.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum ScanFile {
+    Every(u64),
+    Each(Vec<u64>),
 }
 
 #[derive(Deserialize)]
@@ -753,14 +758,32 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         (_, None) => f64::NAN,
     };
     let d = fields.len();
-    let min_scan = if d == 1 && goal != Goal::Root { 3 } else { 2 };
-    let scan = f
-        .scan
-        .unwrap_or(if d == 1 { DEFAULT_SCAN as u64 } else { 5 });
-    if scan < min_scan || scan > 100_000 {
+    // A bracket needs a point on either side (one-field minimum); a refined surface's edges need
+    // a neighbouring line along each field.
+    let min_scan = match (goal, d) {
+        (Goal::Minimise | Goal::Maximise | Goal::Refine, _) if d == 1 => 3,
+        (Goal::Refine, _) => 3,
+        _ => 2,
+    };
+    let default_scan = if d == 1 { DEFAULT_SCAN as u64 } else { 5 };
+    let scan: Vec<u64> = match f.scan {
+        None => vec![default_scan; d],
+        Some(ScanFile::Every(n)) => vec![n; d],
+        Some(ScanFile::Each(list)) if list.len() == d => list,
+        Some(ScanFile::Each(list)) => {
+            return Err(bad(
+                "search.scan",
+                format!(
+                    "a list gives one number per searched field: {d} here, got {}",
+                    list.len()
+                ),
+            ))
+        }
+    };
+    if let Some(&n) = scan.iter().find(|&&n| n < min_scan || n > 100_000) {
         return Err(bad(
             "search.scan",
-            format!("must be a whole number from {min_scan} to 100000, got {scan}"),
+            format!("must be a whole number from {min_scan} to 100000 (or a list of such, one per field), got {n}"),
         ));
     }
     let round = f.round.unwrap_or(DEFAULT_ROUND as u64);
@@ -809,7 +832,7 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         across,
         level,
         objective_tolerance,
-        scan: scan as usize,
+        scan: scan.iter().map(|&n| n as usize).collect(),
         budget: 0,
         round: round as usize,
         on_failure,
