@@ -3,7 +3,9 @@ as labelled xarray Datasets.
 
 - :func:`run` — one scene (a sweep file's ``base`` as a dict) in this process, as a Dataset;
 - :func:`sweep` — a sweep file or dict into an HDF5 file, resumable, with progress;
-- :func:`open` — a result file as a Dataset labelled by the grid's axes and the probes.
+- :func:`open` — a result file as a Dataset labelled by the grid's axes and the probes;
+- :func:`refined_surface` — a refined surface (a two-field ``refine`` search) interpolated as
+  the search estimated its error.
 
 Errors: :class:`InputError` (bad input; ``.field`` names the field), :class:`RunError` (a run
 failed; ``.reason``), :class:`SweepError` (I/O, a locked output), :class:`DamagedFileError` (a
@@ -15,6 +17,7 @@ from __future__ import annotations
 from ._chainsweep import ENGINE_VERSION as __version__
 from ._open import open
 from ._run import run
+from ._surface import refined_surface
 from ._sweep import Failure, SweepResult, sweep
 from .errors import DamagedFileError, Error, InputError, RunError, SweepError
 
@@ -22,6 +25,7 @@ __all__ = [
     "run",
     "sweep",
     "open",
+    "refined_surface",
     "SweepResult",
     "Failure",
     "Error",
