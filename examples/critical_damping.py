@@ -9,6 +9,10 @@ chain does. The paper puts the crossing between 10 and 15 kg/s; our model finds 
 The scene is that of sweeps/critical-damping.json: its base, record block and limits, and the two
 chains of its zipped axis (cylinder mass and height), at the base's 1.3 m/s.
 
+The same root is found inside the engine by a search, with its runs stored, resumable and run in
+parallel like any sweep's: `chainsweep run sweeps/examples/critical-damping-root.json -o X.h5`
+(docs/SEARCHES.md). This script shows the loop a search replaces.
+
     python examples/critical_damping.py
 """
 
