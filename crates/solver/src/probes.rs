@@ -30,7 +30,8 @@ pub enum Probe {
     },
     /// Force read by a gauge embedded in particle `i` of any shape: the mean of the total forces
     /// at its two contacts (with particles `i−1` and `i+1`, or the wall), N. The particle needs
-    /// both: not the first of a chain without a striker, nor the last of a chain without a wall.
+    /// both: not particle 1 (a striker, or the top of a chain without one, has one contact), nor the
+    /// last of a chain without a wall.
     ParticleForce {
         /// Particle number.
         particle: usize,

@@ -141,7 +141,8 @@ impl IntegratorSpec {
 )]
 pub enum Excitation {
     /// A δ-force impulse: particle 1 starts towards the wall at `velocity_m_s`, the rest of the
-    /// chain at rest in static equilibrium (the excitation of the paper's ref. [20]).
+    /// chain otherwise at its initial state (static equilibrium on a wall, zero overlaps without one;
+    /// the excitation of the paper's ref. [20]).
     Impulse {
         /// Initial velocity of particle 1, m/s.
         velocity_m_s: f64,
