@@ -80,6 +80,13 @@ fn locate(sweep: &Sweep, shape: &[usize], index: usize, field: &str, message: &s
             let a = split_path(&axis.field);
             let n = a.len().min(segs.len());
             if a[..n] == segs[..n] {
+                // A misspelt field is the axis's field at fault, whatever its values.
+                if message.starts_with("unknown field") {
+                    return Error::input(
+                        format!("{}.field", axis.origin),
+                        format!("`{}` is no field of the scene: {message}", axis.field),
+                    );
+                }
                 let j = mi[d];
                 return Error::input(
                     format!("{}.values[{j}]", axis.origin),
