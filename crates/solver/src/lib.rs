@@ -50,6 +50,7 @@ pub use integrate::AdaptiveOptions;
 pub use model::{Chain, ChainSpec, DimerSpec, PhysicsSpec};
 pub use probes::{Probe, RecordSpec};
 pub use scene::{
-    run, run_until, Excitation, IntegratorSpec, RunError, RunOutput, Scene, DEADLINE_CHECK_STEPS,
+    run, run_until, Excitation, IntegratorSpec, Method, RunError, RunOutput, Scene,
+    DEADLINE_CHECK_STEPS,
 };
 pub use sequence::SequenceSpec;

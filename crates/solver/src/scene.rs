@@ -53,16 +53,110 @@ impl Default for IntegratorSpec {
     }
 }
 
+/// An integration method: the one list of the methods and their names (a sweep file's
+/// `integrator.method`, which [`IntegratorSpec`]'s serde tag reads with the same names).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// Velocity Verlet, fixed step.
+    Verlet,
+    /// Classic Runge–Kutta, fixed step.
+    Rk4,
+    /// Dormand–Prince 8(5,3), adaptive.
+    Dop853,
+    /// ROS34PW2 (Rosenbrock-W), adaptive, for damping-dominated chains.
+    Ros34pw2,
+    /// Verner's 6(5) pair, adaptive.
+    Vern6,
+}
+
+impl Method {
+    /// Every method, in the order the docs list them.
+    pub const ALL: [Method; 5] = [
+        Method::Dop853,
+        Method::Vern6,
+        Method::Ros34pw2,
+        Method::Rk4,
+        Method::Verlet,
+    ];
+
+    /// Its name in a sweep file.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Verlet => "verlet",
+            Method::Rk4 => "rk4",
+            Method::Dop853 => "dop853",
+            Method::Ros34pw2 => "ros34pw2",
+            Method::Vern6 => "vern6",
+        }
+    }
+
+    /// The method of `name`; an unknown name is an error listing the methods.
+    pub fn parse(name: &str) -> Result<Method, String> {
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+                format!("unknown method `{name}`; allowed: {}", names.join(", "))
+            })
+    }
+
+    /// Whether it controls its step by an error estimate (and takes `rtol`), rather than a fixed
+    /// step `dt_s`.
+    pub fn is_adaptive(self) -> bool {
+        matches!(self, Method::Dop853 | Method::Ros34pw2 | Method::Vern6)
+    }
+
+    /// Right-hand-side evaluations per step of a fixed-step method (`None` for an adaptive one).
+    pub fn rhs_per_fixed_step(self) -> Option<f64> {
+        match self {
+            Method::Rk4 => Some(4.0),
+            Method::Verlet => Some(1.0),
+            _ => None,
+        }
+    }
+
+    /// The adaptive method at `rtol`, its other options the defaults (`None` for a fixed-step
+    /// method).
+    pub fn adaptive(self, rtol: f64) -> Option<IntegratorSpec> {
+        self.with_options(AdaptiveOptions::new(rtol))
+    }
+
+    /// The adaptive method with `options` (`None` for a fixed-step method).
+    pub fn with_options(self, options: AdaptiveOptions) -> Option<IntegratorSpec> {
+        match self {
+            Method::Dop853 => Some(IntegratorSpec::Dop853(options)),
+            Method::Ros34pw2 => Some(IntegratorSpec::Ros34pw2(options)),
+            Method::Vern6 => Some(IntegratorSpec::Vern6(options)),
+            Method::Rk4 | Method::Verlet => None,
+        }
+    }
+
+    /// The fixed-step method at step `dt_s` (`None` for an adaptive method).
+    pub fn fixed(self, dt_s: f64) -> Option<IntegratorSpec> {
+        match self {
+            Method::Rk4 => Some(IntegratorSpec::Rk4 { dt_s }),
+            Method::Verlet => Some(IntegratorSpec::Verlet { dt_s }),
+            _ => None,
+        }
+    }
+}
+
 impl IntegratorSpec {
+    /// Its method.
+    pub fn method(&self) -> Method {
+        match self {
+            IntegratorSpec::Verlet { .. } => Method::Verlet,
+            IntegratorSpec::Rk4 { .. } => Method::Rk4,
+            IntegratorSpec::Dop853(_) => Method::Dop853,
+            IntegratorSpec::Ros34pw2(_) => Method::Ros34pw2,
+            IntegratorSpec::Vern6(_) => Method::Vern6,
+        }
+    }
+
     /// Stable name of the method.
     pub fn method_name(&self) -> &'static str {
-        match self {
-            IntegratorSpec::Verlet { .. } => "verlet",
-            IntegratorSpec::Rk4 { .. } => "rk4",
-            IntegratorSpec::Dop853(_) => "dop853",
-            IntegratorSpec::Ros34pw2(_) => "ros34pw2",
-            IntegratorSpec::Vern6(_) => "vern6",
-        }
+        self.method().name()
     }
 
     /// The options of an adaptive method (`None` for the fixed-step ones).

@@ -13,7 +13,7 @@
 
 use std::path::Path;
 
-use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, RunOutput, Scene};
+use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, Method, RunOutput, Scene};
 use hdf5::File;
 
 use super::{max_ignoring_nan, probe_errors, round3};
@@ -174,26 +174,41 @@ pub const DT_DIVISORS: &[f64] = &[
     10.0, 30.0, 100.0, 300.0, 1000.0, 3000.0, 10000.0, 30000.0, 100000.0,
 ];
 
-/// The methods a study can compare (`--methods`); `dop853-predict` is DOP853 with
-/// `predict_switches`.
-pub const METHODS: &[&str] = &[
-    "dop853",
-    "dop853-predict",
-    "vern6",
-    "ros34pw2",
-    "rk4",
-    "verlet",
-];
+/// The name of DOP853 with `predict_switches` among the methods a study compares.
+const DOP853_PREDICT: &str = "dop853-predict";
+
+/// The names of the methods a study can compare (`--methods`): every integration method, and
+/// `dop853-predict`, DOP853 with `predict_switches`.
+pub fn method_names() -> Vec<&'static str> {
+    let mut names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+    names.insert(1, DOP853_PREDICT);
+    names
+}
+
+/// A method a study compares: the integration method, and whether it predicts contact switches.
+fn study_method(name: &str) -> Result<(Method, bool)> {
+    if name == DOP853_PREDICT {
+        return Ok((Method::Dop853, true));
+    }
+    Method::parse(name).map(|m| (m, false)).map_err(|_| {
+        Error::input(
+            "--methods",
+            format!(
+                "unknown method `{name}`; allowed: {}",
+                method_names().join(", ")
+            ),
+        )
+    })
+}
 
 /// Runs a work-precision study of `scene`; `log` receives progress lines.
 pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> Result<Study> {
     // Before any run: a misspelt method must not cost the ladders before it.
-    if let Some(other) = opts.methods.iter().find(|m| !METHODS.contains(&m.as_str())) {
-        return Err(Error::input(
-            "--methods",
-            format!("unknown method `{other}`; allowed: {}", METHODS.join(", ")),
-        ));
-    }
+    let chosen = opts
+        .methods
+        .iter()
+        .map(|m| study_method(m))
+        .collect::<Result<Vec<_>>>()?;
     let scales = scene_scales(scene)?;
     let stiff = scales.stiffness_ratio > STIFF_RATIO;
     let mut scene = scene.clone();
@@ -202,9 +217,15 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
     // Generous budget: the ladders decide the cost, not the step budget.
     scene.max_steps = scene.max_steps.max(1_000_000_000);
     let (ref_spec, conf_spec) = if stiff {
-        (adaptive("ros34pw2", 1e-10), adaptive("dop853", 1e-12))
+        (
+            adaptive(Method::Ros34pw2, 1e-10),
+            adaptive(Method::Dop853, 1e-12),
+        )
     } else {
-        (adaptive("dop853", 1e-12), adaptive("ros34pw2", 1e-9))
+        (
+            adaptive(Method::Dop853, 1e-12),
+            adaptive(Method::Ros34pw2, 1e-9),
+        )
     };
     log(&format!(
         "contact time {:.3e} s, stiffness ratio mu*tau/m_min = {:.3e} ({}): reference {} rtol {:.0e}, confirmed by {} rtol {:.0e}",
@@ -241,55 +262,42 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
     ));
     let t_rhs = reference.wall_median() / ref_out.stats.rhs_evals.max(1) as f64;
     let mut methods = Vec::new();
-    for m in &opts.methods {
+    for (m, &(method, predict)) in opts.methods.iter().zip(&chosen) {
         let mut runs = Vec::new();
         let mut skipped = Vec::new();
-        let (settings, setting_name): (Vec<IntegratorSpec>, &'static str) = match m.as_str() {
-            "dop853" | "ros34pw2" | "vern6" => (
-                match m.as_str() {
-                    "dop853" => DOP853_LADDER,
-                    "vern6" => VERN6_LADDER,
-                    _ => ROS34PW2_LADDER,
-                }
-                .iter()
-                .map(|&r| adaptive(m, r))
-                .collect(),
-                "rtol",
-            ),
-            // DOP853 with steps ended on predicted contact switches, on DOP853's ladder, so
-            // that the two lines of the diagram compare like with like.
-            "dop853-predict" => (
-                DOP853_LADDER
+        let (settings, setting_name): (Vec<IntegratorSpec>, &'static str) = if method.is_adaptive()
+        {
+            let ladder = match method {
+                Method::Dop853 => DOP853_LADDER,
+                Method::Vern6 => VERN6_LADDER,
+                _ => ROS34PW2_LADDER,
+            };
+            // With prediction on DOP853's ladder, so that the two lines of the diagram
+            // compare like with like.
+            let options = |r| AdaptiveOptions {
+                predict_switches: predict,
+                ..AdaptiveOptions::new(r)
+            };
+            (
+                ladder
                     .iter()
-                    .map(|&r| {
-                        IntegratorSpec::Dop853(AdaptiveOptions {
-                            predict_switches: true,
-                            ..AdaptiveOptions::new(r)
-                        })
-                    })
+                    .filter_map(|&r| method.with_options(options(r)))
                     .collect(),
                 "rtol",
-            ),
-            "rk4" | "verlet" => (
+            )
+        } else {
+            (
                 DT_DIVISORS
                     .iter()
-                    .map(|&k| {
-                        let dt = round3(scales.contact_time_s / k);
-                        if m == "rk4" {
-                            IntegratorSpec::Rk4 { dt_s: dt }
-                        } else {
-                            IntegratorSpec::Verlet { dt_s: dt }
-                        }
-                    })
+                    .filter_map(|&k| method.fixed(round3(scales.contact_time_s / k)))
                     .collect(),
                 "dt_s",
-            ),
-            other => unreachable!("method `{other}` passed the check above"),
+            )
         };
         for spec in settings {
             let (x, _) = setting_of(&spec);
             if setting_name == "dt_s" {
-                let evals_per_step = if m == "rk4" { 4.0 } else { 1.0 };
+                let evals_per_step = method.rhs_per_fixed_step().unwrap_or(1.0);
                 let est = scene.duration_s / x * evals_per_step * t_rhs;
                 if est > opts.max_run_s {
                     log(&format!(

@@ -48,7 +48,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use chainsweep_solver::{IntegratorSpec, Scene};
+use chainsweep_solver::{IntegratorSpec, Method, Scene};
 use rayon::prelude::*;
 use sha2::{Digest, Sha256};
 
@@ -178,8 +178,8 @@ pub fn pilot_points(sweep: &Sweep, grid: &Grid, n: usize) -> Result<Vec<usize>> 
 }
 
 /// The candidate ladder of `method` for `target`, loosest first.
-pub fn ladder(method: &str, target: f64) -> Vec<IntegratorSpec> {
-    let (factors, min) = if method == "ros34pw2" {
+pub fn ladder(method: Method, target: f64) -> Vec<IntegratorSpec> {
+    let (factors, min) = if method == Method::Ros34pw2 {
         (ROS34PW2_FACTORS, ROS34PW2_MIN_RTOL)
     } else {
         (DOP853_FACTORS, DOP853_MIN_RTOL)
@@ -313,9 +313,9 @@ impl<'a> Pilot<'a> {
             .iter()
             .map(|&s| {
                 if s && target >= ROS_REFERENCE_MIN_TARGET {
-                    adaptive("ros34pw2", 1e-10)
+                    adaptive(Method::Ros34pw2, 1e-10)
                 } else {
-                    adaptive("dop853", 1e-12)
+                    adaptive(Method::Dop853, 1e-12)
                 }
             })
             .collect();
@@ -370,10 +370,10 @@ impl<'a> Pilot<'a> {
         total: &mut u64,
         log: &mut impl FnMut(&str),
     ) -> (Vec<Candidate>, Option<usize>) {
-        let methods: [&str; 2] = if self.stiff.iter().any(|&s| s) {
-            ["ros34pw2", "dop853"]
+        let methods = if self.stiff.iter().any(|&s| s) {
+            [Method::Ros34pw2, Method::Dop853]
         } else {
-            ["dop853", "ros34pw2"]
+            [Method::Dop853, Method::Ros34pw2]
         };
         let mut candidates: Vec<Candidate> = Vec::new();
         let mut best: Option<usize> = None;
@@ -499,25 +499,25 @@ mod tests {
 
     #[test]
     fn ladders_are_rounded_and_bounded() {
-        let l = ladder("dop853", 1e-6);
+        let l = ladder(Method::Dop853, 1e-6);
         let r: Vec<f64> = l
             .iter()
             .map(|s| crate::sweep::auto::setting_of(s).0)
             .collect();
         assert_eq!(r, vec![3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9, 3e-10, 1e-10]);
-        let r: Vec<f64> = ladder("dop853", 1e-8)
+        let r: Vec<f64> = ladder(Method::Dop853, 1e-8)
             .iter()
             .map(|s| crate::sweep::auto::setting_of(s).0)
             .collect();
         assert_eq!(r, vec![3e-9, 1e-9, 3e-10, 1e-10, 3e-11, 1e-11]);
-        let r: Vec<f64> = ladder("ros34pw2", 1e-7)
+        let r: Vec<f64> = ladder(Method::Ros34pw2, 1e-7)
             .iter()
             .map(|s| crate::sweep::auto::setting_of(s).0)
             .collect();
         assert_eq!(r, vec![1e-8, 3e-9, 1e-9]);
-        assert!(ladder("ros34pw2", 1e-6)
+        assert!(ladder(Method::Ros34pw2, 1e-6)
             .iter()
-            .all(|s| s.method_name() == "ros34pw2"));
+            .all(|s| s.method() == Method::Ros34pw2));
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //!
 //! (`pilot_points` is optional, default [`DEFAULT_PILOT_POINTS`].)
 
-use chainsweep_solver::{AdaptiveOptions, IntegratorSpec};
+use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, Method};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -98,17 +98,18 @@ impl AutoSpec {
     /// The concrete integrator that stands in for `auto` while the sweep is parsed and its grid
     /// validated (DOP853 at rtol = target); never run.
     pub fn placeholder(&self) -> IntegratorSpec {
-        adaptive("dop853", self.target_rel_error)
+        adaptive(Method::Dop853, self.target_rel_error)
     }
 }
 
-/// An adaptive method (`ros34pw2`, `vern6`, else DOP853) at `rtol` with defaults otherwise.
-pub fn adaptive(method: &str, rtol: f64) -> IntegratorSpec {
-    match method {
-        "ros34pw2" => IntegratorSpec::Ros34pw2(AdaptiveOptions::new(rtol)),
-        "vern6" => IntegratorSpec::Vern6(AdaptiveOptions::new(rtol)),
-        _ => IntegratorSpec::Dop853(AdaptiveOptions::new(rtol)),
-    }
+/// The adaptive `method` at `rtol` with defaults otherwise.
+///
+/// # Panics
+/// For a fixed-step method (a caller's mistake: every caller names an adaptive one).
+pub fn adaptive(method: Method, rtol: f64) -> IntegratorSpec {
+    method
+        .adaptive(rtol)
+        .unwrap_or_else(|| panic!("`{}` is no adaptive method", method.name()))
 }
 
 /// The setting of an integrator as a number (rtol or dt_s) and its name.
@@ -217,6 +218,28 @@ mod tests {
     use serde_json::json;
 
     #[test]
+    fn every_method_is_named_as_a_sweep_file_names_it() {
+        for m in Method::ALL {
+            let spec = m
+                .adaptive(1e-6)
+                .or_else(|| m.fixed(1e-9))
+                .expect("adaptive or fixed");
+            assert_eq!(spec.method(), m);
+            let v = serde_json::to_value(spec).unwrap();
+            assert_eq!(v["method"], m.name());
+            let back: IntegratorSpec = serde_json::from_value(v).unwrap();
+            assert_eq!(back, spec);
+            assert_eq!(Method::parse(m.name()), Ok(m));
+            assert_eq!(m.is_adaptive(), m.rhs_per_fixed_step().is_none());
+        }
+        let err = Method::parse("dop835").unwrap_err();
+        assert!(
+            err.contains("dop835") && err.contains("dop853, vern6, ros34pw2, rk4, verlet"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn requests_parse_strictly() {
         let ok = AutoSpec::from_integrator(&json!({"method": "auto", "target_rel_error": 1e-6}))
             .unwrap()
@@ -268,14 +291,14 @@ mod tests {
             version: 1,
             target_rel_error: 1e-6,
             safety_factor: 5.0,
-            integrator: adaptive("dop853", 3e-8),
+            integrator: adaptive(Method::Dop853, 3e-8),
             pilot_points: vec![0, 3],
-            pilot_references: vec![adaptive("dop853", 1e-12); 2],
+            pilot_references: vec![adaptive(Method::Dop853, 1e-12); 2],
             pilot_errors: vec![1.5e-7, 2.25e-7],
             pilot_rhs_evals: vec![1000, 2000],
             pilot_cost_rhs_evals: 12345,
             candidates: vec![Candidate {
-                integrator: adaptive("dop853", 1e-6),
+                integrator: adaptive(Method::Dop853, 1e-6),
                 errors: vec![Some(3e-6), None],
                 rhs_evals: vec![Some(10), None],
                 cost: None,
