@@ -436,8 +436,13 @@ def test_search_file_reads_in_xarray_h5py_and_chainsweep_open(tmp_path):
 def test_python_sweep_runs_a_search_as_the_cli_does(tmp_path):
     path = EXAMPLES / "critical-damping-root.json"
     a, b = tmp_path / "py.h5", tmp_path / "cli.h5"
-    res = chainsweep.sweep(path, a, jobs=2, progress=False)
+    calls = []
+    res = chainsweep.sweep(path, a, jobs=2, progress=lambda *c: calls.append(c))
     assert res.exit_code == 0
+    # Progress counts the searches' runs against their budgets (2 searches of at most 30 runs),
+    # and once they have ended, the runs they made.
+    assert calls[0] == (0, 0, 60) and calls[-1] == (28, 0, 28), calls
+    assert [c[0] for c in calls] == sorted(c[0] for c in calls)
     r = run("run", path, "-o", b, "--jobs", "1", "--quiet")
     assert r.returncode == 0, r.stderr
     assert_files_equal(a, b)

@@ -5,7 +5,7 @@
 //!
 //! - [`run_scene`]: one scene, exactly as `chainsweep point` runs a grid point ([`point`]);
 //! - [`run_sweep`]: a sweep file into HDF5, exactly as `chainsweep run` does ([`sweep`]), with
-//!   progress ([`watch`]) and Ctrl-C;
+//!   progress (what the engine's `ProgressSink` hears) and Ctrl-C;
 //! - [`check_file`]: a result file's every value checked against its checksums, before
 //!   `chainsweep.open` serves it ([`check`]).
 //!
@@ -18,7 +18,6 @@ use pyo3::prelude::*;
 mod check;
 mod point;
 mod sweep;
-mod watch;
 
 /// A runner error as the Python exception the package defines for it.
 fn py_error(py: Python<'_>, e: &chainsweep::error::Error, context: &str) -> PyErr {
