@@ -7,6 +7,8 @@ ENGINE_VERSION: str
 SOLVER_VERSION: str
 NUMERICS_VERSION: int
 GIT_REVISION: str
+DEFAULT_CHECKPOINT_INTERVAL_S: float
+DEFAULT_PROGRESS_INTERVAL_S: float
 
 def run_scene(scene: str, record: str | None = None, limits: str | None = None) -> dict[str, Any]: ...
 def run_sweep(
@@ -16,7 +18,7 @@ def run_sweep(
     shard: str | None = None,
     retry_failed: bool = False,
     verify: float | None = None,
-    checkpoint_interval: float = 300.0,
+    checkpoint_interval: float | None = None,
     progress: Callable[[int, int, int], Any] | None = None,
 ) -> tuple[int, int]: ...
 def check_file(path: str, histories: bool = False) -> dict[str, Any]: ...

@@ -85,7 +85,7 @@ def _duration(secs: float) -> str:
 class _PlainProgress:
     """A line on stderr every `every` seconds and at the end (the command line's plain format)."""
 
-    def __init__(self, every: float = 10.0):
+    def __init__(self, every: float = _native.DEFAULT_PROGRESS_INTERVAL_S):
         self.every = every
         self.start = time.monotonic()
         self.last = self.start
@@ -212,7 +212,7 @@ def sweep(
     progress: bool | ProgressCallback = True,
     *,
     shard: str | tuple[int, int] | None = None,
-    checkpoint_interval: float = 300.0,
+    checkpoint_interval: float = _native.DEFAULT_CHECKPOINT_INTERVAL_S,
 ) -> SweepResult:
     """Runs a sweep into an HDF5 file, in this process, exactly as ``chainsweep run`` does.
 

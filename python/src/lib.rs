@@ -47,5 +47,13 @@ fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SOLVER_VERSION", chainsweep::SOLVER_VERSION)?;
     m.add("NUMERICS_VERSION", chainsweep::NUMERICS_VERSION)?;
     m.add("GIT_REVISION", chainsweep::GIT_REVISION)?;
+    m.add(
+        "DEFAULT_CHECKPOINT_INTERVAL_S",
+        chainsweep::engine::run::DEFAULT_CHECKPOINT_INTERVAL_S,
+    )?;
+    m.add(
+        "DEFAULT_PROGRESS_INTERVAL_S",
+        chainsweep::engine::run::DEFAULT_PROGRESS_INTERVAL_S,
+    )?;
     Ok(())
 }

@@ -20,7 +20,6 @@ use chainsweep::engine::{self, run, slurm, AutoResolution, DamageReport, Progres
 use chainsweep::error::{Error, Result};
 use chainsweep::progress::Terminal;
 use chainsweep::store::hdf5::Provenance;
-use chainsweep::{EXIT_OK, EXIT_PARTIAL};
 
 /// What `chainsweep.sweep` asks for.
 #[derive(Debug, Clone)]
@@ -148,15 +147,14 @@ fn run_request(req: &SweepRequest, stop: &AtomicBool, counts: &Arc<Counts>) -> R
     };
     let mut sink = Counting {
         counts: Arc::clone(counts),
-        terminal: Terminal::new(true, Duration::from_secs(10)),
+        terminal: Terminal::new(
+            true,
+            Duration::from_secs_f64(run::DEFAULT_PROGRESS_INTERVAL_S),
+        ),
     };
     let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, stop)?;
     let c = &report.counts;
-    let code = if c.failed > 0 || c.pending > 0 {
-        EXIT_PARTIAL
-    } else {
-        EXIT_OK
-    };
+    let code = c.exit_code();
     let v = &report.verification;
     let end = match counts.now() {
         // A search ends below its budgets: what it did is the whole of it.
@@ -191,7 +189,7 @@ const SIGNAL_INTERVAL: Duration = Duration::from_millis(100);
 /// cleanly and then raises `KeyboardInterrupt`; an exception raised by `progress` does the same
 /// with that exception.
 #[pyfunction]
-#[pyo3(signature = (file, output, jobs=None, shard=None, retry_failed=false, verify=None, checkpoint_interval=300.0, progress=None))]
+#[pyo3(signature = (file, output, jobs=None, shard=None, retry_failed=false, verify=None, checkpoint_interval=None, progress=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run_sweep(
     py: Python<'_>,
@@ -201,9 +199,10 @@ pub fn run_sweep(
     shard: Option<String>,
     retry_failed: bool,
     verify: Option<f64>,
-    checkpoint_interval: f64,
+    checkpoint_interval: Option<f64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(i32, usize)> {
+    let checkpoint_interval = checkpoint_interval.unwrap_or(run::DEFAULT_CHECKPOINT_INTERVAL_S);
     let req = SweepRequest {
         file,
         output,

@@ -165,10 +165,10 @@ pub struct RunArgs {
     #[arg(long)]
     pub retry_failed: bool,
     /// Seconds between plain progress lines when stderr is not a terminal.
-    #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
+    #[arg(long, default_value_t = run::DEFAULT_PROGRESS_INTERVAL_S, value_name = "SECONDS")]
     pub progress_interval: f64,
     /// Seconds between refreshes of the output file while the sweep runs (0: only at the end).
-    #[arg(long, default_value_t = 300.0, value_name = "SECONDS")]
+    #[arg(long, default_value_t = run::DEFAULT_CHECKPOINT_INTERVAL_S, value_name = "SECONDS")]
     pub checkpoint_interval: f64,
     /// Replace an existing output file that has no work directory (not made by `chainsweep run`).
     #[arg(long)]
@@ -301,11 +301,7 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
 
 /// The exit code of a sweep whose points are in the state `c`.
 fn exit_for(c: &Counts) -> i32 {
-    if c.failed > 0 || c.pending > 0 {
-        EXIT_PARTIAL
-    } else {
-        EXIT_OK
-    }
+    c.exit_code()
 }
 
 fn parse_shard(s: Option<&str>) -> Result<Option<Shard>> {
@@ -560,7 +556,10 @@ fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {
 
 fn cmd_point(file: &Path, index: usize, scene_only: bool, output: Option<&Path>) -> Result<i32> {
     let (mut sweep, mut grid) = engine::load(file)?;
-    let mut sink = Terminal::new(false, Duration::from_secs(10));
+    let mut sink = Terminal::new(
+        false,
+        Duration::from_secs_f64(run::DEFAULT_PROGRESS_INTERVAL_S),
+    );
     let p = inspect::point(&mut sweep, &mut grid, index, output, !scene_only, &mut sink)?;
     outln!("{}", show::point(&grid, index, &p));
     Ok(EXIT_OK)

@@ -27,6 +27,14 @@ use super::{
 /// the interval must stay a representable duration.
 pub const MAX_CHECKPOINT_INTERVAL_S: f64 = 7.0 * 24.0 * 3600.0;
 
+/// Seconds between refreshes of the output file while a sweep runs, unless asked otherwise
+/// (`--checkpoint-interval`, Python's `checkpoint_interval`).
+pub const DEFAULT_CHECKPOINT_INTERVAL_S: f64 = 300.0;
+
+/// Seconds between plain progress lines when the display is not a terminal, unless asked
+/// otherwise (`--progress-interval`; Python's plain lines).
+pub const DEFAULT_PROGRESS_INTERVAL_S: f64 = 10.0;
+
 /// How many failed runs a report lists with their reasons (it counts them all).
 pub const LISTED_FAILURES: usize = 20;
 

@@ -471,6 +471,19 @@ pub struct Counts {
     pub pending: usize,
 }
 
+impl Counts {
+    /// The exit code of a sweep whose points stand so: 0 when every one succeeded, 3
+    /// ([`crate::EXIT_PARTIAL`]) when some failed or are pending. The one mapping of the command
+    /// line and of Python.
+    pub fn exit_code(&self) -> i32 {
+        if self.failed > 0 || self.pending > 0 {
+            crate::EXIT_PARTIAL
+        } else {
+            crate::EXIT_OK
+        }
+    }
+}
+
 /// Name of the group under `runs/` of the run at flat (row-major) grid index `index`: a name
 /// that starts with a letter (a valid netCDF name: `ncdump` escapes a leading digit) and does not
 /// depend on the grid's size (layout 1's zero-padding changed width as a sweep grew past 10, 100,
