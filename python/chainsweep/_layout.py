@@ -1,78 +1,67 @@
-"""Names, units and descriptions of a run's summaries, as the HDF5 files of the runner store them.
+"""Names, units and descriptions of a run's summaries, as the HDF5 files of the runner store them:
+built from the runner's own table of columns, which the native module exports.
 
 :func:`chainsweep.run` labels its Dataset with these; :func:`chainsweep.open` takes the same from
-each file's own attributes. ``test_units_of_run_and_open_agree`` (``tests/python/test_package_open.py``)
-and ``test_chainsweep_run_says_how_much_of_its_chain_it_integrated`` (``tests/test_active_region.py``)
-check that the two agree.
+each file's own attributes.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import _chainsweep as _native
+
+#: The runner's table of stored summary columns (``record::columns`` in the engine), exported by
+#: the native module: every name, unit and description below comes from it.
+COLUMNS: dict[str, dict] = {c["name"]: c for c in _native.COLUMNS}
+
+
+def _label(c: dict) -> tuple[str | None, str]:
+    """(units, long_name) of a column; units None: none, or the probes' own unit."""
+    units = None if c["units"] in (None, "of_probes") else c["units"]
+    return units, c["description"]
+
+
+def _flag_attrs(name: str) -> dict:
+    c = COLUMNS[name]
+    return {
+        "flag_values": np.array(c["flag_values"], dtype=np.uint8),
+        "flag_meanings": c["flag_meanings"],
+    }
+
+
 # `status`: 0 pending, 1 ok, 2 failed (the file's flag_values / flag_meanings).
-STATUS_PENDING = 0
-STATUS_OK = 1
-STATUS_FAILED = 2
-STATUS_ATTRS = {
-    "flag_values": np.array([STATUS_PENDING, STATUS_OK, STATUS_FAILED], dtype=np.uint8),
-    "flag_meanings": "pending ok failed",
-}
+STATUS_PENDING, STATUS_OK, STATUS_FAILED = COLUMNS["status"]["flag_values"]
+STATUS_ATTRS = _flag_attrs("status")
 
 #: Per-run float summaries: name -> (units, long_name).
 RUN_FLOATS: dict[str, tuple[str, str]] = {
-    "t_end_s": ("s", "time the run reached"),
-    "energy_drift_max": ("1", "largest |E(t) - E(0)| over the run, relative to the impact energy"),
-    "energy_drift_final": ("1", "|E(t_end) - E(0)| relative to the impact energy"),
-    "momentum_residual_max": (
-        "1",
-        "largest momentum-balance residual, relative to the striker momentum",
-    ),
-    "impact_energy_j": ("J", "striker kinetic energy"),
-    "wall_time_s": ("s", "wall-clock time of the run (kept for failed runs)"),
-    "max_overlap_m": ("m", "largest contact overlap over the run (at step ends)"),
+    n: _label(c) for n, c in COLUMNS.items() if c["kind"] in ("ok_f64", "run_f64")
 }
 
 #: Per-run integer counters: name -> (units, long_name). The files store -1 where a run failed or
 #: is pending; :func:`chainsweep.open` masks it (float64 with NaN, as xarray decodes a fill value).
 RUN_COUNTERS: dict[str, tuple[str, str]] = {
-    "steps": ("1", "accepted integrator steps"),
-    "rejected_steps": ("1", "rejected step attempts"),
-    "rhs_evals": ("1", "right-hand-side evaluations"),
-    "events": ("1", "steps retaken to end on a contact opening or closing (located events)"),
+    n: _label(c) for n, c in COLUMNS.items() if c["kind"] == "ok_count"
 }
 
 #: Per-run columns of a scene that can integrate only the moving part of its chain (a long chain
 #: struck at one end): name -> (units, long_name). The files have them only where some grid point
 #: can, :func:`chainsweep.run` only for such a scene; elsewhere they would repeat the chain's length.
 MOVING_PART_COLUMNS: dict[str, tuple[str | None, str]] = {
-    "integrated_particles": (
-        "1",
-        "particles integrated at the end of the run (striker included): the chain's count when the "
-        "whole chain was integrated, the final length of the growing prefix when only its moving "
-        "part was",
-    ),
-    "moving_part": (None, "whether the run integrated only the moving part of its chain"),
+    n: _label(c) for n, c in COLUMNS.items() if c["written"] == "with_moving_part"
 }
 #: `moving_part`: 0 failed, pending or not known, 1 the whole chain, 2 only the moving part.
-MOVING_PART_ATTRS = {
-    "flag_values": np.array([0, 1, 2], dtype=np.uint8),
-    "flag_meanings": "not_known whole_chain moving_part",
-}
+MOVING_PART_ATTRS = _flag_attrs("moving_part")
 
 #: Per-probe summaries: name -> (units, long_name); units None: the probes' own unit.
 PROBE_SUMMARIES: dict[str, tuple[str | None, str]] = {
-    "leading_peak": (None, "peak of the leading pulse (first excursion), refined between samples"),
-    "leading_peak_time_s": ("s", "time of the leading peak"),
-    "record_max": (None, "maximum over the whole record, refined between samples"),
-    "record_max_time_s": ("s", "time of the record maximum"),
+    n: _label(c) for n, c in COLUMNS.items() if c["kind"] == "probe_f64"
 }
 
 #: Per-run strings: name -> long_name.
 RUN_STRINGS: dict[str, str] = {
-    "reason": "why the run failed (empty unless status == 2)",
-    "warnings": "physical-validity warnings of the run, one per line (empty when none)",
-    "run_hash": "SHA-256 identity of the run: numerics version, solver version, limits, full scene",
+    n: c["description"] for n, c in COLUMNS.items() if c["dtype"] == "str" and not c["per_probe"]
 }
 
 #: Histories and minimum overlaps (per-run groups in the files).

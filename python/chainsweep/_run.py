@@ -39,21 +39,25 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
         "probe": np.array(raw["probe"], dtype=str),
         "probe_units": np.array(raw["probe_units"], dtype=str),
     }
+    # Every column as the output file fills it for this run (the engine's table).
+    col = raw["columns"]
     for name in L.PROBE_SUMMARIES:
-        out[name] = np.array(raw[name], dtype=np.float64)
+        out[name] = np.array(col[name], dtype=np.float64)
     for name in L.RUN_FLOATS:
-        out[name] = np.float64(raw[name])
+        out[name] = np.float64(col[name])
+    # Counts: None where the file stores its fill (-1; a failed run counted nothing that is
+    # kept): NaN, as chainsweep.open masks it.
+    def count(name: str):
+        return np.float64(np.nan) if col[name] is None else np.int64(col[name])
+
     for name in L.RUN_COUNTERS:
-        # A failed run counted nothing that is kept: NaN, as chainsweep.open masks the file's -1.
-        out[name] = np.int64(raw[name]) if ok else np.float64(np.nan)
+        out[name] = count(name)
     if raw["moving_part_recorded"]:
-        n = raw["integrated_particles"]
-        out["integrated_particles"] = np.float64(np.nan) if n is None else np.int64(n)
-        out["moving_part"] = np.uint8(raw["moving_part"])
-    out["status"] = np.uint8(L.STATUS_OK if ok else L.STATUS_FAILED)
-    out["reason"] = str(raw["reason"])
-    out["warnings"] = str(raw["warnings"])
-    out["run_hash"] = str(raw["run_hash"])
+        out["integrated_particles"] = count("integrated_particles")
+        out["moving_part"] = np.uint8(col["moving_part"])
+    out["status"] = np.uint8(col["status"])
+    for name in L.RUN_STRINGS:
+        out[name] = str(col[name])
     if raw["history_recorded"]:
         n = len(out["probe"])
         if raw["time_s"] is None:  # a failed run records no history

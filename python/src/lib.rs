@@ -36,6 +36,41 @@ fn py_error(py: Python<'_>, e: &chainsweep::error::Error, context: &str) -> PyEr
     }
 }
 
+/// The runner's table of stored summary columns, for the package's labels: one dict per column
+/// (name, numpy dtype, per_probe, units — `None` for none, `"of_probes"` for the probes' own —,
+/// description, long_name, flag_values, flag_meanings, written, kind).
+fn column_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyList>> {
+    use chainsweep::record::columns::{Units, COLUMNS};
+    let rows = COLUMNS
+        .iter()
+        .map(|c| -> PyResult<Bound<'_, pyo3::types::PyDict>> {
+            let d = pyo3::types::PyDict::new(py);
+            d.set_item("name", c.name)?;
+            d.set_item("dtype", c.dtype.numpy())?;
+            d.set_item("per_probe", c.per_probe)?;
+            d.set_item(
+                "units",
+                match c.units {
+                    Units::None => None,
+                    Units::Fixed(u) => Some(u),
+                    Units::OfProbes => Some("of_probes"),
+                },
+            )?;
+            d.set_item("description", c.description)?;
+            d.set_item("long_name", c.long_name)?;
+            let values = c
+                .flags
+                .map(|(v, _)| v.iter().map(|&x| u32::from(x)).collect::<Vec<_>>());
+            d.set_item("flag_values", values)?;
+            d.set_item("flag_meanings", c.flags.map(|(_, m)| m))?;
+            d.set_item("written", c.written.name())?;
+            d.set_item("kind", c.fill.kind())?;
+            Ok(d)
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    pyo3::types::PyList::new(py, rows)
+}
+
 /// The extension module.
 #[pymodule]
 fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -47,6 +82,7 @@ fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SOLVER_VERSION", chainsweep::SOLVER_VERSION)?;
     m.add("NUMERICS_VERSION", chainsweep::NUMERICS_VERSION)?;
     m.add("GIT_REVISION", chainsweep::GIT_REVISION)?;
+    m.add("COLUMNS", column_table(m.py())?)?;
     m.add(
         "DEFAULT_CHECKPOINT_INTERVAL_S",
         chainsweep::engine::run::DEFAULT_CHECKPOINT_INTERVAL_S,

@@ -16,7 +16,8 @@ use chainsweep::exec;
 use chainsweep::grid::Grid;
 use chainsweep::identity::hex;
 use chainsweep::numerics::auto as pilot;
-use chainsweep::record::RunRecord;
+use chainsweep::record::columns::{ColumnData, Fill, PointOutcome, Presence, COLUMNS};
+use chainsweep::record::{RunRecord, INT_FILL};
 use chainsweep::sweep::auto::AutoChoice;
 use chainsweep::sweep::Sweep;
 use chainsweep_solver::Scene;
@@ -88,6 +89,58 @@ fn f64_bytes<'py>(py: Python<'py>, xs: &[f64]) -> Bound<'py, PyBytes> {
     PyBytes::new(py, &b)
 }
 
+/// The summary columns of the one run, each filled from the run's record exactly as the output
+/// file fills it (the runner's column table, [`COLUMNS`]): name → a number, `None` (an integer's
+/// fill), a text, or a list per probe. Checksums and verification columns are files' only.
+fn columns<'py>(
+    py: Python<'py>,
+    run: &PointRun,
+    moving_part: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let n_probes = run.scene.record.probes.len();
+    let presence = Presence {
+        probes: n_probes,
+        moving_part,
+        run_groups: false,
+    };
+    let outcome = PointOutcome {
+        hash_hex: &run.hash,
+        record: Some(&run.record),
+        verify: None,
+    };
+    let d = PyDict::new(py);
+    for c in COLUMNS.iter().filter(|c| c.is_written(presence)) {
+        if matches!(
+            c.fill,
+            Fill::Verified | Fill::VerifyMax | Fill::VerifyProbe(_) | Fill::SummaryChecksum
+        ) {
+            continue;
+        }
+        let mut data = c.empty(1, n_probes);
+        c.fill_point(&mut data, 0, n_probes, &outcome);
+        let one = |v: Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
+            if c.per_probe {
+                Ok(v)
+            } else {
+                v.get_item(0)
+            }
+        };
+        let value = match data {
+            ColumnData::F64(x) => one(PyList::new(py, x)?.into_any())?,
+            ColumnData::I64(x) => one(PyList::new(
+                py,
+                x.into_iter().map(|n| (n != INT_FILL).then_some(n)),
+            )?
+            .into_any())?,
+            ColumnData::U8(x) => one(PyList::new(py, x)?.into_any())?,
+            ColumnData::U64(_) => continue,
+            ColumnData::Str(x) => one(PyList::new(py, x)?.into_any())?,
+        };
+        d.set_item(c.name, value)?;
+    }
+    Ok(d)
+}
+
 /// Runs one scene given as JSON text (`scene`: a sweep file's `base`; `record`, `limits`: its
 /// blocks, or `None`) with the GIL released, and returns everything the run recorded as a dict of
 /// plain Python values (histories as little-endian float64 bytes). Raises `chainsweep.InputError`
@@ -134,34 +187,11 @@ pub fn run_scene<'py>(
     )?;
     d.set_item("ok", rec.ok)?;
     d.set_item("reason", &rec.reason)?;
-    for (name, x) in [
-        ("t_end_s", rec.t_end_s),
-        ("energy_drift_max", rec.energy_drift_max),
-        ("energy_drift_final", rec.energy_drift_final),
-        ("momentum_residual_max", rec.momentum_residual_max),
-        ("impact_energy_j", rec.impact_energy_j),
-        ("wall_time_s", rec.wall_time_s),
-        ("max_overlap_m", rec.max_overlap_m),
-    ] {
-        d.set_item(name, x)?;
-    }
-    for (name, n) in [
-        ("steps", rec.steps),
-        ("rejected_steps", rec.rejected),
-        ("rhs_evals", rec.rhs_evals),
-        ("events", rec.events),
-    ] {
-        d.set_item(name, n)?;
-    }
-    d.set_item("warnings", &rec.warnings)?;
     // Kept as a sweep file keeps them: only for a scene that can integrate only the moving part
     // of its chain (elsewhere they would repeat the chain's length).
-    d.set_item(
-        "moving_part_recorded",
-        chainsweep_solver::integrates_moving_part(&run.scene),
-    )?;
-    d.set_item("integrated_particles", rec.integrated_particles)?;
-    d.set_item("moving_part", rec.moving_part_flag())?;
+    let moving_part = chainsweep_solver::integrates_moving_part(&run.scene);
+    d.set_item("moving_part_recorded", moving_part)?;
+    d.set_item("columns", columns(py, &run, moving_part)?)?;
     d.set_item("probe", PyList::new(py, probes.iter().map(|p| p.name()))?)?;
     d.set_item(
         "probe_units",
@@ -171,18 +201,6 @@ pub fn run_scene<'py>(
         "probes_json",
         serde_json::to_string(probes).expect("probes serialise"),
     )?;
-    // Per-probe summaries; a failed run has none (NaN, as in the HDF5 file).
-    let column = |f: fn(&chainsweep_solver::probes::ProbeSummary) -> f64| -> Vec<f64> {
-        if rec.probes.len() == probes.len() {
-            rec.probes.iter().map(f).collect()
-        } else {
-            vec![f64::NAN; probes.len()]
-        }
-    };
-    d.set_item("leading_peak", column(|s| s.leading_peak))?;
-    d.set_item("leading_peak_time_s", column(|s| s.leading_peak_time_s))?;
-    d.set_item("record_max", column(|s| s.record_max))?;
-    d.set_item("record_max_time_s", column(|s| s.record_max_time_s))?;
     match &rec.history {
         Some(h) => {
             d.set_item("time_s", f64_bytes(py, &h.time_s))?;

@@ -128,6 +128,41 @@ pub enum Fill {
     VerifyProbe(usize),
 }
 
+impl Fill {
+    /// Its name, for readers outside Rust (the Python package builds its labels from the table):
+    /// what kind of value the column holds and where from.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Fill::OkF64 { .. } => "ok_f64",
+            Fill::RunF64 { .. } => "run_f64",
+            Fill::OkCount { .. } => "ok_count",
+            Fill::OkOptCount { .. } => "ok_opt_count",
+            Fill::OkFlag { .. } => "ok_flag",
+            Fill::OkText { .. } => "ok_text",
+            Fill::Reason => "reason",
+            Fill::ProbeF64 { .. } => "probe_f64",
+            Fill::Status => "status",
+            Fill::RunHash => "run_hash",
+            Fill::Verified => "verified",
+            Fill::VerifyMax => "verify_max",
+            Fill::HistoryChecksum => "history_checksum",
+            Fill::SummaryChecksum => "summary_checksum",
+            Fill::VerifyProbe(_) => "verify_probe",
+        }
+    }
+}
+
+impl Written {
+    /// Its name, for readers outside Rust.
+    pub fn name(self) -> &'static str {
+        match self {
+            Written::Always => "always",
+            Written::WithMovingPart => "with_moving_part",
+            Written::WithRunGroups => "with_run_groups",
+        }
+    }
+}
+
 /// Which output files have a column.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Written {
