@@ -1,14 +1,14 @@
 //! One scene, run in this process exactly as `chainsweep point` runs a grid point.
 //!
 //! The scene is the JSON of a sweep file's `base` (chain presets, defaults, `integrator: auto`),
-//! with the `record` and `limits` blocks beside it. It becomes a one-point sweep built in memory,
-//! so the runner normalises it ([`Sweep::parse`]), identifies it ([`Grid`]'s run hash) and runs it
-//! under panic protection with its failure limits ([`exec::execute`]): the numbers are bitwise
-//! those of `chainsweep point` for the same scene.
+//! with the `record` and `limits` blocks beside it. The runner makes it a sweep of one point
+//! without axes ([`Sweep::of_scene`]), normalised as a sweep file's base, identifies it ([`Grid`]'s
+//! run hash) and runs it under panic protection with its failure limits ([`exec::execute`]): the
+//! numbers are bitwise those of `chainsweep point` for the same scene.
 
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList};
-use serde_json::{json, Map, Value};
+use serde_json::Value;
 
 use chainsweep::engine;
 use chainsweep::error::{Error, Result};
@@ -36,22 +36,7 @@ struct PointRun {
 /// (`base.…`, `record.…`, `limits.…` as in a sweep file; the validation of the built scene names
 /// scene fields without the `base.` prefix).
 fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Result<PointRun> {
-    let mut file = Map::new();
-    file.insert("base".into(), scene);
-    if let Some(r) = record {
-        file.insert("record".into(), r);
-    }
-    if let Some(l) = limits {
-        file.insert("limits".into(), l);
-    }
-    // A sweep file needs an axis; this stand-in names a field every scene has and is dropped
-    // before the grid is built, so the grid's single point is the base scene itself.
-    file.insert(
-        "axes".into(),
-        json!([{"field": "duration_s", "values": [null]}]),
-    );
-    let mut sweep = Sweep::parse(&Value::Object(file).to_string())?;
-    sweep.dims.clear();
+    let mut sweep = Sweep::of_scene(scene, record, limits)?;
     let base: Scene = chainsweep::sweep::from_value_at(sweep.base.clone(), "base")?;
     base.validate()
         .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;

@@ -1046,6 +1046,36 @@ impl Sweep {
         })
     }
 
+    /// One scene as a sweep of a single point without axes (what the Python package's
+    /// `chainsweep.run` runs): `base` normalised and checked exactly as a sweep file's `base` is
+    /// (presets, defaults, `integrator: auto`), with its `record` and `limits` blocks. Its grid
+    /// ([`crate::grid::Grid::new`]) has the one point, the base scene itself. Errors name fields
+    /// as in a sweep file (`base.…`, `record.…`, `limits.…`).
+    pub fn of_scene(base: Value, record: Option<Value>, limits: Option<Value>) -> Result<Sweep> {
+        let mut file = Map::new();
+        file.insert("base".into(), base);
+        if let Some(r) = record {
+            file.insert("record".into(), r);
+        }
+        if let Some(l) = limits {
+            file.insert("limits".into(), l);
+        }
+        let text = Value::Object(file).to_string();
+        let file = read_json(&text)?;
+        let (base, auto) = normalise_base(file.base, file.record)?;
+        let limits = parse_limits(file.limits)?;
+        Ok(Sweep {
+            text,
+            description: file.description,
+            base,
+            dims: Vec::new(),
+            limits,
+            auto,
+            auto_choice: None,
+            search: None,
+        })
+    }
+
     /// Whether the base integrator is `auto` and not resolved yet: the scenes of the grid hold a
     /// stand-in integrator and must not be run.
     pub fn auto_unresolved(&self) -> bool {
