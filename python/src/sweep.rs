@@ -16,29 +16,10 @@ use std::time::{Duration, Instant};
 
 use pyo3::prelude::*;
 
-use chainsweep::engine::{self, run, slurm, AutoResolution, DamageReport, ProgressSink, Start};
+use chainsweep::engine::run::RunRequest;
+use chainsweep::engine::{self, run, AutoResolution, DamageReport, ProgressSink, Start};
 use chainsweep::error::{Error, Result};
 use chainsweep::progress::Terminal;
-use chainsweep::store::hdf5::Provenance;
-
-/// What `chainsweep.sweep` asks for.
-#[derive(Debug, Clone)]
-pub struct SweepRequest {
-    /// Sweep file.
-    pub file: PathBuf,
-    /// Output HDF5 file.
-    pub output: PathBuf,
-    /// Parallel runs (`None`: every CPU).
-    pub jobs: Option<usize>,
-    /// `K/N`: run only that shard.
-    pub shard: Option<String>,
-    /// Run again the points whose earlier run failed.
-    pub retry_failed: bool,
-    /// Fraction of points re-run at a tighter setting.
-    pub verify: Option<f64>,
-    /// Seconds between refreshes of the output while the sweep runs (0: only at the end).
-    pub checkpoint_interval: f64,
-}
 
 /// Counts of a sweep's runs (grid points and verification runs, or a search's runs against its
 /// budgets), as the engine reports them to [`Counting`].
@@ -125,26 +106,9 @@ struct Finished {
 /// Progress goes to `counts`; `stop` is the engine's stop flag: once set, no new run starts, the
 /// runs in flight are stored and the output is written with the rest pending. The exit code is
 /// the command line's (0, or 3 with failed or pending runs).
-fn run_request(req: &SweepRequest, stop: &AtomicBool, counts: &Arc<Counts>) -> Result<Finished> {
+fn run_request(req: &RunRequest, stop: &AtomicBool, counts: &Arc<Counts>) -> Result<Finished> {
     let (mut sweep, mut grid) = engine::load(&req.file)?;
-    let shard = req
-        .shard
-        .as_deref()
-        .map(|s| slurm::parse_shard_env(s, "--shard"))
-        .transpose()?;
-    let fraction = req.verify.unwrap_or(0.0);
-    let jobs = req.jobs.unwrap_or_else(engine::default_jobs);
-    run::RunOptions::check(jobs, req.checkpoint_interval, fraction)?;
-    let opts = run::RunOptions {
-        output: req.output.clone(),
-        jobs,
-        shard,
-        retry_failed: req.retry_failed,
-        checkpoint_interval: Duration::from_secs_f64(req.checkpoint_interval),
-        verify_fraction: fraction,
-        overwrite: false,
-        provenance: Provenance::of_this_process(),
-    };
+    let opts = req.options()?;
     let mut sink = Counting {
         counts: Arc::clone(counts),
         terminal: Terminal::new(
@@ -202,15 +166,14 @@ pub fn run_sweep(
     checkpoint_interval: Option<f64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(i32, usize)> {
-    let checkpoint_interval = checkpoint_interval.unwrap_or(run::DEFAULT_CHECKPOINT_INTERVAL_S);
-    let req = SweepRequest {
-        file,
-        output,
+    let req = RunRequest {
+        output: Some(output),
         jobs,
         shard,
         retry_failed,
         verify,
-        checkpoint_interval,
+        checkpoint_interval_s: checkpoint_interval.unwrap_or(run::DEFAULT_CHECKPOINT_INTERVAL_S),
+        ..RunRequest::new(file)
     };
     let counts = Arc::new(Counts::default());
     let stop = Arc::new(AtomicBool::new(false));

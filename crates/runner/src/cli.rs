@@ -325,10 +325,17 @@ fn cmd_validate(file: &Path) -> Result<i32> {
 
 fn cmd_run(args: &RunArgs) -> Result<i32> {
     let (mut sweep, mut grid) = load(&args.file, args.quiet)?;
-    let shard = parse_shard(args.shard.as_deref())?;
-    let fraction = args.verify.unwrap_or(0.0);
-    let jobs = args.jobs.unwrap_or_else(engine::default_jobs);
-    run::RunOptions::check(jobs, args.checkpoint_interval, fraction)?;
+    let opts = run::RunRequest {
+        file: args.file.clone(),
+        output: args.output.clone(),
+        jobs: args.jobs,
+        shard: args.shard.clone(),
+        retry_failed: args.retry_failed,
+        verify: args.verify,
+        checkpoint_interval_s: args.checkpoint_interval,
+        overwrite: args.overwrite,
+    }
+    .options()?;
     let p = args.progress_interval;
     if !(p > 0.0 && p <= MAX_PROGRESS_INTERVAL_S) {
         return Err(Error::input(
@@ -336,35 +343,22 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
             format!("must be a number of seconds in (0, {MAX_PROGRESS_INTERVAL_S}] (at most a day), got {}", engine::number_text(p)),
         ));
     }
-    let output = args
-        .output
-        .clone()
-        .unwrap_or_else(|| engine::default_output(&args.file, shard));
+    let (output, shard) = (&opts.output, opts.shard);
     let mut sink = Terminal::new(args.quiet, Duration::from_secs_f64(args.progress_interval));
     if args.dry_run {
-        let pool = engine::thread_pool(jobs)?;
-        let work_dir = crate::store::work_dir_of(&output);
+        let pool = engine::thread_pool(opts.jobs)?;
+        let work_dir = crate::store::work_dir_of(output);
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
         if sweep.search.is_some() {
-            let d = inspect::dry_run_search(&sweep, &grid, shard, &output)?;
-            show::dry_run_search(&sweep, &grid, &output, &d);
+            let d = inspect::dry_run_search(&sweep, &grid, shard, output)?;
+            show::dry_run_search(&sweep, &grid, output, &d);
             return Ok(EXIT_OK);
         }
         let points = shard::points(&sweep, &grid, shard);
-        let d = inspect::dry_run(&sweep, &grid, &points, &output)?;
-        show::dry_run(&sweep, &grid, &points, &output, shard, &d);
+        let d = inspect::dry_run(&sweep, &grid, &points, output)?;
+        show::dry_run(&sweep, &grid, &points, output, shard, &d);
         return Ok(EXIT_OK);
     }
-    let opts = run::RunOptions {
-        output,
-        jobs,
-        shard,
-        retry_failed: args.retry_failed,
-        checkpoint_interval: Duration::from_secs_f64(args.checkpoint_interval),
-        verify_fraction: fraction,
-        overwrite: args.overwrite,
-        provenance: Provenance::of_this_process(),
-    };
     let stop = StopOnSignal::install()?;
     let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, &stop.flag)?;
     show::run_report(&sweep, &grid, &report, &opts.output, args.quiet);

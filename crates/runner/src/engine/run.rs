@@ -59,6 +59,70 @@ pub struct RunOptions {
     pub provenance: Provenance,
 }
 
+/// What a caller asks of a sweep run, as given: the command line's options and the Python
+/// package's arguments alike (the one options type of both). [`RunRequest::options`] checks it
+/// and makes the engine's [`RunOptions`]; errors name the command line's option.
+#[derive(Debug, Clone)]
+pub struct RunRequest {
+    /// The sweep file (names the default output).
+    pub file: PathBuf,
+    /// The output file (`None`: next to the sweep file, [`super::default_output`]).
+    pub output: Option<PathBuf>,
+    /// Parallel runs (`None`: [`super::default_jobs`]).
+    pub jobs: Option<usize>,
+    /// `K/N` (or `slurm/N`): run only that shard.
+    pub shard: Option<String>,
+    /// Run again the points whose earlier run failed.
+    pub retry_failed: bool,
+    /// Fraction of points re-run at a tighter setting (`None`: none).
+    pub verify: Option<f64>,
+    /// Seconds between refreshes of the output while the sweep runs (0: only at the end).
+    pub checkpoint_interval_s: f64,
+    /// Replace an existing output file that has no work directory.
+    pub overwrite: bool,
+}
+
+impl RunRequest {
+    /// A request for `file` with every option at its default.
+    pub fn new(file: PathBuf) -> RunRequest {
+        RunRequest {
+            file,
+            output: None,
+            jobs: None,
+            shard: None,
+            retry_failed: false,
+            verify: None,
+            checkpoint_interval_s: DEFAULT_CHECKPOINT_INTERVAL_S,
+            overwrite: false,
+        }
+    }
+
+    /// The checked options of the run.
+    pub fn options(&self) -> Result<RunOptions> {
+        let shard = self
+            .shard
+            .as_deref()
+            .map(|s| super::slurm::parse_shard_env(s, "--shard"))
+            .transpose()?;
+        let verify_fraction = self.verify.unwrap_or(0.0);
+        let jobs = self.jobs.unwrap_or_else(super::default_jobs);
+        RunOptions::check(jobs, self.checkpoint_interval_s, verify_fraction)?;
+        Ok(RunOptions {
+            output: self
+                .output
+                .clone()
+                .unwrap_or_else(|| super::default_output(&self.file, shard)),
+            jobs,
+            shard,
+            retry_failed: self.retry_failed,
+            checkpoint_interval: Duration::from_secs_f64(self.checkpoint_interval_s),
+            verify_fraction,
+            overwrite: self.overwrite,
+            provenance: Provenance::of_this_process(),
+        })
+    }
+}
+
 impl RunOptions {
     /// Checks the options that do not depend on the sweep; an input error naming the option.
     pub fn check(jobs: usize, checkpoint_interval_s: f64, verify_fraction: f64) -> Result<()> {
