@@ -1,9 +1,10 @@
-"""Shared helpers for the figure and paper-check scripts: reading chainsweep HDF5 files by axis name.
+"""Shared helpers for the figure and paper-check scripts: chainsweep result files read through
+``chainsweep.open`` (the package's reader, checksums checked), selected by axis name and value.
 
 Every sweep file `sweeps/NAME.json` is run into `results/NAME.h5` (see the Makefile's `figures`
-target). The helpers here find axes by the `dimension` attribute of each axis's coordinate, so
-the scripts never depend on the order of the axes in a sweep file, and they are NaN-aware: a failed
-run (status 2) has NaN in every float summary and no history.
+target). The helpers find axes by the dimension each coordinate lies on, so the scripts never
+depend on the order of the axes in a sweep file, and they are NaN-aware: a failed run (status 2)
+has NaN in every summary and no history.
 """
 
 from __future__ import annotations
@@ -12,8 +13,9 @@ import json
 import os
 from pathlib import Path
 
-import h5py
 import numpy as np
+
+import chainsweep
 
 REPO = Path(__file__).resolve().parent.parent
 RESULTS = Path(os.environ.get("CHAINSWEEP_RESULTS", REPO / "results"))
@@ -31,7 +33,8 @@ def mu_label(mu: float) -> str:
 
 
 class Sweep:
-    """A chainsweep result file, with selection of grid points by axis name and value."""
+    """A chainsweep result file, read through ``chainsweep.open``, with selection of grid points
+    by axis name and value (what the figure scripts need on top of the Dataset)."""
 
     def __init__(self, name_or_path: str | Path):
         p = Path(name_or_path)
@@ -40,21 +43,24 @@ class Sweep:
         if not p.exists():
             raise FileNotFoundError(f"{p}: run `make figures` first (it runs sweeps/{p.stem}.json)")
         self.path = p
-        self.f = h5py.File(p, "r")
-        self.dims: list[str] = json.loads(self.f.attrs["dimensions"])
-        self.shape = tuple(int(n) for n in self.f.attrs["grid_shape"])
-        self.probes: list[str] = list(self.f["probe"].asstr()[:])
-        self.base = json.loads(self.f.attrs["base_scene"])
-        self.status = self.f["status"][...]
-        # every coordinate (zipped ones included) -> its dimension index: each axis's dataset
-        # names its dimension (only the axis named like it is the dimension's scale)
-        self._coord_dim: dict[str, int] = {}
-        for name, obj in self.f.items():
-            if isinstance(obj, h5py.Dataset) and "dimension" in obj.attrs:
-                self._coord_dim[name] = self.dims.index(obj.attrs["dimension"])
+        self.ds = chainsweep.open(p)
+        self._with_histories = None  # the same with every history, read when one is asked for
+        self.dims: list[str] = json.loads(self.ds.attrs["dimensions"])
+        self.shape = tuple(int(n) for n in np.atleast_1d(self.ds.attrs["grid_shape"]))
+        self.probes: list[str] = [str(p) for p in self.ds.probe.values] if "probe" in self.ds.coords else []
+        self.base = json.loads(self.ds.attrs["base_scene"])
+        self.status = self.ds.status.values
+        # every coordinate over one grid dimension (zipped ones included) -> that dimension
+        self._coord_dim: dict[str, int] = {
+            name: self.dims.index(c.dims[0])
+            for name, c in self.ds.coords.items()
+            if c.ndim == 1 and c.dims[0] in self.dims
+        }
 
     def close(self):
-        self.f.close()
+        self.ds.close()
+        if self._with_histories is not None:
+            self._with_histories.close()
 
     def __enter__(self):
         return self
@@ -64,16 +70,13 @@ class Sweep:
 
     # ------------------------------------------------------------------ coordinates
     def coord(self, name: str) -> np.ndarray:
-        """Values of a coordinate (axis) by name; strings decoded."""
-        ds = self.f[name]
-        if h5py.check_string_dtype(ds.dtype) is not None:
-            return np.array(ds.asstr()[...], dtype=object)
-        return ds[...]
+        """Values of a coordinate (axis) by name."""
+        return self.ds[name].values
 
     def index(self, name: str, value) -> int:
         """Grid index of `value` along the axis that carries coordinate `name`."""
         c = self.coord(name)
-        if c.dtype == object:
+        if c.dtype.kind in "OUS":
             hits = [i for i, v in enumerate(c) if v == value]
         elif c.dtype == bool:
             hits = [i for i, v in enumerate(c) if bool(v) == bool(value)]
@@ -83,25 +86,18 @@ class Sweep:
             raise KeyError(f"{self.path.name}: {name} has no value {value!r} (values: {list(c)})")
         return int(hits[0])
 
-    def sel_index(self, **sel) -> tuple:
-        """Index tuple into the grid: selected axes fixed, the others left whole."""
-        idx: list = [slice(None)] * len(self.dims)
-        for name, value in sel.items():
-            d = self._coord_dim[name]
-            idx[d] = self.index(name, value)
-        return tuple(idx)
+    def _isel(self, **sel) -> dict[str, int]:
+        """The grid dimensions fixed by a selection by coordinate values, as xarray's isel."""
+        return {self.dims[self._coord_dim[name]]: self.index(name, value) for name, value in sel.items()}
 
     # ------------------------------------------------------------------ summaries
     def summary(self, dataset: str, probe: str | None = None, **sel) -> np.ndarray:
         """A grid dataset (leading_peak, record_max, t_end_s, …) at the selected grid points,
         for one probe where the dataset has a probe dimension. Failed runs give NaN."""
-        ds = self.f[dataset]
-        idx = self.sel_index(**sel)
-        if ds.ndim == len(self.dims) + 1:
-            if probe is None:
-                return ds[idx + (slice(None),)]
-            return ds[idx + (self.probes.index(probe),)]
-        return ds[idx]
+        v = self.ds[dataset].isel(self._isel(**sel))
+        if "probe" in v.dims and probe is not None:
+            v = v.sel(probe=probe)
+        return v.values
 
     def peaks(self, probes: list[str], dataset: str = "leading_peak", **sel) -> np.ndarray:
         """Peaks of several probes at one grid point: shape (len(probes),)."""
@@ -112,20 +108,32 @@ class Sweep:
     def history(self, **sel) -> dict[str, np.ndarray] | None:
         """Full histories of one grid point (every axis selected): {'time_s': …, probe: …,
         'min_overlap_m': …}; None when the run failed or recorded none."""
-        idx = self.sel_index(**sel)
-        if any(isinstance(i, slice) for i in idx):
+        isel = self._isel(**sel)
+        if set(isel) != set(self.dims):
             raise ValueError(f"select every axis of {self.dims} for a history")
-        if self.status[idx] != 1 or "runs" not in self.f:
+        if self.ds.status.isel(isel).item() != 1:
             return None
-        flat = int(np.ravel_multi_index(idx, self.shape))
-        for g in self.f["runs"].values():
-            if int(g.attrs["flat_index"]) == flat:
-                return {k: g[k][...] for k in g.keys()}
-        return None
+        if self._with_histories is None:
+            self._with_histories = chainsweep.open(self.path, histories=True)
+        at = self._with_histories.isel(isel)
+        out: dict[str, np.ndarray] = {}
+        if "history" in at:
+            h = at.history.values  # (probe, time): NaN after the run's end
+            t = at.time_s.values
+            n = int(np.max(np.nonzero(np.isfinite(t) & np.isfinite(h).any(axis=0))[0], initial=-1)) + 1
+            if n == 0:
+                return None
+            out["time_s"] = t[:n]
+            for k, name in enumerate(self.probes):
+                out[name] = h[k, :n]
+        if "min_overlap_m" in at:
+            m = at.min_overlap_m.values  # (contact,): NaN past this chain's contacts
+            out["min_overlap_m"] = m[: int(np.max(np.nonzero(np.isfinite(m))[0], initial=-1)) + 1]
+        return out or None
 
     def failures(self) -> list[str]:
         bad = np.argwhere(self.status == 2)
-        reasons = self.f["reason"].asstr()
+        reasons = self.ds.reason.values
         return [f"{tuple(int(i) for i in b)}: {reasons[tuple(b)]}" for b in bad]
 
 
