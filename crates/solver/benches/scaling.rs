@@ -7,7 +7,8 @@
 //! can build the same file at a base revision and run the two side by side.
 
 use chainsweep_solver::model::ChainSpec;
-use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::scene::{IntegratorSpec, Scene};
+use chainsweep_solver::solve::run;
 use chainsweep_solver::AdaptiveOptions;
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 

@@ -10,7 +10,7 @@ use chainsweep_solver::contact::{DissipationSpec, LawSpec};
 use chainsweep_solver::general::{law, GeneralChainSystem, HERTZ_LAW, LINEAR_LAW, POWER_LAW};
 use chainsweep_solver::integrate::OdeSystem;
 use chainsweep_solver::model::{Chain, ChainSpec, Material, PhysicsSpec};
-use chainsweep_solver::scene::run;
+use chainsweep_solver::solve::run;
 use chainsweep_solver::system::ChainSystem;
 use criterion::measurement::WallTime;
 use criterion::{

@@ -3,7 +3,8 @@
 //! [dop853|vern6]` (`predict`: with `predict_switches`; the method, DOP853 by default).
 use chainsweep_solver::model::ChainSpec;
 use chainsweep_solver::probes::Probe;
-use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::scene::{IntegratorSpec, Scene};
+use chainsweep_solver::solve::run;
 use chainsweep_solver::AdaptiveOptions;
 fn main() {
     let args: Vec<String> = std::env::args().collect();

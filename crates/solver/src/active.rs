@@ -22,36 +22,13 @@
 //! the tolerance (a chain in free fall, a free end, a misplaced particle all fail this). Scenes that
 //! do not qualify run the whole chain, unchanged.
 
-#[cfg(feature = "serde")]
-use serde::{Deserialize, Serialize};
-
 use crate::integrate::{
     Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, StepObserver,
 };
 use crate::model::Chain;
 use crate::probes::RunObserver;
+pub use crate::scene::ActiveRegion;
 use crate::scene::{ImpactScales, Scene};
-
-/// Whether a run may integrate only the moving part of its chain.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
-#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
-pub enum ActiveRegion {
-    /// Integrate only the moving part when the scene qualifies (see the module docs), else the
-    /// whole chain.
-    #[default]
-    Auto,
-    /// Always integrate the whole chain.
-    Off,
-}
-
-impl ActiveRegion {
-    /// Whether this is the default, [`ActiveRegion::Auto`] (which sweep files and run hashes leave
-    /// out).
-    pub fn is_auto(&self) -> bool {
-        *self == ActiveRegion::Auto
-    }
-}
 
 /// Shortest chain (particles, striker included) that integrates only its moving part: the
 /// paper's chains (about 100 particles) are all shorter and keep their bits.
@@ -380,7 +357,7 @@ impl StepObserver for PrefixObserver<'_> {
     }
 }
 
-/// Integrates a qualifying run ([`plan`]) over its legs (as [`crate::scene::run`] does for the
+/// Integrates a qualifying run ([`plan`]) over its legs (as [`crate::solve::run`] does for the
 /// whole chain), growing the integrated prefix as the front approaches its end. Returns the
 /// statistics summed over every start of the integrator and the number of particles integrated at
 /// the end.

@@ -15,14 +15,15 @@
 //! - [`integrate`]: velocity Verlet, RK4, DOP853 (with contact-event location) and the stiff
 //!   ROS34PW2 (with the chain's tridiagonal Jacobian) behind one [`integrate::Integrator`] interface;
 //! - [`probes`]: observables sampled through dense output and on-the-fly peak summaries;
-//! - [`scene`]: a whole simulation, [`scene::run`];
+//! - [`scene`]: a whole simulation as written (chain, physics, excitation, integrator, record);
 //! - [`active`]: long chains integrated only where they move;
+//! - [`solve`]: running a scene, [`solve::run`];
 //! - [`problems`]: reference problems with closed-form answers (tests, benchmarks, examples).
 //!
 //! Units are SI throughout. The crate knows nothing of files or command lines.
 //!
 //! ```
-//! use chainsweep_solver::{model::ChainSpec, probes::Probe, scene::{run, Scene}};
+//! use chainsweep_solver::{model::ChainSpec, probes::Probe, run, Scene};
 //! let mut scene = Scene::new(ChainSpec::chain_098(10), 1.06, 2e-4);
 //! scene.record.probes = vec![Probe::GaugeForce { cylinder: 4 }];
 //! let out = run(&scene).unwrap();
@@ -42,6 +43,7 @@ pub mod probes;
 pub mod problems;
 pub mod scene;
 pub mod sequence;
+pub mod solve;
 pub mod system;
 
 pub use active::{integrates_moving_part, integrates_moving_part_of, ActiveRegion};
@@ -49,8 +51,6 @@ pub use chainsweep_cpu as cpu;
 pub use integrate::AdaptiveOptions;
 pub use model::{Chain, ChainSpec, DimerSpec, PhysicsSpec};
 pub use probes::{Probe, RecordSpec};
-pub use scene::{
-    run, run_until, Excitation, IntegratorSpec, Method, RunError, RunOutput, Scene,
-    DEADLINE_CHECK_STEPS,
-};
+pub use scene::{Excitation, IntegratorSpec, Method, Scene, DEADLINE_CHECK_STEPS};
 pub use sequence::SequenceSpec;
+pub use solve::{run, run_until, RunError, RunOutput};

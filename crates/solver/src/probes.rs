@@ -683,7 +683,7 @@ pub struct History {
 }
 
 /// The observer that feeds probes, summaries and the ledger from every accepted step. A run
-/// integrated in legs ([`crate::scene::run`]) calls `on_start` once per leg: the first call
+/// integrated in legs ([`crate::solve::run`]) calls `on_start` once per leg: the first call
 /// starts the record, the later ones continue it from the state the previous leg ended in.
 pub(crate) struct RunObserver {
     /// Whether the record has started (later `on_start` calls are continuations).
@@ -772,8 +772,7 @@ impl RunObserver {
             // Bounded whatever the caller validated: a history longer than this grows as it goes.
             let cap = ((t_end - t0) / opts.history_interval)
                 .floor()
-                .min(crate::scene::max_history_samples(n_probes) as f64)
-                as usize
+                .min(max_history_samples(n_probes) as f64) as usize
                 + 1;
             History {
                 time_s: Vec::with_capacity(cap),
@@ -1040,3 +1039,20 @@ impl StepObserver for RunObserver {
         Control::Continue
     }
 }
+/// Most history samples per probe in one run (`duration_s / history_interval_s`): 8 MB per probe,
+/// a thousand times the paper's histories (1 µs over 1 ms).
+pub const MAX_HISTORY_SAMPLES_PER_RUN: u64 = 1_000_000;
+
+/// Most history values in one run, over all its probes: 80 MB, so that many probes cannot
+/// multiply [`MAX_HISTORY_SAMPLES_PER_RUN`] beyond what a worker holds.
+pub const MAX_HISTORY_VALUES_PER_RUN: u64 = 10_000_000;
+
+/// Most history samples per probe in a run recording `n_probes` probes: at most
+/// [`MAX_HISTORY_SAMPLES_PER_RUN`], and [`MAX_HISTORY_VALUES_PER_RUN`] over all probes.
+pub fn max_history_samples(n_probes: usize) -> u64 {
+    MAX_HISTORY_SAMPLES_PER_RUN.min(MAX_HISTORY_VALUES_PER_RUN / n_probes.max(1) as u64)
+}
+
+/// Most summary samples in one run (`duration_s / summary_interval_s`): a few seconds of
+/// sampling, two thousand times the paper's summaries (0.2 µs over 1 ms).
+pub const MAX_SUMMARY_SAMPLES_PER_RUN: u64 = 10_000_000;

@@ -3,7 +3,8 @@
 //! whenever a scene does not qualify.
 
 use chainsweep_solver::active::{BLOCK, MIN_PARTICLES};
-use chainsweep_solver::scene::{run, IntegratorSpec, RunOutput, Scene};
+use chainsweep_solver::scene::{IntegratorSpec, Scene};
+use chainsweep_solver::solve::{run, RunOutput};
 use chainsweep_solver::{integrates_moving_part, ActiveRegion, AdaptiveOptions, ChainSpec, Probe};
 
 /// The paper's 0.55 chain (μ = 6 kg/s, 1.3 m/s) lengthened to `cylinders`, 1 ms, DOP853 at

@@ -12,8 +12,9 @@ use chainsweep_solver::problems::{
     chain, kuwabara_kono_restitution, monodisperse, nesterenko_speed, power_law, repeat, rule,
     sound_speed, sphere, ContactTimer, PowerLawImpact, STEEL,
 };
-use chainsweep_solver::scene::{run, Excitation, IntegratorSpec, Scene};
+use chainsweep_solver::scene::{Excitation, IntegratorSpec, Scene};
 use chainsweep_solver::sequence::SequenceSpec;
+use chainsweep_solver::solve::run;
 use chainsweep_solver::ChainSpec;
 
 fn dop(rtol: f64) -> IntegratorSpec {

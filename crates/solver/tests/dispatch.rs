@@ -9,7 +9,8 @@
 use chainsweep_solver::cpu::{self, Level};
 use chainsweep_solver::model::{ChainSpec, CylinderMass};
 use chainsweep_solver::probes::Probe;
-use chainsweep_solver::scene::{run, IntegratorSpec, RunOutput, Scene};
+use chainsweep_solver::scene::{IntegratorSpec, Scene};
+use chainsweep_solver::solve::{run, RunOutput};
 
 fn scenes() -> Vec<(&'static str, Scene)> {
     let spec = |s: &str| -> IntegratorSpec { serde_json::from_str(s).unwrap() };

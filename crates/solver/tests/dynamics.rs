@@ -7,7 +7,8 @@ use chainsweep_solver::integrate::{
 };
 use chainsweep_solver::model::{Chain, ChainSpec, PhysicsSpec};
 use chainsweep_solver::probes::Probe;
-use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::scene::{IntegratorSpec, Scene};
+use chainsweep_solver::solve::run;
 use chainsweep_solver::system::ChainSystem;
 use chainsweep_solver::{ActiveRegion, AdaptiveOptions};
 

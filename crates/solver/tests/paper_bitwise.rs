@@ -9,7 +9,8 @@
 
 use chainsweep_solver::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
 use chainsweep_solver::probes::{Preload, Probe};
-use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+use chainsweep_solver::scene::{IntegratorSpec, Scene};
+use chainsweep_solver::solve::run;
 use chainsweep_solver::AdaptiveOptions;
 
 #[path = "../benches/reference.rs"]

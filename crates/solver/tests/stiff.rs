@@ -6,7 +6,8 @@ use chainsweep_solver::integrate::{
     Tridiagonal,
 };
 use chainsweep_solver::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
-use chainsweep_solver::scene::{state_scales, ImpactScales};
+use chainsweep_solver::scene::ImpactScales;
+use chainsweep_solver::solve::state_scales;
 use chainsweep_solver::system::{ChainSystem, Ledger};
 use chainsweep_solver::AdaptiveOptions;
 
@@ -315,7 +316,8 @@ fn observed_order_is_three_on_state_and_dissipated_work() {
 
 #[test]
 fn dop853_flags_a_stiff_chain_and_ros34pw2_does_not_need_to() {
-    use chainsweep_solver::scene::{run, IntegratorSpec, Scene};
+    use chainsweep_solver::scene::{IntegratorSpec, Scene};
+    use chainsweep_solver::solve::run;
     let scene = |mu: f64, integrator: IntegratorSpec| {
         let mut s = Scene::new(ChainSpec::chain_055(20), 1.3, 1e-4);
         s.chain.dimer_mut().unwrap().cylinder.mass =

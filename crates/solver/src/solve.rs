@@ -1,0 +1,319 @@
+//! Running a scene: the chain built from it, integrated (whole, or only its moving part,
+//! [`crate::active`]) with the probes and the ledger watching, into a [`RunOutput`] or a
+//! [`RunError`]. The scene itself, what it says, is [`crate::scene`].
+
+use std::time::Instant;
+
+#[cfg(feature = "serde")]
+use serde::Serialize;
+
+use crate::integrate::{
+    Dop853, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, Rk4, Ros34pw2,
+    VelocityVerlet, Vern6,
+};
+use crate::model::{Chain, SpecError};
+use crate::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RunObserver};
+use crate::scene::{
+    Excitation, ImpactScales, IntegratorSpec, Scene, MAX_HERTZ_OVERLAP_RATIO,
+    MIN_PULSE_TO_TRANSIT_RATIO,
+};
+use crate::system::EnergyTerms;
+
+/// Why a run failed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunError {
+    /// The scene is invalid.
+    Spec(SpecError),
+    /// The integrator gave up.
+    Integrate(IntegrateError),
+    /// The deadline given to [`run_until`] passed before the run ended.
+    Deadline {
+        /// Simulated time reached, s.
+        t_s: f64,
+        /// Accepted steps taken.
+        steps: u64,
+        /// Rejected step attempts.
+        rejected: u64,
+    },
+}
+
+impl std::fmt::Display for RunError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            RunError::Spec(e) => write!(f, "invalid scene: {e}"),
+            RunError::Integrate(e) => write!(f, "integration failed: {e}"),
+            RunError::Deadline { t_s, steps, rejected } => write!(
+                f,
+                "deadline reached at t = {t_s:.6e} s after {steps} steps ({rejected} rejected attempts)"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for RunError {}
+
+impl From<SpecError> for RunError {
+    fn from(e: SpecError) -> Self {
+        RunError::Spec(e)
+    }
+}
+
+impl From<IntegrateError> for RunError {
+    fn from(e: IntegrateError) -> Self {
+        RunError::Integrate(e)
+    }
+}
+
+/// Everything a run reports.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
+pub struct RunOutput {
+    /// Integrator name.
+    pub method: &'static str,
+    /// Steps and right-hand-side evaluations.
+    pub stats: IntegrationStats,
+    /// Time the run reached, s (the scene's duration unless it stopped after the leading pulses).
+    pub t_end_s: f64,
+    /// One summary per probe, in the record block's order.
+    pub probes: Vec<ProbeSummary>,
+    /// Histories, when recorded.
+    pub history: Option<History>,
+    /// Minimum overlap of every contact over the run, m, when recorded.
+    pub min_overlap_m: Option<Vec<f64>>,
+    /// Largest |E(t) − E(0)| over accepted steps, relative to the impact energy (the excitation's
+    /// energy scale, [`ImpactScales::energy_j`]).
+    pub energy_drift_max: f64,
+    /// |E(t_end) − E(0)| relative to the impact energy.
+    pub energy_drift_final: f64,
+    /// Largest momentum-balance residual over accepted steps, relative to the striker's momentum
+    /// (the excitation's momentum scale).
+    pub momentum_residual_max: f64,
+    /// Energy terms at the end, J.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub final_energy: EnergyTerms,
+    /// Energy scale of the excitation, J: the striker's (or the impulse's) kinetic energy, or for
+    /// a force pulse the estimate of [`ImpactScales::force_pulse`].
+    pub impact_energy_j: f64,
+    /// Largest contact overlap over the run (at step ends), m.
+    pub max_overlap_m: f64,
+    /// Particles integrated at the end when the run integrated only the moving part of its chain
+    /// ([`crate::active`]): the rest stayed at rest in static equilibrium throughout. `None` when
+    /// the whole chain was integrated.
+    pub active_particles: Option<usize>,
+    /// Where the run leaves the model's own assumptions (not fatal): overlaps too large for
+    /// Hertz's small-strain law, or an impact pulse not much longer than the time sound takes to
+    /// cross a particle (the paper's condition for using the static Hertz law, Sec. III).
+    pub warnings: Vec<String>,
+}
+
+/// Physical-validity warnings for a scene and its largest overlap.
+fn validity_warnings(
+    scene: &Scene,
+    chain: &Chain,
+    scales: &ImpactScales,
+    max_overlap: f64,
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    // Hertz's law is judged on the smallest sphere; chains of flat faces only have explicit laws.
+    if let Some(radius) = chain.smallest_sphere_radius_m() {
+        let ratio = max_overlap / radius;
+        if ratio > MAX_HERTZ_OVERLAP_RATIO {
+            warnings.push(format!(
+                "largest overlap {max_overlap:.3e} m is {ratio:.3} of the sphere radius (> {MAX_HERTZ_OVERLAP_RATIO}): Hertz's small-strain contact law is stretched"
+            ));
+        }
+    }
+    // The excitation's pulse (the two-body impact, or the force pulse) against the slowest
+    // crossing of a particle.
+    let duration = scales.contact_duration_s();
+    let transit = chain.sound_transit_s();
+    if duration < MIN_PULSE_TO_TRANSIT_RATIO * transit {
+        let what = match scene.excitation {
+            Some(Excitation::HalfSineForce { .. }) => "force pulse",
+            _ => "impact pulse",
+        };
+        warnings.push(format!(
+            "{what} of {duration:.3e} s is only {:.1} times the sound transit time through a particle ({transit:.3e} s; want > {MIN_PULSE_TO_TRANSIT_RATIO}): the static Hertz law assumes a much longer pulse",
+            duration / transit
+        ));
+    }
+    warnings
+}
+
+/// Per-component absolute-tolerance scales for the state `[x, v, q]`: the two-body peak overlap
+/// for positions, the striker velocity for velocities, the impact energy and momentum for the
+/// dissipated work, the wall impulse and the work of a force pulse. The adaptive integrators
+/// multiply them by `atol`.
+pub fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
+    let n = chain.n_particles();
+    let mut s = vec![scales.overlap_m; chain.state_len()];
+    s[n..2 * n].fill(scales.velocity_m_s);
+    if let Some(k) = chain.work_index() {
+        s[k] = scales.energy_j;
+    }
+    if let Some(k) = chain.wall_impulse_index() {
+        s[k] = scales.momentum;
+    }
+    if let Some(k) = chain.pulse_work_index() {
+        s[k] = scales.energy_j;
+    }
+    s
+}
+
+/// Integrates `sys` from `(t0, y0)` over consecutive legs ending at each of `leg_ends` (the last
+/// is the run's end), each leg a fresh call of the integrator, so that no step straddles a time
+/// where the right-hand side is not smooth. The observer sees one continuous record (it takes the
+/// second and later `on_start` as continuations); the step budget and the statistics are the
+/// run's, summed over the legs. Stops after the leg in which the observer stopped the run.
+fn integrate_legs(
+    integrator: &dyn Integrator,
+    sys: &mut dyn OdeSystemDyn,
+    t0: f64,
+    y0: &[f64],
+    leg_ends: &[f64],
+    max_steps: u64,
+    observer: &mut RunObserver,
+) -> Result<IntegrationStats, IntegrateError> {
+    if let [t_end] = leg_ends {
+        return integrator.integrate(sys, t0, y0, *t_end, max_steps, observer);
+    }
+    observer.state = Some(y0.to_vec());
+    let mut total = IntegrationStats::default();
+    let mut t = t0;
+    let mut y = y0.to_vec();
+    for &t_leg in leg_ends {
+        let budget = max_steps.saturating_sub(total.attempts());
+        let stats = integrator
+            .integrate(sys, t, &y, t_leg, budget, observer)
+            .map_err(|e| match e {
+                IntegrateError::StepBudget { t, .. } => IntegrateError::StepBudget { max_steps, t },
+                other => other,
+            })?;
+        total.add(&stats);
+        if observer.stopped || total.attempts() >= max_steps {
+            break;
+        }
+        t = t_leg;
+        y.copy_from_slice(observer.state.as_ref().expect("kept for legs"));
+    }
+    Ok(total)
+}
+
+/// Runs a scene.
+pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
+    run_until(scene, None)
+}
+
+/// Runs a scene, giving up with [`RunError::Deadline`] once `deadline` has passed (`None`: no
+/// deadline). The clock is read every [`DEADLINE_CHECK_STEPS`] accepted steps, so the run ends
+/// within that many steps of the deadline; a run that only rejects attempts ends on its step
+/// budget ([`Scene::max_steps`]) instead.
+pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, RunError> {
+    let chain = scene.validate()?;
+    let scales = scene.impact_scales(&chain);
+    let probes = ProbeSet::new(
+        &chain,
+        &scene.record.probes,
+        scene.record.preload,
+        scales.force_n,
+        scales.velocity_m_s,
+        scales.overlap_m,
+    );
+    let opts = ObserverOptions {
+        history: scene.record.history,
+        history_interval: scene.record.history_interval_s,
+        summary_interval: scene.record.summary_interval_s,
+        min_overlap: scene.record.min_overlap,
+        arrival_fraction: scene.record.leading_pulse.arrival_fraction,
+        release_fraction: scene.record.leading_pulse.release_fraction,
+        stop_after_leading_pulses: scene.record.stop_after_leading_pulses,
+        impact_energy: scales.energy_j,
+        impact_momentum: scales.momentum,
+    };
+    let t0 = 0.0;
+    let t_end = scene.duration_s;
+    let mut observer = RunObserver::new(&chain, probes, opts, t0, t_end);
+    observer.deadline = deadline;
+
+    let y0 = chain.initial_state(scene.initial_velocity_m_s());
+    let mut leg_ends = scene.breakpoints_s();
+    leg_ends.push(t_end);
+
+    let build = |c: &Chain| -> Box<dyn Integrator> {
+        match scene.integrator {
+            IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
+            IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
+            IntegratorSpec::Dop853(options) => {
+                Box::new(Dop853::with_options(options).with_atol_scale(state_scales(c, &scales)))
+            }
+            IntegratorSpec::Ros34pw2(options) => {
+                Box::new(Ros34pw2::with_options(options).with_atol_scale(state_scales(c, &scales)))
+            }
+            IntegratorSpec::Vern6(options) => {
+                Box::new(Vern6::with_options(options).with_atol_scale(state_scales(c, &scales)))
+            }
+        }
+    };
+    let integrator = build(&chain);
+    let (stats, active_particles) = match crate::active::plan(scene, &chain, &scales, &y0) {
+        Some(plan) => {
+            let (stats, k) = crate::active::integrate(
+                &plan,
+                &build,
+                &chain,
+                t0,
+                &y0,
+                &leg_ends,
+                scene.max_steps,
+                &mut observer,
+            )?;
+            (stats, Some(k))
+        }
+        None => (
+            crate::dispatch_chain_system!(&chain, |sys| integrate_legs(
+                integrator.as_ref(),
+                &mut sys,
+                t0,
+                &y0,
+                &leg_ends,
+                scene.max_steps,
+                &mut observer
+            ))?,
+            None,
+        ),
+    };
+    if observer.deadline_reached {
+        return Err(RunError::Deadline {
+            t_s: observer.t_reached,
+            steps: stats.steps,
+            rejected: stats.rejected,
+        });
+    }
+
+    let mut warnings = validity_warnings(scene, &chain, &scales, observer.max_overlap);
+    if stats.stiffness_detections > 0 {
+        warnings.push(format!(
+            "{}: steps were held by stability, not accuracy ({} stiff stretches): the chain is stiff here (damping against light masses); ros34pw2 needs far fewer steps",
+            integrator.name(),
+            stats.stiffness_detections
+        ));
+    }
+    Ok(RunOutput {
+        method: integrator.name(),
+        active_particles,
+        max_overlap_m: observer.max_overlap,
+        warnings,
+        stats,
+        t_end_s: observer.t_reached,
+        probes: observer.summaries(),
+        energy_drift_max: observer.energy_drift_max,
+        energy_drift_final: observer.energy_drift_final,
+        momentum_residual_max: observer.momentum_residual_max,
+        final_energy: observer
+            .last_energy
+            .expect("observer saw the initial state"),
+        impact_energy_j: scales.energy_j,
+        min_overlap_m: observer.min_overlap.take(),
+        history: observer.history.take(),
+    })
+}
