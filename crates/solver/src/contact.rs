@@ -74,8 +74,8 @@ pub enum DissipationSpec {
 
 impl DissipationSpec {
     /// Checks the parameters; `field` is the dotted path of the spec.
-    pub fn validate(&self, field: &str) -> Result<(), crate::model::SpecError> {
-        use crate::model::spec_err;
+    pub fn validate(&self, field: &str) -> Result<(), crate::spec::SpecError> {
+        use crate::spec::spec_err;
         match *self {
             DissipationSpec::LinearViscous { damping_kg_s: v } => {
                 if !(v.is_finite() && v >= 0.0) {

@@ -5,6 +5,8 @@
 //! as the default (with the conventions of the project's `docs/MODEL.md`), and any one-dimensional
 //! granular chain beyond it (`docs/CHAINS.md` teaches how to describe one):
 //!
+//! - [`spec`]: errors of a specification, naming the field;
+//! - [`parts`]: what a chain is made of: materials, shapes, particles, the Hertz coefficient;
 //! - [`model`]: the chain's configuration with the paper's defaults and the built [`model::Chain`];
 //! - [`sequence`]: chains as sequences of named particle types, with taper and disorder;
 //! - [`contact`]: the contact laws (Hertz, power laws) and dissipation models (linear viscous,
@@ -39,11 +41,13 @@ pub mod general;
 pub mod integrate;
 mod jacobian;
 pub mod model;
+pub mod parts;
 pub mod probes;
 pub mod problems;
 pub mod scene;
 pub mod sequence;
 pub mod solve;
+pub mod spec;
 pub mod system;
 
 pub use active::{integrates_moving_part, integrates_moving_part_of, ActiveRegion};

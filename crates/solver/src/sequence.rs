@@ -26,10 +26,11 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 use crate::contact::{DissipationSpec, LawSpec, SplitMix64, MAX_EXPONENT};
-use crate::model::{
-    check_material, check_positive, hertz_coefficient, spec_err, Layout, Material, Particle,
-    ParticleKind, Shape, SpecError, MAX_PARTICLES,
+use crate::parts::{
+    check_material, hertz_coefficient, Layout, Material, Particle, ParticleKind, Shape,
+    MAX_PARTICLES,
 };
+use crate::spec::{check_positive, spec_err, SpecError};
 
 /// Name a contact rule uses for the wall.
 pub const WALL: &str = "wall";

@@ -1,0 +1,142 @@
+//! What a chain is made of: materials, particle shapes and kinds, the Hertz coefficient of two
+//! bodies, and a chain resolved into particles and per-contact laws (a `Layout`) before physics.
+//! The specs as written ([`crate::model`], [`crate::sequence`]) resolve into these.
+
+#[cfg(feature = "serde")]
+use serde::{Deserialize, Serialize};
+
+use crate::contact::DissipationSpec;
+use crate::spec::{check_positive, spec_err, SpecError};
+
+/// Elastic constants of a material.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct Material {
+    /// Young's modulus, Pa.
+    pub youngs_modulus_pa: f64,
+    /// Poisson's ratio, dimensionless.
+    pub poisson_ratio: f64,
+}
+
+impl Material {
+    /// 440C stainless steel (spheres and striker): E = 200 GPa, ν = 0.28.
+    pub const STEEL_440C: Material = Material {
+        youngs_modulus_pa: 200e9,
+        poisson_ratio: 0.28,
+    };
+    /// SS304 stainless steel (cylinders, wall): E = 193 GPa, ν = 0.29.
+    pub const STEEL_SS304: Material = Material {
+        youngs_modulus_pa: 193e9,
+        poisson_ratio: 0.29,
+    };
+}
+
+/// Hertz coefficient `A` of Eq. (1): `F = A δ^{3/2}` for two bodies with radii of curvature
+/// `r1`, `r2` at the contact; `None` stands for a flat surface (infinite radius), which gives
+/// Eq. (4) for a sphere on a flat.
+pub fn hertz_coefficient(m1: Material, r1: Option<f64>, m2: Material, r2: Option<f64>) -> f64 {
+    let (e1, n1) = (m1.youngs_modulus_pa, m1.poisson_ratio);
+    let (e2, n2) = (m2.youngs_modulus_pa, m2.poisson_ratio);
+    let effective_radius = match (r1, r2) {
+        (Some(a), Some(b)) => a * b / (a + b),
+        (Some(a), None) | (None, Some(a)) => a,
+        (None, None) => f64::INFINITY,
+    };
+    4.0 * e1 * e2 / (3.0 * (e1 * (1.0 - n2 * n2) + e2 * (1.0 - n1 * n1))) * effective_radius.sqrt()
+}
+
+/// Kind of a particle in the chain.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ParticleKind {
+    /// The striker (particle 1 of a chain that has one; a sphere in the paper's chain).
+    Striker,
+    /// A sphere.
+    Sphere,
+    /// A flat-ended cylinder.
+    Cylinder,
+}
+
+/// Shape of a particle.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Shape {
+    /// A sphere.
+    Sphere {
+        /// Diameter, m.
+        diameter_m: f64,
+    },
+    /// A cylinder with flat ends along the chain.
+    Cylinder {
+        /// Diameter, m.
+        diameter_m: f64,
+        /// Height (length along the chain), m.
+        height_m: f64,
+    },
+}
+
+impl Shape {
+    /// Radius of curvature of the faces that touch the neighbours: `None` for a flat face.
+    pub fn contact_radius(&self) -> Option<f64> {
+        match *self {
+            Shape::Sphere { diameter_m } => Some(0.5 * diameter_m),
+            Shape::Cylinder { .. } => None,
+        }
+    }
+
+    /// Length along the chain, m.
+    pub fn length_m(&self) -> f64 {
+        match *self {
+            Shape::Sphere { diameter_m } => diameter_m,
+            Shape::Cylinder { height_m, .. } => height_m,
+        }
+    }
+
+    /// Volume, m³.
+    pub fn volume_m3(&self) -> f64 {
+        match *self {
+            Shape::Sphere { diameter_m } => std::f64::consts::PI / 6.0 * diameter_m.powi(3),
+            Shape::Cylinder {
+                diameter_m,
+                height_m,
+            } => 0.25 * std::f64::consts::PI * diameter_m * diameter_m * height_m,
+        }
+    }
+}
+
+pub(crate) fn check_material(field: &str, m: &Material) -> Result<(), SpecError> {
+    let e = m.youngs_modulus_pa;
+    if !(e.is_finite() && e > 0.0) {
+        check_positive(&format!("{field}.youngs_modulus_pa"), e)?;
+    }
+    if !(m.poisson_ratio.is_finite() && m.poisson_ratio > -1.0 && m.poisson_ratio < 0.5) {
+        return Err(spec_err(
+            &format!("{field}.poisson_ratio"),
+            format!("must lie in (-1, 0.5), got {}", m.poisson_ratio),
+        ));
+    }
+    Ok(())
+}
+
+/// Largest number of particles a chain may have.
+pub const MAX_PARTICLES: usize = 2_000_002;
+
+/// One particle of a resolved chain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Particle {
+    pub kind: ParticleKind,
+    pub shape: Shape,
+    pub material: Material,
+    pub mass_kg: f64,
+}
+
+/// A chain description resolved into particles and per-contact laws, before physics.
+#[derive(Debug, Clone)]
+pub(crate) struct Layout {
+    pub particles: Vec<Particle>,
+    pub striker: bool,
+    /// `(A, n)` of each contact, the wall's last when there is a wall.
+    pub laws: Vec<(f64, f64)>,
+    /// A per-pair dissipation model replacing the physics block's.
+    pub dissipation: Vec<Option<DissipationSpec>>,
+    pub cell_length_m: Option<f64>,
+}
