@@ -5,9 +5,10 @@
 //! a few times a second, takes it to check Python's signals (Ctrl-C, a notebook's interrupt) and
 //! to report progress to a Python callback. Progress is what the engine's [`ProgressSink`] hears
 //! (the runs to do when they start, each run as it finishes), kept in atomics the calling thread
-//! reads: the same counts as the command line's progress bar, a search's included. Ctrl-C asks the runner to stop cleanly: runs in
-//! flight finish and are stored, the output is assembled with the rest pending, and the
-//! `KeyboardInterrupt` is raised once the runner has returned, so the same call resumes.
+//! reads: the same counts as the command line's progress bar, a search's included. Ctrl-C asks
+//! the runner to stop cleanly: runs in flight finish and are stored, the output is assembled with
+//! the rest pending, and the `KeyboardInterrupt` is raised once the runner has returned, so the
+//! same call resumes.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
