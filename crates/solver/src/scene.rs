@@ -169,16 +169,7 @@ impl IntegratorSpec {
 
     /// Checks the settings; errors name the field (relative to `integrator`).
     pub fn validate(&self) -> Result<(), SpecError> {
-        let pos = |name: &str, v: f64| -> Result<(), SpecError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(spec_err(
-                    name,
-                    format!("must be a finite number > 0, got {v}"),
-                ))
-            }
-        };
+        let pos = crate::spec::check_positive;
         match *self {
             IntegratorSpec::Verlet { dt_s } | IntegratorSpec::Rk4 { dt_s } => {
                 pos("integrator.dt_s", dt_s)

@@ -208,6 +208,26 @@ pub struct Outcome {
 }
 
 impl Outcome {
+    /// The outcome of a search (or the part of it) that a failed run at `at` stopped
+    /// (`failed: stop`).
+    pub fn failed_at(spec: &SearchSpec, at: &[f64]) -> Outcome {
+        let place: Vec<String> = spec
+            .fields
+            .iter()
+            .zip(at)
+            .map(|(f, x)| format!("{} = {x}", f.name))
+            .collect();
+        Outcome {
+            status: SearchStatus::Failed,
+            items: Vec::new(),
+            refine_error: f64::NAN,
+            note: format!(
+                "the run at {} failed or gave no number (failed: stop)",
+                place.join(", ")
+            ),
+        }
+    }
+
     fn running(items: Vec<Item>, refine_error: f64) -> Outcome {
         Outcome {
             status: SearchStatus::Running,

@@ -39,24 +39,6 @@ use crate::sweep::search::{OnFailure, SearchSpec};
 /// below the floating-point resolution).
 const MAX_ROUNDS: usize = 100_000;
 
-fn failed(spec: &SearchSpec, at: &[f64]) -> Outcome {
-    let place: Vec<String> = spec
-        .fields
-        .iter()
-        .zip(at)
-        .map(|(f, x)| format!("{} = {x}", f.name))
-        .collect();
-    Outcome {
-        status: SearchStatus::Failed,
-        items: Vec::new(),
-        refine_error: f64::NAN,
-        note: format!(
-            "the run at {} failed or gave no number (failed: stop)",
-            place.join(", ")
-        ),
-    }
-}
-
 /// The estimated interpolation error of every interval of the samples `xs`, `ys` (sorted by
 /// `x`), `surplus[i]` the error measured when interval `i` was made by halving (see the module
 /// docs); `None` for an interval touching a sample without a number.
@@ -96,7 +78,7 @@ pub fn curve(spec: &SearchSpec, s: &mut Streams) -> Outcome {
     for _ in 0..MAX_ROUNDS {
         if spec.on_failure == OnFailure::Stop {
             if let Some(i) = ys.iter().position(|y| y.is_none()) {
-                return failed(spec, &[xs[i]]);
+                return Outcome::failed_at(spec, &[xs[i]]);
             }
         }
         let errors = interval_errors(&xs, &ys, &surplus);
@@ -282,7 +264,7 @@ pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
     for _ in 0..MAX_ROUNDS {
         if spec.on_failure == OnFailure::Stop {
             if let Some((&(a, b), _)) = values.iter().find(|(_, v)| v.is_none()) {
-                return failed(spec, &point(a, b));
+                return Outcome::failed_at(spec, &point(a, b));
             }
         }
         let errors: Vec<Option<(f64, f64, f64)>> =

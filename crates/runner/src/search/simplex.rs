@@ -68,7 +68,7 @@ pub fn minimise(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
     };
     if spec.on_failure == OnFailure::Stop {
         if let Some(k) = ys.iter().position(|y| y.is_none()) {
-            return failed(spec, &points[k]);
+            return Outcome::failed_at(spec, &points[k]);
         }
     }
     let g: Vec<f64> = ys
@@ -129,24 +129,6 @@ pub fn minimise(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
         f64::NAN,
         format!("the best of {n_found} local search(es) from the scan's best points"),
     )
-}
-
-fn failed(spec: &SearchSpec, at: &[f64]) -> Outcome {
-    let place: Vec<String> = spec
-        .fields
-        .iter()
-        .zip(at)
-        .map(|(f, x)| format!("{} = {x}", f.name))
-        .collect();
-    Outcome {
-        status: SearchStatus::Failed,
-        items: Vec::new(),
-        refine_error: f64::NAN,
-        note: format!(
-            "the run at {} failed or gave no number (failed: stop)",
-            place.join(", ")
-        ),
-    }
 }
 
 /// One part: Nelder–Mead with restarts from `u0` (whose g and objective are `f0`), through
