@@ -359,16 +359,7 @@ impl Scene {
     /// Checks the whole scene before anything runs; the error names the field.
     pub fn validate(&self) -> Result<Chain, SpecError> {
         let mut chain = Chain::build(&self.chain, &self.physics)?;
-        let positive = |field: &str, v: f64| -> Result<(), SpecError> {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(spec_err(
-                    field,
-                    format!("must be a finite number > 0, got {v}"),
-                ))
-            }
-        };
+        let positive = crate::spec::check_positive;
         match (chain.striker, self.striker_velocity_m_s, self.excitation) {
             (true, Some(v0), None) => positive("striker_velocity_m_s", v0)?,
             (true, None, _) => {

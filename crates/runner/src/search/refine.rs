@@ -39,6 +39,24 @@ use crate::sweep::search::{OnFailure, SearchSpec};
 /// below the floating-point resolution).
 const MAX_ROUNDS: usize = 100_000;
 
+/// A refinement that has ended: `unresolved` parts (`parts`: intervals or cells) still above the
+/// tolerance make it stalled; `gaps` of them next to a failed run are said in the note.
+fn ended(mut note: String, unresolved: usize, gaps: usize, parts: &str, largest: f64) -> Outcome {
+    if gaps > 0 {
+        note += &format!("; {gaps} {parts} next to a failed run left as gaps");
+    }
+    Outcome {
+        status: if unresolved > 0 {
+            SearchStatus::Stalled
+        } else {
+            SearchStatus::Converged
+        },
+        items: Vec::new(),
+        refine_error: largest,
+        note,
+    }
+}
+
 /// The estimated interpolation error of every interval of the samples `xs`, `ys` (sorted by
 /// `x`), `surplus[i]` the error measured when interval `i` was made by halving (see the module
 /// docs); `None` for an interval touching a sample without a number.
@@ -107,19 +125,7 @@ pub fn curve(spec: &SearchSpec, s: &mut Streams) -> Outcome {
                     f.name
                 );
             }
-            if gaps > 0 {
-                note += &format!("; {gaps} interval(s) next to a failed run left as gaps");
-            }
-            return Outcome {
-                status: if unresolved > 0 {
-                    SearchStatus::Stalled
-                } else {
-                    SearchStatus::Converged
-                },
-                items: Vec::new(),
-                refine_error: largest,
-                note,
-            };
+            return ended(note, unresolved, gaps, "interval(s)", largest);
         }
         // The largest first (ties: lower x); then in x order.
         todo.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
@@ -296,19 +302,7 @@ pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
                     "; {unresolved} cell(s) at the fields' tolerance still above it (a jump or a kink)"
                 );
             }
-            if gaps > 0 {
-                note += &format!("; {gaps} cell(s) next to a failed run left as gaps");
-            }
-            return Outcome {
-                status: if unresolved > 0 {
-                    SearchStatus::Stalled
-                } else {
-                    SearchStatus::Converged
-                },
-                items: Vec::new(),
-                refine_error: largest,
-                note,
-            };
+            return ended(note, unresolved, gaps, "cell(s)", largest);
         }
         todo.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         todo.truncate(spec.round);
