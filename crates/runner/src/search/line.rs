@@ -24,13 +24,6 @@ struct Bracketed {
 }
 
 /// The point of the field where a run failed, as a note says it.
-fn failed_at(spec: &SearchSpec, x: f64) -> String {
-    format!(
-        "the run at {} = {x} failed or gave no number (failed: stop)",
-        spec.fields[0].name
-    )
-}
-
 /// Every local minimum (`sign` 1) or maximum (`sign` -1) of the objective over the one field.
 pub fn extrema(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
     let f = &spec.fields[0];
@@ -42,12 +35,7 @@ pub fn extrema(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
     // Minimised: g = sign · y; a run without a number is worse than any (failed: worst).
     if spec.on_failure == OnFailure::Stop {
         if let Some(i) = ys.iter().position(|y| y.is_none()) {
-            return Outcome {
-                status: SearchStatus::Failed,
-                items: Vec::new(),
-                refine_error: f64::NAN,
-                note: failed_at(spec, xs[i]),
-            };
+            return Outcome::failed_at(spec, &[xs[i]]);
         }
     }
     let g: Vec<f64> = ys
@@ -231,12 +219,7 @@ pub fn roots(spec: &SearchSpec, s: &mut Streams) -> Outcome {
         return Outcome::running(Vec::new(), f64::NAN);
     };
     if let Some(i) = ys.iter().position(|y| y.is_none()) {
-        return Outcome {
-            status: SearchStatus::Failed,
-            items: Vec::new(),
-            refine_error: f64::NAN,
-            note: failed_at(spec, xs[i]),
-        };
+        return Outcome::failed_at(spec, &[xs[i]]);
     }
     let h: Vec<f64> = ys
         .iter()
