@@ -188,6 +188,24 @@ fn fingerprint() -> String {
     s.record.probes = vec![Probe::GaugeForce { cylinder: 21 }];
     s.record.stop_after_leading_pulses = true;
     run_fingerprint("heavy_stop_early", &s, &mut out);
+
+    // Verner 6(5) and DOP853 with switch prediction, each through its dense output (probes and
+    // history) and its event location.
+    let mut s = Scene::new(ChainSpec::chain_098(30), 1.06, 6e-4);
+    s.physics.damping_kg_s = 6.0;
+    s.record.probes = vec![
+        Probe::GaugeForce { cylinder: 4 },
+        Probe::GaugeForce { cylinder: 21 },
+        Probe::Velocity { particle: 2 },
+    ];
+    s.record.history = true;
+    s.record.history_interval_s = 5e-6;
+    s.integrator = IntegratorSpec::Vern6(AdaptiveOptions::new(1e-8));
+    run_fingerprint("chain_098_vern6", &s, &mut out);
+    let mut predict = AdaptiveOptions::new(1e-8);
+    predict.predict_switches = true;
+    s.integrator = IntegratorSpec::Dop853(predict);
+    run_fingerprint("chain_098_dop853_predict", &s, &mut out);
     out
 }
 
@@ -237,6 +255,18 @@ free_verlet: probe 1 3fe727d777dcb86c 3f1ff2c12eeaea19 3fe727d777dcb86c 3f1ff2c1
 heavy_stop_early: steps 680 rejected 244 events 27 rhs 12994 t_end 3f42ccde18f5483f drift 3e2ca4bd424479de 3e265bbdc34f2506 momentum 3ce17164a8ee4805 max_overlap 3ee62d8b930148ec impact 3f61f4a7dd293b62 warnings 0\n\
 heavy_stop_early: energy 3f37deca34ae05d0 3f31abd7dc45b06e bf125a5cec4ad1e3 3f5a260879358998\n\
 heavy_stop_early: probe 0 4048654001622751 3f415f72e8544a0d 4048654001622751 3f415f72e8544a0d\n\
+chain_098_vern6: steps 678 rejected 212 events 82 rhs 9402 t_end 3f43a92a30553261 drift 3e9052630e8aaf95 3e9052630c3fc1fd momentum 3d20b53d140110cf max_overlap 3ee1e535d5052568 impact 3f533102b4eebd40 warnings 0\n\
+chain_098_vern6: energy 3f278b64b476e2e0 3f24d44e86a35695 bef5f00c05a65a78 3f4bd146303840bf\n\
+chain_098_vern6: probe 0 4058cd65fcaefb75 3f17bc4e9e4bf518 4058cd65fcaefb75 3f17bc4e9e4bf518\n\
+chain_098_vern6: probe 1 404f085493958f29 3f3dc89a6ea53997 404f085493958f29 3f3dc89a6ea53997\n\
+chain_098_vern6: probe 2 3fe6d9fa7c5a69a9 3ef2c3fb73ae1982 3fe6d9fa7c5a69a9 3ef2c3fb73ae1982\n\
+chain_098_vern6: history 120 c8821081e927eaff\n\
+chain_098_dop853_predict: steps 226 rejected 56 events 53 rhs 4052 t_end 3f43a92a30553261 drift 3e8fcb3c90e84860 3e8fcb3c90e84860 momentum 3ce8be8e145120ee max_overlap 3ee1ed004b12dce8 impact 3f533102b4eebd40 warnings 0\n\
+chain_098_dop853_predict: energy 3f278b65660590d2 3f24d44f10131030 bef5f00c05a65a19 3f4bd145e58c5d84\n\
+chain_098_dop853_predict: probe 0 4058cd663fba81ea 3f17bc4e9cfffb10 4058cd663fba81ea 3f17bc4e9cfffb10\n\
+chain_098_dop853_predict: probe 1 404f0855184619cb 3f3dc89a69cbfe7a 404f0855184619cb 3f3dc89a69cbfe7a\n\
+chain_098_dop853_predict: probe 2 3fe6d9faf923cf91 3ef2c3fbdeb758d9 3fe6d9faf923cf91 3ef2c3fbdeb758d9\n\
+chain_098_dop853_predict: history 120 8fd8e3c9a0c5c902\n\
 ";
 
 #[test]
