@@ -15,25 +15,10 @@
 // the bounds checks.
 #![allow(clippy::needless_range_loop)]
 
-use std::cell::Cell;
-
 use chainsweep_cpu::MulAdd;
 
-use super::adaptive::{Adaptive, Attempt, Controller, Method, RejectionForm, Rhs, Stepper};
-use super::{all_finite, DenseStep};
-
-/// Sum of a slice in eight interleaved partial sums, which vectorises.
-fn lane_sum(v: &[f64]) -> f64 {
-    let chunks = v.chunks_exact(8);
-    let mut acc = [0.0f64; 8];
-    let rest: f64 = chunks.remainder().iter().sum();
-    for c in chunks {
-        for k in 0..8 {
-            acc[k] += c[k];
-        }
-    }
-    acc.iter().sum::<f64>() + rest
-}
+use super::adaptive::{Adaptive, Controller, Method, RejectionForm, Rhs};
+use super::explicit::{gather, lane_sum, weighted_sum, ExplicitMethod, Stage, Tableau, Work};
 
 /// h·|λ| above which a step is on DOP853's stability boundary (Hairer's `dop853.f`).
 const STIFFNESS_BOUND: f64 = 6.1;
@@ -63,8 +48,8 @@ impl Method for Dop853Method {
         max_growth: 6.0,
         rejection: RejectionForm::DivideByInverse,
     };
-    type Stepper = Work;
-    fn stepper(y0: &[f64], _n_pos: usize) -> Work {
+    type Stepper = Work<Self>;
+    fn stepper(y0: &[f64], _n_pos: usize) -> Work<Self> {
         Work::new(y0)
     }
 }
@@ -239,375 +224,275 @@ const D714: f64 = 0.96324553959188282948394950600e+02;
 const D715: f64 = -0.39177261675615439165231486172e+02;
 const D716: f64 = -0.14972683625798562581422125276e+03;
 
-// ---------------------------------------------------------------------------------------------
-// Work space.
-// ---------------------------------------------------------------------------------------------
+/// The stages: stage j of Hairer's numbering is stage j − 1 here (0 is `f(t, y)`); stage 12 is
+/// `f(t + h, y_new)` (Hairer's k13, the next step's first), 13–15 the continuous extension's.
+const STAGES: &[Stage] = &[
+    Stage { c: 0.0, a: &[] },
+    Stage {
+        c: C2,
+        a: &[(0, A21)],
+    },
+    Stage {
+        c: C3,
+        a: &[(0, A31), (1, A32)],
+    },
+    Stage {
+        c: C4,
+        a: &[(0, A41), (2, A43)],
+    },
+    Stage {
+        c: C5,
+        a: &[(0, A51), (2, A53), (3, A54)],
+    },
+    Stage {
+        c: C6,
+        a: &[(0, A61), (3, A64), (4, A65)],
+    },
+    Stage {
+        c: C7,
+        a: &[(0, A71), (3, A74), (4, A75), (5, A76)],
+    },
+    Stage {
+        c: C8,
+        a: &[(0, A81), (3, A84), (4, A85), (5, A86), (6, A87)],
+    },
+    Stage {
+        c: C9,
+        a: &[(0, A91), (3, A94), (4, A95), (5, A96), (6, A97), (7, A98)],
+    },
+    Stage {
+        c: C10,
+        a: &[
+            (0, A101),
+            (3, A104),
+            (4, A105),
+            (5, A106),
+            (6, A107),
+            (7, A108),
+            (8, A109),
+        ],
+    },
+    Stage {
+        c: C11,
+        a: &[
+            (0, A111),
+            (3, A114),
+            (4, A115),
+            (5, A116),
+            (6, A117),
+            (7, A118),
+            (8, A119),
+            (9, A1110),
+        ],
+    },
+    Stage {
+        c: 1.0,
+        a: &[
+            (0, A121),
+            (3, A124),
+            (4, A125),
+            (5, A126),
+            (6, A127),
+            (7, A128),
+            (8, A129),
+            (9, A1210),
+            (10, A1211),
+        ],
+    },
+    Stage { c: 1.0, a: WEIGHTS },
+    Stage {
+        c: C14,
+        a: &[
+            (0, A141),
+            (6, A147),
+            (7, A148),
+            (8, A149),
+            (9, A1410),
+            (10, A1411),
+            (11, A1412),
+            (12, A1413),
+        ],
+    },
+    Stage {
+        c: C15,
+        a: &[
+            (0, A151),
+            (5, A156),
+            (6, A157),
+            (7, A158),
+            (10, A1511),
+            (11, A1512),
+            (12, A1513),
+            (13, A1514),
+        ],
+    },
+    Stage {
+        c: C16,
+        a: &[
+            (0, A161),
+            (5, A166),
+            (6, A167),
+            (7, A168),
+            (8, A169),
+            (12, A1613),
+            (13, A1614),
+            (14, A1615),
+        ],
+    },
+];
 
-/// Every vector the step loop touches, allocated once per run.
-pub struct Work {
-    /// Squared, scaled components of the 3rd-order error estimate (scratch).
-    e3_sq: Vec<f64>,
-    /// Squared, scaled components of the 5th-order error estimate (scratch).
-    e5_sq: Vec<f64>,
-    /// Hairer's stiffness estimate h·|λ| of the last accepted step.
-    stiffness: f64,
-    /// State at the start of the current step.
-    y: Vec<f64>,
-    /// 8th-order solution at the end of the current step.
-    y_new: Vec<f64>,
-    /// Argument of the stage being evaluated.
-    ys: Vec<f64>,
-    k1: Vec<f64>,
-    /// Stage 2; reused for dense stage 14 after the step is accepted.
-    k2: Vec<f64>,
-    /// Stage 3; reused for dense stage 15.
-    k3: Vec<f64>,
-    /// Stage 4; reused for dense stage 16.
-    k4: Vec<f64>,
-    k5: Vec<f64>,
-    k6: Vec<f64>,
-    k7: Vec<f64>,
-    k8: Vec<f64>,
-    k9: Vec<f64>,
-    k10: Vec<f64>,
-    k11: Vec<f64>,
-    k12: Vec<f64>,
-    /// `f(t + h, y_new)`: stage 13, which becomes stage 1 of the next step (FSAL).
-    k13: Vec<f64>,
-    /// Dense-output coefficients of each component, computed on first use in a step: probes and
-    /// event location read a handful of components, so building all of them every step would
-    /// cost more than the stages themselves.
-    cont: Vec<Cell<[f64; 8]>>,
-    /// Step number for which `cont[i]` holds the coefficients.
-    cont_epoch: Vec<Cell<u64>>,
-    /// Number of the current dense step (starts at 1 so that no coefficient is valid initially).
-    epoch: u64,
-}
+/// The 8th-order weights.
+const WEIGHTS: &[(usize, f64)] = &[
+    (0, B1),
+    (5, B6),
+    (6, B7),
+    (7, B8),
+    (8, B9),
+    (9, B10),
+    (10, B11),
+    (11, B12),
+];
 
-impl Work {
-    fn new(y0: &[f64]) -> Self {
-        let n = y0.len();
-        let z = || vec![0.0; n];
-        Work {
-            y: y0.to_vec(),
-            y_new: z(),
-            ys: z(),
-            k1: z(),
-            k2: z(),
-            k3: z(),
-            k4: z(),
-            k5: z(),
-            k6: z(),
-            k7: z(),
-            k8: z(),
-            k9: z(),
-            k10: z(),
-            k11: z(),
-            k12: z(),
-            k13: z(),
-            cont: vec![Cell::new([0.0; 8]); n],
-            cont_epoch: vec![Cell::new(0); n],
-            epoch: 0,
-            stiffness: 0.0,
-            e3_sq: vec![0.0; n],
-            e5_sq: vec![0.0; n],
-        }
-    }
+/// The 5th-order error weights: the 8th-order weights minus those of the embedded 5th-order
+/// solution.
+const ERROR5: &[(usize, f64)] = &[
+    (0, ER1),
+    (5, ER6),
+    (6, ER7),
+    (7, ER8),
+    (8, ER9),
+    (9, ER10),
+    (10, ER11),
+    (11, ER12),
+];
 
-    /// Stages 2 to 12 of a step of size `h` from `(t, y)` (stage 1 is `k1`), the 8th-order
-    /// solution into `y_new`, and Hairer's combined 5th/3rd-order error norm. `t_new` is the end
-    /// of the step (`t + h`, or exactly `t_end` for the last step). Exactly 11 right-hand-side
-    /// evaluations. Returns `(err, y_new is finite)`.
+/// The weights of the embedded 3rd-order solution.
+const WEIGHTS3: &[(usize, f64)] = &[(0, BHH1), (8, BHH2), (11, BHH3)];
+
+/// The continuous extension's rows: `d[r] = h Σ_j D_rj k_j` for r = 4..7.
+const DENSE: [&[(usize, f64)]; 4] = [
+    &[
+        (0, D41),
+        (5, D46),
+        (6, D47),
+        (7, D48),
+        (8, D49),
+        (9, D410),
+        (10, D411),
+        (11, D412),
+        (12, D413),
+        (13, D414),
+        (14, D415),
+        (15, D416),
+    ],
+    &[
+        (0, D51),
+        (5, D56),
+        (6, D57),
+        (7, D58),
+        (8, D59),
+        (9, D510),
+        (10, D511),
+        (11, D512),
+        (12, D513),
+        (13, D514),
+        (14, D515),
+        (15, D516),
+    ],
+    &[
+        (0, D61),
+        (5, D66),
+        (6, D67),
+        (7, D68),
+        (8, D69),
+        (9, D610),
+        (10, D611),
+        (11, D612),
+        (12, D613),
+        (13, D614),
+        (14, D615),
+        (15, D616),
+    ],
+    &[
+        (0, D71),
+        (5, D76),
+        (6, D77),
+        (7, D78),
+        (8, D79),
+        (9, D710),
+        (10, D711),
+        (11, D712),
+        (12, D713),
+        (13, D714),
+        (14, D715),
+        (15, D716),
+    ],
+];
+
+/// Hairer's DOP853 as data: its twelve stages, the FSAL stage evaluated only once a step has
+/// passed the error test (the error estimate does not use it), and the continuous extension's
+/// stages kept in the buffers of stages 1–3, which nothing reads after the solution.
+const TABLEAU: Tableau = Tableau {
+    stages: STAGES,
+    attempt: 11,
+    fsal: 12,
+    fsal_in_attempt: false,
+    weights: WEIGHTS,
+    buffers: &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 1, 2, 3],
+    n_buffers: 13,
+};
+
+impl ExplicitMethod for Dop853Method {
+    const TABLEAU: Tableau = TABLEAU;
+    const STIFFNESS_BOUND: Option<f64> = Some(STIFFNESS_BOUND);
+
+    /// The 8th-order solution and the squared, scaled components of both error estimates in one
+    /// vectorised pass (each a plain sum from the first stage on, Hairer's arithmetic); their
+    /// sums in a second pass over eight partial sums (running sums would serialise the first
+    /// loop); Hairer's combined 5th/3rd-order norm.
     #[inline(always)]
-    fn attempt<F: MulAdd>(
-        &mut self,
-        sys: &mut Rhs,
-        t: f64,
+    fn solution_and_error<F: MulAdd>(
+        w: &mut Work<Self>,
+        _rhs: &mut Rhs,
         h: f64,
-        t_new: f64,
+        _t_new: f64,
         rtol: f64,
         atol: &[f64],
     ) -> (f64, bool) {
-        let n = self.y.len();
+        let n = w.y.len();
         let Work {
             y,
             y_new,
-            ys,
-            k1,
-            k2,
-            k3,
-            k4,
-            k5,
-            k6,
-            k7,
-            k8,
-            k9,
-            k10,
-            k11,
-            k12,
-            e3_sq,
-            e5_sq,
+            k,
+            err_sq: [e3_sq, e5_sq],
             ..
-        } = self;
-        let y = &y[..n];
-        let atol = &atol[..n];
-        let k1 = &k1[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(h, A21 * k1[i], y[i]);
-            }
-        }
-        sys.eval(t + C2 * h, ys, k2);
-        let k2 = &k2[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(h, F::mul_add(A32, k2[i], A31 * k1[i]), y[i]);
-            }
-        }
-        sys.eval(t + C3 * h, ys, k3);
-        let k3 = &k3[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(h, F::mul_add(A43, k3[i], A41 * k1[i]), y[i]);
-            }
-        }
-        sys.eval(t + C4 * h, ys, k4);
-        let k4 = &k4[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(A54, k4[i], F::mul_add(A53, k3[i], A51 * k1[i])),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C5 * h, ys, k5);
-        let k5 = &k5[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(A65, k5[i], F::mul_add(A64, k4[i], A61 * k1[i])),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C6 * h, ys, k6);
-        let k6 = &k6[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A76,
-                        k6[i],
-                        F::mul_add(A75, k5[i], F::mul_add(A74, k4[i], A71 * k1[i])),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C7 * h, ys, k7);
-        let k7 = &k7[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A87,
-                        k7[i],
-                        F::mul_add(
-                            A86,
-                            k6[i],
-                            F::mul_add(A85, k5[i], F::mul_add(A84, k4[i], A81 * k1[i])),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C8 * h, ys, k8);
-        let k8 = &k8[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A98,
-                        k8[i],
-                        F::mul_add(
-                            A97,
-                            k7[i],
-                            F::mul_add(
-                                A96,
-                                k6[i],
-                                F::mul_add(A95, k5[i], F::mul_add(A94, k4[i], A91 * k1[i])),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C9 * h, ys, k9);
-        let k9 = &k9[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A109,
-                        k9[i],
-                        F::mul_add(
-                            A108,
-                            k8[i],
-                            F::mul_add(
-                                A107,
-                                k7[i],
-                                F::mul_add(
-                                    A106,
-                                    k6[i],
-                                    F::mul_add(A105, k5[i], F::mul_add(A104, k4[i], A101 * k1[i])),
-                                ),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C10 * h, ys, k10);
-        let k10 = &k10[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A1110,
-                        k10[i],
-                        F::mul_add(
-                            A119,
-                            k9[i],
-                            F::mul_add(
-                                A118,
-                                k8[i],
-                                F::mul_add(
-                                    A117,
-                                    k7[i],
-                                    F::mul_add(
-                                        A116,
-                                        k6[i],
-                                        F::mul_add(
-                                            A115,
-                                            k5[i],
-                                            F::mul_add(A114, k4[i], A111 * k1[i]),
-                                        ),
-                                    ),
-                                ),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C11 * h, ys, k11);
-        let k11 = &k11[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A1211,
-                        k11[i],
-                        F::mul_add(
-                            A1210,
-                            k10[i],
-                            F::mul_add(
-                                A129,
-                                k9[i],
-                                F::mul_add(
-                                    A128,
-                                    k8[i],
-                                    F::mul_add(
-                                        A127,
-                                        k7[i],
-                                        F::mul_add(
-                                            A126,
-                                            k6[i],
-                                            F::mul_add(
-                                                A125,
-                                                k5[i],
-                                                F::mul_add(A124, k4[i], A121 * k1[i]),
-                                            ),
-                                        ),
-                                    ),
-                                ),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t_new, ys, k12);
-        let k12 = &k12[..n];
-
-        // 8th-order solution and the squared, scaled components of both error estimates in one
-        // vectorised pass; their sums in a second pass over eight partial sums (running sums
-        // would serialise the first loop).
-        let y_new = &mut y_new[..n];
-        let e3_sq = &mut e3_sq[..n];
-        let e5_sq = &mut e5_sq[..n];
+        } = w;
+        let buffers = TABLEAU.buffers;
+        let (b, kb) = gather::<8>(WEIGHTS, k, buffers);
+        let (er, ke) = gather::<8>(ERROR5, k, buffers);
+        let (b3, k3) = gather::<3>(WEIGHTS3, k, buffers);
+        let (kb, ke, k3) = (
+            kb.map(|s| &s[..n]),
+            ke.map(|s| &s[..n]),
+            k3.map(|s| &s[..n]),
+        );
+        let (y, y_new, atol) = (&y[..n], &mut y_new[..n], &atol[..n]);
+        let (e3_sq, e5_sq) = (&mut e3_sq[..n], &mut e5_sq[..n]);
         let mut finite = true;
         for i in 0..n {
-            let bk = B1 * k1[i]
-                + B6 * k6[i]
-                + B7 * k7[i]
-                + B8 * k8[i]
-                + B9 * k9[i]
-                + B10 * k10[i]
-                + B11 * k11[i]
-                + B12 * k12[i];
+            let bk = weighted_sum(b, kb, i);
             let yn = y[i] + h * bk;
             y_new[i] = yn;
             finite &= yn.is_finite();
             let sk = atol[i] + rtol * y[i].abs().max(yn.abs());
             // A component with no tolerance scale (exactly zero, atol 0) is left out.
             let inv = if sk > 0.0 { 1.0 / sk } else { 0.0 };
-            let e3 = (bk - BHH1 * k1[i] - BHH2 * k9[i] - BHH3 * k12[i]) * inv;
-            let e5 = (ER1 * k1[i]
-                + ER6 * k6[i]
-                + ER7 * k7[i]
-                + ER8 * k8[i]
-                + ER9 * k9[i]
-                + ER10 * k10[i]
-                + ER11 * k11[i]
-                + ER12 * k12[i])
-                * inv;
+            let mut e3 = bk;
+            for m in 0..3 {
+                e3 -= b3[m] * k3[m][i];
+            }
+            let e3 = e3 * inv;
+            let e5 = weighted_sum(er, ke, i) * inv;
             e3_sq[i] = e3 * e3;
             e5_sq[i] = e5 * e5;
         }
@@ -621,1021 +506,58 @@ impl Work {
         (err, finite)
     }
 
-    /// After a step has passed the error test: `k13 = f(t_new, y_new)` (the next step's first
-    /// stage), dense stages 14–16, and the eight dense-output coefficients of every component.
-    /// Exactly 4 right-hand-side evaluations. Returns whether all coefficients are finite.
-    #[inline(always)]
-    fn prepare_dense<F: MulAdd>(&mut self, sys: &mut Rhs, t: f64, h: f64, t_new: f64) -> bool {
-        let n = self.y.len();
-        let Work {
-            y,
-            y_new,
-            ys,
-            k1,
-            k2: k14,
-            k3: k15,
-            k4: k16,
-            k6,
-            k7,
-            k8,
-            k9,
-            k10,
-            k11,
-            k12,
-            k13,
-            epoch,
-            stiffness,
-            ..
-        } = self;
-        let y = &y[..n];
-        let y_new = &y_new[..n];
-        let k1 = &k1[..n];
-        let k6 = &k6[..n];
-        let k7 = &k7[..n];
-        let k8 = &k8[..n];
-        let k9 = &k9[..n];
-        let k10 = &k10[..n];
-        let k11 = &k11[..n];
-        let k12 = &k12[..n];
-
-        sys.eval(t_new, y_new, k13);
-        let k13 = &k13[..n];
-
-        // Hairer's stiffness estimate h·|λ| ≈ h ‖f(y_new) − f(ys)‖ / ‖y_new − ys‖, where ys is the
-        // argument of stage 12 (also at t_new): near 6.1 the step sits on the stability boundary.
-        // Eight interleaved partial sums, so that the loop vectorises (a running sum would
-        // serialise it); only a diagnostic depends on the rounding.
-        let (mut num_lanes, mut den_lanes) = ([0.0f64; 8], [0.0f64; 8]);
-        let ys_n = &ys[..n];
-        let (c13, c12) = (k13.chunks_exact(8), k12.chunks_exact(8));
-        let (cy, cs) = (y_new.chunks_exact(8), ys_n.chunks_exact(8));
-        let rest = (
-            c13.remainder(),
-            c12.remainder(),
-            cy.remainder(),
-            cs.remainder(),
-        );
-        for (((a, b), c), d) in c13.zip(c12).zip(cy).zip(cs) {
-            for k in 0..8 {
-                num_lanes[k] += (a[k] - b[k]) * (a[k] - b[k]);
-                den_lanes[k] += (c[k] - d[k]) * (c[k] - d[k]);
+    /// Hairer's `rcont1..8` of `CONTD8`.
+    fn dense_coefficients(h: f64, y: f64, y_new: f64, k: impl Fn(usize) -> f64) -> [f64; 8] {
+        let ydiff = y_new - y;
+        let bspl = h * k(0) - ydiff;
+        let row = |d: &[(usize, f64)]| {
+            let mut s = d[0].1 * k(d[0].0);
+            for &(j, a) in &d[1..] {
+                s += a * k(j);
             }
-        }
-        for (((a, b), c), d) in rest.0.iter().zip(rest.1).zip(rest.2).zip(rest.3) {
-            num_lanes[0] += (a - b) * (a - b);
-            den_lanes[0] += (c - d) * (c - d);
-        }
-        let num: f64 = num_lanes.iter().sum();
-        let den: f64 = den_lanes.iter().sum();
-        *stiffness = if den > 0.0 {
-            h * (num / den).sqrt()
-        } else {
-            0.0
+            h * s
         };
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A1413,
-                        k13[i],
-                        F::mul_add(
-                            A1412,
-                            k12[i],
-                            F::mul_add(
-                                A1411,
-                                k11[i],
-                                F::mul_add(
-                                    A1410,
-                                    k10[i],
-                                    F::mul_add(
-                                        A149,
-                                        k9[i],
-                                        F::mul_add(
-                                            A148,
-                                            k8[i],
-                                            F::mul_add(A147, k7[i], A141 * k1[i]),
-                                        ),
-                                    ),
-                                ),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C14 * h, ys, k14);
-        let k14 = &k14[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A1514,
-                        k14[i],
-                        F::mul_add(
-                            A1513,
-                            k13[i],
-                            F::mul_add(
-                                A1512,
-                                k12[i],
-                                F::mul_add(
-                                    A1511,
-                                    k11[i],
-                                    F::mul_add(
-                                        A158,
-                                        k8[i],
-                                        F::mul_add(
-                                            A157,
-                                            k7[i],
-                                            F::mul_add(A156, k6[i], A151 * k1[i]),
-                                        ),
-                                    ),
-                                ),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C15 * h, ys, k15);
-        let k15 = &k15[..n];
-
-        {
-            let s = &mut ys[..n];
-            for i in 0..n {
-                s[i] = F::mul_add(
-                    h,
-                    F::mul_add(
-                        A1615,
-                        k15[i],
-                        F::mul_add(
-                            A1614,
-                            k14[i],
-                            F::mul_add(
-                                A1613,
-                                k13[i],
-                                F::mul_add(
-                                    A169,
-                                    k9[i],
-                                    F::mul_add(
-                                        A168,
-                                        k8[i],
-                                        F::mul_add(
-                                            A167,
-                                            k7[i],
-                                            F::mul_add(A166, k6[i], A161 * k1[i]),
-                                        ),
-                                    ),
-                                ),
-                            ),
-                        ),
-                    ),
-                    y[i],
-                );
-            }
-        }
-        sys.eval(t + C16 * h, ys, k16);
-        let k16 = &k16[..n];
-
-        *epoch += 1;
-        all_finite(k13) && all_finite(k14) && all_finite(k16) && all_finite(&k15[..n])
-    }
-}
-
-/// The interpolant handed to the observer: Hairer's `CONTD8` on one accepted step.
-pub struct Dop853Step<'a> {
-    t0: f64,
-    t1: f64,
-    h: f64,
-    w: &'a Work,
-}
-
-impl Dop853Step<'_> {
-    /// The eight dense-output coefficients of component `i` (Hairer's `rcont1..8`), computed
-    /// from the stages of this step on first use and cached until the next step.
-    #[inline(always)]
-    fn coefficients(&self, i: usize) -> [f64; 8] {
-        let w = self.w;
-        if w.cont_epoch[i].get() == w.epoch {
-            return w.cont[i].get();
-        }
-        self.compute_coefficients(i)
-    }
-
-    /// [`Dop853Step::coefficients`] on first use in a step (kept out of line: the cached case is
-    /// the frequent one, several samples per step).
-    #[inline(never)]
-    fn compute_coefficients(&self, i: usize) -> [f64; 8] {
-        let w = self.w;
-        let h = self.h;
-        let (k1, k6, k7, k8, k9) = (w.k1[i], w.k6[i], w.k7[i], w.k8[i], w.k9[i]);
-        let (k10, k11, k12, k13) = (w.k10[i], w.k11[i], w.k12[i], w.k13[i]);
-        // Dense stages 14-16 live in the buffers of stages 2-4.
-        let (k14, k15, k16) = (w.k2[i], w.k3[i], w.k4[i]);
-        let ydiff = w.y_new[i] - w.y[i];
-        let bspl = h * k1 - ydiff;
-        let c = [
-            w.y[i],
+        [
+            y,
             ydiff,
             bspl,
-            ydiff - h * k13 - bspl,
-            h * (D41 * k1
-                + D46 * k6
-                + D47 * k7
-                + D48 * k8
-                + D49 * k9
-                + D410 * k10
-                + D411 * k11
-                + D412 * k12
-                + D413 * k13
-                + D414 * k14
-                + D415 * k15
-                + D416 * k16),
-            h * (D51 * k1
-                + D56 * k6
-                + D57 * k7
-                + D58 * k8
-                + D59 * k9
-                + D510 * k10
-                + D511 * k11
-                + D512 * k12
-                + D513 * k13
-                + D514 * k14
-                + D515 * k15
-                + D516 * k16),
-            h * (D61 * k1
-                + D66 * k6
-                + D67 * k7
-                + D68 * k8
-                + D69 * k9
-                + D610 * k10
-                + D611 * k11
-                + D612 * k12
-                + D613 * k13
-                + D614 * k14
-                + D615 * k15
-                + D616 * k16),
-            h * (D71 * k1
-                + D76 * k6
-                + D77 * k7
-                + D78 * k8
-                + D79 * k9
-                + D710 * k10
-                + D711 * k11
-                + D712 * k12
-                + D713 * k13
-                + D714 * k14
-                + D715 * k15
-                + D716 * k16),
-        ];
-        w.cont[i].set(c);
-        w.cont_epoch[i].set(w.epoch);
-        c
+            ydiff - h * k(12) - bspl,
+            row(DENSE[0]),
+            row(DENSE[1]),
+            row(DENSE[2]),
+            row(DENSE[3]),
+        ]
     }
 
+    /// Hairer's `CONTD8`.
     #[inline(always)]
-    fn contd8(c: &[f64; 8], s: f64) -> f64 {
+    fn interpolate(c: impl Fn(usize) -> f64, s: f64) -> f64 {
         let s1 = 1.0 - s;
-        let conpar = c[4] + s * (c[5] + s1 * (c[6] + s * c[7]));
-        c[0] + s * (c[1] + s1 * (c[2] + s * (c[3] + s1 * conpar)))
-    }
-}
-
-impl DenseStep for Dop853Step<'_> {
-    fn t_start(&self) -> f64 {
-        self.t0
-    }
-    fn t_end(&self) -> f64 {
-        self.t1
-    }
-    fn y_end(&self) -> &[f64] {
-        &self.w.y_new
-    }
-    fn eval_component(&self, t: f64, i: usize) -> f64 {
-        if t == self.t1 {
-            return self.w.y_new[i];
-        }
-        let s = (t - self.t0) / self.h;
-        Self::contd8(&self.coefficients(i), s)
-    }
-    fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
-        if t == self.t1 {
-            for &i in indices {
-                out[i] = self.w.y_new[i];
-            }
-            return;
-        }
-        let s = (t - self.t0) / self.h;
-        for &i in indices {
-            out[i] = Self::contd8(&self.coefficients(i), s);
-        }
-    }
-    fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
-        const MAX: usize = 16;
-        let m = indices.len();
-        if m > MAX || m == 0 {
-            for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
-                for (o, &i) in row.iter_mut().zip(indices) {
-                    *o = self.eval_component(t, i);
-                }
-            }
-            return;
-        }
-        // The coefficients of the components side by side (row r: coefficient r of each), so
-        // that one sample evaluates `contd8` for all of them in vector lanes; the arithmetic of
-        // each lane is `contd8`'s, operation for operation.
-        let mut c = [[0.0f64; MAX]; 8];
-        for (j, &i) in indices.iter().enumerate() {
-            for (r, v) in self.coefficients(i).into_iter().enumerate() {
-                c[r][j] = v;
-            }
-        }
-        for (&t, row) in times.iter().zip(out.chunks_exact_mut(m)) {
-            if t == self.t1 {
-                for (o, &i) in row.iter_mut().zip(indices) {
-                    *o = self.w.y_new[i];
-                }
-                continue;
-            }
-            let s = (t - self.t0) / self.h;
-            let s1 = 1.0 - s;
-            let mut lanes = [0.0f64; MAX];
-            // Whole vectors of four lanes (the lanes past `m` hold zeros and are not read).
-            for j in 0..m.div_ceil(4) * 4 {
-                let conpar = c[4][j] + s * (c[5][j] + s1 * (c[6][j] + s * c[7][j]));
-                lanes[j] = c[0][j] + s * (c[1][j] + s1 * (c[2][j] + s * (c[3][j] + s1 * conpar)));
-            }
-            row.copy_from_slice(&lanes[..m]);
-        }
-    }
-}
-
-impl Stepper for Work {
-    type Dense<'a> = Dop853Step<'a>;
-
-    fn start(&mut self, rhs: &mut Rhs, t0: f64) -> bool {
-        rhs.eval(t0, &self.y, &mut self.k1);
-        all_finite(&self.k1)
-    }
-    fn y(&self) -> &[f64] {
-        &self.y
-    }
-    fn f0(&self) -> &[f64] {
-        &self.k1
-    }
-    fn y_new(&self) -> &[f64] {
-        &self.y_new
-    }
-    #[inline(always)]
-    fn attempt<F: MulAdd>(
-        &mut self,
-        rhs: &mut Rhs,
-        t: f64,
-        h: f64,
-        t_new: f64,
-        rtol: f64,
-        atol: &[f64],
-    ) -> Attempt {
-        let (err, finite) = Work::attempt::<F>(self, rhs, t, h, t_new, rtol, atol);
-        Attempt { err, finite }
-    }
-    #[inline(always)]
-    fn prepare_dense<F: MulAdd>(&mut self, rhs: &mut Rhs, t: f64, h: f64, t_new: f64) -> bool {
-        Work::prepare_dense::<F>(self, rhs, t, h, t_new)
-    }
-    fn finish(&mut self, _rhs: &mut Rhs, _t_new: f64) -> bool {
-        true
-    }
-    fn dense(&self, t0: f64, t1: f64, h: f64) -> Dop853Step<'_> {
-        Dop853Step { t0, t1, h, w: self }
-    }
-    fn advance(&mut self) {
-        std::mem::swap(&mut self.y, &mut self.y_new);
-        std::mem::swap(&mut self.k1, &mut self.k13);
-    }
-    fn on_stability_boundary(&self) -> Option<bool> {
-        Some(self.stiffness > STIFFNESS_BOUND)
+        let conpar = c(4) + s * (c(5) + s1 * (c(6) + s * c(7)));
+        c(0) + s * (c(1) + s1 * (c(2) + s * (c(3) + s1 * conpar)))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrate::OdeSystem;
-    use crate::integrate::{
-        Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver,
-    };
-    use crate::problems::{run_recorded, ForcedDecay, HarmonicOscillator, StepRecord};
-
-    /// Counts its own right-hand-side calls; optionally returns NaN for t > `nan_after`.
-    struct Counted {
-        calls: u64,
-        nan_after: f64,
-    }
-    impl OdeSystem for Counted {
-        fn n_pos(&self) -> usize {
-            1
-        }
-        fn n_quad(&self) -> usize {
-            0
-        }
-        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
-            self.calls += 1;
-            if t > self.nan_after {
-                dy[0] = f64::NAN;
-                dy[1] = f64::NAN;
-            } else {
-                dy[0] = y[1];
-                dy[1] = -y[0];
-            }
-        }
-    }
-
-    fn run(
-        solver: &Dop853,
-        sys: &mut dyn OdeSystemDyn,
-        y0: &[f64],
-        t_end: f64,
-    ) -> (Result<IntegrationStats, IntegrateError>, StepRecord) {
-        run_recorded(solver, sys, y0, t_end)
-    }
-
-    fn osc_error(tol: f64, t_end: f64) -> (f64, IntegrationStats) {
-        let (r, rec) = run(
-            &Dop853::new(tol, tol),
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            t_end,
-        );
-        let stats = r.unwrap();
-        assert_eq!(rec.t, t_end, "must land exactly on t_end");
-        let e = (rec.y[0] - t_end.cos())
-            .abs()
-            .max((rec.y[1] + t_end.sin()).abs());
-        (e, stats)
-    }
+    use crate::integrate::order_conditions::{dense_weights, matrix, worst_condition};
 
     #[test]
-    fn dop853_coefficients_are_consistent() {
-        // Row sums equal the nodes.
-        let rows: [(f64, &[f64]); 14] = [
-            (C2, &[A21]),
-            (C3, &[A31, A32]),
-            (C4, &[A41, A43]),
-            (C5, &[A51, A53, A54]),
-            (C6, &[A61, A64, A65]),
-            (C7, &[A71, A74, A75, A76]),
-            (C8, &[A81, A84, A85, A86, A87]),
-            (C9, &[A91, A94, A95, A96, A97, A98]),
-            (C10, &[A101, A104, A105, A106, A107, A108, A109]),
-            (C11, &[A111, A114, A115, A116, A117, A118, A119, A1110]),
-            (
-                1.0,
-                &[A121, A124, A125, A126, A127, A128, A129, A1210, A1211],
-            ),
-            (C14, &[A141, A147, A148, A149, A1410, A1411, A1412, A1413]),
-            (C15, &[A151, A156, A157, A158, A1511, A1512, A1513, A1514]),
-            (C16, &[A161, A166, A167, A168, A169, A1613, A1614, A1615]),
-        ];
-        for (c, a) in rows {
-            let s: f64 = a.iter().sum();
-            assert!((s - c).abs() < 1e-14, "row sum {s} vs c {c}");
-        }
-        // Quadrature conditions sum b_i c_i^k = 1/(k+1), k = 0..7.
-        let b = [B1, B6, B7, B8, B9, B10, B11, B12];
-        let c = [0.0, C6, C7, C8, C9, C10, C11, 1.0];
-        for k in 0..8 {
-            let s: f64 = b.iter().zip(&c).map(|(b, c)| b * c.powi(k)).sum();
-            assert!((s - 1.0 / f64::from(k + 1)).abs() < 1e-13, "k = {k}: {s}");
-        }
-        // The 5th-order error weights integrate polynomials up to degree 4 exactly (sum to 0).
-        let er = [ER1, ER6, ER7, ER8, ER9, ER10, ER11, ER12];
-        for k in 0..5 {
-            let s: f64 = er.iter().zip(&c).map(|(e, c)| e * c.powi(k)).sum();
-            assert!(s.abs() < 1e-13, "er moment {k}: {s}");
-        }
-        // The 3rd-order comparison weights (bhh on stages 1, 9, 12) are exact up to degree 2.
-        let cb = [0.0, C9, 1.0];
-        let bhh = [BHH1, BHH2, BHH3];
-        for k in 0..3 {
-            let s: f64 = bhh.iter().zip(&cb).map(|(b, c)| b * c.powi(k)).sum();
-            assert!(
-                (s - 1.0 / f64::from(k + 1)).abs() < 1e-13,
-                "bhh moment {k}: {s}"
-            );
-        }
-    }
-
-    #[test]
-    fn dop853_harmonic_oscillator_accuracy() {
-        let (e, stats) = osc_error(1e-10, 20.0);
-        eprintln!("oscillator tol 1e-10: error {e:e}, {stats:?}");
-        assert!(e < 1e-8, "error {e:e}");
-        assert!(stats.steps > 10);
-    }
-
-    #[test]
-    fn dop853_error_scales_with_tolerance() {
-        let (e6, s6) = osc_error(1e-6, 20.0);
-        let (e9, s9) = osc_error(1e-9, 20.0);
-        eprintln!("e(1e-6) = {e6:e}, e(1e-9) = {e9:e}, ratio {}", e6 / e9);
-        assert!(e6 / e9 > 100.0, "e(1e-6) = {e6:e}, e(1e-9) = {e9:e}");
-        assert!(s9.steps > s6.steps);
-    }
-
-    #[test]
-    fn dop853_dense_output_accuracy() {
-        struct Dense {
-            grid: Vec<f64>,
-            next: usize,
-            max_err: f64,
-            buf: Vec<f64>,
-        }
-        impl StepObserver for Dense {
-            fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
-            fn on_step(&mut self, step: &dyn DenseStep) -> Control {
-                while self.next < self.grid.len() && self.grid[self.next] <= step.t_end() {
-                    let t = self.grid[self.next];
-                    assert!(t >= step.t_start());
-                    let x = step.eval_component(t, 0);
-                    let v = step.eval_component(t, 1);
-                    step.eval(t, &mut self.buf);
-                    assert_eq!(self.buf, [x, v]);
-                    let e = (x - t.cos()).abs().max((v + t.sin()).abs());
-                    self.max_err = self.max_err.max(e);
-                    self.next += 1;
-                }
-                Control::Continue
-            }
-        }
-        let t_end = 20.0;
-        // 1000 points strictly inside (0, t_end), none on a grid that matches step ends.
-        let grid: Vec<f64> = (0..1000)
-            .map(|k| (k as f64 + 0.5) * t_end / 1000.0)
-            .collect();
-        let mut obs = Dense {
-            grid,
-            next: 0,
-            max_err: 0.0,
-            buf: vec![0.0; 2],
-        };
-        let stats = Dop853::new(1e-10, 1e-10)
-            .integrate(
-                &mut HarmonicOscillator { quadrature: false },
-                0.0,
-                &[1.0, 0.0],
-                t_end,
-                100_000,
-                &mut obs,
-            )
-            .unwrap();
-        assert_eq!(obs.next, 1000);
-        // Far fewer steps than samples: the samples really are interpolated.
-        assert!(stats.steps < 200, "{stats:?}");
-        eprintln!(
-            "dense: max error {:e} over 1000 points, {stats:?}",
-            obs.max_err
-        );
-        assert!(obs.max_err < 1e-8, "dense error {:e}", obs.max_err);
-    }
-
-    /// Compares, on every step, the batched interpolation of a few components at several times
-    /// (the step's end among them) with the per-component one, bit for bit.
-    struct BatchCheck {
-        steps: usize,
-    }
-    impl StepObserver for BatchCheck {
-        fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
-        fn on_step(&mut self, step: &dyn DenseStep) -> Control {
-            let (t0, t1) = (step.t_start(), step.t_end());
-            let times: Vec<f64> = (1..=7).map(|k| t0 + (t1 - t0) * k as f64 / 7.0).collect();
-            let indices = [2, 0, 1];
-            let mut out = vec![f64::NAN; times.len() * indices.len()];
-            step.eval_components_at(&times, &indices, &mut out);
-            for (r, &t) in times.iter().enumerate() {
-                for (j, &i) in indices.iter().enumerate() {
-                    let one = step.eval_component(t, i);
-                    assert_eq!(
-                        out[r * indices.len() + j].to_bits(),
-                        one.to_bits(),
-                        "t {t}, i {i}"
-                    );
-                }
-            }
-            self.steps += 1;
-            Control::Continue
-        }
-    }
-
-    #[test]
-    fn dop853_batched_dense_output_is_bitwise_the_scalar_one() {
-        let mut check = BatchCheck { steps: 0 };
-        Dop853::new(1e-9, 1e-9)
-            .integrate(
-                &mut HarmonicOscillator { quadrature: true },
-                0.0,
-                &[1.0, 0.0, 0.0],
-                6.0,
-                100_000,
-                &mut check,
-            )
-            .unwrap();
-        assert!(check.steps > 10, "{} steps", check.steps);
-    }
-
-    #[test]
-    fn dop853_quadrature_component() {
-        let t_end = 7.5;
-        let (r, rec) = run(
-            &Dop853::new(1e-10, 1e-10),
-            &mut HarmonicOscillator { quadrature: true },
-            &[1.0, 0.0, 0.0],
-            t_end,
-        );
-        r.unwrap();
-        // q = int_0^T cos^2 = T/2 + sin(2T)/4
-        let exact = t_end / 2.0 + (2.0 * t_end).sin() / 4.0;
-        let e = (rec.y[2] - exact).abs();
-        eprintln!("quadrature error {e:e}");
-        assert!(e < 1e-8, "quadrature error {e:e}");
-    }
-
-    #[test]
-    fn dop853_step_budget() {
-        let mut rec = StepRecord::default();
-        let r = Dop853::new(1e-10, 1e-10).integrate(
-            &mut HarmonicOscillator { quadrature: false },
-            0.0,
-            &[1.0, 0.0],
-            20.0,
-            5,
-            &mut rec,
-        );
-        match r {
-            Err(IntegrateError::StepBudget { max_steps: 5, t }) => {
-                assert!(t > 0.0 && t < 20.0);
-                assert_eq!(t, rec.t);
-            }
-            other => panic!("expected StepBudget, got {other:?}"),
-        }
-        assert_eq!(rec.steps.len(), 5);
-    }
-
-    #[test]
-    fn dop853_nonfinite_rhs() {
-        let mut sys = Counted {
-            calls: 0,
-            nan_after: 1.0,
-        };
-        let mut rec = StepRecord::default();
-        let r =
-            Dop853::new(1e-8, 1e-8).integrate(&mut sys, 0.0, &[1.0, 0.0], 5.0, 100_000, &mut rec);
-        match r {
-            Err(IntegrateError::NonFinite { t }) => {
-                eprintln!("NonFinite at t = {t}, last observed t = {}", rec.t);
-                assert!(t > 0.5 && t <= 1.0, "t = {t}");
-                // Everything handed to the observer is finite and before the wall.
-                assert!(rec.t <= 1.0);
-                assert!(all_finite(&rec.y));
-            }
-            other => panic!("expected NonFinite, got {other:?}"),
-        }
-    }
-
-    #[test]
-    fn dop853_recovers_from_transient_nonfinite() {
-        // y' = -10 y, with the right-hand side undefined for y < 0. A huge first step overshoots
-        // into y < 0; the step is shrunk and the run completes accurately.
-        struct Guarded;
-        impl OdeSystem for Guarded {
-            fn n_pos(&self) -> usize {
-                0
-            }
-            fn n_quad(&self) -> usize {
-                1
-            }
-            fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-                dy[0] = if y[0] < 0.0 { f64::NAN } else { -10.0 * y[0] };
-            }
-        }
-        let solver = Dop853 {
-            h_init: Some(1.0),
-            ..Dop853::new(1e-10, 1e-12)
-        };
-        let (r, rec) = run(&solver, &mut Guarded, &[1.0], 1.0);
-        let stats = r.unwrap();
-        eprintln!("transient NaN: {stats:?}");
-        assert!(stats.rejected >= 1);
-        let e = (rec.y[0] - (-10.0f64).exp()).abs();
-        assert!(e < 1e-9, "error {e:e}");
-    }
-
-    #[test]
-    fn dop853_rhs_eval_accounting() {
-        // Automatic first step: 1 (at t0) + 1 (HINIT) + 15 per accepted + 11 per rejected.
-        let mut sys = Counted {
-            calls: 0,
-            nan_after: f64::INFINITY,
-        };
-        let mut rec = StepRecord::default();
-        let s = Dop853::new(1e-9, 1e-9)
-            .integrate(&mut sys, 0.0, &[1.0, 0.0], 10.0, 100_000, &mut rec)
-            .unwrap();
-        assert_eq!(s.rhs_evals, sys.calls);
-        assert_eq!(s.rhs_evals, 2 + 15 * s.steps + 11 * s.rejected);
-        assert_eq!(s.steps as usize, rec.steps.len());
-
-        // A far too large first step forces rejections; no HINIT evaluation.
-        let mut sys = Counted {
-            calls: 0,
-            nan_after: f64::INFINITY,
-        };
-        let solver = Dop853 {
-            h_init: Some(8.0),
-            ..Dop853::new(1e-9, 1e-9)
-        };
-        let s = solver
-            .integrate(
-                &mut sys,
-                0.0,
-                &[1.0, 0.0],
-                10.0,
-                100_000,
-                &mut StepRecord::default(),
-            )
-            .unwrap();
-        eprintln!("forced rejections: {s:?}");
-        assert!(s.rejected >= 1, "{s:?}");
-        assert_eq!(s.rhs_evals, sys.calls);
-        assert_eq!(s.rhs_evals, 1 + 15 * s.steps + 11 * s.rejected);
-    }
-
-    #[test]
-    fn rejected_attempts_count_against_the_step_budget() {
-        // A far too large first step forces rejections: with a budget one short of the attempts
-        // the run needs (accepted + rejected) it fails, though it has more than enough for the
-        // accepted steps alone; with exactly the attempts it needs it succeeds.
-        let solver = Dop853 {
-            h_init: Some(8.0),
-            ..Dop853::new(1e-9, 1e-9)
-        };
-        let run = |budget: u64| {
-            solver.integrate(
-                &mut HarmonicOscillator { quadrature: false },
-                0.0,
-                &[1.0, 0.0],
-                10.0,
-                budget,
-                &mut StepRecord::default(),
-            )
-        };
-        let s = run(100_000).unwrap();
-        assert!(s.rejected >= 3, "{s:?}");
-        let attempts = s.steps + s.rejected;
-        assert_eq!(run(attempts), Ok(s));
-        match run(attempts - 1) {
-            Err(IntegrateError::StepBudget { max_steps, .. }) => {
-                assert_eq!(max_steps, attempts - 1)
-            }
-            other => panic!("expected StepBudget, got {other:?}"),
-        }
-        // Fewer accepted steps than the budget, even with every rejection: still refused.
-        assert!(s.steps < attempts - 1);
-    }
-
-    /// Fixed steps: huge tolerances so the controller always wants to grow, capped at h_max.
-    fn fixed_step_error(
-        sys: &mut dyn OdeSystemDyn,
-        y0: &[f64],
-        t_end: f64,
-        n: u32,
-    ) -> (f64, Vec<f64>) {
-        let h = t_end / f64::from(n);
-        let solver = Dop853::new(1e3, 1e3).with_initial_step(h).with_max_step(h);
-        let (r, rec) = run(&solver, sys, y0, t_end);
-        let s = r.unwrap();
-        assert_eq!(s.steps, u64::from(n));
-        assert_eq!(s.rejected, 0);
-        for &(a, b) in &rec.steps {
-            assert!(((b - a) - h).abs() < 1e-12 * t_end);
-        }
-        (h, rec.y)
-    }
-
-    #[test]
-    fn dop853_convergence_order() {
-        // y' = -y + sin t on [0, 10].
-        let t_end = 10.0;
-        let (h1, y1) = fixed_step_error(&mut ForcedDecay, &[1.0], t_end, 10);
-        let (h2, y2) = fixed_step_error(&mut ForcedDecay, &[1.0], t_end, 20);
-        let e1 = (y1[0] - ForcedDecay::exact(t_end)).abs();
-        let e2 = (y2[0] - ForcedDecay::exact(t_end)).abs();
-        let p = (e1 / e2).ln() / (h1 / h2).ln();
-        eprintln!("forced decay: order {p} (e1 {e1:e}, e2 {e2:e})");
-        assert!(p > 7.5 && p < 9.0, "order {p} (e1 {e1:e}, e2 {e2:e})");
-
-        // Harmonic oscillator on [0, 10].
-        let (h1, y1) = fixed_step_error(
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            t_end,
-            10,
-        );
-        let (h2, y2) = fixed_step_error(
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            t_end,
-            20,
-        );
-        let err = |y: &[f64]| (y[0] - t_end.cos()).abs().max((y[1] + t_end.sin()).abs());
-        let (e1, e2) = (err(&y1), err(&y2));
-        let p = (e1 / e2).ln() / (h1 / h2).ln();
-        eprintln!("oscillator: order {p} (e1 {e1:e}, e2 {e2:e})");
-        assert!(p > 7.5 && p < 9.0, "order {p} (e1 {e1:e}, e2 {e2:e})");
-    }
-
-    #[test]
-    fn dop853_dense_output_order() {
-        // The continuous extension is 7th order: halving h divides the interpolation error of a
-        // single step by about 2^8 (local error O(h^8)).
-        struct Mid {
-            max_err: f64,
-        }
-        impl StepObserver for Mid {
-            fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
-            fn on_step(&mut self, step: &dyn DenseStep) -> Control {
-                let (a, b) = (step.t_start(), step.t_end());
-                for j in 1..10 {
-                    let t = a + (b - a) * f64::from(j) / 10.0;
-                    // Compare with the exact solution through the step's own start value, so only
-                    // the local (interpolation) error counts.
-                    let e = (step.eval_component(t, 0) - ForcedDecay::exact(t)).abs();
-                    self.max_err = self.max_err.max(e);
-                }
-                Control::Stop
-            }
-        }
-        let err_for = |h: f64| {
-            let solver = Dop853::new(1e3, 1e3).with_initial_step(h).with_max_step(h);
-            let mut obs = Mid { max_err: 0.0 };
-            solver
-                .integrate(&mut ForcedDecay, 0.0, &[1.0], 10.0, 10, &mut obs)
-                .unwrap();
-            obs.max_err
-        };
-        let (e1, e2) = (err_for(1.0), err_for(0.5));
-        let p = (e1 / e2).log2();
-        eprintln!("dense local order {p} (e1 {e1:e}, e2 {e2:e})");
-        assert!(
-            p > 7.0 && p < 9.5,
-            "local dense order {p} (e1 {e1:e}, e2 {e2:e})"
-        );
-    }
-
-    #[test]
-    fn dop853_stop_and_start() {
-        struct StopAfter(usize, usize, bool);
-        impl StepObserver for StopAfter {
-            fn on_start(&mut self, t0: f64, y0: &[f64]) {
-                assert_eq!(t0, 0.0);
-                assert_eq!(y0, [1.0, 0.0]);
-                self.2 = true;
-            }
-            fn on_step(&mut self, _step: &dyn DenseStep) -> Control {
-                self.1 += 1;
-                if self.1 == self.0 {
-                    Control::Stop
-                } else {
-                    Control::Continue
-                }
-            }
-        }
-        let mut obs = StopAfter(3, 0, false);
-        let s = Dop853::new(1e-10, 1e-10)
-            .integrate(
-                &mut HarmonicOscillator { quadrature: false },
-                0.0,
-                &[1.0, 0.0],
-                20.0,
-                1000,
-                &mut obs,
-            )
-            .unwrap();
-        assert!(obs.2);
-        assert_eq!(s.steps, 3);
-        assert_eq!(obs.1, 3);
-    }
-
-    #[test]
-    fn dop853_h_max_is_respected() {
-        let solver = Dop853::new(1e-6, 1e-6).with_max_step(0.1);
-        let (r, rec) = run(
-            &solver,
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            3.05,
-        );
-        r.unwrap();
-        for &(a, b) in &rec.steps {
-            assert!(b - a <= 0.1 * 1.01 + 1e-15, "step {}", b - a);
-        }
-        assert_eq!(rec.t, 3.05);
-    }
-
-    #[test]
-    fn dop853_atol_scale() {
-        // Pure absolute control (rtol tiny): scaling atol by 1e-3 on every component must give the
-        // same steps as atol / 1e3, and a wrong-length scale vector is rejected.
-        let base = Dop853::new(1e-14, 1e-9);
-        let scaled = Dop853 {
-            atol_scale: Some(vec![1e-3, 1e-3]),
-            ..Dop853::new(1e-14, 1e-6)
-        };
-        let (ra, a) = run(
-            &base,
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            5.0,
-        );
-        let (rb, b) = run(
-            &scaled,
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            5.0,
-        );
-        assert_eq!(ra.unwrap(), rb.unwrap());
-        assert_eq!(a.steps, b.steps);
-        // Loosening only the velocity tolerance takes fewer steps than the uniform one.
-        let loose_v = Dop853 {
-            atol_scale: Some(vec![1.0, 1e3]),
-            ..Dop853::new(1e-14, 1e-9)
-        };
-        let (rc, _) = run(
-            &loose_v,
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            5.0,
-        );
-        assert!(rc.unwrap().steps <= a.steps.len() as u64);
-        let bad = Dop853 {
-            atol_scale: Some(vec![1.0]),
-            ..Dop853::new(1e-6, 1e-6)
-        };
-        let (r, _) = run(
-            &bad,
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            1.0,
-        );
-        assert!(matches!(r, Err(IntegrateError::InvalidSettings(_))));
-        let bad = Dop853 {
-            atol_scale: Some(vec![1.0, f64::NAN]),
-            ..Dop853::new(1e-6, 1e-6)
-        };
-        let (r, _) = run(
-            &bad,
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            1.0,
-        );
-        assert!(matches!(r, Err(IntegrateError::InvalidSettings(_))));
-    }
-
-    #[test]
-    fn dop853_invalid_settings() {
-        let mut sys = HarmonicOscillator { quadrature: false };
-        let y0 = [1.0, 0.0];
-        let bad = |s: Dop853, y0: &[f64], t_end: f64, sys: &mut HarmonicOscillator| {
-            let r = s.integrate(sys, 0.0, y0, t_end, 100, &mut StepRecord::default());
-            assert!(
-                matches!(r, Err(IntegrateError::InvalidSettings(_))),
-                "{r:?}"
-            );
-        };
-        bad(Dop853::new(0.0, 1e-6), &y0, 1.0, &mut sys);
-        bad(Dop853::new(-1e-6, 1e-6), &y0, 1.0, &mut sys);
-        bad(Dop853::new(1e-6, -1e-6), &y0, 1.0, &mut sys);
-        bad(Dop853::new(0.0, 0.0), &y0, 1.0, &mut sys);
-        bad(Dop853::new(1e-6, 1e-6), &y0, 0.0, &mut sys);
-        bad(Dop853::new(1e-6, 1e-6), &y0, -1.0, &mut sys);
-        bad(Dop853::new(1e-6, 1e-6), &[f64::NAN, 0.0], 1.0, &mut sys);
-        bad(Dop853::new(1e-6, 1e-6), &[1.0], 1.0, &mut sys);
-        bad(
-            Dop853::new(1e-6, 1e-6).with_max_step(0.0),
-            &y0,
-            1.0,
-            &mut sys,
-        );
-        // Pure relative tolerance is allowed.
-        let (r, _) = run(&Dop853::new(1e-8, 0.0), &mut sys, &y0, 1.0);
-        r.unwrap();
-        assert_eq!(Dop853::new(1e-6, 1e-6).name(), "dop853");
+    fn the_embedded_solutions_have_orders_five_and_three() {
+        // The suite of every method (method_tests) checks the 8th-order weights and the
+        // continuous extension; these are DOP853's own two error estimates.
+        let (a, _) = matrix(&TABLEAU);
+        let s = a.len();
+        let b = dense_weights(WEIGHTS, s);
+        let er = dense_weights(ERROR5, s);
+        let b5: Vec<f64> = b.iter().zip(&er).map(|(b, e)| b - e).collect();
+        let worst = worst_condition(&a, &b5, 1.0, 5);
+        assert!(worst < 1e-13, "5th-order weights: {worst:e}");
+        assert!(worst_condition(&a, &b5, 1.0, 6) > 1e-7);
+        let b3 = dense_weights(WEIGHTS3, s);
+        let worst = worst_condition(&a, &b3, 1.0, 3);
+        assert!(worst < 1e-13, "3rd-order weights: {worst:e}");
+        assert!(worst_condition(&a, &b3, 1.0, 4) > 1e-7);
     }
 }

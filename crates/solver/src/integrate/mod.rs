@@ -8,7 +8,12 @@
 
 mod adaptive;
 mod dop853;
+mod explicit;
 mod hermite;
+#[cfg(test)]
+mod method_tests;
+#[cfg(test)]
+mod order_conditions;
 mod rk4;
 mod rosenbrock;
 mod verlet;

@@ -20,12 +20,13 @@
 #![allow(clippy::excessive_precision)]
 #![allow(clippy::needless_range_loop)]
 
-use std::cell::Cell;
-
 use chainsweep_cpu::MulAdd;
 
-use super::adaptive::{Adaptive, Attempt, Controller, Method, RejectionForm, Rhs, Stepper};
-use super::{all_finite, DenseStep};
+use super::adaptive::{Adaptive, Controller, Method, RejectionForm, Rhs};
+use super::all_finite;
+use super::explicit::{
+    combine_row, gather, lane_sum, weighted_sum, ExplicitMethod, Stage, Tableau, Work,
+};
 
 /// Adaptive Verner 6(5) integrator with 6th-order dense output.
 ///
@@ -51,8 +52,8 @@ impl Method for Vern6Method {
         max_growth: 10.0,
         rejection: RejectionForm::DivideByInverse,
     };
-    type Stepper = Work;
-    fn stepper(y0: &[f64], _n_pos: usize) -> Work {
+    type Stepper = Work<Self>;
+    fn stepper(y0: &[f64], _n_pos: usize) -> Work<Self> {
         Work::new(y0)
     }
 }
@@ -217,798 +218,210 @@ const R12: [f64; 6] = [
 /// Degree of the interpolant in θ.
 const SIX: usize = 6;
 
-// ---------------------------------------------------------------------------------------------
-// Work space.
-// ---------------------------------------------------------------------------------------------
+/// The stages (0 is `f(t, y)`; 8 is `f(t + h, y_new)`, the next step's first; 9–11 are the
+/// interpolant's).
+const STAGES: &[Stage] = &[
+    Stage { c: 0.0, a: &[] },
+    Stage {
+        c: C2,
+        a: &[(0, A2_1)],
+    },
+    Stage {
+        c: C3,
+        a: &[(0, A3_1), (1, A3_2)],
+    },
+    Stage {
+        c: C4,
+        a: &[(0, A4_1), (2, A4_3)],
+    },
+    Stage {
+        c: C5,
+        a: &[(0, A5_1), (2, A5_3), (3, A5_4)],
+    },
+    Stage {
+        c: C6,
+        a: &[(0, A6_1), (2, A6_3), (3, A6_4), (4, A6_5)],
+    },
+    Stage {
+        c: C7,
+        a: &[(0, A7_1), (2, A7_3), (3, A7_4), (4, A7_5), (5, A7_6)],
+    },
+    Stage {
+        c: 1.0,
+        a: &[
+            (0, A8_1),
+            (2, A8_3),
+            (3, A8_4),
+            (4, A8_5),
+            (5, A8_6),
+            (6, A8_7),
+        ],
+    },
+    Stage { c: 1.0, a: WEIGHTS },
+    Stage {
+        c: C10,
+        a: &[
+            (0, A10_1),
+            (3, A10_4),
+            (4, A10_5),
+            (5, A10_6),
+            (6, A10_7),
+            (7, A10_8),
+            (8, A10_9),
+        ],
+    },
+    Stage {
+        c: C11,
+        a: &[
+            (0, A11_1),
+            (3, A11_4),
+            (4, A11_5),
+            (5, A11_6),
+            (6, A11_7),
+            (7, A11_8),
+            (8, A11_9),
+            (9, A11_10),
+        ],
+    },
+    Stage {
+        c: C12,
+        a: &[
+            (0, A12_1),
+            (3, A12_4),
+            (4, A12_5),
+            (5, A12_6),
+            (6, A12_7),
+            (7, A12_8),
+            (8, A12_9),
+            (9, A12_10),
+            (10, A12_11),
+        ],
+    },
+];
 
-/// Every vector the step loop touches, allocated once per run.
-pub struct Work {
-    /// State at the start of the current step.
-    y: Vec<f64>,
-    /// 6th-order solution at the end of the current step.
-    y_new: Vec<f64>,
-    /// Argument of the stage being evaluated.
-    ys: Vec<f64>,
-    /// Stages 1 to 12 (`k[0]` is `f(t, y)`; `k[8]` is `f(t + h, y_new)`, the next step's first;
-    /// `k[9..12]` are the interpolant's).
-    k: [Vec<f64>; 12],
-    /// Squared, scaled components of the error estimate (scratch).
-    e_sq: Vec<f64>,
-    /// Dense-output coefficients of each component (`y` and the six powers of θ), computed on
-    /// first use in a step: probes and event location read a handful of components.
-    cont: Vec<Cell<[f64; 7]>>,
-    /// Step number for which `cont[i]` holds the coefficients.
-    cont_epoch: Vec<Cell<u64>>,
-    /// Number of the current dense step (starts at 1 so that no coefficient is valid initially).
-    epoch: u64,
-}
+/// The 6th-order weights.
+const WEIGHTS: &[(usize, f64)] = &[(0, B1), (3, B4), (4, B5), (5, B6), (6, B7), (7, B8)];
 
-/// `out = y + h Σ_j a[j] k[j]`, element by element (the sum from the first stage on, each term
-/// one fused multiply-add where the CPU has it).
-#[inline(always)]
-fn combine<F: MulAdd, const S: usize>(
-    out: &mut [f64],
-    y: &[f64],
-    h: f64,
-    a: [f64; S],
-    k: [&[f64]; S],
-) {
-    let n = out.len();
-    let y = &y[..n];
-    let k = k.map(|s| &s[..n]);
-    for i in 0..n {
-        let mut acc = a[0] * k[0][i];
-        for j in 1..S {
-            acc = F::mul_add(a[j], k[j][i], acc);
-        }
-        out[i] = F::mul_add(h, acc, y[i]);
-    }
-}
+/// The error weights: those of the embedded 5th-order solution minus the 6th-order ones.
+const ERROR: &[(usize, f64)] = &[
+    (0, E1),
+    (3, E4),
+    (4, E5),
+    (5, E6),
+    (6, E7),
+    (7, E8),
+    (8, E9),
+];
 
-impl Work {
-    fn new(y0: &[f64]) -> Self {
-        let n = y0.len();
-        Work {
-            y: y0.to_vec(),
-            y_new: vec![0.0; n],
-            ys: vec![0.0; n],
-            k: std::array::from_fn(|_| vec![0.0; n]),
-            e_sq: vec![0.0; n],
-            cont: vec![Cell::new([0.0; 7]); n],
-            cont_epoch: vec![Cell::new(0); n],
-            epoch: 0,
-        }
-    }
+/// The interpolant's weights: `(j, R_j)`, the polynomial in θ of stage j.
+const INTERPOLANT: &[(usize, [f64; SIX])] = &[
+    (0, R1),
+    (3, R4),
+    (4, R5),
+    (5, R6),
+    (6, R7),
+    (7, R8),
+    (8, R9),
+    (9, R10),
+    (10, R11),
+    (11, R12),
+];
 
-    /// Stages 2 to 8 of a step of size `h` from `(t, y)`, the 6th-order solution into `y_new`,
-    /// stage 9 at `(t_new, y_new)`, and the RMS norm of the 5th-order error estimate. Exactly 8
-    /// right-hand-side evaluations. Returns `(err, y_new and stage 9 are finite)`.
+/// Verner's pair as data: eight stages per attempt, the ninth (FSAL) among them because the
+/// error estimate uses it, three more for the interpolant.
+const TABLEAU: Tableau = Tableau {
+    stages: STAGES,
+    attempt: 7,
+    fsal: 8,
+    fsal_in_attempt: true,
+    weights: WEIGHTS,
+    buffers: &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11],
+    n_buffers: 12,
+};
+
+impl ExplicitMethod for Vern6Method {
+    const TABLEAU: Tableau = TABLEAU;
+
+    /// The 6th-order solution (fused, as the stages), stage 9 at `(t_new, y_new)`, and the RMS
+    /// norm of the 5th-order error estimate: its scaled components in one vectorised pass, their
+    /// sum in a second over eight partial sums (a running sum would serialise the first loop).
     #[inline(always)]
-    fn attempt<F: MulAdd>(
-        &mut self,
-        sys: &mut Rhs,
-        t: f64,
+    fn solution_and_error<F: MulAdd>(
+        w: &mut Work<Self>,
+        rhs: &mut Rhs,
         h: f64,
         t_new: f64,
         rtol: f64,
         atol: &[f64],
     ) -> (f64, bool) {
-        let n = self.y.len();
+        let n = w.y.len();
         let Work {
             y,
             y_new,
-            ys,
             k,
-            e_sq,
+            err_sq: [e_sq, _],
             ..
-        } = self;
-        let y = &y[..n];
-        let ys = &mut ys[..n];
-        let [k1, k2, k3, k4, k5, k6, k7, k8, k9, ..] = k;
-
-        combine::<F, 1>(ys, y, h, [A2_1], [k1]);
-        sys.eval(t + C2 * h, ys, k2);
-        combine::<F, 2>(ys, y, h, [A3_1, A3_2], [k1, k2]);
-        sys.eval(t + C3 * h, ys, k3);
-        combine::<F, 2>(ys, y, h, [A4_1, A4_3], [k1, k3]);
-        sys.eval(t + C4 * h, ys, k4);
-        combine::<F, 3>(ys, y, h, [A5_1, A5_3, A5_4], [k1, k3, k4]);
-        sys.eval(t + C5 * h, ys, k5);
-        combine::<F, 4>(ys, y, h, [A6_1, A6_3, A6_4, A6_5], [k1, k3, k4, k5]);
-        sys.eval(t + C6 * h, ys, k6);
-        combine::<F, 5>(
-            ys,
-            y,
-            h,
-            [A7_1, A7_3, A7_4, A7_5, A7_6],
-            [k1, k3, k4, k5, k6],
-        );
-        sys.eval(t + C7 * h, ys, k7);
-        combine::<F, 6>(
-            ys,
-            y,
-            h,
-            [A8_1, A8_3, A8_4, A8_5, A8_6, A8_7],
-            [k1, k3, k4, k5, k6, k7],
-        );
-        sys.eval(t_new, ys, k8);
-        let y_new = &mut y_new[..n];
-        combine::<F, 6>(
-            y_new,
-            y,
-            h,
-            [B1, B4, B5, B6, B7, B8],
-            [k1, k4, k5, k6, k7, k8],
-        );
+        } = w;
+        let buffers = TABLEAU.buffers;
+        combine_row::<F>(&mut y_new[..n], y, h, WEIGHTS, k, buffers);
         let finite = all_finite(y_new);
-        sys.eval(t_new, y_new, k9);
-        let finite = finite && all_finite(k9);
+        let fsal = buffers[TABLEAU.fsal];
+        rhs.eval(t_new, y_new, &mut k[fsal]);
+        let finite = finite && all_finite(&k[fsal]);
 
-        // The scaled components of the error estimate in one vectorised pass; their sum in a
-        // second over eight partial sums (a running sum would serialise the first loop).
-        let (k1, k4, k5, k6) = (&k1[..n], &k4[..n], &k5[..n], &k6[..n]);
-        let (k7, k8, k9) = (&k7[..n], &k8[..n], &k9[..n]);
-        let atol = &atol[..n];
-        let e_sq = &mut e_sq[..n];
+        let (e, ke) = gather::<7>(ERROR, k, buffers);
+        let ke = ke.map(|s| &s[..n]);
+        let (y, y_new, atol, e_sq) = (&y[..n], &y_new[..n], &atol[..n], &mut e_sq[..n]);
         for i in 0..n {
             let sk = atol[i] + rtol * y[i].abs().max(y_new[i].abs());
             // A component with no tolerance scale (exactly zero, atol 0) is left out.
             let inv = if sk > 0.0 { 1.0 / sk } else { 0.0 };
-            let e = (E1 * k1[i]
-                + E4 * k4[i]
-                + E5 * k5[i]
-                + E6 * k6[i]
-                + E7 * k7[i]
-                + E8 * k8[i]
-                + E9 * k9[i])
-                * inv;
+            let e = weighted_sum(e, ke, i) * inv;
             e_sq[i] = e * e;
         }
         let err = h.abs() * (lane_sum(e_sq) / n as f64).sqrt();
         (err, finite)
     }
 
-    /// After a step has passed the error test: the interpolant's stages 10–12. Exactly 3
-    /// right-hand-side evaluations. Returns whether they are finite.
-    #[inline(always)]
-    fn prepare_dense<F: MulAdd>(&mut self, sys: &mut Rhs, t: f64, h: f64) -> bool {
-        let n = self.y.len();
-        let Work {
-            y, ys, k, epoch, ..
-        } = self;
-        let y = &y[..n];
-        let ys = &mut ys[..n];
-        let [k1, _, _, k4, k5, k6, k7, k8, k9, k10, k11, k12] = k;
-        combine::<F, 7>(
-            ys,
-            y,
-            h,
-            [A10_1, A10_4, A10_5, A10_6, A10_7, A10_8, A10_9],
-            [k1, k4, k5, k6, k7, k8, k9],
-        );
-        sys.eval(t + C10 * h, ys, k10);
-        combine::<F, 8>(
-            ys,
-            y,
-            h,
-            [A11_1, A11_4, A11_5, A11_6, A11_7, A11_8, A11_9, A11_10],
-            [k1, k4, k5, k6, k7, k8, k9, k10],
-        );
-        sys.eval(t + C11 * h, ys, k11);
-        combine::<F, 9>(
-            ys,
-            y,
-            h,
-            [
-                A12_1, A12_4, A12_5, A12_6, A12_7, A12_8, A12_9, A12_10, A12_11,
-            ],
-            [k1, k4, k5, k6, k7, k8, k9, k10, k11],
-        );
-        sys.eval(t + C12 * h, ys, k12);
-        *epoch += 1;
-        all_finite(k10) && all_finite(k11) && all_finite(k12)
-    }
-}
-
-/// Sum of a slice in eight interleaved partial sums, which vectorises.
-fn lane_sum(v: &[f64]) -> f64 {
-    let chunks = v.chunks_exact(8);
-    let mut acc = [0.0f64; 8];
-    let rest: f64 = chunks.remainder().iter().sum();
-    for c in chunks {
-        for k in 0..8 {
-            acc[k] += c[k];
-        }
-    }
-    acc.iter().sum::<f64>() + rest
-}
-
-/// The interpolant handed to the observer: Verner's 6th-order continuous extension on one
-/// accepted step.
-pub struct Vern6Step<'a> {
-    t0: f64,
-    t1: f64,
-    h: f64,
-    w: &'a Work,
-}
-
-impl Vern6Step<'_> {
-    /// `y` and the coefficients of θ, …, θ⁶ of component `i`, computed from the stages of this
-    /// step on first use and cached until the next step.
-    #[inline(always)]
-    fn coefficients(&self, i: usize) -> [f64; 7] {
-        let w = self.w;
-        if w.cont_epoch[i].get() == w.epoch {
-            return w.cont[i].get();
-        }
-        self.compute_coefficients(i)
-    }
-
-    /// [`Vern6Step::coefficients`] on first use in a step (out of line: the cached case is the
-    /// frequent one, several samples per step).
-    #[inline(never)]
-    fn compute_coefficients(&self, i: usize) -> [f64; 7] {
-        let w = self.w;
-        let h = self.h;
-        let k = |j: usize| w.k[j][i];
-        let (k1, k4, k5, k6, k7, k8) = (k(0), k(3), k(4), k(5), k(6), k(7));
-        let (k9, k10, k11, k12) = (k(8), k(9), k(10), k(11));
-        let mut c = [w.y[i], 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    /// `y` and the coefficients of θ, …, θ⁶: `h Σ_j R_j[m] k_j`.
+    fn dense_coefficients(h: f64, y: f64, _y_new: f64, k: impl Fn(usize) -> f64) -> [f64; 8] {
+        let mut c = [y, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         // θ¹ involves only the first stage (R_j[0] = 0 for j > 1).
-        c[1] = h * k1;
+        c[1] = h * k(0);
         for m in 1..SIX {
-            c[m + 1] = h
-                * (R1[m] * k1
-                    + R4[m] * k4
-                    + R5[m] * k5
-                    + R6[m] * k6
-                    + R7[m] * k7
-                    + R8[m] * k8
-                    + R9[m] * k9
-                    + R10[m] * k10
-                    + R11[m] * k11
-                    + R12[m] * k12);
+            let (j0, r0) = INTERPOLANT[0];
+            let mut s = r0[m] * k(j0);
+            for &(j, r) in &INTERPOLANT[1..] {
+                s += r[m] * k(j);
+            }
+            c[m + 1] = h * s;
         }
-        w.cont[i].set(c);
-        w.cont_epoch[i].set(w.epoch);
         c
     }
 
+    /// Horner's scheme in θ.
     #[inline(always)]
-    fn horner(c: &[f64; 7], s: f64) -> f64 {
-        c[0] + s * (c[1] + s * (c[2] + s * (c[3] + s * (c[4] + s * (c[5] + s * c[6])))))
-    }
-}
-
-impl DenseStep for Vern6Step<'_> {
-    fn t_start(&self) -> f64 {
-        self.t0
-    }
-    fn t_end(&self) -> f64 {
-        self.t1
-    }
-    fn y_end(&self) -> &[f64] {
-        &self.w.y_new
-    }
-    fn eval_component(&self, t: f64, i: usize) -> f64 {
-        if t == self.t1 {
-            return self.w.y_new[i];
-        }
-        let s = (t - self.t0) / self.h;
-        Self::horner(&self.coefficients(i), s)
-    }
-    fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
-        if t == self.t1 {
-            for &i in indices {
-                out[i] = self.w.y_new[i];
-            }
-            return;
-        }
-        let s = (t - self.t0) / self.h;
-        for &i in indices {
-            out[i] = Self::horner(&self.coefficients(i), s);
-        }
-    }
-}
-
-impl Stepper for Work {
-    type Dense<'a> = Vern6Step<'a>;
-
-    fn start(&mut self, rhs: &mut Rhs, t0: f64) -> bool {
-        rhs.eval(t0, &self.y, &mut self.k[0]);
-        all_finite(&self.k[0])
-    }
-    fn y(&self) -> &[f64] {
-        &self.y
-    }
-    fn f0(&self) -> &[f64] {
-        &self.k[0]
-    }
-    fn y_new(&self) -> &[f64] {
-        &self.y_new
-    }
-    #[inline(always)]
-    fn attempt<F: MulAdd>(
-        &mut self,
-        rhs: &mut Rhs,
-        t: f64,
-        h: f64,
-        t_new: f64,
-        rtol: f64,
-        atol: &[f64],
-    ) -> Attempt {
-        let (err, finite) = Work::attempt::<F>(self, rhs, t, h, t_new, rtol, atol);
-        Attempt { err, finite }
-    }
-    #[inline(always)]
-    fn prepare_dense<F: MulAdd>(&mut self, rhs: &mut Rhs, t: f64, h: f64, _t_new: f64) -> bool {
-        Work::prepare_dense::<F>(self, rhs, t, h)
-    }
-    fn finish(&mut self, _rhs: &mut Rhs, _t_new: f64) -> bool {
-        true
-    }
-    fn dense(&self, t0: f64, t1: f64, h: f64) -> Vern6Step<'_> {
-        Vern6Step { t0, t1, h, w: self }
-    }
-    fn advance(&mut self) {
-        std::mem::swap(&mut self.y, &mut self.y_new);
-        self.k.swap(0, 8);
+    fn interpolate(c: impl Fn(usize) -> f64, s: f64) -> f64 {
+        c(0) + s * (c(1) + s * (c(2) + s * (c(3) + s * (c(4) + s * (c(5) + s * c(6))))))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrate::{
-        Control, IntegrateError, IntegrationStats, Integrator, OdeSystem, OdeSystemDyn,
-        StepObserver,
-    };
-    use crate::problems::{run_recorded, HarmonicOscillator, QuadraticGrowth, StepRecord};
-
-    /// The twelve-stage tableau (stages 10–12 are the interpolant's), rows `A[i][j]`, nodes.
-    fn tableau() -> ([[f64; 12]; 12], [f64; 12]) {
-        let mut a = [[0.0; 12]; 12];
-        let rows: [(usize, &[(usize, f64)]); 11] = [
-            (1, &[(0, A2_1)]),
-            (2, &[(0, A3_1), (1, A3_2)]),
-            (3, &[(0, A4_1), (2, A4_3)]),
-            (4, &[(0, A5_1), (2, A5_3), (3, A5_4)]),
-            (5, &[(0, A6_1), (2, A6_3), (3, A6_4), (4, A6_5)]),
-            (6, &[(0, A7_1), (2, A7_3), (3, A7_4), (4, A7_5), (5, A7_6)]),
-            (
-                7,
-                &[
-                    (0, A8_1),
-                    (2, A8_3),
-                    (3, A8_4),
-                    (4, A8_5),
-                    (5, A8_6),
-                    (6, A8_7),
-                ],
-            ),
-            (8, &[(0, B1), (3, B4), (4, B5), (5, B6), (6, B7), (7, B8)]),
-            (
-                9,
-                &[
-                    (0, A10_1),
-                    (3, A10_4),
-                    (4, A10_5),
-                    (5, A10_6),
-                    (6, A10_7),
-                    (7, A10_8),
-                    (8, A10_9),
-                ],
-            ),
-            (
-                10,
-                &[
-                    (0, A11_1),
-                    (3, A11_4),
-                    (4, A11_5),
-                    (5, A11_6),
-                    (6, A11_7),
-                    (7, A11_8),
-                    (8, A11_9),
-                    (9, A11_10),
-                ],
-            ),
-            (
-                11,
-                &[
-                    (0, A12_1),
-                    (3, A12_4),
-                    (4, A12_5),
-                    (5, A12_6),
-                    (6, A12_7),
-                    (7, A12_8),
-                    (8, A12_9),
-                    (9, A12_10),
-                    (10, A12_11),
-                ],
-            ),
-        ];
-        for (i, row) in rows {
-            for &(j, v) in row {
-                a[i][j] = v;
-            }
-        }
-        let c = [0.0, C2, C3, C4, C5, C6, C7, 1.0, 1.0, C10, C11, C12];
-        (a, c)
-    }
-
-    /// A rooted tree as the list of its root's subtrees (sorted, so that each tree has one form).
-    #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord)]
-    struct Tree(Vec<Tree>);
-
-    impl Tree {
-        fn order(&self) -> usize {
-            1 + self.0.iter().map(Tree::order).sum::<usize>()
-        }
-        /// γ(t) = |t| Π γ(subtrees).
-        fn density(&self) -> f64 {
-            self.order() as f64 * self.0.iter().map(Tree::density).product::<f64>()
-        }
-        /// Φ_i(t) for every stage: Π over subtrees of (A Φ(subtree))_i, with its magnitude (the
-        /// same with |A|) to scale the rounding tolerance.
-        fn stage_weights(&self, a: &[[f64; 12]; 12]) -> ([f64; 12], [f64; 12]) {
-            let (mut phi, mut mag) = ([1.0; 12], [1.0; 12]);
-            for sub in &self.0 {
-                let (p, m) = sub.stage_weights(a);
-                for i in 0..12 {
-                    phi[i] *= (0..12).map(|j| a[i][j] * p[j]).sum::<f64>();
-                    mag[i] *= (0..12).map(|j| (a[i][j] * m[j]).abs()).sum::<f64>();
-                }
-            }
-            (phi, mag)
-        }
-    }
-
-    /// Every rooted tree with at most `max` vertices (1, 1, 2, 4, 9, 20, 48 of each order).
-    fn trees(max: usize) -> Vec<Tree> {
-        let mut all = vec![Tree(vec![])];
-        for order in 2..=max {
-            // Grafting a leaf onto every vertex of every tree one smaller gives all of them.
-            fn graft(t: &Tree) -> Vec<Tree> {
-                let mut out = vec![];
-                let mut with_leaf = t.0.clone();
-                with_leaf.push(Tree(vec![]));
-                with_leaf.sort();
-                out.push(Tree(with_leaf));
-                for (k, sub) in t.0.iter().enumerate() {
-                    for g in graft(sub) {
-                        let mut subs = t.0.clone();
-                        subs[k] = g;
-                        subs.sort();
-                        out.push(Tree(subs));
-                    }
-                }
-                out
-            }
-            let mut new: Vec<Tree> = all
-                .iter()
-                .filter(|t| t.order() == order - 1)
-                .flat_map(graft)
-                .collect();
-            new.sort();
-            new.dedup();
-            all.extend(new);
-        }
-        all
-    }
-
-    /// The largest violation of `Σ w_i Φ_i(t) = θ^|t| / γ(t)` over the trees up to `order`,
-    /// relative to the size of the terms.
-    fn worst_condition(w: &[f64; 12], theta: f64, order: usize) -> f64 {
-        let (a, _) = tableau();
-        trees(order)
-            .iter()
-            .map(|t| {
-                let (phi, mag) = t.stage_weights(&a);
-                let lhs: f64 = w.iter().zip(&phi).map(|(w, p)| w * p).sum();
-                let scale: f64 = w.iter().zip(&mag).map(|(w, m)| (w * m).abs()).sum();
-                let rhs = theta.powi(t.order() as i32) / t.density();
-                (lhs - rhs).abs() / scale.max(1.0)
-            })
-            .fold(0.0, f64::max)
-    }
-
-    fn weights(stages: &[(usize, f64)]) -> [f64; 12] {
-        let mut w = [0.0; 12];
-        for &(j, v) in stages {
-            w[j] = v;
-        }
-        w
-    }
+    use crate::integrate::order_conditions::{dense_weights, matrix, worst_condition};
 
     #[test]
-    fn vern6_coefficients_satisfy_the_order_conditions() {
-        let counts: Vec<usize> = (1..=7)
-            .map(|p| trees(7).iter().filter(|t| t.order() == p).count())
-            .collect();
-        assert_eq!(counts, [1, 1, 2, 4, 9, 20, 48]);
-
-        // Row sums equal the nodes.
-        let (a, c) = tableau();
-        for i in 0..12 {
-            let s: f64 = a[i].iter().sum();
-            assert!(
-                (s - c[i]).abs() < 1e-12,
-                "row {}: sum {s} vs c {}",
-                i + 1,
-                c[i]
-            );
-        }
-        // The propagated weights: order 6 (all 37 trees), not 7.
-        let b = weights(&[(0, B1), (3, B4), (4, B5), (5, B6), (6, B7), (7, B8)]);
-        let worst = worst_condition(&b, 1.0, 6);
-        assert!(worst < 1e-14, "6th-order weights: {worst:e}");
-        assert!(worst_condition(&b, 1.0, 7) > 1e-7);
-        // The embedded weights b + e: order 5 (17 trees), not 6.
-        let e = weights(&[
-            (0, E1),
-            (3, E4),
-            (4, E5),
-            (5, E6),
-            (6, E7),
-            (7, E8),
-            (8, E9),
-        ]);
-        let bhat: [f64; 12] = std::array::from_fn(|j| b[j] + e[j]);
-        let worst = worst_condition(&bhat, 1.0, 5);
+    fn the_embedded_solution_has_order_five() {
+        // The suite of every method (method_tests) checks the 6th-order weights and the
+        // interpolant; this is the error estimate's.
+        let (a, _) = matrix(&TABLEAU);
+        let s = a.len();
+        let b = dense_weights(WEIGHTS, s);
+        let e = dense_weights(ERROR, s);
+        let bhat: Vec<f64> = b.iter().zip(&e).map(|(b, e)| b + e).collect();
+        let worst = worst_condition(&a, &bhat, 1.0, 5);
         assert!(worst < 1e-14, "5th-order weights: {worst:e}");
-        assert!(worst_condition(&bhat, 1.0, 6) > 1e-7);
-        // The interpolant b(θ): order 6 at every θ, and b(1) = b.
-        let r = [
-            R1, [0.0; 6], [0.0; 6], R4, R5, R6, R7, R8, R9, R10, R11, R12,
-        ];
-        for theta in [0.1f64, 0.28, 0.5, 0.77, 1.0] {
-            let w: [f64; 12] =
-                std::array::from_fn(|j| (0..SIX).map(|m| r[j][m] * theta.powi(m as i32 + 1)).sum());
-            let worst = worst_condition(&w, theta, 6);
-            assert!(worst < 1e-13, "interpolant at θ = {theta}: {worst:e}");
-            if theta == 1.0 {
-                for j in 0..12 {
-                    assert!((w[j] - b[j]).abs() < 1e-10, "b({theta})_{j} = {}", w[j]);
-                }
-            }
-        }
-    }
-
-    fn run(
-        solver: &Vern6,
-        sys: &mut dyn OdeSystemDyn,
-        y0: &[f64],
-        t_end: f64,
-    ) -> (Result<IntegrationStats, IntegrateError>, StepRecord) {
-        run_recorded(solver, sys, y0, t_end)
-    }
-
-    fn oscillator_error(tol: f64, t_end: f64) -> (f64, IntegrationStats) {
-        let (r, rec) = run(
-            &Vern6::new(tol, tol),
-            &mut HarmonicOscillator { quadrature: false },
-            &[1.0, 0.0],
-            t_end,
-        );
-        let stats = r.unwrap();
-        assert_eq!(rec.t, t_end, "must land exactly on t_end");
-        let e = (rec.y[0] - t_end.cos())
-            .abs()
-            .max((rec.y[1] + t_end.sin()).abs());
-        (e, stats)
-    }
-
-    #[test]
-    fn vern6_error_follows_the_tolerance() {
-        let (e10, s10) = oscillator_error(1e-10, 20.0);
-        assert!(e10 < 1e-8, "error {e10:e} at tol 1e-10");
-        let (e6, s6) = oscillator_error(1e-6, 20.0);
-        assert!(e6 < 1e-4, "error {e6:e} at tol 1e-6");
-        // A 6th-order method: four decades of tolerance cost about 10^(4/6) ≈ 4.6 times the steps.
-        let ratio = s10.steps as f64 / s6.steps as f64;
-        assert!(e6 / e10 > 300.0, "e(1e-6) = {e6:e}, e(1e-10) = {e10:e}");
-        assert!(
-            ratio > 3.0 && ratio < 7.0,
-            "step ratio {ratio} ({s6:?}, {s10:?})"
-        );
-    }
-
-    /// Fixed steps: huge tolerances so the controller always wants to grow, capped at `h`.
-    fn fixed_step_run(sys: &mut dyn OdeSystemDyn, y0: &[f64], t_end: f64, n: u32) -> Vec<f64> {
-        let h = t_end / f64::from(n);
-        let solver = Vern6::new(1e3, 1e3).with_initial_step(h).with_max_step(h);
-        let (r, rec) = run(&solver, sys, y0, t_end);
-        let s = r.unwrap();
-        assert_eq!((s.steps, s.rejected), (u64::from(n), 0));
-        rec.y
-    }
-
-    #[test]
-    fn vern6_convergence_order_is_six() {
-        // y' = y² from 1 to t = 0.8 (y = 5), with 10, 20, 40 steps. Nonlinear, so that the error
-        // involves every order condition (on y' = −y + sin t this pair converges at order 7).
-        // Verner chose the pair for a small 6th-order error constant: at these steps the
-        // 7th-order terms still weigh in and the slope lies between 6 and 7.5 (measured 6.9 and
-        // 7.5); at smaller steps rounding takes over (the weights reach ±176). A wrong
-        // coefficient would drop it to 5 or below.
-        let t_end = 0.8;
-        let e = |n: u32| {
-            (fixed_step_run(&mut QuadraticGrowth, &[1.0], t_end, n)[0]
-                - QuadraticGrowth::exact(1.0, t_end))
-            .abs()
-        };
-        let (e1, e2, e3) = (e(10), e(20), e(40));
-        for (p, what) in [((e1 / e2).log2(), "10/20"), ((e2 / e3).log2(), "20/40")] {
-            assert!(
-                p > 5.7 && p < 7.8,
-                "y' = y², steps {what}: order {p} (errors {e1:e} {e2:e} {e3:e})"
-            );
-        }
-    }
-
-    #[test]
-    fn vern6_dense_output_order_is_six() {
-        // A continuous extension of order 6 has local error O(h^7) everywhere in the step:
-        // halving h divides the interpolation error of the first step by about 2^7.
-        struct FirstStep {
-            max_err: f64,
-            ends: (f64, f64),
-        }
-        impl StepObserver for FirstStep {
-            fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
-            fn on_step(&mut self, step: &dyn DenseStep) -> Control {
-                let (a, b) = (step.t_start(), step.t_end());
-                for j in 1..10 {
-                    let t = a + (b - a) * f64::from(j) / 10.0;
-                    let e = (step.eval_component(t, 0) - QuadraticGrowth::exact(1.0, t)).abs();
-                    self.max_err = self.max_err.max(e);
-                }
-                // The interpolant meets the step's ends.
-                self.ends = (
-                    step.eval_component(a, 0),
-                    step.eval_component(b, 0) - step.y_end()[0],
-                );
-                Control::Stop
-            }
-        }
-        let err_for = |h: f64| {
-            let solver = Vern6::new(1e3, 1e3).with_initial_step(h).with_max_step(h);
-            let mut obs = FirstStep {
-                max_err: 0.0,
-                ends: (f64::NAN, f64::NAN),
-            };
-            solver
-                .integrate(&mut QuadraticGrowth, 0.0, &[1.0], 0.9, 10, &mut obs)
-                .unwrap();
-            assert_eq!(obs.ends, (1.0, 0.0));
-            obs.max_err
-        };
-        // On y' = y² from 1 the slope falls towards 7 as h shrinks (10.5 from 0.4 to 0.2, 8.6 from
-        // 0.2 to 0.1, 6.9 from 0.1 to 0.05); below that rounding takes over (the interpolant's
-        // weights reach 10^5). A 5th-order interpolant would give 6.
-        let (e1, e2) = (err_for(0.1), err_for(0.05));
-        let p = (e1 / e2).log2();
-        assert!(
-            p > 6.5 && p < 7.5,
-            "dense local order {p} (e1 {e1:e}, e2 {e2:e})"
-        );
-    }
-
-    #[test]
-    fn vern6_dense_output_accuracy() {
-        // 1000 samples over 20 s, none on a step end, against the exact solution.
-        struct Dense {
-            next: usize,
-            max_err: f64,
-        }
-        impl StepObserver for Dense {
-            fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
-            fn on_step(&mut self, step: &dyn DenseStep) -> Control {
-                loop {
-                    let t = (self.next as f64 + 0.5) * 0.02;
-                    if self.next == 1000 || t > step.t_end() {
-                        return Control::Continue;
-                    }
-                    let mut both = [f64::NAN; 2];
-                    step.eval_components(t, &[0, 1], &mut both);
-                    assert_eq!(both, [step.eval_component(t, 0), step.eval_component(t, 1)]);
-                    let e = (both[0] - t.cos()).abs().max((both[1] + t.sin()).abs());
-                    self.max_err = self.max_err.max(e);
-                    self.next += 1;
-                }
-            }
-        }
-        let mut obs = Dense {
-            next: 0,
-            max_err: 0.0,
-        };
-        let stats = Vern6::new(1e-10, 1e-10)
-            .integrate(
-                &mut HarmonicOscillator { quadrature: false },
-                0.0,
-                &[1.0, 0.0],
-                20.0,
-                100_000,
-                &mut obs,
-            )
-            .unwrap();
-        assert_eq!(obs.next, 1000);
-        assert!(stats.steps < 500, "{stats:?}");
-        assert!(obs.max_err < 1e-8, "dense error {:e}", obs.max_err);
-    }
-
-    /// Counts its own right-hand-side calls.
-    struct Counted(u64);
-    impl OdeSystem for Counted {
-        fn n_pos(&self) -> usize {
-            1
-        }
-        fn n_quad(&self) -> usize {
-            0
-        }
-        fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-            self.0 += 1;
-            dy[0] = y[1];
-            dy[1] = -y[0];
-        }
-    }
-
-    #[test]
-    fn vern6_rhs_eval_accounting() {
-        // Automatic first step: 1 (at t0) + 1 (HINIT) + 11 per accepted + 8 per rejected.
-        let mut sys = Counted(0);
-        let s = Vern6::new(1e-9, 1e-9)
-            .integrate(
-                &mut sys,
-                0.0,
-                &[1.0, 0.0],
-                10.0,
-                100_000,
-                &mut StepRecord::default(),
-            )
-            .unwrap();
-        assert_eq!(s.rhs_evals, sys.0);
-        assert_eq!(s.rhs_evals, 2 + 11 * s.steps + 8 * s.rejected);
-        // A far too large first step forces rejections; no HINIT evaluation.
-        let mut sys = Counted(0);
-        let s = Vern6::new(1e-9, 1e-9)
-            .with_initial_step(8.0)
-            .integrate(
-                &mut sys,
-                0.0,
-                &[1.0, 0.0],
-                10.0,
-                100_000,
-                &mut StepRecord::default(),
-            )
-            .unwrap();
-        assert!(s.rejected >= 1, "{s:?}");
-        assert_eq!(s.rhs_evals, sys.0);
-        assert_eq!(s.rhs_evals, 1 + 11 * s.steps + 8 * s.rejected);
-    }
-
-    #[test]
-    fn vern6_recovers_from_transient_nonfinite() {
-        // y' = -10 y, undefined for y < 0: a huge first step overshoots, is shrunk, and the run
-        // completes accurately.
-        struct Guarded;
-        impl OdeSystem for Guarded {
-            fn n_pos(&self) -> usize {
-                0
-            }
-            fn n_quad(&self) -> usize {
-                1
-            }
-            fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
-                dy[0] = if y[0] < 0.0 { f64::NAN } else { -10.0 * y[0] };
-            }
-        }
-        let solver = Vern6::new(1e-10, 1e-12).with_initial_step(1.0);
-        let (r, rec) = run(&solver, &mut Guarded, &[1.0], 1.0);
-        let stats = r.unwrap();
-        assert!(stats.rejected >= 1);
-        let e = (rec.y[0] - (-10.0f64).exp()).abs();
-        assert!(e < 1e-9, "error {e:e}");
-        assert_eq!(solver.name(), "vern6");
+        assert!(worst_condition(&a, &bhat, 1.0, 6) > 1e-7);
     }
 }
