@@ -10,9 +10,10 @@
 
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
+use super::events::Events;
 use super::{
     all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
-    StepObserver, Switch, Tridiagonal,
+    StepObserver, Tridiagonal,
 };
 
 /// Settings of an adaptive method: the same for every method, in a scene's `integrator` block and
@@ -293,22 +294,6 @@ pub trait Stepper {
     }
 }
 
-/// Fraction of the step before an event that the step after it starts from (`predict_switches`).
-const RESUME_FRACTION: f64 = 0.5;
-/// Predicted crossings closer than this fraction of the step are slivers (grazing contacts): the
-/// step is not shortened to them (`predict_switches`).
-const MIN_PREDICTED_FRACTION: f64 = 1e-9;
-/// Consecutive accepted steps that end on events (predicted or located) after which prediction
-/// and the resume rule pause until an ordinary step is accepted (`predict_switches`): the
-/// anti-trap rule. Each predicted landing may halve the step, so a streak shrinks it by at most
-/// 2^-16; the steps after it are those of the plain event location, whose controller regrows
-/// the step from the landing step. Measured on the reference run (rtol 5e-8): 9 240 right-hand
-/// sides with 16 (as many as with no bound, which traps on the grazing contact of
-/// tests/dynamics.rs), 9 520 with 8, 9 999 with 4, 18 886 with 1.
-const MAX_EVENT_STREAK: u32 = 16;
-/// How far past a crossing a step that lands on it ends, and how much shorter than the step it
-/// replaces it must be, relative.
-const EVENT_MARGIN: f64 = 1e-6;
 /// Consecutive steps on the stability boundary that flag the problem as stiff (Hairer).
 const STIFF_STEPS_TO_FLAG: u32 = 15;
 /// Calm steps that clear the count.
@@ -316,6 +301,33 @@ const CALM_STEPS_TO_CLEAR: u32 = 6;
 /// Consecutive step failures with NaN/inf or a singular matrix (each shrinking the step tenfold)
 /// before giving up.
 const MAX_NONFINITE_RETRIES: u32 = 6;
+
+/// Hairer's stiffness test: stiff once [`STIFF_STEPS_TO_FLAG`] accepted steps sit on the
+/// stability boundary without [`CALM_STEPS_TO_CLEAR`] calm ones in between; the step is then held
+/// by stability, not by the tolerance.
+#[derive(Default)]
+struct StiffnessCount {
+    stiff_steps: u32,
+    calm_steps: u32,
+}
+
+impl StiffnessCount {
+    /// Records whether an accepted step sat on the stability boundary; true when this step flags
+    /// the problem as stiff.
+    fn record(&mut self, on_boundary: bool) -> bool {
+        if on_boundary {
+            self.calm_steps = 0;
+            self.stiff_steps += 1;
+            self.stiff_steps == STIFF_STEPS_TO_FLAG
+        } else {
+            self.calm_steps += 1;
+            if self.calm_steps == CALM_STEPS_TO_CLEAR {
+                self.stiff_steps = 0;
+            }
+            false
+        }
+    }
+}
 
 /// [`Stepper::attempt`] as a dispatched kernel.
 struct AttemptKernel<'a, 'b, S> {
@@ -375,15 +387,12 @@ impl<M: Method> Integrator for Adaptive<M> {
         let atol = validate(M::NAME, self, sys, t0, y0, t_end)?;
         let h_max = self.options.max_step_s.unwrap_or(t_end - t0);
         let controller = M::CONTROLLER;
-        let switches: Vec<Switch> = if self.options.locate_events {
-            sys.switches().to_vec()
-        } else {
-            Vec::new()
-        };
-        let predict = self.options.predict_switches && !switches.is_empty();
-        let n_pos = sys.n_pos();
-        let adjacent = adjacent_pairs(&switches, n_pos);
-        let mut w = M::stepper(y0, n_pos);
+        let mut events = Events::new(
+            sys,
+            self.options.locate_events,
+            self.options.predict_switches,
+        );
+        let mut w = M::stepper(y0, sys.n_pos());
         let mut rhs = Rhs::new(sys);
         let mut stats = IntegrationStats::default();
 
@@ -416,16 +425,7 @@ impl<M: Method> Integrator for Adaptive<M> {
         // The last attempt failed: the next step may not grow beyond it.
         let mut reject = false;
         let mut nonfinite_streak = 0u32;
-        // The current attempt ends on a located event: accept it even if it still crosses one.
-        let mut landing = false;
-        // `predict_switches`: the step the smooth stretch before an event allowed, to resume from
-        // once the step that lands on the event is accepted; whether the current attempt was
-        // shortened to a predicted crossing; how many consecutive accepted steps ended on events
-        // (predicted or located).
-        let mut resume_h: Option<f64> = None;
-        let mut predicted = false;
-        let mut event_streak = 0u32;
-        let (mut stiff_steps, mut calm_steps) = (0u32, 0u32);
+        let mut stiffness = StiffnessCount::default();
         let mut last_failure_nonfinite = false;
 
         loop {
@@ -441,26 +441,8 @@ impl<M: Method> Integrator for Adaptive<M> {
                 });
             }
             // A switch predicted to cross within the step: end the step just past the crossing
-            // rather than have the attempt fail on it or be retaken. Anti-trap rule: not after
-            // MAX_EVENT_STREAK consecutive event steps. Each predicted landing resumes from half
-            // the step before it, so endless consecutive predicted landings on a grazing contact
-            // (value and slope both near zero, a crossing predicted again at every step) would
-            // halve the step without end; with the streak bounded, every streak is followed by
-            // plain event location until an ordinary step, whose size only the error test
-            // governs, is accepted.
-            if predict && !landing && event_streak < MAX_EVENT_STREAK {
-                if let Some(tau) = crossing_ahead(&switches, adjacent, n_pos, w.y(), w.f0(), h) {
-                    // Slivers are taken as whole steps; the located-event path handles them.
-                    let h_event = (tau >= MIN_PREDICTED_FRACTION * h)
-                        .then(|| event_step(t, h, tau, h))
-                        .flatten();
-                    if let Some(h_event) = h_event {
-                        resume_h = Some(h);
-                        h = h_event;
-                        predicted = true;
-                    }
-                }
-            }
+            // rather than have the attempt fail on it or be retaken.
+            h = events.before_attempt(t, h, w.y(), w.f0());
             // Land exactly on t_end, stretching the step by up to 1 % rather than leaving a
             // sliver.
             let (h_step, t_new, last) = if t + 1.01 * h >= t_end {
@@ -498,34 +480,9 @@ impl<M: Method> Integrator for Adaptive<M> {
                 accepted = !nonfinite;
             }
 
-            if accepted && !landing && !switches.is_empty() {
-                // With prediction, most accepted steps end just past a predicted crossing, which
-                // needs no retake: only a crossing early enough for `event_step` to act on is
-                // located (the plain event location looks over the whole step, as it always has).
-                let horizon = if predict {
-                    t + h_step * ((1.0 - EVENT_MARGIN) / (1.0 + EVENT_MARGIN))
-                } else {
-                    t_new
-                };
-                let t_event = earliest_event(
-                    &switches,
-                    adjacent,
-                    w.y(),
-                    &w.dense(t, t_new, h_step),
-                    horizon,
-                );
-                if let Some(h_event) = t_event.and_then(|te| event_step(t, h_step, te - t, h_step))
-                {
-                    stats.rejected += 1;
-                    stats.events += u64::from(!predicted);
-                    predicted = false;
-                    landing = true;
-                    // This attempt passed the error test: the event does not change the step the
-                    // smooth motion allows. Not at the end of a streak of events (the anti-trap rule
-                    // above): there the controller regrows the step from the landing step.
-                    if predict && event_streak < MAX_EVENT_STREAK {
-                        resume_h = Some(resume_h.map_or(h_step, |r| r.max(h_step)));
-                    }
+            if accepted {
+                let step = w.dense(t, t_new, h_step);
+                if let Some(h_event) = events.retake(t, h_step, t_new, w.y(), &step, &mut stats) {
                     h = h_event;
                     continue;
                 }
@@ -544,40 +501,17 @@ impl<M: Method> Integrator for Adaptive<M> {
                 }
                 h = 0.1 * h_step;
                 reject = true;
-                landing = false;
-                resume_h = None;
-                predicted = false;
+                events.on_failure();
                 continue;
             }
 
             if accepted {
-                if predicted {
-                    stats.events += 1;
-                }
-                event_streak = if predicted || landing {
-                    event_streak + 1
-                } else {
-                    0
-                };
-                predicted = false;
-                landing = false;
+                events.on_accept(&mut stats);
                 let mut h_new = controller.after_accept(h_step, err);
                 stats.steps += 1;
-                // Hairer's test: stiff once 15 accepted steps sit on the stability boundary
-                // without 6 calm ones in between; the step is then held by stability, not by the
-                // tolerance.
-                if let Some(stiff) = w.on_stability_boundary() {
-                    if stiff {
-                        calm_steps = 0;
-                        stiff_steps += 1;
-                        if stiff_steps == STIFF_STEPS_TO_FLAG {
-                            stats.stiffness_detections += 1;
-                        }
-                    } else {
-                        calm_steps += 1;
-                        if calm_steps == CALM_STEPS_TO_CLEAR {
-                            stiff_steps = 0;
-                        }
+                if let Some(on_boundary) = w.on_stability_boundary() {
+                    if stiffness.record(on_boundary) {
+                        stats.stiffness_detections += 1;
                     }
                 }
                 nonfinite_streak = 0;
@@ -595,32 +529,13 @@ impl<M: Method> Integrator for Adaptive<M> {
                     h_new = h_new.min(h_step);
                 }
                 reject = false;
-                h = h_new;
-                // After landing on an event, go on with a step near the one the motion before
-                // it allowed, not with the controller's growth from a short landing step (which
-                // would take a handful of steps to recover, at every contact that opens or
-                // closes). Half of it: just after a contact closes the motion is not smooth (the
-                // force grows like δ^{3/2}) and the error estimate of a full step there falls
-                // short of its true error.
-                if let Some(r) = resume_h.take() {
-                    h = h.max((RESUME_FRACTION * r).min(h_max));
-                }
+                h = events.resume(h_new, h_max);
             } else {
                 stats.rejected += 1;
-                landing = false;
-                resume_h = None;
-                predicted = false;
+                events.on_failure();
                 last_failure_nonfinite = false;
                 h = controller.after_reject(h_step, err);
-                // A step that fails because it crosses a switch (a re-collision, say) would shrink
-                // by at most the controller's factor per try; aim the next try at the predicted
-                // crossing instead.
-                if !switches.is_empty() {
-                    let tau = predicted_event(&switches, w.y(), w.f0(), w.y_new(), h_step);
-                    if let Some(h_event) = tau.and_then(|tau| event_step(t, h_step, tau, h)) {
-                        h = h_event;
-                    }
-                }
+                h = events.after_rejection(t, h_step, h, w.y(), w.f0(), w.y_new());
                 reject = true;
             }
         }
@@ -741,232 +656,4 @@ fn initial_step(
     } else {
         1e-6_f64.min(h_max)
     }
-}
-
-/// Earliest zero of a switching function inside an accepted step that starts at `y_start`,
-/// located on the step's dense output by the Illinois variant of regula falsi. `None` if no switch
-/// changes sign over the step. A switch exactly at zero at the start (the striker touching at
-/// t = 0, or a step that just landed on an event) is where the step begins, not an event in it.
-/// Only zeros before `horizon` (at most the end of the step) are sought: a switch whose sign at
-/// `horizon` is still that of the start is passed over without root finding.
-fn earliest_event<S: DenseStep + ?Sized>(
-    switches: &[Switch],
-    adjacent: usize,
-    y_start: &[f64],
-    step: &S,
-    horizon: f64,
-) -> Option<f64> {
-    let (t0, t1) = (step.t_start(), step.t_end());
-    let y_end = step.y_end();
-    let mut earliest: Option<f64> = None;
-    let changes_sign = |g0: f64, g1: f64| (g0 != 0.0) & ((g0 > 0.0) != (g1 > 0.0));
-    // The first `adjacent` switches are contacts between neighbours (`x[k] − x[k+1]`, see
-    // `adjacent_pairs`): eight at a time, from contiguous slices, a vectorised test finds the
-    // windows where one changes sign; only those are looked at switch by switch, in the same
-    // order as the rest, so the result is the same.
-    let full = adjacent - adjacent % 8;
-    let mut candidates = (0..full)
-        .step_by(8)
-        .filter(|&k0| {
-            let window = |s: &[f64]| -> [f64; 9] { s[k0..k0 + 9].try_into().expect("nine values") };
-            let (a, b) = (window(y_start), window(y_end));
-            let mut any = false;
-            for j in 0..8 {
-                any |= changes_sign(a[j] - a[j + 1], b[j] - b[j + 1]);
-            }
-            any
-        })
-        .flat_map(|k0| &switches[k0..k0 + 8])
-        .chain(&switches[full..]);
-    for sw in &mut candidates {
-        let g0 = sw.value(|i| y_start[i]);
-        let g1 = sw.value(|i| y_end[i]);
-        if !changes_sign(g0, g1) {
-            continue;
-        }
-        let g = |t: f64| sw.value(|i| step.eval_component(t, i));
-        let (mut a, mut b) = (t0, earliest.unwrap_or(horizon));
-        let (mut ga, mut gb) = (g0, g(b));
-        if (ga > 0.0) == (gb > 0.0) {
-            // This switch crosses only after an earlier event already found.
-            continue;
-        }
-        let mut side = 0i8;
-        for _ in 0..100 {
-            let m = (a * gb - b * ga) / (gb - ga);
-            let m = if m.is_finite() && m > a && m < b {
-                m
-            } else {
-                0.5 * (a + b)
-            };
-            let gm = g(m);
-            if (gm > 0.0) == (ga > 0.0) {
-                a = m;
-                ga = gm;
-                if side == -1 {
-                    gb *= 0.5;
-                }
-                side = -1;
-            } else {
-                b = m;
-                gb = gm;
-                if side == 1 {
-                    ga *= 0.5;
-                }
-                side = 1;
-            }
-            if b - a <= 1e-12 * (t1 - t0) {
-                break;
-            }
-        }
-        earliest = Some(b);
-    }
-    earliest
-}
-
-/// Earliest zero of a switch within `h` of the current point, predicted by its Taylor polynomial
-/// there: value and slope (`f`), and, for switches on positions (whose second derivative is the
-/// acceleration, the state being `[x, v, q]` with `x' = v`), curvature. `None` if no switch is
-/// predicted to change sign within `h`. Contacts open and close where their overlap crosses zero;
-/// ending the step there spares an attempt that would fail on the kink, or be retaken.
-fn crossing_ahead(
-    switches: &[Switch],
-    adjacent: usize,
-    n_pos: usize,
-    y: &[f64],
-    f: &[f64],
-    h: f64,
-) -> Option<f64> {
-    let mut earliest: Option<f64> = None;
-    let (x, v, a) = (&y[..n_pos], &f[..n_pos], &f[n_pos..2 * n_pos]);
-    // Most switches are far from zero: |g(s) − g0| ≤ (|b| + |c| s) s rules them out cheaply.
-    let far = |g0: f64, b: f64, c: f64| (g0 == 0.0) | ((b.abs() + c.abs() * h) * h < g0.abs());
-    // The first `adjacent` switches are contacts between neighbours, `x[k] − x[k+1]`: their
-    // values, slopes and half curvatures come from contiguous slices, eight at a time, so that
-    // ruling them out vectorises; the few near a crossing are looked at one by one.
-    let pair = |k: usize| (x[k] - x[k + 1], v[k] - v[k + 1], 0.5 * (a[k] - a[k + 1]));
-    let full = adjacent - adjacent % 8;
-    for k0 in (0..full).step_by(8) {
-        // k0 + 8 <= adjacent <= n_pos − 1, so nine positions are there.
-        let window = |s: &[f64]| -> [f64; 9] { s[k0..k0 + 9].try_into().expect("nine values") };
-        let (xs, vs, as_) = (window(x), window(v), window(a));
-        let mut near = false;
-        for j in 0..8 {
-            let (g0, b) = (xs[j] - xs[j + 1], vs[j] - vs[j + 1]);
-            near |= !far(g0, b, 0.5 * (as_[j] - as_[j + 1]));
-        }
-        if near {
-            for k in k0..k0 + 8 {
-                let (g0, b, c) = pair(k);
-                if !far(g0, b, c) {
-                    earliest = quadratic_crossing(g0, b, c, earliest.unwrap_or(h)).or(earliest);
-                }
-            }
-        }
-    }
-    for k in full..adjacent {
-        let (g0, b, c) = pair(k);
-        if !far(g0, b, c) {
-            earliest = quadratic_crossing(g0, b, c, earliest.unwrap_or(h)).or(earliest);
-        }
-    }
-    for sw in &switches[adjacent..] {
-        let p = sw.plus;
-        // Value, slope and half the curvature (for switches on positions).
-        let (g0, b, c) = match sw.minus {
-            Some(m) if p < n_pos && m < n_pos => (x[p] - x[m], v[p] - v[m], 0.5 * (a[p] - a[m])),
-            Some(m) => (y[p] - y[m], f[p] - f[m], 0.0),
-            None if p < n_pos => (x[p], v[p], 0.5 * a[p]),
-            None => (y[p], f[p], 0.0),
-        };
-        if !far(g0, b, c) {
-            earliest = quadratic_crossing(g0, b, c, earliest.unwrap_or(h)).or(earliest);
-        }
-    }
-    earliest
-}
-
-/// The first leading switches that are contacts between neighbouring positions,
-/// `y[k] − y[k+1]` for switch `k` (the layout of a chain's contacts), counted once per run for
-/// [`crossing_ahead`].
-fn adjacent_pairs(switches: &[Switch], n_pos: usize) -> usize {
-    switches
-        .iter()
-        .enumerate()
-        .take_while(|(k, sw)| sw.plus == *k && sw.minus == Some(k + 1) && k + 1 < n_pos)
-        .count()
-}
-
-/// Smallest root in `(0, limit]` of `g(s) = g0 + b s + c s²`, if it changes sign there.
-#[inline]
-fn quadratic_crossing(g0: f64, b: f64, c: f64, limit: f64) -> Option<f64> {
-    if (b.abs() + c.abs() * limit) * limit < g0.abs() {
-        return None;
-    }
-    // Does g change sign in (0, limit], at the end or at its extremum?
-    let changes_sign = |s: f64| (g0 + s * (b + c * s) > 0.0) != (g0 > 0.0);
-    let extremum = if c != 0.0 { -b / (2.0 * c) } else { f64::NAN };
-    if !(changes_sign(limit) || (extremum > 0.0 && extremum < limit && changes_sign(extremum))) {
-        return None;
-    }
-    // Its smallest positive root (the numerically stable pair of quadratic roots).
-    let disc = b * b - 4.0 * c * g0;
-    let root = if c == 0.0 {
-        -g0 / b
-    } else if disc < 0.0 {
-        return None;
-    } else {
-        let q = -0.5 * (b + b.signum() * disc.sqrt());
-        let r1 = q / c;
-        let r2 = if q != 0.0 { g0 / q } else { f64::NAN };
-        [r1, r2]
-            .into_iter()
-            .filter(|r| r.is_finite() && *r > 0.0)
-            .fold(f64::NAN, f64::min)
-    };
-    (root.is_finite() && root > 0.0 && root <= limit).then_some(root)
-}
-
-/// Earliest crossing of a switch over a rejected attempt of length `h`, predicted from the values
-/// at both ends and the slope at the start (a quadratic in time); `None` if no switch changes sign.
-fn predicted_event(switches: &[Switch], y0: &[f64], f0: &[f64], y1: &[f64], h: f64) -> Option<f64> {
-    let mut earliest: Option<f64> = None;
-    for sw in switches {
-        let g0 = sw.value(|i| y0[i]);
-        let g1 = sw.value(|i| y1[i]);
-        if g0 == 0.0 || (g0 > 0.0) == (g1 > 0.0) || !g1.is_finite() {
-            continue;
-        }
-        // g(s) = g0 + b s + c s², s in [0, 1].
-        let b = sw.value(|i| f0[i]) * h;
-        let c = g1 - g0 - b;
-        let linear = g0 / (g0 - g1);
-        let s = if c.abs() > 1e-12 * (g0.abs() + g1.abs()) {
-            let disc = b * b - 4.0 * c * g0;
-            if disc >= 0.0 {
-                let q = -0.5 * (b + b.signum() * disc.sqrt());
-                let roots = [q / c, if q != 0.0 { g0 / q } else { f64::NAN }];
-                roots
-                    .into_iter()
-                    .filter(|r| r.is_finite() && *r > 0.0 && *r <= 1.0)
-                    .fold(f64::NAN, f64::min)
-            } else {
-                linear
-            }
-        } else {
-            linear
-        };
-        let tau = if s.is_finite() { s } else { linear } * h;
-        earliest = Some(earliest.map_or(tau, |e: f64| e.min(tau)));
-    }
-    earliest
-}
-
-/// The step that ends just past a crossing `tau` after `t` (a hair past, so the next step starts
-/// in the new regime), or `None` when it would be no shorter than `limit` or too short for
-/// floating point to move the state: then the step is taken as it is.
-fn event_step(t: f64, h_step: f64, tau: f64, limit: f64) -> Option<f64> {
-    let h_event = tau * (1.0 + EVENT_MARGIN);
-    (h_event < limit * (1.0 - EVENT_MARGIN) && h_event > 100.0 * f64::EPSILON * t.abs().max(h_step))
-        .then_some(h_event)
 }

@@ -669,3 +669,107 @@ fn dop853_tableau_has_its_orders() {
 fn vern6_tableau_has_its_orders() {
     explicit_tableau_has_its_orders::<Vern6Method>(6, 6);
 }
+
+/// The fixed-step schemes through the one fixed-step loop: their order on the harmonic
+/// oscillator (RK4 4, Verlet 2), their dense output (cubic Hermite, local error O(h⁴)), the
+/// right-hand sides they take, the step budget and a bad step.
+#[test]
+fn fixed_step_schemes_have_their_orders_budgets_and_accounting() {
+    use super::{Rk4, VelocityVerlet};
+    let t_end = 10.0;
+    let error = |solver: &dyn Integrator| {
+        let mut sys = Counted {
+            calls: 0,
+            nan_after: f64::INFINITY,
+        };
+        let mut rec = StepRecord::default();
+        let s = solver
+            .integrate(&mut sys, 0.0, &[1.0, 0.0], t_end, 1_000_000, &mut rec)
+            .unwrap();
+        assert_eq!(rec.t, t_end);
+        assert_eq!(s.rhs_evals, sys.calls);
+        let e = (rec.y[0] - t_end.cos())
+            .abs()
+            .max((rec.y[1] + t_end.sin()).abs());
+        (e, s)
+    };
+    for (name, order, per_step, make) in [
+        (
+            "rk4",
+            4.0,
+            4,
+            (|dt| Box::new(Rk4 { dt }) as Box<dyn Integrator>) as fn(f64) -> Box<dyn Integrator>,
+        ),
+        ("verlet", 2.0, 1, |dt| Box::new(VelocityVerlet { dt })),
+    ] {
+        let (e1, s1) = error(make(0.02).as_ref());
+        let (e2, s2) = error(make(0.01).as_ref());
+        let p = (e1 / e2).log2();
+        assert!(
+            (p - order).abs() < 0.2,
+            "{name}: order {p} ({e1:e}, {e2:e})"
+        );
+        assert_eq!(s1.steps, 500);
+        assert_eq!(s2.steps, 1000);
+        assert_eq!(s2.rhs_evals, 1 + per_step * s2.steps, "{name}: {s2:?}");
+
+        // The dense output between step ends: O(h⁴) locally, so at least the scheme's accuracy.
+        struct Mid(f64);
+        impl StepObserver for Mid {
+            fn on_start(&mut self, _t0: f64, _y0: &[f64]) {}
+            fn on_step(&mut self, step: &dyn DenseStep) -> Control {
+                let (a, b) = (step.t_start(), step.t_end());
+                assert_eq!(step.eval_component(b, 0), step.y_end()[0]);
+                let t = 0.5 * (a + b);
+                self.0 = self.0.max((step.eval_component(t, 0) - t.cos()).abs());
+                Control::Continue
+            }
+        }
+        let mut mid = Mid(0.0);
+        make(0.01)
+            .integrate(
+                &mut HarmonicOscillator { quadrature: false },
+                0.0,
+                &[1.0, 0.0],
+                t_end,
+                1_000_000,
+                &mut mid,
+            )
+            .unwrap();
+        assert!(
+            mid.0 < 2.0 * e2,
+            "{name}: midpoint error {:e} vs {e2:e}",
+            mid.0
+        );
+
+        let mut rec = StepRecord::default();
+        match make(0.01).integrate(
+            &mut HarmonicOscillator { quadrature: false },
+            0.0,
+            &[1.0, 0.0],
+            t_end,
+            5,
+            &mut rec,
+        ) {
+            Err(IntegrateError::StepBudget { max_steps: 5, t }) => {
+                assert!((t - 0.05).abs() < 1e-12, "{name}: budget at {t}");
+                assert_eq!(rec.steps.len(), 5);
+            }
+            other => panic!("{name}: expected StepBudget, got {other:?}"),
+        }
+        for bad in [0.0, -1.0, f64::NAN] {
+            let r = make(bad).integrate(
+                &mut HarmonicOscillator { quadrature: false },
+                0.0,
+                &[1.0, 0.0],
+                t_end,
+                100,
+                &mut StepRecord::default(),
+            );
+            assert!(
+                matches!(r, Err(IntegrateError::InvalidSettings(_))),
+                "{name}: {r:?}"
+            );
+        }
+    }
+}

@@ -8,8 +8,9 @@
 
 mod adaptive;
 mod dop853;
+mod events;
 mod explicit;
-mod hermite;
+mod fixed;
 #[cfg(test)]
 mod method_tests;
 #[cfg(test)]

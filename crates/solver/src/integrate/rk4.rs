@@ -1,9 +1,7 @@
 //! Classic fourth-order Runge–Kutta, fixed step.
 
-use super::hermite::{fixed_steps, HermiteStep};
-use super::{
-    all_finite, Control, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver,
-};
+use super::fixed::{self, FixedScheme};
+use super::{IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObserver};
 
 /// Classic RK4 with a fixed step; four right-hand-side evaluations per step (the derivative at the
 /// end of a step is reused as the first stage of the next, and for the dense output).
@@ -27,73 +25,58 @@ impl Integrator for Rk4 {
         max_steps: u64,
         obs: &mut dyn StepObserver,
     ) -> Result<IntegrationStats, IntegrateError> {
-        let (n_steps, h) = fixed_steps(t0, t_end, self.dt)?;
-        let dim = 2 * sys.n_pos() + sys.n_quad();
-        if y0.len() != dim || !all_finite(y0) {
-            return Err(IntegrateError::InvalidSettings(
-                "initial state has the wrong length or is not finite".into(),
-            ));
+        fixed::integrate::<Rk4Step>(self.dt, sys, t0, y0, t_end, max_steps, obs)
+    }
+}
+
+/// RK4's stages 2–4 and the argument of the stage being evaluated.
+struct Rk4Step {
+    k2: Vec<f64>,
+    k3: Vec<f64>,
+    k4: Vec<f64>,
+    tmp: Vec<f64>,
+}
+
+impl FixedScheme for Rk4Step {
+    const RHS_PER_STEP: u64 = 4;
+
+    fn new(dim: usize, _n_pos: usize) -> Self {
+        Rk4Step {
+            k2: vec![0.0; dim],
+            k3: vec![0.0; dim],
+            k4: vec![0.0; dim],
+            tmp: vec![0.0; dim],
         }
-        let mut y = y0.to_vec();
-        let mut y_new = vec![0.0; dim];
-        let mut k1 = vec![0.0; dim];
-        let mut k2 = vec![0.0; dim];
-        let mut k3 = vec![0.0; dim];
-        let mut k4 = vec![0.0; dim];
-        let mut tmp = vec![0.0; dim];
-        let mut stats = IntegrationStats::default();
-        sys.rhs(t0, &y, &mut k1);
-        stats.rhs_evals += 1;
-        obs.on_start(t0, &y);
-        for k in 0..n_steps {
-            if stats.steps >= max_steps {
-                return Err(IntegrateError::StepBudget {
-                    max_steps,
-                    t: t0 + k as f64 * h,
-                });
-            }
-            let t = t0 + k as f64 * h;
-            let t_next = if k + 1 == n_steps {
-                t_end
-            } else {
-                t0 + (k + 1) as f64 * h
-            };
-            for i in 0..dim {
-                tmp[i] = y[i] + 0.5 * h * k1[i];
-            }
-            sys.rhs(t + 0.5 * h, &tmp, &mut k2);
-            for i in 0..dim {
-                tmp[i] = y[i] + 0.5 * h * k2[i];
-            }
-            sys.rhs(t + 0.5 * h, &tmp, &mut k3);
-            for i in 0..dim {
-                tmp[i] = y[i] + h * k3[i];
-            }
-            sys.rhs(t_next, &tmp, &mut k4);
-            for i in 0..dim {
-                y_new[i] = y[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
-            }
-            // Derivative at the new point: first stage of the next step and the dense output's end slope.
-            sys.rhs(t_next, &y_new, &mut k4);
-            stats.rhs_evals += 4;
-            stats.steps += 1;
-            if !all_finite(&y_new) {
-                return Err(IntegrateError::NonFinite { t: t_next });
-            }
-            let control = obs.on_step(&HermiteStep {
-                t0: t,
-                t1: t_next,
-                y0: &y,
-                y1: &y_new,
-                f0: &k1,
-                f1: &k4,
-            });
-            std::mem::swap(&mut y, &mut y_new);
-            std::mem::swap(&mut k1, &mut k4);
-            if control == Control::Stop {
-                break;
-            }
+    }
+
+    fn step(
+        &mut self,
+        sys: &mut dyn OdeSystemDyn,
+        t: f64,
+        t_next: f64,
+        h: f64,
+        y: &[f64],
+        k1: &[f64],
+        y_new: &mut [f64],
+        f_new: &mut [f64],
+    ) {
+        let Rk4Step { k2, k3, k4, tmp } = self;
+        let dim = y.len();
+        for i in 0..dim {
+            tmp[i] = y[i] + 0.5 * h * k1[i];
         }
-        Ok(stats)
+        sys.rhs(t + 0.5 * h, tmp, k2);
+        for i in 0..dim {
+            tmp[i] = y[i] + 0.5 * h * k2[i];
+        }
+        sys.rhs(t + 0.5 * h, tmp, k3);
+        for i in 0..dim {
+            tmp[i] = y[i] + h * k3[i];
+        }
+        sys.rhs(t_next, tmp, k4);
+        for i in 0..dim {
+            y_new[i] = y[i] + h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i]);
+        }
+        sys.rhs(t_next, y_new, f_new);
     }
 }
