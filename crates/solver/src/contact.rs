@@ -257,6 +257,73 @@ pub(crate) fn powers<const LAW: u8>(d: f64, n: f64) -> (f64, f64) {
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// The paper's contact: Hertz with the linear viscous term (Eqs. 1–12), as its specialised
+// kernels, its energy and its Jacobian compute it. Its arithmetic, `(A δ) √δ`, differs in the last
+// bit from the general kernels' `A (δ √δ)` ([`powers`]); each is pinned bit for bit, so both are
+// kept, here side by side.
+// ---------------------------------------------------------------------------------------------
+
+/// Hertz's law `F = A δ^{3/2}` for an overlap `d ≥ 0`, as the paper's kernels compute it.
+#[inline(always)]
+pub(crate) fn hertz_force(a: f64, d: f64) -> f64 {
+    a * d * d.sqrt()
+}
+
+/// `A δ^{5/2}` for an overlap `d ≥ 0`: the Hertz potential `(2/5) A δ^{5/2}` without its factor
+/// 2/5, which the energy applies once to the sum over contacts.
+#[inline(always)]
+pub(crate) fn hertz_potential_unscaled(a: f64, d: f64) -> f64 {
+    a * d * d * d.sqrt()
+}
+
+/// Net force of one contact of the paper's chain and the power it dissipates: Hertz, with the
+/// viscous term `μ Δv` while the contact is compressed (when `D`), clipped at zero so that the
+/// contact cannot pull (when `C`).
+#[inline(always)]
+pub(crate) fn paper_contact_force<const D: bool, const C: bool>(
+    a: f64,
+    mu: f64,
+    overlap: f64,
+    rel_velocity: f64,
+) -> (f64, f64) {
+    let d = overlap.max(0.0);
+    let elastic = hertz_force(a, d);
+    if !D {
+        let f = if C { elastic.max(0.0) } else { elastic };
+        return (f, 0.0);
+    }
+    // The viscous term acts only while the contact is compressed (paper, after Eq. 12).
+    let c = if overlap > 0.0 { mu } else { 0.0 };
+    let mut f = elastic + c * rel_velocity;
+    if C {
+        f = f.max(0.0);
+    }
+    (f, (f - elastic) * rel_velocity)
+}
+
+/// Derivatives `(∂F/∂δ, ∂F/∂Δv)` of [`paper_contact_force`] on the smooth piece containing the
+/// state: `(3/2) A √δ` and `μ` while compressed (and, when clipped, while the force is positive),
+/// zero otherwise.
+#[inline(always)]
+pub(crate) fn paper_contact_derivatives<const D: bool, const C: bool>(
+    a: f64,
+    mu: f64,
+    overlap: f64,
+    rel_velocity: f64,
+) -> (f64, f64) {
+    if overlap <= 0.0 {
+        return (0.0, 0.0);
+    }
+    if C {
+        let force = hertz_force(a, overlap) + if D { mu * rel_velocity } else { 0.0 };
+        if force <= 0.0 {
+            return (0.0, 0.0);
+        }
+    }
+    (1.5 * a * overlap.sqrt(), if D { mu } else { 0.0 })
+}
+
 /// Parameters of one contact for the general kernels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct ContactParams {

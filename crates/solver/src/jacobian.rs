@@ -20,31 +20,10 @@
 //! strictly diagonally dominant M-matrix for any `a, b ≥ 0`, which is what makes the implicit
 //! solves of [`crate::integrate::Ros34pw2`] pivot-free.
 
-use crate::contact::general_derivatives;
+use crate::contact::{general_derivatives, paper_contact_derivatives};
 use crate::general::GeneralChainSystem;
 use crate::integrate::Tridiagonal;
 use crate::system::ChainSystem;
-
-/// Derivatives `(∂F/∂δ, ∂F/∂Δv)` of one contact's net force on the smooth piece containing the state.
-#[inline(always)]
-fn contact_derivatives<const D: bool, const C: bool>(
-    a: f64,
-    mu: f64,
-    overlap: f64,
-    rel_velocity: f64,
-) -> (f64, f64) {
-    if overlap <= 0.0 {
-        return (0.0, 0.0);
-    }
-    let root = overlap.sqrt();
-    if C {
-        let force = a * overlap * root + if D { mu * rel_velocity } else { 0.0 };
-        if force <= 0.0 {
-            return (0.0, 0.0);
-        }
-    }
-    (1.5 * a * root, if D { mu } else { 0.0 })
-}
 
 /// Makes `m` a tridiagonal matrix of order `n` filled with zeros (allocates only if the order differs).
 fn reset(m: &mut Tridiagonal, n: usize) {
@@ -69,7 +48,8 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
         let (x, v) = (&y[..n], &y[n..2 * n]);
         for c in 0..n.saturating_sub(1) {
             let (a, mu) = self.contact_parameters(c);
-            let (k, eta) = contact_derivatives::<D, C>(a, mu, x[c] - x[c + 1], v[c] - v[c + 1]);
+            let (k, eta) =
+                paper_contact_derivatives::<D, C>(a, mu, x[c] - x[c + 1], v[c] - v[c + 1]);
             if k != 0.0 {
                 kx.diag[c] -= k * im[c];
                 kx.upper[c] += k * im[c];
@@ -85,7 +65,7 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
         }
         if W && n > 0 {
             let (a, mu) = self.contact_parameters(n - 1);
-            let (k, eta) = contact_derivatives::<D, C>(a, mu, x[n - 1], v[n - 1]);
+            let (k, eta) = paper_contact_derivatives::<D, C>(a, mu, x[n - 1], v[n - 1]);
             kx.diag[n - 1] -= k * im[n - 1];
             if D {
                 kv.diag[n - 1] -= eta * im[n - 1];

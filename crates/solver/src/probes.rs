@@ -4,12 +4,12 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use crate::contact::{general_force, ContactParams, Damping, POWER};
+use crate::contact::{general_force, paper_contact_force, ContactParams, Damping, POWER};
 use std::time::Instant;
 
 use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::model::{spec_err, Chain, SpecError};
-use crate::system::{contact_force, EnergyTerms, Ledger};
+use crate::system::{EnergyTerms, Ledger};
 
 /// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
 /// striker when the chain has one, else the first particle of the sequence; contact `j` joins
@@ -440,9 +440,9 @@ impl ProbeSet {
             return general_force::<POWER, true>(&p, overlap, rel, self.clip).0;
         }
         if self.clip {
-            contact_force::<true, true>(a, mu, overlap, rel).0
+            paper_contact_force::<true, true>(a, mu, overlap, rel).0
         } else {
-            contact_force::<true, false>(a, mu, overlap, rel).0
+            paper_contact_force::<true, false>(a, mu, overlap, rel).0
         }
     }
 

@@ -5,6 +5,7 @@
 
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
+use crate::contact::{hertz_potential_unscaled, paper_contact_force};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 use crate::model::Chain;
 
@@ -65,29 +66,6 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
     pub(crate) fn inverse_masses(&self) -> &[f64] {
         &self.inv_mass
     }
-}
-
-/// Net force of one contact and the power it dissipates.
-#[inline(always)]
-pub(crate) fn contact_force<const D: bool, const C: bool>(
-    a: f64,
-    mu: f64,
-    overlap: f64,
-    rel_velocity: f64,
-) -> (f64, f64) {
-    let d = overlap.max(0.0);
-    let elastic = a * d * d.sqrt();
-    if !D {
-        let f = if C { elastic.max(0.0) } else { elastic };
-        return (f, 0.0);
-    }
-    // The viscous term acts only while the contact is compressed (paper, after Eq. 12).
-    let c = if overlap > 0.0 { mu } else { 0.0 };
-    let mut f = elastic + c * rel_velocity;
-    if C {
-        f = f.max(0.0);
-    }
-    (f, (f - elastic) * rel_velocity)
 }
 
 impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem
@@ -164,7 +142,8 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
         let dx = &mut dx[..n];
         for c in 0..m {
             dx[c] = v[c];
-            let (fc, p) = contact_force::<D, C>(a[c], mu[c], x[c] - x[c + 1], v[c] - v[c + 1]);
+            let (fc, p) =
+                paper_contact_force::<D, C>(a[c], mu[c], x[c] - x[c + 1], v[c] - v[c + 1]);
             force[c] = fc;
             if D {
                 contact_power[c] = p;
@@ -182,7 +161,7 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
         }
         dx[m] = v[m];
         let (wall_force, wall_power) = if W {
-            contact_force::<D, C>(
+            paper_contact_force::<D, C>(
                 self.stiffness[n - 1],
                 self.damping[n - 1],
                 x[n - 1],
@@ -358,18 +337,18 @@ impl Ledger {
             let aw: [f64; L] = a[c0..c0 + L].try_into().expect("eight stiffnesses");
             for lane in 0..L {
                 let d = (xs[lane] - xs[lane + 1]).max(0.0);
-                potential[lane] += aw[lane] * d * d * d.sqrt();
+                potential[lane] += hertz_potential_unscaled(aw[lane], d);
                 largest[lane] = largest[lane].max(d);
             }
         }
         for c in full..interior {
             let d = (x[c] - x[c + 1]).max(0.0);
-            potential[0] += a[c] * d * d * d.sqrt();
+            potential[0] += hertz_potential_unscaled(a[c], d);
             largest[0] = largest[0].max(d);
         }
         if k == n && self.stiffness.len() > interior {
             let d = x[n - 1].max(0.0);
-            potential[0] += self.stiffness[interior] * d * d * d.sqrt();
+            potential[0] += hertz_potential_unscaled(self.stiffness[interior], d);
             largest[0] = largest[0].max(d);
         }
         let elastic = 0.4 * potential.iter().sum::<f64>();

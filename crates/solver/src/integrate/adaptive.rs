@@ -1,9 +1,9 @@
-//! The adaptive-integrator core shared by DOP853 and ROS34PW2: one options type, one step loop
-//! with one step-size controller, the handling of non-finite attempts, the stiffness count, and the
-//! location of the switches (contacts opening and closing) that a step crosses. A method brings
-//! only what is its own ([`Method`], [`Stepper`]): its tableau, its attempt (the stages, the
-//! solution and the error norm) and its dense output. (diffsol's model: one Runge–Kutta core
-//! shared by its methods.)
+//! The one adaptive step loop, shared by every adaptive method: one options type, one step-size
+//! controller, the handling of non-finite attempts, the step budget and Hairer's stiffness count;
+//! the switches a step crosses are located by [`super::events`]. A method brings only what is its
+//! own ([`Method`], [`Stepper`]): its attempt (the stages, the solution and the error norm) and its
+//! dense output; the explicit ones through the one Runge–Kutta core of [`super::explicit`], as
+//! tableaus. (diffsol's model: one Runge–Kutta core shared by its methods.)
 //!
 //! The stage arithmetic runs through [`chainsweep_cpu::dispatch`], compiled for the CPU's vector
 //! instructions and fused multiply-add.
