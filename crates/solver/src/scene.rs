@@ -4,7 +4,10 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use crate::integrate::AdaptiveOptions;
+use crate::integrate::AdaptiveMethod as _;
+use crate::integrate::{
+    AdaptiveOptions, Dop853Method, Rk4, Ros34pw2Method, VelocityVerlet, Vern6Method,
+};
 use crate::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::probes::RecordSpec;
 
@@ -80,11 +83,11 @@ impl Method {
     /// Its name in a sweep file.
     pub fn name(self) -> &'static str {
         match self {
-            Method::Verlet => "verlet",
-            Method::Rk4 => "rk4",
-            Method::Dop853 => "dop853",
-            Method::Ros34pw2 => "ros34pw2",
-            Method::Vern6 => "vern6",
+            Method::Verlet => VelocityVerlet::NAME,
+            Method::Rk4 => Rk4::NAME,
+            Method::Dop853 => Dop853Method::NAME,
+            Method::Ros34pw2 => Ros34pw2Method::NAME,
+            Method::Vern6 => Vern6Method::NAME,
         }
     }
 
@@ -108,8 +111,8 @@ impl Method {
     /// Right-hand-side evaluations per step of a fixed-step method (`None` for an adaptive one).
     pub fn rhs_per_fixed_step(self) -> Option<f64> {
         match self {
-            Method::Rk4 => Some(4.0),
-            Method::Verlet => Some(1.0),
+            Method::Rk4 => Some(Rk4::RHS_PER_STEP as f64),
+            Method::Verlet => Some(VelocityVerlet::RHS_PER_STEP as f64),
             _ => None,
         }
     }

@@ -507,25 +507,34 @@ impl ExplicitMethod for Dop853Method {
     }
 
     /// Hairer's `rcont1..8` of `CONTD8`.
+    #[inline(always)]
     fn dense_coefficients(h: f64, y: f64, y_new: f64, k: impl Fn(usize) -> f64) -> [f64; 8] {
-        let ydiff = y_new - y;
-        let bspl = h * k(0) - ydiff;
-        let row = |d: &[(usize, f64)]| {
-            let mut s = d[0].1 * k(d[0].0);
-            for &(j, a) in &d[1..] {
-                s += a * k(j);
+        /// `h Σ_j D_j k_j`, a plain sum from the first stage on, over the stage values `kv` of
+        /// the row's stages (every row reads the same ones).
+        #[inline(always)]
+        fn row(h: f64, d: &[(usize, f64)], kv: &[f64; 12]) -> f64 {
+            let mut s = d[0].1 * kv[0];
+            for q in 1..12 {
+                s += d[q].1 * kv[q];
             }
             h * s
-        };
+        }
+        // Each stage's value read once.
+        let mut kv = [0.0; 12];
+        for (v, &(j, _)) in kv.iter_mut().zip(DENSE[0]) {
+            *v = k(j);
+        }
+        let ydiff = y_new - y;
+        let bspl = h * kv[0] - ydiff;
         [
             y,
             ydiff,
             bspl,
             ydiff - h * k(12) - bspl,
-            row(DENSE[0]),
-            row(DENSE[1]),
-            row(DENSE[2]),
-            row(DENSE[3]),
+            row(h, DENSE[0], &kv),
+            row(h, DENSE[1], &kv),
+            row(h, DENSE[2], &kv),
+            row(h, DENSE[3], &kv),
         ]
     }
 
@@ -542,6 +551,16 @@ impl ExplicitMethod for Dop853Method {
 mod tests {
     use super::*;
     use crate::integrate::order_conditions::{dense_weights, matrix, worst_condition};
+
+    #[test]
+    fn the_continuous_extension_rows_read_the_same_stages() {
+        for row in DENSE {
+            assert_eq!(row.len(), 12);
+            for (a, b) in row.iter().zip(DENSE[0]) {
+                assert_eq!(a.0, b.0);
+            }
+        }
+    }
 
     #[test]
     fn the_embedded_solutions_have_orders_five_and_three() {

@@ -70,6 +70,9 @@ impl Tableau {
     }
 }
 
+/// Largest number of stages a tableau may have (stage 0 and fifteen more).
+pub const MAX_STAGES: usize = 16;
+
 /// Largest number of coefficients per component a continuous extension may have.
 pub const MAX_DENSE_COEFFICIENTS: usize = 8;
 
@@ -138,10 +141,14 @@ pub fn gather<'a, const S: usize>(
     k: &'a [Vec<f64>],
     buffers: &[usize],
 ) -> ([f64; S], [&'a [f64]; S]) {
-    (
-        std::array::from_fn(|m| row[m].1),
-        std::array::from_fn(|m| k[buffers[row[m].0]].as_slice()),
-    )
+    // Plain loops: `std::array::from_fn` is not always inlined into the dispatched kernel.
+    let mut a = [0.0; S];
+    let mut ks: [&[f64]; S] = [&[]; S];
+    for m in 0..S {
+        a[m] = row[m].1;
+        ks[m] = &k[buffers[row[m].0]];
+    }
+    (a, ks)
 }
 
 /// `Σ_m a[m] k[m][i]` as a plain sum from the first entry on (no fused multiply-add): the
@@ -220,6 +227,12 @@ pub struct Work<M> {
 impl<M: ExplicitMethod> Work<M> {
     /// Work space for a run from `y0`.
     pub fn new(y0: &[f64]) -> Self {
+        const {
+            assert!(
+                M::TABLEAU.stages.len() <= MAX_STAGES,
+                "more stages than the core writes out"
+            )
+        };
         let n = y0.len();
         let z = || vec![0.0; n];
         Work {
@@ -242,34 +255,49 @@ impl<M: ExplicitMethod> Work<M> {
         &self.k[M::TABLEAU.buffers[j]]
     }
 
-    /// Stages `stages` of a step of size `h` from `(t, y)`, each evaluated at `t + c·h` (at
-    /// `t_new` when `c = 1`).
+    /// Stages `first..=last` of a step of size `h` from `(t, y)`, in order. Written out stage by
+    /// stage for every stage number a tableau may have ([`MAX_STAGES`]), so that each stage's row,
+    /// node and buffers are constants of the compiled code, as in a hand-written method.
     #[inline(always)]
     fn stages<F: MulAdd>(
         &mut self,
         rhs: &mut Rhs,
-        stages: std::ops::RangeInclusive<usize>,
+        (first, last): (usize, usize),
         t: f64,
         h: f64,
         t_new: f64,
     ) {
-        let tableau = &M::TABLEAU;
-        for j in stages {
-            let stage = &tableau.stages[j];
-            combine_row::<F>(&mut self.ys, &self.y, h, stage.a, &self.k, tableau.buffers);
-            let t_stage = if stage.c == 1.0 {
-                t_new
-            } else {
-                t + stage.c * h
+        macro_rules! each_stage {
+            ($($j:literal)*) => {
+                $(
+                    if $j >= first && $j <= last {
+                        self.evaluate_stage::<F>(rhs, $j, t, h, t_new);
+                    }
+                )*
             };
-            rhs.eval(t_stage, &self.ys, &mut self.k[tableau.buffers[j]]);
         }
+        each_stage!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
+    }
+
+    /// Stage `j`, evaluated at `t + c·h` (at `t_new` when `c = 1`).
+    #[inline(always)]
+    fn evaluate_stage<F: MulAdd>(&mut self, rhs: &mut Rhs, j: usize, t: f64, h: f64, t_new: f64) {
+        let tableau = &M::TABLEAU;
+        let stage = &tableau.stages[j];
+        combine_row::<F>(&mut self.ys, &self.y, h, stage.a, &self.k, tableau.buffers);
+        let t_stage = if stage.c == 1.0 {
+            t_new
+        } else {
+            t + stage.c * h
+        };
+        rhs.eval(t_stage, &self.ys, &mut self.k[tableau.buffers[j]]);
     }
 
     /// Hairer's stiffness estimate `h·|λ| ≈ h ‖f(y_new) − f(ys)‖ / ‖y_new − ys‖`, where `ys` is
     /// the argument of the last attempt stage (also at the step's end). Eight interleaved partial
     /// sums, so that the loop vectorises (a running sum would serialise it); only a diagnostic
-    /// depends on the rounding.
+    /// depends on the rounding. Inlined into the dispatched kernel, for its vector width.
+    #[inline(always)]
     fn stiffness_estimate(&self, h: f64) -> f64 {
         let n = self.y.len();
         let tableau = &M::TABLEAU;
@@ -334,7 +362,7 @@ impl<M: ExplicitMethod> Stepper for Work<M> {
         rtol: f64,
         atol: &[f64],
     ) -> Attempt {
-        self.stages::<F>(rhs, 1..=M::TABLEAU.attempt, t, h, t_new);
+        self.stages::<F>(rhs, (1, M::TABLEAU.attempt), t, h, t_new);
         let (err, finite) = M::solution_and_error::<F>(self, rhs, h, t_new, rtol, atol);
         Attempt { err, finite }
     }
@@ -354,7 +382,7 @@ impl<M: ExplicitMethod> Stepper for Work<M> {
         }
         let dense = tableau.dense_stages();
         if !dense.is_empty() {
-            self.stages::<F>(rhs, dense.start..=dense.end - 1, t, h, t_new);
+            self.stages::<F>(rhs, (dense.start, dense.end - 1), t, h, t_new);
         }
         self.epoch += 1;
         finite && dense.clone().all(|j| all_finite(self.stage(j)))
@@ -401,7 +429,8 @@ impl<M: ExplicitMethod> ExplicitStep<'_, M> {
     #[inline(never)]
     fn compute_coefficients(&self, i: usize) -> [f64; MAX_DENSE_COEFFICIENTS] {
         let w = self.w;
-        let c = M::dense_coefficients(self.h, w.y[i], w.y_new[i], |j| w.stage(j)[i]);
+        let buffers = M::TABLEAU.buffers;
+        let c = M::dense_coefficients(self.h, w.y[i], w.y_new[i], |j| w.k[buffers[j]][i]);
         w.cont[i].set(c);
         w.cont_epoch[i].set(w.epoch);
         c

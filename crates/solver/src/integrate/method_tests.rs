@@ -6,7 +6,7 @@
 //! against Butcher's order conditions on every rooted tree.
 
 use super::adaptive::{Adaptive, Method};
-use super::explicit::ExplicitMethod;
+use super::explicit::{ExplicitMethod, MAX_STAGES};
 use super::order_conditions::{
     dense_weights, interpolant_weights, matrix, worst_condition, worst_row_sum,
 };
@@ -558,6 +558,9 @@ fn tolerance_scales_and_invalid_settings<M: Method>() {
 /// points of the step, is zero at its start and the weights at its end.
 fn explicit_tableau_has_its_orders<M: ExplicitMethod>(order: usize, dense_order: usize) {
     let tableau = M::TABLEAU;
+    assert!(tableau.stages.len() <= MAX_STAGES);
+    assert_eq!(tableau.buffers.len(), tableau.stages.len());
+    assert!(tableau.buffers.iter().all(|&b| b < tableau.n_buffers));
     let (a, c) = matrix(&tableau);
     let s = c.len();
     assert!(worst_row_sum(&a, &c) < 1e-12, "row sums");

@@ -20,7 +20,7 @@ mod rosenbrock;
 mod verlet;
 mod vern6;
 
-pub use adaptive::{Adaptive, AdaptiveOptions};
+pub use adaptive::{Adaptive, AdaptiveOptions, Method as AdaptiveMethod};
 pub use dop853::{Dop853, Dop853Method};
 pub use rk4::Rk4;
 pub use rosenbrock::{Ros34pw2, Ros34pw2Method};

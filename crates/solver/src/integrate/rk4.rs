@@ -11,9 +11,16 @@ pub struct Rk4 {
     pub dt: f64,
 }
 
+impl Rk4 {
+    /// Its name in a sweep file.
+    pub const NAME: &'static str = "rk4";
+    /// Right-hand-side evaluations per step.
+    pub const RHS_PER_STEP: u64 = 4;
+}
+
 impl Integrator for Rk4 {
     fn name(&self) -> &'static str {
-        "rk4"
+        Self::NAME
     }
 
     fn integrate(
@@ -38,7 +45,7 @@ struct Rk4Step {
 }
 
 impl FixedScheme for Rk4Step {
-    const RHS_PER_STEP: u64 = 4;
+    const RHS_PER_STEP: u64 = Rk4::RHS_PER_STEP;
 
     fn new(dim: usize, _n_pos: usize) -> Self {
         Rk4Step {

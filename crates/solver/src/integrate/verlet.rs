@@ -14,9 +14,16 @@ pub struct VelocityVerlet {
     pub dt: f64,
 }
 
+impl VelocityVerlet {
+    /// Its name in a sweep file.
+    pub const NAME: &'static str = "verlet";
+    /// Right-hand-side evaluations per step.
+    pub const RHS_PER_STEP: u64 = 1;
+}
+
 impl Integrator for VelocityVerlet {
     fn name(&self) -> &'static str {
-        "verlet"
+        Self::NAME
     }
 
     fn integrate(
@@ -38,7 +45,7 @@ struct VerletStep {
 }
 
 impl FixedScheme for VerletStep {
-    const RHS_PER_STEP: u64 = 1;
+    const RHS_PER_STEP: u64 = VelocityVerlet::RHS_PER_STEP;
 
     fn new(_dim: usize, n_pos: usize) -> Self {
         VerletStep { n: n_pos }

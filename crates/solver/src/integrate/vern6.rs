@@ -384,15 +384,20 @@ impl ExplicitMethod for Vern6Method {
     }
 
     /// `y` and the coefficients of θ, …, θ⁶: `h Σ_j R_j[m] k_j`.
+    #[inline(always)]
     fn dense_coefficients(h: f64, y: f64, _y_new: f64, k: impl Fn(usize) -> f64) -> [f64; 8] {
+        // Each stage's value read once.
+        let mut kv = [0.0; INTERPOLANT.len()];
+        for (v, &(j, _)) in kv.iter_mut().zip(INTERPOLANT) {
+            *v = k(j);
+        }
         let mut c = [y, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         // θ¹ involves only the first stage (R_j[0] = 0 for j > 1).
-        c[1] = h * k(0);
+        c[1] = h * kv[0];
         for m in 1..SIX {
-            let (j0, r0) = INTERPOLANT[0];
-            let mut s = r0[m] * k(j0);
-            for &(j, r) in &INTERPOLANT[1..] {
-                s += r[m] * k(j);
+            let mut s = INTERPOLANT[0].1[m] * kv[0];
+            for q in 1..INTERPOLANT.len() {
+                s += INTERPOLANT[q].1[m] * kv[q];
             }
             c[m + 1] = h * s;
         }
