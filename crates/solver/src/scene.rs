@@ -619,3 +619,29 @@ impl ImpactScales {
         }
     }
 }
+
+#[cfg(all(test, feature = "serde"))]
+mod tests {
+    use super::*;
+
+    /// A method's name (its integrator's, by construction) is the tag a sweep file writes; an
+    /// unknown name is an error listing them.
+    #[test]
+    fn every_method_name_is_its_sweep_file_tag() {
+        for method in Method::ALL {
+            let json = if method.is_adaptive() {
+                serde_json::json!({"method": method.name(), "rtol": 1e-8})
+            } else {
+                serde_json::json!({"method": method.name(), "dt_s": 1e-8})
+            };
+            let spec: IntegratorSpec = serde_json::from_value(json).unwrap();
+            assert_eq!(spec.method(), method);
+            assert_eq!(Method::parse(method.name()), Ok(method));
+        }
+        let err = Method::parse("dopri5").unwrap_err();
+        assert!(
+            err.contains("dop853, vern6, ros34pw2, rk4, verlet"),
+            "{err}"
+        );
+    }
+}
