@@ -19,7 +19,7 @@ use chainsweep::store::hdf5::{FileRecords, Provenance};
 use chainsweep::store::segment::encode;
 use chainsweep::store::{RunStore, SegmentIndex, WorkDir};
 use chainsweep::sweep::Sweep;
-use chainsweep_solver::probes::ProbeSummary;
+use chainsweep_solver::observe::probes::ProbeSummary;
 
 const SWEEP: &str = r#"{
   "base": {

@@ -133,8 +133,25 @@ fn without_tests(code: &str) -> &str {
 fn actual_imports(src: &Path, skip_tests: bool) -> BTreeMap<String, BTreeSet<String>> {
     let mut files = Vec::new();
     rust_files(src, &mut files);
+    // Files that are test modules of their own (`#[cfg(test)]\nmod X;` in the file beside them).
+    let mut test_files = BTreeSet::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        for decl in text.split("#[cfg(test)]\nmod ").skip(1) {
+            let name: String = decl
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            if decl[name.len()..].starts_with(';') {
+                test_files.insert(f.with_file_name(format!("{name}.rs")));
+            }
+        }
+    }
     let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     for f in files {
+        if skip_tests && test_files.contains(&f) {
+            continue;
+        }
         let rel = f.strip_prefix(src).unwrap();
         let first = rel
             .components()
@@ -227,7 +244,7 @@ fn the_solvers_modules_import_only_what_its_listing_says_and_only_from_below() {
     let solver = Path::new(CRATE).join("../solver");
     let doc = std::fs::read_to_string(solver.join("ARCHITECTURE.md")).unwrap();
     let listing = listing(&doc);
-    assert!(listing.len() >= 10, "listing too short: {listing:?}");
+    assert!(listing.len() >= 8, "listing too short: {listing:?}");
     let actual = actual_imports(&solver.join("src"), true);
     let bad = violations(&listing, &actual);
     assert!(

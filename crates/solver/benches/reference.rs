@@ -2,10 +2,9 @@
 //! chain (3.77 g cylinders, 50 cylinders), μ = 6 kg/s, v0 = 1.3 m/s, 1 ms simulated, with the
 //! leading peaks in cylinders 4 and 21 recorded.
 
-use chainsweep_solver::model::ChainSpec;
-use chainsweep_solver::probes::Probe;
-use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::AdaptiveOptions;
+// The crate root's names, not module paths: the bench comparison builds this file at earlier
+// revisions too, whose modules were laid out differently.
+use chainsweep_solver::{AdaptiveOptions, ChainSpec, IntegratorSpec, Probe, Scene};
 
 /// DOP853 tolerance at which the leading peak in cylinder 21 is within 1e-6 (relative) of a tight
 /// reference, with and without `predict_switches`; `tests/accuracy.rs` checks it.

@@ -6,10 +6,7 @@
 //! It uses only the solver's long-standing public interface, so that `scripts/bench_compare.py`
 //! can build the same file at a base revision and run the two side by side.
 
-use chainsweep_solver::model::ChainSpec;
-use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::run;
-use chainsweep_solver::AdaptiveOptions;
+use chainsweep_solver::{run, AdaptiveOptions, ChainSpec, IntegratorSpec, Scene};
 use criterion::{black_box, criterion_group, criterion_main, Criterion};
 
 #[allow(dead_code)]

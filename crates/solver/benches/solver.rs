@@ -6,12 +6,14 @@
 //! in cylinder 21 is within 1e-6 of a tight reference (checked by `tests/accuracy.rs`); beside it
 //! the same run under DOP853's default settings.
 
+use chainsweep_solver::chain::model::{Chain, ChainSpec, Material, PhysicsSpec};
 use chainsweep_solver::contact::{DissipationSpec, LawSpec};
-use chainsweep_solver::general::{law, GeneralChainSystem, HERTZ_LAW, LINEAR_LAW, POWER_LAW};
 use chainsweep_solver::integrate::OdeSystem;
-use chainsweep_solver::model::{Chain, ChainSpec, Material, PhysicsSpec};
-use chainsweep_solver::solve::run;
-use chainsweep_solver::system::ChainSystem;
+use chainsweep_solver::motion::general::{
+    law, GeneralChainSystem, HERTZ_LAW, LINEAR_LAW, POWER_LAW,
+};
+use chainsweep_solver::motion::system::ChainSystem;
+use chainsweep_solver::scene::solve::run;
 use criterion::measurement::WallTime;
 use criterion::{
     black_box, criterion_group, criterion_main, BenchmarkGroup, Criterion, Throughput,
@@ -104,8 +106,10 @@ fn bench_run(c: &mut Criterion) {
 /// sphere on the wall: 101 particles, 101 contacts) with `law` on the sphere–cylinder pairs (Hertz
 /// when `None`) and `model` on every contact: the general kernel at the paper's size.
 fn general_chain(law: Option<LawSpec>, model: Option<DissipationSpec>) -> Chain {
+    use chainsweep_solver::chain::sequence::{
+        CylinderType, ParticleType, RepeatBlock, SequenceItem,
+    };
     use chainsweep_solver::problems::{chain, rule, sphere, STEEL};
-    use chainsweep_solver::sequence::{CylinderType, ParticleType, RepeatBlock, SequenceItem};
     let cylinder = ParticleType::Cylinder(CylinderType {
         material: Material::STEEL_SS304,
         diameter_m: 8e-3,

@@ -5,10 +5,10 @@
 //!
 //! Run: `cargo run --release -p chainsweep-solver --example paper_numbers`.
 
-use chainsweep_solver::model::{Chain, ChainSpec};
-use chainsweep_solver::probes::Probe;
+use chainsweep_solver::chain::model::{Chain, ChainSpec};
+use chainsweep_solver::observe::probes::Probe;
+use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::run;
 use chainsweep_solver::AdaptiveOptions;
 
 fn main() {

@@ -1,10 +1,10 @@
 //! One reference run (0.55 chain, 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s, 1 ms) repeated, for
 //! profiling: `cargo run --release -p chainsweep-solver --example refrun -- RTOL REPEATS [predict|plain]
 //! [dop853|vern6]` (`predict`: with `predict_switches`; the method, DOP853 by default).
-use chainsweep_solver::model::ChainSpec;
-use chainsweep_solver::probes::Probe;
+use chainsweep_solver::chain::model::ChainSpec;
+use chainsweep_solver::observe::probes::Probe;
+use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::run;
 use chainsweep_solver::AdaptiveOptions;
 fn main() {
     let args: Vec<String> = std::env::args().collect();

@@ -1,9 +1,9 @@
 //! Minimum-of-repeats timing of one right-hand-side evaluation of the 50-cylinder 0.55 chain,
 //! robust to a loaded machine (the minimum is the run least disturbed):
 //! `cargo run --release -p chainsweep-solver --example rhs_timing`.
+use chainsweep_solver::chain::model::{Chain, ChainSpec, PhysicsSpec};
 use chainsweep_solver::integrate::OdeSystem;
-use chainsweep_solver::model::{Chain, ChainSpec, PhysicsSpec};
-use chainsweep_solver::system::ChainSystem;
+use chainsweep_solver::motion::system::ChainSystem;
 use std::hint::black_box;
 
 fn state(chain: &Chain, dim: usize) -> Vec<f64> {

@@ -3,10 +3,10 @@
 //! integrator, DOP853 and Verner's 6(5) also with `predict_switches` (`dop853+p`, `vern6+p`). Run:
 //! `cargo run --release -p chainsweep-solver --example rtol_scan`.
 
-use chainsweep_solver::model::ChainSpec;
-use chainsweep_solver::probes::Probe;
+use chainsweep_solver::chain::model::ChainSpec;
+use chainsweep_solver::observe::probes::Probe;
+use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::run;
 use chainsweep_solver::AdaptiveOptions;
 
 fn scene(integrator: IntegratorSpec) -> Scene {

@@ -5,13 +5,13 @@
 
 use std::collections::BTreeMap;
 
+use crate::chain::model::Material;
+use crate::chain::sequence::{ContactRule, ParticleType, SequenceItem, SequenceSpec, SphereType};
 use crate::contact::{impact_duration_factor, ln_gamma, DissipationSpec, LawSpec};
 use crate::integrate::{
     Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, OdeSystemDyn,
     StepObserver,
 };
-use crate::model::Material;
-use crate::sequence::{ContactRule, ParticleType, SequenceItem, SequenceSpec, SphereType};
 
 /// 440C steel (the paper's spheres).
 pub const STEEL: Material = Material::STEEL_440C;
@@ -71,7 +71,7 @@ pub fn rule(
 
 /// `n` particles of type `name`.
 pub fn repeat(n: usize, name: &str) -> SequenceItem {
-    SequenceItem::Repeat(crate::sequence::RepeatBlock {
+    SequenceItem::Repeat(crate::chain::sequence::RepeatBlock {
         repeat: n,
         of: vec![SequenceItem::Type(name.to_string())],
     })

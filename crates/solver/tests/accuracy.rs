@@ -5,8 +5,8 @@
 #[path = "../benches/reference.rs"]
 mod reference;
 
+use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::IntegratorSpec;
-use chainsweep_solver::solve::run;
 use reference::{benchmark_scene, reference_scene, REFERENCE_RTOL};
 
 #[test]

@@ -1,10 +1,10 @@
-//! Long chains integrated only where they move (`chainsweep_solver::active`): the same probes,
+//! Long chains integrated only where they move (`chainsweep_solver::scene::active`): the same probes,
 //! histories and ledger as the whole chain within the run's tolerance, and the whole chain
 //! whenever a scene does not qualify.
 
-use chainsweep_solver::active::{BLOCK, MIN_PARTICLES};
+use chainsweep_solver::scene::active::{BLOCK, MIN_PARTICLES};
+use chainsweep_solver::scene::solve::{run, RunOutput};
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::{run, RunOutput};
 use chainsweep_solver::{integrates_moving_part, ActiveRegion, AdaptiveOptions, ChainSpec, Probe};
 
 /// The paper's 0.55 chain (μ = 6 kg/s, 1.3 m/s) lengthened to `cylinders`, 1 ms, DOP853 at

@@ -4,17 +4,17 @@
 //! several exponents, the sound speed of a precompressed chain, the energy ledger for every law
 //! and model, and the paper's chain written as a sequence.
 
+use chainsweep_solver::chain::model::{hertz_coefficient, Chain, Material, PhysicsSpec};
+use chainsweep_solver::chain::sequence::SequenceSpec;
 use chainsweep_solver::contact::{hunt_crossley_alpha, hunt_crossley_restitution, DissipationSpec};
 use chainsweep_solver::integrate::{Dop853, Integrator};
-use chainsweep_solver::model::{hertz_coefficient, Chain, Material, PhysicsSpec};
-use chainsweep_solver::probes::Probe;
+use chainsweep_solver::observe::probes::Probe;
 use chainsweep_solver::problems::{
     chain, kuwabara_kono_restitution, monodisperse, nesterenko_speed, power_law, repeat, rule,
     sound_speed, sphere, ContactTimer, PowerLawImpact, STEEL,
 };
+use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{Excitation, IntegratorSpec, Scene};
-use chainsweep_solver::sequence::SequenceSpec;
-use chainsweep_solver::solve::run;
 use chainsweep_solver::ChainSpec;
 
 fn dop(rtol: f64) -> IntegratorSpec {
@@ -449,7 +449,7 @@ fn small_amplitude_sound_speed_of_a_precompressed_chain() {
         );
         scene.physics = physics;
         scene.integrator = dop(1e-10);
-        scene.record.preload = chainsweep_solver::probes::Preload::Subtract;
+        scene.record.preload = chainsweep_solver::observe::probes::Preload::Subtract;
         scene.record.history = true;
         scene.record.history_interval_s = transit / 10.0;
         scene.record.probes = vec![
@@ -473,7 +473,9 @@ fn small_amplitude_sound_speed_of_a_precompressed_chain() {
 /// repeated block, `F = A δ^n` on the sphere–sphere pairs (Hertz where `exponent` is `None`),
 /// Hertz's sphere–flat law, and linear springs between the flat faces and on the wall.
 fn mixed_chain(exponent: Option<f64>, striker: bool) -> SequenceSpec {
-    use chainsweep_solver::sequence::{CylinderType, ParticleType, RepeatBlock, SequenceItem};
+    use chainsweep_solver::chain::sequence::{
+        CylinderType, ParticleType, RepeatBlock, SequenceItem,
+    };
     let tall = ParticleType::Cylinder(CylinderType {
         material: Material::STEEL_SS304,
         diameter_m: 8e-3,
@@ -588,7 +590,7 @@ fn energy_ledger_closes_for_every_law_model_and_excitation() {
 
 #[test]
 fn bad_values_are_refused_with_the_field_named() {
-    use chainsweep_solver::sequence::{CylinderType, ParticleType, SequenceItem, TaperSpec};
+    use chainsweep_solver::chain::sequence::{CylinderType, ParticleType, SequenceItem, TaperSpec};
     let field_of = |scene: &Scene| scene.validate().map(|_| ()).unwrap_err().field;
     let striker = |spec: SequenceSpec| Scene::new(spec, 0.5, 1e-4);
 

@@ -6,11 +6,11 @@
 //! This file holds a single test: forcing a level is process-wide, and the test harness runs the
 //! tests of one file in parallel threads.
 
+use chainsweep_solver::chain::model::{ChainSpec, CylinderMass};
 use chainsweep_solver::cpu::{self, Level};
-use chainsweep_solver::model::{ChainSpec, CylinderMass};
-use chainsweep_solver::probes::Probe;
+use chainsweep_solver::observe::probes::Probe;
+use chainsweep_solver::scene::solve::{run, RunOutput};
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::{run, RunOutput};
 
 fn scenes() -> Vec<(&'static str, Scene)> {
     let spec = |s: &str| -> IntegratorSpec { serde_json::from_str(s).unwrap() };

@@ -1,15 +1,15 @@
 //! Physics that a wrong model, a wrong integrator or a wrong probe would break, each checked
 //! against a number: closed forms, conservation laws, exact scaling laws, Eq. (13).
 
+use chainsweep_solver::chain::model::{Chain, ChainSpec, PhysicsSpec};
 use chainsweep_solver::integrate::{
     Control, DenseStep, Dop853, IntegrationStats, Integrator, OdeSystem, Rk4, StepObserver,
     VelocityVerlet,
 };
-use chainsweep_solver::model::{Chain, ChainSpec, PhysicsSpec};
-use chainsweep_solver::probes::Probe;
+use chainsweep_solver::motion::system::ChainSystem;
+use chainsweep_solver::observe::probes::Probe;
+use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::run;
-use chainsweep_solver::system::ChainSystem;
 use chainsweep_solver::{ActiveRegion, AdaptiveOptions};
 
 fn dop(rtol: f64) -> IntegratorSpec {
@@ -518,7 +518,9 @@ fn invalid_scenes_name_the_field() {
         (
             Box::new(|s| {
                 s.chain.dimer_mut().unwrap().cylinder.mass =
-                    chainsweep_solver::model::CylinderMass::HeavyCylinders { mass_ratio: 1.5 }
+                    chainsweep_solver::chain::model::CylinderMass::HeavyCylinders {
+                        mass_ratio: 1.5,
+                    }
             }),
             "chain.cylinder.mass.heavy_cylinders.mass_ratio",
         ),
@@ -606,7 +608,7 @@ fn grazing_chain() -> Scene {
     s.physics.damping_kg_s = 6.0;
     let dimer = s.chain.dimer_mut().expect("chain_055 is a dimer");
     dimer.cylinder.mass =
-        chainsweep_solver::model::CylinderMass::HeavyCylinders { mass_ratio: 0.55 };
+        chainsweep_solver::chain::model::CylinderMass::HeavyCylinders { mass_ratio: 0.55 };
     dimer.cylinder.height_m = None;
     s.active_region = ActiveRegion::Off;
     s

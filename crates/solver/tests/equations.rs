@@ -1,8 +1,8 @@
 //! The fast right-hand side against a literal, slow transcription of the paper's Eqs. (2)–(12).
 
+use chainsweep_solver::chain::model::{hertz_coefficient, Chain, ChainSpec, Material, PhysicsSpec};
 use chainsweep_solver::integrate::OdeSystem;
-use chainsweep_solver::model::{hertz_coefficient, Chain, ChainSpec, Material, PhysicsSpec};
-use chainsweep_solver::system::ChainSystem;
+use chainsweep_solver::motion::system::ChainSystem;
 
 /// Deterministic pseudo-random numbers (xorshift) so failures reproduce.
 struct Rng(u64);

@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use chainsweep_solver::model::{ChainSpec, PhysicsSpec};
+use chainsweep_solver::chain::model::{ChainSpec, PhysicsSpec};
 use chainsweep_solver::{run, run_until, RunError, Scene, DEADLINE_CHECK_STEPS};
 
 /// The runaway scene of issue 11: a 1000 m/s striker into a chain damped at 1e9 kg/s, whose

@@ -7,10 +7,10 @@
 //! with a bump of the runner's NUMERICS_VERSION); the failure message prints the new fingerprint
 //! to paste here after checking the differences.
 
-use chainsweep_solver::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
-use chainsweep_solver::probes::{Preload, Probe};
+use chainsweep_solver::chain::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
+use chainsweep_solver::observe::probes::{Preload, Probe};
+use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
-use chainsweep_solver::solve::run;
 use chainsweep_solver::AdaptiveOptions;
 
 #[path = "../benches/reference.rs"]

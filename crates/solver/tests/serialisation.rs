@@ -3,7 +3,7 @@
 //! byte for byte, so that a refactoring of the integrator settings cannot change a run hash or
 //! break a sweep file.
 
-use chainsweep_solver::model::ChainSpec;
+use chainsweep_solver::chain::model::ChainSpec;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
 
 fn json<T: serde::Serialize>(v: &T) -> String {

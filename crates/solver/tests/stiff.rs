@@ -1,14 +1,14 @@
 //! The stiff integrator (ROS34PW2) on strongly damped chains with light cylinders, against DOP853:
 //! energy-ledger closure, agreement with a tight DOP853 reference, and the work it saves.
 
+use chainsweep_solver::chain::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
 use chainsweep_solver::integrate::{
     Control, DenseStep, Dop853, IntegrationStats, Integrator, OdeSystem, Ros34pw2, StepObserver,
     Tridiagonal,
 };
-use chainsweep_solver::model::{Chain, ChainSpec, CylinderMass, PhysicsSpec};
+use chainsweep_solver::motion::system::{ChainSystem, Ledger};
+use chainsweep_solver::scene::solve::state_scales;
 use chainsweep_solver::scene::ImpactScales;
-use chainsweep_solver::solve::state_scales;
-use chainsweep_solver::system::{ChainSystem, Ledger};
 use chainsweep_solver::AdaptiveOptions;
 
 const V0: f64 = 1.3;
@@ -316,8 +316,8 @@ fn observed_order_is_three_on_state_and_dissipated_work() {
 
 #[test]
 fn dop853_flags_a_stiff_chain_and_ros34pw2_does_not_need_to() {
+    use chainsweep_solver::scene::solve::run;
     use chainsweep_solver::scene::{IntegratorSpec, Scene};
-    use chainsweep_solver::solve::run;
     let scene = |mu: f64, integrator: IntegratorSpec| {
         let mut s = Scene::new(ChainSpec::chain_055(20), 1.3, 1e-4);
         s.chain.dimer_mut().unwrap().cylinder.mass =

@@ -13,7 +13,7 @@ pub mod accuracy;
 pub mod auto;
 pub mod verify;
 
-use chainsweep_solver::probes::ProbeSummary;
+use chainsweep_solver::observe::probes::ProbeSummary;
 
 /// Relative error of `x` against the reference `r`: NaN when both are NaN (neither run has the
 /// value), infinite when only one is (the runs disagree on whether it exists) or when `r` is 0 and

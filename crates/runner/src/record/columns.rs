@@ -9,7 +9,7 @@
 //! column's value at that point (the `history_checksum` of its run group included), so that a
 //! reader finds out which points of a damaged file it can still trust.
 
-use chainsweep_solver::probes::{History, ProbeSummary};
+use chainsweep_solver::observe::probes::{History, ProbeSummary};
 use sha2::{Digest, Sha256};
 
 use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};

@@ -6,7 +6,7 @@
 
 pub mod columns;
 
-use chainsweep_solver::probes::{History, ProbeSummary};
+use chainsweep_solver::observe::probes::{History, ProbeSummary};
 
 use crate::identity::RunHash;
 

@@ -26,7 +26,7 @@
 //! they cannot be looked up anyway, since their runs were hashed with numerics version 1 and are
 //! recomputed.
 
-use chainsweep_solver::probes::{History, ProbeSummary};
+use chainsweep_solver::observe::probes::{History, ProbeSummary};
 use sha2::{Digest, Sha256};
 
 use crate::identity::RunHash;

@@ -425,7 +425,7 @@ mod tests {
     use super::*;
     use crate::record::columns::PointOutcome;
     use crate::record::VerifyInfo;
-    use chainsweep_solver::probes::ProbeSummary;
+    use chainsweep_solver::observe::probes::ProbeSummary;
 
     fn header(n: usize) -> Header {
         Header {

@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use chainsweep_solver::probes::History;
+use chainsweep_solver::observe::probes::History;
 use hdf5::types::VarLenUnicode;
 use hdf5::File;
 

@@ -1,13 +1,13 @@
 //! The paper's equations of motion (Eqs. 2–12) as an [`OdeSystem`], specialised at compile time
 //! on the physics a scene switches on, the energy and momentum ledgers of every chain, and the
 //! dispatch from a built chain to its specialised right-hand side (the paper's, or one of
-//! [`crate::general::GeneralChainSystem`]'s for other laws, dissipation models and loads).
+//! [`crate::motion::general::GeneralChainSystem`]'s for other laws, dissipation models and loads).
 
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
+use crate::chain::model::Chain;
 use crate::contact::{hertz_potential_unscaled, paper_contact_force};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
-use crate::model::Chain;
 
 /// Right-hand side of the chain, specialised on gravity, damping, wall and tensile clipping so that
 /// what a scene switches off is compiled out of the hot loop.
@@ -430,13 +430,13 @@ impl Kernel for EnergyKernel<'_> {
 
 /// Calls `$body` with `$sys` bound to the right-hand side specialised for `$chain`: the paper's
 /// [`ChainSystem`] (16 variants: gravity × damping × wall × clipping) when the chain is the
-/// paper's physics, else a [`crate::general::GeneralChainSystem`] (6 variants: Hertz, linear or
+/// paper's physics, else a [`crate::motion::general::GeneralChainSystem`] (6 variants: Hertz, linear or
 /// per-contact power laws × damping). This is the one place where run-time switches become
 /// compile-time ones: 22 compiled right-hand sides in all.
 #[macro_export]
 macro_rules! dispatch_chain_system {
     ($chain:expr, |$sys:ident| $body:expr) => {{
-        let chain: &$crate::model::Chain = $chain;
+        let chain: &$crate::chain::model::Chain = $chain;
         if chain.is_paper_physics() {
             $crate::dispatch_paper_system!(chain, |$sys| $body)
         } else {
@@ -445,16 +445,16 @@ macro_rules! dispatch_chain_system {
     }};
 }
 
-/// The general half of [`dispatch_chain_system`]: a [`crate::general::GeneralChainSystem`] whose
+/// The general half of [`dispatch_chain_system`]: a [`crate::motion::general::GeneralChainSystem`] whose
 /// law and damping parameters match `$chain` (whether or not it is the paper's physics).
 #[doc(hidden)]
 #[macro_export]
 macro_rules! dispatch_general_system {
     ($chain:expr, |$sys:ident| $body:expr) => {{
-        let chain: &$crate::model::Chain = $chain;
-        use $crate::general::GeneralChainSystem as General;
-        use $crate::general::{HERTZ_LAW, LINEAR_LAW, POWER_LAW};
-        match ($crate::general::law(chain), chain.has_damping()) {
+        let chain: &$crate::chain::model::Chain = $chain;
+        use $crate::motion::general::GeneralChainSystem as General;
+        use $crate::motion::general::{HERTZ_LAW, LINEAR_LAW, POWER_LAW};
+        match ($crate::motion::general::law(chain), chain.has_damping()) {
             (HERTZ_LAW, false) => {
                 let mut $sys = General::<HERTZ_LAW, false>::new(chain);
                 $body
@@ -489,73 +489,88 @@ macro_rules! dispatch_general_system {
 #[macro_export]
 macro_rules! dispatch_paper_system {
     ($chain:expr, |$sys:ident| $body:expr) => {{
-        let chain: &$crate::model::Chain = $chain;
+        let chain: &$crate::chain::model::Chain = $chain;
         let g = chain.gravity_m_s2 != 0.0;
         let d = chain.has_damping();
         match (g, d, chain.wall, chain.clip_tensile) {
             (false, false, false, false) => {
                 let mut $sys =
-                    $crate::system::ChainSystem::<false, false, false, false>::new(chain);
+                    $crate::motion::system::ChainSystem::<false, false, false, false>::new(chain);
                 $body
             }
             (false, false, false, true) => {
-                let mut $sys = $crate::system::ChainSystem::<false, false, false, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<false, false, false, true>::new(chain);
                 $body
             }
             (false, false, true, false) => {
-                let mut $sys = $crate::system::ChainSystem::<false, false, true, false>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<false, false, true, false>::new(chain);
                 $body
             }
             (false, false, true, true) => {
-                let mut $sys = $crate::system::ChainSystem::<false, false, true, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<false, false, true, true>::new(chain);
                 $body
             }
             (false, true, false, false) => {
-                let mut $sys = $crate::system::ChainSystem::<false, true, false, false>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<false, true, false, false>::new(chain);
                 $body
             }
             (false, true, false, true) => {
-                let mut $sys = $crate::system::ChainSystem::<false, true, false, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<false, true, false, true>::new(chain);
                 $body
             }
             (false, true, true, false) => {
-                let mut $sys = $crate::system::ChainSystem::<false, true, true, false>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<false, true, true, false>::new(chain);
                 $body
             }
             (false, true, true, true) => {
-                let mut $sys = $crate::system::ChainSystem::<false, true, true, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<false, true, true, true>::new(chain);
                 $body
             }
             (true, false, false, false) => {
-                let mut $sys = $crate::system::ChainSystem::<true, false, false, false>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, false, false, false>::new(chain);
                 $body
             }
             (true, false, false, true) => {
-                let mut $sys = $crate::system::ChainSystem::<true, false, false, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, false, false, true>::new(chain);
                 $body
             }
             (true, false, true, false) => {
-                let mut $sys = $crate::system::ChainSystem::<true, false, true, false>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, false, true, false>::new(chain);
                 $body
             }
             (true, false, true, true) => {
-                let mut $sys = $crate::system::ChainSystem::<true, false, true, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, false, true, true>::new(chain);
                 $body
             }
             (true, true, false, false) => {
-                let mut $sys = $crate::system::ChainSystem::<true, true, false, false>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, true, false, false>::new(chain);
                 $body
             }
             (true, true, false, true) => {
-                let mut $sys = $crate::system::ChainSystem::<true, true, false, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, true, false, true>::new(chain);
                 $body
             }
             (true, true, true, false) => {
-                let mut $sys = $crate::system::ChainSystem::<true, true, true, false>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, true, true, false>::new(chain);
                 $body
             }
             (true, true, true, true) => {
-                let mut $sys = $crate::system::ChainSystem::<true, true, true, true>::new(chain);
+                let mut $sys =
+                    $crate::motion::system::ChainSystem::<true, true, true, true>::new(chain);
                 $body
             }
         }

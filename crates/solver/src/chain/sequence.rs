@@ -25,11 +25,11 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-use crate::contact::{DissipationSpec, LawSpec, SplitMix64, MAX_EXPONENT};
-use crate::parts::{
+use crate::chain::parts::{
     check_material, hertz_coefficient, Layout, Material, Particle, ParticleKind, Shape,
     MAX_PARTICLES,
 };
+use crate::contact::{DissipationSpec, LawSpec, SplitMix64, MAX_EXPONENT};
 use crate::spec::{check_positive, spec_err, SpecError};
 
 /// Name a contact rule uses for the wall.
@@ -559,8 +559,8 @@ impl SequenceSpec {
                 if let Some((d, rng)) = &mut rng {
                     let f = 1.0 + d.level * rng.symmetric();
                     match d.of {
-                        crate::sequence::DisorderOf::Mass => mass *= f,
-                        crate::sequence::DisorderOf::Size => {
+                        crate::chain::sequence::DisorderOf::Mass => mass *= f,
+                        crate::chain::sequence::DisorderOf::Size => {
                             size *= f;
                             mass *= f * f * f;
                         }

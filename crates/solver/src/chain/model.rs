@@ -1,5 +1,5 @@
 //! What a chain is made of: its description ([`ChainSpec`]: the paper's sphere–cylinder dimer
-//! with a striker, or any sequence of named particle types, see [`crate::sequence`]), the physics
+//! with a striker, or any sequence of named particle types, see [`crate::chain::sequence`]), the physics
 //! switches ([`PhysicsSpec`]), and the built [`Chain`] with per-particle masses, per-contact laws
 //! and dissipation, and the static-equilibrium state.
 //!
@@ -13,10 +13,10 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
+pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
+pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
+use crate::chain::sequence::SequenceSpec;
 use crate::contact::{overlap_at_force, Damping, DissipationSpec};
-pub(crate) use crate::parts::{check_material, Layout, Particle};
-pub use crate::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
-use crate::sequence::SequenceSpec;
 pub(crate) use crate::spec::check_positive;
 pub use crate::spec::{spec_err, SpecError};
 
@@ -256,7 +256,9 @@ mod chain_spec_serde {
     //! the chain takes (a `striker` is a sphere in the dimer and a type name in a sequence), so
     //! every value is read straight into its type and errors keep their full path.
     use super::*;
-    use crate::sequence::{ContactRule, DisorderSpec, ParticleType, SequenceItem, TaperSpec};
+    use crate::chain::sequence::{
+        ContactRule, DisorderSpec, ParticleType, SequenceItem, TaperSpec,
+    };
     use serde::de::{self, Deserializer, MapAccess, Visitor};
     use std::collections::BTreeMap;
 
@@ -854,7 +856,7 @@ impl Chain {
 
     /// Whether the chain is the paper's physics: every law Hertz's, only linear viscous damping,
     /// no precompression and no force pulse. Such chains run on the paper's specialised
-    /// right-hand side ([`crate::system::ChainSystem`]), all others on the general one.
+    /// right-hand side ([`crate::motion::system::ChainSystem`]), all others on the general one.
     pub fn is_paper_physics(&self) -> bool {
         self.exponent.iter().all(|&n| n == 1.5)
             && self.viscoelastic_damping.iter().all(|&g| g == 0.0)

@@ -1,5 +1,5 @@
 //! Running a scene: the chain built from it, integrated (whole, or only its moving part,
-//! [`crate::active`]) with the probes and the ledger watching, into a [`RunOutput`] or a
+//! [`crate::scene::active`]) with the probes and the ledger watching, into a [`RunOutput`] or a
 //! [`RunError`]. The scene itself, what it says, is [`crate::scene`].
 
 use std::time::Instant;
@@ -7,17 +7,17 @@ use std::time::Instant;
 #[cfg(feature = "serde")]
 use serde::Serialize;
 
+use crate::chain::model::{Chain, SpecError};
 use crate::integrate::{
     Dop853, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, Rk4, Ros34pw2,
     VelocityVerlet, Vern6,
 };
-use crate::model::{Chain, SpecError};
-use crate::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RunObserver};
+use crate::motion::system::EnergyTerms;
+use crate::observe::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RunObserver};
 use crate::scene::{
     Excitation, ImpactScales, IntegratorSpec, Scene, MAX_HERTZ_OVERLAP_RATIO,
     MIN_PULSE_TO_TRANSIT_RATIO,
 };
-use crate::system::EnergyTerms;
 
 /// Why a run failed.
 #[derive(Debug, Clone, PartialEq)]
@@ -97,7 +97,7 @@ pub struct RunOutput {
     /// Largest contact overlap over the run (at step ends), m.
     pub max_overlap_m: f64,
     /// Particles integrated at the end when the run integrated only the moving part of its chain
-    /// ([`crate::active`]): the rest stayed at rest in static equilibrium throughout. `None` when
+    /// ([`crate::scene::active`]): the rest stayed at rest in static equilibrium throughout. `None` when
     /// the whole chain was integrated.
     pub active_particles: Option<usize>,
     /// Where the run leaves the model's own assumptions (not fatal): overlaps too large for
@@ -255,9 +255,9 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         }
     };
     let integrator = build(&chain);
-    let (stats, active_particles) = match crate::active::plan(scene, &chain, &scales, &y0) {
+    let (stats, active_particles) = match crate::scene::active::plan(scene, &chain, &scales, &y0) {
         Some(plan) => {
-            let (stats, k) = crate::active::integrate(
+            let (stats, k) = crate::scene::active::integrate(
                 &plan,
                 &build,
                 &chain,

@@ -1,5 +1,5 @@
 //! The equations of motion of any chain that is not the paper's physics (see
-//! [`crate::model::Chain::is_paper_physics`]): per-contact power laws, the three dissipation
+//! [`crate::chain::model::Chain::is_paper_physics`]): per-contact power laws, the three dissipation
 //! models, precompression and a half-sine force pulse.
 //!
 //! Specialised at compile time on the elastic law (`HERTZ`: every contact `n = 3/2`, `LINEAR`:
@@ -11,9 +11,9 @@
 
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
+use crate::chain::model::Chain;
 use crate::contact::{general_force, ContactParams, Damping, HERTZ, LINEAR, POWER};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
-use crate::model::Chain;
 
 /// Right-hand side of a general chain. State `[x (N), v (N), q]`, `q` holding in order the
 /// dissipated work (when `D`), the wall impulse (with a wall) and the work of the force pulse

@@ -1,6 +1,6 @@
 //! What a chain is made of: materials, particle shapes and kinds, the Hertz coefficient of two
 //! bodies, and a chain resolved into particles and per-contact laws (a `Layout`) before physics.
-//! The specs as written ([`crate::model`], [`crate::sequence`]) resolve into these.
+//! The specs as written ([`crate::chain::model`], [`crate::chain::sequence`]) resolve into these.
 
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};

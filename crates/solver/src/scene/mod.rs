@@ -1,17 +1,20 @@
 //! A scene — chain, physics, impact, integrator and record block: a whole simulation as written,
-//! and the scales of its excitation. Running one is [`crate::solve`].
+//! and the scales of its excitation. Running one is [`solve`]; long chains are integrated only where they move ([`active`]).
+
+pub mod active;
+pub mod solve;
 
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
+use crate::chain::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::integrate::AdaptiveMethod as _;
 use crate::integrate::{
     AdaptiveOptions, Dop853Method, Rk4, Ros34pw2Method, VelocityVerlet, Vern6Method,
 };
-use crate::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
-use crate::probes::RecordSpec;
+use crate::observe::probes::RecordSpec;
 
-pub use crate::probes::{
+pub use crate::observe::probes::{
     max_history_samples, DEADLINE_CHECK_STEPS, MAX_HISTORY_SAMPLES_PER_RUN,
     MAX_HISTORY_VALUES_PER_RUN, MAX_SUMMARY_SAMPLES_PER_RUN,
 };
@@ -276,7 +279,7 @@ pub struct Scene {
     /// What to record.
     #[cfg_attr(feature = "serde", serde(default))]
     pub record: RecordSpec,
-    /// Whether a long chain may integrate only its moving part ([`crate::active`]); `auto` (the
+    /// Whether a long chain may integrate only its moving part ([`crate::scene::active`]); `auto` (the
     /// default, left out of the serialised scene so that run hashes stay as they were) or `off`.
     #[cfg_attr(
         feature = "serde",

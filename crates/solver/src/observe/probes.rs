@@ -7,9 +7,9 @@ use serde::{Deserialize, Serialize};
 use crate::contact::{general_force, paper_contact_force, ContactParams, Damping, POWER};
 use std::time::Instant;
 
+use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::{Control, DenseStep, StepObserver};
-use crate::model::{spec_err, Chain, SpecError};
-use crate::system::{EnergyTerms, Ledger};
+use crate::motion::system::{EnergyTerms, Ledger};
 
 /// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
 /// striker when the chain has one, else the first particle of the sequence; contact `j` joins
@@ -683,7 +683,7 @@ pub struct History {
 }
 
 /// The observer that feeds probes, summaries and the ledger from every accepted step. A run
-/// integrated in legs ([`crate::solve::run`]) calls `on_start` once per leg: the first call
+/// integrated in legs ([`crate::scene::solve::run`]) calls `on_start` once per leg: the first call
 /// starts the record, the later ones continue it from the state the previous leg ended in.
 pub(crate) struct RunObserver {
     /// Whether the record has started (later `on_start` calls are continuations).
@@ -722,7 +722,7 @@ pub(crate) struct RunObserver {
     probe_components: Vec<usize>,
     /// Those components at one sample time, at their indices in the state.
     probe_state: Vec<f64>,
-    /// Particles integrated (the rest rest at their static equilibrium, [`crate::active`]): the
+    /// Particles integrated (the rest rest at their static equilibrium, [`crate::scene::active`]): the
     /// ledger sums over them and adds the constant energy of the rest, [`RunObserver::set_active`].
     active: usize,
     /// Elastic and gravitational energy of the particles at rest and their contacts, J.

@@ -21,9 +21,9 @@
 //! solves of [`crate::integrate::Ros34pw2`] pivot-free.
 
 use crate::contact::{general_derivatives, paper_contact_derivatives};
-use crate::general::GeneralChainSystem;
 use crate::integrate::Tridiagonal;
-use crate::system::ChainSystem;
+use crate::motion::general::GeneralChainSystem;
+use crate::motion::system::ChainSystem;
 
 /// Makes `m` a tridiagonal matrix of order `n` filled with zeros (allocates only if the order differs).
 fn reset(m: &mut Tridiagonal, n: usize) {
@@ -138,9 +138,9 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
 // Dense finite-difference matrices are indexed by row and column.
 #[allow(clippy::needless_range_loop)]
 mod tests {
+    use crate::chain::model::{Chain, ChainSpec, PhysicsSpec};
     use crate::integrate::{OdeSystem, Tridiagonal};
-    use crate::model::{Chain, ChainSpec, PhysicsSpec};
-    use crate::system::ChainSystem;
+    use crate::motion::system::ChainSystem;
 
     /// A small deterministic generator of uniform numbers in [0, 1).
     struct Lcg(u64);
@@ -336,10 +336,10 @@ mod tests {
         clip: bool,
         wall: bool,
     ) -> Chain {
+        use crate::chain::sequence::{CylinderType, ParticleType, SequenceItem};
         use crate::problems::{chain, power_law, rule, sphere, STEEL};
-        use crate::sequence::{CylinderType, ParticleType, SequenceItem};
         let tall = ParticleType::Cylinder(CylinderType {
-            material: crate::model::Material::STEEL_SS304,
+            material: crate::chain::model::Material::STEEL_SS304,
             diameter_m: 8e-3,
             height_m: 9.6e-3,
             mass_kg: None,
@@ -378,7 +378,7 @@ mod tests {
             precompression_force_n: if wall { 3.0 } else { 0.0 },
             ..PhysicsSpec::default()
         };
-        Chain::build(&crate::model::ChainSpec::Sequence(spec), &physics).unwrap()
+        Chain::build(&crate::chain::model::ChainSpec::Sequence(spec), &physics).unwrap()
     }
 
     #[test]

@@ -22,11 +22,11 @@
 //! the tolerance (a chain in free fall, a free end, a misplaced particle all fail this). Scenes that
 //! do not qualify run the whole chain, unchanged.
 
+use crate::chain::model::Chain;
 use crate::integrate::{
     Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, StepObserver,
 };
-use crate::model::Chain;
-use crate::probes::RunObserver;
+use crate::observe::probes::RunObserver;
 pub use crate::scene::ActiveRegion;
 use crate::scene::{ImpactScales, Scene};
 
@@ -357,7 +357,7 @@ impl StepObserver for PrefixObserver<'_> {
     }
 }
 
-/// Integrates a qualifying run ([`plan`]) over its legs (as [`crate::solve::run`] does for the
+/// Integrates a qualifying run ([`plan`]) over its legs (as [`crate::scene::solve::run`] does for the
 /// whole chain), growing the integrated prefix as the front approaches its end. Returns the
 /// statistics summed over every start of the integrator and the number of particles integrated at
 /// the end.

@@ -1,0 +1,8 @@
+//! The equations of motion: the paper's chain specialised at compile time on its physics switches,
+//! with the energy and momentum ledger and the dispatch to a compiled right-hand side
+//! ([`system`]); every other chain, with per-contact laws and dissipation ([`general`]); and the
+//! chain's tridiagonal Jacobian for the linearly implicit integrator (`jacobian`).
+
+pub mod general;
+mod jacobian;
+pub mod system;
