@@ -437,9 +437,7 @@ const TABLEAU: Tableau = Tableau {
     attempt: 11,
     fsal: 12,
     fsal_in_attempt: false,
-    weights: WEIGHTS,
     buffers: &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 1, 2, 3],
-    n_buffers: 13,
 };
 
 impl ExplicitMethod for Dop853Method {

@@ -30,13 +30,13 @@ pub struct Stage {
     pub a: &'static [(usize, f64)],
 }
 
-/// An explicit Runge–Kutta method as data: its stages, the weights of its propagated solution,
-/// which stage is the next step's first, and where each stage's values are kept.
+/// An explicit Runge–Kutta method as data: its stages (the weights of its propagated solution are
+/// the row of the stage that becomes the next step's first), and where each stage's values are kept.
 #[derive(Debug, Clone, Copy)]
 pub struct Tableau {
     /// Every stage, in the order they are computed: stage 0 (`f(t, y)`, no row), stages
-    /// `1..=attempt` (each attempt), the stage `fsal` (`f(t + h, y_new)`, whose row is
-    /// `weights`), then the stages of the continuous extension (once a step is accepted).
+    /// `1..=attempt` (each attempt), the stage `fsal` (`f(t + h, y_new)`, whose row is the
+    /// solution's weights), then the stages of the continuous extension (once a step is accepted).
     pub stages: &'static [Stage],
     /// The last stage an attempt computes before its solution.
     pub attempt: usize,
@@ -45,15 +45,22 @@ pub struct Tableau {
     /// Whether each attempt evaluates stage `fsal` (its error estimate uses it) rather than only a
     /// step that passes the error test.
     pub fsal_in_attempt: bool,
-    /// The weights `b` of the propagated solution `y_new = y + h Σ b_m k_m` (non-zero entries).
-    pub weights: &'static [(usize, f64)],
     /// The buffer each stage's values are kept in: stages never read together may share one.
     pub buffers: &'static [usize],
-    /// Number of buffers.
-    pub n_buffers: usize,
 }
 
 impl Tableau {
+    /// The weights `b` of the propagated solution `y_new = y + h Σ b_m k_m` (non-zero entries):
+    /// the row of the stage `f(t + h, y_new)`.
+    pub fn weights(&self) -> &'static [(usize, f64)] {
+        self.stages[self.fsal].a
+    }
+
+    /// Number of buffers the stages are kept in.
+    pub fn n_buffers(&self) -> usize {
+        self.buffers.iter().max().map_or(0, |b| b + 1)
+    }
+
     /// The stages of the continuous extension.
     pub fn dense_stages(&self) -> std::ops::Range<usize> {
         self.fsal + 1..self.stages.len()
@@ -239,7 +246,7 @@ impl<M: ExplicitMethod> Work<M> {
             y: y0.to_vec(),
             y_new: z(),
             ys: z(),
-            k: (0..M::TABLEAU.n_buffers).map(|_| z()).collect(),
+            k: (0..M::TABLEAU.n_buffers()).map(|_| z()).collect(),
             err_sq: [z(), z()],
             stiffness: 0.0,
             cont: vec![Cell::new([0.0; MAX_DENSE_COEFFICIENTS]); n],

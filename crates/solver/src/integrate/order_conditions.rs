@@ -94,7 +94,7 @@ pub fn dense_weights(entries: &[(usize, f64)], s: usize) -> Vec<f64> {
 /// interpolant of a step whose stage `j` alone is 1 (and `y_new − y = h b_j` with `h = 1`).
 pub fn interpolant_weights<M: ExplicitMethod>(theta: f64) -> Vec<f64> {
     let tableau = M::TABLEAU;
-    let b = dense_weights(tableau.weights, tableau.stages.len());
+    let b = dense_weights(tableau.weights(), tableau.stages.len());
     (0..tableau.stages.len())
         .map(|j| {
             let c = M::dense_coefficients(1.0, 0.0, b[j], |m| if m == j { 1.0 } else { 0.0 });

@@ -334,9 +334,7 @@ const TABLEAU: Tableau = Tableau {
     attempt: 7,
     fsal: 8,
     fsal_in_attempt: true,
-    weights: WEIGHTS,
     buffers: &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11],
-    n_buffers: 12,
 };
 
 impl ExplicitMethod for Vern6Method {
