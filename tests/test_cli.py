@@ -2,8 +2,14 @@
 usage errors (exit 2, nothing written)."""
 
 import json
+import os
+import pty
+import re
+import select
+import subprocess
+import time
 
-from conftest import base_sweep, run, write_sweep
+from conftest import BIN, REPO, base_sweep, run, write_sweep
 
 
 def test_help_has_examples(binary):
@@ -62,6 +68,54 @@ def test_plain_progress_when_not_a_terminal_and_quiet(binary, tmp_path):
     r = run("run", path, "-o", tmp_path / "b.h5", "--quiet")
     assert r.returncode == 0
     assert r.stderr == "" and r.stdout == ""
+
+
+def test_progress_bar_on_a_terminal_shows_rates_and_no_empty_fields(binary, tmp_path):
+    # A sweep long enough for several frames, its stderr a pseudo-terminal.
+    s = base_sweep(cylinders=40, duration_s=1e-3)
+    s["axes"][0]["values"] = [0.3 + 0.05 * k for k in range(14)]
+    path = write_sweep(tmp_path / "s.json", s)
+    controller, terminal = pty.openpty()
+    proc = subprocess.Popen(
+        [BIN, "run", path, "-o", tmp_path / "a.h5", "--jobs", "1"],
+        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=terminal,
+    )
+    os.close(terminal)
+    screen = b""
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([controller], [], [], 0.5)
+        if ready:
+            try:
+                chunk = os.read(controller, 65536)
+            except OSError:
+                break
+            if not chunk:
+                break
+            screen += chunk
+        elif proc.poll() is not None:
+            break
+    os.close(controller)
+    assert proc.wait(timeout=60) == 0
+    text = screen.decode(errors="replace")
+    frames = [f for f in re.split(r"[\r\n]", text) if "runs," in f]
+    assert frames, text
+    for frame in frames:
+        assert ", ," not in frame, frame
+        assert "failed" in frame, frame
+        assert re.search(r"\d+ runs/s", frame) or re.search(r"\d\.\d+ runs/s", frame), frame
+        # Three significant digits, never indicatif's raw `40.5194/s`.
+        assert not re.search(r"\d\.\d{4,}/s", frame), frame
+
+
+def test_version_names_the_revision(binary):
+    r = run("--version")
+    assert r.returncode == 0
+    rev = subprocess.run(
+        ["git", "rev-parse", "--short=12", "HEAD"], cwd=REPO, capture_output=True, text=True
+    ).stdout.strip()
+    assert re.fullmatch(r"chainsweep \d+\.\d+\.\d+ \(revision \S+\)\n", r.stdout), r.stdout
+    assert rev and rev in r.stdout, (rev, r.stdout)
 
 
 def test_default_output_and_status(binary, tmp_path):

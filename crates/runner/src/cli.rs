@@ -38,9 +38,17 @@ Exit codes: 0 all runs succeeded; 1 other error (I/O, output locked by another p
 130 / 143 `run` stopped by SIGINT (Ctrl-C) / SIGTERM: the output holds every finished run, and the
 same command resumes (a second signal ends the process at once).";
 
+/// `--version`: the release and the revision it was built from (as the result files record it).
+const VERSION: &str = concat!(
+    env!("CARGO_PKG_VERSION"),
+    " (revision ",
+    env!("CHAINSWEEP_GIT_REVISION"),
+    ")"
+);
+
 /// Runs grids of chain simulations into HDF5, in parallel, resumably.
 #[derive(Debug, Parser)]
-#[command(name = "chainsweep", version, about, after_help = EXAMPLES)]
+#[command(name = "chainsweep", version = VERSION, about, after_help = EXAMPLES)]
 pub struct Cli {
     /// What to do.
     #[command(subcommand)]

@@ -5,7 +5,7 @@
 use std::io::IsTerminal;
 use std::time::{Duration, Instant};
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 
 use crate::engine::{AutoResolution, DamageReport, ProgressSink, Start};
 use crate::sweep::auto::describe;
@@ -34,6 +34,16 @@ fn fmt_duration(secs: f64) -> String {
     format!("{}:{:02}:{:02}", s / 3600, (s / 60) % 60, s % 60)
 }
 
+/// A rate of runs with three significant digits (`40.5 runs/s`, `0.123 runs/s`), as the bar
+/// and the plain lines show it.
+fn rate_text(per_sec: f64) -> String {
+    if !(per_sec.is_finite() && per_sec > 0.0) {
+        return "0 runs/s".to_string();
+    }
+    let decimals = (2 - per_sec.log10().floor() as i32).clamp(0, 6) as usize;
+    format!("{per_sec:.decimals$} runs/s")
+}
+
 impl Progress {
     /// Progress over `total` runs of which `done` (`failed` of them failed) are already finished.
     /// `plain_every` is the interval of plain progress lines.
@@ -47,18 +57,24 @@ impl Progress {
         let mode = if quiet {
             Mode::Quiet
         } else if std::io::stderr().is_terminal() {
+            // Hidden until its style, position and message are set, so that no frame shows an
+            // empty field.
             let bar =
-                ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::stderr());
+                ProgressBar::with_draw_target(Some(total as u64), ProgressDrawTarget::hidden());
             bar.set_style(
                 ProgressStyle::with_template(
-                    "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} runs, {msg}, {per_sec}, ETA {eta}",
+                    "{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} runs, {msg}, {rate}, ETA {eta}",
                 )
                 .expect("valid template")
+                .with_key("rate", |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+                    let _ = write!(w, "{}", rate_text(state.per_sec()));
+                })
                 .progress_chars("=> "),
             );
             bar.set_position(done as u64);
             bar.reset_eta();
             bar.set_message(format!("{failed} failed"));
+            bar.set_draw_target(ProgressDrawTarget::stderr());
             bar.enable_steady_tick(Duration::from_millis(200));
             Mode::Bar(bar)
         } else {
@@ -107,11 +123,11 @@ impl Progress {
         let left = (self.total - self.done) as f64;
         let eta = if rate > 0.0 { left / rate } else { f64::NAN };
         format!(
-            "chainsweep: {}/{} runs done, {} failed, {:.1} runs/s, elapsed {}, ETA {}",
+            "chainsweep: {}/{} runs done, {} failed, {}, elapsed {}, ETA {}",
             self.done,
             self.total,
             self.failed,
-            rate,
+            rate_text(rate),
             fmt_duration(el),
             fmt_duration(eta)
         )
@@ -327,5 +343,20 @@ impl ProgressSink for Terminal {
         if let Some(r) = &mut self.runs {
             r.finish();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rate_text;
+
+    #[test]
+    fn rates_show_three_significant_digits() {
+        assert_eq!(rate_text(40.5194), "40.5 runs/s");
+        assert_eq!(rate_text(1234.6), "1235 runs/s");
+        assert_eq!(rate_text(0.12345), "0.123 runs/s");
+        assert_eq!(rate_text(7.0), "7.00 runs/s");
+        assert_eq!(rate_text(0.0), "0 runs/s");
+        assert_eq!(rate_text(f64::NAN), "0 runs/s");
     }
 }
