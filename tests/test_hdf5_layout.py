@@ -77,6 +77,7 @@ def test_names_shapes_dtypes(produced):
     _, _, out = produced
     with h5py.File(out, "r") as f:
         expected = set(SUMMARY_GRID + INT_GRID + PROBE_GRID + VERIFY_GRID + VERIFY_PROBE_GRID) | {
+            "leading_pulse",
             "warnings",
             "verified",
             "mass_ratio",
@@ -115,7 +116,7 @@ def test_names_shapes_dtypes(produced):
         for name in SUMMARY_GRID + PROBE_GRID + VERIFY_GRID + VERIFY_PROBE_GRID:
             fill = f[name].attrs["_FillValue"]
             assert np.isnan(fill) and fill.dtype == np.float64 and np.isnan(f[name].fillvalue), name
-        for name in ["status", "verified", "reason", "warnings", "run_hash"]:
+        for name in ["status", "verified", "leading_pulse", "reason", "warnings", "run_hash"]:
             assert "_FillValue" not in f[name].attrs, name
         for name in PROBE_GRID:
             assert f[name].shape == (3, 2, 3) and f[name].dtype == np.float64, name
@@ -134,6 +135,12 @@ def test_names_shapes_dtypes(produced):
         assert f["max_overlap_m"].attrs["units"] == "m"
         assert (f["max_overlap_m"][...] > 0).all()
         assert (f["events"][...] >= 0).all()
+        # Per probe: 1 where the leading pulse passed, 2 where it had not by t_end (its
+        # leading_peak NaN): exactly where the peak is NaN.
+        lp = f["leading_pulse"]
+        assert lp.shape == (3, 2, 3) and lp.dtype == np.uint8
+        assert lp.attrs["flag_meanings"] == "no_run passed not_passed_by_t_end"
+        np.testing.assert_array_equal(lp[...], np.where(np.isnan(f["leading_peak"][...]), 2, 1))
         assert f["verified"].dtype == np.uint8 and (f["verified"][...] == 0).all()
         assert f["verified"].attrs["flag_meanings"] == "not_verified verified verification_failed"
         for name in VERIFY_PROBE_GRID:

@@ -59,6 +59,13 @@ PROBE_SUMMARIES: dict[str, tuple[str | None, str]] = {
     n: _label(c) for n, c in COLUMNS.items() if c["kind"] == "probe_f64"
 }
 
+#: Per-probe flags derived from a run's summaries: name -> (long_name, flag attributes).
+#: `leading_pulse`: 0 no run, 1 passed, 2 had not passed the probe by the end of the run (its
+#: leading_peak and leading_peak_time_s are NaN, and this says why).
+PROBE_FLAGS: dict[str, tuple[str, dict]] = {
+    n: (c["description"], _flag_attrs(n)) for n, c in COLUMNS.items() if c["kind"] == "probe_flag"
+}
+
 #: Per-run strings: name -> long_name.
 RUN_STRINGS: dict[str, str] = {
     n: c["description"] for n, c in COLUMNS.items() if c["dtype"] == "str" and not c["per_probe"]
@@ -72,6 +79,7 @@ CONTACT_LONG_NAME = "contact j, between particles j and j+1 (the last one: the w
 #: The order in which datasets list their variables (others follow, by name).
 ORDER: list[str] = [
     *PROBE_SUMMARIES,
+    *PROBE_FLAGS,
     *RUN_FLOATS,
     *RUN_COUNTERS,
     *MOVING_PART_COLUMNS,

@@ -43,6 +43,8 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
     col = raw["columns"]
     for name in L.PROBE_SUMMARIES:
         out[name] = np.array(col[name], dtype=np.float64)
+    for name in L.PROBE_FLAGS:
+        out[name] = np.array(col[name], dtype=np.uint8)
     for name in L.RUN_FLOATS:
         out[name] = np.float64(col[name])
     # Counts: None where the file stores its fill (-1; a failed run counted nothing that is
@@ -99,6 +101,8 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
     for name, (unit, long_name) in L.PROBE_SUMMARIES.items():
         u = unit if unit is not None else L.probe_units(units)
         data[name] = ("probe", a[name], {"units": u, "long_name": long_name})
+    for name, (long_name, flag_attrs) in L.PROBE_FLAGS.items():
+        data[name] = ("probe", a[name], {"long_name": long_name, **flag_attrs})
     for name, (unit, long_name) in {**L.RUN_FLOATS, **L.RUN_COUNTERS}.items():
         data[name] = ((), a[name], {"units": unit, "long_name": long_name})
     for name, (unit, long_name) in L.MOVING_PART_COLUMNS.items():

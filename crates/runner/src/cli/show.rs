@@ -339,6 +339,10 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
         }
     }
     if !quiet {
+        if let Some(&i) = r.unpassed.first() {
+            let first = format!("point {i} ({})", grid.point_label(sweep, i));
+            errln!("chainsweep: {}", unpassed_text(r.unpassed.len(), &first));
+        }
         errln!(
             "chainsweep: {} runs: {} ok, {} failed, {} pending → {}",
             r.points,
@@ -348,6 +352,13 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
             output.display()
         );
     }
+}
+
+/// How many succeeded runs left a leading peak NaN, and why, with the first of them (at `first`).
+fn unpassed_text(count: usize, first: &str) -> String {
+    format!(
+        "{count} ok run(s) have a NaN leading_peak: the leading pulse had not passed a probe by the end of the run (`leading_pulse` = 2; first at {first}); lengthen duration_s to measure it"
+    )
 }
 
 /// The end of a search sweep: every search's outcome (always: it is the answer), the counts
@@ -493,6 +504,14 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             .collect();
         outln!("  failed: point {i} [{}]: {reason}", mi.join(", "));
     }
+    if let Some(&i) = s.unpassed.first() {
+        let mi: Vec<String> = multi_index(&s.shape, i)
+            .iter()
+            .map(|x| x.to_string())
+            .collect();
+        let first = format!("point {i} [{}]", mi.join(", "));
+        outln!("  {}", unpassed_text(s.unpassed.len(), &first));
+    }
     if let Some(lines) = &s.searches {
         search_lines(lines);
     }
@@ -572,6 +591,10 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
             grid.point_label(sweep, f.point),
             f.reason.as_deref().unwrap_or("")
         );
+    }
+    if let Some(&i) = s.unpassed.first() {
+        let first = format!("point {i} ({})", grid.point_label(sweep, i));
+        outln!("  {}", unpassed_text(s.unpassed.len(), &first));
     }
     if let Some(lines) = &s.searches {
         search_lines(lines);

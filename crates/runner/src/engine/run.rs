@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
 use crate::identity::RunHash;
 use crate::record::VERIFY_OK;
-use crate::store::hdf5::{Counts, Provenance};
+use crate::store::hdf5::{Counts, FileRecords, Provenance};
 use crate::store::{work_dir_of, RunStore, WorkDir};
 use crate::sweep::Sweep;
 
@@ -197,6 +197,9 @@ pub struct RunReport {
     pub ran: usize,
     /// What was found damaged in the output file when the sweep started.
     pub damage: DamageReport,
+    /// Grid points of this run whose run succeeded but left a probe's leading peak NaN (the
+    /// leading pulse had not passed it by the end of the run), from the output file.
+    pub unpassed: Vec<usize>,
     /// The output file already held every run of the sweep and nothing was to be done: it was
     /// left as it was (a shard run into a complete output, a complete sweep run again).
     pub nothing_to_do: bool,
@@ -221,6 +224,7 @@ impl RunReport {
             }
         }
         RunReport {
+            unpassed: Vec::new(),
             points: r.searches.len(),
             counts,
             failed: counts.failed,
@@ -313,6 +317,7 @@ pub fn run_points(
         };
         return Ok(RunReport {
             points: plan.points.len(),
+            unpassed: unpassed(&opts.output, &plan.points),
             counts,
             failed,
             failures,
@@ -365,6 +370,7 @@ pub fn run_points(
     let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
     Ok(RunReport {
         points: plan.points.len(),
+        unpassed: unpassed(&opts.output, &plan.points),
         counts,
         failed,
         failures,
@@ -519,6 +525,26 @@ fn failures(
         })
         .collect();
     (failed_points.len(), listed)
+}
+
+/// Which of `points` the output file at `path` holds as succeeded runs whose leading peak is NaN
+/// at some probe ([`crate::record::columns::Table::unpassed_points`]); none where it cannot be read
+/// (its damage is reported on its own).
+pub(super) fn unpassed(path: &std::path::Path, points: &[usize]) -> Vec<usize> {
+    let Ok(file) = FileRecords::open(path) else {
+        return Vec::new();
+    };
+    let mut wanted = vec![false; file.len()];
+    for &i in points {
+        if let Some(w) = wanted.get_mut(i) {
+            *w = true;
+        }
+    }
+    file.table()
+        .unpassed_points()
+        .into_iter()
+        .filter(|&i| wanted[i])
+        .collect()
 }
 
 /// What the verification runs of `plan` found.

@@ -38,6 +38,9 @@ pub struct FileStatus {
     pub newer: usize,
     /// Every failed point with its reason, in grid order.
     pub failures: Vec<(usize, String)>,
+    /// Points of the shard whose run succeeded but left a probe's leading peak NaN (the leading
+    /// pulse had not passed it by the end of the run).
+    pub unpassed: Vec<usize>,
     /// What was found damaged in the file and its snapshot.
     pub damage: DamageReport,
     /// A search's output: each search by its outer axis values, how it ended, its runs, why.
@@ -175,11 +178,19 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
             damage.header = Some(coords.join("; "));
         }
     }
+    let unpassed = p
+        .file()
+        .map(|f| f.table().unpassed_points())
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|&i| assignment.contains(shard, i))
+        .collect();
     Ok(FileStatus {
         total,
         shape: sweep.shape(),
         shard: shard_text,
         counts,
+        unpassed,
         other_shards,
         newer,
         failures,
@@ -300,6 +311,9 @@ pub struct SweepStatus {
     /// What the work directory holds that is not a regular file where a log or segment is
     /// expected (left out).
     pub ignored: Vec<PathBuf>,
+    /// Points of this run whose run succeeded but left a probe's leading peak NaN (the leading
+    /// pulse had not passed it by the end of the run), as the output file holds them.
+    pub unpassed: Vec<usize>,
     /// What was found damaged in the output file and its snapshot.
     pub damage: DamageReport,
     /// A sweep with a search: each search of this output, replayed through the stored runs.
@@ -323,6 +337,7 @@ pub fn of_sweep(
         auto_cache: None,
         failures: Vec::new(),
         ignored: Vec::new(),
+        unpassed: Vec::new(),
         damage: DamageReport::default(),
         searches: None,
     };
@@ -390,6 +405,7 @@ pub fn of_sweep(
         failed,
         pending: points.len() - ok - failed,
     });
+    status.unpassed = super::run::unpassed(&status.output, &points);
     for &point in points
         .iter()
         .filter(|&&i| state(i) == Some(false))

@@ -13,6 +13,7 @@ use chainsweep_solver::observe::probes::{History, ProbeSummary};
 use sha2::{Digest, Sha256};
 
 use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use super::{LEADING_NOT_PASSED, LEADING_NO_RUN, LEADING_PASSED};
 use super::{MOVING_PART_ONLY, MOVING_PART_UNKNOWN, MOVING_PART_WHOLE_CHAIN};
 use super::{VERIFY_FAILED, VERIFY_NONE, VERIFY_OK};
 use crate::identity::{checksum64, RunHash};
@@ -110,6 +111,12 @@ pub enum Fill {
         /// Puts it back.
         set: fn(&mut ProbeSummary, f64),
     },
+    /// A flag per probe of a successful run, derived from its summary (nothing to read back);
+    /// 0 elsewhere.
+    ProbeFlag {
+        /// The flag of a probe's summary.
+        get: fn(&ProbeSummary) -> u8,
+    },
     /// The point's status: [`STATUS_PENDING`], [`STATUS_OK`] or [`STATUS_FAILED`].
     Status,
     /// The point's run hash (hex), pending points included.
@@ -141,6 +148,7 @@ impl Fill {
             Fill::OkText { .. } => "ok_text",
             Fill::Reason => "reason",
             Fill::ProbeF64 { .. } => "probe_f64",
+            Fill::ProbeFlag { .. } => "probe_flag",
             Fill::Status => "status",
             Fill::RunHash => "run_hash",
             Fill::Verified => "verified",
@@ -254,6 +262,7 @@ const STATUS_FLAGS: &[u8] = &[STATUS_PENDING, STATUS_OK, STATUS_FAILED];
 const VERIFY_ERROR_NOTE: &str =
     "NaN where not verified or where neither run has the value, inf where only one has it";
 const VERIFY_FLAGS: &[u8] = &[VERIFY_NONE, VERIFY_OK, VERIFY_FAILED];
+const LEADING_FLAGS: &[u8] = &[LEADING_NO_RUN, LEADING_PASSED, LEADING_NOT_PASSED];
 const MOVING_PART_FLAGS: &[u8] = &[
     MOVING_PART_UNKNOWN,
     MOVING_PART_WHOLE_CHAIN,
@@ -585,6 +594,27 @@ pub const COLUMNS: &[Column] = &[
         },
     },
     Column {
+        name: "leading_pulse",
+        dtype: Dtype::U8,
+        per_probe: true,
+        units: Units::None,
+        description: "whether the leading pulse had passed the probe by the end of the run",
+        long_name: true,
+        flags: Some((LEADING_FLAGS, "no_run passed not_passed_by_t_end")),
+        note: "0 no run (pending or failed), 1 passed, 2 not passed by t_end: the pulse had not arrived, or was still rising, when the run ended, so leading_peak and leading_peak_time_s are NaN (lengthen duration_s)",
+        required: false,
+        written: Written::Always,
+        fill: Fill::ProbeFlag {
+            get: |s| {
+                if s.leading_peak.is_nan() {
+                    LEADING_NOT_PASSED
+                } else {
+                    LEADING_PASSED
+                }
+            },
+        },
+    },
+    Column {
         name: "record_max",
         dtype: Dtype::F64,
         per_probe: true,
@@ -805,6 +835,13 @@ impl Column {
                     }
                 }
             }
+            (Fill::ProbeFlag { get }, ColumnData::U8(d)) => {
+                if let Some(r) = ok {
+                    for (p, s) in r.probes.iter().enumerate().take(n_probes) {
+                        d[i * n_probes + p] = get(s);
+                    }
+                }
+            }
             (Fill::Status, ColumnData::U8(d)) => {
                 d[i] = match o.record {
                     None => STATUS_PENDING,
@@ -916,6 +953,23 @@ impl Table {
                 .map(|c| c.is_written(presence).then(|| c.empty(n, presence.probes)))
                 .collect(),
         }
+    }
+
+    /// The points whose run succeeded but left a probe's leading peak NaN: the leading pulse had
+    /// not passed the probe by the end of the run (`leading_pulse` = 2). From `leading_peak`, so
+    /// that files written before `leading_pulse` was kept are read alike.
+    pub fn unpassed_points(&self) -> Vec<usize> {
+        let Some(ColumnData::F64(peaks)) = self.get("leading_peak") else {
+            return Vec::new();
+        };
+        (0..self.n)
+            .filter(|&i| {
+                self.status(i) == STATUS_OK
+                    && peaks[i * self.np..(i + 1) * self.np]
+                        .iter()
+                        .any(|v| v.is_nan())
+            })
+            .collect()
     }
 
     /// The data of column `name`, if the table has it.
@@ -1135,11 +1189,16 @@ mod tests {
                 | Fill::VerifyProbe(_) => Dtype::F64,
                 Fill::OkCount { .. } | Fill::OkOptCount { .. } => Dtype::I64,
                 Fill::OkText { .. } | Fill::Reason | Fill::RunHash => Dtype::Str,
-                Fill::Status | Fill::Verified | Fill::OkFlag { .. } => Dtype::U8,
+                Fill::Status | Fill::Verified | Fill::OkFlag { .. } | Fill::ProbeFlag { .. } => {
+                    Dtype::U8
+                }
                 Fill::HistoryChecksum | Fill::SummaryChecksum => Dtype::U64,
             };
             assert_eq!(c.dtype, dtype, "{}", c.name);
-            let per_probe = matches!(c.fill, Fill::ProbeF64 { .. } | Fill::VerifyProbe(_));
+            let per_probe = matches!(
+                c.fill,
+                Fill::ProbeF64 { .. } | Fill::ProbeFlag { .. } | Fill::VerifyProbe(_)
+            );
             assert_eq!(c.per_probe, per_probe, "{}", c.name);
         }
     }

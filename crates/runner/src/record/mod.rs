@@ -27,6 +27,14 @@ pub const MOVING_PART_WHOLE_CHAIN: u8 = 1;
 /// `moving_part` flag: only the moving part of the chain was integrated.
 pub const MOVING_PART_ONLY: u8 = 2;
 
+/// `leading_pulse` flag: no run (pending or failed).
+pub const LEADING_NO_RUN: u8 = 0;
+/// `leading_pulse` flag: the leading pulse passed the probe; `leading_peak` is its peak.
+pub const LEADING_PASSED: u8 = 1;
+/// `leading_pulse` flag: the leading pulse had not passed the probe by the end of the run (it had
+/// not arrived, or was still rising): `leading_peak` and `leading_peak_time_s` are NaN.
+pub const LEADING_NOT_PASSED: u8 = 2;
+
 /// `verified` flag: the point was not verified.
 pub const VERIFY_NONE: u8 = 0;
 /// `verified` flag: verified; the errors are stored.
