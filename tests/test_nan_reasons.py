@@ -42,6 +42,9 @@ def test_a_nan_leading_peak_carries_its_reason_per_probe(binary, tmp_path):
     assert np.isnan(peaks[..., 1]).all() and np.isfinite(peaks[..., 0]).all()
     np.testing.assert_array_equal(flags, np.where(np.isnan(peaks), 2, 1))
 
+    # Run again: nothing to do, and the summary still says it (from the file as published).
+    r = run("run", path, "-o", out)
+    assert r.returncode == 0 and f"6 {NOT_PASSED}" in r.stderr, r.stderr
     for args in (("status", out), ("status", path, "-o", out)):
         r = run(*args)
         assert r.returncode == 0, r.stdout

@@ -7,7 +7,7 @@ use crate::grid::{Grid, Shard};
 use crate::identity::RunHash;
 use crate::numerics::verify;
 use crate::record::{RunRecord, VerifyInfo, STATUS_PENDING};
-use crate::store::hdf5::{self, Counts, Provenance};
+use crate::store::hdf5::{self, Provenance};
 use crate::store::{published, RunStore, WorkDir};
 use crate::sweep::Sweep;
 
@@ -81,7 +81,7 @@ pub struct Assembly<'a> {
 /// it holds are made durable in the work directory first. It holds every finished run of its
 /// points, and every other point of the grid whose run the work directory holds (a shard run
 /// into an output that holds other shards' runs keeps them); `Counts` are of its points.
-pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
+pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<hdf5::Written> {
     work.sync()?;
     let tmp = work.tmp_path("assemble.h5");
     let mut in_points = vec![false; a.grid.len()];
@@ -138,5 +138,5 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<Counts> {
         let _ = std::fs::remove_file(&tmp);
         return Err(e);
     }
-    Ok(written.counts)
+    Ok(written)
 }

@@ -138,7 +138,8 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
             verify: &vsrc,
             search: None,
         },
-    )?;
+    )?
+    .counts;
     if counts.pending == 0 {
         // Complete: the logs beside the merged file shrink to what it lacks (verification runs).
         work.compact_after_publish(&grid)?;

@@ -9,8 +9,9 @@ use std::time::Duration;
 use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
 use crate::identity::RunHash;
+use crate::record::columns::Table;
 use crate::record::VERIFY_OK;
-use crate::store::hdf5::{Counts, FileRecords, Provenance};
+use crate::store::hdf5::{Counts, Provenance, Written};
 use crate::store::{work_dir_of, RunStore, WorkDir};
 use crate::sweep::Sweep;
 
@@ -315,9 +316,13 @@ pub fn run_points(
             failed,
             pending: 0,
         };
+        let unpassed = work
+            .published_file()
+            .and_then(|p| p.file().map(|f| unpassed(f.table(), &plan.points)))
+            .unwrap_or_default();
         return Ok(RunReport {
             points: plan.points.len(),
-            unpassed: unpassed(&opts.output, &plan.points),
+            unpassed,
             counts,
             failed,
             failures,
@@ -361,7 +366,8 @@ pub fn run_points(
         stop,
     };
     run_tasks(&tasks, executor, work, &schedule, &mut run)?;
-    let counts = run.assemble()?;
+    let written = run.assemble()?;
+    let counts = written.counts;
     let plan = &run.plan;
     if plan.complete(grid) {
         // The file holds every run of the sweep: the logs beside it shrink to what it lacks.
@@ -370,7 +376,7 @@ pub fn run_points(
     let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
     Ok(RunReport {
         points: plan.points.len(),
-        unpassed: unpassed(&opts.output, &plan.points),
+        unpassed: unpassed(&written.table, &plan.points),
         counts,
         failed,
         failures,
@@ -435,7 +441,7 @@ impl Running<'_> {
         self.plan.done.len() + self.plan.verify.done.len()
     }
 
-    fn assemble(&mut self) -> Result<Counts> {
+    fn assemble(&mut self) -> Result<Written> {
         self.published = Some(self.stored());
         assemble(
             self.work,
@@ -527,20 +533,16 @@ fn failures(
     (failed_points.len(), listed)
 }
 
-/// Which of `points` the output file at `path` holds as succeeded runs whose leading peak is NaN
-/// at some probe ([`crate::record::columns::Table::unpassed_points`]); none where it cannot be read
-/// (its damage is reported on its own).
-pub(super) fn unpassed(path: &std::path::Path, points: &[usize]) -> Vec<usize> {
-    let Ok(file) = FileRecords::open(path) else {
-        return Vec::new();
-    };
-    let mut wanted = vec![false; file.len()];
+/// Which of `points` hold a succeeded run whose leading peak is NaN at some probe, of a file's
+/// `table` ([`crate::record::columns::Table::unpassed_points`]).
+pub(super) fn unpassed(table: &Table, points: &[usize]) -> Vec<usize> {
+    let mut wanted = vec![false; table.n];
     for &i in points {
         if let Some(w) = wanted.get_mut(i) {
             *w = true;
         }
     }
-    file.table()
+    table
         .unpassed_points()
         .into_iter()
         .filter(|&i| wanted[i])

@@ -850,6 +850,7 @@ fn publish_as(
             search: Some(&tables),
         },
     )
+    .map(|written| written.counts)
 }
 
 /// `merge` of the shard files of a sweep with a search: every run they give back is taken into

@@ -405,7 +405,11 @@ pub fn of_sweep(
         failed,
         pending: points.len() - ok - failed,
     });
-    status.unpassed = super::run::unpassed(&status.output, &points);
+    status.unpassed = stored
+        .published()
+        .and_then(|p| p.file())
+        .map(|f| super::run::unpassed(f.table(), &points))
+        .unwrap_or_default();
     for &point in points
         .iter()
         .filter(|&&i| state(i) == Some(false))

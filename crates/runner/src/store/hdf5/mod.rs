@@ -24,7 +24,7 @@ pub mod search;
 pub mod write;
 
 pub use read::FileRecords;
-pub use write::write_file;
+pub use write::{write_file, Written};
 
 use std::ffi::CString;
 use std::path::Path;
