@@ -64,6 +64,12 @@ pub enum Command {
         /// Sweep file (JSON).
         file: PathBuf,
     },
+    /// Print the JSON Schema of sweep files (for editors and validators; a sweep file may name it
+    /// with `"$schema"`).
+    #[command(
+        after_help = "Examples:\n  chainsweep schema > chainsweep-sweep.schema.json\n  # then, in a sweep file: \"$schema\": \"./chainsweep-sweep.schema.json\""
+    )]
+    Schema,
     /// Run a sweep (or continue an interrupted one) into an HDF5 file.
     #[command(
         after_help = "Examples:\n  chainsweep run sweeps/mass-damping.json --dry-run\n  chainsweep run sweeps/mass-damping.json -o out.h5 --jobs 4\n  chainsweep run sweeps/mass-damping.json --shard 2/8 -o part-2.h5"
@@ -294,6 +300,7 @@ where
 pub fn dispatch(cli: Cli) -> Result<i32> {
     match cli.command {
         Command::Validate { file } => cmd_validate(&file),
+        Command::Schema => cmd_schema(),
         Command::Run(args) => cmd_run(&args),
         Command::Status {
             files,
@@ -333,6 +340,15 @@ const MAX_PROGRESS_INTERVAL_S: f64 = 24.0 * 3600.0;
 fn load(file: &Path, quiet: bool) -> Result<(crate::sweep::Sweep, crate::grid::Grid)> {
     let shown = crate::progress::GridProgress::new(quiet);
     engine::load_showing(file, &|done, total| shown.show(done, total))
+}
+
+fn cmd_schema() -> Result<i32> {
+    let schema = crate::sweep::schema::sweep_file_schema();
+    outln!(
+        "{}",
+        serde_json::to_string_pretty(&schema).expect("a schema serialises")
+    );
+    Ok(EXIT_OK)
 }
 
 fn cmd_validate(file: &Path) -> Result<i32> {

@@ -24,6 +24,7 @@
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
 
 pub mod auto;
+pub mod schema;
 pub mod search;
 
 use serde::Deserialize;
@@ -190,27 +191,45 @@ pub struct Sweep {
     pub search: Option<SearchSpec>,
 }
 
-#[derive(Deserialize)]
+/// A chainsweep sweep file: a base scene, what to record, the axes of its grid, failure limits
+/// and an optional search.
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(title = "chainsweep sweep file")]
 struct SweepFile {
+    /// The JSON Schema the file follows (for editors); not read otherwise.
+    #[serde(default, rename = "$schema")]
+    #[allow(dead_code)]
+    schema: Option<String>,
+    /// What the sweep is for.
     #[serde(default)]
     description: String,
+    /// The scene every grid point starts from.
+    #[schemars(with = "schema::BaseScene")]
     base: Map<String, Value>,
+    /// What is recorded, the same for every run.
     #[serde(default)]
+    #[schemars(with = "Option<chainsweep_solver::RecordSpec>")]
     record: Option<Map<String, Value>>,
+    /// The grid's dimensions.
     #[serde(default)]
     axes: Vec<AxisFile>,
+    /// When a run counts as failed.
     #[serde(default)]
     limits: Option<LimitsFile>,
+    /// A search over continuous fields at every point of the axes.
     #[serde(default)]
     search: Option<search::SearchFile>,
 }
 
-#[derive(Deserialize)]
+/// When a run counts as failed.
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct LimitsFile {
+    /// The largest relative energy drift of a run (null: no limit).
     #[serde(default = "default_drift")]
     energy_drift_max: Option<f64>,
+    /// The wall time, s, after which a run is given up and recorded as failed.
     #[serde(default = "default_max_run_seconds")]
     max_run_seconds: Option<f64>,
 }
@@ -223,29 +242,50 @@ fn default_drift() -> Option<f64> {
     Some(DEFAULT_ENERGY_DRIFT_MAX)
 }
 
-#[derive(Deserialize)]
+/// A grid dimension: an axis `{field, values | range, name?}` or a group of axes that advance
+/// together, `{zip: [axis, …]}`.
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("oneOf" = [
+    {"required": ["field", "values"], "not": {"anyOf": [{"required": ["range"]}, {"required": ["zip"]}]}},
+    {"required": ["field", "range"], "not": {"anyOf": [{"required": ["values"]}, {"required": ["zip"]}]}},
+    {"required": ["zip"], "not": {"anyOf": [{"required": ["field"]}, {"required": ["values"]}, {"required": ["range"]}]}}
+]))]
 struct AxisFile {
+    /// The axis's name in the output (default: the field's last part).
     #[serde(default)]
     name: Option<String>,
+    /// The scene field the axis sets, as a dotted path (`physics.damping_kg_s`).
     #[serde(default)]
     field: Option<String>,
+    /// The values the field takes.
     #[serde(default)]
+    #[schemars(length(min = 1))]
     values: Option<Vec<Value>>,
+    /// Evenly spaced values.
     #[serde(default)]
     range: Option<RangeFile>,
+    /// Axes that advance together (all of one length).
     #[serde(default)]
+    #[schemars(length(min = 1))]
     zip: Option<Vec<AxisFile>>,
 }
 
-#[derive(Deserialize)]
+/// Evenly spaced values: `step` (stop included when reached) or `num` (both ends included).
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
+#[schemars(extend("oneOf" = [{"required": ["step"]}, {"required": ["num"]}]))]
 struct RangeFile {
+    /// The first value.
     start: serde_json::Number,
+    /// The last value (reached by `num`; by `step` when it divides the span).
     stop: serde_json::Number,
+    /// The spacing, with the sign of stop − start.
     #[serde(default)]
     step: Option<serde_json::Number>,
+    /// The number of values.
     #[serde(default)]
+    #[schemars(range(min = 1))]
     num: Option<u64>,
 }
 

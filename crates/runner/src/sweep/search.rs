@@ -324,12 +324,19 @@ pub const MAX_BUDGET: usize = 1_000_000;
 /// Most fields of a minimisation (Nelder–Mead is for a few).
 pub const MAX_MINIMISE_FIELDS: usize = 4;
 
-#[derive(Deserialize)]
+/// A search run at every point of the axes.
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct SearchFile {
+    /// What to find.
+    #[schemars(extend("enum" = ["minimise", "minimize", "maximise", "maximize", "root", "refine"]))]
     goal: String,
+    /// The continuous fields searched, each within [min, max].
     fields: Vec<FieldFile>,
+    /// The quantity searched: a summary `{"summary": NAME, "probe": PROBE}`, or two combined
+    /// `{"ratio" | "difference" | "log_ratio": [summary, summary]}`.
     objective: Value,
+    /// The objective taken across two values of an axis.
     #[serde(default)]
     across: Option<AcrossFile>,
     #[serde(default)]
@@ -342,21 +349,24 @@ pub(super) struct SearchFile {
     budget: Option<u64>,
     #[serde(default)]
     round: Option<u64>,
+    /// What a failed run counts as.
     #[serde(default)]
+    #[schemars(extend("enum" = ["worst", "stop", "gap", null]))]
     failed: Option<String>,
     #[serde(default)]
     starts: Option<u64>,
 }
 
 /// `scan`: one number for every field, or a list of one per field.
-#[derive(Deserialize)]
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(untagged)]
 enum ScanFile {
     Every(u64),
     Each(Vec<u64>),
 }
 
-#[derive(Deserialize)]
+/// A searched field and its bounds.
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct FieldFile {
     field: String,
@@ -368,10 +378,12 @@ struct FieldFile {
     tolerance: Option<f64>,
 }
 
-#[derive(Deserialize)]
+/// Two values of an axis whose objectives combine.
+#[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 struct AcrossFile {
     axis: String,
+    #[schemars(extend("enum" = ["ratio", "difference", "log_ratio"]))]
     op: String,
     points: Vec<usize>,
 }

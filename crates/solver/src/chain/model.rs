@@ -26,6 +26,7 @@ pub const STANDARD_GRAVITY_M_S2: f64 = 9.81;
 /// A sphere (chain sphere or striker).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct SphereSpec {
     /// Material of the sphere.
@@ -48,6 +49,7 @@ impl SphereSpec {
 /// How the cylinder mass is given.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(
     feature = "serde",
     serde(rename_all = "snake_case", deny_unknown_fields)
@@ -73,6 +75,7 @@ pub enum CylinderMass {
 /// A flat-ended cylinder.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct CylinderSpec {
     /// Material of the cylinder.
@@ -139,6 +142,7 @@ impl CylinderSpec {
 /// heavy/light mass-ratio conventions are written in this form.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct DimerSpec {
     /// Number of cylinders `n`; the chain has `n+1` spheres and `N = 2n+2` particles with the striker.
@@ -247,6 +251,24 @@ impl ChainSpec {
             ChainSpec::Dimer(d) => d.validate(),
             ChainSpec::Sequence(s) => s.validate(),
         }
+    }
+}
+
+/// The schema of a chain as read: the dimer's fields or the sequence's, never a mix (each form
+/// refuses the other's fields).
+#[cfg(feature = "schema")]
+impl schemars::JsonSchema for ChainSpec {
+    fn schema_name() -> std::borrow::Cow<'static, str> {
+        "ChainSpec".into()
+    }
+
+    fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+        let dimer = generator.subschema_for::<DimerSpec>();
+        let sequence = generator.subschema_for::<SequenceSpec>();
+        schemars::json_schema!({
+            "description": "Geometry and materials: the paper's dimer {cylinders, sphere, cylinder, striker, wall_material} or a sequence of particle types {particles, sequence, …}.",
+            "oneOf": [dimer, sequence]
+        })
     }
 }
 
@@ -428,6 +450,7 @@ mod chain_spec_serde {
 /// Which physics a scene switches on.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct PhysicsSpec {
     /// Gravity along +x on every particle, striker included, with the static-equilibrium initial state.

@@ -11,6 +11,7 @@ use crate::spec::{check_positive, spec_err, SpecError};
 /// Elastic constants of a material.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Material {
     /// Young's modulus, Pa.

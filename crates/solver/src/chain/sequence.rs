@@ -45,6 +45,10 @@ pub const MAX_SIZE_FACTOR: f64 = 1e3;
 /// A chain described as a sequence of named particle types.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize))]
+// The schema of the form read (by `ChainSpec`'s deserializer): `striker`, `wall_material`,
+// `taper`, `disorder` and `contacts` may be left out.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "schema", schemars(deny_unknown_fields))]
 pub struct SequenceSpec {
     /// The particle types, by name.
     pub particles: BTreeMap<String, ParticleType>,
@@ -55,6 +59,7 @@ pub struct SequenceSpec {
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub striker: Option<String>,
     /// Material of the flat wall (default SS304 steel, as the paper's).
+    #[cfg_attr(feature = "schema", schemars(default = "default_wall_material"))]
     pub wall_material: Material,
     /// Geometric progression of size and mass along the chain.
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
@@ -64,12 +69,20 @@ pub struct SequenceSpec {
     pub disorder: Option<DisorderSpec>,
     /// Contact laws and dissipation models per pair of types, overriding the defaults.
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Vec::is_empty"))]
+    #[cfg_attr(feature = "schema", schemars(default))]
     pub contacts: Vec<ContactRule>,
+}
+
+/// The wall a sequence chain stands on when it names none (as the paper's).
+#[cfg(feature = "schema")]
+fn default_wall_material() -> Material {
+    Material::STEEL_SS304
 }
 
 /// A particle type.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(
     feature = "serde",
     serde(rename_all = "snake_case", deny_unknown_fields)
@@ -84,6 +97,7 @@ pub enum ParticleType {
 /// A sphere type; give exactly one of `mass_kg` and `density_kg_m3`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct SphereType {
     /// Material.
@@ -107,6 +121,7 @@ pub struct SphereType {
 /// A flat-ended cylinder type; give exactly one of `mass_kg` and `density_kg_m3`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct CylinderType {
     /// Material.
@@ -197,6 +212,7 @@ impl ParticleType {
 /// An element of a sequence: a type name, or a block of elements repeated `repeat` times.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(untagged))]
 pub enum SequenceItem {
     /// One particle of the named type.
@@ -208,6 +224,7 @@ pub enum SequenceItem {
 /// `repeat` copies of a block.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct RepeatBlock {
     /// Number of copies, at least 1.
@@ -244,6 +261,7 @@ impl<'de> Deserialize<'de> for SequenceItem {
 /// has every length multiplied by `ratio^k` and its mass by `ratio^{3k}` (same density).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct TaperSpec {
     /// Size ratio of consecutive particles, > 0 (< 1: decreasing towards the wall).
@@ -253,6 +271,7 @@ pub struct TaperSpec {
 /// What disorder perturbs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum DisorderOf {
     /// Masses only (geometry and contact laws unchanged).
@@ -267,6 +286,7 @@ pub enum DisorderOf {
 /// ensemble of chains.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct DisorderSpec {
     /// Relative amplitude, in [0, 1).
@@ -283,6 +303,7 @@ pub struct DisorderSpec {
 /// over one naming its type).
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct ContactRule {
     /// The two types, in either order.

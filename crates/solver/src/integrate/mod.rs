@@ -161,6 +161,7 @@ pub trait StepObserver {
 /// Counters that make an integrator's work observable (for work-precision studies).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 pub struct IntegrationStats {
     /// Accepted steps.
     pub steps: u64,

@@ -16,6 +16,7 @@ use crate::motion::system::{EnergyTerms, Ledger};
 /// particles `j` and `j+1`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(
     feature = "serde",
     serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)
@@ -90,6 +91,7 @@ impl Probe {
 /// Whether force probes include the static (gravitational) preload.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum Preload {
     /// Total force, as the equations give it (default).
@@ -102,6 +104,7 @@ pub enum Preload {
 /// How the leading pulse is told apart from what follows it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct LeadingPulseSpec {
     /// The pulse has arrived once the signal exceeds its initial value by this fraction of the
@@ -125,6 +128,7 @@ impl Default for LeadingPulseSpec {
 /// What a run records: nothing is computed or stored that is not asked for here.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct RecordSpec {
     /// Probes to observe.
@@ -478,6 +482,7 @@ impl ProbeSet {
 /// Summary of one probe over a run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 pub struct ProbeSummary {
     /// Peak of the leading pulse (first excursion), refined between samples; NaN if the pulse never
     /// arrived or was still rising when the run ended.
@@ -675,6 +680,7 @@ pub(crate) struct ObserverOptions {
 /// Time histories of the probes.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 pub struct History {
     /// Sample times, s.
     pub time_s: Vec<f64>,

@@ -22,6 +22,7 @@ pub use crate::observe::probes::{
 /// Integrator and its accuracy settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(
     feature = "serde",
     serde(tag = "method", rename_all = "snake_case", deny_unknown_fields)
@@ -224,6 +225,7 @@ impl IntegratorSpec {
 /// How a chain without a striker is set in motion.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(
     feature = "serde",
     serde(rename_all = "snake_case", deny_unknown_fields)
@@ -249,6 +251,7 @@ pub enum Excitation {
 /// One simulation: everything needed to reproduce a run.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct Scene {
     /// Geometry and materials.
@@ -291,6 +294,7 @@ pub struct Scene {
 /// Whether a run may integrate only the moving part of its chain.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum ActiveRegion {
     /// Integrate only the moving part when the scene qualifies (see the module docs), else the
