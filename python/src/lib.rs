@@ -7,7 +7,8 @@
 //! - [`run_sweep`]: a sweep file into HDF5, exactly as `chainsweep run` does ([`sweep`]), with
 //!   progress (what the engine's `ProgressSink` hears) and Ctrl-C;
 //! - [`check_file`]: a result file's every value checked against its checksums, before
-//!   `chainsweep.open` serves it ([`check`]).
+//!   `chainsweep.open` serves it ([`check`]);
+//! - [`cli_main`]: the whole `chainsweep` command line, the package's console script ([`cli`]).
 //!
 //! Both release the GIL while the solver runs, so Python threads run scenes in parallel.
 //! Errors reach Python as the package's own exceptions (`chainsweep.InputError`, …), made by
@@ -16,6 +17,7 @@
 use pyo3::prelude::*;
 
 mod check;
+mod cli;
 mod point;
 mod sweep;
 
@@ -78,6 +80,7 @@ fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::run_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(check::check_file, m)?)?;
     m.add_function(wrap_pyfunction!(check::read_unchecked, m)?)?;
+    m.add_function(wrap_pyfunction!(cli::cli_main, m)?)?;
     m.add("ENGINE_VERSION", chainsweep::ENGINE_VERSION)?;
     m.add("SOLVER_VERSION", chainsweep::SOLVER_VERSION)?;
     m.add("NUMERICS_VERSION", chainsweep::NUMERICS_VERSION)?;
