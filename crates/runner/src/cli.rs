@@ -352,7 +352,29 @@ fn cmd_schema() -> Result<i32> {
 }
 
 fn cmd_validate(file: &Path) -> Result<i32> {
-    let (sweep, grid) = load(file, false)?;
+    let (sweep, grid) = match load(file, false) {
+        Ok(loaded) => loaded,
+        Err(first @ Error::Input { .. }) => {
+            let errors = engine::input_errors(file, first);
+            for e in &errors {
+                errln!("chainsweep: error: {e}");
+            }
+            if errors.len() > 1 {
+                errln!(
+                    "chainsweep: {} errors in {}{}; nothing was run",
+                    errors.len(),
+                    file.display(),
+                    if errors.len() >= crate::sweep::diagnose::MOST_ERRORS {
+                        " (the first ones)"
+                    } else {
+                        ""
+                    }
+                );
+            }
+            return Ok(crate::EXIT_BAD_INPUT);
+        }
+        Err(other) => return Err(other),
+    };
     show::validated(file, &sweep, &grid)?;
     Ok(EXIT_OK)
 }

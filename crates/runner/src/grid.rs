@@ -248,6 +248,96 @@ impl Grid {
         Ok(grid)
     }
 
+    /// The errors of a sweep's grid points, each distinct error once, at most `most`: what
+    /// [`Grid::new`] would refuse, for every point rather than the first (`chainsweep validate`).
+    /// Points are checked in grid order on this thread, and the check ends at `most` errors.
+    pub fn point_errors(sweep: &Sweep, most: usize) -> Vec<Error> {
+        let first = match Grid::new(sweep) {
+            Ok(_) => return Vec::new(),
+            Err(e) => e,
+        };
+        let shape = sweep.shape();
+        let n: usize = shape.iter().product();
+        if n > crate::sweep::MAX_GRID_POINTS {
+            return vec![first];
+        }
+        // The record block every point must share: the first point's that can be read (as in
+        // `expand`), else the base scene's.
+        let mut value = sweep.base.clone();
+        let reference: Option<chainsweep_solver::RecordSpec> = (0..n)
+            .find_map(|i| {
+                Grid::set_point(sweep, &shape, i, &mut value);
+                from_ref_at::<Scene>(&value, "").ok().map(|s| s.record)
+            })
+            .or_else(|| from_ref_at::<Scene>(&sweep.base, "").ok().map(|s| s.record));
+        let Some(reference) = reference else {
+            return vec![first];
+        };
+        let record = Record {
+            probes: &reference.probes,
+            history: reference.history,
+            min_overlap: reference.min_overlap,
+        };
+        // A base field's error is the same at many points, told apart only by the point named
+        // at its end: listed once, with the number of points it holds at.
+        let key = |e: &Error| match e {
+            Error::Input { field, message, .. } => {
+                let m = message.split(" (at grid point ").next().unwrap_or(message);
+                format!("{field}\u{0}{m}")
+            }
+            other => other.to_string(),
+        };
+        let mut errors: Vec<(Error, usize)> = Vec::new();
+        let mut index: std::collections::HashMap<String, usize> = Default::default();
+        for i in 0..n {
+            let (mut hash, mut parts, mut info) = ([0; 32], 0, ChunkInfo::default());
+            let r = Grid::point(
+                sweep, &shape, i, &record, &mut value, &mut hash, &mut parts, &mut info,
+            );
+            if let Err(e) = r {
+                match index.entry(key(&e)) {
+                    std::collections::hash_map::Entry::Occupied(o) => errors[*o.get()].1 += 1,
+                    std::collections::hash_map::Entry::Vacant(v) => {
+                        if errors.len() >= most {
+                            break;
+                        }
+                        v.insert(errors.len());
+                        errors.push((e, 1));
+                    }
+                }
+            }
+        }
+        if errors.is_empty() {
+            return vec![first];
+        }
+        errors
+            .into_iter()
+            .map(|(e, points)| match e {
+                Error::Input {
+                    file,
+                    field,
+                    message,
+                } if points > 1 => Error::Input {
+                    file,
+                    field,
+                    message: format!("{message}; the same at {points} grid points"),
+                },
+                e => e,
+            })
+            .collect()
+    }
+
+    /// Sets every axis value of point `i` in `value` (the base scene, or a copy that every axis
+    /// has been set in: every point sets every axis, in the same order).
+    fn set_point(sweep: &Sweep, shape: &[usize], i: usize, value: &mut Value) {
+        let mi = multi_index(shape, i);
+        for (d, dim) in sweep.dims.iter().enumerate() {
+            for axis in &dim.axes {
+                set_path(value, &axis.field, axis.values[mi[d]].clone());
+            }
+        }
+    }
+
     /// Expands point `i` into `value` (the base scene with every axis value of the point set),
     /// validates it, and writes its run hash and particle count; what it adds to the chunk goes
     /// to `info`.
@@ -262,12 +352,7 @@ impl Grid {
         particles: &mut u32,
         info: &mut ChunkInfo,
     ) -> Result<()> {
-        let mi = multi_index(shape, i);
-        for (d, dim) in sweep.dims.iter().enumerate() {
-            for axis in &dim.axes {
-                set_path(value, &axis.field, axis.values[mi[d]].clone());
-            }
-        }
+        Grid::set_point(sweep, shape, i, value);
         let scene: Scene = from_ref_at(value, "").map_err(|e| match e {
             Error::Input { field, message, .. } => locate(sweep, shape, i, &field, &message),
             other => other,

@@ -208,6 +208,37 @@ pub fn load_showing(
     Ok((sweep, grid))
 }
 
+/// Every input error of the sweep file `file` that can be found in one pass (`chainsweep
+/// validate`), given `first`, the error [`load`] stopped at: syntax, structure, each section's
+/// values and each grid point's (distinct errors, at most
+/// [`crate::sweep::diagnose::MOST_ERRORS`]); every error names the file. `first` alone when the
+/// file cannot be read again.
+pub fn input_errors(file: &Path, first: Error) -> Vec<Error> {
+    let name = file.display().to_string();
+    let Ok(text) = crate::sweep::read_sweep_text(&name) else {
+        return vec![first];
+    };
+    let mut errors = crate::sweep::diagnose::diagnose(&text);
+    let only_limits = errors
+        .iter()
+        .all(|e| matches!(e, Error::Input { field, .. } if field.starts_with("limits")));
+    let sweep = match (errors.is_empty(), only_limits) {
+        (true, _) => Sweep::parse(&text).ok(),
+        (false, true) => crate::sweep::diagnose::parse_without_limits(&text),
+        (false, false) => None,
+    };
+    if let Some(sweep) = sweep {
+        errors.extend(Grid::point_errors(
+            &sweep,
+            crate::sweep::diagnose::MOST_ERRORS,
+        ));
+    }
+    if errors.is_empty() {
+        errors.push(first);
+    }
+    errors.into_iter().map(|e| e.in_file(&name)).collect()
+}
+
 /// The output file of a sweep file when none is given: its name with `.h5` in the current
 /// directory, `NAME.shard-K-of-N.h5` for a shard.
 pub fn default_output(file: &Path, shard: Option<Shard>) -> PathBuf {

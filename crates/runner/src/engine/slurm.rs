@@ -44,7 +44,7 @@ pub fn parse_shard(text: &str, field: &str, task_id: Option<&str>) -> Result<Sha
         Ok(t) if t < n => Ok(Shard { k: t + 1, n }),
         _ => Err(Error::input(
             field,
-            format!("{ARRAY_TASK_ID}={id} is not an array task of `{text}`: array tasks of {n} shards are 0..={}", n - 1),
+            format!("{ARRAY_TASK_ID}={id} is not an array task of `{text}`: array tasks of {n} shards are 0 to {}", n - 1),
         )),
     }
 }

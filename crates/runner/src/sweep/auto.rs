@@ -85,7 +85,7 @@ impl AutoSpec {
             Some(n) => {
                 return Err(Error::input(
                     "base.integrator.pilot_points",
-                    format!("must lie in 1..={MAX_PILOT_POINTS}, got {n}"),
+                    format!("must be a whole number from 1 to {MAX_PILOT_POINTS}, got {n}"),
                 ))
             }
         };

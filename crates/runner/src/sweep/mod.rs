@@ -24,6 +24,7 @@
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
 
 pub mod auto;
+pub mod diagnose;
 pub mod schema;
 pub mod search;
 
@@ -287,6 +288,14 @@ struct RangeFile {
     #[serde(default)]
     #[schemars(range(min = 1))]
     num: Option<u64>,
+}
+
+/// The first of a non-empty list of errors.
+fn first(errors: Vec<Error>) -> Error {
+    errors
+        .into_iter()
+        .next()
+        .expect("a failed check names at least one error")
 }
 
 /// Deserialises `value` as `T`, naming the failing field (prefixed by `prefix`) on error.
@@ -833,35 +842,64 @@ fn read_json(text: &str) -> Result<SweepFile> {
 /// The base scene normalised: chain presets expanded, `integrator: auto` replaced by its
 /// stand-in (the request returned), the top-level record block put in, and every default filled
 /// in by the solver, which validates it.
+///
+/// `every`: the errors are every one found in the scene ([`diagnose`]), else the first alone.
 fn normalise_base(
     base: Map<String, Value>,
     record: Option<Map<String, Value>>,
-) -> Result<(Value, Option<AutoSpec>)> {
+    every: bool,
+) -> std::result::Result<(Value, Option<AutoSpec>), Vec<Error>> {
     let mut base = Value::Object(base);
+    let mut errors = Vec::new();
     if let Some(chain) = base.get_mut("chain") {
-        expand_chain_preset(chain)?;
+        if let Err(e) = expand_chain_preset(chain) {
+            errors.push(e);
+        }
     }
     // `integrator: auto` is resolved later; a concrete stand-in validates the rest.
-    let auto = match base.get("integrator") {
-        Some(v) => AutoSpec::from_integrator(v)?,
+    let auto = match base.get("integrator").map(AutoSpec::from_integrator) {
+        Some(Ok(auto)) => auto,
+        Some(Err(e)) => {
+            errors.push(e);
+            None
+        }
         None => None,
     };
+    if !errors.is_empty() && !every {
+        errors.truncate(1);
+        return Err(errors);
+    }
     if let Some(a) = &auto {
         base["integrator"] =
             serde_json::to_value(a.placeholder()).expect("IntegratorSpec serialises");
     }
     if let Some(record) = record {
         if base.get("record").is_some() {
-            return Err(Error::input(
+            errors.push(Error::input(
                 "base.record",
                 "give the record block once, at the top level (`record`), not inside `base`",
             ));
+            return Err(errors);
         }
         base.as_object_mut()
             .expect("object")
             .insert("record".into(), Value::Object(record));
     }
-    let scene: Scene = from_value_at(base, "base").map_err(|e| match e {
+    if !errors.is_empty() {
+        // The chain or the integrator could not be read: the scene's other fields still can.
+        let fields = base.as_object_mut().expect("object");
+        for e in &errors {
+            if let Error::Input { field, .. } = e {
+                for part in ["chain", "integrator"] {
+                    if field.starts_with(&format!("base.{part}")) {
+                        fields.remove(part);
+                    }
+                }
+            }
+        }
+    }
+    // The record block is written at the top level: its errors are named there.
+    let at_top = |e: Error| match e {
         Error::Input {
             file,
             field,
@@ -875,11 +913,29 @@ fn normalise_base(
             message,
         },
         other => other,
-    })?;
-    Ok((
-        serde_json::to_value(&scene).expect("Scene serialises"),
-        auto,
-    ))
+    };
+    let scene: Option<Scene> = if every {
+        let mut found = Vec::new();
+        let scene = diagnose::from_value_collecting(base, "base", &mut found);
+        errors.extend(found.into_iter().map(at_top).filter(|e| {
+            // A chain or integrator already reported and taken out is not missing as well.
+            !matches!(e, Error::Input { field, message, .. } if field == "base"
+                && (message.contains("`chain`") || message.contains("`integrator`")))
+        }));
+        scene
+    } else {
+        match from_value_at(base, "base") {
+            Ok(scene) => Some(scene),
+            Err(e) => return Err(vec![at_top(e)]),
+        }
+    };
+    match scene {
+        Some(scene) if errors.is_empty() => Ok((
+            serde_json::to_value(&scene).expect("Scene serialises"),
+            auto,
+        )),
+        _ => Err(errors),
+    }
 }
 
 /// The failure limits (the default energy-drift limit when the file gives none).
@@ -918,28 +974,43 @@ fn parse_limits(limits: Option<LimitsFile>) -> Result<Limits> {
 }
 
 /// The grid's dimensions from the `axes` list: one per axis or zipped group.
-fn parse_dims(axes: Vec<AxisFile>, base: &Value, auto: bool, search: bool) -> Result<Vec<Dim>> {
+/// The grid's dimensions; `every`: the errors are those of every axis (each read on its own),
+/// else the first alone.
+fn parse_dims(
+    axes: Vec<AxisFile>,
+    base: &Value,
+    auto: bool,
+    search: bool,
+    every: bool,
+) -> std::result::Result<Vec<Dim>, Vec<Error>> {
     if axes.is_empty() && !search {
-        return Err(Error::input(
+        return Err(vec![Error::input(
             "axes",
             "at least one axis is required (a single run is an axis with one value), unless the sweep has a `search`",
-        ));
+        )]);
     }
     let mut dims = Vec::new();
+    let mut errors = Vec::new();
     for (i, mut a) in axes.into_iter().enumerate() {
         let origin = format!("axes[{i}]");
-        match a.zip.take() {
-            Some(zip) => dims.push(parse_zip(a, zip, &origin, base, auto)?),
-            None => {
-                let axis = parse_axis(a, &origin, base, auto)?;
-                dims.push(Dim {
-                    name: axis.name.clone(),
-                    axes: vec![axis],
-                });
-            }
+        let dim = match a.zip.take() {
+            Some(zip) => parse_zip(a, zip, &origin, base, auto),
+            None => parse_axis(a, &origin, base, auto).map(|axis| Dim {
+                name: axis.name.clone(),
+                axes: vec![axis],
+            }),
+        };
+        match dim {
+            Ok(d) => dims.push(d),
+            Err(e) if every => errors.push(e),
+            Err(e) => return Err(vec![e]),
         }
     }
-    Ok(dims)
+    if errors.is_empty() {
+        Ok(dims)
+    } else {
+        Err(errors)
+    }
 }
 
 /// A zipped group `group` (its `zip` list taken out as `zip`) at `origin`: axes of equal length.
@@ -1066,9 +1137,16 @@ impl Sweep {
     /// are checked by [`crate::grid::Grid::new`].
     pub fn parse(text: &str) -> Result<Sweep> {
         let file = read_json(text)?;
-        let (base, auto) = normalise_base(file.base, file.record)?;
+        let (base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         let limits = parse_limits(file.limits)?;
-        let dims = parse_dims(file.axes, &base, auto.is_some(), file.search.is_some())?;
+        let dims = parse_dims(
+            file.axes,
+            &base,
+            auto.is_some(),
+            file.search.is_some(),
+            false,
+        )
+        .map_err(first)?;
         check_names_and_fields(&dims)?;
         let search = file
             .search
@@ -1102,7 +1180,7 @@ impl Sweep {
         }
         let text = Value::Object(file).to_string();
         let file = read_json(&text)?;
-        let (base, auto) = normalise_base(file.base, file.record)?;
+        let (base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         let limits = parse_limits(file.limits)?;
         Ok(Sweep {
             text,

@@ -204,7 +204,7 @@ impl RecordSpec {
                 Probe::GaugeForce { cylinder } if cylinder == 0 || cylinder > n_cyl => {
                     return Err(spec_err(
                         &format!("{field}.cylinder"),
-                        format!("must lie in 1..={n_cyl} (the chain's cylinders), got {cylinder}"),
+                        format!("must be from 1 to {n_cyl} (the chain's cylinders), got {cylinder}"),
                     ))
                 }
                 Probe::GaugeForce { cylinder } if !two_contacts(cylinders[cylinder - 1]) => {
@@ -216,7 +216,7 @@ impl RecordSpec {
                 Probe::ParticleForce { particle } if particle == 0 || particle > n_p => {
                     return Err(spec_err(
                         &format!("{field}.particle"),
-                        format!("must lie in 1..={n_p} (the chain's particles), got {particle}"),
+                        format!("must be from 1 to {n_p} (the chain's particles), got {particle}"),
                     ))
                 }
                 Probe::ParticleForce { particle } if !two_contacts(particle - 1) => {
@@ -230,7 +230,7 @@ impl RecordSpec {
                 {
                     return Err(spec_err(
                         &format!("{field}.contact"),
-                        format!("must lie in 1..={n_c} (the chain's contacts), got {contact}"),
+                        format!("must be from 1 to {n_c} (the chain's contacts), got {contact}"),
                     ))
                 }
                 Probe::Displacement { particle } | Probe::Velocity { particle }
@@ -238,7 +238,7 @@ impl RecordSpec {
                 {
                     return Err(spec_err(
                         &format!("{field}.particle"),
-                        format!("must lie in 1..={n_p} (the chain's particles), got {particle}"),
+                        format!("must be from 1 to {n_p} (the chain's particles), got {particle}"),
                     ))
                 }
                 Probe::WallForce if !chain.wall => {
