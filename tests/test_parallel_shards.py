@@ -93,7 +93,7 @@ def test_shards_then_merge_equals_single(single, tmp_path):
     assert r.returncode == 3, r.stdout + r.stderr
     assert "shard 1/3 (array task 0): done" in r.stdout, r.stdout
     assert "shard 2/3 (array task 1): missing" in r.stdout, r.stdout
-    assert "3 shards: 2 done, 0 failed, 0 pending, 1 missing" in r.stdout, r.stdout
+    assert "3 shards: 2 done, 0 failed, 0 running, 0 pending, 1 missing" in r.stdout, r.stdout
 
     merged = tmp_path / "merged.h5"
     r = run("merge", "-o", merged, *reversed(parts))
@@ -125,3 +125,49 @@ def test_merge_refuses_shards_of_different_sweeps(single, tmp_path):
     assert r.returncode == 2
     assert "different sweep" in r.stderr
     assert not out.exists()
+
+
+def test_status_of_shards_names_a_running_task_and_leaves_it_out_of_the_resubmit(tmp_path, binary):
+    """A shard whose task is writing it now (it holds the shard's work directory) is `running`,
+    not pending or missing, and the re-submit command leaves it out: submitting it again would
+    only meet its lock."""
+    import subprocess
+    import time
+
+    from conftest import BIN, interruptible_sweep
+
+    path = write_sweep(tmp_path / "grid.json", interruptible_sweep())
+    shards = tmp_path / "shards"
+    shards.mkdir()
+    part = lambda k: shards / f"grid.shard-{k}-of-3.h5"
+    r = run("run", path, "--shard", "1/3", "-o", part(1), "--quiet")
+    assert r.returncode == 0, r.stderr
+    for k in (2, 3):
+        writer = subprocess.Popen(
+            [str(BIN), "run", str(path), "--shard", f"{k}/3", "-o", str(part(k)), "--quiet",
+             "--checkpoint-interval", "0.05"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )
+        try:
+            deadline = time.monotonic() + 60
+            while time.monotonic() < deadline:
+                r = run("status", shards)
+                if f"shard {k}/3 (array task {k - 1}): running" in r.stdout:
+                    break
+                assert writer.poll() is None, "the shard finished before it was seen running"
+                time.sleep(0.02)
+            assert f"process {writer.pid} is writing it now" in r.stdout, r.stdout
+            assert r.returncode == 3
+            assert "1 running" in r.stdout, r.stdout
+            if k == 2:
+                # Shard 3 has no file and no writer: only it is to run again.
+                assert "shard 3/3 (array task 2): missing" in r.stdout, r.stdout
+                assert "--array=2 " in r.stderr and "--array=1" not in r.stderr, r.stderr
+        finally:
+            writer.kill()
+            writer.wait()
+        # Killed, its lock goes with it: pending (or missing, before its first file), to run again.
+        r = run("status", shards)
+        assert "running" not in r.stdout.split("shards:")[0], r.stdout
+        assert f"array task {k - 1}):" in r.stdout
+        assert f"{k - 1}" in r.stderr.split("--array=")[1].split()[0], r.stderr

@@ -1,6 +1,7 @@
 //! The `chainsweep` command line: parses the arguments, calls the [`crate::engine`], prints.
 //! `validate`, `run`, `status`, `point`, `accuracy`, `merge`, `slurm`.
 
+mod json;
 mod show;
 
 use std::path::{Path, PathBuf};
@@ -63,6 +64,9 @@ pub enum Command {
     Validate {
         /// Sweep file (JSON).
         file: PathBuf,
+        /// Print the result as one JSON object on stdout (valid or not, every error found).
+        #[arg(long)]
+        json: bool,
     },
     /// Print the JSON Schema of sweep files (for editors and validators; a sweep file may name it
     /// with `"$schema"`).
@@ -92,6 +96,9 @@ pub enum Command {
         /// Shard `K/N` (or `slurm/N`), when FILE is a sweep file run with `--shard`.
         #[arg(long)]
         shard: Option<String>,
+        /// Print the status as one JSON object on stdout.
+        #[arg(long)]
+        json: bool,
     },
     /// Write SLURM job scripts for a sweep: an array job of N shards and a merge job after it
     /// (whatever the array's outcome), in `OUT.h5.slurm/`; submit them with `--submit`.
@@ -172,6 +179,9 @@ pub struct RunArgs {
     /// Print the expanded grid and an estimate of the output size; run nothing.
     #[arg(long)]
     pub dry_run: bool,
+    /// With `--dry-run`: print it as one JSON object on stdout.
+    #[arg(long, requires = "dry_run")]
+    pub json: bool,
     /// No progress display and no closing summary (failures are still listed).
     #[arg(short, long)]
     pub quiet: bool,
@@ -299,14 +309,15 @@ where
 /// Runs a parsed command.
 pub fn dispatch(cli: Cli) -> Result<i32> {
     match cli.command {
-        Command::Validate { file } => cmd_validate(&file),
+        Command::Validate { file, json } => cmd_validate(&file, json),
         Command::Schema => cmd_schema(),
         Command::Run(args) => cmd_run(&args),
         Command::Status {
             files,
             output,
             shard,
-        } => cmd_status(&files, output, shard.as_deref()),
+            json,
+        } => cmd_status(&files, output, shard.as_deref(), json),
         Command::Slurm(args) => cmd_slurm(&args),
         Command::Merge { output, shards } => cmd_merge(&output, &shards),
         Command::Gc {
@@ -351,11 +362,15 @@ fn cmd_schema() -> Result<i32> {
     Ok(EXIT_OK)
 }
 
-fn cmd_validate(file: &Path) -> Result<i32> {
-    let (sweep, grid) = match load(file, false) {
+fn cmd_validate(file: &Path, as_json: bool) -> Result<i32> {
+    let (sweep, grid) = match load(file, as_json) {
         Ok(loaded) => loaded,
         Err(first @ Error::Input { .. }) => {
             let errors = engine::input_errors(file, first);
+            if as_json {
+                json::print(&json::invalid(file, &errors));
+                return Ok(crate::EXIT_BAD_INPUT);
+            }
             for e in &errors {
                 errln!("chainsweep: error: {e}");
             }
@@ -375,7 +390,15 @@ fn cmd_validate(file: &Path) -> Result<i32> {
         }
         Err(other) => return Err(other),
     };
-    show::validated(file, &sweep, &grid)?;
+    if as_json {
+        let pilots = sweep
+            .auto
+            .map(|spec| crate::numerics::auto::pilot_points(&sweep, &grid, spec.pilot_points))
+            .transpose()?;
+        json::print(&json::validated(file, &sweep, &grid, pilots));
+    } else {
+        show::validated(file, &sweep, &grid)?;
+    }
     Ok(EXIT_OK)
 }
 
@@ -407,12 +430,20 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
         if sweep.search.is_some() {
             let d = inspect::dry_run_search(&sweep, &grid, shard, output)?;
-            show::dry_run_search(&sweep, &grid, output, &d);
+            if args.json {
+                json::print(&json::dry_run_search(&sweep, &grid, output, &d));
+            } else {
+                show::dry_run_search(&sweep, &grid, output, &d);
+            }
             return Ok(EXIT_OK);
         }
         let points = shard::points(&sweep, &grid, shard);
         let d = inspect::dry_run(&sweep, &grid, &points, output)?;
-        show::dry_run(&sweep, &grid, &points, output, shard, &d);
+        if args.json {
+            json::print(&json::dry_run(&sweep, &grid, &points, output, shard, &d));
+        } else {
+            show::dry_run(&sweep, &grid, &points, output, shard, &d);
+        }
         return Ok(EXIT_OK);
     }
     let stop = StopOnSignal::install()?;
@@ -495,14 +526,18 @@ fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
     Ok(EXIT_OK)
 }
 
-fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -> Result<i32> {
+fn cmd_status(
+    files: &[PathBuf],
+    output: Option<PathBuf>,
+    shard: Option<&str>,
+    as_json: bool,
+) -> Result<i32> {
     if files.len() > 1 || files[0].is_dir() {
-        return cmd_shard_set_status(files);
+        return cmd_shard_set_status(files, as_json);
     }
     let file = &files[0];
     if is_hdf5(file) || looks_like_output(file) {
         let s = status::of_file(file)?;
-        show::file_status(file, &s);
         // A search sweep is partial while a search is unfinished (stopped by its budget, or
         // not run to its end) or stopped by a failed run, as `status SWEEP` counts it.
         let searches_unfinished = s.searches.as_ref().is_some_and(|lines| {
@@ -513,21 +548,32 @@ fn cmd_status(files: &[PathBuf], output: Option<PathBuf>, shard: Option<&str>) -
                 )
             })
         });
-        return Ok(if s.damage.any() || searches_unfinished {
+        let code = if s.damage.any() || searches_unfinished {
             EXIT_PARTIAL
         } else {
             exit_for(&s.counts)
-        });
+        };
+        if as_json {
+            json::print(&json::file_status(file, &s, code));
+        } else {
+            show::file_status(file, &s);
+        }
+        return Ok(code);
     }
-    let (sweep, grid) = load(file, false)?;
+    let (sweep, grid) = load(file, as_json)?;
     let shard = parse_shard(shard)?;
     let output = output.unwrap_or_else(|| engine::default_output(file, shard));
     let (s, sweep, grid) = status::of_sweep(sweep, grid, output, shard)?;
-    show::sweep_status(file, &sweep, &grid, &s);
-    Ok(match &s.counts {
+    let code = match &s.counts {
         Some(c) if !s.damage.any() => exit_for(c),
         _ => EXIT_PARTIAL,
-    })
+    };
+    if as_json {
+        json::print(&json::sweep_status(file, &sweep, &grid, &s, code));
+    } else {
+        show::sweep_status(file, &sweep, &grid, &s);
+    }
+    Ok(code)
 }
 
 /// Whether `file`, which does not start with the HDF5 signature, is meant as an output file: it
@@ -550,7 +596,7 @@ fn cmd_gc(file: &Path, output: Option<PathBuf>, dry_run: bool) -> Result<i32> {
 }
 
 /// `status` of shard files, or of a folder of them (`OUT.h5.slurm`, its `shards/`, any folder).
-fn cmd_shard_set_status(files: &[PathBuf]) -> Result<i32> {
+fn cmd_shard_set_status(files: &[PathBuf], as_json: bool) -> Result<i32> {
     let mut list: Vec<PathBuf> = Vec::new();
     for f in files {
         if !f.is_dir() {
@@ -581,15 +627,25 @@ fn cmd_shard_set_status(files: &[PathBuf]) -> Result<i32> {
         .iter()
         .find(|f| f.join("array.sh").is_file())
         .map(|d| (d.join("array.sh"), d.join("merge.sh")));
-    show::shard_set_status(
-        &set,
-        script.as_ref().map(|(a, m)| (a.as_path(), m.as_path())),
-    );
     let all_done = set
         .shards
         .iter()
         .all(|s| s.state == status::ShardState::Done);
-    Ok(if all_done { EXIT_OK } else { EXIT_PARTIAL })
+    let code = if all_done { EXIT_OK } else { EXIT_PARTIAL };
+    if as_json {
+        let tasks: Vec<usize> = set.to_run().iter().map(|k| k - 1).collect();
+        let resubmit = script
+            .as_ref()
+            .filter(|_| !tasks.is_empty())
+            .map(|(a, m)| slurm::resubmit_command(&tasks, a, m));
+        json::print(&json::shard_set(&set, resubmit, code));
+    } else {
+        show::shard_set_status(
+            &set,
+            script.as_ref().map(|(a, m)| (a.as_path(), m.as_path())),
+        );
+    }
+    Ok(code)
 }
 
 fn cmd_merge(output: &Path, shards: &[PathBuf]) -> Result<i32> {

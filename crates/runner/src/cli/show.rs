@@ -671,7 +671,7 @@ fn shards_to_run(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
 /// `status` of a shard set: one line per shard.
 pub fn shard_set_status(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
     for e in &set.shards {
-        let detail = match (&e.counts, &e.file) {
+        let mut detail = match (&e.counts, &e.file) {
             (Some(c), Some(f)) => format!(
                 "{} runs: {} ok, {} failed, {} pending ({})",
                 c.ok + c.failed + c.pending,
@@ -682,6 +682,13 @@ pub fn shard_set_status(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
             ),
             _ => "no shard file".to_string(),
         };
+        if let Some(pid) = &e.writer {
+            detail.push_str(&if pid.is_empty() {
+                "; a process is writing it now".to_string()
+            } else {
+                format!("; process {pid} is writing it now")
+            });
+        }
         outln!(
             "shard {}/{} (array task {}): {:<7} {detail}",
             e.k,
@@ -692,10 +699,11 @@ pub fn shard_set_status(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
     }
     let count = |st: ShardState| set.shards.iter().filter(|e| e.state == st).count();
     outln!(
-        "{} shards: {} done, {} failed, {} pending, {} missing",
+        "{} shards: {} done, {} failed, {} running, {} pending, {} missing",
         set.n,
         count(ShardState::Done),
         count(ShardState::Failed),
+        count(ShardState::Running),
         count(ShardState::Pending),
         count(ShardState::Missing)
     );

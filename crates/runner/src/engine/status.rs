@@ -9,7 +9,7 @@ use crate::identity::RunHash;
 use crate::record::{STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use crate::store::hdf5::{Counts, FileRecords};
 use crate::store::published::{Check, PublishedFile};
-use crate::store::{scan_segments, work_dir_of, Stored};
+use crate::store::{scan_segments, work_dir_of, writer_of, Stored};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
@@ -434,19 +434,23 @@ pub enum ShardState {
     Done,
     /// Every point ran, some failed (`run --retry-failed` runs them again).
     Failed,
-    /// The file exists with points pending (the task is running, was stopped, or was killed).
+    /// Points pending and no process writing the shard (its task was stopped or killed, or has
+    /// not started).
     Pending,
-    /// No file of this shard.
+    /// A process is writing the shard now (it holds its work directory): not to be run again.
+    Running,
+    /// No file of this shard, and none being written.
     Missing,
 }
 
 impl ShardState {
-    /// `done`, `failed`, `pending`, `missing`.
+    /// `done`, `failed`, `pending`, `running`, `missing`.
     pub fn name(self) -> &'static str {
         match self {
             ShardState::Done => "done",
             ShardState::Failed => "failed",
             ShardState::Pending => "pending",
+            ShardState::Running => "running",
             ShardState::Missing => "missing",
         }
     }
@@ -463,6 +467,8 @@ pub struct ShardEntry {
     pub state: ShardState,
     /// The state of its points (none when missing).
     pub counts: Option<Counts>,
+    /// The pid of the process writing it now, as its lock file names it (`Running`).
+    pub writer: Option<String>,
 }
 
 /// The status of the shard files of one sweep in `n` shards.
@@ -475,7 +481,8 @@ pub struct ShardSetStatus {
 }
 
 impl ShardSetStatus {
-    /// The shards (from 1) that are missing or have points pending: those to run (again).
+    /// The shards (from 1) that are missing or have points pending, and that no process is
+    /// writing: those to run (again).
     pub fn to_run(&self) -> Vec<usize> {
         self.shards
             .iter()
@@ -533,14 +540,29 @@ pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
     let grid = Grid::new(&sweep).map_err(|e| e.in_file(&name))?;
     let n = s0.n;
     let assignment = Assignment::new(&sweep, &grid, Some(*s0));
+    // Where a shard without a file would be written, by the naming of `run --shard` and
+    // `chainsweep slurm` (beside the first shard file): a task that started but has not
+    // published its file yet holds that path's work directory.
+    let first_name = first.file_name().map(|f| f.to_string_lossy().into_owned());
+    let suffix = format!(".shard-{}-of-{n}.h5", s0.k);
+    let sibling = |k: usize| {
+        let stem = first_name.as_deref()?.strip_suffix(&suffix)?;
+        Some(first.with_file_name(format!("{stem}.shard-{k}-of-{n}.h5")))
+    };
     let mut shards = Vec::with_capacity(n);
     for k in 1..=n {
         let Some((path, _, shard)) = found.iter().find(|(_, _, s)| s.k == k) else {
+            let writer = sibling(k).and_then(|p| writer_of(&p));
             shards.push(ShardEntry {
                 k,
                 file: None,
-                state: ShardState::Missing,
+                state: if writer.is_some() {
+                    ShardState::Running
+                } else {
+                    ShardState::Missing
+                },
                 counts: None,
+                writer,
             });
             continue;
         };
@@ -564,7 +586,10 @@ pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
                 .filter(|&&i| status(i) == STATUS_PENDING)
                 .count(),
         };
-        let state = if counts.pending > 0 {
+        let writer = writer_of(path);
+        let state = if writer.is_some() {
+            ShardState::Running
+        } else if counts.pending > 0 {
             ShardState::Pending
         } else if counts.failed > 0 {
             ShardState::Failed
@@ -576,6 +601,7 @@ pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
             file: Some(path.clone()),
             state,
             counts: Some(counts),
+            writer,
         });
     }
     Ok(ShardSetStatus { n, shards })

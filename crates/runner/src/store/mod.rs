@@ -510,6 +510,31 @@ fn write_atomic(tmp: &Path, dest: &Path, bytes: &[u8]) -> Result<()> {
     fsync_dir(dest.parent().expect("a file in a directory"))
 }
 
+/// Whether a process holds the work directory of `output` (a run writing it now): `Some` with
+/// the holder's pid as its lock file names it (empty when it names none), `None` when no process
+/// holds it or there is no work directory. Takes no lock it keeps and creates nothing.
+pub fn writer_of(output: &Path) -> Option<String> {
+    let lock_path = work_dir_of(output).join("lock");
+    let meta = fs::symlink_metadata(&lock_path).ok()?;
+    if !meta.is_file() {
+        return None;
+    }
+    let mut lock = File::open(&lock_path).ok()?;
+    // A shared lock is refused while the writer holds its exclusive one; taken, it is let go at
+    // once (when `lock` is closed).
+    match fs4::fs_std::FileExt::try_lock_shared(&lock) {
+        Ok(true) => None,
+        Ok(false) => {
+            let mut holder = String::new();
+            let _ = Read::by_ref(&mut lock)
+                .take(LOCK_READ_BYTES)
+                .read_to_string(&mut holder);
+            Some(holder.trim().to_string())
+        }
+        Err(_) => None,
+    }
+}
+
 /// Most bytes of a lock file read to name its holder (a pid).
 const LOCK_READ_BYTES: u64 = 64;
 
