@@ -20,13 +20,41 @@ result file whose values do not match their checksums; ``.damaged``); all are :c
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING, Any
+
 from ._chainsweep import ENGINE_VERSION as __version__
 from ._files import docs_path, example_path, examples
-from ._open import open
-from ._run import run
-from ._surface import refined_surface
-from ._sweep import Failure, SweepResult, sweep
 from .errors import DamagedFileError, Error, InputError, RunError, SweepError
+
+if TYPE_CHECKING:
+    from ._open import open
+    from ._run import run
+    from ._surface import refined_surface
+    from ._sweep import Failure, SweepResult, sweep
+
+# Imported on first use, with numpy, h5py and xarray (a third of a second): the `chainsweep`
+# command (chainsweep._cli) needs none of them.
+_LAZY = {
+    "open": "._open",
+    "run": "._run",
+    "refined_surface": "._surface",
+    "sweep": "._sweep",
+    "SweepResult": "._sweep",
+    "Failure": "._sweep",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name], __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
 
 __all__ = [
     "run",
