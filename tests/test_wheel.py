@@ -311,12 +311,6 @@ def test_a_signal_to_the_command_stops_the_sweep_resumably(venv, reference, tmp_
     assert_files_equal(reference, out, skip_attrs=VOLATILE_ATTRS | BUILD_ATTRS)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="`chainsweep slurm` names its own executable (std::env::current_exe) in the job scripts: under "
-    "the console script that is the Python interpreter; cmd_slurm must take CHAINSWEEP_EXE, which the "
-    "console script sets to itself",
-)
 def test_the_slurm_job_scripts_run_the_installed_command(venv, tmp_path):
     path = write_sweep(tmp_path / "tiny.json", base_sweep())
     r = in_venv(venv, venv / "bin" / "chainsweep", "slurm", path, "-o", tmp_path / "tiny.h5", "--shards", "2")

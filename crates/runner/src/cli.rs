@@ -503,9 +503,28 @@ fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
     let absolute = |p: &Path, what: &str| -> Result<PathBuf> {
         std::path::absolute(p).map_err(|e| Error::input(what, format!("{}: {e}", p.display())))
     };
-    let binary = std::env::current_exe()
-        .and_then(|p| p.canonicalize())
-        .map_err(|e| Error::Other(format!("cannot find the chainsweep binary's path: {e}")))?;
+    // The command the job scripts run: this binary, or the command that started it when it runs
+    // inside another program (the Python package's `chainsweep` command sets CHAINSWEEP_EXE to
+    // itself: this process is then the Python interpreter).
+    let binary = match std::env::var_os("CHAINSWEEP_EXE").filter(|p| !p.is_empty()) {
+        Some(exe) => {
+            let exe = PathBuf::from(exe);
+            if !exe.is_file() {
+                return Err(Error::input(
+                    "CHAINSWEEP_EXE",
+                    format!(
+                        "names {}, which is not a file: it must be the chainsweep command the job scripts run",
+                        exe.display()
+                    ),
+                ));
+            }
+            exe.canonicalize()
+                .map_err(|e| Error::input("CHAINSWEEP_EXE", e.to_string()))?
+        }
+        None => std::env::current_exe()
+            .and_then(|p| p.canonicalize())
+            .map_err(|e| Error::Other(format!("cannot find the chainsweep binary's path: {e}")))?,
+    };
     let req = slurm::JobRequest {
         sweep: absolute(&args.file, "FILE")?,
         output: absolute(&args.output, "--output")?,
