@@ -156,3 +156,53 @@ def test_point_prints_scene_and_result(binary, tmp_path):
     assert p["result"]["ok"] is True
     r = run("point", path, 6)
     assert r.returncode == 2
+
+
+def test_bash_completion_completes_commands_and_options(binary, tmp_path):
+    """The bash script of `chainsweep completions bash`, sourced in a real bash, completes the
+    commands, a command's options and a value list (the shells of `completions`)."""
+    r = run("completions", "bash")
+    assert r.returncode == 0, r.stderr
+    script = tmp_path / "chainsweep.bash"
+    script.write_text(r.stdout)
+
+    def complete(*words):
+        line = " ".join(["chainsweep", *words])
+        probe = (
+            f"source {script}\n"
+            f"COMP_WORDS=(chainsweep {' '.join(words)}); COMP_CWORD={len(words)}\n"
+            f"COMP_LINE='{line}'; COMP_POINT={len(line)}\n"
+            f"_chainsweep chainsweep '{words[-1]}' '{words[-2] if len(words) > 1 else 'chainsweep'}'\n"
+            'printf "%s\\n" "${COMPREPLY[@]}"\n'
+        )
+        out = subprocess.run(["bash", "-c", probe], capture_output=True, text=True, timeout=30)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.split()
+
+    assert {"status", "schema"} <= set(complete("s"))
+    assert "--dry-run" in complete("run", "--d")
+    assert "--json" in complete("status", "--j")
+    assert {"bash", "zsh", "fish"} <= set(complete("completions", ""))
+    for shell in ("zsh", "fish", "elvish", "powershell"):
+        r = run("completions", shell)
+        assert r.returncode == 0 and "validate" in r.stdout and "--dry-run" in r.stdout, shell
+    r = run("completions", "tcsh")
+    assert r.returncode == 2 and "possible values" in r.stderr
+
+
+def test_man_pages_render_and_cover_every_command(binary, tmp_path):
+    r = run("man", tmp_path / "man1")
+    assert r.returncode == 0, r.stderr
+    pages = sorted(p.name for p in (tmp_path / "man1").iterdir())
+    commands = ["accuracy", "completions", "gc", "man", "merge", "point", "run", "schema", "slurm", "status", "validate"]
+    assert pages == sorted(["chainsweep.1"] + [f"chainsweep-{c}.1" for c in commands])
+    assert sorted(os.path.basename(x) for x in r.stdout.split()) == pages
+    for p in pages:
+        page = tmp_path / "man1" / p
+        # groff parses every page without a warning (-k: UTF-8 input through preconv, as man does).
+        g = subprocess.run(["groff", "-k", "-man", "-Tutf8", "-ww", str(page)], capture_output=True, text=True, timeout=30)
+        assert g.returncode == 0 and g.stderr == "", (p, g.stderr)
+    text = subprocess.run(["groff", "-k", "-man", "-Tutf8", "-P", "-cbou", str(tmp_path / "man1" / "chainsweep-run.1")],
+                          capture_output=True, text=True).stdout
+    assert "--retry-failed" in text and "Run again the points whose earlier run failed" in text, text
+    assert "0.1.0 (revision" in (tmp_path / "man1" / "chainsweep-run.1").read_text()

@@ -74,6 +74,23 @@ pub enum Command {
         after_help = "Examples:\n  chainsweep schema > chainsweep-sweep.schema.json\n  # then, in a sweep file: \"$schema\": \"./chainsweep-sweep.schema.json\""
     )]
     Schema,
+    /// Print a shell completion script (bash, zsh, fish, elvish, powershell).
+    #[command(
+        after_help = "Examples:\n  chainsweep completions bash > ~/.local/share/bash-completion/completions/chainsweep\n  chainsweep completions zsh > ~/.zfunc/_chainsweep      # with fpath+=(~/.zfunc) in ~/.zshrc\n  chainsweep completions fish > ~/.config/fish/completions/chainsweep.fish"
+    )]
+    Completions {
+        /// The shell.
+        shell: clap_complete::Shell,
+    },
+    /// Write the manual pages (chainsweep.1 and one per command, chainsweep-run.1, …) into a
+    /// folder.
+    #[command(
+        after_help = "Examples:\n  chainsweep man ~/.local/share/man/man1 && man chainsweep-run\n  chainsweep man /tmp/m && man -l /tmp/m/chainsweep.1"
+    )]
+    Man {
+        /// The folder (created if missing); existing pages of the same names are replaced.
+        dir: PathBuf,
+    },
     /// Run a sweep (or continue an interrupted one) into an HDF5 file.
     #[command(
         after_help = "Examples:\n  chainsweep run sweeps/mass-damping.json --dry-run\n  chainsweep run sweeps/mass-damping.json -o out.h5 --jobs 4\n  chainsweep run sweeps/mass-damping.json --shard 2/8 -o part-2.h5"
@@ -311,6 +328,8 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
     match cli.command {
         Command::Validate { file, json } => cmd_validate(&file, json),
         Command::Schema => cmd_schema(),
+        Command::Completions { shell } => cmd_completions(shell),
+        Command::Man { dir } => cmd_man(&dir),
         Command::Run(args) => cmd_run(&args),
         Command::Status {
             files,
@@ -351,6 +370,44 @@ const MAX_PROGRESS_INTERVAL_S: f64 = 24.0 * 3600.0;
 fn load(file: &Path, quiet: bool) -> Result<(crate::sweep::Sweep, crate::grid::Grid)> {
     let shown = crate::progress::GridProgress::new(quiet);
     engine::load_showing(file, &|done, total| shown.show(done, total))
+}
+
+fn cmd_completions(shell: clap_complete::Shell) -> Result<i32> {
+    use clap::CommandFactory;
+    let mut out = Vec::new();
+    clap_complete::generate(shell, &mut Cli::command(), "chainsweep", &mut out);
+    outln!("{}", String::from_utf8_lossy(&out).trim_end());
+    Ok(EXIT_OK)
+}
+
+fn cmd_man(dir: &Path) -> Result<i32> {
+    use clap::CommandFactory;
+    std::fs::create_dir_all(dir).map_err(Error::io("create", dir))?;
+    let written = man_pages(dir, Cli::command(), "chainsweep")?;
+    for p in &written {
+        outln!("{}", p.display());
+    }
+    Ok(EXIT_OK)
+}
+
+/// Writes the page of `cmd` (named `name`) and of each of its subcommands into `dir`.
+fn man_pages(dir: &Path, cmd: clap::Command, name: &str) -> Result<Vec<PathBuf>> {
+    let cmd = cmd
+        .name(name.to_string())
+        .bin_name(name.replace('-', " "))
+        .version(VERSION);
+    let mut bytes = Vec::new();
+    clap_mangen::Man::new(cmd.clone())
+        .render(&mut bytes)
+        .map_err(|e| Error::Other(format!("cannot render the manual page of {name}: {e}")))?;
+    let path = dir.join(format!("{name}.1"));
+    std::fs::write(&path, bytes).map_err(Error::io("write", &path))?;
+    let mut written = vec![path];
+    for sub in cmd.get_subcommands().filter(|s| s.get_name() != "help") {
+        let sub_name = format!("{name}-{}", sub.get_name());
+        written.extend(man_pages(dir, sub.clone(), &sub_name)?);
+    }
+    Ok(written)
 }
 
 fn cmd_schema() -> Result<i32> {
