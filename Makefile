@@ -100,6 +100,20 @@ ncdump:
 	  $$sudo apt-get install -y -q $(NCDUMP_PACKAGE) >/dev/null 2>&1 || \
 	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(NCDUMP_PACKAGE); }; }
 
+# UDUNITS-2 (Debian's libudunits2-0, with its units database): cfunits, with which cfchecker
+# (requirements.txt) checks the units of the result files in tests/test_cf.py, loads the C library.
+# Installed with apt-get when missing, as ncdump is; a no-op once installed.
+UDUNITS_PACKAGE := libudunits2-0
+.PHONY: udunits
+udunits:
+	@/sbin/ldconfig -p | grep -q 'libudunits2\.so' || { \
+	  echo "installing $(UDUNITS_PACKAGE) (UDUNITS-2) with apt-get"; \
+	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  $$sudo apt-get install -y -q $(UDUNITS_PACKAGE) >/dev/null 2>&1 || \
+	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(UDUNITS_PACKAGE); }; }
+test-python: udunits
+
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
 # --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
 # tests/python/: the Python package (run, sweep, open against the binary) and the examples.
@@ -157,6 +171,15 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 # their points and the minima and roots they found. About 15 s on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum
+
+# The reference renderings the docs show, docs/figures/ (tracked; results/ is not): each of them
+# copied from results/ where `make figures`, `make examples` or `make accuracy` has drawn it.
+docs-figures:
+	@cd docs/figures && for f in $$(find . -name '*.png' | sort); do \
+	  if [ -f ../../results/$$f ]; then cp ../../results/$$f $$f; echo "docs/figures/$${f#./}"; \
+	  else echo "not drawn yet: results/$${f#./}"; fi; \
+	done
+.PHONY: docs-figures
 
 examples: build
 	@mkdir -p results/examples; \

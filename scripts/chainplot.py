@@ -20,7 +20,6 @@ import chainsweep
 REPO = Path(__file__).resolve().parent.parent
 RESULTS = Path(os.environ.get("CHAINSWEEP_RESULTS", REPO / "results"))
 
-DPI = 120
 # One colour per chain throughout (the paper's Figs. 15-19: 0.98 blue, 0.55 red).
 COLOR_098 = "tab:blue"
 COLOR_055 = "tab:red"
@@ -252,14 +251,78 @@ def local_maxima(y: np.ndarray, prominence: float) -> list[int]:
     return out
 
 
-def savefig(fig, name: str, dpi: int = DPI):
-    out = RESULTS / f"{name}.png"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=dpi)
+# Journal widths: one column (89 mm) and the full page (183 mm), the widths of the common physics
+# journals' single- and double-column figures.
+COLUMN_IN = 89 / 25.4
+PAGE_IN = 183 / 25.4
+# The smallest text a printed figure may have (at the width it is printed), and the largest that
+# a figure's text is brought down to: journals ask for 6-8 pt lettering.
+MIN_PT = 7.0
+MAX_PT = 9.0
+# Pixels per inch of the PNG written beside the PDF (print resolution).
+PNG_DPI = 300
+
+
+def journal_layout(fig) -> float:
+    """Sets `fig` to a journal width, one column for a figure of one panel up to 7 inches wide
+    and the full page otherwise, keeping its aspect ratio, and brings every text to between
+    MIN_PT and MAX_PT points at that width (sizes keep their order: a title stays larger than a
+    tick label), then lays it out again. Returns the width, inches."""
+    import matplotlib.text
+
+    w, h = fig.get_size_inches()
+    panels = [a for a in fig.axes if a.get_visible() and a.get_label() != "<colorbar>"]
+    width = COLUMN_IN if len(panels) <= 1 and w <= 7.0 else PAGE_IN
+    fig.set_size_inches(width, h * width / w)
+    # Tick labels are made again at every draw, from the axes' tick parameters: they are sized
+    # through those, the other texts directly.
+    ticks = {id(t) for a in fig.axes for t in a.get_xticklabels() + a.get_yticklabels()}
+    tick_size = {
+        id(a): (a.get_xticklabels() + a.get_yticklabels() or [None])[0] for a in fig.axes
+    }
+    texts = [t for t in fig.findobj(matplotlib.text.Text) if t.get_text().strip() and id(t) not in ticks]
+    sizes = [t.get_fontsize() for t in texts] + [
+        t.get_fontsize() for t in tick_size.values() if t is not None
+    ]
+    lo, hi = (min(sizes), max(sizes)) if sizes else (MIN_PT, MIN_PT)
+
+    def journal_size(size: float) -> float:
+        # Linear from the smallest size to MIN_PT and the largest to MAX_PT.
+        return MIN_PT + (size - lo) / (hi - lo) * (MAX_PT - MIN_PT) if hi > lo else MIN_PT + 1
+
+    for t in texts:
+        t.set_fontsize(journal_size(t.get_fontsize()))
+    for a in fig.axes:
+        first = tick_size[id(a)]
+        a.tick_params(length=2.5, width=0.6, pad=2)
+        if first is not None:
+            a.tick_params(labelsize=journal_size(first.get_fontsize()))
+        a.xaxis.get_offset_text().set_fontsize(MIN_PT)
+        a.yaxis.get_offset_text().set_fontsize(MIN_PT)
+        for line in a.get_lines():
+            line.set_linewidth(min(line.get_linewidth(), 1.2))
+            line.set_markersize(min(line.get_markersize(), 4))
+    fig.tight_layout(pad=0.3)
+    return width
+
+
+def savefig(fig, name: str, dpi: int = PNG_DPI):
+    """Writes `fig` as results/NAME.pdf (vector, fonts embedded) and results/NAME.png, both at a
+    journal width (journal_layout), with no date or other volatile metadata: the same figure
+    gives the same bytes."""
+    import matplotlib
     import matplotlib.pyplot as plt
 
+    journal_layout(fig)
+    out = RESULTS / f"{name}.png"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=dpi, metadata={"Software": None})
+    # TrueType (Type 42) fonts, which journals' systems take, rather than Type 3.
+    with matplotlib.rc_context({"pdf.fonttype": 42}):
+        fig.savefig(out.with_suffix(".pdf"), metadata={"Creator": None, "Producer": None, "CreationDate": None})
     plt.close(fig)
-    print(f"wrote {out.relative_to(REPO) if out.is_relative_to(REPO) else out}")
+    for p in (out.with_suffix(".pdf"), out):
+        print(f"wrote {p.relative_to(REPO) if p.is_relative_to(REPO) else p}")
 
 
 def two_wave(y: np.ndarray, min_fraction: float = 0.1) -> tuple[int, float, float]:

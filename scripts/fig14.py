@@ -42,7 +42,7 @@ def main():
         axs[-1].set_xlabel("time after impact (µs)")
         fig.suptitle("Fig. 14: 0.55 chain (heavy cylinders), v$_0$ = 1.45 m/s", fontsize=10)
         fig.tight_layout()
-        savefig(fig, "fig14", dpi=100)
+        savefig(fig, "fig14")
 
 
 if __name__ == "__main__":

@@ -19,6 +19,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from chainplot import PNG_DPI, journal_layout  # noqa: E402
+
 STYLE = {
     "dop853": dict(color="tab:blue", marker="o"),
     "dop853-predict": dict(color="tab:cyan", marker="D"),
@@ -72,9 +74,13 @@ def plot(path, out):
             ax.grid(True, which="both", alpha=0.3)
             ax.legend()
         fig.suptitle(f"{title}\nmu = {mu} kg/s; reference {ref}", fontsize=9)
-        fig.tight_layout()
-        fig.savefig(out, dpi=120)
+        # At a journal width, as PDF and PNG (the same layout as every other figure).
+        journal_layout(fig)
+        fig.savefig(out, dpi=PNG_DPI, metadata={"Software": None})
+        with matplotlib.rc_context({"pdf.fonttype": 42}):
+            fig.savefig(out.with_suffix(".pdf"), metadata={"Creator": None, "Producer": None, "CreationDate": None})
         plt.close(fig)
+    print(f"wrote {out.with_suffix('.pdf')}")
     print(f"wrote {out}")
 
 

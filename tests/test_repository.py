@@ -38,3 +38,22 @@ def test_the_checker_finds_a_reference_outside():
     assert OUTSIDE.search("see ../" + "shared/" + "MODEL.md")
     assert OUTSIDE.search("/" + "work/shared/paper")
     assert not OUTSIDE.search("see docs/MODEL.md")
+
+
+def test_what_the_main_jobs_draw_is_not_tracked():
+    """`make figures`, `make examples` and `make accuracy` draw into results/: nothing there that
+    they write is tracked (a run would leave the checkout modified: the wall-time plots differ
+    from run to run), and git ignores all of it; the docs show docs/figures/."""
+    tracked = [f.relative_to(REPO).as_posix() for f in committed_files()]
+    drawn = [f for f in tracked if f.startswith("results/") and f.endswith((".png", ".pdf", ".h5"))]
+    assert drawn == []
+    for name in ("results/fig08.png", "results/fig08.pdf", "results/examples/trimer.pdf",
+                 "results/work_precision_fig08.png", "results/fig08.h5"):
+        r = subprocess.run(["git", "check-ignore", "-q", name], cwd=REPO)
+        assert r.returncode == 0, f"{name} is not ignored"
+    figures = [f for f in tracked if f.startswith("docs/figures/")]
+    assert "docs/figures/fig08.png" in figures and len(figures) >= 20
+    # Every figure the docs link is there.
+    for md in (REPO / "docs").glob("*.md"):
+        for target in re.findall(r"\]\((figures/[^)]+)\)", md.read_text()):
+            assert (REPO / "docs" / target).is_file(), (md.name, target)
