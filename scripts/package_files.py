@@ -7,7 +7,8 @@ git-ignored):
   (``chainsweep.docs_path``);
 - python/licenses/: the notices of the C libraries linked into the extension, HDF5's
   (COPYING, COPYING_LBNL_HDF5) and zlib's, taken from the sources Cargo builds them from
-  (``cargo metadata``: hdf5-metno-src and libz-sys), so that they follow the versions built.
+  (``cargo metadata``: hdf5-metno-src and libz-sys), so that they follow the versions built; and
+  rust-crates/THIRD-PARTY-LICENSES.txt, the licence of every Rust crate compiled into it.
 
 The project's own licences (LICENSE-MIT, LICENSE-APACHE) reach the wheel through the links
 python/LICENSE-MIT and python/LICENSE-APACHE to the repository's root.
@@ -52,16 +53,69 @@ def replace_tree(dest: Path, files: dict[Path, Path]) -> None:
             old.rmdir()
 
 
-def crate_dirs(cargo: str) -> dict[str, Path]:
-    """The source folder of every package of the workspace's dependency graph, by name."""
+def metadata(cargo: str) -> dict:
+    """`cargo metadata` of the workspace, resolved for the wheel's platform."""
     out = subprocess.run(
-        [cargo, "metadata", "--format-version", "1"],
+        [cargo, "metadata", "--format-version", "1", "--filter-platform", "x86_64-unknown-linux-gnu"],
         cwd=REPO,
         check=True,
         capture_output=True,
         text=True,
     ).stdout
-    return {p["name"]: Path(p["manifest_path"]).parent for p in json.loads(out)["packages"]}
+    return json.loads(out)
+
+
+def crate_dirs(meta: dict) -> dict[str, Path]:
+    """The source folder of every package of the workspace's dependency graph, by name."""
+    return {p["name"]: Path(p["manifest_path"]).parent for p in meta["packages"]}
+
+
+# The licence files a crate ships, by the names crates give them.
+LICENSE_NAMES = ("LICENSE", "LICENCE", "COPYING", "NOTICE", "UNLICENSE", "COPYRIGHT")
+
+
+def third_party_notices(meta: dict) -> str:
+    """Every crate compiled into the extension (the normal dependencies of the Python package,
+    transitively; build scripts and procedural macros run at build time only and are left out):
+    its name, version, licence expression and licence files, one after another."""
+    packages = {p["id"]: p for p in meta["packages"]}
+    nodes = {n["id"]: n for n in meta["resolve"]["nodes"]}
+    root = next(p["id"] for p in meta["packages"] if p["name"] == "chainsweep-python")
+    seen, todo = set(), [root]
+    while todo:
+        pid = todo.pop()
+        if pid in seen:
+            continue
+        seen.add(pid)
+        for dep in nodes[pid]["deps"]:
+            kinds = {k["kind"] for k in dep["dep_kinds"]}
+            target_proc_macro = any("proc-macro" in t["kind"] for t in packages[dep["pkg"]]["targets"])
+            if None in kinds and not target_proc_macro:
+                todo.append(dep["pkg"])
+    parts = [
+        "Third-party software compiled into chainsweep's extension module (Rust crates), with\n"
+        "their licences. HDF5's and zlib's notices are beside this file.\n"
+    ]
+    for pid in sorted(seen, key=lambda i: (packages[i]["name"], packages[i]["version"])):
+        p = packages[pid]
+        if p["source"] is None:
+            continue  # the workspace's own crates: LICENSE-MIT, LICENSE-APACHE
+        folder = Path(p["manifest_path"]).parent
+        files = sorted(
+            f for f in folder.iterdir()
+            if f.is_file() and f.name.upper().startswith(LICENSE_NAMES)
+        )
+        parts.append("=" * 78)
+        parts.append(f"{p['name']} {p['version']} ({p.get('license') or p.get('license_file') or 'see below'})")
+        if p.get("repository"):
+            parts.append(p["repository"])
+        for f in files:
+            parts.append("-" * 78)
+            parts.append(f.name)
+            parts.append(f.read_text(encoding="utf-8", errors="replace").rstrip())
+        if not files:
+            parts.append("(the crate ships no licence file; its licence is the expression above)")
+    return "\n".join(parts) + "\n"
 
 
 def main() -> int:
@@ -75,7 +129,8 @@ def main() -> int:
     docs[Path("README-sweeps.md")] = REPO / "crates" / "runner" / "README-sweeps.md"
     replace_tree(PACKAGE / "docs", docs)
 
-    dirs = crate_dirs(args.cargo)
+    meta = metadata(args.cargo)
+    dirs = crate_dirs(meta)
     notices = {}
     for crate, inside, name in NOTICES:
         if crate not in dirs:
@@ -86,6 +141,10 @@ def main() -> int:
             print(f"package_files: {src} is missing", file=sys.stderr)
             return 1
         notices[Path(name)] = src
+    third_party = REPO / "target" / "THIRD-PARTY-LICENSES.txt"
+    third_party.parent.mkdir(parents=True, exist_ok=True)
+    third_party.write_text(third_party_notices(meta), encoding="utf-8")
+    notices[Path("rust-crates/THIRD-PARTY-LICENSES.txt")] = third_party
     replace_tree(REPO / "python" / "licenses", notices)
     return 0
 
