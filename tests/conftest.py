@@ -91,6 +91,17 @@ def log_records(out):
     return found
 
 
+def texts(ds):
+    """The texts of a text dataset as `str` (an object array over its dimensions): netCDF `char`s
+    (layout 4: the UTF-8 bytes of each text along the last dimension, NUL-padded) or
+    variable-length strings (earlier layouts, and the accuracy files)."""
+    if ds.dtype == np.dtype("S1") and ds.ndim >= 1:
+        raw = np.ascontiguousarray(ds[()])
+        rows = raw.view(f"S{raw.shape[-1]}").reshape(raw.shape[:-1])
+        return np.array([t.decode("utf-8") for t in rows.ravel()], dtype=object).reshape(rows.shape)
+    return np.asarray(ds.asstr()[()], dtype=object)
+
+
 def file_runs(out):
     """Run hashes (hex) of the points the output file `out` holds done (ok or failed); none when
     `out` is not a file (missing, or a directory a fault-injection test put in its place)."""
@@ -98,8 +109,8 @@ def file_runs(out):
         return set()
     with h5py.File(out, "r") as f:
         status = f["status"][...].ravel()
-        hashes = f["run_hash"][...].ravel()
-    return {(h.decode() if isinstance(h, bytes) else h) for h, s in zip(hashes, status) if s != 0}
+        hashes = texts(f["run_hash"]).ravel()
+    return {h for h, s in zip(hashes, status) if s != 0}
 
 
 # Record formats chainsweep reads: 3 (this one), and 2 (without what the run integrated).

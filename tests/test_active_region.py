@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import BIN, base_sweep, log_records, run, with_axes, write_sweep
+from conftest import BIN, base_sweep, log_records, run, texts, with_axes, write_sweep
 
 
 def long_sweep():
@@ -122,14 +122,14 @@ def test_the_store_says_how_much_of_each_chain_was_integrated(tmp_path):
     with h5py.File(out, "r") as f:
         n = f["integrated_particles"]
         assert n.dtype == np.int64
-        assert [d.label for d in n.dims] == ["active_region", "max_steps"]
+        assert [d[0].name for d in n.dims] == ["/active_region", "/max_steps"]
         assert n.dims[0][0].name == "/active_region"
         assert n.attrs["units"] == "1"
         assert n.attrs["long_name"].startswith("particles integrated at the end of the run")
         assert n.attrs["_FillValue"] == -1
         flag = f["moving_part"]
         assert flag.dtype == np.uint8
-        assert [d.label for d in flag.dims] == ["active_region", "max_steps"]
+        assert [d[0].name for d in flag.dims] == ["/active_region", "/max_steps"]
         assert list(flag.attrs["flag_values"]) == [0, 1, 2]
         assert flag.attrs["flag_meanings"] == "not_known whole_chain moving_part"
         assert f["status"][...].tolist() == [[1, 2], [1, 2]]
@@ -257,7 +257,7 @@ def _kill_mid_sweep(path, out, at_least):
 
 def _hashes(out):
     with h5py.File(out, "r") as f:
-        return [h.decode() if isinstance(h, bytes) else h for h in f["run_hash"][...].ravel()]
+        return list(texts(f["run_hash"]).ravel())
 
 
 def test_resume_after_a_kill_keeps_what_each_run_integrated(reference, tmp_path):

@@ -8,7 +8,7 @@ import json
 import h5py
 import numpy as np
 
-from conftest import REPO, assert_files_equal, run, write_sweep
+from conftest import REPO, assert_files_equal, run, texts, write_sweep
 
 TARGET = 1e-6
 
@@ -105,7 +105,7 @@ def test_auto_meets_target_records_and_caches_choice(tmp_path, binary):
     p = json.loads(r.stdout)
     assert p["scene"]["integrator"] == setting
     with h5py.File(out, "r") as f:
-        assert p["run_hash"] == f["run_hash"].asstr()[...].ravel()[7]
+        assert p["run_hash"] == texts(f["run_hash"]).ravel()[7]
 
 
 def test_auto_choice_is_independent_of_jobs_and_shards(tmp_path, binary):

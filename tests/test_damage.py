@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import BIN, assert_files_equal, base_sweep, log_records, run, write_sweep
+from conftest import BIN, assert_files_equal, base_sweep, log_records, run, texts, write_sweep
 
 chainsweep = pytest.importorskip("chainsweep")
 
@@ -97,11 +97,11 @@ def test_a_shard_into_a_complete_output_does_nothing_and_loses_nothing(tmp_path,
     out2 = tmp_path / "shards.h5"
     assert run("run", path, "--shard", "1/2", "-o", out2, "--quiet").returncode == 0
     with h5py.File(out2, "r") as f:
-        first = {h for h, st in zip(f["run_hash"].asstr()[()].ravel(), f["status"][()].ravel()) if st}
+        first = {h for h, st in zip(texts(f["run_hash"]).ravel(), f["status"][()].ravel()) if st}
     r = run("run", path, "--shard", "2/2", "-o", out2)
     assert r.returncode == 0, r.stderr
     with h5py.File(out2, "r") as f:
-        held = {h for h, st in zip(f["run_hash"].asstr()[()].ravel(), f["status"][()].ravel()) if st}
+        held = {h for h, st in zip(texts(f["run_hash"]).ravel(), f["status"][()].ravel()) if st}
     assert first < held and len(held) == 12
     r = run("status", out2)
     assert "also holds 6 run(s) of other shards" in r.stdout, r.stdout

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from conftest import base_sweep, run, write_sweep
+from conftest import base_sweep, run, texts, write_sweep
 
 SUMMARY_GRID = [
     "t_end_s",
@@ -21,6 +21,21 @@ SUMMARY_GRID = [
 ]
 INT_GRID = ["steps", "rejected_steps", "rhs_evals", "events"]
 PROBE_GRID = ["leading_peak", "leading_peak_time_s", "record_max", "record_max_time_s"]
+# The layout's probes measure in N (two gauges) and m/s (a velocity): the peaks and maxima are
+# stored once per unit (a variable has one unit), each NaN at the probes of the other.
+UNITS = ["N", "N", "m/s"]
+SPLIT = {"leading_peak": ["leading_peak_N", "leading_peak_m_per_s"],
+         "record_max": ["record_max_N", "record_max_m_per_s"]}
+PROBE_STORED = [n for name in PROBE_GRID for n in SPLIT.get(name, [name])]
+TEXT = ["reason", "warnings", "run_hash"]
+
+
+def probe_values(f, name):
+    """Per-probe column `name` over every probe, from the datasets of each unit where split."""
+    if name not in SPLIT:
+        return f[name][...]
+    n, ms = (f[part][...] for part in SPLIT[name])
+    return np.where(np.array(UNITS) == "N", n, ms)
 # Numerics version 2: verification by `run --verify` (NaN / 0 when not requested).
 VERIFY_GRID = ["verify_rel_error_max"]
 VERIFY_PROBE_GRID = [
@@ -76,7 +91,7 @@ def test_root_attributes_are_str(produced):
 def test_names_shapes_dtypes(produced):
     _, _, out = produced
     with h5py.File(out, "r") as f:
-        expected = set(SUMMARY_GRID + INT_GRID + PROBE_GRID + VERIFY_GRID + VERIFY_PROBE_GRID) | {
+        expected = set(SUMMARY_GRID + INT_GRID + PROBE_STORED + VERIFY_GRID + VERIFY_PROBE_GRID) | {
             "leading_pulse",
             "warnings",
             "verified",
@@ -90,8 +105,15 @@ def test_names_shapes_dtypes(produced):
             "runs",
             "summary_checksum",
             "history_checksum",
+            # the dimensions of the texts' characters (netCDF `char`)
+            "reason_strlen",
+            "warnings_strlen",
+            "run_hash_strlen",
+            "probe_strlen",
+            "probe_units_strlen",
         }
         assert set(f.keys()) == expected
+        assert f.attrs["Conventions"] == "CF-1.8"
         assert f["mass_ratio"].shape == (3,) and f["mass_ratio"].dtype == np.float64
         assert f["damping_kg_s"].shape == (2,) and f["damping_kg_s"].dtype == np.int64
         np.testing.assert_array_equal(f["mass_ratio"][:], [0.3, 0.55, 1.0])
@@ -99,9 +121,8 @@ def test_names_shapes_dtypes(produced):
         assert f["damping_kg_s"].attrs["units"] == "kg/s"
         assert f["mass_ratio"].attrs["units"] == "1"
         assert f["mass_ratio"].attrs["field"] == "chain.cylinder.mass.heavy_cylinders.mass_ratio"
-        probes = [p.decode() if isinstance(p, bytes) else p for p in f["probe"].asstr()[:]]
-        assert probes == ["gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5"]
-        assert list(f["probe_units"].asstr()[:]) == ["N", "N", "m/s"]
+        assert list(texts(f["probe"])) == ["gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5"]
+        assert list(texts(f["probe_units"])) == UNITS
         for name in SUMMARY_GRID:
             assert f[name].shape == (3, 2) and f[name].dtype == np.float64, name
             assert isinstance(f[name].attrs["units"], str)
@@ -113,25 +134,34 @@ def test_names_shapes_dtypes(produced):
             fill = f[name].attrs["_FillValue"]
             assert fill == -1 and fill.dtype == np.int64 and f[name].fillvalue == -1, name
             assert "fill_value" not in f[name].attrs
-        for name in SUMMARY_GRID + PROBE_GRID + VERIFY_GRID + VERIFY_PROBE_GRID:
+        for name in SUMMARY_GRID + PROBE_STORED + VERIFY_GRID + VERIFY_PROBE_GRID:
             fill = f[name].attrs["_FillValue"]
             assert np.isnan(fill) and fill.dtype == np.float64 and np.isnan(f[name].fillvalue), name
         for name in ["status", "verified", "leading_pulse", "reason", "warnings", "run_hash"]:
             assert "_FillValue" not in f[name].attrs, name
-        for name in PROBE_GRID:
+        for name in PROBE_STORED:
             assert f[name].shape == (3, 2, 3) and f[name].dtype == np.float64, name
-        assert f["leading_peak"].attrs["units"] == "see probe_units"
+        assert "leading_peak" not in f and "record_max" not in f
+        for name in ["leading_peak", "record_max"]:
+            for part, unit in zip(SPLIT[name], ["N", "m/s"]):
+                assert f[part].attrs["units"] == unit, part
+                others = np.array(UNITS) != unit
+                assert np.isnan(f[part][...][..., others]).all(), part
+                if name == "record_max":  # (a leading pulse may not pass a far probe in time)
+                    assert np.isfinite(f[part][...][..., ~others]).all(), part
         assert f["leading_peak_time_s"].attrs["units"] == "s"
         assert f["status"].dtype == np.uint8
         assert list(f["status"].attrs["flag_values"]) == [0, 1, 2]
         assert f["status"].attrs["flag_meanings"] == "pending ok failed"
-        assert h5py.check_string_dtype(f["reason"].dtype).encoding == "utf-8"
-        assert all(len(h) == 64 for h in f["run_hash"].asstr()[...].ravel())
+        # text: netCDF `char`s, the UTF-8 bytes along a last dimension <name>_strlen
+        for name in TEXT + ["probe", "probe_units"]:
+            assert f[name].dtype == np.dtype("S1") and f[name].attrs["_Encoding"] == "utf-8", name
+        assert f["run_hash"].shape == (3, 2, 64)
+        assert all(len(h) == 64 for h in texts(f["run_hash"]).ravel())
         assert (f["status"][...] == 1).all()
-        assert (f["reason"].asstr()[...] == "").all()
-        assert h5py.check_string_dtype(f["warnings"].dtype).encoding == "utf-8"
-        assert f["warnings"].shape == (3, 2)
-        assert all(isinstance(w, str) for w in f["warnings"].asstr()[...].ravel())
+        assert f["reason"].shape == (3, 2, 1) and (texts(f["reason"]) == "").all()
+        assert texts(f["warnings"]).shape == (3, 2)
+        assert all(isinstance(w, str) for w in texts(f["warnings"]).ravel())
         assert f["max_overlap_m"].attrs["units"] == "m"
         assert (f["max_overlap_m"][...] > 0).all()
         assert (f["events"][...] >= 0).all()
@@ -140,7 +170,7 @@ def test_names_shapes_dtypes(produced):
         lp = f["leading_pulse"]
         assert lp.shape == (3, 2, 3) and lp.dtype == np.uint8
         assert lp.attrs["flag_meanings"] == "no_run passed not_passed_by_t_end"
-        np.testing.assert_array_equal(lp[...], np.where(np.isnan(f["leading_peak"][...]), 2, 1))
+        np.testing.assert_array_equal(lp[...], np.where(np.isnan(probe_values(f, "leading_peak")), 2, 1))
         assert f["verified"].dtype == np.uint8 and (f["verified"][...] == 0).all()
         assert f["verified"].attrs["flag_meanings"] == "not_verified verified verification_failed"
         for name in VERIFY_PROBE_GRID:
@@ -155,16 +185,23 @@ def test_dimension_scales(produced):
     with h5py.File(out, "r") as f:
         for name in ["mass_ratio", "damping_kg_s", "probe"]:
             assert h5py.h5ds.is_scale(f[name].id), name
-        for name in SUMMARY_GRID + INT_GRID + VERIFY_GRID + ["status", "reason", "run_hash", "warnings", "verified"]:
+        # a dimension is named after its scale (netCDF's way); no labels (DIMENSION_LABELS)
+        for name in SUMMARY_GRID + INT_GRID + VERIFY_GRID + ["status", "verified"] + TEXT:
             ds = f[name]
-            assert [d.label for d in ds.dims] == ["mass_ratio", "damping_kg_s"]
-            assert ds.dims[0][0].name == "/mass_ratio"
-            assert ds.dims[1][0].name == "/damping_kg_s"
-        for name in PROBE_GRID + VERIFY_PROBE_GRID:
+            scales = [d[0].name for d in ds.dims]
+            strlen = [f"/{name}_strlen"] if name in TEXT else []
+            assert scales == ["/mass_ratio", "/damping_kg_s"] + strlen, name
+            assert "DIMENSION_LABELS" not in ds.attrs, name
+        for name in PROBE_STORED + VERIFY_PROBE_GRID:
             ds = f[name]
-            assert [d.label for d in ds.dims] == ["mass_ratio", "damping_kg_s", "probe"]
-            assert ds.dims[2][0].name == "/probe"
+            assert [d[0].name for d in ds.dims] == ["/mass_ratio", "/damping_kg_s", "/probe"]
+            assert "DIMENSION_LABELS" not in ds.attrs, name
             np.testing.assert_array_equal(ds.dims[0][0][:], [0.3, 0.55, 1.0])
+        # netCDF's numbering of the dimensions, by which it reads the two-dimensional `probe`
+        ids = {n: int(d.attrs["_Netcdf4Dimid"]) for n, d in f.items()
+               if isinstance(d, h5py.Dataset) and h5py.h5ds.is_scale(d.id)}
+        assert sorted(ids.values()) == list(range(len(ids)))
+        assert list(f["probe"].attrs["_Netcdf4Coordinates"]) == [ids["probe"], ids["probe_strlen"]]
 
 
 def test_histories(produced):
@@ -172,11 +209,12 @@ def test_histories(produced):
     with h5py.File(out, "r") as f:
         # run_<flat index>: a valid netCDF name, whatever the grid's size
         assert sorted(f["runs"].keys()) == [f"run_{i}" for i in range(6)]
-        assert int(f.attrs["layout_version"]) == 3
+        assert int(f.attrs["layout_version"]) == 4
+        hashes = texts(f["run_hash"])
         for i in range(6):
             g = f["runs"][f"run_{i}"]
             assert int(g.attrs["flat_index"]) == i
-            assert g.attrs["run_hash"] == f["run_hash"].asstr()[np.unravel_index(i, (3, 2))]
+            assert g.attrs["run_hash"] == hashes[np.unravel_index(i, (3, 2))]
             assert list(g.attrs["grid_index"]) == list(np.unravel_index(i, (3, 2)))
             assert set(g.keys()) == {"time_s", "gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5",
                                      "contact", "min_overlap_m"}
@@ -194,7 +232,7 @@ def test_histories(produced):
                 assert np.isfinite(ds[:]).all()
             # The history's maximum agrees with the refined record maximum.
             mi = np.unravel_index(i, (3, 2))
-            peak = f["record_max"][mi + (0,)]
+            peak = f["record_max_N"][mi + (0,)]
             assert g["gauge_force_cyl2"][:].max() <= peak * (1 + 1e-9)
             assert g["gauge_force_cyl2"][:].max() >= 0.9 * peak
             assert g["min_overlap_m"].shape == (22,)
@@ -208,23 +246,24 @@ def test_values_match_rust(produced):
     """Every stored number equals, bit for bit, what `chainsweep point` computes for that point."""
     _, path, out = produced
     with h5py.File(out, "r") as f:
+        hashes, warnings = texts(f["run_hash"]), texts(f["warnings"])
         for i in range(6):
             r = run("point", path, i)
             assert r.returncode == 0, r.stderr
             p = json.loads(r.stdout)
             res = p["result"]
             mi = tuple(p["grid_index"])
-            assert f["run_hash"].asstr()[mi] == p["run_hash"]
+            assert hashes[mi] == p["run_hash"]
             assert res["ok"]
             for name in [n for n in SUMMARY_GRID if n != "wall_time_s"]:
                 assert f[name][mi] == res[name], name
             for name in INT_GRID:
                 assert f[name][mi] == res[name], name
-            assert "\n".join(res["warnings"]) == f["warnings"].asstr()[mi]
+            assert "\n".join(res["warnings"]) == warnings[mi]
             for k, pr in enumerate(res["probes"]):
                 for name in PROBE_GRID:
                     v = pr[name]
-                    stored = f[name][mi + (k,)]
+                    stored = probe_values(f, name)[mi + (k,)]
                     if v is None:
                         assert np.isnan(stored)
                     else:
@@ -273,7 +312,7 @@ def test_failed_runs_are_isolated_and_recorded(tmp_path, binary):
     assert "point 0" in r.stderr and "panic" in r.stderr
     with h5py.File(out, "r") as f:
         status = f["status"][...]
-        reason = f["reason"].asstr()[...]
+        reason = texts(f["reason"])
         assert status.shape == (4, 2)
         expected = np.full((4, 2), 2, dtype=np.uint8)
         expected[1, 0] = 1

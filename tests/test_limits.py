@@ -15,7 +15,7 @@ import time
 import h5py
 import pytest
 
-from conftest import BIN, base_sweep, run, write_sweep
+from conftest import BIN, base_sweep, run, texts, write_sweep
 
 # The limit on sweep files, as the error and the docs state it.
 MAX_SWEEP_FILE_BYTES = 16 * 1024 * 1024
@@ -126,7 +126,7 @@ def test_runaway_run_ends_with_a_recorded_failure_within_its_limit(binary, tmp_p
     assert wall < 2 + 8, wall
     with h5py.File(out, "r") as f:
         status = f["status"][...]
-        reasons = f["reason"].asstr()[...]
+        reasons = texts(f["reason"])
         wall_times = f["wall_time_s"][...]
     assert list(status) == [1, 2], (status, reasons)
     assert reasons[1].startswith("wall-time limit 2 s reached at t = "), reasons[1]

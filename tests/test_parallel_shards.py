@@ -52,7 +52,7 @@ def test_zip_axes_share_a_dimension(single):
         assert scales == ["/damping_kg_s"]
         assert [s.name for s in f["velocity_m_s"].dims[0].values()] == ["/damping_kg_s"]
         assert not h5py.h5ds.is_scale(f["velocity_m_s"].id)
-        assert f["leading_peak"].attrs["coordinates"] == "velocity_m_s probe_units"
+        assert f["leading_peak"].attrs["coordinates"] == "velocity_m_s probe probe_units"
         assert f["steps"].attrs["coordinates"] == "velocity_m_s"
         np.testing.assert_array_equal(f["velocity_m_s"][:], [1.06, 1.3, 1.45])
         assert f["velocity_m_s"].attrs["units"] == "m/s"

@@ -44,10 +44,10 @@ def test_sample_is_deterministic_and_errors_are_stored(tmp_path, binary):
         emax = f["verify_rel_error_max"][...]
         assert np.isfinite(emax[v == 1]).all() and np.isnan(emax[v == 0]).all()
         assert (emax[v == 1] > 0).all()
-        assert [d.label for d in f["verify_rel_error_leading_peak"].dims] == [
-            "mass_ratio",
-            "damping_kg_s",
-            "probe",
+        assert [d[0].name for d in f["verify_rel_error_leading_peak"].dims] == [
+            "/mass_ratio",
+            "/damping_kg_s",
+            "/probe",
         ]
     assert n_segments(outs[0]) == 6 + 3
 

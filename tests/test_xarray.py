@@ -205,12 +205,15 @@ def ncdump(path):
 def test_ncdump_zipped(files):
     out = ncdump(files["zip"])
     dims = out.split("dimensions:", 1)[1].split("variables:", 1)[0]
-    assert sorted(line.strip() for line in dims.strip().splitlines()) == [
+    lines = [line.strip() for line in dims.strip().splitlines()]
+    # (and the dimensions of the texts' characters: `char` arrays)
+    assert sorted(x for x in lines if "_strlen" not in x) == [
         "damping_kg_s = 2 ;", "probe = 2 ;", "velocity_m_s = 3 ;"]
+    assert "run_hash_strlen = 64 ;" in lines and "\tchar run_hash(velocity_m_s, damping_kg_s, run_hash_strlen) ;" in out
     assert "\tint64 cylinders(velocity_m_s) ;" in out
     assert "\tdouble velocity_m_s(velocity_m_s) ;" in out
     assert "\tdouble leading_peak(velocity_m_s, damping_kg_s, probe) ;" in out
-    assert 'leading_peak:coordinates = "cylinders probe_units" ;' in out
+    assert 'leading_peak:coordinates = "cylinders probe probe_units" ;' in out
     assert 'steps:coordinates = "cylinders" ;' in out
     assert "steps:_FillValue = -1LL ;" in out and "leading_peak:_FillValue = NaN ;" in out
     named = ncdump(files["zip-named"])
@@ -239,7 +242,7 @@ def test_an_old_layout_resumes_into_the_new_one(tmp_path, binary):
     r = run("run", path, "-o", out)
     assert r.returncode == 3 and "6 of 6 runs already done" in r.stderr, r.stderr
     with h5py.File(out, "r") as f:
-        assert int(f.attrs["layout_version"]) == 3
+        assert int(f.attrs["layout_version"]) == 4
         assert sorted(f["runs"]) == ["run_0", "run_2", "run_4"]
 
 
@@ -283,7 +286,7 @@ def test_a_newer_layout_is_refused(tmp_path, binary):
     out = tmp_path / "s.h5"
     assert run("run", path, "-o", out, "--quiet").returncode == 0
     with h5py.File(out, "r+") as f:
-        f.attrs["layout_version"] = np.int64(4)
+        f.attrs["layout_version"] = np.int64(5)
     r = run("status", out)
     assert r.returncode != 0
-    assert "layout version 4" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout
+    assert "layout version 5" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout

@@ -30,9 +30,9 @@ def _flag_attrs(name: str) -> dict:
     }
 
 
-# `status`: 0 pending, 1 ok, 2 failed (the file's flag_values / flag_meanings).
+# `status`: 0 pending, 1 ok, 2 failed (the file's long_name, flag_values / flag_meanings).
 STATUS_PENDING, STATUS_OK, STATUS_FAILED = COLUMNS["status"]["flag_values"]
-STATUS_ATTRS = _flag_attrs("status")
+STATUS_ATTRS = {"long_name": COLUMNS["status"]["description"], **_flag_attrs("status")}
 
 #: Per-run float summaries: name -> (units, long_name).
 RUN_FLOATS: dict[str, tuple[str, str]] = {
@@ -58,6 +58,9 @@ MOVING_PART_ATTRS = _flag_attrs("moving_part")
 PROBE_SUMMARIES: dict[str, tuple[str | None, str]] = {
     n: _label(c) for n, c in COLUMNS.items() if c["kind"] == "probe_f64"
 }
+
+#: The per-probe summaries in the probes' own unit (peaks and maxima; their times are in s).
+PROBE_UNIT_COLUMNS: list[str] = [n for n, c in COLUMNS.items() if c["units"] == "of_probes"]
 
 #: Per-probe flags derived from a run's summaries: name -> (long_name, flag attributes).
 #: `leading_pulse`: 0 no run, 1 passed, 2 had not passed the probe by the end of the run (its
@@ -98,15 +101,78 @@ ORDER: list[str] = [
 
 
 def ordered(names):
-    """`names` in the order of ORDER, the others after them by name."""
+    """`names` in the order of ORDER (a column split by unit right after its column), the others
+    after them by name."""
     rank = {n: i for i, n in enumerate(ORDER)}
-    return sorted(names, key=lambda n: (rank.get(n, len(rank)), n))
+    for c in PROBE_UNIT_COLUMNS:
+        for n in names:
+            if n not in rank and n.startswith(c + "_") and n[len(c) + 1 :] in _SUFFIXES:
+                rank[n] = rank[c] + 0.5
+    return sorted(names, key=lambda n: (rank.get(n, len(ORDER)), n))
 
 
-#: Units of a quantity measured by probes of mixed units.
-MIXED_UNITS = "see probe_units"
+def unit_suffix(unit: str) -> str:
+    """The part of a variable's name that stands for a unit (`N`, `m`, `m_per_s`): as the
+    runner's ``record::columns::unit_suffix``."""
+    return "_per_".join(
+        "".join(c if c.isascii() and c.isalnum() else "_" for c in part) for part in unit.split("/")
+    )
 
 
-def probe_units(units: list[str]) -> str:
-    """The `units` attribute of a per-probe variable: the probes' common unit, or MIXED_UNITS."""
-    return units[0] if units and all(u == units[0] for u in units) else MIXED_UNITS
+def split_name(column: str, unit: str) -> str:
+    """LAYOUT: the variable holding per-probe `column` (one of PROBE_UNIT_COLUMNS) for the probes
+    measured in `unit`, in a file whose probes' units differ (``leading_peak_N``,
+    ``leading_peak_m_per_s``): over every probe, NaN at the probes of other units."""
+    return f"{column}_{unit_suffix(unit)}"
+
+
+# The suffixes of the units probes measure in (for `ordered`).
+_SUFFIXES = {unit_suffix(u) for u in ("N", "m", "m/s")}
+
+#: What a per-probe variable over probes of different units says instead of one `units`.
+MIXED_UNITS_COMMENT = "the probes measure in different units: each probe's unit is its probe_units"
+
+#: The `units` of a per-probe summary over probes of different units in files of layout 3 and
+#: earlier (a sentence no units parser reads; chainsweep.open drops it).
+OLD_MIXED_UNITS = "see probe_units"
+
+
+def probe_units(units: list[str]) -> str | None:
+    """The probes' common unit; None where they differ (no one `units` fits a variable over
+    them all)."""
+    return units[0] if units and all(u == units[0] for u in units) else None
+
+
+def probe_attrs(units: list[str], long_name: str, split: str | None = None) -> dict[str, str]:
+    """The attributes of a variable in the probes' own unit over probes of `units`: its `units`
+    where they share one; where they differ no `units` (never a sentence there: CF readers parse
+    it) but a `comment` pointing at `probe_units` (and, for a summary `split` stored once per unit,
+    at those variables)."""
+    u = probe_units(units)
+    if u is not None:
+        return {"units": u, "long_name": long_name}
+    comment = MIXED_UNITS_COMMENT
+    if split is not None:
+        names = ", ".join(split_name(split, x) for x in dict.fromkeys(units))
+        comment += f"; {names} hold its values in one unit each"
+    return {"long_name": long_name, "comment": comment}
+
+
+def split_by_unit(
+    name: str, dims: tuple[str, ...], values: np.ndarray, units: list[str], long_name: str
+) -> dict[str, tuple]:
+    """Variable `name` in the probes' own unit (probe last of `dims`) as the files store it where
+    the probes' units differ: one variable per unit (split_name), in that unit, NaN at the probes
+    of the others. Empty where the probes share one unit."""
+    if probe_units(units) is not None:
+        return {}
+    out = {}
+    for u in dict.fromkeys(units):
+        part = np.array(values, dtype=np.float64, copy=True)
+        part[..., [k for k, x in enumerate(units) if x != u]] = np.nan
+        attrs = {
+            "units": u,
+            "long_name": f"{long_name} (the probes measured in {u}; NaN at the others)",
+        }
+        out[split_name(name, u)] = (dims, part, attrs)
+    return out

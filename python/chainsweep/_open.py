@@ -4,11 +4,18 @@ What this module knows of the file's layout (crates/runner/README-sweeps.md) is 
 functions marked LAYOUT, so that a change of layout is followed there:
 
 - the grid: root attributes ``dimensions`` (JSON list of names) and ``grid_shape``;
-- coordinates: root datasets with a ``dimension`` attribute (zipped axes share one dimension);
-  the ``probe`` dataset and ``probe_units`` on it; a zipped dimension named after none of its
-  axes is also an empty dataset marked as a netCDF dimension without a variable (not data);
+- coordinates: root datasets with a ``dimension`` attribute (zipped axes share one dimension;
+  boolean axes are bytes with ``dtype = "bool"`` from layout 4); the ``probe`` dataset and
+  ``probe_units`` on it; a zipped dimension named after none of its axes is also an empty
+  dataset marked as a netCDF dimension without a variable (not data), and so is the dimension of
+  the characters of each text (``<name>_strlen``);
+- text: netCDF ``char`` arrays from layout 4 (the UTF-8 bytes of each text along a last
+  dimension, NUL-padded), variable-length strings before;
 - summaries: every other root dataset shaped like the grid, or like the grid and the probes;
-  numeric ones mark missing values with a fill attribute (``_FillValue``);
+  numeric ones mark missing values with a fill attribute (``_FillValue``); a dimension is named
+  after the dataset of the dimension scale attached to it; where the probes' units differ, a
+  summary in the probes' unit is one dataset per unit (``leading_peak_N``, … from layout 4:
+  ``_layout.split_name``), one dataset with ``units = "see probe_units"`` before;
 - per-run groups (histories, minimum overlaps) under ``runs/`` (``run_<flat index>``; older
   files: the zero-padded index), each with a ``flat_index`` attribute, read by that attribute;
   a history dataset per probe, named like it, on the group's ``time_s``.
@@ -48,6 +55,7 @@ _INTERNAL_ATTRS = {
     "_Netcdf4Dimid",
     "_Netcdf4Coordinates",
     "_nc3_strict",
+    "_Encoding",
     "coordinates",
 }
 
@@ -75,12 +83,28 @@ def _attrs(obj: h5py.HLObject) -> dict[str, Any]:
     return {k: _value(v) for k, v in obj.attrs.items() if k not in _INTERNAL_ATTRS}
 
 
+def _is_char(ds: h5py.Dataset) -> bool:
+    """LAYOUT: whether a dataset holds text as netCDF `char`s (one-byte strings, the characters
+    along its last dimension)."""
+    return ds.ndim >= 1 and ds.dtype == np.dtype("S1")
+
+
+def _chars(values: np.ndarray) -> np.ndarray:
+    """LAYOUT: the texts of a `char` array (UTF-8 bytes along the last dimension, NUL-padded) as
+    `str`, over the other dimensions."""
+    n = values.shape[-1]
+    rows = np.ascontiguousarray(values).view(f"S{n}").reshape(values.shape[:-1])
+    texts = [t.decode("utf-8", "replace") for t in rows.ravel()]
+    return np.array(texts, dtype=object).reshape(rows.shape)
+
+
 def _read(ds: h5py.Dataset, path: str | None = None) -> tuple[np.ndarray, dict[str, Any]]:
-    """A dataset's values and attributes: strings as `str`, integer fills masked to NaN. With
-    `path` (the file's, when damaged points are to be masked), a numeric dataset whose chunk HDF5's
-    Fletcher-32 check refuses is read without the check: its damaged points are masked after."""
+    """A dataset's values and attributes: text as `str`, booleans as `bool`, integer fills masked
+    to NaN. With `path` (the file's, when damaged points are to be masked), a dataset whose chunk
+    HDF5's Fletcher-32 check refuses is read without the check: its damaged points are masked
+    after."""
     attrs = _attrs(ds)
-    if h5py.check_string_dtype(ds.dtype) is not None:
+    if h5py.check_string_dtype(ds.dtype) is not None and not _is_char(ds):
         return np.asarray(ds.asstr()[()], dtype=object), attrs
     try:
         values = np.asarray(ds[()])  # an array also for a scalar dataset
@@ -89,6 +113,11 @@ def _read(ds: h5py.Dataset, path: str | None = None) -> tuple[np.ndarray, dict[s
             raise
         data, dtype, shape = _native.read_unchecked(path, ds.name.lstrip("/"))
         values = np.frombuffer(data, dtype=np.dtype(dtype).newbyteorder("<")).reshape(shape)
+    if _is_char(ds):
+        return _chars(values), attrs
+    if attrs.get("dtype") == "bool":  # LAYOUT: a boolean axis (bytes 0 and 1)
+        del attrs["dtype"]
+        return values.astype(bool), attrs
     fills = [attrs.pop(a) for a in _FILL_ATTRS if a in attrs]
     fill = fills[0] if fills else None
     if fill is not None and values.dtype.kind in "iu":
@@ -123,7 +152,7 @@ class _Grid:
                 values, attrs = _read(obj)
                 self.coords[name] = (dim, _labels(values), attrs)
                 self.coord_order.setdefault(dim, []).append(name)
-        self.probes: list[str] = list(f["probe"].asstr()[()]) if "probe" in f else []
+        self.probes: list[str] = [str(p) for p in _read(f["probe"])[0]] if "probe" in f else []
         if self.probes:
             values, attrs = _read(f["probe"])
             self.coords["probe"] = ("probe", _labels(values), attrs)
@@ -134,18 +163,37 @@ class _Grid:
         )
 
     def dims_of(self, ds: h5py.Dataset) -> tuple[str, ...] | None:
-        """The dimensions of a dataset: the labels of its dimension scales (a search's tables
-        span some of the grid's dimensions), else by its shape (None: not grid-shaped)."""
-        if ds.ndim == 0:  # a search's outcome when the sweep has no axes besides the search
+        """The dimensions of a dataset, its text's characters left out: the names of the
+        dimension scales attached to it (a search's tables span some of the grid's dimensions),
+        else by its shape (None: not grid-shaped)."""
+        ndim = ds.ndim - 1 if _is_char(ds) else ds.ndim
+        shape = ds.shape[:ndim]
+        if ndim == 0:  # a search's outcome when the sweep has no axes besides the search
             return ()
-        labels = tuple(d.label for d in ds.dims)
-        if len(labels) == ds.ndim and all(labels):
-            return labels
-        if ds.shape == self.shape:
+        names = tuple(_scale_name(d) for d in ds.dims)[:ndim]
+        known = {*self.coord_order, "probe"}
+        if len(names) == ndim and all(n in known for n in names):
+            return names
+        if shape == self.shape:
             return tuple(self.dims)
-        if self.probes and ds.shape == (*self.shape, len(self.probes)):
+        if self.probes and shape == (*self.shape, len(self.probes)):
             return (*self.dims, "probe")
         return None
+
+
+def _scale_name(dim: Any) -> str | None:
+    """LAYOUT: the dimension a dataset's dimension is, as netCDF names it: after the dataset of
+    the last dimension scale attached to it (None: none attached, or HDF5 cannot follow the
+    attachment: the dimension is then told by the dataset's shape)."""
+    try:
+        if not len(dim):
+            return None
+        name = dim[len(dim) - 1].name
+    except (RuntimeError, OSError, ValueError, KeyError):  # a damaged DIMENSION_LIST
+        return None
+    if not isinstance(name, str):  # (a damaged reference: to no object with a name)
+        return None
+    return name.rsplit("/", 1)[-1].removeprefix("_nc4_non_coord_")
 
 
 def _run_groups(f: h5py.File) -> Iterator[tuple[int, h5py.Group]]:
@@ -200,7 +248,7 @@ def _stack_histories(
         values[i, :, : len(t)] = v
         times[i, : len(t)] = t
     values = values.reshape(*grid.shape, len(grid.probes), width)
-    attrs = {"units": L.probe_units(grid.probe_units), "long_name": L.HISTORY_LONG_NAME}
+    attrs = L.probe_attrs(grid.probe_units, L.HISTORY_LONG_NAME)
     shared = all(np.array_equal(t, longest[: len(t)]) for t, _ in runs.values())
     coords: dict[str, Any]
     if shared:
@@ -308,6 +356,31 @@ def _mask(data: dict[str, Any], grid: "_Grid", points: list[tuple[int, str, str]
     )
 
 
+def _join_units(data: dict[str, Any], grid: "_Grid") -> None:
+    """LAYOUT: where the probes' units differ, a summary in the probes' unit both once per unit
+    (as layout 4 stores it) and as one variable over every probe (as layout 3 stored it), from a
+    file of either: the one variable without `units` (each probe's is its probe_units; layout 3's
+    "see probe_units" dropped), so that a probe is selected alike in any file."""
+    if L.probe_units(grid.probe_units) is not None:
+        return
+    for name in L.PROBE_UNIT_COLUMNS:
+        long_name = L.COLUMNS[name]["description"]
+        parts = [L.split_name(name, u) for u in grid.probe_units]
+        if name in data:  # layout 3
+            dims, values, attrs = data[name]
+            if attrs.get("units") == L.OLD_MIXED_UNITS:
+                del attrs["units"]
+            attrs.update(L.probe_attrs(grid.probe_units, attrs.get("long_name", long_name), name))
+            for part, var in L.split_by_unit(name, dims, values, grid.probe_units, long_name).items():
+                data.setdefault(part, var)
+        elif parts and all(p in data for p in parts):
+            dims = data[parts[0]][0]
+            values = np.full(np.shape(data[parts[0]][1]), np.nan)
+            for k, part in enumerate(parts):
+                values[..., k] = data[part][1][..., k]
+            data[name] = (dims, values, L.probe_attrs(grid.probe_units, long_name, name))
+
+
 def open(  # noqa: A001 (chainsweep.open)
     path: PathLike, histories: bool = False, damaged: str = "raise"
 ) -> xr.Dataset:
@@ -324,6 +397,11 @@ def open(  # noqa: A001 (chainsweep.open)
     2 failed), ``reason``, ``warnings``, ``run_hash``, and the verification columns
     (``verified``, ``verify_rel_error_*``). Pending and failed points hold NaN. The file's root
     attributes (the sweep, the base scene, versions, counts) are the Dataset's ``attrs``.
+    Where the probes measure in different units (a force and a velocity), the peaks and maxima are
+    also there once per unit, as the file stores them (``leading_peak_N``,
+    ``leading_peak_m_per_s``: each in its one unit, NaN at the probes of the others); then
+    ``leading_peak`` and ``record_max`` (and ``history``) have no ``units``: each probe's is its
+    ``probe_units``.
     ``min_overlap_m`` over (grid…, ``contact``) is there when the sweep recorded it.
 
     With ``histories=True``, every run's history is stacked into ``history`` over (grid…,
@@ -376,6 +454,7 @@ def open(  # noqa: A001 (chainsweep.open)
         dims = (*grid.dims, "probe") if per_probe else tuple(grid.dims)
         shape = (*grid.shape, len(grid.probes)) if per_probe else grid.shape
         data[name] = (dims, np.full(shape, np.nan), {"long_name": f"unreadable: {why}"})
+    _join_units(data, grid)
     if points:
         _mask(data, grid, points)
     data = {name: data[name] for name in L.ordered(data)}

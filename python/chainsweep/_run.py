@@ -99,8 +99,11 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
     }
     data: dict[str, Any] = {}
     for name, (unit, long_name) in L.PROBE_SUMMARIES.items():
-        u = unit if unit is not None else L.probe_units(units)
-        data[name] = ("probe", a[name], {"units": u, "long_name": long_name})
+        if unit is not None:
+            data[name] = ("probe", a[name], {"units": unit, "long_name": long_name})
+        else:
+            data[name] = ("probe", a[name], L.probe_attrs(units, long_name, split=name))
+            data.update(L.split_by_unit(name, ("probe",), a[name], units, long_name))
     for name, (long_name, flag_attrs) in L.PROBE_FLAGS.items():
         data[name] = ("probe", a[name], {"long_name": long_name, **flag_attrs})
     for name, (unit, long_name) in {**L.RUN_FLOATS, **L.RUN_COUNTERS}.items():
@@ -119,7 +122,7 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
         data["history"] = (
             ("probe", "time_s"),
             a["history"],
-            {"units": L.probe_units(units), "long_name": L.HISTORY_LONG_NAME},
+            L.probe_attrs(units, L.HISTORY_LONG_NAME),
         )
     if "min_overlap_m" in a:
         coords["contact"] = ("contact", a["contact"], {"long_name": L.CONTACT_LONG_NAME})

@@ -18,7 +18,7 @@ import xarray as xr
 from . import _chainsweep as _native
 from . import _layout as L
 from ._json import dumps
-from ._open import PathLike, _Grid, _value
+from ._open import PathLike, _Grid, _read, _value
 from ._open import open as _open
 from .errors import InputError
 
@@ -181,7 +181,7 @@ def _summary(path: Path, exit_code: int, ran: int) -> SweepResult:
         grid = _Grid(f)
         status = f["status"][()].ravel()
         failed = np.flatnonzero(status == L.STATUS_FAILED)
-        reasons = f["reason"].asstr()[()].ravel() if failed.size else []
+        reasons = _read(f["reason"])[0].ravel() if failed.size else []
         failures = []
         for i in failed:
             mi = np.unravel_index(int(i), grid.shape)

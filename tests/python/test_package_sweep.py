@@ -18,7 +18,7 @@ import pytest
 
 import chainsweep
 from chainsweep import _sweep
-from conftest import assert_files_equal, segment_count
+from conftest import assert_files_equal, segment_count, texts
 from conftest import run as cli
 from scenes import sweep_spec, write
 
@@ -28,7 +28,7 @@ def segments(out: Path) -> dict[str, int]:
     with their stored wall time's bits: a run computed again would change it."""
     with h5py.File(out, "r") as f:
         status = f["status"][...].ravel()
-        hashes = [h.decode() if isinstance(h, bytes) else h for h in f["run_hash"][...].ravel()]
+        hashes = list(texts(f["run_hash"]).ravel())
         wall = f["wall_time_s"][...].ravel()
     return {h: float(w).hex() for h, s, w in zip(hashes, status, wall) if s != 0}
 

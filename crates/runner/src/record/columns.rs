@@ -49,12 +49,65 @@ impl Dtype {
 /// What the `units` attribute of a column says.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Units {
-    /// No `units` attribute.
+    /// No `units` attribute (text, and flags: their values are codes, not quantities).
     None,
     /// This unit.
     Fixed(&'static str),
-    /// The unit of the probes when they share one, else `see probe_units`.
+    /// The unit of the probes. Where the probes' units differ, the column is stored once per unit
+    /// ([`split_name`]), each dataset in its one unit.
     OfProbes,
+}
+
+/// The part of a variable's name that stands for a unit: its letters and digits, `/` as `_per_`
+/// and anything else as `_` (`N`, `m`, `m_per_s`).
+pub fn unit_suffix(unit: &str) -> String {
+    unit.split('/')
+        .map(|part| {
+            part.chars()
+                .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                .collect::<String>()
+        })
+        .collect::<Vec<_>>()
+        .join("_per_")
+}
+
+/// The dataset holding per-probe column `column` (one of [`Units::OfProbes`]) for the probes
+/// measured in `unit`, in a file whose probes' units differ (`leading_peak_N`,
+/// `leading_peak_m_per_s`): over every probe like the column, NaN at the probes of other units.
+pub fn split_name(column: &str, unit: &str) -> String {
+    format!("{column}_{}", unit_suffix(unit))
+}
+
+/// Every unit a probe measures in (the solver's [`Probe::unit`] of each kind of probe).
+///
+/// [`Probe::unit`]: chainsweep_solver::observe::probes::Probe::unit
+pub const PROBE_UNITS: &[&str] = &["N", "m", "m/s"];
+
+/// The datasets ([`split_name`]) of the columns in the probes' unit for every unit of
+/// [`PROBE_UNITS`]: names no axis may take.
+pub const SPLIT_NAMES: &[&str] = &[
+    "leading_peak_N",
+    "leading_peak_m",
+    "leading_peak_m_per_s",
+    "record_max_N",
+    "record_max_m",
+    "record_max_m_per_s",
+];
+
+/// The distinct units of `probe_units`, in the order they first appear.
+pub fn distinct_units(probe_units: &[String]) -> Vec<&str> {
+    let mut out: Vec<&str> = Vec::new();
+    for u in probe_units {
+        if !out.contains(&u.as_str()) {
+            out.push(u);
+        }
+    }
+    out
+}
+
+/// Whether root dataset `name` holds a column: named like one, or one of [`SPLIT_NAMES`].
+pub fn is_column_dataset(name: &str) -> bool {
+    column(name).is_some() || SPLIT_NAMES.contains(&name)
 }
 
 /// How a column is filled from a grid point's outcome, and how it is read back into a record.
@@ -484,8 +537,8 @@ pub const COLUMNS: &[Column] = &[
         dtype: Dtype::U8,
         per_probe: false,
         units: Units::None,
-        description: "0 pending, 1 ok, 2 failed",
-        long_name: false,
+        description: "state of the point's run: 0 pending, 1 ok, 2 failed",
+        long_name: true,
         flags: Some((STATUS_FLAGS, "pending ok failed")),
         note: "",
         required: true,
@@ -689,7 +742,7 @@ pub const COLUMNS: &[Column] = &[
         name: "history_checksum",
         dtype: Dtype::U64,
         per_probe: false,
-        units: Units::None,
+        units: Units::Fixed("1"),
         description: "checksum of the run's group under runs/ (its histories and minimum overlaps)",
         long_name: true,
         flags: None,
@@ -702,7 +755,7 @@ pub const COLUMNS: &[Column] = &[
         name: "summary_checksum",
         dtype: Dtype::U64,
         per_probe: false,
-        units: Units::None,
+        units: Units::Fixed("1"),
         description: "checksum of every other value the file stores for the point (run hash, status, summaries, verification, history_checksum)",
         long_name: true,
         flags: None,
@@ -713,9 +766,19 @@ pub const COLUMNS: &[Column] = &[
     },
 ];
 
-/// Names the file uses at its root beside the columns: the probe coordinate, the probes' units
-/// and the group of full histories.
-pub const LAYOUT_NAMES: &[&str] = &["probe", "probe_units", "runs"];
+/// Names the file uses at its root beside the columns: the probe coordinate, the probes' units,
+/// the group of full histories, and the dimensions of the characters of the text columns and
+/// coordinates (`<name>_strlen`).
+pub const LAYOUT_NAMES: &[&str] = &[
+    "probe",
+    "probe_units",
+    "runs",
+    "reason_strlen",
+    "warnings_strlen",
+    "run_hash_strlen",
+    "probe_strlen",
+    "probe_units_strlen",
+];
 
 /// Names a search's file adds at its root: its evaluations, objective and outcome.
 pub const SEARCH_LAYOUT_NAMES: &[&str] = &[
@@ -724,6 +787,7 @@ pub const SEARCH_LAYOUT_NAMES: &[&str] = &[
     "search_status",
     "search_runs",
     "search_reason",
+    "search_reason_strlen",
     "refine_error",
     "minimum",
     "maximum",
@@ -735,6 +799,7 @@ pub fn reserved_names() -> Vec<&'static str> {
     let mut names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
     names.extend_from_slice(LAYOUT_NAMES);
     names.extend_from_slice(SEARCH_LAYOUT_NAMES);
+    names.extend_from_slice(SPLIT_NAMES);
     names
 }
 
@@ -1138,7 +1203,7 @@ pub fn markdown_table() -> String {
         let units = match c.units {
             Units::None => "—".to_string(),
             Units::Fixed(u) => format!("`{u}`"),
-            Units::OfProbes => "the probes' unit".to_string(),
+            Units::OfProbes => "the probes' unit¹".to_string(),
         };
         let mut content = c.description.to_string();
         if let Some(FillValue::I64(fill)) = c.fill_value() {
@@ -1160,12 +1225,25 @@ pub fn markdown_table() -> String {
             }
         }
         let content = content.replace('|', "\\|");
+        let dtype = match c.dtype {
+            // (one byte per character along a last dimension `<name>_strlen`, UTF-8)
+            Dtype::Str => "text²",
+            d => d.numpy(),
+        };
         out.push_str(&format!(
-            "| `{}` | {shape} | {} | {units} | {content} |\n",
-            c.name,
-            c.dtype.numpy()
+            "| `{}` | {shape} | {dtype} | {units} | {content} |\n",
+            c.name
         ));
     }
+    out.push_str(
+        "\n¹ Where the probes' units differ (a force probe and a velocity probe), a variable has no one \
+         unit: the column is stored once per unit, named `<column>_<unit>` (`leading_peak_N`, \
+         `leading_peak_m_per_s`, `leading_peak_m`: `/` as `_per_`), each over every probe like the \
+         column, its values at the probes of that unit and NaN at the others.\n\n\
+         ² netCDF `char`: the UTF-8 bytes of each text along a last dimension `<dataset>_strlen` \
+         (as long as the longest, NUL-padded; attribute `_Encoding = \"utf-8\"`); xarray reads \
+         it as strings.\n",
+    );
     out
 }
 
@@ -1200,6 +1278,41 @@ mod tests {
                 Fill::ProbeF64 { .. } | Fill::ProbeFlag { .. } | Fill::VerifyProbe(_)
             );
             assert_eq!(c.per_probe, per_probe, "{}", c.name);
+        }
+    }
+
+    #[test]
+    fn split_names_are_every_probe_unit_of_every_column_in_the_probes_unit() {
+        use chainsweep_solver::observe::probes::Probe;
+        let kinds = [
+            Probe::GaugeForce { cylinder: 1 },
+            Probe::ParticleForce { particle: 1 },
+            Probe::ContactForce { contact: 1 },
+            Probe::Overlap { contact: 1 },
+            Probe::Displacement { particle: 1 },
+            Probe::Velocity { particle: 1 },
+            Probe::WallForce,
+        ];
+        let units: Vec<String> = kinds.iter().map(|p| p.unit().to_string()).collect();
+        assert_eq!(distinct_units(&units), PROBE_UNITS);
+        let mut want = Vec::new();
+        for c in COLUMNS.iter().filter(|c| c.units == Units::OfProbes) {
+            assert!(c.per_probe && c.dtype == Dtype::F64, "{}", c.name);
+            want.extend(PROBE_UNITS.iter().map(|u| split_name(c.name, u)));
+        }
+        assert_eq!(want, SPLIT_NAMES);
+        assert_eq!(unit_suffix("m/s"), "m_per_s");
+        assert_eq!(unit_suffix("kg m-2"), "kg_m_2");
+    }
+
+    #[test]
+    fn every_text_column_has_its_characters_dimension_reserved() {
+        for c in COLUMNS.iter().filter(|c| c.dtype == Dtype::Str) {
+            assert!(
+                LAYOUT_NAMES.contains(&format!("{}_strlen", c.name).as_str()),
+                "{}",
+                c.name
+            );
         }
     }
 }

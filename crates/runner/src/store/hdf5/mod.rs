@@ -18,6 +18,17 @@
 //! for the per-probe ones. Every numeric summary carries its missing-value marker (NaN, or
 //! [`crate::record::INT_FILL`]) as its HDF5 fill value and as a `_FillValue` attribute of its
 //! own type, so xarray masks failed and pending points.
+//!
+//! The file follows the CF conventions ([`CONVENTIONS`], checked by cfchecker in the tests): every
+//! variable has a `long_name`, every numeric one but a flag a `units` that UDUNITS parses, flags
+//! their `flag_values` (typed like the variable) and `flag_meanings`. Text is stored as netCDF's
+//! `char` arrays ([`char_dataset`]: one-byte strings along a last dimension `<name>_strlen`,
+//! `_Encoding = "utf-8"`), the type CF and its checker accept (not HDF5's variable-length
+//! strings, netCDF-4's `string`); a text coordinate named like its dimension (`probe`, an axis of
+//! text values) is that dimension's scale, two-dimensional, as netCDF-C writes one: its
+//! dimensions in `_Netcdf4Coordinates` by the ids every dimension scale of the root carries in
+//! `_Netcdf4Dimid` ([`number_dimensions`]). Dimension scales are attached without labels
+//! (`DIMENSION_LABELS`, which netCDF does not write and xarray would show as an attribute).
 
 pub mod read;
 pub mod search;
@@ -41,7 +52,15 @@ pub const DEFLATE_LEVEL: u8 = 4;
 /// Largest chunk of a history dataset, in samples.
 pub const HISTORY_CHUNK: usize = 16384;
 
-/// Version of the file layout, the `layout_version` root attribute. Version 3: every value is
+/// Version of the file layout, the `layout_version` root attribute. Version 4: CF (the
+/// `Conventions` root attribute, [`CONVENTIONS`]): text as netCDF `char` arrays ([`char_dataset`])
+/// rather than variable-length strings; a per-probe summary in the probes' unit stored once per
+/// unit where the probes' units differ (`leading_peak_N`, `leading_peak_m_per_s`, …:
+/// [`crate::record::columns::split_name`]) rather than once with `units = "see probe_units"`;
+/// a `long_name` on every variable and a `units` on every number but a flag; dimension scales
+/// attached without labels, and numbered for netCDF (`_Netcdf4Dimid`). The values are those of
+/// version 3, and every reader reads either (the text's type and the split columns are told by
+/// what the file holds). Version 3: every value is
 /// checked. Per point, `summary_checksum` covers every stored value and `history_checksum` the
 /// run's group ([`crate::record::columns::Table::point_checksum`]); the root attribute
 /// `header_checksum` covers the attributes that say what the file is ([`header_checksum`]);
@@ -53,7 +72,15 @@ pub const HISTORY_CHUNK: usize = 16384;
 /// numeric summary, a `contact` scale for minimum overlaps. Files without the attribute are
 /// version 1: run groups `runs/<flat index>` zero-padded to the width of the largest index. The
 /// runs stored are the same in both (this is no numerics version): `merge` reads either.
-pub const LAYOUT_VERSION: i64 = 3;
+pub const LAYOUT_VERSION: i64 = 4;
+
+/// The CF version the files follow (the `Conventions` root attribute): the newest that cfchecker
+/// (4.1) checks against.
+pub const CONVENTIONS: &str = "CF-1.8";
+
+/// The `_Encoding` attribute of a text variable stored as characters: its bytes are UTF-8 (xarray
+/// decodes such a variable to `str`).
+pub const CHAR_ENCODING: &str = "utf-8";
 
 /// The `NAME` netCDF-4 gives the dimension scale of a dimension that has no variable (followed
 /// by the dimension's length, right-aligned in 10 characters); h5netcdf and netCDF-C read a scale
@@ -62,14 +89,14 @@ pub const NETCDF_DIM_ONLY: &str = "This is a netCDF dimension but not a netCDF v
 
 /// The HDF5 high-level library's dimension-scale functions, which hdf5-metno does not wrap.
 mod ds {
-    use hdf5_sys::h5::herr_t;
+    use hdf5_sys::h5::{herr_t, htri_t};
     use hdf5_sys::h5i::hid_t;
     use std::os::raw::{c_char, c_uint};
 
     extern "C" {
         pub fn H5DSset_scale(dsid: hid_t, dimname: *const c_char) -> herr_t;
         pub fn H5DSattach_scale(did: hid_t, dsid: hid_t, idx: c_uint) -> herr_t;
-        pub fn H5DSset_label(did: hid_t, idx: c_uint, label: *const c_char) -> herr_t;
+        pub fn H5DSis_scale(did: hid_t) -> htri_t;
     }
 }
 
@@ -86,25 +113,229 @@ fn set_scale(scale: &Dataset, name: &str) -> Result<()> {
     Ok(())
 }
 
-/// Attaches dimension scale `scale` to dimension `dim` of `data`, and labels the dimension.
-fn attach_scale(data: &Dataset, scale: &Dataset, dim: usize, label: &str) -> Result<()> {
-    let c = CString::new(label).map_err(|_| Error::Other(format!("bad label {label:?}")))?;
+/// Attaches dimension scale `scale` to dimension `dim` of `data` (`name`: the dimension's, for
+/// the error). No label: netCDF names a dimension after its scale, and writes no
+/// `DIMENSION_LABELS` (xarray would show one as an attribute of every variable).
+fn attach_scale(data: &Dataset, scale: &Dataset, dim: usize, name: &str) -> Result<()> {
     // SAFETY: `data.id()` and `scale.id()` are ids of open datasets (borrowed for the call);
-    // `dim` is a dimension of `data` (callers pass the grid's dimensions, and the probe dimension
-    // of per-probe datasets; HDF5 checks it and fails rather than writing out of bounds); `c` is
-    // a NUL-terminated string alive for the call (copied by the library); the calls run under
-    // hdf5-metno's global lock.
-    let r = hdf5::sync::sync(|| unsafe {
-        let a = ds::H5DSattach_scale(data.id(), scale.id(), dim as u32);
-        if a < 0 {
-            return a;
-        }
-        ds::H5DSset_label(data.id(), dim as u32, c.as_ptr())
-    });
+    // `dim` is a dimension of `data` (callers pass the grid's dimensions, the probe dimension of
+    // per-probe datasets and the characters' of text; HDF5 checks it and fails rather than
+    // writing out of bounds); the call runs under hdf5-metno's global lock.
+    let r = hdf5::sync::sync(|| unsafe { ds::H5DSattach_scale(data.id(), scale.id(), dim as u32) });
     if r < 0 {
         return Err(Error::Other(format!(
-            "attaching dimension scale {label} failed"
+            "attaching dimension scale {name} failed"
         )));
+    }
+    Ok(())
+}
+
+/// Whether `d` is a dimension scale.
+fn is_scale(d: &Dataset) -> bool {
+    // SAFETY: `d.id()` is the id of an open dataset (borrowed for the call), under hdf5-metno's
+    // global lock.
+    hdf5::sync::sync(|| unsafe { ds::H5DSis_scale(d.id()) }) > 0
+}
+
+/// The dimension scale of a dimension without a variable, as netCDF-4 writes one: an unwritten
+/// float dataset `name` of the dimension's length, whose scale name says so ([`NETCDF_DIM_ONLY`]).
+pub(crate) fn dimension_only(group: &Group, name: &str, len: usize) -> Result<Dataset> {
+    let d = group.new_dataset::<f32>().shape(len).create(name)?;
+    set_scale(&d, &format!("{NETCDF_DIM_ONLY}{len:>10}"))?;
+    Ok(d)
+}
+
+/// A name for a new member of `group`: `name`, or with `_` appended until no member has it.
+fn free_name(group: &Group, name: &str) -> String {
+    let mut n = name.to_string();
+    while group.link_exists(&n) {
+        n.push('_');
+    }
+    n
+}
+
+/// One-byte strings, netCDF's `char`: the element type of a text variable's characters.
+type Char = hdf5::types::FixedAscii<1>;
+
+/// A text variable written as netCDF's `char` array: its dataset and the name of the dimension of
+/// its characters.
+pub(crate) struct CharVar {
+    /// The dataset, of the text's shape and the characters' dimension last.
+    pub data: Dataset,
+    /// The characters' dimension (a dimension without a variable).
+    pub strlen: String,
+}
+
+/// Writes the texts `data` (of shape `shape`, row-major) as the netCDF `char` array `name`: the
+/// UTF-8 bytes of each text along a last dimension as long as the longest (at least 1), padded
+/// with NUL (a NUL inside a text becomes U+FFFD, as in every stored string), chunked with the
+/// Fletcher-32 filter like the numbers, with `_Encoding = "utf-8"`. The characters' dimension is a
+/// dimension without a variable named `<name>_strlen` (with `_` appended while that name is
+/// taken). With `scale`, the array is the scale of dimension `scale` (a text coordinate named like
+/// its dimension): a scale takes no scale of its own, so the characters' dimension is recorded in
+/// its `_Netcdf4Coordinates` ([`number_dimensions`]); else the characters' dimension's scale is
+/// attached to its last dimension, and the caller attaches the others.
+pub(crate) fn char_dataset(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[String],
+    scale: Option<&str>,
+) -> Result<CharVar> {
+    let texts: Vec<Vec<u8>> = data
+        .iter()
+        .map(|s| s.replace('\0', "\u{FFFD}").into_bytes())
+        .collect();
+    let len = texts.iter().map(Vec::len).max().unwrap_or(0).max(1);
+    let mut bytes = vec![0u8; texts.len() * len];
+    for (row, t) in bytes.chunks_mut(len).zip(&texts) {
+        row[..t.len()].copy_from_slice(t);
+    }
+    let strlen = free_name(group, &format!("{name}_strlen"));
+    let dim = dimension_only(group, &strlen, len)?;
+    let mut full = shape.to_vec();
+    full.push(len);
+    let d = checked_builder::<Char>(group, &full)
+        .shape(full.clone())
+        .create(name)?;
+    write_chars(&d, &bytes)?;
+    match scale {
+        Some(dim_name) => set_scale(&d, dim_name)?,
+        None => attach_scale(&d, &dim, shape.len(), &strlen)?,
+    }
+    attr_str(&d, "_Encoding", CHAR_ENCODING)?;
+    Ok(CharVar { data: d, strlen })
+}
+
+/// Writes every element of the one-byte string dataset `d` from `bytes` (one per element), as
+/// they are: in the dataset's own type, so that HDF5 converts nothing.
+fn write_chars(d: &Dataset, bytes: &[u8]) -> Result<()> {
+    use hdf5_sys::h5d::H5Dwrite;
+    use hdf5_sys::h5p::H5P_DEFAULT;
+    use hdf5_sys::h5s::H5S_ALL;
+    let ty = d.dtype()?;
+    if ty.size() != 1 || d.size() != bytes.len() {
+        return Err(Error::Other(format!(
+            "dataset {} holds no {} characters",
+            d.name(),
+            bytes.len()
+        )));
+    }
+    // SAFETY: `d.id()` and `ty.id()` are open ids (borrowed for the call); `bytes` holds exactly
+    // the dataset's elements, one byte each in the dataset's own (one-byte string) type, which
+    // H5S_ALL selects; the call runs under hdf5-metno's global lock.
+    let r = hdf5::sync::sync(|| unsafe {
+        H5Dwrite(
+            d.id(),
+            ty.id(),
+            H5S_ALL,
+            H5S_ALL,
+            H5P_DEFAULT,
+            bytes.as_ptr().cast(),
+        )
+    });
+    if r < 0 {
+        return Err(Error::Other(format!("writing dataset {} failed", d.name())));
+    }
+    Ok(())
+}
+
+/// Whether `d` holds netCDF `char`s (one-byte strings): text along its last dimension.
+pub(crate) fn is_char(d: &Dataset) -> bool {
+    use hdf5::types::TypeDescriptor;
+    matches!(
+        d.dtype().and_then(|t| t.to_descriptor()),
+        Ok(TypeDescriptor::FixedAscii(1) | TypeDescriptor::FixedUnicode(1))
+    )
+}
+
+/// The bytes of every element of the one-byte string dataset `d`, read as stored (in its own
+/// type, without HDF5's Fletcher-32 check: a damaged chunk reads as it is, and the checksums of
+/// its points say which are damaged).
+pub(crate) fn read_chars(d: &Dataset) -> Result<Vec<u8>> {
+    use hdf5_sys::h5d::H5Dread;
+    use hdf5_sys::h5p::{H5Pclose, H5Pcreate, H5Pset_edc_check};
+    use hdf5_sys::h5s::H5S_ALL;
+    use hdf5_sys::h5z::H5Z_EDC_t;
+    let ty = d.dtype()?;
+    if ty.size() != 1 {
+        return Err(Error::Other(format!(
+            "dataset {} holds no characters",
+            d.name()
+        )));
+    }
+    let n = d.size();
+    let mut buf = vec![0u8; n];
+    // SAFETY: `d.id()` and `ty.id()` are open ids (borrowed for the call); `buf` holds exactly
+    // the dataset's `n` elements of its own one-byte type (H5S_ALL selects them all, and nothing
+    // is converted); the property list is created and closed here; all under hdf5-metno's global
+    // lock.
+    let r = hdf5::sync::sync(|| unsafe {
+        let xfer = H5Pcreate(*hdf5::globals::H5P_DATASET_XFER);
+        if xfer < 0 {
+            return -1;
+        }
+        let mut r = H5Pset_edc_check(xfer, H5Z_EDC_t::H5Z_DISABLE_EDC);
+        if r >= 0 && n > 0 {
+            r = H5Dread(
+                d.id(),
+                ty.id(),
+                H5S_ALL,
+                H5S_ALL,
+                xfer,
+                buf.as_mut_ptr().cast(),
+            );
+        }
+        H5Pclose(xfer);
+        r
+    });
+    if r < 0 {
+        return Err(Error::Other(format!("reading dataset {} failed", d.name())));
+    }
+    Ok(buf)
+}
+
+/// The texts of a text dataset: a netCDF `char` array (layout 4; each text along the last
+/// dimension, NUL-padded) or variable-length strings (earlier layouts). Decoded checked ([`text_of`]).
+pub(crate) fn read_text(d: &Dataset) -> Result<Vec<String>> {
+    if !is_char(d) {
+        return Ok(d.read_raw::<VarLenUnicode>()?.iter().map(text_of).collect());
+    }
+    let len = d.shape().last().copied().unwrap_or(1).max(1);
+    Ok(read_chars(d)?
+        .chunks(len)
+        .map(|row| {
+            let end = row.iter().rposition(|&b| b != 0).map_or(0, |k| k + 1);
+            String::from_utf8_lossy(&row[..end]).into_owned()
+        })
+        .collect())
+}
+
+/// Numbers every dimension scale of `file`'s root for netCDF (the `_Netcdf4Dimid` attribute: 0, 1,
+/// … in the order of their names), and records the dimensions of each two-dimensional text
+/// coordinate `(name, characters' dimension)` of `text_scales` in its `_Netcdf4Coordinates` (a
+/// scale cannot have scales attached: netCDF-C and h5netcdf take its dimensions from there). The
+/// scales of the run groups are left unnumbered: netCDF-C numbers them after the root's.
+pub(crate) fn number_dimensions(file: &File, text_scales: &[(String, String)]) -> Result<()> {
+    let mut ids = std::collections::HashMap::new();
+    for name in file.member_names()? {
+        let Ok(d) = file.dataset(&name) else {
+            continue;
+        };
+        if is_scale(&d) {
+            let id = ids.len() as i32;
+            attr_scalar(&d, "_Netcdf4Dimid", id)?;
+            ids.insert(name, id);
+        }
+    }
+    for (name, strlen) in text_scales {
+        let id = |n: &String| {
+            ids.get(n)
+                .copied()
+                .ok_or_else(|| Error::Other(format!("no dimension scale {n}")))
+        };
+        let d = file.dataset(name)?;
+        attr_vec(&d, "_Netcdf4Coordinates", &[id(name)?, id(strlen)?])?;
     }
     Ok(())
 }
@@ -236,7 +467,7 @@ pub fn header_checksum(file: &File) -> Result<u64> {
         .map(|(n, t)| ("/".to_string(), n, t))
         .collect();
     for member in file.member_names()? {
-        if crate::record::columns::column(&member).is_some() {
+        if crate::record::columns::is_column_dataset(&member) {
             continue;
         }
         if let Ok(d) = file.dataset(&member) {
@@ -300,9 +531,10 @@ pub(crate) fn read_unchecked<T: H5Type + Copy + Default>(d: &Dataset) -> Result<
     Ok(buf)
 }
 
-/// The values of numeric dataset `name` of the file `path`, read without the Fletcher-32 check
-/// (for a reader that masks the damaged points of a chunk and serves the others): their bytes
-/// (little endian, C order), their numpy dtype name, and the dataset's shape.
+/// The values of numeric dataset `name` of the file `path` (or the characters of a text stored as
+/// netCDF `char`s, numpy dtype `S1`), read without the Fletcher-32 check (for a reader that masks
+/// the damaged points of a chunk and serves the others): their bytes (little endian, C order),
+/// their numpy dtype name, and the dataset's shape.
 pub fn read_numeric_unchecked(
     path: &Path,
     name: &str,
@@ -338,6 +570,10 @@ pub fn read_numeric_unchecked(
             shape,
         ),
         TypeDescriptor::Unsigned(IntSize::U1) => (read_unchecked::<u8>(&d)?, "uint8", shape),
+        // Text as netCDF `char`s: its bytes, one per character.
+        TypeDescriptor::FixedAscii(1) | TypeDescriptor::FixedUnicode(1) => {
+            (read_chars(&d)?, "S1", shape)
+        }
         other => {
             return Err(Error::Other(format!(
                 "dataset {name} holds {other:?}, not numbers"

@@ -11,18 +11,19 @@
 use std::path::Path;
 
 use chainsweep_solver::observe::probes::History;
-use hdf5::types::VarLenUnicode;
 use hdf5::File;
 
 use super::write::{coord_of, Coord};
 use super::{
-    column_text_checksum, header_checksum, read_attr_str, read_unchecked, run_group_name_in,
-    text_of, LAYOUT_VERSION,
+    column_text_checksum, header_checksum, read_attr_str, read_text, read_unchecked,
+    run_group_name_in, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::identity::{hex, RunHash};
-use crate::record::columns::{history_checksum, ColumnData, Dtype, Table, COLUMNS};
+use crate::record::columns::{
+    distinct_units, history_checksum, split_name, Column, ColumnData, Dtype, Table, Units, COLUMNS,
+};
 use crate::record::{RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use crate::sweep::Sweep;
 
@@ -70,8 +71,61 @@ fn read_column(file: &File, name: &str, dtype: Dtype) -> Result<ColumnData> {
         Dtype::I64 => ColumnData::I64(read_unchecked(&d)?),
         Dtype::U8 => ColumnData::U8(read_unchecked(&d)?),
         Dtype::U64 => ColumnData::U64(read_unchecked(&d)?),
-        Dtype::Str => ColumnData::Str(d.read_raw::<VarLenUnicode>()?.iter().map(text_of).collect()),
+        Dtype::Str => ColumnData::Str(read_text(&d)?),
     })
+}
+
+/// The datasets holding column `c` in `file`: the one named like it, or, for a column in the
+/// probes' unit in a file whose probes' units differ, one per unit ([`split_name`]) with the units
+/// of the probes (`probe_units`). Empty where the file has none of them.
+fn column_datasets(file: &File, c: &Column) -> Result<(Vec<String>, Vec<String>)> {
+    if file.link_exists(c.name) || c.units != Units::OfProbes || !file.link_exists("probe_units") {
+        let names = if file.link_exists(c.name) {
+            vec![c.name.to_string()]
+        } else {
+            Vec::new()
+        };
+        return Ok((names, Vec::new()));
+    }
+    let units = read_text(&file.dataset("probe_units")?)?;
+    let names: Vec<String> = distinct_units(&units)
+        .iter()
+        .map(|u| split_name(c.name, u))
+        .collect();
+    if !names.iter().any(|n| file.link_exists(n)) {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    Ok((names, units))
+}
+
+/// Column `c` of `file` as its datasets hold it ([`column_datasets`]): a column split by unit
+/// takes each probe's values from the dataset of its unit.
+fn read_column_of(
+    file: &File,
+    c: &Column,
+    names: &[String],
+    units: &[String],
+) -> Result<ColumnData> {
+    if units.is_empty() {
+        return read_column(file, &names[0], c.dtype);
+    }
+    let np = units.len();
+    let mut out: Option<Vec<f64>> = None;
+    for (name, u) in names.iter().zip(distinct_units(units)) {
+        let part: Vec<f64> = read_unchecked(&file.dataset(name)?)?;
+        let out = out.get_or_insert_with(|| vec![f64::NAN; part.len()]);
+        if part.len() != out.len() || part.len() % np != 0 {
+            return Err(Error::Other(format!(
+                "{name} holds the wrong number of values"
+            )));
+        }
+        for (k, x) in part.iter().enumerate() {
+            if units[k % np] == u {
+                out[k] = *x;
+            }
+        }
+    }
+    Ok(ColumnData::F64(out.unwrap_or_default()))
 }
 
 fn column_len(d: &ColumnData) -> usize {
@@ -135,16 +189,23 @@ impl FileRecords {
         let mut unreadable = Vec::new();
         let mut columns = Vec::with_capacity(COLUMNS.len());
         for c in COLUMNS {
-            columns.push(if c.required || file.link_exists(c.name) {
-                match read_column(&file, c.name, c.dtype) {
-                    Ok(d) => Some(d),
-                    Err(e) => {
-                        unreadable.push((c.name, brief(&e)));
-                        None
-                    }
+            let read = column_datasets(&file, c).and_then(|(names, units)| {
+                if names.is_empty() && !c.required {
+                    return Ok(None);
                 }
-            } else {
-                None
+                let names = if names.is_empty() {
+                    vec![c.name.to_string()]
+                } else {
+                    names
+                };
+                read_column_of(&file, c, &names, &units).map(Some)
+            });
+            columns.push(match read {
+                Ok(d) => d,
+                Err(e) => {
+                    unreadable.push((c.name, brief(&e)));
+                    None
+                }
             });
         }
         let at = |name: &str| {
@@ -261,15 +322,21 @@ impl FileRecords {
             if data.is_none() {
                 continue;
             }
-            let want = sums.get(c.name).and_then(|v| v.as_str());
-            let got = self
-                .file
-                .dataset(c.name)
-                .map_err(Error::from)
-                .and_then(|d| column_text_checksum(&d))
-                .map(|x| x.to_string());
-            if want.is_none() || got.ok().as_deref() != want {
-                bad.push(c.name);
+            let names = match column_datasets(&self.file, c) {
+                Ok((names, _)) if !names.is_empty() => names,
+                _ => vec![c.name.to_string()],
+            };
+            for name in names {
+                let want = sums.get(&name).and_then(|v| v.as_str());
+                let got = self
+                    .file
+                    .dataset(&name)
+                    .map_err(Error::from)
+                    .and_then(|d| column_text_checksum(&d))
+                    .map(|x| x.to_string());
+                if want.is_none() || got.ok().as_deref() != want {
+                    bad.push(name);
+                }
             }
         }
         (!bad.is_empty()).then(|| {
@@ -441,13 +508,7 @@ impl FileRecords {
                             read_unchecked::<u8>(&d)?
                                 == v.iter().map(|&b| b as u8).collect::<Vec<_>>()
                         }
-                        Coord::Str(v) => {
-                            d.read_raw::<VarLenUnicode>()?
-                                .iter()
-                                .map(text_of)
-                                .collect::<Vec<_>>()
-                                == v
-                        }
+                        Coord::Str(v) => read_text(&d)? == v,
                     })
                 })();
                 match same {
@@ -471,8 +532,8 @@ impl FileRecords {
                 let got = self
                     .file
                     .dataset(name)
-                    .and_then(|d| d.read_raw::<VarLenUnicode>())
-                    .map(|v| v.iter().map(text_of).collect::<Vec<_>>());
+                    .map_err(Error::from)
+                    .and_then(|d| read_text(&d));
                 match got {
                     Ok(v) if v == want => {}
                     Ok(_) => out.push(format!(
@@ -480,7 +541,7 @@ impl FileRecords {
                     )),
                     Err(e) => out.push(format!(
                         "the coordinate `{name}` cannot be read ({})",
-                        brief(&Error::from(e))
+                        brief(&e)
                     )),
                 }
             }

@@ -17,8 +17,8 @@
 use hdf5::{Dataset, File};
 
 use super::{
-    attach_scale, attr_str, attr_vec, checked_dataset, filled_checked_dataset, set_scale,
-    str_dataset,
+    attach_scale, attr_str, attr_vec, char_dataset, checked_dataset, filled_checked_dataset,
+    read_text, set_scale,
 };
 use crate::error::Result;
 
@@ -154,7 +154,7 @@ pub fn write(
     attach(&d, outer)?;
     attr_str(&d, "units", "1")?;
     attr_str(&d, "long_name", "runs each search used")?;
-    let d = str_dataset(file, "search_reason", &outer_shape, &t.reason)?;
+    let d = char_dataset(file, "search_reason", &outer_shape, &t.reason, None)?.data;
     attach(&d, outer)?;
     attr_str(&d, "long_name", "why each search ended, in a sentence")?;
     if let Some(e) = &t.refine_error {
@@ -171,6 +171,7 @@ pub fn write(
         let scale = checked_dataset(file, item, &[*n], &ids)?;
         set_scale(&scale, item)?;
         attr_str(&scale, "dimension", item)?;
+        attr_str(&scale, "units", "1")?;
         attr_str(
             &scale,
             "long_name",
@@ -229,7 +230,6 @@ pub fn write(
 
 /// How each search of an output file ended, as its tables say: status code, runs used, why.
 pub fn read_outcomes(path: &std::path::Path) -> Result<Option<Vec<(u8, i64, String)>>> {
-    use hdf5::types::VarLenUnicode;
     let f = File::open(path)?;
     if !f.link_exists("search_status") {
         return Ok(None);
@@ -237,12 +237,7 @@ pub fn read_outcomes(path: &std::path::Path) -> Result<Option<Vec<(u8, i64, Stri
     // (Checked by HDF5's Fletcher-32: a damaged chunk is an error, never a wrong status.)
     let status: Vec<u8> = f.dataset("search_status")?.read_raw()?;
     let runs: Vec<i64> = f.dataset("search_runs")?.read_raw()?;
-    let reason: Vec<String> = f
-        .dataset("search_reason")?
-        .read_raw::<VarLenUnicode>()?
-        .iter()
-        .map(super::text_of)
-        .collect();
+    let reason = read_text(&f.dataset("search_reason")?)?;
     Ok(Some(
         status
             .into_iter()

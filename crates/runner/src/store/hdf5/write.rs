@@ -11,15 +11,17 @@ use serde_json::Value;
 
 use super::search::{self, SearchTables};
 use super::{
-    attach_scale, attr_scalar, attr_str, attr_vec, checked_dataset, column_text_checksum,
-    filled_checked_dataset, header_checksum, run_group_name, set_scale, str_dataset, Counts,
-    Provenance, DEFLATE_LEVEL, HISTORY_CHUNK, LAYOUT_VERSION, NETCDF_DIM_ONLY,
+    attach_scale, attr_scalar, attr_str, attr_vec, char_dataset, checked_dataset,
+    column_text_checksum, dimension_only, filled_checked_dataset, header_checksum,
+    number_dimensions, run_group_name, set_scale, Counts, Provenance, CONVENTIONS, DEFLATE_LEVEL,
+    HISTORY_CHUNK, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid, Shard};
 use crate::identity::{hex, TIGHTENING};
 use crate::record::columns::{
-    Column, ColumnData, FillValue, PointOutcome, Presence, Table, Units, COLUMNS,
+    distinct_units, split_name, Column, ColumnData, FillValue, PointOutcome, Presence, Table,
+    Units, COLUMNS,
 };
 use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
@@ -85,8 +87,11 @@ pub fn write_file(
         if let Some(c) = &sweep.auto_choice {
             write_auto_attrs(&file, c)?;
         }
-        let dims = write_coordinates(&file, sweep)?;
+        let (dims, mut text_scales) = write_coordinates(&file, sweep)?;
         let probe_scale = write_probe_scale(&file, grid)?;
+        if let Some(p) = &probe_scale {
+            text_scales.push(("probe".to_string(), p.strlen.clone()));
+        }
         let mut extra_coordinates = Vec::new();
         if let Some(t) = search {
             let scale = |name: &str| {
@@ -104,20 +109,19 @@ pub fn write_file(
             search::write(&file, t, &outer, scale("evaluation")?)?;
             extra_coordinates = search::coordinate_names(t);
         }
-        write_columns(
+        let written = write_columns(
             &file,
             &table.table,
             &dims,
             probe_scale.as_ref(),
             &extra_coordinates,
         )?;
+        number_dimensions(&file, &text_scales)?;
         // Last: over every text attribute written above.
         let mut sums = serde_json::Map::new();
-        for (c, data) in COLUMNS.iter().zip(&table.table.columns) {
-            if data.is_some() {
-                let sum = column_text_checksum(&file.dataset(c.name)?)?;
-                sums.insert(c.name.to_string(), Value::from(sum.to_string()));
-            }
+        for name in written {
+            let sum = column_text_checksum(&file.dataset(&name)?)?;
+            sums.insert(name, Value::from(sum.to_string()));
         }
         attr_str(
             &file,
@@ -146,6 +150,7 @@ fn write_sweep_attrs(
     shard: Option<Shard>,
     prov: &Provenance,
 ) -> Result<()> {
+    attr_str(file, "Conventions", CONVENTIONS)?;
     attr_str(file, "sweep", &sweep.text)?;
     attr_str(file, "description", &sweep.description)?;
     attr_str(
@@ -329,78 +334,129 @@ pub(super) fn coord_of(values: &[Value]) -> Coord {
 }
 
 /// A grid dimension as written: its one dimension scale and the names of the coordinates on it
-/// that are not that scale (the other axes of a zipped group).
+/// that are not that scale (the other axes of a zipped group), and whether the scale is a text
+/// coordinate (which every variable on the dimension lists in its `coordinates`: CF takes a
+/// coordinate variable for a number, and a text one for a label the variables name).
 struct DimScale {
     scale: Dataset,
     name: String,
     len: usize,
     others: Vec<String>,
+    text: bool,
 }
 
-fn write_axis(file: &File, name: &str, values: &[Value]) -> Result<Dataset> {
+/// An axis's coordinate dataset: numbers (integers, floats) as they are, booleans as bytes 0
+/// (false) and 1 (true) with the attribute `dtype = "bool"` (netCDF has no boolean type and CF no
+/// enumeration: HDF5's boolean enumeration is invisible to `ncdump`; xarray reads such bytes back
+/// as booleans, as it writes them), anything else as text (netCDF `char`s, [`char_dataset`]); the
+/// scale of dimension `scale` when given; with the characters' dimension of a text one.
+fn write_axis(
+    file: &File,
+    name: &str,
+    values: &[Value],
+    scale: Option<&str>,
+) -> Result<(Dataset, Option<String>)> {
     let shape = [values.len()];
-    match coord_of(values) {
-        Coord::F64(v) => checked_dataset(file, name, &shape, &v),
-        Coord::I64(v) => checked_dataset(file, name, &shape, &v),
-        Coord::Bool(v) => checked_dataset(file, name, &shape, &v),
-        Coord::Str(v) => str_dataset(file, name, &shape, &v),
+    let d = match coord_of(values) {
+        Coord::F64(v) => checked_dataset(file, name, &shape, &v)?,
+        Coord::I64(v) => checked_dataset(file, name, &shape, &v)?,
+        Coord::Bool(v) => {
+            let bytes: Vec<i8> = v.iter().map(|&b| i8::from(b)).collect();
+            let d = checked_dataset(file, name, &shape, &bytes)?;
+            attr_str(&d, "dtype", "bool")?;
+            d
+        }
+        Coord::Str(v) => {
+            let c = char_dataset(file, name, &shape, &v, scale)?;
+            return Ok((c.data, Some(c.strlen)));
+        }
+    };
+    if let Some(dim) = scale {
+        set_scale(&d, dim)?;
     }
+    Ok((d, None))
 }
 
 /// The coordinate of every axis, and the one dimension scale of every dimension: the axis named
 /// like the dimension, else (a zipped group with a name of its own) a netCDF dimension without a
 /// variable. The zipped group's other axes get the scale attached, which makes them coordinates
-/// on the dimension.
-fn write_coordinates(file: &File, sweep: &Sweep) -> Result<Vec<DimScale>> {
+/// on the dimension. Also the text coordinates that are a dimension's scale, with the dimensions
+/// of their characters (for [`number_dimensions`]).
+fn write_coordinates(file: &File, sweep: &Sweep) -> Result<(Vec<DimScale>, Vec<TextScale>)> {
     let mut dims = Vec::new();
+    let mut text_scales = Vec::new();
     for dim in &sweep.dims {
+        let mut scale = None;
         let mut axes = Vec::new();
         for axis in &dim.axes {
-            let d = write_axis(file, &axis.name, &axis.values)?;
+            let own = axis.name == dim.name;
+            let (d, strlen) = write_axis(
+                file,
+                &axis.name,
+                &axis.values,
+                own.then_some(dim.name.as_str()),
+            )?;
             attr_str(&d, "units", &axis.units)?;
             attr_str(&d, "field", &axis.field)?;
             attr_str(&d, "dimension", &dim.name)?;
-            axes.push((d, axis.name.as_str()));
+            // The field a sweep's axis sets (what a plot labels it with), or the axis's name
+            // where it sets none (a search's evaluations).
+            let long_name = if axis.field.is_empty() {
+                axis.name.as_str()
+            } else {
+                axis.field.as_str()
+            };
+            attr_str(&d, "long_name", long_name)?;
+            if own {
+                if let Some(strlen) = &strlen {
+                    text_scales.push((axis.name.clone(), strlen.clone()));
+                }
+                scale = Some((d, strlen.is_some()));
+            } else {
+                axes.push((d, axis.name.as_str(), strlen));
+            }
         }
-        let scale = match axes.iter().position(|(_, name)| *name == dim.name) {
-            Some(k) => {
-                let (d, _) = axes.remove(k);
-                set_scale(&d, &dim.name)?;
-                d
-            }
-            None => {
-                // What netCDF-4 writes for a dimension without a variable: an unwritten float
-                // dataset of the dimension's length, named like the dimension.
-                let d = file
-                    .new_dataset::<f32>()
-                    .shape(dim.len())
-                    .create(&*dim.name)?;
-                set_scale(&d, &format!("{NETCDF_DIM_ONLY}{:>10}", dim.len()))?;
-                d
-            }
+        // What netCDF-4 writes for a dimension without a variable: an unwritten float dataset of
+        // the dimension's length, named like the dimension.
+        let (scale, text) = match scale {
+            Some(s) => s,
+            None => (dimension_only(file, &dim.name, dim.len())?, false),
         };
-        for (d, _) in &axes {
+        for (d, _, _) in &axes {
             attach_scale(d, &scale, 0, &dim.name)?;
         }
         dims.push(DimScale {
             scale,
             name: dim.name.clone(),
             len: dim.len(),
-            others: axes.iter().map(|(_, name)| name.to_string()).collect(),
+            others: axes.iter().map(|(_, name, _)| name.to_string()).collect(),
+            text,
         });
     }
-    Ok(dims)
+    Ok((dims, text_scales))
+}
+
+/// A text coordinate that is its dimension's scale: its name, and the dimension of its characters.
+type TextScale = (String, String);
+
+/// The `probe` coordinate as written: its dimension scale (netCDF `char`s, the probe names), the
+/// probes' units, and the dimension of its characters.
+struct ProbeScale {
+    scale: Dataset,
+    units: Vec<String>,
+    strlen: String,
 }
 
 /// The `probe` coordinate (a dimension scale) and `probe_units`, when there are probes; with
 /// the probes' units.
-fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<(Dataset, Vec<String>)>> {
+fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<ProbeScale>> {
     let np = grid.probes.len();
     if np == 0 {
         return Ok(None);
     }
     let names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
-    let d = str_dataset(file, "probe", &[np], &names)?;
+    let probe = char_dataset(file, "probe", &[np], &names, Some("probe"))?;
+    let d = probe.data;
     let json: Vec<String> = grid
         .probes
         .iter()
@@ -408,101 +464,133 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<(Dataset, Vec<St
         .collect();
     attr_str(&d, "long_name", "probe (as in the record block)")?;
     attr_str(&d, "probes_json", &format!("[{}]", json.join(",")))?;
-    set_scale(&d, "probe")?;
     let units: Vec<String> = grid.probes.iter().map(|p| p.unit().to_string()).collect();
-    let u = str_dataset(file, "probe_units", &[np], &units)?;
-    attach_scale(&u, &d, 0, "probe")?;
-    Ok(Some((d, units)))
+    let u = char_dataset(file, "probe_units", &[np], &units, None)?;
+    attach_scale(&u.data, &d, 0, "probe")?;
+    attr_str(&u.data, "long_name", "unit of each probe's values")?;
+    Ok(Some(ProbeScale {
+        scale: d,
+        units,
+        strlen: probe.strlen,
+    }))
 }
 
 /// Every column of [`COLUMNS`] as a dataset with its attributes and dimension scales (the
 /// per-probe ones only when there are probes, those of the moving part only when some point of
-/// the grid integrates only its moving part), and the coordinates that are no dimension scale in
-/// its `coordinates` attribute.
+/// the grid integrates only its moving part), and the coordinates that are no dimension scale —
+/// and the text coordinates, which are labels to CF — in its `coordinates` attribute. A column in
+/// the probes' unit is written once per unit where the probes' units differ ([`split_name`]).
+/// Returns the names of the datasets written (for `column_checksums`).
 fn write_columns(
     file: &File,
     table: &Table,
     dims: &[DimScale],
-    probe_scale: Option<&(Dataset, Vec<String>)>,
+    probe_scale: Option<&ProbeScale>,
     extra_coordinates: &[String],
-) -> Result<()> {
+) -> Result<Vec<String>> {
     let shape: Vec<usize> = dims.iter().map(|d| d.len).collect();
     let others: Vec<&str> = dims
         .iter()
         .flat_map(|d| d.others.iter().map(String::as_str))
         .chain(extra_coordinates.iter().map(String::as_str))
+        .chain(dims.iter().filter(|d| d.text).map(|d| d.name.as_str()))
         .collect();
+    let mut written = Vec::new();
     for (c, data) in COLUMNS.iter().zip(&table.columns) {
         let Some(data) = data else {
             continue;
         };
-        let d = if c.per_probe {
-            let Some((pscale, units)) = probe_scale else {
+        if c.per_probe {
+            let Some(p) = probe_scale else {
                 continue;
             };
             let mut pshape = shape.clone();
-            pshape.push(units.len());
-            let d = write_column(file, c, &pshape, data, units)?;
-            attach_grid(&d, dims)?;
-            attach_scale(&d, pscale, shape.len(), "probe")?;
+            pshape.push(p.units.len());
             let mut coords = others.clone();
-            coords.push("probe_units");
-            attr_str(&d, "coordinates", &coords.join(" "))?;
-            d
+            coords.extend(["probe", "probe_units"]);
+            let units = distinct_units(&p.units);
+            let parts: Vec<(String, ColumnData, Option<&str>)> = match (c.units, data) {
+                (Units::OfProbes, ColumnData::F64(v)) if units.len() > 1 => units
+                    .iter()
+                    .map(|&u| {
+                        let mut part = v.clone();
+                        for (k, x) in part.iter_mut().enumerate() {
+                            if p.units[k % p.units.len()] != u {
+                                *x = f64::NAN;
+                            }
+                        }
+                        (split_name(c.name, u), ColumnData::F64(part), Some(u))
+                    })
+                    .collect(),
+                (Units::OfProbes, _) => vec![(c.name.to_string(), data.clone(), Some(units[0]))],
+                _ => vec![(c.name.to_string(), data.clone(), None)],
+            };
+            let split = parts.len() > 1;
+            for (name, part, unit) in &parts {
+                let d = write_column(file, c, name, &pshape, part, *unit, split)?;
+                attach_grid(&d, dims)?;
+                attach_scale(&d, &p.scale, shape.len(), "probe")?;
+                attr_str(&d, "coordinates", &coords.join(" "))?;
+                written.push(name.clone());
+            }
         } else {
-            let d = write_column(file, c, &shape, data, &[])?;
+            let d = write_column(file, c, c.name, &shape, data, None, false)?;
             attach_grid(&d, dims)?;
             if !others.is_empty() {
                 attr_str(&d, "coordinates", &others.join(" "))?;
             }
-            d
-        };
-        drop(d);
+            written.push(c.name.to_string());
+        }
     }
-    Ok(())
+    Ok(written)
 }
 
-/// One column's dataset and attributes (`probe_units`: the probes' units, for
-/// [`Units::OfProbes`]).
+/// One column's dataset `name` and attributes (`unit`: the probes' unit, for [`Units::OfProbes`];
+/// `split`: the dataset holds the values of the probes of that unit only, [`split_name`]).
 fn write_column(
     file: &File,
     c: &Column,
+    name: &str,
     shape: &[usize],
     data: &ColumnData,
-    probe_units: &[String],
+    unit: Option<&str>,
+    split: bool,
 ) -> Result<Dataset> {
     let d = match (data, c.fill_value()) {
         (ColumnData::F64(v), Some(FillValue::F64(fill))) => {
-            filled_checked_dataset(file, c.name, shape, v, fill)?
+            filled_checked_dataset(file, name, shape, v, fill)?
         }
         (ColumnData::I64(v), Some(FillValue::I64(fill))) => {
-            filled_checked_dataset(file, c.name, shape, v, fill)?
+            filled_checked_dataset(file, name, shape, v, fill)?
         }
-        (ColumnData::F64(v), _) => checked_dataset(file, c.name, shape, v)?,
-        (ColumnData::I64(v), _) => checked_dataset(file, c.name, shape, v)?,
-        (ColumnData::U8(v), _) => checked_dataset(file, c.name, shape, v)?,
-        (ColumnData::U64(v), _) => checked_dataset(file, c.name, shape, v)?,
-        (ColumnData::Str(v), _) => str_dataset(file, c.name, shape, v)?,
+        (ColumnData::F64(v), _) => checked_dataset(file, name, shape, v)?,
+        (ColumnData::I64(v), _) => checked_dataset(file, name, shape, v)?,
+        (ColumnData::U8(v), _) => checked_dataset(file, name, shape, v)?,
+        (ColumnData::U64(v), _) => checked_dataset(file, name, shape, v)?,
+        (ColumnData::Str(v), _) => char_dataset(file, name, shape, v, None)?.data,
     };
     if let Some((values, meanings)) = c.flags {
         attr_vec(&d, "flag_values", values)?;
         attr_str(&d, "flag_meanings", meanings)?;
     }
-    match c.units {
-        Units::None => {}
-        Units::Fixed(u) => attr_str(&d, "units", u)?,
-        Units::OfProbes => {
-            let same = probe_units.iter().all(|u| u == &probe_units[0]);
-            let u = if same {
-                probe_units[0].as_str()
-            } else {
-                "see probe_units"
-            };
-            attr_str(&d, "units", u)?;
+    match (c.units, unit) {
+        (Units::None, _) => {}
+        (Units::Fixed(u), _) | (Units::OfProbes, Some(u)) => attr_str(&d, "units", u)?,
+        (Units::OfProbes, None) => {
+            return Err(Error::Other(format!("column {name} has no unit")));
         }
     }
-    if c.long_name {
-        attr_str(&d, "long_name", c.description)?;
+    match unit {
+        Some(u) if split => attr_str(
+            &d,
+            "long_name",
+            &format!(
+                "{} (the probes measured in {u}; NaN at the others)",
+                c.description
+            ),
+        )?,
+        _ if c.long_name => attr_str(&d, "long_name", c.description)?,
+        _ => {}
     }
     Ok(d)
 }
@@ -515,7 +603,13 @@ fn attach_grid(d: &Dataset, dims: &[DimScale]) -> Result<()> {
     Ok(())
 }
 
-fn write_history_series(g: &Group, name: &str, data: &[f64], units: &str) -> Result<Dataset> {
+fn write_history_series(
+    g: &Group,
+    name: &str,
+    data: &[f64],
+    units: &str,
+    long_name: &str,
+) -> Result<Dataset> {
     let n = data.len();
     let d = g
         .new_dataset::<f64>()
@@ -529,6 +623,7 @@ fn write_history_series(g: &Group, name: &str, data: &[f64], units: &str) -> Res
         d.write_raw(data)?;
     }
     attr_str(&d, "units", units)?;
+    attr_str(&d, "long_name", long_name)?;
     Ok(d)
 }
 
@@ -562,10 +657,17 @@ fn write_run_group(
         }
     }
     if let Some(h) = &rec.history {
-        let t = write_history_series(&g, "time_s", &h.time_s, "s")?;
+        let t = write_history_series(&g, "time_s", &h.time_s, "s", "time")?;
         set_scale(&t, "time_s")?;
         for (p, series) in grid.probes.iter().zip(&h.values) {
-            let d = write_history_series(&g, &p.name(), series, p.unit())?;
+            let name = p.name();
+            let d = write_history_series(
+                &g,
+                &name,
+                series,
+                p.unit(),
+                &format!("history of probe {name}"),
+            )?;
             attr_str(
                 &d,
                 "probe",
@@ -577,6 +679,7 @@ fn write_run_group(
     if let Some(m) = &rec.min_overlap_m {
         let contacts: Vec<i64> = (1..=m.len() as i64).collect();
         let c = checked_dataset(&g, "contact", &[m.len()], &contacts)?;
+        attr_str(&c, "units", "1")?;
         attr_str(
             &c,
             "long_name",
