@@ -8,7 +8,8 @@
 #                  results store on a 20 000-run history sweep and a 100 000-run summary sweep
 #                  (scripts/bench_store.py: bytes written, peak memory, files, throughput); and
 #                  the reference run against a physicist's scipy script of the same chain at the
-#                  same accuracy (scripts/bench_scipy.py)
+#                  same accuracy (scripts/bench_scipy.py); the Fig. 8 sweep against numba +
+#                  numbalsoda LSODA, both ladders of error against time (scripts/bench_numba_lsoda.py)
 #   make examples  runs the example chains of sweeps/examples/ and draws them into results/examples/
 #   make python    the Python package (python/) built by maturin and installed into .venv
 #   make wheel     the Python package as a wheel for other machines (clusters): dist/chainsweep-*.whl,
@@ -133,11 +134,29 @@ test: lint test-rust test-python
 BENCH_BASE ?= main
 BENCH_ROUNDS ?= 5
 BENCH_BASELINE ?=
-bench: venv python
+bench: venv python $(VENV)/.bench-stamp
 	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 	BENCH_BASELINE=$(BENCH_BASELINE) CARGO=$(CARGO) scripts/bench_builds.sh
 	$(PY) scripts/bench_store.py
 	$(PY) scripts/bench_scipy.py
+	$(PY) scripts/bench_numba_lsoda.py
+
+# The Fig. 8 sweep against numba + numbalsoda LSODA (scripts/bench_numba_lsoda.py): numba and
+# numbalsoda from requirements-bench.txt into .venv. pip builds numbalsoda from source, with a
+# Fortran compiler: gfortran (Debian's), installed with apt-get when missing, as ncdump is.
+GFORTRAN_PACKAGE := gfortran
+.PHONY: gfortran
+gfortran:
+	@command -v gfortran >/dev/null 2>&1 || { \
+	  echo "installing $(GFORTRAN_PACKAGE) with apt-get"; \
+	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  $$sudo apt-get install -y -q $(GFORTRAN_PACKAGE) >/dev/null 2>&1 || \
+	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(GFORTRAN_PACKAGE); }; }
+
+$(VENV)/.bench-stamp: requirements-bench.txt $(VENV)/.stamp | gfortran
+	$(VENV)/bin/pip install --quiet -r requirements-bench.txt
+	touch $@
 
 clean:
 	$(CARGO) clean
