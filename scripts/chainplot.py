@@ -259,21 +259,90 @@ PAGE_IN = 183 / 25.4
 # a figure's text is brought down to: journals ask for 6-8 pt lettering.
 MIN_PT = 7.0
 MAX_PT = 9.0
+# Tick labels at most this (they are many and are read last).
+MAX_TICK_PT = 8.0
 # Pixels per inch of the PNG written beside the PDF (print resolution).
 PNG_DPI = 300
 
 
+def _shared_label(axes, get, set_, row_or_col) -> str | None:
+    """The one label every panel of a row (x) or column (y) of panels repeats, if they do."""
+    labels = {get(a) for a in axes}
+    if len(axes) > 1 and len(labels) == 1 and next(iter(labels)):
+        return next(iter(labels))
+    return None
+
+
+def _wrap(text: str, width_in: float, size_pt: float) -> str:
+    """`text` broken into lines that fit `width_in` inches at `size_pt` (about 0.52 em a letter);
+    math ($…$) and existing line breaks kept whole."""
+    import textwrap
+
+    import re
+
+    per_line = max(12, int(width_in * 72 / (0.6 * size_pt)))
+    out = []
+    for line in text.split("\n"):
+        # (Math without spaces, such as v$_0$, is one word: wrapping keeps it whole.)
+        if any(" " in m for m in re.findall(r"\$[^$]*\$", line)) or len(line) <= per_line:
+            out.append(line)
+        else:
+            out.extend(textwrap.wrap(line, per_line, break_long_words=False))
+    return "\n".join(out)
+
+
 def journal_layout(fig) -> float:
-    """Sets `fig` to a journal width, one column for a figure of one panel up to 7 inches wide
-    and the full page otherwise, keeping its aspect ratio, and brings every text to between
-    MIN_PT and MAX_PT points at that width (sizes keep their order: a title stays larger than a
-    tick label), then lays it out again. Returns the width, inches."""
+    """Sets `fig` for print at a journal width: one column for a figure of one panel up to 7
+    inches wide, the full page otherwise. Every text is brought to between MIN_PT and MAX_PT
+    points (sizes keep their order: a title stays larger than a tick label), an x label every
+    panel of a row repeats (a y label every panel of a column) is said once for the figure,
+    titles are wrapped to their width, panels are kept at least 1.2 inches tall, and the figure
+    is laid out again (constrained layout, which makes room for titles and legends). Returns the
+    width, inches."""
     import matplotlib.text
 
     w, h = fig.get_size_inches()
     panels = [a for a in fig.axes if a.get_visible() and a.get_label() != "<colorbar>"]
     width = COLUMN_IN if len(panels) <= 1 and w <= 7.0 else PAGE_IN
-    fig.set_size_inches(width, h * width / w)
+    # Panels in rows and columns (from the subplot grid, when the figure has one).
+    grid = None
+    for a in panels:
+        spec = a.get_subplotspec()
+        if spec is not None:
+            grid = spec.get_gridspec()
+            break
+    rows, cols = (grid.nrows, grid.ncols) if grid is not None else (1, 1)
+    height = max(h * width / w, rows * 1.2 + 0.6)
+    fig.set_size_inches(width, height)
+
+    # Labels said once.
+    if grid is not None and len(panels) > 1:
+        bottom = [a for a in panels if a.get_subplotspec().is_last_row()]
+        left = [a for a in panels if a.get_subplotspec().is_first_col()]
+        xl = _shared_label(panels, lambda a: a.get_xlabel(), None, None)
+        # A y label every panel repeats, or every panel of the first column (the others have
+        # none), is said once.
+        yl = _shared_label(panels, lambda a: a.get_ylabel(), None, None)
+        if yl:
+            left = panels
+        elif len(left) > 1:
+            yl = _shared_label(left, lambda a: a.get_ylabel(), None, None)
+        if xl and cols > 1:
+            # Said under the middle panel of the bottom row (where a legend under the figure
+            # does not cover it, as it would a figure-wide label).
+            middle = min(bottom, key=lambda a: abs(a.get_subplotspec().colspan.start - (cols - 1) / 2))
+            for a in panels:
+                if a is not middle:
+                    a.set_xlabel("")
+        elif xl:
+            for a in panels:
+                if a not in bottom:
+                    a.set_xlabel("")
+        if yl:
+            for a in left:
+                a.set_ylabel("")
+            fig.supylabel(yl, fontsize=MAX_PT - 1)
+
     # Tick labels are made again at every draw, from the axes' tick parameters: they are sized
     # through those, the other texts directly.
     ticks = {id(t) for a in fig.axes for t in a.get_xticklabels() + a.get_yticklabels()}
@@ -296,13 +365,35 @@ def journal_layout(fig) -> float:
         first = tick_size[id(a)]
         a.tick_params(length=2.5, width=0.6, pad=2)
         if first is not None:
-            a.tick_params(labelsize=journal_size(first.get_fontsize()))
+            a.tick_params(labelsize=min(journal_size(first.get_fontsize()), MAX_TICK_PT))
         a.xaxis.get_offset_text().set_fontsize(MIN_PT)
         a.yaxis.get_offset_text().set_fontsize(MIN_PT)
         for line in a.get_lines():
             line.set_linewidth(min(line.get_linewidth(), 1.2))
-            line.set_markersize(min(line.get_markersize(), 4))
-    fig.tight_layout(pad=0.3)
+            # Data markers at most 3 pt; a larger marker that picks out a point (★) shrinks less.
+            ms = line.get_markersize()
+            line.set_markersize(min(ms, 3.0) if ms <= 6 else 0.6 * ms)
+        title = a.title
+        if title.get_text():
+            title.set_text(_wrap(title.get_text(), width / max(cols, 1), title.get_fontsize()))
+    # In a row of three panels or more, a panel's legend covers its curves: it goes under the
+    # figure, in one line.
+    if cols >= 3:
+        for a in panels:
+            legend = a.get_legend()
+            if legend is not None:
+                handles, labels = a.get_legend_handles_labels()
+                size = legend.get_texts()[0].get_fontsize() if legend.get_texts() else MIN_PT
+                legend.remove()
+                fig.legend(handles, labels, loc="outside lower center", ncols=len(labels),
+                           fontsize=size, frameon=False)
+    if fig._suptitle is not None:
+        fig._suptitle.set_text(_wrap(fig._suptitle.get_text(), width, fig._suptitle.get_fontsize()))
+    try:
+        fig.set_layout_engine("constrained", w_pad=0.02, h_pad=0.02)
+    except RuntimeError:
+        # A figure with a colorbar laid out by tight_layout keeps that engine.
+        fig.tight_layout(pad=0.3)
     return width
 
 

@@ -28,7 +28,10 @@ def signals(h):
 
 def main():
     with Sweep("long-chain") as sw:
-        fig, axs = plt.subplots(2, 6, figsize=(15, 5.4))
+        # A column per condition, a row per particle: six rows of two panels print at a page's
+        # width with room for their titles.
+        fig, axs = plt.subplots(6, 2, figsize=(7.2, 9.0), sharex=True)
+        axs = axs.T
         for row, g in enumerate((False, True)):
             h = sw.history(gravity=g)
             if h is None:
@@ -43,10 +46,11 @@ def main():
                              f"leading pulse: {n} peak{'s' if n != 1 else ''}", fontsize=8.5)
                 ax.set_xlabel("time after arrival (µs)", fontsize=8)
                 ax.grid(alpha=0.3)
-            axs[row, 0].set_ylabel("dynamic force (N)")
+            for ax in axs[row]:
+                ax.set_ylabel("dynamic force (N)")
         fig.suptitle("Long 0.55 chain (heavy cylinders), 1000 particles, μ = 0, v$_0$ = 1.3 m/s", fontsize=10)
         fig.tight_layout()
-        savefig(fig, "long-chain", dpi=90)
+        savefig(fig, "long-chain")
 
 
 if __name__ == "__main__":
