@@ -206,24 +206,6 @@ def _run_groups(f: h5py.File) -> Iterator[tuple[int, h5py.Group]]:
             yield int(g.attrs["flat_index"]), g
 
 
-def _history_of(g: h5py.Group, probes: list[str]) -> tuple[np.ndarray, np.ndarray] | None:
-    """LAYOUT: one run's time samples and its history per probe, (probes, samples)."""
-    if "time_s" not in g:
-        return None
-    try:
-        time = g["time_s"][()]
-    except OSError:  # damaged (a run masked by open's damaged="mask")
-        return None
-    def series_of(p: str) -> np.ndarray:
-        try:
-            return g[p][()] if p in g else np.full(len(time), np.nan)
-        except OSError:  # damaged: masked
-            return np.full(len(time), np.nan)
-    series = [series_of(p) for p in probes]
-    values = np.stack(series) if series else np.zeros((0, len(time)))
-    return time, values
-
-
 def _min_overlap_of(g: h5py.Group) -> np.ndarray | None:
     """LAYOUT: one run's minimum overlap of every contact."""
     try:
@@ -235,21 +217,42 @@ def _min_overlap_of(g: h5py.Group) -> np.ndarray | None:
 def _stack_histories(
     f: h5py.File, grid: _Grid
 ) -> tuple[dict[str, Any], dict[str, Any]] | None:
-    """All histories as one array over (grid…, probe, time_s), NaN where a run has none."""
-    runs = {i: h for i, g in _run_groups(f) if (h := _history_of(g, grid.probes)) is not None}
-    if not runs:
+    """All histories as one array over (grid…, probe, time_s), NaN where a run has none.
+
+    Each run's series is read straight into its place of the one array (allocated once the
+    longest run is known from the datasets' shapes), so the memory needed is that array and the
+    runs' time samples, not a copy of every history besides."""
+    lengths: dict[int, tuple[h5py.Group, int]] = {}
+    for i, g in _run_groups(f):
+        t = g.get("time_s")
+        if isinstance(t, h5py.Dataset) and t.ndim == 1:
+            lengths[i] = (g, t.shape[0])
+    times: dict[int, np.ndarray] = {}
+    for i, (g, _) in lengths.items():
+        try:
+            times[i] = g["time_s"][()]
+        except OSError:  # damaged (a run masked by open's damaged="mask")
+            pass
+    if not times:
         return None
     n = int(np.prod(grid.shape))
-    longest = max(runs.values(), key=lambda h: len(h[0]))[0]
+    longest = max(times.values(), key=len)
     width = len(longest)
     values = np.full((n, len(grid.probes), width), np.nan)
-    times = np.full((n, width), np.nan)
-    for i, (t, v) in runs.items():
-        values[i, :, : len(t)] = v
-        times[i, : len(t)] = t
+    for i, t in times.items():
+        g = lengths[i][0]
+        m = len(t)
+        for k, p in enumerate(grid.probes):
+            d = g.get(p)
+            if not isinstance(d, h5py.Dataset) or d.shape != (m,) or m == 0:
+                continue
+            try:
+                d.read_direct(values, np.s_[:], np.s_[i, k, :m])
+            except OSError:  # damaged: masked
+                values[i, k, :m] = np.nan
     values = values.reshape(*grid.shape, len(grid.probes), width)
     attrs = L.probe_attrs(grid.probe_units, L.HISTORY_LONG_NAME)
-    shared = all(np.array_equal(t, longest[: len(t)]) for t, _ in runs.values())
+    shared = all(np.array_equal(t, longest[: len(t)]) for t in times.values())
     coords: dict[str, Any]
     if shared:
         # One time axis: every run sampled at the same instants (shorter runs stopped earlier).
@@ -258,8 +261,13 @@ def _stack_histories(
     else:
         # Runs sampled at different instants (the interval or the duration is an axis): a sample
         # dimension, with each run's own times as a coordinate over the grid.
+        all_times = np.full((n, width), np.nan)
+        for i, t in times.items():
+            all_times[i, : len(t)] = t
         coords = {
-            "time_s": ((*grid.dims, "sample"), times.reshape(*grid.shape, width), {"units": "s"})
+            "time_s": (
+                (*grid.dims, "sample"), all_times.reshape(*grid.shape, width), {"units": "s"}
+            )
         }
         data = {"history": ((*grid.dims, "probe", "sample"), values, attrs)}
     return data, coords
