@@ -5,7 +5,15 @@ Two sweeps of small, fast scenes (4 cylinders, 0.1 ms, so that the store, not th
 what is measured):
 
 - `history`: 20 000 runs recording histories (about 100 samples of 3 series each);
-- `summary`: 100 000 runs recording summaries only.
+- `summary`: 100 000 runs recording summaries only;
+- `histories`: the 2 511-run sweep of the issue "Histories for overnight sweeps" (81 mass ratios
+  0.2-1.0 x 31 dampings 0-30 kg/s, four gauge histories at 1 us over 1 ms: 80 MB of history
+  values), scaled like the others.
+
+For `histories` also: reading every history with h5py (raw MB/s of history values, best of
+three), `chainsweep.open(path, histories=True)` in a fresh process (its time and its peak resident
+memory, and that peak beyond the imports), and the file's bytes per run beyond the stored
+(compressed) history values: what the HDF5 objects of a run cost.
 
 For each: wall time; bytes the `chainsweep run` process wrote (`wchar` of /proc/self/io: the
 kernel adds a reaped child's I/O counts to its parent, so the difference around the run is the
@@ -34,7 +42,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 
 
-def sweep(n_a, n_b, history):
+def sweep(n_a, n_b, history, probes=(1, 3), duration_s=1e-4, damping=20.0, mass=(0.1, 1.0)):
     return {
         "description": "store benchmark",
         "base": {
@@ -45,17 +53,17 @@ def sweep(n_a, n_b, history):
             },
             "physics": {"gravity": True, "damping_kg_s": 0.0, "wall": True},
             "striker_velocity_m_s": 1.3,
-            "duration_s": 1e-4,
+            "duration_s": duration_s,
             "integrator": {"method": "dop853", "rtol": 1e-6},
         },
         "record": {
-            "probes": [{"kind": "gauge_force", "cylinder": c} for c in (1, 3)],
+            "probes": [{"kind": "gauge_force", "cylinder": c} for c in probes],
             "history": history,
             "history_interval_s": 1e-6,
         },
         "axes": [
-            {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.1, "stop": 1.0, "num": n_a}},
-            {"field": "physics.damping_kg_s", "range": {"start": 0.0, "stop": 20.0, "num": n_b}},
+            {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": mass[0], "stop": mass[1], "num": n_a}},
+            {"field": "physics.damping_kg_s", "range": {"start": 0.0, "stop": damping, "num": n_b}},
         ],
     }
 
@@ -94,6 +102,81 @@ def run_measured(args):
 def dir_usage(d):
     files = [p for p in Path(d).rglob("*") if p.is_file()]
     return len(files), sum(p.stat().st_size for p in files)
+
+
+READ_ALL = r"""
+import json, sys, time
+import h5py, numpy as np
+
+def every_history(f):
+    # Every history value of a file, whatever its layout: one variable, or a group per run.
+    if "history" in f and isinstance(f["history"], h5py.Dataset):
+        yield f["history"][()]
+        return
+    probes = [s.decode() for s in f["probe"][()].view(f"S{f['probe'].shape[-1]}")[..., 0]]
+    for g in f["runs"].values():
+        for p in probes:
+            if p in g:
+                yield g[p][()]
+
+best = None
+for _ in range(3):
+    t0 = time.perf_counter()
+    with h5py.File(sys.argv[1], "r") as f:
+        n = sum(int(np.count_nonzero(~np.isnan(a))) * 8 for a in every_history(f))
+    dt = time.perf_counter() - t0
+    best = dt if best is None else min(best, dt)
+print(json.dumps({"read_s": best, "values_bytes": n}))
+"""
+
+OPEN = r"""
+import json, resource, sys, time
+import h5py, numpy, xarray
+import chainsweep
+base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+t0 = time.perf_counter()
+ds = chainsweep.open(sys.argv[1], histories=True)
+float(ds["history"].max())
+dt = time.perf_counter() - t0
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps({"open_s": dt, "peak_rss_mib": peak / 1024, "over_imports_mib": (peak - base) / 1024}))
+"""
+
+STORED = r"""
+import json, sys
+import h5py
+stored = 0
+def visit(name, obj):
+    global stored
+    if isinstance(obj, h5py.Dataset) and (name == "history" or name.startswith("runs/")):
+        stored += obj.id.get_storage_size()
+with h5py.File(sys.argv[1], "r") as f:
+    f.visititems(visit)
+print(json.dumps({"history_stored_bytes": stored}))
+"""
+
+
+def py_json(script, path):
+    r = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True, text=True)
+    if r.returncode != 0:
+        sys.exit(f"measuring {path}: {r.stderr[-2000:]}")
+    return json.loads(r.stdout)
+
+
+def history_reads(res, out, runs):
+    """The read side of a file with histories (see the module's docstring)."""
+    size = out.stat().st_size
+    r = py_json(READ_ALL, out)
+    res["history_values_mb"] = round(r["values_bytes"] / 1e6, 2)
+    res["h5py_read_all_s"] = round(r["read_s"], 3)
+    res["h5py_read_all_mb_s"] = round(r["values_bytes"] / 1e6 / r["read_s"], 1)
+    o = py_json(OPEN, out)
+    res["open_histories_s"] = round(o["open_s"], 2)
+    res["open_histories_peak_rss_mib"] = round(o["peak_rss_mib"], 1)
+    res["open_histories_over_imports_mib"] = round(o["over_imports_mib"], 1)
+    st = py_json(STORED, out)
+    res["overhead_bytes_per_run"] = round((size - st["history_stored_bytes"]) / runs)
+    res["write_mb_s_of_values"] = round(r["values_bytes"] / 1e6 / res["reassemble_s"], 1)
 
 
 def bench(binary, work, name, spec, jobs, checkpoint):
@@ -138,6 +221,8 @@ def bench(binary, work, name, spec, jobs, checkpoint):
     res["reassemble_s"] = round(again["wall_s"], 2)
     res["reassemble_mb_s"] = round(size / 1e6 / again["wall_s"], 1)
     res["reassemble_peak_rss_mib"] = round(again["peak_rss_mib"], 1)
+    if spec["record"]["history"] and len(spec["record"]["probes"]) == 4:
+        history_reads(res, out, runs)
     return res
 
 
@@ -148,15 +233,20 @@ def main():
     ap.add_argument("--scale", type=float, default=1.0, help="fraction of the default sweep sizes")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--checkpoint-interval", type=float, default=1.0)
+    ap.add_argument("--only", default=None, help="one case: history, summary or histories")
     a = ap.parse_args()
     work = a.dir or tempfile.mkdtemp(prefix="bench_store.")
     k = a.scale ** 0.5
     cases = {
         "history": sweep(max(2, round(200 * k)), max(2, round(100 * k)), True),
         "summary": sweep(max(2, round(400 * k)), max(2, round(250 * k)), False),
+        "histories": sweep(max(2, round(81 * k)), max(2, round(31 * k)), True, probes=(1, 2, 3, 4),
+                           duration_s=1e-3, damping=30.0, mass=(0.2, 1.0)),
     }
     results = {}
     for name, spec in cases.items():
+        if a.only and name != a.only:
+            continue
         results[name] = bench(a.bin, work, name, spec, a.jobs, a.checkpoint_interval)
         r = results[name]
         print(f"{name}: {r['runs']} runs in {r['wall_s']} s; final file {r['final_file_mb']} MB; "
@@ -165,6 +255,14 @@ def main():
               f"work dir after: {r['work_dir_files']} files, {r['work_dir_bytes']} bytes; "
               f"resume with nothing to do {r['resume_nothing_to_do_s']} s; "
               f"re-assembly {r['reassemble_mb_s']} MB/s ({r['reassemble_s']} s)", flush=True)
+        if "h5py_read_all_s" in r:
+            print(f"{name}: {r['history_values_mb']} MB of history values; h5py reads them all in "
+                  f"{r['h5py_read_all_s']} s ({r['h5py_read_all_mb_s']} MB/s); "
+                  f"chainsweep.open(histories=True) {r['open_histories_s']} s, peak RSS "
+                  f"{r['open_histories_peak_rss_mib']} MiB ({r['open_histories_over_imports_mib']} "
+                  f"MiB beyond the imports); written at {r['write_mb_s_of_values']} MB/s of values "
+                  f"(re-assembly); {r['overhead_bytes_per_run']} bytes per run beyond the stored "
+                  f"histories", flush=True)
     Path(work, "bench_store.json").write_text(json.dumps(results, indent=2))
     print(f"results: {Path(work, 'bench_store.json')}")
 
