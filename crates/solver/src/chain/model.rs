@@ -708,7 +708,7 @@ impl PhysicsSpec {
 
 /// The built chain: per-particle and per-contact arrays (0-based) and the initial state.
 ///
-/// Contact `c` exerts `F = A δ^n + (μ + γ δ^{n−1} + λ δ^n) δ̇` while compressed (see
+/// Contact `c` exerts `F = A δ^n + (μ + γ δ^{n−1} + λ δ^n + β δ^{(n−1)/2}) δ̇` while compressed (see
 /// [`crate::contact`]); for the paper's chain every `n` is 3/2 and only `μ` is used.
 #[derive(Debug, Clone)]
 pub struct Chain {
@@ -729,6 +729,9 @@ pub struct Chain {
     pub viscoelastic_damping: Vec<f64>,
     /// Hunt–Crossley coefficient λ of each contact, the factor of `δ^n δ̇`.
     pub hunt_crossley_damping: Vec<f64>,
+    /// Tsuji coefficient β of each contact, the factor of `δ^{(n−1)/2} δ̇` (zero where `n = 1`:
+    /// there Tsuji's damper is constant and held in `damping`).
+    pub tsuji_damping: Vec<f64>,
     /// Gravitational acceleration applied, m/s² (zero when gravity is off).
     pub gravity_m_s2: f64,
     /// Whether the last particle rests on a wall.
@@ -782,10 +785,22 @@ impl Chain {
         let mut damping = Vec::with_capacity(n_contacts);
         let mut viscoelastic_damping = Vec::with_capacity(n_contacts);
         let mut hunt_crossley_damping = Vec::with_capacity(n_contacts);
+        let mut tsuji_damping = Vec::with_capacity(n_contacts);
         for c in 0..n_contacts {
             let model = layout.dissipation[c].or(physics.dissipation);
+            // Contact c joins particles c and c + 1, or the last one and the wall.
+            let reduced_mass = if c + 1 < n_particles {
+                mass[c] * mass[c + 1] / (mass[c] + mass[c + 1])
+            } else {
+                mass[c]
+            };
             let d = match model {
-                Some(m) => m.coefficients(stiffness[c], exponent[c]),
+                Some(m) => m.coefficients(
+                    stiffness[c],
+                    exponent[c],
+                    reduced_mass,
+                    physics.clip_tensile,
+                ),
                 None => Damping {
                     linear: if c == 0 && layout.striker { mu1 } else { mu },
                     ..Damping::NONE
@@ -794,6 +809,7 @@ impl Chain {
             damping.push(d.linear);
             viscoelastic_damping.push(d.viscoelastic);
             hunt_crossley_damping.push(d.hunt_crossley);
+            tsuji_damping.push(d.tsuji);
         }
 
         let g = if physics.gravity {
@@ -833,6 +849,7 @@ impl Chain {
             damping,
             viscoelastic_damping,
             hunt_crossley_damping,
+            tsuji_damping,
             gravity_m_s2: g,
             wall: physics.wall,
             clip_tensile: physics.clip_tensile,
@@ -874,7 +891,13 @@ impl Chain {
             .iter()
             .chain(&self.viscoelastic_damping)
             .chain(&self.hunt_crossley_damping)
+            .chain(&self.tsuji_damping)
             .any(|&m| m != 0.0)
+    }
+
+    /// Whether any contact carries Tsuji's term `β δ^{(n−1)/2} δ̇` (its kernels are apart).
+    pub fn has_tsuji_damping(&self) -> bool {
+        self.tsuji_damping.iter().any(|&b| b != 0.0)
     }
 
     /// Whether the chain is the paper's physics: every law Hertz's, only linear viscous damping,
@@ -884,6 +907,7 @@ impl Chain {
         self.exponent.iter().all(|&n| n == 1.5)
             && self.viscoelastic_damping.iter().all(|&g| g == 0.0)
             && self.hunt_crossley_damping.iter().all(|&l| l == 0.0)
+            && !self.has_tsuji_damping()
             && self.precompression_force_n == 0.0
             && self.force_pulse.is_none()
     }

@@ -4,10 +4,13 @@
 //!
 //! Specialised at compile time on the elastic law (`HERTZ`: every contact `n = 3/2`, `LINEAR`:
 //! every contact `n = 1`, `POWER`: any `n` per contact) and on whether any contact dissipates, so
-//! six variants in all; gravity, the wall, clipping, precompression and the pulse are data, each a
-//! few operations per evaluation, not per contact. The dissipation models are data too: every
-//! contact carries `(μ, γ, λ)` and the kernel evaluates `μ + γ δ^{n−1} + λ δ^n`, two fused
-//! operations on powers it computes anyway.
+//! six variants in all, and two more for Hertz and per-contact power-law chains with Tsuji's
+//! damping (`T`: its power `δ^{(n−1)/2}` costs a square root per contact, which no other chain
+//! pays; on a linear law it is a constant, the linear viscous term); gravity, the wall,
+//! clipping, precompression and the pulse are data, each a few operations per evaluation, not per
+//! contact. The dissipation models are data too: every contact carries `(μ, γ, λ, β)` and the
+//! kernel evaluates `μ + γ δ^{n−1} + λ δ^n` (+ `β √(δ^{n−1})` when `T`), fused operations on
+//! powers it computes anyway.
 
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
@@ -17,15 +20,17 @@ use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 
 /// Right-hand side of a general chain. State `[x (N), v (N), q]`, `q` holding in order the
 /// dissipated work (when `D`), the wall impulse (with a wall) and the work of the force pulse
-/// (with one), the layout [`Chain::state_len`] defines.
+/// (with one), the layout [`Chain::state_len`] defines. `T`: some contact carries Tsuji's term
+/// (only with `D`).
 #[derive(Debug, Clone)]
-pub struct GeneralChainSystem<const LAW: u8, const D: bool> {
+pub struct GeneralChainSystem<const LAW: u8, const D: bool, const T: bool = false> {
     inv_mass: Vec<f64>,
     stiffness: Vec<f64>,
     exponent: Vec<f64>,
     linear: Vec<f64>,
     viscoelastic: Vec<f64>,
     hunt_crossley: Vec<f64>,
+    tsuji: Vec<f64>,
     gravity: f64,
     wall: bool,
     clip: bool,
@@ -57,12 +62,13 @@ pub fn law(chain: &Chain) -> u8 {
     }
 }
 
-impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
+impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> {
     /// Builds the system; panics if the chain's laws or damping differ from the type's (a
     /// programming error: use [`crate::dispatch_chain_system`] to pick the type from a chain).
     pub fn new(chain: &Chain) -> Self {
         assert_eq!(law(chain), LAW, "law mismatch");
         assert_eq!(chain.has_damping(), D, "damping switch mismatch");
+        assert_eq!(chain.has_tsuji_damping(), T, "Tsuji switch mismatch");
         let n = chain.n_particles();
         let pulse = match chain.force_pulse {
             Some((amplitude, duration)) => (amplitude, std::f64::consts::PI / duration, duration),
@@ -75,6 +81,7 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
             linear: chain.damping.clone(),
             viscoelastic: chain.viscoelastic_damping.clone(),
             hunt_crossley: chain.hunt_crossley_damping.clone(),
+            tsuji: chain.tsuji_damping.clone(),
             gravity: chain.gravity_m_s2,
             wall: chain.wall,
             clip: chain.clip_tensile,
@@ -101,6 +108,7 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
                 linear: self.linear[c],
                 viscoelastic: self.viscoelastic[c],
                 hunt_crossley: self.hunt_crossley[c],
+                tsuji: self.tsuji[c],
             },
         }
     }
@@ -149,10 +157,11 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
         let force = &mut self.force[..m];
         let contact_power = &mut self.power[..m];
         let (a, e) = (&self.stiffness[..m], &self.exponent[..m]);
-        let (mu, gamma, lambda) = (
+        let (mu, gamma, lambda, beta) = (
             &self.linear[..m],
             &self.viscoelastic[..m],
             &self.hunt_crossley[..m],
+            &self.tsuji[..m],
         );
         for c in 0..m {
             let params = ContactParams {
@@ -162,9 +171,11 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
                     linear: mu[c],
                     viscoelastic: gamma[c],
                     hunt_crossley: lambda[c],
+                    tsuji: if T { beta[c] } else { 0.0 },
                 },
             };
-            let (fc, p) = general_force::<LAW, D>(&params, x[c] - x[c + 1], v[c] - v[c + 1], clip);
+            let (fc, p) =
+                general_force::<LAW, D, T>(&params, x[c] - x[c + 1], v[c] - v[c + 1], clip);
             force[c] = fc;
             if D {
                 contact_power[c] = p;
@@ -188,9 +199,10 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
                     linear: self.linear[m],
                     viscoelastic: self.viscoelastic[m],
                     hunt_crossley: self.hunt_crossley[m],
+                    tsuji: self.tsuji[m],
                 },
             };
-            general_force::<LAW, D>(&params, x[m], v[m], clip)
+            general_force::<LAW, D, T>(&params, x[m], v[m], clip)
         } else {
             (0.0, 0.0)
         };
@@ -223,7 +235,7 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
     }
 }
 
-impl<const LAW: u8, const D: bool> OdeSystem for GeneralChainSystem<LAW, D> {
+impl<const LAW: u8, const D: bool, const T: bool> OdeSystem for GeneralChainSystem<LAW, D, T> {
     fn n_pos(&self) -> usize {
         self.inv_mass.len()
     }
@@ -259,14 +271,14 @@ impl<const LAW: u8, const D: bool> OdeSystem for GeneralChainSystem<LAW, D> {
 }
 
 /// [`GeneralChainSystem::rhs_kernel`] compiled for the CPU's vector instructions at run time.
-struct GeneralRhsKernel<'a, const LAW: u8, const D: bool> {
-    sys: &'a mut GeneralChainSystem<LAW, D>,
+struct GeneralRhsKernel<'a, const LAW: u8, const D: bool, const T: bool> {
+    sys: &'a mut GeneralChainSystem<LAW, D, T>,
     t: f64,
     y: &'a [f64],
     dy: &'a mut [f64],
 }
 
-impl<const LAW: u8, const D: bool> Kernel for GeneralRhsKernel<'_, LAW, D> {
+impl<const LAW: u8, const D: bool, const T: bool> Kernel for GeneralRhsKernel<'_, LAW, D, T> {
     type Output = ();
     #[inline(always)]
     fn run<M: MulAdd>(self) {

@@ -105,7 +105,7 @@ fn add_contact(
     }
 }
 
-impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
+impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> {
     /// Writes `kx = ∂a/∂x` and `kv = ∂a/∂v` at state `y`, exactly, on the smooth piece of the
     /// right-hand side that contains `y`. For `F = A δ^n + (μ + γ δ^{n−1} + λ δ^n) δ̇`:
     /// `∂F/∂δ = n A δ^{n−1} + ((n−1) γ δ^{n−2} + n λ δ^{n−1}) δ̇` and
@@ -123,12 +123,12 @@ impl<const LAW: u8, const D: bool> GeneralChainSystem<LAW, D> {
         for c in 0..n.saturating_sub(1) {
             let p = self.contact_parameters(c);
             let (k, eta) =
-                general_derivatives::<LAW, D>(&p, x[c] - x[c + 1], v[c] - v[c + 1], clip);
+                general_derivatives::<LAW, D, T>(&p, x[c] - x[c + 1], v[c] - v[c + 1], clip);
             add_contact(kx, kv, im, c, false, k, eta);
         }
         if self.has_wall() && n > 0 {
             let p = self.contact_parameters(n - 1);
-            let (k, eta) = general_derivatives::<LAW, D>(&p, x[n - 1], v[n - 1], clip);
+            let (k, eta) = general_derivatives::<LAW, D, T>(&p, x[n - 1], v[n - 1], clip);
             add_contact(kx, kv, im, n - 1, true, k, eta);
         }
     }
@@ -394,6 +394,7 @@ mod tests {
                 restitution: 0.4,
                 impact_velocity_m_s: 0.3,
             }),
+            Some(DissipationSpec::Tsuji { restitution: 0.4 }),
         ];
         let mut rng = Lcg(0xfeed);
         for laws in [[1.5; 3], [1.0; 3], [2.5; 3], [1.0, 2.0, 1.5]] {

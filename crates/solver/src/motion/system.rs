@@ -430,9 +430,10 @@ impl Kernel for EnergyKernel<'_> {
 
 /// Calls `$body` with `$sys` bound to the right-hand side specialised for `$chain`: the paper's
 /// [`ChainSystem`] (16 variants: gravity × damping × wall × clipping) when the chain is the
-/// paper's physics, else a [`crate::motion::general::GeneralChainSystem`] (6 variants: Hertz, linear or
-/// per-contact power laws × damping). This is the one place where run-time switches become
-/// compile-time ones: 22 compiled right-hand sides in all.
+/// paper's physics, else a [`crate::motion::general::GeneralChainSystem`] (8 variants: Hertz, linear or
+/// per-contact power laws × damping on or off, and Hertz or power laws with Tsuji's term). This is
+/// the one place where run-time switches become compile-time ones: 24 compiled right-hand sides in
+/// all.
 #[macro_export]
 macro_rules! dispatch_chain_system {
     ($chain:expr, |$sys:ident| $body:expr) => {{
@@ -454,29 +455,42 @@ macro_rules! dispatch_general_system {
         let chain: &$crate::chain::model::Chain = $chain;
         use $crate::motion::general::GeneralChainSystem as General;
         use $crate::motion::general::{HERTZ_LAW, LINEAR_LAW, POWER_LAW};
-        match ($crate::motion::general::law(chain), chain.has_damping()) {
-            (HERTZ_LAW, false) => {
+        match (
+            $crate::motion::general::law(chain),
+            chain.has_damping(),
+            chain.has_tsuji_damping(),
+        ) {
+            (HERTZ_LAW, false, _) => {
                 let mut $sys = General::<HERTZ_LAW, false>::new(chain);
                 $body
             }
-            (HERTZ_LAW, true) => {
+            (HERTZ_LAW, true, false) => {
                 let mut $sys = General::<HERTZ_LAW, true>::new(chain);
                 $body
             }
-            (LINEAR_LAW, false) => {
+            (HERTZ_LAW, true, true) => {
+                let mut $sys = General::<HERTZ_LAW, true, true>::new(chain);
+                $body
+            }
+            (LINEAR_LAW, false, _) => {
                 let mut $sys = General::<LINEAR_LAW, false>::new(chain);
                 $body
             }
-            (LINEAR_LAW, true) => {
+            // Tsuji's damper on a linear law is constant, held as the linear viscous term.
+            (LINEAR_LAW, true, _) => {
                 let mut $sys = General::<LINEAR_LAW, true>::new(chain);
                 $body
             }
-            (_, false) => {
+            (_, false, _) => {
                 let mut $sys = General::<POWER_LAW, false>::new(chain);
                 $body
             }
-            (_, true) => {
+            (_, true, false) => {
                 let mut $sys = General::<POWER_LAW, true>::new(chain);
+                $body
+            }
+            (_, true, true) => {
+                let mut $sys = General::<POWER_LAW, true, true>::new(chain);
                 $body
             }
         }

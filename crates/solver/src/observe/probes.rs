@@ -308,15 +308,18 @@ enum Compiled {
     },
 }
 
+/// Exponents, viscoelastic, Hunt–Crossley and (when any contact has it) Tsuji coefficients.
+type GeneralLaws = (Vec<f64>, Vec<f64>, Vec<f64>, Option<Vec<f64>>);
+
 /// Evaluates probes from a dense step or a state.
 #[derive(Debug, Clone)]
 pub(crate) struct ProbeSet {
     compiled: Vec<Compiled>,
     stiffness: Vec<f64>,
     damping: Vec<f64>,
-    /// Exponents and the viscoelastic and Hunt–Crossley coefficients, for chains that are not the
-    /// paper's physics.
-    general: Option<(Vec<f64>, Vec<f64>, Vec<f64>)>,
+    /// Exponents and the viscoelastic, Hunt–Crossley and (when any) Tsuji coefficients, for
+    /// chains that are not the paper's physics.
+    general: Option<GeneralLaws>,
     clip: bool,
     n: usize,
     /// Reference scale of each probe for leading-pulse detection.
@@ -393,6 +396,9 @@ impl ProbeSet {
                     chain.exponent.clone(),
                     chain.viscoelastic_damping.clone(),
                     chain.hunt_crossley_damping.clone(),
+                    chain
+                        .has_tsuji_damping()
+                        .then(|| chain.tsuji_damping.clone()),
                 )
             }),
             clip: chain.clip_tensile,
@@ -431,7 +437,7 @@ impl ProbeSet {
         };
         // The same law as the equations of motion; with zero damping the viscous term vanishes.
         let (a, mu) = (self.stiffness[c], self.damping[c]);
-        if let Some((exponent, gamma, lambda)) = &self.general {
+        if let Some((exponent, gamma, lambda, beta)) = &self.general {
             let p = ContactParams {
                 a,
                 n: exponent[c],
@@ -439,9 +445,14 @@ impl ProbeSet {
                     linear: mu,
                     viscoelastic: gamma[c],
                     hunt_crossley: lambda[c],
+                    tsuji: beta.as_ref().map_or(0.0, |b| b[c]),
                 },
             };
-            return general_force::<POWER, true>(&p, overlap, rel, self.clip).0;
+            return if beta.is_some() {
+                general_force::<POWER, true, true>(&p, overlap, rel, self.clip).0
+            } else {
+                general_force::<POWER, true, false>(&p, overlap, rel, self.clip).0
+            };
         }
         if self.clip {
             paper_contact_force::<true, true>(a, mu, overlap, rel).0

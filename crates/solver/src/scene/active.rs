@@ -165,6 +165,7 @@ fn prefix_chain(chain: &Chain, k: usize) -> Chain {
         damping: chain.damping[..k].to_vec(),
         viscoelastic_damping: chain.viscoelastic_damping[..k].to_vec(),
         hunt_crossley_damping: chain.hunt_crossley_damping[..k].to_vec(),
+        tsuji_damping: chain.tsuji_damping[..k].to_vec(),
         gravity_m_s2: chain.gravity_m_s2,
         wall: true,
         clip_tensile: chain.clip_tensile,
