@@ -189,6 +189,27 @@ fn the_inversion_is_exact_and_depends_on_the_exponent_and_clipping() {
             }
         }
     }
+    // The table of docs/CHAINS.md, section 3: (e, n, clip, α).
+    for (e, n, clip, alpha) in [
+        (0.3, 1.5, false, 0.80019),
+        (0.3, 1.5, true, 1.11186),
+        (0.3, 2.5, false, 0.94680),
+        (0.3, 2.5, true, 1.31557),
+        (0.7, 1.5, false, 0.25225),
+        (0.7, 1.5, true, 0.27328),
+        (0.7, 2.5, false, 0.29846),
+        (0.7, 2.5, true, 0.32335),
+        (0.95, 1.5, false, 0.036504),
+        (0.95, 1.5, true, 0.036891),
+        (0.95, 2.5, false, 0.043192),
+        (0.95, 2.5, true, 0.043650),
+    ] {
+        let got = tsuji_alpha(e, n, clip);
+        assert!(
+            (got / alpha - 1.0).abs() < 3e-5,
+            "e {e} n {n} clip {clip}: {got}"
+        );
+    }
     // Hertz: the small-damping limit 1 − e = α · 2∫₀^{x_m} x^{1/4} √(1 − (4/5) x^{5/2}) dx
     // = 1.40496 α (the energy the undamped impact loses to the damper).
     let alpha = tsuji_alpha(0.9999, 1.5, false);
