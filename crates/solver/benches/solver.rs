@@ -147,13 +147,13 @@ fn general_chain(law: Option<LawSpec>, model: Option<DissipationSpec>) -> Chain 
     Chain::build(&ChainSpec::Sequence(spec), &physics).unwrap()
 }
 
-fn time_general<const LAW: u8, const D: bool>(
+fn time_general<const LAW: u8, const D: bool, const T: bool>(
     group: &mut BenchmarkGroup<'_, WallTime>,
     name: &str,
     chain: &Chain,
     y: &mut Vec<f64>,
 ) {
-    let mut sys = GeneralChainSystem::<LAW, D>::new(chain);
+    let mut sys = GeneralChainSystem::<LAW, D, T>::new(chain);
     let dim = OdeSystem::dim(&sys);
     y.resize(dim, 0.0);
     let mut dy = vec![0.0; dim];
@@ -171,7 +171,8 @@ fn bench_general_rhs(c: &mut Criterion) {
         exponent: n,
     };
     let linear = Some(DissipationSpec::LinearViscous { damping_kg_s: 6.0 });
-    let cases: [(&str, Option<LawSpec>, Option<DissipationSpec>); 7] = [
+    let tsuji = Some(DissipationSpec::Tsuji { restitution: 0.8 });
+    let cases: [(&str, Option<LawSpec>, Option<DissipationSpec>); 9] = [
         ("hertz_no_damping", None, None),
         ("hertz_linear_viscous", None, linear),
         (
@@ -189,9 +190,11 @@ fn bench_general_rhs(c: &mut Criterion) {
                 impact_velocity_m_s: 1.0,
             }),
         ),
+        ("hertz_tsuji", None, tsuji),
         ("linear_law_linear_viscous", Some(power(1.0)), linear),
         ("power_law_2.5_no_damping", Some(power(2.5)), None),
         ("power_law_2.5_linear_viscous", Some(power(2.5)), linear),
+        ("power_law_2.5_tsuji", Some(power(2.5)), tsuji),
     ];
     let mut group = c.benchmark_group("general_rhs");
     for (name, law_spec, model) in cases {
@@ -201,19 +204,31 @@ fn bench_general_rhs(c: &mut Criterion) {
         // The general kernel itself, also for the two cases that `dispatch_chain_system!` sends to
         // the paper's kernel (Hertz laws with no or linear damping): their difference from
         // `rhs/full_physics` is the price of generality that the dispatch avoids.
-        match (law(&chain), chain.has_damping()) {
-            (HERTZ_LAW, false) => {
-                time_general::<HERTZ_LAW, false>(&mut group, name, &chain, &mut y)
+        match (law(&chain), chain.has_damping(), chain.has_tsuji_damping()) {
+            (HERTZ_LAW, false, _) => {
+                time_general::<HERTZ_LAW, false, false>(&mut group, name, &chain, &mut y)
             }
-            (HERTZ_LAW, true) => time_general::<HERTZ_LAW, true>(&mut group, name, &chain, &mut y),
-            (LINEAR_LAW, false) => {
-                time_general::<LINEAR_LAW, false>(&mut group, name, &chain, &mut y)
+            (HERTZ_LAW, true, false) => {
+                time_general::<HERTZ_LAW, true, false>(&mut group, name, &chain, &mut y)
             }
-            (LINEAR_LAW, true) => {
-                time_general::<LINEAR_LAW, true>(&mut group, name, &chain, &mut y)
+            (HERTZ_LAW, true, true) => {
+                time_general::<HERTZ_LAW, true, true>(&mut group, name, &chain, &mut y)
             }
-            (_, false) => time_general::<POWER_LAW, false>(&mut group, name, &chain, &mut y),
-            (_, true) => time_general::<POWER_LAW, true>(&mut group, name, &chain, &mut y),
+            (LINEAR_LAW, false, _) => {
+                time_general::<LINEAR_LAW, false, false>(&mut group, name, &chain, &mut y)
+            }
+            (LINEAR_LAW, true, _) => {
+                time_general::<LINEAR_LAW, true, false>(&mut group, name, &chain, &mut y)
+            }
+            (_, false, _) => {
+                time_general::<POWER_LAW, false, false>(&mut group, name, &chain, &mut y)
+            }
+            (_, true, false) => {
+                time_general::<POWER_LAW, true, false>(&mut group, name, &chain, &mut y)
+            }
+            (_, true, true) => {
+                time_general::<POWER_LAW, true, true>(&mut group, name, &chain, &mut y)
+            }
         }
     }
     group.finish();

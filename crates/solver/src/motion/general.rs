@@ -157,12 +157,13 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         let force = &mut self.force[..m];
         let contact_power = &mut self.power[..m];
         let (a, e) = (&self.stiffness[..m], &self.exponent[..m]);
-        let (mu, gamma, lambda, beta) = (
+        let (mu, gamma, lambda) = (
             &self.linear[..m],
             &self.viscoelastic[..m],
             &self.hunt_crossley[..m],
-            &self.tsuji[..m],
         );
+        // Read only by the kernels with Tsuji's term.
+        let beta: &[f64] = if T { &self.tsuji[..m] } else { &[] };
         for c in 0..m {
             let params = ContactParams {
                 a: a[c],
@@ -199,7 +200,7 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
                     linear: self.linear[m],
                     viscoelastic: self.viscoelastic[m],
                     hunt_crossley: self.hunt_crossley[m],
-                    tsuji: self.tsuji[m],
+                    tsuji: if T { self.tsuji[m] } else { 0.0 },
                 },
             };
             general_force::<LAW, D, T>(&params, x[m], v[m], clip)
