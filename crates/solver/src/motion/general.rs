@@ -30,7 +30,6 @@ pub struct GeneralChainSystem<const LAW: u8, const D: bool, const T: bool = fals
     linear: Vec<f64>,
     viscoelastic: Vec<f64>,
     hunt_crossley: Vec<f64>,
-    tsuji: Vec<f64>,
     gravity: f64,
     wall: bool,
     clip: bool,
@@ -42,6 +41,8 @@ pub struct GeneralChainSystem<const LAW: u8, const D: bool, const T: bool = fals
     force: Vec<f64>,
     power: Vec<f64>,
     switches: Vec<Switch>,
+    /// Tsuji coefficients β, read only when `T`.
+    tsuji: Vec<f64>,
 }
 
 /// `LAW` of a kernel whose contacts are all Hertz's (`n = 3/2`).
