@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -273,6 +274,144 @@ def _stack_histories(
     return data, coords
 
 
+# Runs per block of the lazy `history` (along the grid's last axis): blocks of about this many
+# bytes, so that a reduction over every history holds a few blocks at a time, whatever the file.
+_LAZY_BLOCK_BYTES = 8 << 20
+# Run groups read per opening of the file while the time samples are gathered: HDF5 keeps what it
+# read of every group (about 30 KB a run) until the file is closed.
+_GROUPS_PER_OPEN = 512
+_BLOCK_LOCK = threading.Lock()
+
+
+def _has_dask() -> bool:
+    try:
+        import dask.array  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _identity(path: str) -> tuple[int, int, int, int]:
+    st = os.stat(path)
+    return st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns
+
+
+def _lazy_histories(
+    path: str, grid: _Grid, masked: set[int]
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """LAYOUT: every run's history as one dask array over (grid…, probe, time_s), read from the
+    file block by block only when computed (a block: runs along the grid's last axis, about
+    `_LAZY_BLOCK_BYTES`), NaN where a run has none and at the `masked` (damaged) points; None
+    without dask (then the histories are stacked in memory) or without histories.
+
+    Only the time samples are read now, one run at a time, to find the one time axis (or, where
+    the runs' instants differ, the per-run time coordinate). Each block opens the file anew and
+    closes it (HDF5 keeps what it read of every run group until the file is closed, so one open
+    file would grow by every group read); a block raises when the file is no longer the one
+    checked (a sweep re-published it since): open it again."""
+    try:
+        import dask.array as da
+    except ImportError:
+        return None
+    identity = _identity(path)
+    with h5py.File(path, "r") as f:
+        runs = {}
+        for i, g in _run_groups(f):
+            t = g.get("time_s")
+            if isinstance(t, h5py.Dataset) and t.ndim == 1:
+                runs[i] = (g.name, t.shape[0])
+    order = sorted(runs)
+    def each_time(indices: list[int]) -> Iterator[tuple[int, np.ndarray]]:
+        """The time samples of runs `indices` that can be read, a few hundred per opening."""
+        for s in range(0, len(indices), _GROUPS_PER_OPEN):
+            with h5py.File(path, "r") as f:
+                for i in indices[s : s + _GROUPS_PER_OPEN]:
+                    try:
+                        yield i, f[runs[i][0]]["time_s"][()]
+                    except OSError:  # damaged: that run masked
+                        continue
+
+    # The longest run that can be read (by length, longest first).
+    longest: np.ndarray | None = None
+    for _, t in each_time(sorted(runs, key=lambda i: -runs[i][1])):
+        longest = t
+        break
+    if longest is None:
+        return None
+    readable: dict[int, tuple[str, int]] = {}
+    shared = True
+    for i, t in each_time(sorted(runs)):
+        readable[i] = runs[i]
+        shared = shared and np.array_equal(t, longest[: len(t)])
+    times: dict[int, np.ndarray] = {}
+    if not shared:  # every run's own instants, for the time coordinate over the grid
+        times = dict(each_time(sorted(readable)))
+    width = len(longest)
+    n_probes = len(grid.probes)
+    nd = len(grid.shape)
+    per_run = max(1, n_probes * width * 8)
+    chunks: tuple[tuple[int, ...], ...] = tuple((1,) * n for n in grid.shape[:-1])
+    if nd:
+        last = grid.shape[-1]
+        along = max(1, min(last, _LAZY_BLOCK_BYTES // per_run))
+        chunks += (tuple(min(along, last - s) for s in range(0, last, along)),)
+    chunks += ((n_probes,), (width,))
+    probes = list(grid.probes)
+
+    def block(block_info: Any = None) -> np.ndarray:
+        loc = block_info[None]["array-location"][:nd]
+        lo = [r[0] for r in loc]
+        out = np.full((*[r[1] - r[0] for r in loc], n_probes, width), np.nan)
+        # (One block at a time: HDF5 reads one at a time anyway, and two threads opening the
+        # same file at once can deadlock in h5py.)
+        with _BLOCK_LOCK, h5py.File(path, "r") as f:
+            if _identity(path) != identity:
+                raise DamagedFileError(
+                    path,
+                    f"{path} was replaced since chainsweep.open checked it (a sweep published it "
+                    "again): open it again",
+                    [],
+                )
+            for local in np.ndindex(*out.shape[:nd]):
+                i = int(np.ravel_multi_index(tuple(x + k for x, k in zip(lo, local)), grid.shape))
+                if i in masked or i not in readable:
+                    continue
+                name, m = readable[i]
+                if m == 0:
+                    continue
+                g = f[name]
+                for k, p in enumerate(probes):
+                    d = g.get(p)
+                    if not isinstance(d, h5py.Dataset) or d.shape != (m,):
+                        continue
+                    try:
+                        d.read_direct(out, np.s_[:], np.s_[(*local, k, slice(0, m))])
+                    except OSError:  # damaged: masked
+                        out[(*local, k, slice(0, m))] = np.nan
+        return out
+
+    token = f"history-{os.path.abspath(path)}-{identity}-{sorted(masked)[:8]}-{len(masked)}"
+    values = da.map_blocks(
+        block, chunks=chunks, dtype=np.float64, meta=np.empty((0,) * (nd + 2)), name=token
+    )
+    attrs = L.probe_attrs(grid.probe_units, L.HISTORY_LONG_NAME)
+    coords: dict[str, Any]
+    if shared:
+        coords = {"time_s": ("time_s", longest, {"units": "s"})}
+        data = {"history": ((*grid.dims, "probe", "time_s"), values, attrs)}
+    else:
+        all_times = np.full((int(np.prod(grid.shape)), width), np.nan)
+        for i, t in times.items():
+            all_times[i, : len(t)] = t
+        coords = {
+            "time_s": (
+                (*grid.dims, "sample"), all_times.reshape(*grid.shape, width), {"units": "s"}
+            )
+        }
+        data = {"history": ((*grid.dims, "probe", "sample"), values, attrs)}
+    return data, coords
+
+
 def _stack_min_overlaps(
     f: h5py.File, grid: _Grid
 ) -> tuple[dict[str, Any], dict[str, Any]] | None:
@@ -346,6 +485,8 @@ def _mask(data: dict[str, Any], grid: "_Grid", points: list[tuple[int, str, str]
     for name, (dims, values, attrs) in list(data.items()):
         if tuple(dims[: len(grid.dims)]) != tuple(grid.dims):
             continue
+        if not isinstance(values, np.ndarray) and hasattr(values, "dask"):
+            continue  # a lazy history: its damaged points are masked as it is read
         values = np.array(values)
         if name == "status":
             values[flags] = L.STATUS_PENDING
@@ -390,7 +531,7 @@ def _join_units(data: dict[str, Any], grid: "_Grid") -> None:
 
 
 def open(  # noqa: A001 (chainsweep.open)
-    path: PathLike, histories: bool = False, damaged: str = "raise"
+    path: PathLike, histories: bool | str = False, damaged: str = "raise"
 ) -> xr.Dataset:
     """Opens a sweep's result file (made by :func:`chainsweep.sweep` or ``chainsweep run``).
 
@@ -417,6 +558,14 @@ def open(  # noqa: A001 (chainsweep.open)
     were sampled at different instants (the history interval an axis), the last dimension is
     ``sample`` and ``time_s`` a coordinate over (grid…, ``sample``).
 
+    With ``histories="lazy"`` (and dask installed), ``history`` is the same variable as a dask
+    array read from the file only when computed, in blocks of runs along the grid's last axis
+    (about 8 MB each): a reduction over every history (``ds.history.max("time_s")``) holds a few
+    blocks at a time, not the file. Each block opens the file anew (HDF5 frees what it read of
+    the run groups only when the file closes) and raises when the file was replaced since it was
+    checked. Do not compute it while iterating an h5py group (``for g in f["runs"].values()``):
+    h5py holds its lock over such a loop, which the threads that read the blocks wait for.
+
     Every value is first checked against the checksums the file stores (histories too with
     ``histories=True``). A damaged point raises :class:`DamagedFileError`, naming each damaged
     point by its index and axis values; with ``damaged="mask"`` the intact points are served and
@@ -425,7 +574,9 @@ def open(  # noqa: A001 (chainsweep.open)
     earlier versions carry no checksums and are served as they stand.
     """
     fspath = os.fspath(path)
-    points, unreadable = _check(fspath, histories, damaged)
+    if histories not in (True, False, "lazy"):
+        raise InputError("histories", f'must be True, False or "lazy", got {histories!r}')
+    points, unreadable = _check(fspath, bool(histories), damaged)
     unchecked = fspath if points else None
     with h5py.File(path, "r") as f:
         if "dimensions" not in f.attrs or "grid_shape" not in f.attrs:
@@ -449,13 +600,21 @@ def open(  # noqa: A001 (chainsweep.open)
         for name in auxiliary & set(data):
             coords[name] = data.pop(name)
         extras = [_stack_min_overlaps(f, grid)]
-        if histories:
+        lazy = histories == "lazy" and "runs" in f and _has_dask()
+        if histories and not lazy:
             extras.append(_stack_histories(f, grid))
         for extra in extras:
             if extra is not None:
                 data.update(extra[0])
                 coords.update(extra[1])
         attrs = _attrs(f)
+    if lazy:
+        # (After the file is closed: HDF5 frees what it read of the run groups only then.)
+        extras.append(_lazy_histories(fspath, grid, {i for i, _, _ in points}))
+    for extra in extras[-1:] if lazy else []:
+        if extra is not None:
+            data.update(extra[0])
+            coords.update(extra[1])
     for name, why, per_probe in unreadable:
         # A dataset HDF5 cannot read at all: every point of it masked (they are damaged), never
         # left out.

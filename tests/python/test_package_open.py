@@ -5,6 +5,8 @@ NaN where a run failed or is pending; partial files; the Dataset written and rea
 from __future__ import annotations
 
 import json
+import os
+import shutil
 
 import h5py
 import numpy as np
@@ -12,6 +14,7 @@ import pytest
 import xarray as xr
 
 import chainsweep
+from chainsweep.errors import DamagedFileError, InputError
 from conftest import run as cli
 from conftest import texts
 from scenes import sweep_spec, write
@@ -101,6 +104,28 @@ def test_every_summary_labelled_and_equal_to_h5py(files):
     ratio = ds.leading_peak.sel(probe="gauge_force_cyl8") / ds.leading_peak.sel(probe="gauge_force_cyl2")
     assert ratio.sel(damping_kg_s=6).dims == ("mass_ratio",)
     assert json.loads(ds.attrs["dimensions"]) == ["mass_ratio", "damping_kg_s"]
+
+
+def test_lazy_histories_read_nothing_until_computed_and_equal_the_stacked_ones(files, tmp_path):
+    """histories="lazy": a dask array over the same variable, read block by block when computed."""
+    eager = chainsweep.open(files["full"], histories=True)
+    lazy = chainsweep.open(files["full"], histories="lazy")
+    assert lazy.history.chunks is not None  # dask: nothing read yet
+    assert lazy.history.dims == eager.history.dims
+    assert lazy.history.attrs == eager.history.attrs
+    assert lazy.time_s.values.tobytes() == eager.time_s.values.tobytes()
+    assert lazy.history.values.tobytes() == eager.history.values.tobytes()
+    assert lazy.history.max("time_s").values.tobytes() == eager.history.max("time_s").values.tobytes()
+    # A block raises rather than serve a file published again since it was checked.
+    copy = tmp_path / "copy.h5"
+    shutil.copyfile(files["full"], copy)
+    ds = chainsweep.open(copy, histories="lazy")
+    shutil.copyfile(files["full"], tmp_path / "next.h5")
+    os.replace(tmp_path / "next.h5", copy)
+    with pytest.raises(DamagedFileError, match="was replaced"):
+        ds.history.values
+    with pytest.raises(InputError):
+        chainsweep.open(files["full"], histories="yes")
 
 
 def test_units_of_run_and_open_agree(files):
