@@ -253,10 +253,6 @@ pub(crate) fn is_char(d: &Dataset) -> bool {
 /// type, without HDF5's Fletcher-32 check: a damaged chunk reads as it is, and the checksums of
 /// its points say which are damaged).
 pub(crate) fn read_chars(d: &Dataset) -> Result<Vec<u8>> {
-    use hdf5_sys::h5d::H5Dread;
-    use hdf5_sys::h5p::{H5Pclose, H5Pcreate, H5Pset_edc_check};
-    use hdf5_sys::h5s::H5S_ALL;
-    use hdf5_sys::h5z::H5Z_EDC_t;
     let ty = d.dtype()?;
     if ty.size() != 1 {
         return Err(Error::Other(format!(
@@ -264,34 +260,8 @@ pub(crate) fn read_chars(d: &Dataset) -> Result<Vec<u8>> {
             d.name()
         )));
     }
-    let n = d.size();
-    let mut buf = vec![0u8; n];
-    // SAFETY: `d.id()` and `ty.id()` are open ids (borrowed for the call); `buf` holds exactly
-    // the dataset's `n` elements of its own one-byte type (H5S_ALL selects them all, and nothing
-    // is converted); the property list is created and closed here; all under hdf5-metno's global
-    // lock.
-    let r = hdf5::sync::sync(|| unsafe {
-        let xfer = H5Pcreate(*hdf5::globals::H5P_DATASET_XFER);
-        if xfer < 0 {
-            return -1;
-        }
-        let mut r = H5Pset_edc_check(xfer, H5Z_EDC_t::H5Z_DISABLE_EDC);
-        if r >= 0 && n > 0 {
-            r = H5Dread(
-                d.id(),
-                ty.id(),
-                H5S_ALL,
-                H5S_ALL,
-                xfer,
-                buf.as_mut_ptr().cast(),
-            );
-        }
-        H5Pclose(xfer);
-        r
-    });
-    if r < 0 {
-        return Err(Error::Other(format!("reading dataset {} failed", d.name())));
-    }
+    let mut buf = vec![0u8; d.size()];
+    read_all_unchecked(d, &ty, &mut buf)?;
     Ok(buf)
 }
 
@@ -495,16 +465,32 @@ pub fn column_text_checksum(d: &Dataset) -> Result<u64> {
 /// a damaged chunk then reads as it is stored, and the per-point checksums say which of its
 /// points are damaged, rather than HDF5 refusing the whole chunk.
 pub(crate) fn read_unchecked<T: H5Type + Copy + Default>(d: &Dataset) -> Result<Vec<T>> {
+    let mut buf = vec![T::default(); d.size()];
+    read_all_unchecked(d, &hdf5::Datatype::from_type::<T>()?, &mut buf)?;
+    Ok(buf)
+}
+
+/// Reads every element of `d` into `buf` (as many elements as `d` has) as the memory type
+/// `mem`, whose size is that of `E`, without HDF5's error-detection check (Fletcher-32): a
+/// damaged chunk reads as it is stored.
+fn read_all_unchecked<E>(d: &Dataset, mem: &hdf5::Datatype, buf: &mut [E]) -> Result<()> {
     use hdf5_sys::h5d::H5Dread;
     use hdf5_sys::h5p::{H5Pclose, H5Pcreate, H5Pset_edc_check};
     use hdf5_sys::h5s::H5S_ALL;
     use hdf5_sys::h5z::H5Z_EDC_t;
-    let n = d.size();
-    let mut buf = vec![T::default(); n];
-    let mem = hdf5::Datatype::from_type::<T>()?;
+    assert_eq!(
+        buf.len(),
+        d.size(),
+        "one element of the buffer per element of the dataset"
+    );
+    assert_eq!(
+        mem.size(),
+        std::mem::size_of::<E>(),
+        "the memory type is the buffer's"
+    );
     // SAFETY: `d.id()` and `mem.id()` are open ids (borrowed for the call); `buf` holds exactly
-    // the dataset's `n` elements of the memory type `T` (H5S_ALL selects them all, and HDF5
-    // converts to `mem`, `T`'s own type); the property list is created and closed here; all under
+    // the dataset's elements, each of `mem`'s size (checked above; H5S_ALL selects them all, and
+    // HDF5 converts to `mem`); the property list is created and closed here; all under
     // hdf5-metno's global lock, as every call into the library must be.
     let r = hdf5::sync::sync(|| unsafe {
         let xfer = H5Pcreate(*hdf5::globals::H5P_DATASET_XFER);
@@ -512,7 +498,7 @@ pub(crate) fn read_unchecked<T: H5Type + Copy + Default>(d: &Dataset) -> Result<
             return -1;
         }
         let mut r = H5Pset_edc_check(xfer, H5Z_EDC_t::H5Z_DISABLE_EDC);
-        if r >= 0 && n > 0 {
+        if r >= 0 && !buf.is_empty() {
             r = H5Dread(
                 d.id(),
                 mem.id(),
@@ -528,7 +514,7 @@ pub(crate) fn read_unchecked<T: H5Type + Copy + Default>(d: &Dataset) -> Result<
     if r < 0 {
         return Err(Error::Other(format!("reading dataset {} failed", d.name())));
     }
-    Ok(buf)
+    Ok(())
 }
 
 /// The values of numeric dataset `name` of the file `path` (or the characters of a text stored as
