@@ -36,11 +36,9 @@ CONVENTIONS = "CF-1.8"  # the newest CF version cfchecker 4.1 checks against
 CFCHECKS = Path(sys.executable).parent / "cfchecks"
 ENGINES = ["h5netcdf", "netcdf4"]
 
-# The objective of a search is in whatever unit its summaries combine to (a ratio, a difference
-# of forces, …), which the sweep's search specification knows and the file does not record yet:
-# the one variable without a `units` (cfchecker: an INFO, no warning).
-SEARCH_OBJECTIVES = {"objective", "refine_error", "minimum_objective", "maximum_objective",
-                     "root_objective"}
+# Variables whose `units` may be missing: none. (A search's objective carries the unit its
+# summaries combine to: "1" for a ratio, the force's for a difference of forces.)
+SEARCH_OBJECTIVES: set[str] = set()
 
 
 def zipped(name=None):

@@ -482,6 +482,11 @@ impl<'a> Driver<'a> {
             ),
             None => spec.objective.describe(),
         };
+        let objective_units = spec.objective.units(&self.grid.probes);
+        let objective_units = match &spec.across {
+            Some(a) => a.combine.units(objective_units, objective_units),
+            None => objective_units,
+        };
         SearchTables {
             description: spec.describe(),
             goal: spec.goal.name().into(),
@@ -489,6 +494,7 @@ impl<'a> Driver<'a> {
             evaluations: e,
             fields,
             objective_name,
+            objective_units,
             objective,
             round,
             status,

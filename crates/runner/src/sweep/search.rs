@@ -22,7 +22,7 @@ use chainsweep_solver::{Probe, Scene};
 
 use super::{check_settable, from_ref_at, set_path, split_path, units_of, Dim};
 use crate::error::{Error, Result};
-use crate::record::columns::{column, Fill, COLUMNS};
+use crate::record::columns::{column, Fill, Units, COLUMNS};
 use crate::record::RunRecord;
 
 /// What a search looks for.
@@ -91,6 +91,15 @@ pub enum Combine {
 }
 
 impl Combine {
+    /// The unit of two values of units `a` and `b` combined: a ratio (plain or logarithmic) has
+    /// none ("1"), a difference its values' unit; `None` where that is not known or they differ.
+    pub fn units(self, a: Option<&'static str>, b: Option<&'static str>) -> Option<&'static str> {
+        match self {
+            Combine::Ratio | Combine::LogRatio => Some("1"),
+            Combine::Difference => a.filter(|_| a == b),
+        }
+    }
+
     fn parse(name: &str) -> Option<Combine> {
         match name {
             "ratio" => Some(Combine::Ratio),
@@ -147,6 +156,16 @@ impl Summary {
         v.is_finite().then_some(v)
     }
 
+    /// Its unit, the column's (or its probe's, given the record block's `probes`); `None` for a
+    /// column without one.
+    pub fn units(&self, probes: &[Probe]) -> Option<&'static str> {
+        match column(self.column)?.units {
+            Units::Fixed(u) => Some(u),
+            Units::OfProbes => Some(probes.get(self.probe.as_ref()?.0)?.unit()),
+            Units::None => None,
+        }
+    }
+
     /// How it reads: `leading_peak[gauge_force_cyl21]`, `t_end_s`.
     pub fn describe(&self) -> String {
         match &self.probe {
@@ -171,6 +190,14 @@ impl Objective {
         match self {
             Objective::One(s) => s.of(rec),
             Objective::Two(c, a, b) => c.apply(a.of(rec), b.of(rec)),
+        }
+    }
+
+    /// Its unit, given the record block's `probes` (see [`Summary::units`], [`Combine::units`]).
+    pub fn units(&self, probes: &[Probe]) -> Option<&'static str> {
+        match self {
+            Objective::One(s) => s.units(probes),
+            Objective::Two(c, a, b) => c.units(a.units(probes), b.units(probes)),
         }
     }
 

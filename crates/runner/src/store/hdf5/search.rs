@@ -65,6 +65,9 @@ pub struct SearchTables {
     pub fields: Vec<FieldTable>,
     /// What the objective is.
     pub objective_name: String,
+    /// The objective's unit, where its summaries have one (`units` of every variable holding
+    /// objective values).
+    pub objective_units: Option<&'static str>,
     /// The objective at every evaluation; NaN where none or it gave no number.
     pub objective: Vec<f64>,
     /// The round of every evaluation (-1: none).
@@ -134,6 +137,9 @@ pub fn write(
         "long_name",
         &format!("objective of the search: {}", t.objective_name),
     )?;
+    if let Some(u) = t.objective_units {
+        attr_str(&d, "units", u)?;
+    }
     attr_str(&d, "coordinates", &field_names.join(" "))?;
     let d = filled_checked_dataset(file, "evaluation_round", &eval_shape, &t.round, -1i64)?;
     attach(&d, &eval_scales)?;
@@ -165,6 +171,9 @@ pub fn write(
             "long_name",
             "largest estimated error of interpolating the refined samples (objective units)",
         )?;
+        if let Some(u) = t.objective_units {
+            attr_str(&d, "units", u)?;
+        }
     }
     if let Some((item, n)) = &t.items {
         let ids: Vec<i64> = (0..*n as i64).collect();
@@ -219,6 +228,9 @@ pub fn write(
         )?;
         attach(&d, &item_scales)?;
         attr_str(&d, "long_name", &format!("objective at each {item} found"))?;
+        if let Some(u) = t.objective_units {
+            attr_str(&d, "units", u)?;
+        }
         let d = checked_dataset(file, &format!("{item}_status"), &item_shape, &t.item_status)?;
         attach(&d, &item_scales)?;
         attr_vec(&d, "flag_values", t.flags[1].0)?;
