@@ -37,12 +37,13 @@ def test_published_schema_is_the_commands_output(schema):
 
 
 def repository_sweep_files():
-    files = sorted((REPO / "sweeps").glob("*.json"))
-    assert len(files) >= 20
+    """Every sweep file of the repository: sweeps/ and its folders (examples, stress cases)."""
+    files = sorted((REPO / "sweeps").rglob("*.json"))
+    assert len(files) >= 40
     return files
 
 
-@pytest.mark.parametrize("path", repository_sweep_files(), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", repository_sweep_files(), ids=lambda p: str(p.relative_to(REPO / "sweeps")))
 def test_every_sweep_file_follows_the_schema(validator, path):
     errors = [f"{list(e.absolute_path)}: {e.message}" for e in validator.iter_errors(json.loads(path.read_text()))]
     assert errors == []
