@@ -773,6 +773,45 @@ fn batch_times(
     count
 }
 
+/// Feeds `sink` the instants `t0 + i·interval` of `grid` from `i = *next` up to `until` (and
+/// advances `*next` past them), each with the state whose `components` are interpolated in
+/// `step` there: in batches of [`SAMPLE_BATCH`] (one interpolant set-up for all of a batch),
+/// the samples then fed in time order exactly as one at a time. `batch` holds a batch's
+/// values, `state` the components of one sample.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn sample_grid(
+    step: &dyn DenseStep,
+    (t0, interval): (f64, f64),
+    next: &mut u64,
+    until: f64,
+    components: &[usize],
+    batch: &mut [f64],
+    state: &mut [f64],
+    mut sink: impl FnMut(f64, &[f64]),
+) {
+    let m = components.len();
+    let mut times = [0.0f64; SAMPLE_BATCH];
+    loop {
+        let count = batch_times(t0, *next, interval, until, &mut times);
+        if count == 0 {
+            break;
+        }
+        let values = &mut batch[..count * m];
+        step.eval_components_at(&times[..count], components, values);
+        for (&t, row) in times[..count].iter().zip(values.chunks_exact(m.max(1))) {
+            for (&i, &v) in components.iter().zip(row) {
+                state[i] = v;
+            }
+            sink(t, state);
+        }
+        *next += count as u64;
+        if count < SAMPLE_BATCH {
+            break;
+        }
+    }
+}
+
 /// Most samples interpolated in one call ([`DenseStep::eval_components_at`]).
 const SAMPLE_BATCH: usize = 32;
 
@@ -969,68 +1008,41 @@ impl StepObserver for RunObserver {
         let t1 = step.t_end();
         let n_probes = self.probes.len();
         if n_probes > 0 {
-            let m = self.probe_components.len();
-            // The samples of the step in batches: one interpolant set-up for all of them, the
-            // probes then fed in time order exactly as one sample at a time.
-            let mut times = [0.0f64; SAMPLE_BATCH];
-            loop {
-                let count = batch_times(
-                    self.t0,
-                    self.next_summary,
-                    self.opts.summary_interval,
-                    t1.min(self.t_end),
-                    &mut times,
-                );
-                if count == 0 {
-                    break;
-                }
-                let values = &mut self.batch_values[..count * m];
-                step.eval_components_at(&times[..count], &self.probe_components, values);
-                for (&ts, row) in times[..count].iter().zip(values.chunks_exact(m.max(1))) {
-                    for (&i, &v) in self.probe_components.iter().zip(row) {
-                        self.probe_state[i] = v;
-                    }
-                    let state = &self.probe_state;
+            let until = t1.min(self.t_end);
+            let probes = &self.probes;
+            let trackers = &mut self.trackers;
+            sample_grid(
+                step,
+                (self.t0, self.opts.summary_interval),
+                &mut self.next_summary,
+                until,
+                &self.probe_components,
+                &mut self.batch_values[..],
+                &mut self.probe_state,
+                |ts, state| {
                     let g = |i: usize| state[i];
-                    for (k, tracker) in self.trackers.iter_mut().enumerate() {
-                        tracker.sample(ts, self.probes.value(k, &g));
+                    for (k, tracker) in trackers.iter_mut().enumerate() {
+                        tracker.sample(ts, probes.value(k, &g));
                     }
-                }
-                self.next_summary += count as u64;
-                if count < SAMPLE_BATCH {
-                    break;
-                }
-            }
+                },
+            );
             if let Some(h) = &mut self.history {
-                loop {
-                    let count = batch_times(
-                        self.t0,
-                        self.next_history,
-                        self.opts.history_interval,
-                        t1.min(self.t_end),
-                        &mut times,
-                    );
-                    if count == 0 {
-                        break;
-                    }
-                    let values = &mut self.batch_values[..count * m];
-                    step.eval_components_at(&times[..count], &self.probe_components, values);
-                    for (&th, row) in times[..count].iter().zip(values.chunks_exact(m.max(1))) {
-                        for (&i, &v) in self.probe_components.iter().zip(row) {
-                            self.probe_state[i] = v;
-                        }
-                        let state = &self.probe_state;
+                sample_grid(
+                    step,
+                    (self.t0, self.opts.history_interval),
+                    &mut self.next_history,
+                    until,
+                    &self.probe_components,
+                    &mut self.batch_values[..],
+                    &mut self.probe_state,
+                    |th, state| {
                         let g = |i: usize| state[i];
                         h.time_s.push(th);
                         for (k, series) in h.values.iter_mut().enumerate() {
-                            series.push(self.probes.value(k, &g));
+                            series.push(probes.value(k, &g));
                         }
-                    }
-                    self.next_history += count as u64;
-                    if count < SAMPLE_BATCH {
-                        break;
-                    }
-                }
+                    },
+                );
             }
         }
         self.update_ledger(t1, step.y_end());
