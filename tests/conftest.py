@@ -233,3 +233,55 @@ def assert_files_equal(a, b, skip_datasets=VOLATILE_DATASETS, skip_attrs=VOLATIL
 def binary():
     assert BIN.exists(), f"chainsweep binary not found at {BIN}; run `make build` or set CHAINSWEEP_BIN"
     return BIN
+
+
+def to_layout_4(path):
+    """Rewrites a file of the current layout (5: the runs' arrays as datasets over the grid) as
+    layout 4 stored them: a group per successful run under ``runs/`` (``run_<flat index>``, with
+    ``flat_index``, ``grid_index`` and ``run_hash``), each with its own ``time_s`` (a dimension
+    scale), one dataset per probe named like it, and ``min_overlap_m`` on its own ``contact``;
+    the same values, so that their checksums hold. For tests of the readers of earlier layouts."""
+    with h5py.File(path, "r+") as f:
+        shape = tuple(int(n) for n in f.attrs["grid_shape"])
+        probes = list(texts(f["probe"])) if "probe" in f else []
+        units = list(texts(f["probe_units"])) if "probe" in f else []
+        hashes = texts(f["run_hash"]).ravel()
+        status = f["status"][()].ravel()
+        samples = f["history_samples"][()].ravel() if "history_samples" in f else None
+        if samples is not None:
+            common = f["time_s"].ndim == 1
+            parts = {}
+            for u in dict.fromkeys(units):
+                name = "history" if len(set(units)) == 1 else f"history_{u.replace('/', '_per_')}"
+                parts[u] = f[name][()].reshape(-1, len(probes), f[name].shape[-1])
+            times = f["time_s"][()] if common else f["time_s"][()].reshape(-1, f["time_s"].shape[-1])
+        overlaps = (
+            f["min_overlap_m"][()].reshape(-1, f["min_overlap_m"].shape[-1])
+            if "min_overlap_m" in f else None
+        )
+        runs = f.create_group("runs")
+        for i in np.flatnonzero(status == 1):
+            g = runs.create_group(f"run_{i}")
+            g.attrs["run_hash"] = hashes[i]
+            g.attrs["flat_index"] = np.int64(i)
+            g.attrs["grid_index"] = np.array(np.unravel_index(i, shape), dtype=np.int64)
+            if samples is not None:
+                m = int(samples[i])
+                t = g.create_dataset("time_s", data=(times if common else times[i])[:m])
+                t.attrs["units"] = "s"
+                t.make_scale("time_s")
+                for k, (p, u) in enumerate(zip(probes, units)):
+                    d = g.create_dataset(p, data=parts[u][i, k, :m])
+                    d.attrs["units"] = u
+                    d.dims[0].attach_scale(t)
+            if overlaps is not None:
+                m = overlaps[i][~np.isnan(overlaps[i])]
+                c = g.create_dataset("contact", data=np.arange(1, len(m) + 1, dtype=np.int64))
+                c.make_scale("contact")
+                d = g.create_dataset("min_overlap_m", data=m)
+                d.dims[0].attach_scale(c)
+        for name in ("history", "history_N", "history_m", "history_m_per_s", "history_samples",
+                     "time_s", "sample", "min_overlap_m", "contact"):
+            if name in f:
+                del f[name]
+        f.attrs["layout_version"] = np.int64(4)

@@ -195,7 +195,7 @@ def test_every_variable_is_labelled_with_parseable_units(files, kind):
     path = files[kind]
     with h5py.File(path, "r") as f:
         assert f.attrs["Conventions"] == CONVENTIONS
-        assert int(f.attrs["layout_version"]) == 4
+        assert int(f.attrs["layout_version"]) == 5
     seen = 0
     for name, v in variables(path):
         seen += 1
@@ -277,9 +277,17 @@ def test_mixed_units_are_split_by_unit(files):
     for p, u in units.items():
         part = ds[chainsweep._layout.split_name("leading_peak", u)].sel(probe=p)
         assert part.values.tobytes() == ds.leading_peak.sel(probe=p).values.tobytes(), p
-    with h5py.File(path, "r") as f:  # the run groups: each probe's history in its own unit
-        g = f["runs/run_0"]
-        assert {p: g[p].attrs["units"] for p in probes} == units
+    with h5py.File(path, "r") as f:  # the histories: one variable per unit, NaN at the others
+        for u in set(units.values()):
+            h = f[chainsweep._layout.split_name("history", u)]
+            assert h.attrs["units"] == u
+            mine = [k for k, p in enumerate(probes) if units[p] == u]
+            others = [k for k, p in enumerate(probes) if units[p] != u]
+            assert np.isnan(h[..., others, :]).all() and not np.isnan(h[..., mine, 0]).any()
+    np.testing.assert_array_equal(
+        ds.history.sel(probe=probes[0]).values,
+        xr.open_dataset(path)[chainsweep._layout.split_name("history", units[probes[0]])]
+        .sel(probe=probes[0]).values)
 
 
 def test_ncdump_shows_every_variable_and_char_text(files):
@@ -336,7 +344,7 @@ def test_a_file_of_layout_3_stays_readable_merges_and_resumes_into_a_cf_file(
                                   ds.leading_peak.sel(probe=p).values[kept]), p
         assert new.run_hash.values[kept].tolist() == ds.run_hash.values[kept].tolist()
         with h5py.File(path, "r") as f:
-            assert int(f.attrs["layout_version"]) == 4
+            assert int(f.attrs["layout_version"]) == 5
         report = cfchecks(path, tables, tmp_path)
         assert report.returncode == 0, report.stdout
 

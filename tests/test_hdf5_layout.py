@@ -102,7 +102,14 @@ def test_names_shapes_dtypes(produced):
             "status",
             "reason",
             "run_hash",
-            "runs",
+            # the runs' arrays: histories (one per unit), their time axis and lengths, minimum
+            # overlaps on their contacts
+            "history_N",
+            "history_m_per_s",
+            "history_samples",
+            "time_s",
+            "min_overlap_m",
+            "contact",
             "summary_checksum",
             "history_checksum",
             # the dimensions of the texts' characters (netCDF `char`)
@@ -205,41 +212,45 @@ def test_dimension_scales(produced):
 
 
 def test_histories(produced):
+    """Layout 5: every run's histories in one dataset per unit over (grid, probe, time_s), the
+    time axis stored once, NaN where a run has none; minimum overlaps over (grid, contact)."""
     _, _, out = produced
     with h5py.File(out, "r") as f:
-        # run_<flat index>: a valid netCDF name, whatever the grid's size
-        assert sorted(f["runs"].keys()) == [f"run_{i}" for i in range(6)]
-        assert int(f.attrs["layout_version"]) == 4
-        hashes = texts(f["run_hash"])
+        assert "runs" not in f  # no group per run
+        assert int(f.attrs["layout_version"]) == 5
+        t = f["time_s"]
+        assert t.attrs["units"] == "s" and h5py.h5ds.is_scale(t.id)
+        assert t.shape == (201,)
+        np.testing.assert_array_equal(t[:], np.arange(201) * 1e-6)  # k × the interval, exactly
+        probes = [p.decode() for p in f["probe"][()].view("S%d" % f["probe"].shape[1]).ravel()]
+        assert probes == ["gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5"]
+        # the probes' units differ: one dataset per unit, NaN at the others' probes
+        assert "history" not in f
+        for name, unit, mine in [("history_N", "N", [0, 1]), ("history_m_per_s", "m/s", [2])]:
+            ds = f[name]
+            assert ds.shape == (3, 2, 3, 201) and ds.dtype == np.float64
+            assert ds.attrs["units"] == unit
+            assert ds.compression == "gzip" and ds.shuffle and ds.fletcher32
+            assert ds.chunks[-2:] == (3, 201) and ds.chunks[1] == 2  # whole runs, both of a row
+            assert np.isnan(ds.attrs["_FillValue"])
+            assert [d[0].name for d in ds.dims] == ["/mass_ratio", "/damping_kg_s", "/probe", "/time_s"]
+            assert "DIMENSION_LABELS" not in ds.attrs
+            v = ds[()]
+            others = [k for k in range(3) if k not in mine]
+            assert np.isfinite(v[:, :, mine]).all() and np.isnan(v[:, :, others]).all()
+        np.testing.assert_array_equal(f["history_samples"][()], np.full((3, 2), 201))
         for i in range(6):
-            g = f["runs"][f"run_{i}"]
-            assert int(g.attrs["flat_index"]) == i
-            assert g.attrs["run_hash"] == hashes[np.unravel_index(i, (3, 2))]
-            assert list(g.attrs["grid_index"]) == list(np.unravel_index(i, (3, 2)))
-            assert set(g.keys()) == {"time_s", "gauge_force_cyl2", "gauge_force_cyl8", "velocity_p5",
-                                     "contact", "min_overlap_m"}
-            t = g["time_s"]
-            assert t.attrs["units"] == "s"
-            assert h5py.h5ds.is_scale(t.id)
-            assert t.shape == (201,)
-            assert t[0] == 0.0 and math.isclose(t[1], 1e-6)
-            for name, unit in [("gauge_force_cyl2", "N"), ("gauge_force_cyl8", "N"), ("velocity_p5", "m/s")]:
-                ds = g[name]
-                assert ds.shape == (201,) and ds.dtype == np.float64
-                assert ds.chunks is not None and ds.compression == "gzip" and ds.shuffle
-                assert ds.attrs["units"] == unit
-                assert ds.dims[0][0].name == t.name
-                assert np.isfinite(ds[:]).all()
-            # The history's maximum agrees with the refined record maximum.
             mi = np.unravel_index(i, (3, 2))
+            # The history's maximum agrees with the refined record maximum.
             peak = f["record_max_N"][mi + (0,)]
-            assert g["gauge_force_cyl2"][:].max() <= peak * (1 + 1e-9)
-            assert g["gauge_force_cyl2"][:].max() >= 0.9 * peak
-            assert g["min_overlap_m"].shape == (22,)
-            # contacts 1…22 as the overlaps' dimension scale
-            assert h5py.h5ds.is_scale(g["contact"].id)
-            assert list(g["contact"][:]) == list(range(1, 23))
-            assert g["min_overlap_m"].dims[0][0].name == g["contact"].name
+            h = f["history_N"][mi + (0,)]
+            assert h.max() <= peak * (1 + 1e-9) and h.max() >= 0.9 * peak
+        m = f["min_overlap_m"]
+        assert m.shape == (3, 2, 22) and np.isfinite(m[()]).all()
+        # contacts 1…22 as the overlaps' dimension scale
+        assert h5py.h5ds.is_scale(f["contact"].id)
+        assert list(f["contact"][:]) == list(range(1, 23))
+        assert [d[0].name for d in m.dims] == ["/mass_ratio", "/damping_kg_s", "/contact"]
 
 
 def test_values_match_rust(produced):
@@ -268,19 +279,19 @@ def test_values_match_rust(produced):
                         assert np.isnan(stored)
                     else:
                         assert stored == v, (name, k)
-            assert res["history_samples"] == f["runs"][f"run_{i}"]["time_s"].shape[0]
+            assert res["history_samples"] == f["history_samples"][mi]
             scene = p["scene"]
             assert scene["physics"]["damping_kg_s"] == f["damping_kg_s"][mi[1]]
             assert scene["chain"]["cylinder"]["mass"]["heavy_cylinders"]["mass_ratio"] == f["mass_ratio"][mi[0]]
 
 
-def test_summaries_only_writes_no_runs_group(tmp_path, binary):
+def test_summaries_only_writes_no_runs_arrays(tmp_path, binary):
     path = write_sweep(tmp_path / "s.json", base_sweep(history=False))
     out = tmp_path / "s.h5"
     r = run("run", path, "-o", out, "--quiet")
     assert r.returncode == 0, r.stderr
     with h5py.File(out, "r") as f:
-        assert "runs" not in f
+        assert not {"runs", "history", "history_samples", "time_s", "min_overlap_m"} & set(f)
 
 
 def failing_sweep():
@@ -333,8 +344,10 @@ def test_failed_runs_are_isolated_and_recorded(tmp_path, binary):
         assert np.isfinite(f["wall_time_s"][...]).all()
         assert (f["steps"][...][failed] == -1).all()
         assert f["steps"][1, 0] > 0
-        # Only the successful run has a history.
-        assert list(f["runs"].keys()) == ["run_2"]
+        # Only the successful run has a history; the others are NaN (the fill value).
+        np.testing.assert_array_equal(f["history_samples"][()] > 0, status == 1)
+        h = f["history"][()]
+        assert np.isfinite(h[1, 0, :2]).all() and np.isnan(h[status != 1]).all()
         assert int(f.attrs["n_failed"]) == 7
     r = run("status", out)
     assert r.returncode == 3
@@ -350,4 +363,4 @@ def test_failed_runs_are_isolated_and_recorded(tmp_path, binary):
     with h5py.File(out, "r") as f:
         assert f["status"][0, 0] == 1
         assert int(f.attrs["n_failed"]) == 6
-        assert sorted(f["runs"].keys()) == ["run_0", "run_2"]
+        assert sorted(np.flatnonzero(f["history_samples"][()].ravel() > 0)) == [0, 2]

@@ -46,9 +46,9 @@ def check_readable(out):
     with h5py.File(out, "r") as f:
         status = f["status"][...]
         assert int(f.attrs["n_ok"]) == int((status == 1).sum())
-        for i in np.flatnonzero(status.ravel() == 1):
-            g = f["runs"][f"run_{i}"]
-            assert g["time_s"].shape[0] == 1001
+        samples = f["history_samples"][()]
+        assert (samples[status == 1] == 1001).all() and (samples[status != 1] == -1).all()
+        assert f["time_s"].shape == (1001,)
         return int((status == 1).sum())
 
 

@@ -13,7 +13,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import assert_files_equal, base_sweep, run, write_sweep
+import chainsweep
+
+from conftest import assert_files_equal, base_sweep, run, to_layout_4, write_sweep
 
 ENGINES = ["h5netcdf", "netcdf4"]
 COUNTERS = ["steps", "rejected_steps", "rhs_evals", "events"]
@@ -73,9 +75,10 @@ def open_ds(path, engine, **kw):
 @pytest.mark.parametrize("engine", ENGINES)
 def test_plain_grid_is_labelled(files, engine):
     ds = open_ds(files["failed"], engine)
-    assert dict(ds.sizes) == {"mass_ratio": 3, "rtol": 2, "probe": 2}
-    assert set(ds.indexes) == {"mass_ratio", "rtol", "probe"}
-    assert set(ds.coords) == {"mass_ratio", "rtol", "probe", "probe_units"}
+    # (and the runs' arrays': their time axis and contacts)
+    assert dict(ds.sizes) == {"mass_ratio": 3, "rtol": 2, "probe": 2, "time_s": 201, "contact": 22}
+    assert set(ds.indexes) == {"mass_ratio", "rtol", "probe", "time_s", "contact"}
+    assert set(ds.coords) == {"mass_ratio", "rtol", "probe", "probe_units", "time_s", "contact"}
     assert ds.leading_peak.dims == ("mass_ratio", "rtol", "probe")
     assert ds.steps.dims == ds.status.dims == ds.reason.dims == ("mass_ratio", "rtol")
     assert list(ds.mass_ratio.values) == [0.3, 0.55, 1.0] and list(ds.rtol.values) == [1e-9, 1e-5]
@@ -173,25 +176,38 @@ def test_zipped_dimension_with_a_name_of_its_own(files, engine):
 
 
 @pytest.mark.parametrize("engine", ENGINES)
-def test_history_groups(files, engine):
+def test_history_arrays(files, engine):
+    """The histories as one variable over (grid, probe, time_s), lazily with chunks={}: NaN for
+    the failed runs; the time axis stored once; minimum overlaps over (grid, contact)."""
     path = files["failed"]
     with h5py.File(path, "r") as f:
         status = f["status"][()]
-        ok = [int(i) for i in np.flatnonzero(status.ravel() == 1)]
-        assert sorted(f["runs"]) == sorted(f"run_{i}" for i in ok)
-    tree = xr.open_datatree(path, engine=engine)
-    assert set(tree["runs"].children) == {f"run_{i}" for i in ok}
-    for i in ok:
-        g = open_ds(path, engine, group=f"runs/run_{i}")
-        assert set(g.dims) == {"time_s", "contact"}
-        assert set(g.data_vars) == {"gauge_force_cyl2", "gauge_force_cyl8", "min_overlap_m"}
-        assert g.gauge_force_cyl2.dims == ("time_s",) and g.min_overlap_m.dims == ("contact",)
-        assert list(g.contact.values) == list(range(1, g.sizes["contact"] + 1))
-        assert g.time_s.attrs["units"] == "s" and g.gauge_force_cyl8.attrs["units"] == "N"
-        assert g.attrs["flat_index"] == i
-        assert list(g.attrs["grid_index"]) == list(np.unravel_index(i, status.shape))
+        assert "runs" not in f
+    ok = status == 1
+    ds = xr.open_dataset(path, engine=engine, chunks={})
+    h = ds["history"]
+    assert h.chunks is not None  # lazy (dask)
+    assert h.dims == (*ds.status.dims, "probe", "time_s") and h.attrs["units"] == "N"
+    assert list(h.probe.values) == ["gauge_force_cyl2", "gauge_force_cyl8"]
+    assert ds.time_s.attrs["units"] == "s" and ds.time_s.dims == ("time_s",)
+    values = h.values
+    assert np.isnan(values[~ok]).all()
+    assert ds.history_samples.values[ok].min() > 0
+    for i in zip(*np.nonzero(ok)):
+        m = int(ds.history_samples.values[i])
+        run = values[i]
+        assert np.isfinite(run[:, :m]).all() and np.isnan(run[:, m:]).all()
         # the pulse reaches cylinder 8 after cylinder 2
-        assert g.gauge_force_cyl8.idxmax() > g.gauge_force_cyl2.idxmax()
+        assert run[1, :m].argmax() > run[0, :m].argmax()
+    mo = ds.min_overlap_m
+    assert mo.dims == (*ds.status.dims, "contact") and mo.attrs["units"] == "m"
+    assert list(ds.contact.values) == list(range(1, ds.sizes["contact"] + 1))
+    assert np.isfinite(mo.values[ok]).all() and np.isnan(mo.values[~ok]).all()
+    # chainsweep.open gives the same, eagerly and lazily
+    for how in (True, "lazy"):
+        c = chainsweep.open(path, histories=how)
+        assert c.history.values.tobytes() == values.tobytes(), how
+        assert c.min_overlap_m.values.tobytes() == mo.values.tobytes(), how
 
 
 def ncdump(path):
@@ -221,14 +237,13 @@ def test_ncdump_zipped(files):
     assert "velocity_m_s(impact)" in named and "double impact(" not in named
 
 
-def test_ncdump_history_groups(files):
+def test_ncdump_history_arrays(files):
     out = ncdump(files["failed"])
-    with h5py.File(files["failed"], "r") as f:
-        ok = np.flatnonzero(f["status"][()].ravel() == 1)
-    groups = [line.strip() for line in out.splitlines() if line.strip().startswith("group:")]
-    assert groups == ["group: runs {"] + [f"group: run_{i} {{" for i in sorted(ok, key=str)]
-    assert "\\0" not in out  # netCDF escapes names that start with a digit
-    assert "double gauge_force_cyl2(time_s) ;" in out and "double min_overlap_m(contact) ;" in out
+    assert "group:" not in out
+    assert "\tdouble history(" in out and ", probe, time_s) ;" in out
+    assert "\tdouble time_s(time_s) ;" in out and "\tint64 history_samples(" in out
+    assert "\tdouble min_overlap_m(" in out and ", contact) ;" in out
+    assert "history:_FillValue = NaN ;" in out
 
 
 def test_an_old_layout_resumes_into_the_new_one(tmp_path, binary):
@@ -238,12 +253,19 @@ def test_an_old_layout_resumes_into_the_new_one(tmp_path, binary):
     path = write_sweep(tmp_path / "s.json", failing_grid())
     out = tmp_path / "s.h5"
     assert run("run", path, "-o", out, "--quiet").returncode == 3
+    fresh = tmp_path / "fresh.h5"
+    assert run("run", path, "-o", fresh, "--quiet").returncode == 3
+    to_layout_4(out)
     to_layout_1(out)
+    # the old file is read as it stands
+    old = chainsweep.open(out, histories=True)
+    new = chainsweep.open(fresh, histories=True)
+    assert old.history.values.tobytes() == new.history.values.tobytes()
     r = run("run", path, "-o", out)
     assert r.returncode == 3 and "6 of 6 runs already done" in r.stderr, r.stderr
     with h5py.File(out, "r") as f:
-        assert int(f.attrs["layout_version"]) == 4
-        assert sorted(f["runs"]) == ["run_0", "run_2", "run_4"]
+        assert int(f.attrs["layout_version"]) == 5 and "runs" not in f
+    assert_files_equal(fresh, out)
 
 
 def to_layout_1(path):
@@ -268,6 +290,7 @@ def test_shards_of_the_old_layout_merge(tmp_path, binary):
         part = tmp_path / f"part-{k}.h5"
         assert run("run", path, "--shard", f"{k}/2", "-o", part, "--quiet").returncode in (0, 3)
         parts.append(part)
+    to_layout_4(parts[0])
     to_layout_1(parts[0])
     with h5py.File(parts[0], "r") as f:
         names = sorted(f["runs"])
@@ -286,7 +309,7 @@ def test_a_newer_layout_is_refused(tmp_path, binary):
     out = tmp_path / "s.h5"
     assert run("run", path, "-o", out, "--quiet").returncode == 0
     with h5py.File(out, "r+") as f:
-        f.attrs["layout_version"] = np.int64(5)
+        f.attrs["layout_version"] = np.int64(6)
     r = run("status", out)
     assert r.returncode != 0
-    assert "layout version 5" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout
+    assert "layout version 6" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout

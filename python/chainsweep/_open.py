@@ -16,9 +16,15 @@ functions marked LAYOUT, so that a change of layout is followed there:
   after the dataset of the dimension scale attached to it; where the probes' units differ, a
   summary in the probes' unit is one dataset per unit (``leading_peak_N``, … from layout 4:
   ``_layout.split_name``), one dataset with ``units = "see probe_units"`` before;
-- per-run groups (histories, minimum overlaps) under ``runs/`` (``run_<flat index>``; older
-  files: the zero-padded index), each with a ``flat_index`` attribute, read by that attribute;
-  a history dataset per probe, named like it, on the group's ``time_s``.
+- the runs' arrays, from layout 5: ``history`` over (grid…, probe, time_s) (one dataset per unit
+  where the probes' units differ: ``history_N``, …), NaN after a run's end and where it has none,
+  with ``time_s`` the one time axis, or, where the runs' intervals differ, the dimension
+  ``sample`` and ``time_s`` a variable over (grid…, sample); ``history_samples`` over the grid;
+  ``min_overlap_m`` over (grid…, contact) on the coordinate ``contact``;
+- before layout 5, per-run groups (histories, minimum overlaps) under ``runs/``
+  (``run_<flat index>``; older files: the zero-padded index), each with a ``flat_index``
+  attribute, read by that attribute; a history dataset per probe, named like it, on the group's
+  ``time_s``.
 """
 
 from __future__ import annotations
@@ -197,6 +203,77 @@ def _scale_name(dim: Any) -> str | None:
     return name.rsplit("/", 1)[-1].removeprefix("_nc4_non_coord_")
 
 
+# LAYOUT: the first layout whose runs' arrays are datasets over the grid (not run groups), and
+# the names of those arrays at the root.
+_ARRAYS_LAYOUT = 5
+_ARRAY_NAMES = {
+    "history", "history_N", "history_m", "history_m_per_s", "time_s", "sample", "min_overlap_m",
+    "contact",
+}
+
+
+def _has_arrays(f: h5py.File) -> bool:
+    """LAYOUT: whether the file stores its runs' arrays as datasets over the grid (layout 5)."""
+    return int(f.attrs.get("layout_version", 1)) >= _ARRAYS_LAYOUT
+
+
+def _history_parts(grid: "_Grid") -> list[tuple[str, list[int]]]:
+    """LAYOUT: the history datasets of a layout-5 file, each with the probes it holds: one
+    ``history``, or one per unit where the probes' units differ (``history_N``, …)."""
+    units = grid.probe_units
+    if L.probe_units(units) is not None:
+        return [("history", list(range(len(units))))]
+    return [
+        (L.split_name("history", u), [k for k, x in enumerate(units) if x == u])
+        for u in dict.fromkeys(units)
+    ]
+
+
+def _read_masked(ds: h5py.Dataset, sel: tuple = ()) -> np.ndarray:
+    """`ds[sel]` as float64, a chunk whose Fletcher-32 check fails read as NaN (its runs are
+    damaged: reported by the check, masked by open's damaged="mask")."""
+    sel = tuple(sel) + (slice(None),) * (ds.ndim - len(sel))
+    try:
+        return np.asarray(ds[sel], dtype=np.float64)
+    except OSError:
+        pass
+    box = [s.indices(n) for s, n in zip(sel, ds.shape)]
+    out = np.full([len(range(*b)) for b in box], np.nan)
+    for chunk in ds.iter_chunks(tuple(slice(*b) for b in box)):
+        try:
+            part = ds[chunk]
+        except OSError:
+            continue
+        out[tuple(slice(c.start - b[0], c.stop - b[0]) for c, b in zip(chunk, box))] = part
+    return out
+
+
+def _array_histories(
+    f: h5py.File, grid: "_Grid", sel: tuple = ()
+) -> np.ndarray:
+    """LAYOUT: the histories of layout 5 over (grid…, probe, time) (the grid's points `sel`), one
+    array over every probe whatever their units."""
+    parts = _history_parts(grid)
+    if len(parts) == 1:
+        return _read_masked(f[parts[0][0]], sel)
+    out = None
+    for name, probes in parts:
+        part = _read_masked(f[name], sel)
+        if out is None:
+            out = np.full(part.shape, np.nan)
+        out[..., probes, :] = part[..., probes, :]
+    return out
+
+
+def _array_time(f: h5py.File, grid: "_Grid") -> tuple[str, dict[str, Any]]:
+    """LAYOUT: the last dimension of the histories of layout 5 and its time coordinate."""
+    t = f["time_s"]
+    attrs = {"units": "s", "long_name": _value(t.attrs.get("long_name", "time"))}
+    if t.ndim == 1:
+        return "time_s", {"time_s": ("time_s", _read_masked(t), attrs)}
+    return "sample", {"time_s": ((*grid.dims, "sample"), _read_masked(t), attrs)}
+
+
 def _run_groups(f: h5py.File) -> Iterator[tuple[int, h5py.Group]]:
     """LAYOUT: every per-run group with its flat (row-major) grid index."""
     runs = f.get("runs")
@@ -220,9 +297,19 @@ def _stack_histories(
 ) -> tuple[dict[str, Any], dict[str, Any]] | None:
     """All histories as one array over (grid…, probe, time_s), NaN where a run has none.
 
-    Each run's series is read straight into its place of the one array (allocated once the
-    longest run is known from the datasets' shapes), so the memory needed is that array and the
-    runs' time samples, not a copy of every history besides."""
+    Layout 5: the file's own array(s), read with one slice each. Before: each run's series is
+    read straight into its place of the one array (allocated once the longest run is known from
+    the datasets' shapes), so the memory needed is that array and the runs' time samples, not a
+    copy of every history besides."""
+    if _has_arrays(f):
+        if "time_s" not in f:
+            return None
+        last, coords = _array_time(f, grid)
+        if not grid.probes:
+            return {}, coords
+        values = _array_histories(f, grid)
+        attrs = L.probe_attrs(grid.probe_units, L.HISTORY_LONG_NAME)
+        return {"history": ((*grid.dims, "probe", last), values, attrs)}, coords
     lengths: dict[int, tuple[h5py.Group, int]] = {}
     for i, g in _run_groups(f):
         t = g.get("time_s")
@@ -315,6 +402,8 @@ def _lazy_histories(
         return None
     identity = _identity(path)
     with h5py.File(path, "r") as f:
+        if _has_arrays(f):
+            return _lazy_arrays(path, f, grid, masked, identity)
         runs = {}
         for i, g in _run_groups(f):
             t = g.get("time_s")
@@ -412,10 +501,73 @@ def _lazy_histories(
     return data, coords
 
 
+def _lazy_arrays(
+    path: str,
+    f: h5py.File,
+    grid: "_Grid",
+    masked: set[int],
+    identity: tuple[int, int, int, int],
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """LAYOUT: the histories of a layout-5 file as one dask array over (grid…, probe, time),
+    read a block of the file's own chunks at a time (runs along the grid's last axis, about
+    `_LAZY_BLOCK_BYTES`), the `masked` (damaged) points NaN. Each block opens the file anew and
+    raises when it is no longer the one checked."""
+    import dask.array as da
+
+    if "time_s" not in f or not grid.probes:
+        return None
+    last, coords = _array_time(f, grid)
+    first = f[_history_parts(grid)[0][0]]
+    shape = first.shape
+    nd = len(grid.shape)
+    chunk = first.chunks or shape
+    per_run = max(1, int(np.prod(shape[nd:])) * 8)
+    chunks: tuple[tuple[int, ...], ...] = tuple((1,) * n for n in grid.shape[:-1])
+    if nd:
+        n_last = grid.shape[-1]
+        step = max(1, chunk[nd - 1])
+        along = max(step, (_LAZY_BLOCK_BYTES // per_run) // step * step)
+        along = min(along, n_last)
+        chunks += (tuple(min(along, n_last - s) for s in range(0, n_last, along)),)
+    chunks += ((shape[nd],), (shape[nd + 1],))
+
+    def block(block_info: Any = None) -> np.ndarray:
+        loc = block_info[None]["array-location"][:nd]
+        sel = tuple(slice(a, b) for a, b in loc)
+        with _BLOCK_LOCK, h5py.File(path, "r") as g:
+            if _identity(path) != identity:
+                raise DamagedFileError(
+                    path,
+                    f"{path} was replaced since chainsweep.open checked it (a sweep published it "
+                    "again): open it again",
+                    [],
+                )
+            out = _array_histories(g, grid, sel)
+        for local in np.ndindex(*out.shape[:nd]):
+            i = int(np.ravel_multi_index(tuple(s.start + k for s, k in zip(sel, local)), grid.shape))
+            if i in masked:
+                out[local] = np.nan
+        return out
+
+    token = f"history-{os.path.abspath(path)}-{identity}-{sorted(masked)[:8]}-{len(masked)}"
+    values = da.map_blocks(
+        block, chunks=chunks, dtype=np.float64, meta=np.empty((0,) * (nd + 2)), name=token
+    )
+    attrs = L.probe_attrs(grid.probe_units, L.HISTORY_LONG_NAME)
+    return {"history": ((*grid.dims, "probe", last), values, attrs)}, coords
+
+
 def _stack_min_overlaps(
     f: h5py.File, grid: _Grid
 ) -> tuple[dict[str, Any], dict[str, Any]] | None:
     """Minimum overlaps over (grid…, contact), NaN where a run has none (or fewer contacts)."""
+    if _has_arrays(f):
+        if "min_overlap_m" not in f:
+            return None
+        d = f["min_overlap_m"]
+        coords = {"contact": ("contact", f["contact"][()], {"long_name": L.CONTACT_LONG_NAME})}
+        attrs = {"units": "m", "long_name": L.MIN_OVERLAP_LONG_NAME}
+        return {"min_overlap_m": ((*grid.dims, "contact"), _read_masked(d), attrs)}, coords
     runs = {i: m for i, g in _run_groups(f) if (m := _min_overlap_of(g)) is not None}
     if not runs:
         return None
@@ -553,18 +705,18 @@ def open(  # noqa: A001 (chainsweep.open)
     ``probe_units``.
     ``min_overlap_m`` over (grid…, ``contact``) is there when the sweep recorded it.
 
-    With ``histories=True``, every run's history is stacked into ``history`` over (grid…,
+    With ``histories=True``, every run's history is read into ``history`` over (grid…,
     ``probe``, ``time_s``), NaN where a run failed, is pending or stopped earlier. When the runs
     were sampled at different instants (the history interval an axis), the last dimension is
     ``sample`` and ``time_s`` a coordinate over (grid…, ``sample``).
 
     With ``histories="lazy"`` (and dask installed), ``history`` is the same variable as a dask
     array read from the file only when computed, in blocks of runs along the grid's last axis
-    (about 8 MB each): a reduction over every history (``ds.history.max("time_s")``) holds a few
-    blocks at a time, not the file. Each block opens the file anew (HDF5 frees what it read of
-    the run groups only when the file closes) and raises when the file was replaced since it was
-    checked. Do not compute it while iterating an h5py group (``for g in f["runs"].values()``):
-    h5py holds its lock over such a loop, which the threads that read the blocks wait for.
+    (about 8 MB each, whole chunks of the file): a reduction over every history
+    (``ds.history.max("time_s")``) holds a few blocks at a time, not the file. Each block opens
+    the file anew and raises when the file was replaced since it was checked. (With files of
+    layout 4 and earlier, a group per run: do not compute it while iterating an h5py group, ``for
+    g in f["runs"].values()``, whose lock the threads that read the blocks wait for.)
 
     Every value is first checked against the checksums the file stores (histories too with
     ``histories=True``). A damaged point raises :class:`DamagedFileError`, naming each damaged
@@ -587,8 +739,11 @@ def open(  # noqa: A001 (chainsweep.open)
         data: dict[str, Any] = {}
         # Coordinates that are no dimension's scale (a search's fields over its evaluations).
         auxiliary: set[str] = set()
+        arrays = _has_arrays(f)
         for name, obj in f.items():
             if not isinstance(obj, h5py.Dataset) or name in grid.coords or _dimension_only(obj):
+                continue
+            if arrays and name in _ARRAY_NAMES:  # read below, as asked
                 continue
             dims = grid.dims_of(obj)
             if dims is None:
@@ -600,7 +755,7 @@ def open(  # noqa: A001 (chainsweep.open)
         for name in auxiliary & set(data):
             coords[name] = data.pop(name)
         extras = [_stack_min_overlaps(f, grid)]
-        lazy = histories == "lazy" and "runs" in f and _has_dask()
+        lazy = histories == "lazy" and ("runs" in f or arrays) and _has_dask()
         if histories and not lazy:
             extras.append(_stack_histories(f, grid))
         for extra in extras:

@@ -83,16 +83,23 @@ def test_run_equals_point_bitwise(rich, index):
 def test_histories_and_min_overlaps_equal_the_files(rich):
     spec, _, out = rich
     with h5py.File(out, "r") as f:
-        assert sorted(f["runs"]) == [f"run_{i}" for i in range(4)]
-        for g in f["runs"].values():
-            index = int(g.attrs["flat_index"])
+        samples = f["history_samples"][()].ravel()
+        overlaps = f["min_overlap_m"][()].reshape(len(samples), -1)
+        assert (samples > 0).all() and len(samples) == 4
+        for index in range(4):
             ds = chainsweep.run(point_scene(spec, index), record=spec["record"])
-            assert ds.time_s.values.tobytes() == g["time_s"][()].tobytes()
-            for p in ds.probe.values:
-                assert ds.history.sel(probe=p).values.tobytes() == g[p][()].tobytes(), p
+            m = int(samples[index])
+            assert ds.time_s.values.tobytes() == f["time_s"][:m].tobytes()
+            for k, p in enumerate(ds.probe.values):
+                unit = ds.probe_units.sel(probe=p).item()
+                stored = f[chainsweep._layout.split_name("history", unit)]
+                row = stored[()].reshape(4, *stored.shape[-2:])[index, k, :m]
+                assert ds.history.sel(probe=p).values.tobytes() == row.tobytes(), p
                 assert "units" not in ds.history.attrs  # N and m/s: each probe's in probe_units
-                assert g[p].attrs["units"] == ds.probe_units.sel(probe=p).item()
-            assert ds.min_overlap_m.values.tobytes() == g["min_overlap_m"][()].tobytes()
+                assert stored.attrs["units"] == unit
+            c = ds.sizes["contact"]
+            assert ds.min_overlap_m.values.tobytes() == overlaps[index, :c].tobytes()
+            assert np.isnan(overlaps[index, c:]).all()
             assert list(ds.contact.values) == list(range(1, ds.sizes["contact"] + 1))
             # gaps open (negative overlap) and the wall contact is the last one
             assert ds.sizes["contact"] == 2 * 10 + 2

@@ -6,6 +6,7 @@
 
 use serde_json::Value;
 
+use chainsweep_solver::observe::probes::samples_in;
 use chainsweep_solver::{Probe, Scene};
 
 use crate::error::{Error, Result};
@@ -27,6 +28,9 @@ pub struct Grid {
     pub min_overlap: bool,
     /// Largest number of history samples any point records (0 without histories).
     pub max_history_samples: usize,
+    /// The history interval every point shares, s (`None`: the points' intervals differ, or
+    /// there are no histories): the output file then stores one time axis for every run.
+    pub history_interval_s: Option<f64>,
     /// Largest number of contacts of any point (for minimum overlaps).
     pub max_contacts: usize,
     /// Whether some point integrates only the moving part of its chain
@@ -125,6 +129,9 @@ const CHUNK_POINTS: usize = 4096;
 #[derive(Default)]
 struct ChunkInfo {
     max_history_samples: usize,
+    /// The first history interval seen, and whether another differed from it.
+    history_interval_s: Option<f64>,
+    history_intervals_differ: bool,
     max_contacts: usize,
     moving_part: bool,
     warnings: Vec<(usize, Vec<String>)>,
@@ -178,6 +185,7 @@ impl Grid {
             history: false,
             min_overlap: false,
             max_history_samples: 0,
+            history_interval_s: None,
             max_contacts: 0,
             moving_part: false,
             particles: vec![0; n],
@@ -233,9 +241,18 @@ impl Grid {
                     .collect()
             })
         };
+        let mut intervals_differ = false;
         for c in chunks {
             let c = c?;
             grid.max_history_samples = grid.max_history_samples.max(c.max_history_samples);
+            intervals_differ |= c.history_intervals_differ;
+            if let Some(dt) = c.history_interval_s {
+                match grid.history_interval_s {
+                    None => grid.history_interval_s = Some(dt),
+                    Some(d) if d.to_bits() != dt.to_bits() => intervals_differ = true,
+                    Some(_) => {}
+                }
+            }
             grid.max_contacts = grid.max_contacts.max(c.max_contacts);
             grid.moving_part |= c.moving_part;
             grid.warned_points += c.warned_points;
@@ -244,6 +261,9 @@ impl Grid {
                     grid.warnings.push(w);
                 }
             }
+        }
+        if intervals_differ {
+            grid.history_interval_s = None;
         }
         Ok(grid)
     }
@@ -373,8 +393,14 @@ impl Grid {
             ));
         }
         if scene.record.history {
-            let samples = (scene.duration_s / scene.record.history_interval_s).floor() as usize + 1;
+            let dt = scene.record.history_interval_s;
+            let samples = samples_in(0.0, dt, scene.duration_s) as usize;
             info.max_history_samples = info.max_history_samples.max(samples);
+            match info.history_interval_s {
+                None => info.history_interval_s = Some(dt),
+                Some(d) if d.to_bits() != dt.to_bits() => info.history_intervals_differ = true,
+                Some(_) => {}
+            }
         }
         info.max_contacts = info.max_contacts.max(chain.n_contacts());
         // At most MAX_PARTICLES (2 000 002), checked by validate.

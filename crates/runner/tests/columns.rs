@@ -2,7 +2,8 @@
 //! what axes may not be named.
 
 use chainsweep::record::columns::{
-    markdown_table, reserved_names, COLUMNS, LAYOUT_NAMES, SEARCH_LAYOUT_NAMES, SPLIT_NAMES,
+    markdown_table, reserved_names, ARRAY_NAMES, COLUMNS, LAYOUT_NAMES, SEARCH_LAYOUT_NAMES,
+    SPLIT_NAMES,
 };
 use chainsweep::sweep::Sweep;
 
@@ -31,7 +32,11 @@ fn an_axis_may_take_no_stored_name() {
     let names = reserved_names();
     assert_eq!(
         names.len(),
-        COLUMNS.len() + LAYOUT_NAMES.len() + SEARCH_LAYOUT_NAMES.len() + SPLIT_NAMES.len()
+        COLUMNS.len()
+            + LAYOUT_NAMES.len()
+            + ARRAY_NAMES.len()
+            + SEARCH_LAYOUT_NAMES.len()
+            + SPLIT_NAMES.len()
     );
     for name in names {
         let text = format!(

@@ -34,16 +34,20 @@ impl SizeEstimate {
         let np = grid.probes.len() as f64;
         // Summaries: 8 f64, 4 i64, 2 flag bytes, 7 f64 per probe, hash, reason and warning strings.
         let summary = 8.0 * 8.0 + 4.0 * 8.0 + 2.0 + np * 7.0 * 8.0 + 64.0 + 16.0 + 48.0;
+        // The runs' arrays, uncompressed: each run's rows of the histories (and of its own time
+        // samples where the runs' intervals differ), its sample count, its minimum overlaps.
         let mut history = 0.0;
-        if grid.history || grid.min_overlap {
-            history += 2500.0; // group, attributes
-        }
         if grid.history {
             let s = grid.max_history_samples as f64;
-            history += (np + 1.0) * (s * 8.0 + 1200.0);
+            let own_time = if grid.history_interval_s.is_some() {
+                0.0
+            } else {
+                1.0
+            };
+            history += (np + own_time) * s * 8.0 + 8.0;
         }
         if grid.min_overlap {
-            history += grid.max_contacts as f64 * 8.0 + 600.0;
+            history += grid.max_contacts as f64 * 8.0;
         }
         SizeEstimate { summary, history }
     }

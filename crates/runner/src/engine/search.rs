@@ -396,6 +396,15 @@ impl<'a> Driver<'a> {
                 }
             }
         }
+        // A searched history interval differs between evaluations: no one time axis then.
+        if self
+            .spec
+            .fields
+            .iter()
+            .any(|f| f.field == "record.history_interval_s")
+        {
+            grid.history_interval_s = None;
+        }
         grid.searched = Some(Searched {
             fields: self.spec.fields.iter().map(|f| f.field.clone()).collect(),
             names: self.spec.fields.iter().map(|f| f.name.clone()).collect(),

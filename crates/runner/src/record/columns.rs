@@ -780,6 +780,33 @@ pub const LAYOUT_NAMES: &[&str] = &[
     "probe_units_strlen",
 ];
 
+/// The histories of every probe (or of the probes of one unit: [`split_name`]).
+pub const HISTORY: &str = "history";
+/// How many history samples each run recorded.
+pub const HISTORY_SAMPLES: &str = "history_samples";
+/// The time axis (or, where the runs' intervals differ, every run's instants).
+pub const TIME: &str = "time_s";
+/// The dimension of the samples where the runs' intervals differ.
+pub const SAMPLE: &str = "sample";
+/// Minimum overlaps of every contact.
+pub const MIN_OVERLAP: &str = "min_overlap_m";
+/// The contacts' coordinate.
+pub const CONTACT: &str = "contact";
+
+/// The names of the runs' arrays at a file's root (layout 5: the store's `hdf5::arrays`): no
+/// axis may take them.
+pub const ARRAY_NAMES: &[&str] = &[
+    HISTORY,
+    "history_N",
+    "history_m",
+    "history_m_per_s",
+    HISTORY_SAMPLES,
+    TIME,
+    SAMPLE,
+    MIN_OVERLAP,
+    CONTACT,
+];
+
 /// Names a search's file adds at its root: its evaluations, objective and outcome.
 pub const SEARCH_LAYOUT_NAMES: &[&str] = &[
     "evaluation",
@@ -798,6 +825,7 @@ pub const SEARCH_LAYOUT_NAMES: &[&str] = &[
 pub fn reserved_names() -> Vec<&'static str> {
     let mut names: Vec<&str> = COLUMNS.iter().map(|c| c.name).collect();
     names.extend_from_slice(LAYOUT_NAMES);
+    names.extend_from_slice(ARRAY_NAMES);
     names.extend_from_slice(SEARCH_LAYOUT_NAMES);
     names.extend_from_slice(SPLIT_NAMES);
     names
@@ -1301,6 +1329,13 @@ mod tests {
             want.extend(PROBE_UNITS.iter().map(|u| split_name(c.name, u)));
         }
         assert_eq!(want, SPLIT_NAMES);
+        // The histories are split alike, and their split names reserved.
+        for u in PROBE_UNITS {
+            assert!(
+                ARRAY_NAMES.contains(&split_name(HISTORY, u).as_str()),
+                "{u}"
+            );
+        }
         assert_eq!(unit_suffix("m/s"), "m_per_s");
         assert_eq!(unit_suffix("kg m-2"), "kg_m_2");
     }

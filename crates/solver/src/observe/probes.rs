@@ -773,6 +773,25 @@ fn batch_times(
     count
 }
 
+/// How many instants `t0 + i·interval` (`i = 0, 1, …`) lie in `[t0, t_end]`, counted as the
+/// sampling loop ([`batch_times`]) takes them: `i` while `t0 + i·interval ≤ t_end` in floating
+/// point (which a quotient rounded down can miss by one either way). What a run that is not
+/// stopped early records: the writer of the results sizes its time axis with it.
+pub fn samples_in(t0: f64, interval: f64, t_end: f64) -> u64 {
+    if interval.is_nan() || interval <= 0.0 || t_end.is_nan() || t_end < t0 {
+        return u64::from(t_end >= t0);
+    }
+    let at = |i: u64| t0 + i as f64 * interval;
+    let mut last = ((t_end - t0) / interval).floor().max(0.0) as u64;
+    while last > 0 && at(last) > t_end {
+        last -= 1;
+    }
+    while at(last + 1) <= t_end {
+        last += 1;
+    }
+    last + 1
+}
+
 /// Feeds `sink` the instants `t0 + i·interval` of `grid` from `i = *next` up to `until` (and
 /// advances `*next` past them), each with the state whose `components` are interpolated in
 /// `step` there: in batches of [`SAMPLE_BATCH`] (one interpolant set-up for all of a batch),
@@ -1085,3 +1104,44 @@ pub fn max_history_samples(n_probes: usize) -> u64 {
 /// Most summary samples in one run (`duration_s / summary_interval_s`): a few seconds of
 /// sampling, two thousand times the paper's summaries (0.2 µs over 1 ms).
 pub const MAX_SUMMARY_SAMPLES_PER_RUN: u64 = 10_000_000;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `samples_in` counts the instants the sampling loop takes, including where the quotient
+    /// `t_end / interval` rounds to the wrong side of an integer (1e-3 / 1e-6, 0.3 / 0.1, …).
+    #[test]
+    fn samples_in_counts_what_the_sampling_loop_takes() {
+        let mut rng = crate::contact::SplitMix64(7);
+        let mut cases = vec![
+            (1e-6, 1e-3),
+            (0.1, 0.3),
+            (1e-7, 2e-4),
+            (3e-6, 1e-3),
+            (1.0, 0.0),
+        ];
+        for _ in 0..2000 {
+            let dt = 10f64.powf(-7.0 + 3.0 * (rng.symmetric() + 1.0) / 2.0);
+            let k = (rng.next_u64() % 5000) as f64;
+            cases.push((dt, k * dt));
+            cases.push((dt, k * dt * (1.0 + 1e-15)));
+        }
+        for (dt, t_end) in cases {
+            let mut count = 0u64;
+            let mut times = [0.0; SAMPLE_BATCH];
+            loop {
+                let c = batch_times(0.0, count, dt, t_end, &mut times);
+                count += c as u64;
+                if c < SAMPLE_BATCH {
+                    break;
+                }
+            }
+            assert_eq!(
+                samples_in(0.0, dt, t_end),
+                count,
+                "interval {dt:e}, end {t_end:e}"
+            );
+        }
+    }
+}

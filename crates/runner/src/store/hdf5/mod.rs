@@ -4,8 +4,9 @@
 //!
 //! Layout (see `README-sweeps.md`): root attributes describing the sweep; one coordinate dataset
 //! per axis; per-run summaries as arrays shaped like the grid (plus a `probe` dimension where
-//! there is one value per probe); histories under `runs/run_<flat index>/` in chunked,
-//! deflate-compressed datasets.
+//! there is one value per probe); the runs' histories and minimum overlaps as one chunked,
+//! compressed dataset per quantity over the grid ([`arrays`]; run groups under `runs/` in
+//! layouts 4 and earlier, still read).
 //!
 //! The layout is the one netCDF-4 gives HDF5, so that xarray (through h5netcdf or netCDF4) reads
 //! the file exactly as labelled. netCDF-4 names a dimension after its dimension scale, a dataset
@@ -30,6 +31,7 @@
 //! `_Netcdf4Dimid` ([`number_dimensions`]). Dimension scales are attached without labels
 //! (`DIMENSION_LABELS`, which netCDF does not write and xarray would show as an attribute).
 
+pub mod arrays;
 pub mod read;
 pub mod search;
 pub mod write;
@@ -46,13 +48,12 @@ use hdf5::{Dataset, File, Group, H5Type, Location};
 use crate::error::{Error, Result};
 use crate::sweep::auto::AutoChoice;
 
-/// Deflate level of history datasets.
-pub const DEFLATE_LEVEL: u8 = 4;
-
-/// Largest chunk of a history dataset, in samples.
-pub const HISTORY_CHUNK: usize = 16384;
-
-/// Version of the file layout, the `layout_version` root attribute. Version 4: CF (the
+/// Version of the file layout, the `layout_version` root attribute. Version 5: the runs'
+/// histories and minimum overlaps as one chunked dataset per quantity over the grid
+/// ([`arrays`]: `history` over (grid…, probe, time_s) with the time axis stored once where every
+/// run samples at the same interval, `history_samples`, `min_overlap_m` over (grid…, contact))
+/// rather than a group per run under `runs/`; the values and their checksums are those of
+/// version 4, and every reader reads either. Version 4: CF (the
 /// `Conventions` root attribute, [`CONVENTIONS`]): text as netCDF `char` arrays ([`char_dataset`])
 /// rather than variable-length strings; a per-probe summary in the probes' unit stored once per
 /// unit where the probes' units differ (`leading_peak_N`, `leading_peak_m_per_s`, …:
@@ -72,7 +73,10 @@ pub const HISTORY_CHUNK: usize = 16384;
 /// numeric summary, a `contact` scale for minimum overlaps. Files without the attribute are
 /// version 1: run groups `runs/<flat index>` zero-padded to the width of the largest index. The
 /// runs stored are the same in both (this is no numerics version): `merge` reads either.
-pub const LAYOUT_VERSION: i64 = 4;
+pub const LAYOUT_VERSION: i64 = 5;
+
+/// The first layout whose runs' arrays are datasets over the grid ([`arrays`]), not run groups.
+pub const ARRAYS_LAYOUT: i64 = 5;
 
 /// The CF version the files follow (the `Conventions` root attribute): the newest that cfchecker
 /// (4.1) checks against.
@@ -513,6 +517,43 @@ fn read_all_unchecked<E>(d: &Dataset, mem: &hdf5::Datatype, buf: &mut [E]) -> Re
     });
     if r < 0 {
         return Err(Error::Other(format!("reading dataset {} failed", d.name())));
+    }
+    Ok(())
+}
+
+/// Whether every chunk of `d` passes HDF5's error-detection check (Fletcher-32), as h5py and
+/// xarray read it: its whole contents read in its own type with the check on. (The readers here
+/// read values unchecked and check them against the points' checksums; a damaged checksum of a
+/// chunk whose values are intact is found by this alone.)
+pub(crate) fn passes_filter_check(d: &Dataset) -> Result<()> {
+    use hdf5_sys::h5d::H5Dread;
+    use hdf5_sys::h5p::H5P_DEFAULT;
+    use hdf5_sys::h5s::H5S_ALL;
+    let ty = d.dtype()?;
+    let mut buf = vec![0u8; d.size() * ty.size()];
+    if buf.is_empty() {
+        return Ok(());
+    }
+    // SAFETY: `d.id()` and `ty.id()` are open ids (borrowed for the call); `buf` holds every
+    // element of the dataset in its own type (`d.size()` elements of `ty.size()` bytes), which
+    // H5S_ALL selects, so HDF5 converts nothing and writes within it (a variable-length type
+    // would allocate, but these datasets hold numbers and characters); under hdf5-metno's
+    // global lock.
+    let r = hdf5::sync::sync(|| unsafe {
+        H5Dread(
+            d.id(),
+            ty.id(),
+            H5S_ALL,
+            H5S_ALL,
+            H5P_DEFAULT,
+            buf.as_mut_ptr().cast(),
+        )
+    });
+    if r < 0 {
+        return Err(Error::Other(format!(
+            "dataset {} fails HDF5's check (Fletcher-32)",
+            d.name()
+        )));
     }
     Ok(())
 }

@@ -9,14 +9,16 @@
 //! whose checksums fail, not every point of the chunk.
 
 use std::path::Path;
+use std::sync::OnceLock;
 
 use chainsweep_solver::observe::probes::History;
 use hdf5::File;
 
+use super::arrays::ArrayReader;
 use super::write::{coord_of, Coord};
 use super::{
-    column_text_checksum, header_checksum, read_attr_str, read_text, read_unchecked,
-    run_group_name_in, LAYOUT_VERSION,
+    column_text_checksum, header_checksum, passes_filter_check, read_attr_str, read_text,
+    read_unchecked, run_group_name_in, ARRAYS_LAYOUT, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
 use crate::grid::Grid;
@@ -62,6 +64,9 @@ pub struct FileRecords {
     unreadable: Vec<(&'static str, String)>,
     /// Per point: why its values cannot be trusted.
     damage: Vec<Option<String>>,
+    /// The runs' arrays (layout 5 and later), opened at the first run read: or why they cannot
+    /// be.
+    arrays: OnceLock<std::result::Result<ArrayReader, String>>,
 }
 
 fn read_column(file: &File, name: &str, dtype: Dtype) -> Result<ColumnData> {
@@ -252,6 +257,7 @@ impl FileRecords {
             table,
             unreadable,
             damage: vec![None; n],
+            arrays: OnceLock::new(),
         };
         recs.check_points();
         Ok(recs)
@@ -435,15 +441,43 @@ impl FileRecords {
         PointRead::Run(Box::new(rec))
     }
 
-    /// Histories and minimum overlaps of point `i` from its group under `runs/`, checked against
-    /// `checksum` (its `history_checksum`, or the snapshot's) in files that carry checksums; why
-    /// not when they cannot be read or do not match.
+    /// Histories and minimum overlaps of point `i` (from the runs' arrays, or in layouts 4 and
+    /// earlier its group under `runs/`), checked against `checksum` (its `history_checksum`, or
+    /// the snapshot's) in files that carry checksums; why not when they cannot be read or do not
+    /// match.
     pub fn read_group(
         &self,
         i: usize,
         grid: &Grid,
         checksum: u64,
     ) -> std::result::Result<(Option<History>, Option<Vec<f64>>), String> {
+        if self.layout_version >= ARRAYS_LAYOUT {
+            let arrays = self
+                .arrays
+                .get_or_init(|| {
+                    ArrayReader::open(&self.file, grid).map_err(|e| {
+                        format!(
+                            "its histories and minimum overlaps cannot be opened ({})",
+                            brief(&e)
+                        )
+                    })
+                })
+                .as_ref()
+                .map_err(String::clone)?;
+            let (history, min_overlap) = arrays.read(i).map_err(|e| {
+                format!(
+                    "its histories or minimum overlaps cannot be read ({})",
+                    brief(&e)
+                )
+            })?;
+            if history_checksum(history.as_ref(), min_overlap.as_deref()) != checksum {
+                return Err(
+                    "its histories or minimum overlaps do not match their checksum (history_checksum)"
+                        .to_string(),
+                );
+            }
+            return Ok((history, min_overlap));
+        }
         let name = run_group_name_in(self.layout_version, grid.len(), i);
         let path = format!("runs/{name}");
         let read = || -> Result<(Option<History>, Option<Vec<f64>>)> {
@@ -488,7 +522,9 @@ impl FileRecords {
 
     /// What is wrong with the coordinates and probes of the file against those of its sweep
     /// (`sweep`, `grid`: the file's, from its checked sweep text): each axis's values and the probe
-    /// names and units are functions of the sweep, so a coordinate that differs is damaged.
+    /// names and units are functions of the sweep, so a coordinate that differs is damaged; and
+    /// every dataset (but the runs' arrays, checked as each run is read) whose chunks fail HDF5's
+    /// own check, as h5py and xarray would find them.
     pub fn coordinate_damage(&self, sweep: &Sweep, grid: &Grid) -> Vec<String> {
         let mut out = Vec::new();
         for dim in &sweep.dims {
@@ -522,6 +558,33 @@ impl FileRecords {
                         axis.name,
                         brief(&e)
                     )),
+                }
+            }
+        }
+        // Every other dataset but the runs' arrays (checked run by run as they are read): a
+        // chunk whose checksum (Fletcher-32) is damaged though its values are intact would be
+        // refused by h5py and xarray, so it is damage too, which the next `run` repairs. (Where
+        // points are damaged already, the datasets over the grid are left to them: a damaged
+        // value fails both its point's checksum and its chunk's, and costs its point only.)
+        let points_damaged = self.damage.iter().any(Option::is_some);
+        if let Ok(names) = self.file.member_names() {
+            for name in names {
+                let over_points = crate::record::columns::is_column_dataset(&name)
+                    || name == crate::record::columns::HISTORY_SAMPLES;
+                if matches!(name.as_str(), "runs" | "history" | "min_overlap_m")
+                    || name.starts_with("history_") && name != "history_samples"
+                    || name == "time_s" && self.file.dataset(&name).is_ok_and(|d| d.ndim() > 1)
+                    || over_points && points_damaged
+                {
+                    continue;
+                }
+                let Ok(d) = self.file.dataset(&name) else {
+                    continue;
+                };
+                if d.is_chunked() && passes_filter_check(&d).is_err() {
+                    out.push(format!(
+                        "the dataset `{name}` fails HDF5's check (Fletcher-32): h5py and xarray refuse it"
+                    ));
                 }
             }
         }

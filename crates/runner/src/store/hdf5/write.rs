@@ -6,18 +6,18 @@
 
 use std::path::Path;
 
-use hdf5::{Dataset, File, Group};
+use hdf5::{Dataset, File};
 use serde_json::Value;
 
+use super::arrays::ArrayWriter;
 use super::search::{self, SearchTables};
 use super::{
     attach_scale, attr_scalar, attr_str, attr_vec, char_dataset, checked_dataset,
     column_text_checksum, dimension_only, filled_checked_dataset, header_checksum,
-    number_dimensions, run_group_name, set_scale, Counts, Provenance, CONVENTIONS, DEFLATE_LEVEL,
-    HISTORY_CHUNK, LAYOUT_VERSION,
+    number_dimensions, set_scale, Counts, Provenance, CONVENTIONS, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
-use crate::grid::{multi_index, Grid, Shard};
+use crate::grid::{Grid, Shard};
 use crate::identity::{hex, TIGHTENING};
 use crate::record::columns::{
     distinct_units, split_name, Column, ColumnData, FillValue, PointOutcome, Presence, Table,
@@ -77,12 +77,8 @@ pub fn write_file(
             .with_fcpl(|p| p.obj_track_times(false))
             .create(path)?;
         write_sweep_attrs(&file, sweep, grid, shard, prov)?;
-        let runs = if grid.history || grid.min_overlap {
-            Some(file.create_group("runs")?)
-        } else {
-            None
-        };
-        let table = fill_columns(sweep, grid, points, runs.as_ref(), get, get_verify)?;
+        let mut arrays = ArrayWriter::create(&file, grid)?;
+        let table = fill_columns(grid, points, &mut arrays, get, get_verify)?;
         write_outcome_attrs(&file, points, &table, verify_fraction)?;
         if let Some(c) = &sweep.auto_choice {
             write_auto_attrs(&file, c)?;
@@ -109,13 +105,15 @@ pub fn write_file(
             search::write(&file, t, &outer, scale("evaluation")?)?;
             extra_coordinates = search::coordinate_names(t);
         }
+        let coordinates = coordinate_names(&dims, &extra_coordinates);
         let written = write_columns(
             &file,
             &table.table,
             &dims,
             probe_scale.as_ref(),
-            &extra_coordinates,
+            &coordinates,
         )?;
+        arrays.finish(&file, &dims, probe_scale.as_ref(), &coordinates)?;
         number_dimensions(&file, &text_scales)?;
         // Last: over every text attribute written above.
         let mut sums = serde_json::Map::new();
@@ -132,7 +130,6 @@ pub fn write_file(
         file.flush()?;
         drop(dims);
         drop(probe_scale);
-        drop(runs);
         file.close()?;
         Ok(Written {
             counts: table.counts,
@@ -194,12 +191,11 @@ struct Filled {
 }
 
 /// Reads every point's record (and verification outcome) once, in grid order, into the columns;
-/// writes the run groups of histories and minimum overlaps on the way.
+/// writes the runs' arrays (histories, minimum overlaps) on the way.
 fn fill_columns(
-    sweep: &Sweep,
     grid: &Grid,
     points: &[usize],
-    runs: Option<&Group>,
+    arrays: &mut ArrayWriter,
     mut get: impl FnMut(usize) -> Result<Option<RunRecord>>,
     mut get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
 ) -> Result<Filled> {
@@ -241,9 +237,7 @@ fn fill_columns(
         match &record {
             Some(rec) if rec.ok => {
                 counts.ok += usize::from(in_run);
-                if let Some(runs) = runs {
-                    write_run_group(runs, grid, sweep, i, rec)?;
-                }
+                arrays.write(i, rec)?;
             }
             Some(_) => counts.failed += usize::from(in_run),
             None => {}
@@ -337,9 +331,9 @@ pub(super) fn coord_of(values: &[Value]) -> Coord {
 /// that are not that scale (the other axes of a zipped group), and whether the scale is a text
 /// coordinate (which every variable on the dimension lists in its `coordinates`: CF takes a
 /// coordinate variable for a number, and a text one for a label the variables name).
-struct DimScale {
-    scale: Dataset,
-    name: String,
+pub(super) struct DimScale {
+    pub(super) scale: Dataset,
+    pub(super) name: String,
     len: usize,
     others: Vec<String>,
     text: bool,
@@ -441,8 +435,8 @@ type TextScale = (String, String);
 
 /// The `probe` coordinate as written: its dimension scale (netCDF `char`s, the probe names), the
 /// probes' units, and the dimension of its characters.
-struct ProbeScale {
-    scale: Dataset,
+pub(super) struct ProbeScale {
+    pub(super) scale: Dataset,
     units: Vec<String>,
     strlen: String,
 }
@@ -475,6 +469,17 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<ProbeScale>> {
     }))
 }
 
+/// What a variable over the grid lists in its `coordinates`: the coordinates on the grid's
+/// dimensions that are no dimension scale (a zipped group's other axes, a search's fields), and
+/// the text coordinates (labels to CF).
+fn coordinate_names<'a>(dims: &'a [DimScale], extra: &'a [String]) -> Vec<&'a str> {
+    dims.iter()
+        .flat_map(|d| d.others.iter().map(String::as_str))
+        .chain(extra.iter().map(String::as_str))
+        .chain(dims.iter().filter(|d| d.text).map(|d| d.name.as_str()))
+        .collect()
+}
+
 /// Every column of [`COLUMNS`] as a dataset with its attributes and dimension scales (the
 /// per-probe ones only when there are probes, those of the moving part only when some point of
 /// the grid integrates only its moving part), and the coordinates that are no dimension scale —
@@ -486,15 +491,9 @@ fn write_columns(
     table: &Table,
     dims: &[DimScale],
     probe_scale: Option<&ProbeScale>,
-    extra_coordinates: &[String],
+    others: &[&str],
 ) -> Result<Vec<String>> {
     let shape: Vec<usize> = dims.iter().map(|d| d.len).collect();
-    let others: Vec<&str> = dims
-        .iter()
-        .flat_map(|d| d.others.iter().map(String::as_str))
-        .chain(extra_coordinates.iter().map(String::as_str))
-        .chain(dims.iter().filter(|d| d.text).map(|d| d.name.as_str()))
-        .collect();
     let mut written = Vec::new();
     for (c, data) in COLUMNS.iter().zip(&table.columns) {
         let Some(data) = data else {
@@ -506,7 +505,7 @@ fn write_columns(
             };
             let mut pshape = shape.clone();
             pshape.push(p.units.len());
-            let mut coords = others.clone();
+            let mut coords = others.to_vec();
             coords.extend(["probe", "probe_units"]);
             let units = distinct_units(&p.units);
             let parts: Vec<(String, ColumnData, Option<&str>)> = match (c.units, data) {
@@ -599,101 +598,6 @@ fn write_column(
 fn attach_grid(d: &Dataset, dims: &[DimScale]) -> Result<()> {
     for (k, dim) in dims.iter().enumerate() {
         attach_scale(d, &dim.scale, k, &dim.name)?;
-    }
-    Ok(())
-}
-
-fn write_history_series(
-    g: &Group,
-    name: &str,
-    data: &[f64],
-    units: &str,
-    long_name: &str,
-) -> Result<Dataset> {
-    let n = data.len();
-    let d = g
-        .new_dataset::<f64>()
-        .chunk(n.clamp(1, HISTORY_CHUNK))
-        .shuffle()
-        .deflate(DEFLATE_LEVEL)
-        .fletcher32()
-        .shape(n)
-        .create(name)?;
-    if n > 0 {
-        d.write_raw(data)?;
-    }
-    attr_str(&d, "units", units)?;
-    attr_str(&d, "long_name", long_name)?;
-    Ok(d)
-}
-
-fn write_run_group(
-    runs: &Group,
-    grid: &Grid,
-    sweep: &Sweep,
-    index: usize,
-    rec: &RunRecord,
-) -> Result<()> {
-    let g = runs.create_group(&run_group_name(index))?;
-    attr_str(&g, "run_hash", &hex(&rec.hash))?;
-    let mi: Vec<i64> = multi_index(&grid.shape, index)
-        .iter()
-        .map(|&x| x as i64)
-        .collect();
-    attr_vec(&g, "grid_index", &mi)?;
-    attr_scalar(&g, "flat_index", index as i64)?;
-    for (d, dim) in sweep.dims.iter().enumerate() {
-        for axis in &dim.axes {
-            let v = &axis.values[mi[d] as usize];
-            if let Some(i) = v.as_i64() {
-                attr_scalar(&g, &axis.name, i)?;
-            } else if let Some(x) = v.as_f64() {
-                attr_scalar(&g, &axis.name, x)?;
-            } else if let Some(s) = v.as_str() {
-                attr_str(&g, &axis.name, s)?;
-            } else {
-                attr_str(&g, &axis.name, &v.to_string())?;
-            }
-        }
-    }
-    if let Some(h) = &rec.history {
-        let t = write_history_series(&g, "time_s", &h.time_s, "s", "time")?;
-        set_scale(&t, "time_s")?;
-        for (p, series) in grid.probes.iter().zip(&h.values) {
-            let name = p.name();
-            let d = write_history_series(
-                &g,
-                &name,
-                series,
-                p.unit(),
-                &format!("history of probe {name}"),
-            )?;
-            attr_str(
-                &d,
-                "probe",
-                &serde_json::to_string(p).expect("probe serialises"),
-            )?;
-            attach_scale(&d, &t, 0, "time_s")?;
-        }
-    }
-    if let Some(m) = &rec.min_overlap_m {
-        let contacts: Vec<i64> = (1..=m.len() as i64).collect();
-        let c = checked_dataset(&g, "contact", &[m.len()], &contacts)?;
-        attr_str(&c, "units", "1")?;
-        attr_str(
-            &c,
-            "long_name",
-            "contact j, between particles j and j+1 (the last one: the wall)",
-        )?;
-        set_scale(&c, "contact")?;
-        let d = checked_dataset(&g, "min_overlap_m", &[m.len()], m)?;
-        attach_scale(&d, &c, 0, "contact")?;
-        attr_str(&d, "units", "m")?;
-        attr_str(
-            &d,
-            "long_name",
-            "minimum overlap of each contact over the run (contact j at index j-1)",
-        )?;
     }
     Ok(())
 }

@@ -1,0 +1,571 @@
+//! The runs' arrays (layout 5): every run's histories and minimum overlaps as one chunked,
+//! compressed dataset per quantity over the grid's dimensions, so that h5py reads one run, one
+//! probe across every run or a time window across every run with one slice, and xarray opens
+//! them lazily (`xr.open_dataset(path, chunks={})`):
+//!
+//! - `history` over (grid…, `probe`, `time_s`): each probe's samples, NaN (its fill value and
+//!   `_FillValue`) after a run's end and for failed and pending runs. Where the probes' units
+//!   differ, one dataset per unit (`history_N`, `history_m_per_s`: [`split_name`]), NaN at the
+//!   probes of the others, as the summaries in the probes' unit are stored.
+//! - `history_samples` over (grid…): how many samples each run recorded (−1: none).
+//! - the time axis: where every point samples at the same interval, the coordinate `time_s`
+//!   (`i · interval`), stored once; otherwise the dimension is `sample` (a dimension without a
+//!   variable) and `time_s` a variable over (grid…, `sample`) with each run's own instants.
+//! - `min_overlap_m` over (grid…, `contact`), NaN beyond a run's contacts and for failed and
+//!   pending runs, on the coordinate `contact` (1, 2, …).
+//!
+//! The last dimension of each (time, sample, contact) can grow while the file is written (a run
+//! longer than the grid foresaw, as a searched duration gives). Chunks: every probe, the time
+//! axis whole up to [`ARRAY_CHUNK_BYTES`], and up to [`RUNS_PER_CHUNK`] runs along the grid's
+//! last dimension; shuffle, deflate level [`ARRAY_DEFLATE_LEVEL`] and Fletcher-32, chosen by
+//! measurement (docs/PERFORMANCE.md). A damaged chunk costs the runs it holds, which the
+//! reader reports (never serves) and a resume computes again.
+//!
+//! The writer writes each run's rows as the run comes ([`ArrayWriter::write`]), in grid order,
+//! so that a chunk's runs fill it in the chunk cache before it is compressed once; the reader
+//! ([`ArrayReader`]) keeps its datasets open, so reading the runs in grid order decompresses
+//! each chunk once.
+
+use hdf5::{Dataset, Extent, Extents, File, Hyperslab, SliceOrIndex};
+use ndarray::{ArrayD, ArrayView, IxDyn};
+
+use super::write::{DimScale, ProbeScale};
+use super::{
+    attach_scale, attr_scalar, attr_str, checked_dataset, dimension_only, filled_checked_dataset,
+    read_unchecked, set_scale,
+};
+use crate::error::{Error, Result};
+use crate::grid::{multi_index, Grid};
+use crate::record::columns::{
+    distinct_units, split_name, CONTACT, HISTORY, HISTORY_SAMPLES, MIN_OVERLAP, SAMPLE, TIME,
+};
+use crate::record::{RunRecord, INT_FILL};
+use chainsweep_solver::observe::probes::History;
+
+/// Long name of the histories.
+pub const HISTORY_LONG_NAME: &str =
+    "history of each probe, sampled every record.history_interval_s";
+/// Long name of the minimum overlaps.
+pub const MIN_OVERLAP_LONG_NAME: &str = "minimum overlap of each contact over the run";
+/// Long name of the contact coordinate.
+pub const CONTACT_LONG_NAME: &str =
+    "contact j, between particles j and j+1 (the last one: the wall)";
+
+/// Bytes of one chunk at most (unless one run's one time sample of every probe is more): 256
+/// KiB, whose 8 runs × 4 probes × 1 001 samples of the measured sweep read at 620 MB/s with h5py
+/// and fit HDF5's default chunk cache (1 MiB) with room to spare.
+pub const ARRAY_CHUNK_BYTES: usize = 256 << 10;
+/// Runs in one chunk at most: more makes one run's slice decompress more of its neighbours.
+pub const RUNS_PER_CHUNK: usize = 8;
+/// Time samples in one chunk at least, whatever the probes.
+pub const MIN_TIME_CHUNK: usize = 1024;
+/// Deflate level of the arrays (after the byte shuffle): level 1 gave nearly level 4's size at
+/// a fraction of its time.
+pub const ARRAY_DEFLATE_LEVEL: u8 = 1;
+
+/// The chunk of an array over (grid `shape`…, `inner`…) whose inner dimensions are taken whole
+/// (the caller bounds them): up to [`RUNS_PER_CHUNK`] runs along the grid's last dimension,
+/// while the chunk stays within [`ARRAY_CHUNK_BYTES`].
+fn run_chunk(shape: &[usize], inner: &[usize]) -> Vec<usize> {
+    let per_run = inner.iter().product::<usize>().max(1) * 8;
+    let runs = (ARRAY_CHUNK_BYTES / per_run).clamp(1, RUNS_PER_CHUNK);
+    let mut chunk: Vec<usize> = shape.iter().map(|_| 1).collect();
+    if let (Some(c), Some(&n)) = (chunk.last_mut(), shape.last()) {
+        *c = runs.min(n.max(1));
+    }
+    chunk.extend(inner.iter().map(|&n| n.max(1)));
+    chunk
+}
+
+/// The chunk of a history dataset over (grid `shape`…, `probes`, `width` samples).
+pub fn history_chunk(shape: &[usize], probes: usize, width: usize) -> Vec<usize> {
+    let time = width
+        .min((ARRAY_CHUNK_BYTES / 8 / probes.max(1)).max(MIN_TIME_CHUNK))
+        .max(1);
+    run_chunk(shape, &[probes, time])
+}
+
+/// A float array over (grid…, …) whose last dimension can grow, chunked `chunk`, shuffled,
+/// deflated and checksummed, NaN where nothing is written (its fill value and `_FillValue`).
+fn growing_dataset(file: &File, name: &str, shape: &[usize], chunk: Vec<usize>) -> Result<Dataset> {
+    let last = shape.len() - 1;
+    let extents: Vec<Extent> = shape
+        .iter()
+        .enumerate()
+        .map(|(k, &n)| {
+            if k == last {
+                Extent::resizable(n)
+            } else {
+                Extent::fixed(n)
+            }
+        })
+        .collect();
+    let d = file
+        .new_dataset::<f64>()
+        .chunk(chunk)
+        .shuffle()
+        .deflate(ARRAY_DEFLATE_LEVEL)
+        .fletcher32()
+        .fill_value(f64::NAN)
+        .shape(Extents::Simple(extents.into()))
+        .create(name)?;
+    attr_scalar(&d, "_FillValue", f64::NAN)?;
+    Ok(d)
+}
+
+/// The selection of run `index`'s rows: its grid point, then `inner` (counts from 0).
+fn run_rows(shape: &[usize], index: usize, inner: &[usize]) -> Hyperslab {
+    let mut sel: Vec<SliceOrIndex> = multi_index(shape, index)
+        .into_iter()
+        .map(SliceOrIndex::Index)
+        .collect();
+    sel.extend(inner.iter().map(|&count| SliceOrIndex::SliceCount {
+        start: 0,
+        step: 1,
+        count,
+        block: 1,
+    }));
+    Hyperslab::from(sel)
+}
+
+/// Writes `values` (row-major, of shape `inner`) as run `index`'s rows of `d`.
+fn write_rows(
+    d: &Dataset,
+    shape: &[usize],
+    index: usize,
+    inner: &[usize],
+    values: &[f64],
+) -> Result<()> {
+    if inner.contains(&0) {
+        return Ok(());
+    }
+    let view = ArrayView::from_shape(IxDyn(inner), values)
+        .map_err(|e| Error::Other(format!("run {index}'s rows of {}: {e}", d.name())))?;
+    d.write_slice(view, run_rows(shape, index, inner))?;
+    Ok(())
+}
+
+/// Reads run `index`'s rows of `d` (of shape `inner`), checked (Fletcher-32).
+fn read_rows(d: &Dataset, shape: &[usize], index: usize, inner: &[usize]) -> Result<Vec<f64>> {
+    if inner.contains(&0) {
+        return Ok(Vec::new());
+    }
+    let a: ArrayD<f64> = d.read_slice(run_rows(shape, index, inner))?;
+    Ok(a.into_raw_vec_and_offset().0)
+}
+
+/// The datasets of the histories: one per distinct unit of the probes where their units differ
+/// (named [`split_name`]), else one named [`HISTORY`]; each with its unit and which probes it
+/// holds.
+fn history_parts(grid: &Grid) -> Vec<(String, String, Vec<bool>)> {
+    let units: Vec<String> = grid.probes.iter().map(|p| p.unit().to_string()).collect();
+    let distinct = distinct_units(&units);
+    if distinct.len() <= 1 {
+        let unit = distinct.first().map_or("1", |u| u).to_string();
+        return vec![(HISTORY.to_string(), unit, vec![true; units.len()])];
+    }
+    distinct
+        .iter()
+        .map(|&u| {
+            (
+                split_name(HISTORY, u),
+                u.to_string(),
+                units.iter().map(|x| x == u).collect(),
+            )
+        })
+        .collect()
+}
+
+/// The writer of a file's arrays.
+pub(super) struct ArrayWriter {
+    shape: Vec<usize>,
+    history: Option<HistoryWriter>,
+    min_overlap: Option<MinOverlapWriter>,
+}
+
+struct HistoryPart {
+    data: Dataset,
+    unit: String,
+    holds: Vec<bool>,
+}
+
+struct HistoryWriter {
+    parts: Vec<HistoryPart>,
+    probes: usize,
+    /// Samples of every point (INT_FILL: none).
+    samples: Vec<i64>,
+    /// The time axis's current length.
+    width: usize,
+    /// The interval every point shares (the time axis stored once), else `None`.
+    interval: Option<f64>,
+    /// Every run's instants, where the intervals differ.
+    run_time: Option<Dataset>,
+    buf: Vec<f64>,
+}
+
+struct MinOverlapWriter {
+    data: Dataset,
+    width: usize,
+    buf: Vec<f64>,
+}
+
+impl ArrayWriter {
+    /// Creates the arrays `grid`'s runs record in `file` (none: nothing is created).
+    pub fn create(file: &File, grid: &Grid) -> Result<ArrayWriter> {
+        let shape = grid.shape.clone();
+        let history = if grid.history {
+            let probes = grid.probes.len();
+            let width = grid.max_history_samples.max(1);
+            let mut full = shape.clone();
+            full.extend([probes, width]);
+            let parts = if probes == 0 {
+                Vec::new()
+            } else {
+                history_parts(grid)
+                    .into_iter()
+                    .map(|(name, unit, holds)| {
+                        let data = growing_dataset(
+                            file,
+                            &name,
+                            &full,
+                            history_chunk(&shape, probes, width),
+                        )?;
+                        Ok(HistoryPart { data, unit, holds })
+                    })
+                    .collect::<Result<Vec<_>>>()?
+            };
+            let run_time = match grid.history_interval_s {
+                Some(_) => None,
+                None => {
+                    let mut s = shape.clone();
+                    s.push(width);
+                    // (Chunked as one probe's history: the probes' dimension left out.)
+                    let mut chunk = history_chunk(&shape, 1, width);
+                    chunk.remove(shape.len());
+                    Some(growing_dataset(file, TIME, &s, chunk)?)
+                }
+            };
+            Some(HistoryWriter {
+                parts,
+                probes,
+                samples: vec![INT_FILL; grid.len()],
+                width,
+                interval: grid.history_interval_s,
+                run_time,
+                buf: Vec::new(),
+            })
+        } else {
+            None
+        };
+        let min_overlap = if grid.min_overlap {
+            let width = grid.max_contacts.max(1);
+            let mut full = shape.clone();
+            full.push(width);
+            let data = growing_dataset(file, MIN_OVERLAP, &full, run_chunk(&shape, &[width]))?;
+            Some(MinOverlapWriter {
+                data,
+                width,
+                buf: Vec::new(),
+            })
+        } else {
+            None
+        };
+        Ok(ArrayWriter {
+            shape,
+            history,
+            min_overlap,
+        })
+    }
+
+    /// Writes the arrays of the successful run at flat index `index`.
+    pub fn write(&mut self, index: usize, rec: &RunRecord) -> Result<()> {
+        let shape = &self.shape;
+        if let (Some(w), Some(h)) = (&mut self.history, &rec.history) {
+            let len = h.time_s.len();
+            if h.values.len() != w.probes || h.values.iter().any(|v| v.len() != len) {
+                return Err(Error::Other(format!(
+                    "run {index}'s history holds {} series for {} probes, or series of other lengths than its {len} instants",
+                    h.values.len(),
+                    w.probes
+                )));
+            }
+            if len > w.width {
+                w.width = len;
+                for p in &w.parts {
+                    let mut s = shape.clone();
+                    s.extend([w.probes, len]);
+                    p.data.resize(s)?;
+                }
+                if let Some(t) = &w.run_time {
+                    let mut s = shape.clone();
+                    s.push(len);
+                    t.resize(s)?;
+                }
+            }
+            match (w.interval, &w.run_time) {
+                (Some(dt), _) => {
+                    // The one time axis holds these instants: a run sampled elsewhere would be
+                    // stored wrong, so it is an error, never a silent shift.
+                    if let Some(k) =
+                        (0..len).find(|&k| h.time_s[k].to_bits() != (k as f64 * dt).to_bits())
+                    {
+                        return Err(Error::Other(format!(
+                            "run {index}'s history sample {k} is at {:e} s, not at {k} × the interval {dt:e} s the file's one time axis holds",
+                            h.time_s[k]
+                        )));
+                    }
+                }
+                (None, Some(t)) => write_rows(t, shape, index, &[len], &h.time_s)?,
+                (None, None) => unreachable!("a time variable where the intervals differ"),
+            }
+            for p in &w.parts {
+                w.buf.clear();
+                for (k, series) in h.values.iter().enumerate() {
+                    if p.holds[k] {
+                        w.buf.extend_from_slice(series);
+                    } else {
+                        w.buf.extend(std::iter::repeat(f64::NAN).take(len));
+                    }
+                }
+                write_rows(&p.data, shape, index, &[w.probes, len], &w.buf)?;
+            }
+            w.samples[index] = len as i64;
+        }
+        if let (Some(w), Some(m)) = (&mut self.min_overlap, &rec.min_overlap_m) {
+            if m.len() > w.width {
+                w.width = m.len();
+                let mut s = shape.clone();
+                s.push(w.width);
+                w.data.resize(s)?;
+            }
+            w.buf.clear();
+            w.buf.extend_from_slice(m);
+            write_rows(&w.data, shape, index, &[m.len()], &w.buf)?;
+        }
+        Ok(())
+    }
+
+    /// Writes what the arrays need once every run is written: the time axis (or the samples'
+    /// dimension), `history_samples`, the contacts' coordinate, and every dimension scale and
+    /// attribute (`coordinates`: the grid's coordinates that are no dimension scale, and its
+    /// text coordinates).
+    pub fn finish(
+        self,
+        file: &File,
+        dims: &[DimScale],
+        probe: Option<&ProbeScale>,
+        coordinates: &[&str],
+    ) -> Result<()> {
+        let g = self.shape.len();
+        let attach_grid = |d: &Dataset| -> Result<()> {
+            for (k, dim) in dims.iter().enumerate() {
+                attach_scale(d, &dim.scale, k, &dim.name)?;
+            }
+            Ok(())
+        };
+        let listed = |extra: &[&str]| -> String {
+            coordinates
+                .iter()
+                .chain(extra)
+                .copied()
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        if let Some(w) = self.history {
+            let (axis, axis_name) = match w.interval {
+                Some(dt) => {
+                    let t: Vec<f64> = (0..w.width).map(|k| k as f64 * dt).collect();
+                    let d = checked_dataset(file, TIME, &[w.width], &t)?;
+                    attr_str(&d, "units", "s")?;
+                    // (No `axis = "T"`: CF's time coordinates count from a reference date.)
+                    attr_str(&d, "long_name", "time")?;
+                    set_scale(&d, TIME)?;
+                    (d, TIME)
+                }
+                None => (dimension_only(file, SAMPLE, w.width)?, SAMPLE),
+            };
+            let mut extra: Vec<&str> = Vec::new();
+            if let Some(t) = &w.run_time {
+                attach_grid(t)?;
+                attach_scale(t, &axis, g, axis_name)?;
+                attr_str(t, "units", "s")?;
+                attr_str(
+                    t,
+                    "long_name",
+                    "time of each history sample of the run (NaN after its end)",
+                )?;
+                if !coordinates.is_empty() {
+                    attr_str(t, "coordinates", &listed(&[]))?;
+                }
+                extra.push(TIME);
+            }
+            let split = w.parts.len() > 1;
+            for p in &w.parts {
+                attach_grid(&p.data)?;
+                if let Some(probe) = probe {
+                    attach_scale(&p.data, &probe.scale, g, "probe")?;
+                }
+                attach_scale(&p.data, &axis, g + 1, axis_name)?;
+                attr_str(&p.data, "units", &p.unit)?;
+                let long_name = if split {
+                    format!(
+                        "{HISTORY_LONG_NAME} (the probes measured in {}; NaN at the others)",
+                        p.unit
+                    )
+                } else {
+                    HISTORY_LONG_NAME.to_string()
+                };
+                attr_str(&p.data, "long_name", &long_name)?;
+                let mut with = vec!["probe", "probe_units"];
+                with.extend(&extra);
+                attr_str(&p.data, "coordinates", &listed(&with))?;
+            }
+            let d =
+                filled_checked_dataset(file, HISTORY_SAMPLES, &self.shape, &w.samples, INT_FILL)?;
+            attach_grid(&d)?;
+            attr_str(&d, "units", "1")?;
+            attr_str(
+                &d,
+                "long_name",
+                "number of history samples the run recorded (its history is NaN after them)",
+            )?;
+            if !coordinates.is_empty() {
+                attr_str(&d, "coordinates", &listed(&[]))?;
+            }
+        }
+        if let Some(w) = self.min_overlap {
+            let contacts: Vec<i64> = (1..=w.width as i64).collect();
+            let c = checked_dataset(file, CONTACT, &[w.width], &contacts)?;
+            attr_str(&c, "units", "1")?;
+            attr_str(&c, "long_name", CONTACT_LONG_NAME)?;
+            set_scale(&c, CONTACT)?;
+            attach_grid(&w.data)?;
+            attach_scale(&w.data, &c, g, CONTACT)?;
+            attr_str(&w.data, "units", "m")?;
+            attr_str(&w.data, "long_name", MIN_OVERLAP_LONG_NAME)?;
+            if !coordinates.is_empty() {
+                attr_str(&w.data, "coordinates", &listed(&[]))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The reader of a file's arrays: its datasets open, so that reading the runs in grid order
+/// decompresses each chunk once.
+pub struct ArrayReader {
+    shape: Vec<usize>,
+    /// The history datasets, each with the probes it holds.
+    parts: Vec<(Dataset, Vec<usize>)>,
+    probes: usize,
+    samples: Vec<i64>,
+    time: Time,
+    min_overlap: Option<Dataset>,
+}
+
+enum Time {
+    None,
+    /// The one time axis.
+    Common(Vec<f64>),
+    /// Every run's instants.
+    PerRun(Dataset),
+}
+
+impl ArrayReader {
+    /// Opens the arrays of `file` (layout 5 or later) as `grid` records them.
+    pub fn open(file: &File, grid: &Grid) -> Result<ArrayReader> {
+        let shape = grid.shape.clone();
+        let mut parts = Vec::new();
+        let mut samples = Vec::new();
+        let mut time = Time::None;
+        if grid.history {
+            if !grid.probes.is_empty() {
+                for (name, _, holds) in history_parts(grid) {
+                    let which = (0..holds.len()).filter(|&k| holds[k]).collect();
+                    parts.push((file.dataset(&name)?, which));
+                }
+            }
+            let s = file.dataset(HISTORY_SAMPLES)?;
+            // (Unchecked: a damaged count is caught by the run's checksum, and costs that run.)
+            samples = read_unchecked::<i64>(&s)?;
+            if samples.len() != grid.len() {
+                return Err(Error::Other(format!(
+                    "{HISTORY_SAMPLES} holds {} values for {} points",
+                    samples.len(),
+                    grid.len()
+                )));
+            }
+            let t = file.dataset(TIME)?;
+            time = if t.ndim() == 1 {
+                Time::Common(read_unchecked::<f64>(&t)?)
+            } else {
+                Time::PerRun(t)
+            };
+        }
+        let min_overlap = if grid.min_overlap {
+            Some(file.dataset(MIN_OVERLAP)?)
+        } else {
+            None
+        };
+        Ok(ArrayReader {
+            shape,
+            parts,
+            probes: grid.probes.len(),
+            samples,
+            time,
+            min_overlap,
+        })
+    }
+
+    /// The history (when recorded) and minimum overlaps (when recorded) of the run at flat index
+    /// `index`, as stored.
+    pub fn read(&self, index: usize) -> Result<(Option<History>, Option<Vec<f64>>)> {
+        let history = match &self.time {
+            Time::None => None,
+            time => {
+                let len = self.samples[index];
+                if len < 0 {
+                    return Err(Error::Other(format!(
+                        "{HISTORY_SAMPLES} says the run has no history"
+                    )));
+                }
+                let len = len as usize;
+                let time_s = match time {
+                    Time::Common(t) => t
+                        .get(..len)
+                        .ok_or_else(|| {
+                            Error::Other(format!(
+                                "{HISTORY_SAMPLES} ({len}) exceeds the time axis ({})",
+                                t.len()
+                            ))
+                        })?
+                        .to_vec(),
+                    Time::PerRun(d) => read_rows(d, &self.shape, index, &[len])?,
+                    Time::None => unreachable!(),
+                };
+                let mut values = vec![Vec::new(); self.probes];
+                for (d, which) in &self.parts {
+                    let rows = read_rows(d, &self.shape, index, &[self.probes, len])?;
+                    for &k in which {
+                        values[k] = rows[k * len..(k + 1) * len].to_vec();
+                    }
+                }
+                Some(History { time_s, values })
+            }
+        };
+        let min_overlap = match &self.min_overlap {
+            Some(d) => {
+                let width = d.shape().last().copied().unwrap_or(0);
+                let mut m = read_rows(d, &self.shape, index, &[width])?;
+                // A run's contacts are the ones before the fill (a minimum overlap is a number,
+                // +inf for a contact the run never moved: never NaN).
+                while m.last().is_some_and(|x| x.is_nan()) {
+                    m.pop();
+                }
+                Some(m)
+            }
+            None => None,
+        };
+        Ok((history, min_overlap))
+    }
+}
