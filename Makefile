@@ -5,8 +5,9 @@
 #   make bench     benchmarks, before (BENCH_BASE, default main) and after side by side: right-hand-
 #                  side cost per contact, the reference run, each contact law and model; then the
 #                  default, no-FMA and native builds side by side (scripts/bench_builds.sh); the
-#                  results store on a 20 000-run history sweep and a 100 000-run summary sweep
-#                  (scripts/bench_store.py: bytes written, peak memory, files, throughput); and
+#                  results store on a 20 000-run history sweep, a 100 000-run summary sweep and
+#                  a 2 511-run sweep of 1 ms histories, before and after (scripts/bench_store.py:
+#                  bytes written, peak memory, files, write and read throughput, bytes per run); and
 #                  the reference run against a physicist's scipy script of the same chain at the
 #                  same accuracy (scripts/bench_scipy.py); the Fig. 8 sweep against numba +
 #                  numbalsoda LSODA, both ladders of error against time (scripts/bench_numba_lsoda.py)
@@ -137,7 +138,7 @@ BENCH_BASELINE ?=
 bench: venv python $(VENV)/.bench-stamp
 	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 	BENCH_BASELINE=$(BENCH_BASELINE) CARGO=$(CARGO) scripts/bench_builds.sh
-	$(PY) scripts/bench_store.py
+	$(PY) scripts/bench_store.py --base-bin $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/bench-base/release/chainsweep
 	$(PY) scripts/bench_scipy.py
 	$(PY) scripts/bench_numba_lsoda.py
 

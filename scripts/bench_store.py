@@ -12,8 +12,9 @@ what is measured):
 
 For `histories` also: reading every history with h5py (raw MB/s of history values, best of
 three), `chainsweep.open(path, histories=True)` in a fresh process (its time and its peak resident
-memory, and that peak beyond the imports), and the file's bytes per run beyond the stored
-(compressed) history values: what the HDF5 objects of a run cost.
+memory, and that peak beyond the imports), `chainsweep status` (the engine reading every run back,
+checked: its time and peak memory), and the file's bytes per run beyond the stored (compressed)
+history values: what the HDF5 objects of a run cost.
 
 For each: wall time; bytes the `chainsweep run` process wrote (`wchar` of /proc/self/io: the
 kernel adds a reaped child's I/O counts to its parent, so the difference around the run is the
@@ -23,10 +24,13 @@ wait4's rusage); the final file's size; the files and bytes left in the work dir
 for histories the write throughput (final file size over the wall time of re-assembling the
 complete file from itself, which reads every run back and writes it compressed again).
 
-    python scripts/bench_store.py [--bin target/release/chainsweep] [--dir DIR] [--scale 1.0]
+    python scripts/bench_store.py [--bin target/release/chainsweep] [--base-bin OLD] [--dir DIR]
+        [--scale 1.0] [--only history|summary|histories]
 
-`--scale 0.1` runs sweeps ten times smaller (a quick check). Prints a table and writes
-`DIR/bench_store.json`.
+`--scale 0.1` runs sweeps ten times smaller (a quick check). With `--base-bin` (the binary before a
+change; `make bench` gives the one it built at BENCH_BASE), every case runs with both binaries,
+the base first, on the same machine load, and both are printed side by side. Prints a table and
+writes `DIR/bench_store.json`.
 """
 
 import argparse
@@ -109,9 +113,12 @@ import json, sys, time
 import h5py, numpy as np
 
 def every_history(f):
-    # Every history value of a file, whatever its layout: one variable, or a group per run.
-    if "history" in f and isinstance(f["history"], h5py.Dataset):
-        yield f["history"][()]
+    # Every history value of a file, whatever its layout: one variable (one per unit where the
+    # probes' units differ), or a group per run.
+    names = [n for n in ("history", "history_N", "history_m", "history_m_per_s") if n in f]
+    if names:
+        for n in names:
+            yield f[n][()]
         return
     probes = [s.decode() for s in f["probe"][()].view(f"S{f['probe'].shape[-1]}")[..., 0]]
     for g in f["runs"].values():
@@ -148,7 +155,7 @@ import h5py
 stored = 0
 def visit(name, obj):
     global stored
-    if isinstance(obj, h5py.Dataset) and (name == "history" or name.startswith("runs/")):
+    if isinstance(obj, h5py.Dataset) and (name.startswith("history") or name.startswith("runs/")):
         stored += obj.id.get_storage_size()
 with h5py.File(sys.argv[1], "r") as f:
     f.visititems(visit)
@@ -163,9 +170,14 @@ def py_json(script, path):
     return json.loads(r.stdout)
 
 
-def history_reads(res, out, runs):
+def history_reads(res, out, runs, binary):
     """The read side of a file with histories (see the module's docstring)."""
     size = out.stat().st_size
+    # The engine's own check of every stored value (every run's histories read back): its time
+    # and peak memory, which should not grow with the file.
+    st = run_measured([str(binary), "status", str(out)])
+    res["status_s"] = round(st["wall_s"], 2)
+    res["status_peak_rss_mib"] = round(st["peak_rss_mib"], 1)
     r = py_json(READ_ALL, out)
     res["history_values_mb"] = round(r["values_bytes"] / 1e6, 2)
     res["h5py_read_all_s"] = round(r["read_s"], 3)
@@ -222,7 +234,7 @@ def bench(binary, work, name, spec, jobs, checkpoint):
     res["reassemble_mb_s"] = round(size / 1e6 / again["wall_s"], 1)
     res["reassemble_peak_rss_mib"] = round(again["peak_rss_mib"], 1)
     if spec["record"]["history"] and len(spec["record"]["probes"]) == 4:
-        history_reads(res, out, runs)
+        history_reads(res, out, runs, binary)
     return res
 
 
@@ -234,6 +246,8 @@ def main():
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 2)
     ap.add_argument("--checkpoint-interval", type=float, default=1.0)
     ap.add_argument("--only", default=None, help="one case: history, summary or histories")
+    ap.add_argument("--base-bin", default=None,
+                    help="the binary before a change: every case runs with it too, side by side")
     a = ap.parse_args()
     work = a.dir or tempfile.mkdtemp(prefix="bench_store.")
     k = a.scale ** 0.5
@@ -244,11 +258,21 @@ def main():
                            duration_s=1e-3, damping=30.0, mass=(0.2, 1.0)),
     }
     results = {}
+    sides = [("before", a.base_bin), ("after", a.bin)] if a.base_bin else [("", a.bin)]
     for name, spec in cases.items():
         if a.only and name != a.only:
             continue
-        results[name] = bench(a.bin, work, name, spec, a.jobs, a.checkpoint_interval)
-        r = results[name]
+        for side, binary in sides:
+            key = f"{name} {side}".strip()
+            results[key] = bench(binary, work, name, spec, a.jobs, a.checkpoint_interval)
+            report(key, results[key])
+    Path(work, "bench_store.json").write_text(json.dumps(results, indent=2))
+    print(f"results: {Path(work, 'bench_store.json')}")
+
+
+def report(name, r):
+    """Prints one case's measurements."""
+    if r:
         print(f"{name}: {r['runs']} runs in {r['wall_s']} s; final file {r['final_file_mb']} MB; "
               f"written {r['written_mb']} MB ({r['written_over_final']}x the final file; "
               f"{r['block_written_mb']} MB to the block layer); peak RSS {r['peak_rss_mib']} MiB; "
@@ -262,9 +286,8 @@ def main():
                   f"{r['open_histories_peak_rss_mib']} MiB ({r['open_histories_over_imports_mib']} "
                   f"MiB beyond the imports); written at {r['write_mb_s_of_values']} MB/s of values "
                   f"(re-assembly); {r['overhead_bytes_per_run']} bytes per run beyond the stored "
-                  f"histories", flush=True)
-    Path(work, "bench_store.json").write_text(json.dumps(results, indent=2))
-    print(f"results: {Path(work, 'bench_store.json')}")
+                  f"histories; `chainsweep status` (every value checked) {r['status_s']} s, peak RSS "
+                  f"{r['status_peak_rss_mib']} MiB", flush=True)
 
 
 if __name__ == "__main__":
