@@ -62,6 +62,83 @@ pub struct SpectrumSpec {
     pub cell_particles: Option<usize>,
 }
 
+/// What a run records of its linear spectrum (`record.spectrum`), Hz (`f = ω/2π`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize))]
+pub struct SpectrumSummary {
+    /// The chain's lowest natural frequency, Hz.
+    pub lowest_frequency_hz: f64,
+    /// The chain's highest natural frequency, Hz.
+    pub highest_frequency_hz: f64,
+    /// Lower edge of the periodic chain's first band gap (the top of the acoustic band), Hz; NaN
+    /// without `cell_particles` or without a gap.
+    pub gap_lower_hz: f64,
+    /// Upper edge of the first band gap (the bottom of the next band), Hz; NaN where the lower is.
+    pub gap_upper_hz: f64,
+    /// Top of the periodic chain's highest band (its cut-off), Hz; NaN without `cell_particles`.
+    pub band_top_hz: f64,
+}
+
+impl SpectrumSummary {
+    /// Nothing recorded.
+    pub const NAN: SpectrumSummary = SpectrumSummary {
+        lowest_frequency_hz: f64::NAN,
+        highest_frequency_hz: f64::NAN,
+        gap_lower_hz: f64::NAN,
+        gap_upper_hz: f64::NAN,
+        band_top_hz: f64::NAN,
+    };
+}
+
+/// The field of `record.spectrum`'s unit cell.
+const CELL_FIELD: &str = "record.spectrum.cell_particles";
+
+impl SpectrumSpec {
+    /// The chain linearised, and its unit cell when asked for: errors name the field
+    /// (`physics.…` where the chain has no static state to linearise about).
+    fn linearise(&self, chain: &Chain) -> Result<(LinearChain, Option<UnitCell>), SpecError> {
+        let lin = LinearChain::of(chain).map_err(|e| SpecError {
+            message: format!(
+                "record.spectrum asks for the linear spectrum: {}",
+                e.message
+            ),
+            ..e
+        })?;
+        let cell = match self.cell_particles {
+            Some(p) => Some(lin.unit_cell(p, CELL_FIELD)?),
+            None => None,
+        };
+        Ok((lin, cell))
+    }
+
+    /// Checks the record option against a built chain.
+    pub fn validate(&self, chain: &Chain) -> Result<(), SpecError> {
+        self.linearise(chain).map(|_| ())
+    }
+
+    /// The recorded scalars: the lowest and highest natural frequency (two eigenvalues, `O(N)`
+    /// each) and, for a periodic chain, the first gap's edges and the top band's upper edge.
+    pub fn summarise(&self, chain: &Chain) -> Result<SpectrumSummary, SpecError> {
+        let (lin, cell) = self.linearise(chain)?;
+        let n = lin.len();
+        let hz = |w: f64| w / (2.0 * std::f64::consts::PI);
+        let at = |j: usize| hz(lin.spectrum_range(j, 1, false).angular_frequency_rad_s[0]);
+        let mut out = SpectrumSummary {
+            lowest_frequency_hz: at(0),
+            highest_frequency_hz: at(n - 1),
+            ..SpectrumSummary::NAN
+        };
+        if let Some(cell) = cell {
+            if let Some(&(lower, upper)) = cell.gaps().first() {
+                out.gap_lower_hz = hz(lower);
+                out.gap_upper_hz = hz(upper);
+            }
+            out.band_top_hz = cell.bands().last().map_or(f64::NAN, |b| hz(b.upper_rad_s));
+        }
+        Ok(out)
+    }
+}
+
 /// The chain linearised about its static state.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LinearChain {
