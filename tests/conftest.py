@@ -114,7 +114,7 @@ def file_runs(out):
 
 
 # Record formats chainsweep reads: 3 (this one), and 2 (without what the run integrated).
-SEGMENT_MAGICS = (b"CSWSEG\x00\x03", b"CSWSEG\x00\x02")
+SEGMENT_MAGICS = (b"CSWSEG\x00\x04", b"CSWSEG\x00\x03", b"CSWSEG\x00\x02")
 
 
 def _whole(rec):

@@ -217,10 +217,13 @@ def _records(out):
 
 
 def _integrated_of(rec):
-    """(moving part, particles) of a format-3 record (the last part before its checksum: a flag
-    byte, then for a successful run the moving-part byte and the count), or None for a failed one."""
+    """(moving part, particles) of a format-4 record (the part before its last flag byte, which
+    says no spectrum was recorded, and its checksum: a flag byte, then for a successful run the
+    moving-part byte and the count), or None for a failed one."""
     body = rec[:-32]
-    assert body[:8] == b"CSWSEG\x00\x03", body[:8]
+    assert body[:8] == b"CSWSEG\x00\x04", body[:8]
+    assert body[-1] == 0  # no spectrum
+    body = body[:-1]
     if rec[40] != 1:  # failed: nothing kept
         assert body[-1] == 0
         return None
@@ -229,9 +232,10 @@ def _integrated_of(rec):
 
 
 def _as_format_2(rec):
-    """A format-3 record as earlier versions wrote it (format 2: without the integrated part)."""
+    """A format-4 record as earlier versions wrote it (format 2: without the integrated part and
+    the spectrum's flag)."""
     body = rec[:-32]
-    tail = 1 + 1 + 8 if _integrated_of(rec) is not None else 1
+    tail = 1 + (1 + 1 + 8 if _integrated_of(rec) is not None else 1)
     old = b"CSWSEG\x00\x02" + body[8:-tail]
     return old + hashlib.sha256(old).digest()
 

@@ -20,6 +20,14 @@ SUMMARY_GRID = [
     "max_overlap_m",
 ]
 INT_GRID = ["steps", "rejected_steps", "rhs_evals", "events"]
+# The linear spectrum's columns (record.spectrum): in every file, NaN where not recorded.
+SPECTRUM_GRID = [
+    "lowest_frequency_hz",
+    "highest_frequency_hz",
+    "gap_lower_hz",
+    "gap_upper_hz",
+    "band_top_hz",
+]
 PROBE_GRID = ["leading_peak", "leading_peak_time_s", "record_max", "record_max_time_s"]
 # The layout's probes measure in N (two gauges) and m/s (a velocity): the peaks and maxima are
 # stored once per unit (a variable has one unit), each NaN at the probes of the other.
@@ -91,7 +99,9 @@ def test_root_attributes_are_str(produced):
 def test_names_shapes_dtypes(produced):
     _, _, out = produced
     with h5py.File(out, "r") as f:
-        expected = set(SUMMARY_GRID + INT_GRID + PROBE_STORED + VERIFY_GRID + VERIFY_PROBE_GRID) | {
+        expected = set(
+            SUMMARY_GRID + INT_GRID + SPECTRUM_GRID + PROBE_STORED + VERIFY_GRID + VERIFY_PROBE_GRID
+        ) | {
             "leading_pulse",
             "warnings",
             "verified",

@@ -4,6 +4,9 @@ as labelled xarray Datasets.
 - :func:`run` — one scene (a sweep file's ``base`` as a dict) in this process, as a Dataset;
 - :func:`sweep` — a sweep file or dict into an HDF5 file, resumable, with progress;
 - :func:`open` — a result file as a Dataset labelled by the grid's axes and the probes;
+- :func:`spectrum` — the linear spectrum of a scene or a sweep file's grid point at its static
+  state: natural frequencies, mode shapes, damped eigenvalues, a periodic chain's Bloch bands,
+  as numpy arrays (no time integration);
 - :func:`refined_surface` — a refined surface (a two-field ``refine`` search) interpolated as
   the search estimated its error;
 - :func:`example_path`, :func:`examples`, :func:`docs_path` — the example sweep files and the
@@ -30,6 +33,7 @@ from .errors import DamagedFileError, Error, InputError, RunError, SweepError
 if TYPE_CHECKING:
     from ._open import open
     from ._run import run
+    from ._spectrum import spectrum
     from ._surface import refined_surface
     from ._sweep import Failure, SweepResult, sweep
 
@@ -39,6 +43,7 @@ _LAZY = {
     "open": "._open",
     "run": "._run",
     "refined_surface": "._surface",
+    "spectrum": "._spectrum",
     "sweep": "._sweep",
     "SweepResult": "._sweep",
     "Failure": "._sweep",
@@ -61,6 +66,7 @@ __all__ = [
     "sweep",
     "open",
     "refined_surface",
+    "spectrum",
     "example_path",
     "examples",
     "docs_path",

@@ -1,4 +1,4 @@
-"""Type stubs of the native module (python/src/): see chainsweep.run and chainsweep.sweep."""
+"""Type stubs of the native module (python/src/): see chainsweep.run, chainsweep.sweep and chainsweep.spectrum."""
 
 from collections.abc import Callable
 from typing import Any
@@ -11,6 +11,15 @@ DEFAULT_CHECKPOINT_INTERVAL_S: float
 DEFAULT_PROGRESS_INTERVAL_S: float
 
 def run_scene(scene: str, record: str | None = None, limits: str | None = None) -> dict[str, Any]: ...
+def spectrum(
+    scene: str | None = None,
+    path: str | None = None,
+    index: int = 0,
+    modes: bool = True,
+    cell_particles: int | None = None,
+    dispersion_points: int = 101,
+    damped: bool = False,
+) -> dict[str, Any]: ...
 def run_sweep(
     file: str,
     output: str,

@@ -6,6 +6,8 @@
 //! - [`run_scene`]: one scene, exactly as `chainsweep point` runs a grid point ([`point`]);
 //! - [`run_sweep`]: a sweep file into HDF5, exactly as `chainsweep run` does ([`sweep`]), with
 //!   progress (what the engine's `ProgressSink` hears) and Ctrl-C;
+//! - [`spectrum::spectrum`]: the linear spectrum at the static state of a scene or of a sweep
+//!   file's grid point, without time integration ([`spectrum`]);
 //! - [`check_file`]: a result file's every value checked against its checksums, before
 //!   `chainsweep.open` serves it ([`check`]);
 //! - [`cli_main`]: the whole `chainsweep` command line, the package's console script ([`cli`]).
@@ -19,6 +21,7 @@ use pyo3::prelude::*;
 mod check;
 mod cli;
 mod point;
+mod spectrum;
 mod sweep;
 
 /// A runner error as the Python exception the package defines for it.
@@ -77,6 +80,7 @@ fn column_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyList>> {
 #[pymodule]
 fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(point::run_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(spectrum::spectrum, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::run_sweep, m)?)?;
     m.add_function(wrap_pyfunction!(check::check_file, m)?)?;
     m.add_function(wrap_pyfunction!(check::read_unchecked, m)?)?;

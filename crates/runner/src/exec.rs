@@ -214,6 +214,7 @@ fn record_of(
         probes: out.probes,
         min_overlap_m: out.min_overlap_m,
         history: out.history,
+        spectrum: out.spectrum,
     }
 }
 
@@ -240,6 +241,17 @@ fn non_finite(scene: &Scene, out: &RunOutput) -> Vec<String> {
         for (p, series) in scene.record.probes.iter().zip(&h.values) {
             if let Some(x) = series.iter().find(|x| !x.is_finite()) {
                 bad.push(format!("{} history holds {x}", p.name()));
+            }
+        }
+    }
+    if let Some(s) = &out.spectrum {
+        // The gap's edges and the band top are NaN where there is none; the frequencies never.
+        for (name, x) in [
+            ("lowest_frequency_hz", s.lowest_frequency_hz),
+            ("highest_frequency_hz", s.highest_frequency_hz),
+        ] {
+            if !x.is_finite() {
+                bad.push(format!("{name} = {x}"));
             }
         }
     }

@@ -12,6 +12,8 @@
 //!   Kuwabara–Kono, Hunt–Crossley), the one home of their formulas;
 //! - [`chain`]: what a chain is made of, from the specification to the built [`Chain`]: parts
 //!   (materials, shapes, particles), sequences with taper and disorder, the paper's presets;
+//! - [`spectrum`]: the linear spectrum at the static state: natural frequencies, mode shapes,
+//!   damped eigenvalues and a periodic chain's Bloch bands, without time integration;
 //! - [`integrate`]: velocity Verlet, RK4, DOP853 and Vern6 (tableaus over one explicit
 //!   Runge–Kutta core, with contact-event location) and the stiff ROS34PW2 (with the chain's
 //!   tridiagonal Jacobian) behind one [`integrate::Integrator`] interface;
@@ -43,6 +45,7 @@ pub mod observe;
 pub mod problems;
 pub mod scene;
 pub mod spec;
+pub mod spectrum;
 
 pub use chain::model::{Chain, ChainSpec, DimerSpec, PhysicsSpec};
 pub use chain::sequence::SequenceSpec;

@@ -800,6 +800,15 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
             "probes": probes,
             "history_samples": rec.history.as_ref().map(|h| h.time_s.len()),
         });
+        if let Some(s) = &rec.spectrum {
+            out["result"]["spectrum"] = serde_json::json!({
+                "lowest_frequency_hz": num(s.lowest_frequency_hz),
+                "highest_frequency_hz": num(s.highest_frequency_hz),
+                "gap_lower_hz": num(s.gap_lower_hz),
+                "gap_upper_hz": num(s.gap_upper_hz),
+                "band_top_hz": num(s.band_top_hz),
+            });
+        }
     }
     serde_json::to_string_pretty(&out).expect("json")
 }

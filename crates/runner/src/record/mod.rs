@@ -7,6 +7,7 @@
 pub mod columns;
 
 use chainsweep_solver::observe::probes::{History, ProbeSummary};
+use chainsweep_solver::spectrum::SpectrumSummary;
 
 use crate::identity::RunHash;
 
@@ -90,6 +91,8 @@ pub struct RunRecord {
     pub min_overlap_m: Option<Vec<f64>>,
     /// Histories, when recorded.
     pub history: Option<History>,
+    /// The linear spectrum at the static state, when recorded (`record.spectrum`).
+    pub spectrum: Option<SpectrumSummary>,
 }
 
 impl RunRecord {
@@ -135,7 +138,21 @@ impl RunRecord {
             probes: Vec::new(),
             min_overlap_m: None,
             history: None,
+            spectrum: None,
         }
+    }
+
+    /// The recorded spectrum's value `get`, NaN where the spectrum was not recorded.
+    pub fn spectrum_value(&self, get: fn(&SpectrumSummary) -> f64) -> f64 {
+        self.spectrum.as_ref().map_or(f64::NAN, get)
+    }
+
+    /// Puts back a value of the recorded spectrum (a NaN where none was recorded leaves none).
+    pub fn set_spectrum_value(&mut self, set: fn(&mut SpectrumSummary, f64), x: f64) {
+        if self.spectrum.is_none() && x.is_nan() {
+            return;
+        }
+        set(self.spectrum.get_or_insert(SpectrumSummary::NAN), x);
     }
 }
 

@@ -4,7 +4,7 @@
 //! endian, ending in the SHA-256 of everything before it:
 //!
 //! ```text
-//! magic "CSWSEG\0\3" | run hash (32) | ok (u8) | reason (u32 length + UTF-8)
+//! magic "CSWSEG\0\4" | run hash (32) | ok (u8) | reason (u32 length + UTF-8)
 //! steps, rejected, rhs_evals, events (u64 ×4)
 //! t_end_s, energy_drift_max, energy_drift_final, momentum_residual_max, impact_energy_j, wall_time_s,
 //!   max_overlap_m (f64 ×7)
@@ -13,13 +13,17 @@
 //! has_min_overlap (u8) [n (u32) | f64 ×n]
 //! has_history (u8) [n_series (u32) | n_samples (u64) | time_s f64 ×n_samples | series f64 ×n_samples each]
 //! has_integrated (u8) [moving_part (u8: 0 whole chain, 1 moving part) | integrated_particles (u64)]
+//! has_spectrum (u8) [lowest_frequency_hz, highest_frequency_hz, gap_lower_hz, gap_upper_hz,
+//!   band_top_hz (f64 ×5)]
 //! checksum (32)
 //! ```
 //!
 //! Floats are stored as their bits, so a record read back is bitwise the record written.
 //!
-//! Format 3 (this one) added `has_integrated` and what follows it: how much of the chain the run
-//! integrated. Format 2 is format 3 without it; its records are read (their runs keep their
+//! Format 4 (this one) added `has_spectrum` and what follows it: the linear spectrum at the
+//! static state (`record.spectrum`). Format 3 is format 4 without it, read with no spectrum (no
+//! run of an earlier version recorded one). Format 3 added `has_integrated` and what follows it:
+//! how much of the chain the run integrated. Format 2 is format 3 without it; its records are read (their runs keep their
 //! hashes: the numerics did not change) with that part not known (`None`), so stores written by
 //! earlier versions resume and merge without recomputing anything. Format 2 added `events`,
 //! `max_overlap_m` and `warnings`. Segments of format 1 are not decoded (they read as missing);
@@ -29,10 +33,14 @@
 use chainsweep_solver::observe::probes::{History, ProbeSummary};
 use sha2::{Digest, Sha256};
 
+use chainsweep_solver::spectrum::SpectrumSummary;
+
 use crate::identity::RunHash;
 use crate::record::RunRecord;
 
-const MAGIC: &[u8; 8] = b"CSWSEG\x00\x03";
+const MAGIC: &[u8; 8] = b"CSWSEG\x00\x04";
+/// Magic of format 3: format 4 without the spectrum (read, with none).
+const MAGIC_V3: &[u8; 8] = b"CSWSEG\x00\x03";
 /// Magic of format 2: format 3 without what the run integrated (read, that part not known).
 const MAGIC_V2: &[u8; 8] = b"CSWSEG\x00\x02";
 /// Magic of format 1 (read only by [`peek_status`]).
@@ -101,6 +109,21 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
         }
         _ => b.push(0),
     }
+    match &rec.spectrum {
+        None => b.push(0),
+        Some(s) => {
+            b.push(1);
+            for x in [
+                s.lowest_frequency_hz,
+                s.highest_frequency_hz,
+                s.gap_lower_hz,
+                s.gap_upper_hz,
+                s.band_top_hz,
+            ] {
+                put_f64(&mut b, x);
+            }
+        }
+    }
     let sum: [u8; 32] = Sha256::digest(&b).into();
     b.extend_from_slice(&sum);
     b
@@ -118,7 +141,7 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     }
     let mut r = Reader { b: body, at: 0 };
     let magic = r.take(8)?;
-    if magic != MAGIC && magic != MAGIC_V2 {
+    if magic != MAGIC && magic != MAGIC_V3 && magic != MAGIC_V2 {
         return None;
     }
     let hash: RunHash = r.take(32)?.try_into().ok()?;
@@ -163,11 +186,22 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
-    let (moving_part, integrated_particles) = if magic == MAGIC && r.take(1)?[0] == 1 {
+    let (moving_part, integrated_particles) = if magic != MAGIC_V2 && r.take(1)?[0] == 1 {
         let moving = r.take(1)?[0] == 1;
         (Some(moving), Some(r.u64()?))
     } else {
         (None, None)
+    };
+    let spectrum = if magic == MAGIC && r.take(1)?[0] == 1 {
+        Some(SpectrumSummary {
+            lowest_frequency_hz: r.f64()?,
+            highest_frequency_hz: r.f64()?,
+            gap_lower_hz: r.f64()?,
+            gap_upper_hz: r.f64()?,
+            band_top_hz: r.f64()?,
+        })
+    } else {
+        None
     };
     if r.at != body.len() {
         return None;
@@ -193,18 +227,19 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
         probes,
         min_overlap_m,
         history,
+        spectrum,
     })
 }
 
 /// The run hash and status of segment bytes whose checksum holds; `None` if they are truncated,
-/// corrupt or not a segment of a format [`decode`] reads (3 or 2). Reads no more than the header past the checksum.
+/// corrupt or not a segment of a format [`decode`] reads (4, 3 or 2). Reads no more than the header past the checksum.
 pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
     if bytes.len() < MAGIC.len() + 32 + 1 + 32 {
         return None;
     }
     let (body, sum) = bytes.split_at(bytes.len() - 32);
     let check: [u8; 32] = Sha256::digest(body).into();
-    if check != sum || (&body[..8] != MAGIC && &body[..8] != MAGIC_V2) {
+    if check != sum || ![MAGIC, MAGIC_V3, MAGIC_V2].contains(&body[..8].try_into().ok()?) {
         return None;
     }
     let hash: RunHash = body[8..40].try_into().ok()?;
@@ -215,7 +250,7 @@ pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
 pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
     let mut r = Reader { b: bytes, at: 0 };
     let magic = r.take(8)?;
-    if magic != MAGIC && magic != MAGIC_V2 && magic != MAGIC_V1 {
+    if ![MAGIC, MAGIC_V3, MAGIC_V2, MAGIC_V1].contains(&magic.try_into().ok()?) {
         return None;
     }
     r.take(32)?;
@@ -300,6 +335,13 @@ mod tests {
                 time_s: vec![0.0, 1e-6],
                 values: vec![vec![1.0, 2.0]],
             }),
+            spectrum: Some(SpectrumSummary {
+                lowest_frequency_hz: 17.0,
+                highest_frequency_hz: 2.4e4,
+                gap_lower_hz: 1.1e4,
+                gap_upper_hz: 1.6e4,
+                band_top_hz: 2.5e4,
+            }),
         };
         let bytes = encode(&rec);
         let back = decode(&bytes).unwrap();
@@ -334,17 +376,60 @@ mod tests {
         assert!(verify(&bad).is_none());
     }
 
-    /// Segment bytes of format 2, as earlier versions wrote them: format 3 without the trailing
-    /// `has_integrated` byte, under the format-2 magic, with their own checksum.
-    fn as_format_2(rec: &RunRecord) -> Vec<u8> {
-        assert!(rec.integrated_particles.is_none() && rec.moving_part.is_none());
-        let v3 = encode(rec);
-        let mut body = v3[..v3.len() - 33].to_vec();
-        assert_eq!(v3[v3.len() - 33], 0, "the trailing has_integrated byte");
-        body[..8].copy_from_slice(MAGIC_V2);
+    /// Segment bytes of an earlier format, as earlier versions wrote them: format 4 without its
+    /// trailing `has_spectrum` byte (format 3) and, for format 2, without `has_integrated` before
+    /// it, under that format's magic, with their own checksum.
+    fn as_format(rec: &RunRecord, magic: &[u8; 8]) -> Vec<u8> {
+        assert!(rec.spectrum.is_none());
+        let v4 = encode(rec);
+        let cut = if magic == MAGIC_V2 {
+            assert!(rec.integrated_particles.is_none() && rec.moving_part.is_none());
+            assert_eq!(v4[v4.len() - 34], 0, "the trailing has_integrated byte");
+            34
+        } else {
+            33
+        };
+        assert_eq!(v4[v4.len() - 33], 0, "the trailing has_spectrum byte");
+        let mut body = v4[..v4.len() - cut].to_vec();
+        body[..8].copy_from_slice(magic);
         let sum: [u8; 32] = Sha256::digest(&body).into();
         body.extend_from_slice(&sum);
         body
+    }
+
+    fn as_format_2(rec: &RunRecord) -> Vec<u8> {
+        as_format(rec, MAGIC_V2)
+    }
+
+    #[test]
+    fn format_3_is_read_without_a_spectrum() {
+        let mut rec = RunRecord::failed([5; 32], String::new(), 0.5);
+        rec.ok = true;
+        rec.integrated_particles = Some(40);
+        rec.moving_part = Some(false);
+        let old = as_format(&rec, MAGIC_V3);
+        assert_eq!(verify(&old), Some(([5; 32], true)));
+        let back = decode(&old).expect("format 3 decodes");
+        assert_eq!((back.integrated_particles, back.spectrum), (Some(40), None));
+        // A spectrum grows the record by its 40 bytes, bitwise kept.
+        rec.spectrum = Some(SpectrumSummary {
+            lowest_frequency_hz: 12.5,
+            highest_frequency_hz: 3.5e4,
+            gap_lower_hz: f64::NAN,
+            gap_upper_hz: f64::NAN,
+            band_top_hz: 3.6e4,
+        });
+        let new = encode(&rec);
+        assert_eq!(new.len(), old.len() + 1 + 40);
+        let s = decode(&new).unwrap().spectrum.unwrap();
+        assert_eq!(
+            (
+                s.lowest_frequency_hz,
+                s.band_top_hz,
+                s.gap_lower_hz.is_nan()
+            ),
+            (12.5, 3.6e4, true)
+        );
     }
 
     #[test]
@@ -367,16 +452,17 @@ mod tests {
         assert_eq!((back.steps, back.probes[0].record_max), (77, 1.75));
         // What format 2 ends with is not read as format 3's part, nor the other way round.
         let mut v3_magic = old.clone();
-        v3_magic[..8].copy_from_slice(MAGIC);
+        v3_magic[..8].copy_from_slice(MAGIC_V3);
         let n = v3_magic.len() - 32;
         let sum: [u8; 32] = Sha256::digest(&v3_magic[..n]).into();
         v3_magic[n..].copy_from_slice(&sum);
         assert!(decode(&v3_magic).is_none());
-        // A format-3 record that knows the part grows by its 10 bytes, and keeps them.
+        // A record that knows the part grows by its 10 bytes (and format 4's has_spectrum byte),
+        // and keeps them.
         rec.integrated_particles = Some(128);
         rec.moving_part = Some(true);
         let new = encode(&rec);
-        assert_eq!(new.len(), old.len() + 1 + 1 + 8);
+        assert_eq!(new.len(), old.len() + 1 + 1 + 8 + 1);
         assert_eq!(decode(&new).unwrap().integrated_particles, Some(128));
     }
 }

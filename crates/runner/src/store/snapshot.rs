@@ -40,7 +40,9 @@ use crate::record::{RunRecord, STATUS_PENDING};
 pub const SNAPSHOT_FILE: &str = "snapshot";
 
 const MAGIC: &[u8; 8] = b"CSWSNAP\0";
-const VERSION: u32 = 1;
+/// Version 2 added the spectrum columns (`lowest_frequency_hz` …); a snapshot of version 1,
+/// whose columns are positional, is unusable to this version (the output file itself is read).
+const VERSION: u32 = 2;
 const KIND_HEADER: u8 = 1;
 const KIND_BLOCK: u8 = 2;
 

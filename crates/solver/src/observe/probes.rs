@@ -10,6 +10,7 @@ use std::time::Instant;
 use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::motion::system::{EnergyTerms, Ledger};
+use crate::spectrum::SpectrumSpec;
 
 /// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
 /// striker when the chain has one, else the first particle of the sequence; contact `j` joins
@@ -157,6 +158,14 @@ pub struct RecordSpec {
     /// leading peaks); the ledger then covers the time simulated.
     #[cfg_attr(feature = "serde", serde(default))]
     pub stop_after_leading_pulses: bool,
+    /// Record the linear spectrum at the static state (lowest and highest natural frequency and,
+    /// for a periodic chain, its band edges). A run that records nothing else (no probes,
+    /// histories or minimum overlaps) is not integrated in time.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub spectrum: Option<SpectrumSpec>,
 }
 
 #[cfg(feature = "serde")]
@@ -179,13 +188,25 @@ impl Default for RecordSpec {
             preload: Preload::Include,
             leading_pulse: LeadingPulseSpec::default(),
             stop_after_leading_pulses: false,
+            spectrum: None,
         }
+    }
+}
+
+impl RecordSpec {
+    /// Whether a run needs its time integration: it records probes, histories or minimum
+    /// overlaps, or nothing at all (a run with only `spectrum` is not integrated).
+    pub fn needs_integration(&self) -> bool {
+        self.spectrum.is_none() || !self.probes.is_empty() || self.history || self.min_overlap
     }
 }
 
 impl RecordSpec {
     /// Checks the record block against a built chain; errors name the field (relative to `record`).
     pub fn validate(&self, chain: &Chain) -> Result<(), SpecError> {
+        if let Some(spectrum) = &self.spectrum {
+            spectrum.validate(chain)?;
+        }
         let n_p = chain.n_particles();
         let n_c = chain.n_contacts();
         let cylinders = chain.cylinders();

@@ -18,6 +18,7 @@ use crate::scene::{
     Excitation, ImpactScales, IntegratorSpec, Scene, MAX_HERTZ_OVERLAP_RATIO,
     MIN_PULSE_TO_TRANSIT_RATIO,
 };
+use crate::spectrum::SpectrumSummary;
 
 /// Why a run failed.
 #[derive(Debug, Clone, PartialEq)]
@@ -104,6 +105,8 @@ pub struct RunOutput {
     /// Hertz's small-strain law, or an impact pulse not much longer than the time sound takes to
     /// cross a particle (the paper's condition for using the static Hertz law, Sec. III).
     pub warnings: Vec<String>,
+    /// The linear spectrum at the static state, when `record.spectrum` asks for it.
+    pub spectrum: Option<SpectrumSummary>,
 }
 
 /// Physical-validity warnings for a scene and its largest overlap.
@@ -230,6 +233,32 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         impact_energy: scales.energy_j,
         impact_momentum: scales.momentum,
     };
+    let spectrum = match &scene.record.spectrum {
+        Some(spec) => Some(spec.summarise(&chain)?),
+        None => None,
+    };
+    if !scene.record.needs_integration() {
+        // Only the spectrum: the static state, not integrated.
+        return Ok(RunOutput {
+            method: "none",
+            stats: Default::default(),
+            t_end_s: 0.0,
+            probes: Vec::new(),
+            history: None,
+            min_overlap_m: None,
+            energy_drift_max: 0.0,
+            energy_drift_final: 0.0,
+            momentum_residual_max: 0.0,
+            // The state the run starts from (the striker or impulse moving), as at t = 0.
+            final_energy: crate::motion::system::Ledger::new(&chain)
+                .energy(&chain.initial_state(scene.initial_velocity_m_s())),
+            impact_energy_j: scales.energy_j,
+            max_overlap_m: chain.static_overlap.iter().fold(0.0, |m: f64, &d| m.max(d)),
+            active_particles: None,
+            warnings: Vec::new(),
+            spectrum,
+        });
+    }
     let t0 = 0.0;
     let t_end = scene.duration_s;
     let mut observer = RunObserver::new(&chain, probes, opts, t0, t_end);
@@ -315,5 +344,6 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         impact_energy_j: scales.energy_j,
         min_overlap_m: observer.min_overlap.take(),
         history: observer.history.take(),
+        spectrum,
     })
 }
