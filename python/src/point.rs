@@ -87,6 +87,7 @@ fn columns<'py>(
         probes: n_probes,
         moving_part,
         run_groups: false,
+        spectrum: run.scene.record.spectrum.is_some(),
     };
     let outcome = PointOutcome {
         hash_hex: &run.hash,

@@ -26,6 +26,8 @@ pub struct Grid {
     pub history: bool,
     /// Whether points record minimum overlaps.
     pub min_overlap: bool,
+    /// Whether points record the linear spectrum at the static state (`record.spectrum`).
+    pub spectrum: bool,
     /// Largest number of history samples any point records (0 without histories).
     pub max_history_samples: usize,
     /// The history interval every point shares, s (`None`: the points' intervals differ, or
@@ -143,6 +145,7 @@ struct Record<'a> {
     probes: &'a [Probe],
     history: bool,
     min_overlap: bool,
+    spectrum: bool,
 }
 
 impl Grid {
@@ -184,6 +187,7 @@ impl Grid {
             probes: Vec::new(),
             history: false,
             min_overlap: false,
+            spectrum: false,
             max_history_samples: 0,
             history_interval_s: None,
             max_contacts: 0,
@@ -198,10 +202,12 @@ impl Grid {
         grid.probes = first.record.probes.clone();
         grid.history = first.record.history;
         grid.min_overlap = first.record.min_overlap;
+        grid.spectrum = first.record.spectrum.is_some();
         let record = Record {
             probes: &grid.probes,
             history: grid.history,
             min_overlap: grid.min_overlap,
+            spectrum: grid.spectrum,
         };
         let shape = &grid.shape;
         let done = AtomicUsize::new(0);
@@ -297,6 +303,7 @@ impl Grid {
             probes: &reference.probes,
             history: reference.history,
             min_overlap: reference.min_overlap,
+            spectrum: reference.spectrum.is_some(),
         };
         // A base field's error is the same at many points, told apart only by the point named
         // at its end: listed once, with the number of points it holds at.
@@ -383,13 +390,14 @@ impl Grid {
         if scene.record.probes != record.probes
             || scene.record.history != record.history
             || scene.record.min_overlap != record.min_overlap
+            || scene.record.spectrum.is_some() != record.spectrum
         {
             return Err(locate(
                 sweep,
                 shape,
                 i,
                 "record",
-                "must be the same at every grid point (probes, history, min_overlap): the stored arrays share one layout",
+                "must be the same at every grid point (probes, history, min_overlap, whether spectrum is recorded): the stored arrays and columns share one layout",
             ));
         }
         if scene.record.history {

@@ -220,6 +220,7 @@ impl Written {
             Written::Always => "always",
             Written::WithMovingPart => "with_moving_part",
             Written::WithRunGroups => "with_run_groups",
+            Written::WithSpectrum => "with_spectrum",
         }
     }
 }
@@ -234,8 +235,11 @@ pub enum Written {
     /// chain, and the column would repeat the chain's length (nothing on disk for a path not
     /// taken).
     WithMovingPart,
-    /// Files whose runs have a group under `runs/` (histories or minimum overlaps).
+    /// Files whose runs record histories or minimum overlaps.
     WithRunGroups,
+    /// Files of grids that record the linear spectrum (`record.spectrum`): nothing on disk for
+    /// a result not asked for.
+    WithSpectrum,
 }
 
 /// What decides which columns a file has: its grid's probes and recorded arrays.
@@ -245,8 +249,11 @@ pub struct Presence {
     pub probes: usize,
     /// Whether some point integrates only the moving part of its chain.
     pub moving_part: bool,
-    /// Whether runs have a group under `runs/`.
+    /// Whether runs record histories or minimum overlaps (in layouts 4 and earlier: a group
+    /// under `runs/`).
     pub run_groups: bool,
+    /// Whether the grid records the linear spectrum.
+    pub spectrum: bool,
 }
 
 /// One stored column.
@@ -296,6 +303,7 @@ impl Column {
                 Written::Always => true,
                 Written::WithMovingPart => presence.moving_part,
                 Written::WithRunGroups => presence.run_groups,
+                Written::WithSpectrum => presence.spectrum,
             }
     }
 
@@ -540,9 +548,9 @@ pub const COLUMNS: &[Column] = &[
         description: "lowest natural frequency of the chain linearised about its static state",
         long_name: true,
         flags: None,
-        note: "record.spectrum; NaN where not recorded",
+        note: "record.spectrum; NaN where the run failed",
         required: false,
-        written: Written::Always,
+        written: Written::WithSpectrum,
         fill: Fill::OkF64 {
             get: |r| r.spectrum_value(|s| s.lowest_frequency_hz),
             set: |r, x| r.set_spectrum_value(|s, x| s.lowest_frequency_hz = x, x),
@@ -556,9 +564,9 @@ pub const COLUMNS: &[Column] = &[
         description: "highest natural frequency of the chain linearised about its static state",
         long_name: true,
         flags: None,
-        note: "record.spectrum; NaN where not recorded",
+        note: "record.spectrum; NaN where the run failed",
         required: false,
-        written: Written::Always,
+        written: Written::WithSpectrum,
         fill: Fill::OkF64 {
             get: |r| r.spectrum_value(|s| s.highest_frequency_hz),
             set: |r, x| r.set_spectrum_value(|s, x| s.highest_frequency_hz = x, x),
@@ -572,9 +580,9 @@ pub const COLUMNS: &[Column] = &[
         description: "lower edge of the periodic chain's first band gap (top of the acoustic band)",
         long_name: true,
         flags: None,
-        note: "record.spectrum.cell_particles; NaN where not recorded or without a gap",
+        note: "record.spectrum.cell_particles; NaN where not recorded (no cell given), without a gap, or the run failed",
         required: false,
-        written: Written::Always,
+        written: Written::WithSpectrum,
         fill: Fill::OkF64 {
             get: |r| r.spectrum_value(|s| s.gap_lower_hz),
             set: |r, x| r.set_spectrum_value(|s, x| s.gap_lower_hz = x, x),
@@ -588,9 +596,9 @@ pub const COLUMNS: &[Column] = &[
         description: "upper edge of the periodic chain's first band gap (bottom of the next band)",
         long_name: true,
         flags: None,
-        note: "record.spectrum.cell_particles; NaN where not recorded or without a gap",
+        note: "record.spectrum.cell_particles; NaN where not recorded (no cell given), without a gap, or the run failed",
         required: false,
-        written: Written::Always,
+        written: Written::WithSpectrum,
         fill: Fill::OkF64 {
             get: |r| r.spectrum_value(|s| s.gap_upper_hz),
             set: |r, x| r.set_spectrum_value(|s, x| s.gap_upper_hz = x, x),
@@ -604,9 +612,9 @@ pub const COLUMNS: &[Column] = &[
         description: "upper edge of the periodic chain's highest band (its cut-off frequency)",
         long_name: true,
         flags: None,
-        note: "record.spectrum.cell_particles; NaN where not recorded",
+        note: "record.spectrum.cell_particles; NaN where not recorded (no cell given) or the run failed",
         required: false,
-        written: Written::Always,
+        written: Written::WithSpectrum,
         fill: Fill::OkF64 {
             get: |r| r.spectrum_value(|s| s.band_top_hz),
             set: |r, x| r.set_spectrum_value(|s, x| s.band_top_hz = x, x),
@@ -1330,6 +1338,9 @@ pub fn markdown_table() -> String {
             ),
             Written::WithRunGroups => {
                 content.push_str("; only in files that record histories or minimum overlaps")
+            }
+            Written::WithSpectrum => {
+                content.push_str("; only in files that record the spectrum (`record.spectrum`)")
             }
         }
         let content = content.replace('|', "\\|");

@@ -488,6 +488,7 @@ pub fn snapshot_of(
         probes: grid.probes.len(),
         moving_part: grid.moving_part,
         run_groups: grid.history || grid.min_overlap,
+        spectrum: grid.spectrum,
         sweep: sweep.text.clone(),
         auto: sweep
             .auto_choice

@@ -40,9 +40,12 @@ use crate::record::{RunRecord, STATUS_PENDING};
 pub const SNAPSHOT_FILE: &str = "snapshot";
 
 const MAGIC: &[u8; 8] = b"CSWSNAP\0";
-/// Version 2 added the spectrum columns (`lowest_frequency_hz` …); a snapshot of version 1,
-/// whose columns are positional, is unusable to this version (the output file itself is read).
+/// Version 2 added the spectrum columns (`lowest_frequency_hz` …) to the columns a snapshot
+/// may hold (positional, as the header's presence says: only where `spectrum` is set); a
+/// snapshot of version 1 holds none, and is read as one without them.
 const VERSION: u32 = 2;
+/// The earliest version read.
+const FIRST_VERSION: u32 = 1;
 const KIND_HEADER: u8 = 1;
 const KIND_BLOCK: u8 = 2;
 
@@ -60,9 +63,12 @@ pub struct Header {
     pub probes: usize,
     /// Whether the grid has the moving-part columns.
     pub moving_part: bool,
-    /// Whether runs have a group under `runs/` (histories, minimum overlaps): those are not in
-    /// the snapshot.
+    /// Whether runs record histories or minimum overlaps: those are not in the snapshot.
     pub run_groups: bool,
+    /// Whether the grid records the linear spectrum (its columns). (Absent from snapshots of
+    /// version 1, which predate it: false.)
+    #[serde(default)]
+    pub spectrum: bool,
     /// The sweep file's text.
     pub sweep: String,
     /// What `integrator: auto` chose (JSON; empty without).
@@ -82,6 +88,7 @@ impl Header {
             probes: self.probes,
             moving_part: self.moving_part,
             run_groups: self.run_groups,
+            spectrum: self.spectrum,
         }
     }
 }
@@ -263,9 +270,9 @@ impl Snapshot {
             return Err(Unusable("it is not a chainsweep snapshot".into()));
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        if version != VERSION {
+        if !(FIRST_VERSION..=VERSION).contains(&version) {
             return Err(Unusable(format!(
-                "its format version {version} is not {VERSION}"
+                "its format version {version} is not one of {FIRST_VERSION} to {VERSION}"
             )));
         }
         let mut sections = Sections { b: bytes, at: 12 };
@@ -436,6 +443,7 @@ mod tests {
             probes: 2,
             moving_part: false,
             run_groups: false,
+            spectrum: false,
             sweep: "{}".into(),
             auto: String::new(),
             shard: "1/1".into(),
@@ -450,6 +458,7 @@ mod tests {
             probes: 2,
             moving_part: false,
             run_groups: false,
+            spectrum: false,
         };
         let mut t = Table::empty(n, presence);
         let hashes: Vec<RunHash> = (0..n)

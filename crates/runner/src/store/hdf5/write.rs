@@ -42,6 +42,7 @@ pub fn presence(grid: &Grid) -> Presence {
         probes: grid.probes.len(),
         moving_part: grid.moving_part,
         run_groups: grid.history || grid.min_overlap,
+        spectrum: grid.spectrum,
     }
 }
 
