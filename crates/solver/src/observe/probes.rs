@@ -4,7 +4,7 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use crate::contact::{general_force, paper_contact_force, ContactParams, Damping, POWER};
+use crate::contact::{general_force, paper_contact_force, ContactParams, Damping, Thornton, POWER};
 use std::time::Instant;
 
 use crate::chain::model::{spec_err, Chain, SpecError};
@@ -320,6 +320,8 @@ pub(crate) struct ProbeSet {
     /// Exponents and the viscoelastic, Hunt–Crossley and (when any) Tsuji coefficients, for
     /// chains that are not the paper's physics.
     general: Option<GeneralLaws>,
+    /// Thornton's law and the index of its history, per contact, when any contact has it.
+    plastic: Option<Vec<Option<(Thornton, usize)>>>,
     clip: bool,
     n: usize,
     /// Reference scale of each probe for leading-pulse detection.
@@ -401,6 +403,13 @@ impl ProbeSet {
                         .then(|| chain.tsuji_damping.clone()),
                 )
             }),
+            plastic: chain.has_plasticity().then(|| {
+                let mut laws = vec![None; chain.n_contacts()];
+                for (c, t, h) in chain.plastic_contacts() {
+                    laws[c] = Some((t, h));
+                }
+                laws
+            }),
             clip: chain.clip_tensile,
             n,
             scale,
@@ -437,6 +446,9 @@ impl ProbeSet {
         };
         // The same law as the equations of motion; with zero damping the viscous term vanishes.
         let (a, mu) = (self.stiffness[c], self.damping[c]);
+        if let Some(Some((law, h))) = self.plastic.as_ref().map(|p| p[c]) {
+            return law.force(overlap, get(h));
+        }
         if let Some((exponent, gamma, lambda, beta)) = &self.general {
             let p = ContactParams {
                 a,
