@@ -516,7 +516,9 @@ pub fn tsuji_alpha(e: f64, n: f64, clip: bool) -> f64 {
 /// Its history is one number per contact, held in the state as the gap `g = s − δ` between the
 /// largest overlap reached and the present one: `ġ = −δ̇` except while loading on the plastic
 /// line (`g ≤ 0` and `δ̇ > 0`), where `ġ = 0` and `g` stays exactly zero; it starts at
-/// `δ_y − δ(0)` (`s = δ_y`: below yield the law is Hertz's, reversible).
+/// `δ_y − δ(0)` (`s = δ_y`: below yield the law is Hertz's, reversible). A second state, the
+/// opening distance `o = δ − δ_p(s)` ([`Thornton::opening_rate`]), only marks where the contact
+/// opens at its residual indentation, a switching function linear in the state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Thornton {
     /// Effective modulus `E*`, Pa.
@@ -660,6 +662,21 @@ impl Thornton {
             0.0
         } else {
             -overlap_rate
+        }
+    }
+
+    /// Rate of the opening distance `o = δ − δ_p(s)` (how far the contact is from opening at its
+    /// residual indentation), a second history that only locates that opening for the adaptive
+    /// integrators (the force reads `g`): `ȯ = δ̇ − δ_p'(s) ṡ`, with `ṡ = δ̇` while loading on the
+    /// plastic line and zero otherwise. `δ_p = s − w`, `w = 3F*/(4E* a*)`, so
+    /// `δ_p'(s) = 1 − w (π p_y R*/F* − 1/(2s))`.
+    #[inline(always)]
+    pub fn opening_rate(&self, overlap: f64, overlap_rate: f64, gap: f64) -> f64 {
+        if gap <= 0.0 && overlap_rate > 0.0 && overlap > self.yield_overlap {
+            let (f_max, w) = self.unloading(overlap);
+            w * (self.plastic_stiffness / f_max - 0.5 / overlap) * overlap_rate
+        } else {
+            overlap_rate
         }
     }
 

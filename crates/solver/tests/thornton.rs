@@ -139,6 +139,13 @@ fn check(
         };
         let gap = y[chain.history_index(0)];
         let s = overlap + gap;
+        // The opening distance, integrated beside the gap to locate the opening, is δ − δ_p(s).
+        let opening = y[chain.history_index(0) + 1];
+        let expected_opening = overlap - law.residual_overlap(s);
+        assert!(
+            (opening - expected_opening).abs() < 1e-9 * s,
+            "{what}: opening {opening} vs {expected_opening}"
+        );
         if k < 1.0 {
             assert!(
                 (s / law.yield_overlap - 1.0).abs() < 1e-9,

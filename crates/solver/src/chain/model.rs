@@ -979,13 +979,14 @@ impl Chain {
     }
 
     /// Index in the state of the history of the `k`-th contact with Thornton's law (in contact
-    /// order): after the positions, the velocities and the quadratures.
+    /// order), after the positions, the velocities and the quadratures: its gap `g = s − δ`, and
+    /// at the next index its opening distance `o = δ − δ_p(s)` (see [`Thornton`]).
     pub fn history_index(&self, k: usize) -> usize {
         2 * self.n_particles()
             + self.has_damping() as usize
             + self.wall as usize
             + self.force_pulse.is_some() as usize
-            + k
+            + 2 * k
     }
 
     /// Each contact with Thornton's law, its law and the index of its history in the state.
@@ -1000,13 +1001,13 @@ impl Chain {
     }
 
     /// Length of the state `[x, v, q]`: positions, velocities, the quadratures above, then the
-    /// histories of the contacts with Thornton's law.
+    /// two histories of each contact with Thornton's law.
     pub fn state_len(&self) -> usize {
         2 * self.n_particles()
             + self.has_damping() as usize
             + self.wall as usize
             + self.force_pulse.is_some() as usize
-            + self.plasticity.iter().filter(|t| t.is_some()).count()
+            + 2 * self.plasticity.iter().filter(|t| t.is_some()).count()
     }
 
     /// Initial state `[x, v, q]`: the chain at static equilibrium, the striker (when there is one)
@@ -1020,6 +1021,7 @@ impl Chain {
         y[n] = striker_velocity_m_s;
         for (c, t, h) in self.plastic_contacts() {
             y[h] = t.initial_gap(self.static_overlap[c]);
+            y[h + 1] = self.static_overlap[c];
         }
         y
     }

@@ -3,14 +3,17 @@
 //! the history. Every other contact of such a chain takes the general law
 //! ([`crate::contact::general_force`], any exponent, every dissipation model).
 //!
-//! State `[x (N), v (N), q, g]`: the quadratures of [`crate::motion::general::GeneralChainSystem`]
-//! (dissipated work when any contact dissipates, wall impulse, work of the force pulse), then one
-//! history per plastic contact, the gap `g = s − δ` between its largest overlap and the present
-//! one ([`crate::chain::model::Chain::history_index`]). The gap stays exactly zero while the
-//! contact loads on the plastic line, so the largest overlap is never compared with the overlap
-//! it tracks; its switching functions are `g` itself (first yield and reloading past the largest
-//! overlap) and the contact's relative velocity (the turn from plastic loading to unloading), so
-//! that adaptive integrators put step boundaries where the law changes branch.
+//! State `[x (N), v (N), q, h]`: the quadratures of [`crate::motion::general::GeneralChainSystem`]
+//! (dissipated work when any contact dissipates, wall impulse, work of the force pulse), then two
+//! histories per plastic contact ([`crate::chain::model::Chain::history_index`]): the gap
+//! `g = s − δ` between its largest overlap and the present one, which the law reads, and the
+//! opening distance `o = δ − δ_p(s)` to its residual indentation. The gap stays exactly zero
+//! while the contact loads on the plastic line, so the largest overlap is never compared with the
+//! overlap it tracks. Its switching functions, each linear in the state, are `g` (first yield,
+//! reloading past the largest overlap), `o` (opening and closing at the residual indentation,
+//! where the force is `∝ (δ − δ_p)^{3/2}` as Hertz's is at zero) and the contact's relative
+//! velocity (the turn from plastic loading to unloading), so that the adaptive integrators put
+//! step boundaries where the law changes branch.
 
 use crate::chain::model::Chain;
 use crate::contact::{general_derivatives, general_force, ContactParams, Damping, Thornton, POWER};
@@ -75,6 +78,10 @@ impl PlasticChainSystem {
                 minus: None,
             });
             switches.push(Switch {
+                plus: h + 1,
+                minus: None,
+            });
+            switches.push(Switch {
                 plus: n + c,
                 minus: (c + 1 < n).then_some(n + c + 1),
             });
@@ -120,7 +127,7 @@ impl OdeSystem for PlasticChainSystem {
         self.damped as usize
             + self.wall as usize
             + (self.pulse.0 != 0.0) as usize
-            + self.histories.len()
+            + 2 * self.histories.len()
     }
 
     fn switches(&self) -> &[Switch] {
@@ -221,8 +228,10 @@ impl OdeSystem for PlasticChainSystem {
             dq[k] = pulse * v[self.top];
         }
         for &(c, h) in &self.histories {
-            let (_, rate) = self.kinematics(c, x, v);
+            let (d, rate) = self.kinematics(c, x, v);
+            let law = self.plastic[c].expect("a plastic contact").0;
             dy[h] = Thornton::gap_rate(rate, y[h]);
+            dy[h + 1] = law.opening_rate(d, rate, y[h]);
         }
     }
 }
