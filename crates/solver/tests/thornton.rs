@@ -473,6 +473,10 @@ fn a_thornton_chain_runs_through_the_scene_and_its_probes() {
     let chain = Chain::build(&monodisperse(3, None, true).into(), &PhysicsSpec::default()).unwrap();
     let e = Ledger::new(&chain).energy(&chain.initial_state(1.0));
     assert_eq!(e.plastic, 0.0);
+    // Chains without plastic contacts allocate nothing for them (see `Layout::plasticity`).
+    assert!(chain.plasticity.is_empty() && !chain.has_plasticity());
+    let paper = Chain::build(&ChainSpec::chain_055(10), &PhysicsSpec::default()).unwrap();
+    assert!(paper.plasticity.is_empty() && paper.is_paper_physics());
 }
 
 #[test]

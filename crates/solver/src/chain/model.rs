@@ -616,7 +616,7 @@ impl DimerSpec {
             striker: true,
             laws,
             dissipation: vec![None; n_contacts],
-            plasticity: vec![None; n_contacts],
+            plasticity: Vec::new(),
             cell_length_m: Some(h + self.sphere.diameter_m),
         }
     }
@@ -754,7 +754,8 @@ pub struct Chain {
     pub cell_length_m: Option<f64>,
     /// Particle materials.
     pub materials: Vec<Material>,
-    /// Thornton's elastic–plastic law of each contact that has it (see [`crate::contact::Thornton`]);
+    /// Thornton's elastic–plastic law of each contact that has it (see [`crate::contact::Thornton`]),
+    /// empty when none has;
     /// its `stiffness` and `exponent` entries are then its Hertz law below yield. Each such
     /// contact keeps its history (the gap between its largest overlap and the present one) in the
     /// state, after the quadratures ([`Chain::history_index`]).

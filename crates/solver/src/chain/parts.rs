@@ -156,7 +156,9 @@ pub(crate) struct Layout {
     /// A per-pair dissipation model replacing the physics block's.
     pub dissipation: Vec<Option<DissipationSpec>>,
     /// Thornton's elastic–plastic law of each contact that has it (its `laws` entry is then its
-    /// Hertz law below yield).
+    /// Hertz law below yield); empty when no contact has it, so that other chains allocate
+    /// nothing for it (even a short-lived allocation moves the heap addresses of the state and
+    /// stage vectors allocated after it, which measurably changed the paper's reference run).
     pub plasticity: Vec<Option<Thornton>>,
     pub cell_length_m: Option<f64>,
 }

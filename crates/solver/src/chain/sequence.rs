@@ -623,7 +623,8 @@ impl SequenceSpec {
         let n_contacts = if wall { n } else { n - 1 };
         let mut laws = Vec::with_capacity(n_contacts);
         let mut dissipation = Vec::with_capacity(n_contacts);
-        let mut plasticity = Vec::with_capacity(n_contacts);
+        // Allocated at the first plastic contact (empty for chains without one).
+        let mut plasticity: Vec<Option<Thornton>> = Vec::new();
         for c in 0..n_contacts {
             let p = &particles[c];
             let (la, lb) = if c + 1 < n {
@@ -692,10 +693,13 @@ impl SequenceSpec {
                     }
                     (None, None) => unreachable!("validated: one of the two is given"),
                 };
+                plasticity.resize(c, None);
                 plasticity.push(Some(thornton));
                 laws.push((thornton.hertz, 1.5));
             } else {
-                plasticity.push(None);
+                if !plasticity.is_empty() {
+                    plasticity.push(None);
+                }
                 laws.push(law);
             }
             dissipation.push(rule.and_then(|r| r.dissipation));
@@ -705,7 +709,13 @@ impl SequenceSpec {
             striker: first > 0,
             laws,
             dissipation,
-            plasticity,
+            plasticity: if plasticity.is_empty() {
+                plasticity
+            } else {
+                let mut all = plasticity;
+                all.resize(n_contacts, None);
+                all
+            },
             cell_length_m: None,
         })
     }

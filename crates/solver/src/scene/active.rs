@@ -182,7 +182,7 @@ fn prefix_chain(chain: &Chain, k: usize) -> Chain {
         cell_length_m: chain.cell_length_m,
         materials: chain.materials[..k].to_vec(),
         // Never plastic: chains with Thornton's contacts are integrated whole (see `plan`).
-        plasticity: vec![None; k],
+        plasticity: Vec::new(),
     }
 }
 
