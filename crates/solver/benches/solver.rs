@@ -221,8 +221,8 @@ fn bench_general_rhs(c: &mut Criterion) {
         ("power_law_2.5_no_damping", Some(power(2.5)), None),
         ("power_law_2.5_linear_viscous", Some(power(2.5)), linear),
         ("power_law_2.5_tsuji", Some(power(2.5)), tsuji),
-        // Thornton's elastic–plastic law on the sphere–cylinder and sphere–wall contacts (the
-        // striker's stays Hertz's), through its own right-hand side.
+        // Thornton's elastic–plastic law on the sphere–cylinder and sphere–wall contacts (every
+        // contact: the striker is a sphere too), through its own right-hand side.
         ("thornton_no_damping", thornton, None),
     ];
     let mut group = c.benchmark_group("general_rhs");
