@@ -142,8 +142,15 @@ impl OdeSystem for PlasticChainSystem {
         kv: &mut Tridiagonal,
     ) -> bool {
         let n = self.inv_mass.len();
-        *kx = Tridiagonal::zeros(n);
-        *kv = Tridiagonal::zeros(n);
+        // Zeroed in place: allocates only if the order differs.
+        for m in [&mut *kx, &mut *kv] {
+            for part in [&mut m.lower, &mut m.upper] {
+                part.clear();
+                part.resize(n.saturating_sub(1), 0.0);
+            }
+            m.diag.clear();
+            m.diag.resize(n, 0.0);
+        }
         let (x, v) = (&y[..n], &y[n..2 * n]);
         let im = &self.inv_mass;
         for c in 0..self.params.len() {
