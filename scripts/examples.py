@@ -284,6 +284,45 @@ def alternating_dimer_minimum():
         savefig(fig, "examples/alternating-dimer-minimum")
 
 
+def law_label(value) -> str:
+    """A legend for a contact law as the axis holds it (JSON text, or the decoded value)."""
+    import json
+
+    law = value
+    if isinstance(value, (str, bytes)):
+        text = value.decode() if isinstance(value, bytes) else value
+        try:
+            law = json.loads(text)
+        except ValueError:
+            law = text
+    if law == "hertz":
+        return "elastic (Hertz)"
+    p_y = law["thornton"]["yield_pressure_pa"]
+    return f"Thornton, p_y = {p_y / 1e9:g} GPa"
+
+
+def plastic_impact():
+    with load("plastic-impact") as sw:
+        particle, wall = sw.probes
+        v = sw.coord("striker_velocity_m_s").astype(float)
+        laws = sw.coord("law_striker")
+        fig, axes = plt.subplots(1, 2, figsize=(9, 4))
+        for ax, probe, what in [
+            (axes[0], particle, "leading force, last cylinder (N)"),
+            (axes[1], wall, "largest wall force (N)"),
+        ]:
+            dataset = "leading_peak" if probe == particle else "record_max"
+            for law in laws:
+                ax.loglog(v, sw.summary(dataset, probe, law_striker=law), marker="o", label=law_label(law))
+            ax.set_xlabel("striker velocity (m/s)")
+            ax.set_ylabel(what)
+            ax.grid(alpha=0.3, which="both")
+        axes[0].legend(fontsize=8)
+        fig.suptitle("Dimer [sphere, cylinder] × 10 struck by a sphere: transmitted force with and without plasticity", fontsize=10)
+        fig.tight_layout()
+        savefig(fig, "examples/plastic-impact")
+
+
 PLOTS = {
     "trimer": trimer,
     "tapered": tapered,
@@ -295,6 +334,7 @@ PLOTS = {
     "fig08-refined": fig08_refined,
     "fig08-surface": fig08_surface,
     "alternating-dimer-minimum": alternating_dimer_minimum,
+    "plastic-impact": plastic_impact,
 }
 
 

@@ -12,6 +12,7 @@ use chainsweep_solver::integrate::OdeSystem;
 use chainsweep_solver::motion::general::{
     law, GeneralChainSystem, HERTZ_LAW, LINEAR_LAW, POWER_LAW,
 };
+use chainsweep_solver::motion::plastic::PlasticChainSystem;
 use chainsweep_solver::motion::system::ChainSystem;
 use chainsweep_solver::scene::solve::run;
 use criterion::measurement::WallTime;
@@ -162,6 +163,27 @@ fn time_general<const LAW: u8, const D: bool, const T: bool>(
     });
 }
 
+/// The right-hand side of a chain with Thornton's contacts, their histories set so that a third
+/// load on the plastic line, a third unload from 1 µm above their overlap and a third from 2 µm.
+fn time_plastic(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    name: &str,
+    chain: &Chain,
+    y: &mut Vec<f64>,
+) {
+    let mut sys = PlasticChainSystem::new(chain);
+    let dim = OdeSystem::dim(&sys);
+    y.resize(dim, 0.0);
+    for (k, (_, _, h)) in chain.plastic_contacts().into_iter().enumerate() {
+        y[h] = (k % 3) as f64 * 1e-6;
+        y[h + 1] = 1e-6;
+    }
+    let mut dy = vec![0.0; dim];
+    group.bench_function(name, |b| {
+        b.iter(|| sys.rhs(0.0, black_box(&y[..]), black_box(&mut dy)))
+    });
+}
+
 /// RHS cost per contact of the general kernel for each law and dissipation model, on the paper's
 /// chain size with gravity and the wall (`rhs/full_physics` is the paper's kernel on the same
 /// chain with μ = 6 kg/s).
@@ -172,7 +194,11 @@ fn bench_general_rhs(c: &mut Criterion) {
     };
     let linear = Some(DissipationSpec::LinearViscous { damping_kg_s: 6.0 });
     let tsuji = Some(DissipationSpec::Tsuji { restitution: 0.8 });
-    let cases: [(&str, Option<LawSpec>, Option<DissipationSpec>); 9] = [
+    let thornton = Some(LawSpec::Thornton {
+        yield_pressure_pa: Some(1.5e9),
+        yield_velocity_m_s: None,
+    });
+    let cases: [(&str, Option<LawSpec>, Option<DissipationSpec>); 10] = [
         ("hertz_no_damping", None, None),
         ("hertz_linear_viscous", None, linear),
         (
@@ -195,12 +221,19 @@ fn bench_general_rhs(c: &mut Criterion) {
         ("power_law_2.5_no_damping", Some(power(2.5)), None),
         ("power_law_2.5_linear_viscous", Some(power(2.5)), linear),
         ("power_law_2.5_tsuji", Some(power(2.5)), tsuji),
+        // Thornton's elastic–plastic law on the sphere–cylinder and sphere–wall contacts (every
+        // contact: the striker is a sphere too), through its own right-hand side.
+        ("thornton_no_damping", thornton, None),
     ];
     let mut group = c.benchmark_group("general_rhs");
     for (name, law_spec, model) in cases {
         let chain = general_chain(law_spec, model);
         group.throughput(Throughput::Elements(chain.n_contacts() as u64));
         let mut y = mid_pulse_state(&chain);
+        if chain.has_plasticity() {
+            time_plastic(&mut group, name, &chain, &mut y);
+            continue;
+        }
         // The general kernel itself, also for the two cases that `dispatch_chain_system!` sends to
         // the paper's kernel (Hertz laws with no or linear damping): their difference from
         // `rhs/full_physics` is the price of generality that the dispatch avoids.

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
 use crate::chain::sequence::SequenceSpec;
-use crate::contact::{overlap_at_force, Damping, DissipationSpec};
+use crate::contact::{overlap_at_force, Damping, DissipationSpec, Thornton};
 pub(crate) use crate::spec::check_positive;
 pub use crate::spec::{spec_err, SpecError};
 
@@ -616,6 +616,7 @@ impl DimerSpec {
             striker: true,
             laws,
             dissipation: vec![None; n_contacts],
+            plasticity: Vec::new(),
             cell_length_m: Some(h + self.sphere.diameter_m),
         }
     }
@@ -753,6 +754,12 @@ pub struct Chain {
     pub cell_length_m: Option<f64>,
     /// Particle materials.
     pub materials: Vec<Material>,
+    /// Thornton's elastic–plastic law of each contact that has it (see [`crate::contact::Thornton`]),
+    /// empty when none has;
+    /// its `stiffness` and `exponent` entries are then its Hertz law below yield. Each such
+    /// contact keeps its history (the gap between its largest overlap and the present one) in the
+    /// state, after the quadratures ([`Chain::history_index`]).
+    pub plasticity: Vec<Option<Thornton>>,
 }
 
 impl Chain {
@@ -764,13 +771,48 @@ impl Chain {
             ChainSpec::Dimer(d) => d.layout(physics.wall),
             ChainSpec::Sequence(s) => s.layout(physics.wall)?,
         };
+        if layout.plasticity.iter().any(Option::is_some) {
+            if physics.dissipation.is_some() {
+                return Err(spec_err(
+                    "physics.dissipation",
+                    "must be absent when a contact has Thornton's law (it dissipates through plastic work; give other contacts their dissipation in their contact rules)",
+                ));
+            }
+            if physics.has_damping() {
+                return Err(spec_err(
+                    "physics.damping_kg_s",
+                    "must be 0 when a contact has Thornton's law (it dissipates through plastic work; give other contacts their dissipation in their contact rules)",
+                ));
+            }
+        }
         if !layout.striker && physics.striker_damping_kg_s.is_some() {
             return Err(spec_err(
                 "physics.striker_damping_kg_s",
                 "the chain has no striker (a sequence chain names one in chain.striker)",
             ));
         }
-        Ok(Self::from_layout(layout, physics))
+        let chain = Self::from_layout(layout, physics);
+        for (c, law) in chain.plasticity.iter().enumerate() {
+            if let Some(t) = law {
+                if chain.static_overlap[c] >= t.yield_overlap {
+                    let field = if physics.precompression_force_n > 0.0 {
+                        "physics.precompression_force_n"
+                    } else {
+                        "physics.gravity"
+                    };
+                    return Err(spec_err(
+                        field,
+                        format!(
+                            "loads contact {} with Thornton's law beyond yield at rest ({:e} N, yield at {:e} N): the static state must be elastic",
+                            c + 1,
+                            chain.static_force(c),
+                            t.yield_force
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(chain)
     }
 
     fn from_layout(layout: Layout, physics: &PhysicsSpec) -> Chain {
@@ -860,6 +902,7 @@ impl Chain {
             equilibrium_position,
             cell_length_m: layout.cell_length_m,
             materials: layout.particles.iter().map(|p| p.material).collect(),
+            plasticity: layout.plasticity,
         }
     }
 
@@ -910,6 +953,7 @@ impl Chain {
             && !self.has_tsuji_damping()
             && self.precompression_force_n == 0.0
             && self.force_pulse.is_none()
+            && !self.has_plasticity()
     }
 
     /// Index of the dissipated-work quadrature in the state `[x, v, q]`, when damping is on.
@@ -930,12 +974,41 @@ impl Chain {
             .then_some(2 * self.n_particles() + self.has_damping() as usize + self.wall as usize)
     }
 
-    /// Length of the state `[x, v, q]`: positions, velocities, then the quadratures above.
+    /// Whether any contact has Thornton's elastic–plastic law (its own right-hand side).
+    pub fn has_plasticity(&self) -> bool {
+        self.plasticity.iter().any(Option::is_some)
+    }
+
+    /// Index in the state of the history of the `k`-th contact with Thornton's law (in contact
+    /// order), after the positions, the velocities and the quadratures: its gap `g = s − δ`, and
+    /// at the next index its opening distance `o = δ − δ_p(s)` (see [`Thornton`]).
+    pub fn history_index(&self, k: usize) -> usize {
+        2 * self.n_particles()
+            + self.has_damping() as usize
+            + self.wall as usize
+            + self.force_pulse.is_some() as usize
+            + 2 * k
+    }
+
+    /// Each contact with Thornton's law, its law and the index of its history in the state.
+    pub fn plastic_contacts(&self) -> Vec<(usize, Thornton, usize)> {
+        self.plasticity
+            .iter()
+            .enumerate()
+            .filter_map(|(c, t)| t.map(|t| (c, t)))
+            .enumerate()
+            .map(|(k, (c, t))| (c, t, self.history_index(k)))
+            .collect()
+    }
+
+    /// Length of the state `[x, v, q]`: positions, velocities, the quadratures above, then the
+    /// two histories of each contact with Thornton's law.
     pub fn state_len(&self) -> usize {
         2 * self.n_particles()
             + self.has_damping() as usize
             + self.wall as usize
             + self.force_pulse.is_some() as usize
+            + 2 * self.plasticity.iter().filter(|t| t.is_some()).count()
     }
 
     /// Initial state `[x, v, q]`: the chain at static equilibrium, the striker (when there is one)
@@ -947,6 +1020,10 @@ impl Chain {
         let mut y = vec![0.0; self.state_len()];
         y[..n].copy_from_slice(&self.equilibrium_position);
         y[n] = striker_velocity_m_s;
+        for (c, t, h) in self.plastic_contacts() {
+            y[h] = t.initial_gap(self.static_overlap[c]);
+            y[h + 1] = self.static_overlap[c];
+        }
         y
     }
 

@@ -5,7 +5,7 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use crate::contact::DissipationSpec;
+use crate::contact::{DissipationSpec, Thornton};
 use crate::spec::{check_positive, spec_err, SpecError};
 
 /// Elastic constants of a material.
@@ -45,6 +45,22 @@ pub fn hertz_coefficient(m1: Material, r1: Option<f64>, m2: Material, r2: Option
         (None, None) => f64::INFINITY,
     };
     4.0 * e1 * e2 / (3.0 * (e1 * (1.0 - n2 * n2) + e2 * (1.0 - n1 * n1))) * effective_radius.sqrt()
+}
+
+/// Effective modulus `E* = (( 1 − ν₁²)/E₁ + (1 − ν₂²)/E₂)⁻¹` of two bodies, Pa.
+pub fn effective_modulus(m1: Material, m2: Material) -> f64 {
+    let (e1, n1) = (m1.youngs_modulus_pa, m1.poisson_ratio);
+    let (e2, n2) = (m2.youngs_modulus_pa, m2.poisson_ratio);
+    e1 * e2 / (e1 * (1.0 - n2 * n2) + e2 * (1.0 - n1 * n1))
+}
+
+/// Effective radius `R* = r₁ r₂/(r₁ + r₂)` of two bodies' radii of curvature (`None`: a flat), m.
+pub fn effective_radius(r1: Option<f64>, r2: Option<f64>) -> f64 {
+    match (r1, r2) {
+        (Some(a), Some(b)) => a * b / (a + b),
+        (Some(a), None) | (None, Some(a)) => a,
+        (None, None) => f64::INFINITY,
+    }
 }
 
 /// Kind of a particle in the chain.
@@ -139,5 +155,10 @@ pub(crate) struct Layout {
     pub laws: Vec<(f64, f64)>,
     /// A per-pair dissipation model replacing the physics block's.
     pub dissipation: Vec<Option<DissipationSpec>>,
+    /// Thornton's elastic–plastic law of each contact that has it (its `laws` entry is then its
+    /// Hertz law below yield); empty when no contact has it, so that other chains allocate
+    /// nothing for it (even a short-lived allocation moves the heap addresses of the state and
+    /// stage vectors allocated after it, which measurably changed the paper's reference run).
+    pub plasticity: Vec<Option<Thornton>>,
     pub cell_length_m: Option<f64>,
 }

@@ -26,10 +26,10 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 use crate::chain::parts::{
-    check_material, hertz_coefficient, Layout, Material, Particle, ParticleKind, Shape,
-    MAX_PARTICLES,
+    check_material, effective_modulus, effective_radius, hertz_coefficient, Layout, Material,
+    Particle, ParticleKind, Shape, MAX_PARTICLES,
 };
-use crate::contact::{DissipationSpec, LawSpec, SplitMix64, MAX_EXPONENT};
+use crate::contact::{DissipationSpec, LawSpec, SplitMix64, Thornton};
 use crate::spec::{check_positive, spec_err, SpecError};
 
 /// Name a contact rule uses for the wall.
@@ -509,16 +509,12 @@ impl SequenceSpec {
                     "a contact rule needs a `law`, a `dissipation`, or both",
                 ));
             }
-            if let Some(LawSpec::PowerLaw {
-                coefficient,
-                exponent,
-            }) = rule.law
-            {
-                check_positive(&format!("{field}.law.power_law.coefficient"), coefficient)?;
-                if !(exponent.is_finite() && (1.0..=MAX_EXPONENT).contains(&exponent)) {
+            if let Some(law) = &rule.law {
+                law.validate(&format!("{field}.law"))?;
+                if matches!(law, LawSpec::Thornton { .. }) && rule.dissipation.is_some() {
                     return Err(spec_err(
-                        &format!("{field}.law.power_law.exponent"),
-                        format!("must lie in [1, {MAX_EXPONENT}], got {exponent}"),
+                        &format!("{field}.dissipation"),
+                        "must be absent on a contact with Thornton's law (it dissipates through plastic work; a dissipation model beside it is not supported)",
                     ));
                 }
             }
@@ -627,6 +623,8 @@ impl SequenceSpec {
         let n_contacts = if wall { n } else { n - 1 };
         let mut laws = Vec::with_capacity(n_contacts);
         let mut dissipation = Vec::with_capacity(n_contacts);
+        // Allocated at the first plastic contact (empty for chains without one).
+        let mut plasticity: Vec<Option<Thornton>> = Vec::new();
         for c in 0..n_contacts {
             let p = &particles[c];
             let (la, lb) = if c + 1 < n {
@@ -643,12 +641,13 @@ impl SequenceSpec {
             } else {
                 (self.wall_material, None)
             };
-            let law = match rule.and_then(|r| r.law) {
+            let spec = rule.and_then(|r| r.law);
+            let law = match spec {
                 Some(LawSpec::PowerLaw {
                     coefficient,
                     exponent,
                 }) => (coefficient, exponent),
-                Some(LawSpec::Hertz) | None => {
+                Some(LawSpec::Hertz) | Some(LawSpec::Thornton { .. }) | None => {
                     let ra = p.shape.contact_radius();
                     if ra.is_none() && rb.is_none() {
                         let (ta, tb) = (la[la.len() - 1], lb[lb.len() - 1]);
@@ -674,7 +673,35 @@ impl SequenceSpec {
                     (a, 1.5)
                 }
             };
-            laws.push(law);
+            if let Some(LawSpec::Thornton {
+                yield_pressure_pa,
+                yield_velocity_m_s,
+            }) = spec
+            {
+                let e_star = effective_modulus(p.material, mb);
+                let r_star = effective_radius(p.shape.contact_radius(), rb);
+                let thornton = match (yield_pressure_pa, yield_velocity_m_s) {
+                    (Some(p_y), _) => Thornton::new(e_star, r_star, p_y),
+                    (None, Some(v_y)) => {
+                        let reduced_mass = if c + 1 < n {
+                            let (ma, mb) = (p.mass_kg, particles[c + 1].mass_kg);
+                            ma * mb / (ma + mb)
+                        } else {
+                            p.mass_kg
+                        };
+                        Thornton::from_yield_velocity(e_star, r_star, reduced_mass, v_y)
+                    }
+                    (None, None) => unreachable!("validated: one of the two is given"),
+                };
+                plasticity.resize(c, None);
+                plasticity.push(Some(thornton));
+                laws.push((thornton.hertz, 1.5));
+            } else {
+                if !plasticity.is_empty() {
+                    plasticity.push(None);
+                }
+                laws.push(law);
+            }
             dissipation.push(rule.and_then(|r| r.dissipation));
         }
         Ok(Layout {
@@ -682,6 +709,13 @@ impl SequenceSpec {
             striker: first > 0,
             laws,
             dissipation,
+            plasticity: if plasticity.is_empty() {
+                plasticity
+            } else {
+                let mut all = plasticity;
+                all.resize(n_contacts, None);
+                all
+            },
             cell_length_m: None,
         })
     }

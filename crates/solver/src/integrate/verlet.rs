@@ -7,7 +7,9 @@ use super::{IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, StepObse
 ///
 /// With velocity-dependent (viscous) forces the acceleration at the new position is evaluated with
 /// the predicted velocity `v + h a`, which keeps the method explicit and second order. Quadratures
-/// (dissipated work, wall impulse) use the trapezoidal rule. One right-hand-side evaluation per step.
+/// (dissipated work, wall impulse) and contact histories (Thornton's law) use the trapezoidal rule,
+/// the histories predicted by explicit Euler for the evaluation at the new position. One
+/// right-hand-side evaluation per step.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct VelocityVerlet {
     /// Requested step, s; the interval is split into equal steps no longer than this.
@@ -75,6 +77,12 @@ impl FixedScheme for VerletStep {
                 xn[i] = x[i] + h * v_half;
                 vn[i] = v_half + 0.5 * h * a[i];
             }
+        }
+        // The components after the velocities at the end of the step, predicted (explicit Euler)
+        // for the right-hand side there: quadratures never feed back, but a chain's contact
+        // histories (Thornton's law) do, and would otherwise be read stale. Corrected below.
+        for i in 2 * n..dim {
+            y_new[i] = y[i] + h * f[i];
         }
         sys.rhs(t_next, y_new, f_new);
         for i in 0..n {

@@ -208,6 +208,8 @@ pub struct Ledger {
     top: usize,
     precompression: f64,
     pulse: Option<(f64, f64, usize)>,
+    /// The contacts with Thornton's law: `(contact, law, index of its history in the state)`.
+    plastic: Vec<(usize, crate::contact::Thornton, usize)>,
 }
 
 /// Energy terms of a state, J.
@@ -221,6 +223,9 @@ pub struct EnergyTerms {
     pub gravitational: f64,
     /// Work dissipated by the contacts' dissipative terms so far.
     pub dissipated: f64,
+    /// Plastic work of the contacts with Thornton's law so far: the work their loading took that
+    /// no unloading gives back (their `elastic` term is the recoverable part). Zero without them.
+    pub plastic: f64,
     /// Minus the work of the external forces so far: `−F_p x_top` for the precompression (its
     /// potential) minus the work the force pulse has done. Zero without them.
     pub external: f64,
@@ -231,7 +236,12 @@ pub struct EnergyTerms {
 impl EnergyTerms {
     /// The conserved total.
     pub fn total(&self) -> f64 {
-        self.kinetic + self.elastic + self.gravitational + self.dissipated + self.external
+        self.kinetic
+            + self.elastic
+            + self.gravitational
+            + self.dissipated
+            + self.external
+            + self.plastic
     }
 }
 
@@ -242,10 +252,7 @@ impl Ledger {
             mass: chain.mass.clone(),
             total_mass: chain.mass.iter().sum(),
             stiffness: chain.stiffness.clone(),
-            exponent: chain
-                .exponent
-                .iter()
-                .any(|&n| n != 1.5)
+            exponent: (chain.exponent.iter().any(|&n| n != 1.5) || chain.has_plasticity())
                 .then(|| chain.exponent.clone()),
             gravity: chain.gravity_m_s2,
             wall: chain.wall,
@@ -256,6 +263,7 @@ impl Ledger {
             pulse: chain
                 .force_pulse
                 .map(|(a, d)| (a, d, chain.pulse_work_index().expect("pulse quadrature"))),
+            plastic: chain.plastic_contacts(),
         }
     }
 
@@ -293,10 +301,14 @@ impl Ledger {
             weight_moment[0] += m[j] * x[j];
         }
         let sum = |lanes: [f64; L]| lanes.iter().sum::<f64>();
-        let (elastic, max_overlap) = match &self.exponent {
+        let (mut elastic, max_overlap) = match &self.exponent {
             None => self.hertz_potential(x, k),
             Some(exponent) => self.general_potential(x, exponent, k),
         };
+        let mut plastic = 0.0;
+        if !self.plastic.is_empty() {
+            (elastic, plastic) = self.plastic_potential(y, k);
+        }
         let kinetic = 0.5 * sum(twice_kinetic);
         let gravitational = -self.gravity * sum(weight_moment);
         let dissipated = self.work_index.map_or(0.0, |w| y[w]);
@@ -312,6 +324,7 @@ impl Ledger {
             elastic,
             gravitational,
             dissipated,
+            plastic,
             external,
             max_overlap,
         }
@@ -367,6 +380,35 @@ impl Ledger {
             largest = largest.max(d);
         }
         (elastic, largest)
+    }
+
+    /// The elastic energy of a chain with Thornton's contacts, whose recoverable energy and
+    /// plastic work come from their histories in the state `y`, and their plastic work: kept out
+    /// of line, so that the ledger of every other chain compiles as it did.
+    #[inline(never)]
+    fn plastic_potential(&self, y: &[f64], k: usize) -> (f64, f64) {
+        let n = self.mass.len();
+        let x = &y[..n];
+        let exponent = self
+            .exponent
+            .as_deref()
+            .expect("plastic chains keep their exponents");
+        let (mut elastic, mut plastic) = (0.0f64, 0.0f64);
+        let contacts = self.stiffness.len().min(k);
+        let mut laws = self.plastic.iter().peekable();
+        for (c, (&a, &e)) in self.stiffness[..contacts].iter().zip(exponent).enumerate() {
+            let overlap = if c + 1 < n { x[c] - x[c + 1] } else { x[c] };
+            let d = overlap.max(0.0);
+            match laws.next_if(|(pc, _, _)| *pc == c) {
+                Some((_, law, h)) => {
+                    let (recoverable, work) = law.energies(overlap, y[*h]);
+                    elastic += recoverable;
+                    plastic += work;
+                }
+                None => elastic += crate::contact::potential(a, e, d),
+            }
+        }
+        (elastic, plastic)
     }
 
     /// Impulse of the external forces from `t0` to `t`, N·s.
@@ -430,16 +472,20 @@ impl Kernel for EnergyKernel<'_> {
 
 /// Calls `$body` with `$sys` bound to the right-hand side specialised for `$chain`: the paper's
 /// [`ChainSystem`] (16 variants: gravity × damping × wall × clipping) when the chain is the
-/// paper's physics, else a [`crate::motion::general::GeneralChainSystem`] (8 variants: Hertz, linear or
-/// per-contact power laws × damping on or off, and Hertz or power laws with Tsuji's term). This is
-/// the one place where run-time switches become compile-time ones: 24 compiled right-hand sides in
-/// all.
+/// paper's physics, [`crate::motion::plastic::PlasticChainSystem`] when a contact has Thornton's
+/// elastic–plastic law, else a [`crate::motion::general::GeneralChainSystem`] (8 variants: Hertz,
+/// linear or per-contact power laws × damping on or off, and Hertz or power laws with Tsuji's
+/// term). This is the one place where run-time switches become compile-time ones: 25 compiled
+/// right-hand sides in all.
 #[macro_export]
 macro_rules! dispatch_chain_system {
     ($chain:expr, |$sys:ident| $body:expr) => {{
         let chain: &$crate::chain::model::Chain = $chain;
         if chain.is_paper_physics() {
             $crate::dispatch_paper_system!(chain, |$sys| $body)
+        } else if chain.has_plasticity() {
+            let mut $sys = $crate::motion::plastic::PlasticChainSystem::new(chain);
+            $body
         } else {
             $crate::dispatch_general_system!(chain, |$sys| $body)
         }

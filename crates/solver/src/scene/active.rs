@@ -74,6 +74,7 @@ pub(crate) fn plan(
     if scene.active_region == ActiveRegion::Off
         || n < MIN_PARTICLES
         || chain.precompression_force_n != 0.0
+        || chain.has_plasticity()
     {
         return None;
     }
@@ -151,6 +152,10 @@ fn prefix_chain(chain: &Chain, k: usize) -> Chain {
     if k == n {
         return chain.clone();
     }
+    debug_assert!(
+        !chain.has_plasticity(),
+        "plastic chains are integrated whole"
+    );
     let mut equilibrium_position = vec![0.0; k];
     equilibrium_position[k - 1] = chain.static_overlap[k - 1];
     for i in (0..k - 1).rev() {
@@ -176,6 +181,8 @@ fn prefix_chain(chain: &Chain, k: usize) -> Chain {
         equilibrium_position,
         cell_length_m: chain.cell_length_m,
         materials: chain.materials[..k].to_vec(),
+        // Never plastic: chains with Thornton's contacts are integrated whole (see `plan`).
+        plasticity: Vec::new(),
     }
 }
 

@@ -1,0 +1,244 @@
+//! The equations of motion of a chain with Thornton's elastic–plastic contacts (see
+//! [`crate::contact::Thornton`]): a right-hand side of its own, so that no other chain pays for
+//! the history. Every other contact of such a chain takes the general law
+//! ([`crate::contact::general_force`], any exponent, every dissipation model).
+//!
+//! State `[x (N), v (N), q, h]`: the quadratures of [`crate::motion::general::GeneralChainSystem`]
+//! (dissipated work when any contact dissipates, wall impulse, work of the force pulse), then two
+//! histories per plastic contact ([`crate::chain::model::Chain::history_index`]): the gap
+//! `g = s − δ` between its largest overlap and the present one, which the law reads, and the
+//! opening distance `o = δ − δ_p(s)` to its residual indentation. The gap stays exactly zero
+//! while the contact loads on the plastic line, so the largest overlap is never compared with the
+//! overlap it tracks. Its switching functions, each linear in the state, are `g` (first yield,
+//! reloading past the largest overlap), `o` (opening and closing at the residual indentation,
+//! where the force is `∝ (δ − δ_p)^{3/2}` as Hertz's is at zero) and the contact's relative
+//! velocity (the turn from plastic loading to unloading), so that the adaptive integrators put
+//! step boundaries where the law changes branch.
+
+use crate::chain::model::Chain;
+use crate::contact::{general_derivatives, general_force, ContactParams, Damping, Thornton, POWER};
+use crate::integrate::{OdeSystem, Switch, Tridiagonal};
+
+/// Right-hand side of a chain with elastic–plastic contacts.
+#[derive(Debug, Clone)]
+pub struct PlasticChainSystem {
+    inv_mass: Vec<f64>,
+    /// General law and dissipation of each contact (unused for the plastic ones).
+    params: Vec<ContactParams>,
+    /// Thornton's law and the index of its history in the state, per contact.
+    plastic: Vec<Option<(Thornton, usize)>>,
+    /// The plastic contacts, in order: `(contact, history index)`.
+    histories: Vec<(usize, usize)>,
+    damped: bool,
+    gravity: f64,
+    wall: bool,
+    clip: bool,
+    top: usize,
+    precompression: f64,
+    /// Half-sine pulse: amplitude (N), π/duration (1/s), duration (s); zero amplitude: none.
+    pulse: (f64, f64, f64),
+    force: Vec<f64>,
+    switches: Vec<Switch>,
+}
+
+impl PlasticChainSystem {
+    /// Builds the system of a chain with at least one plastic contact.
+    pub fn new(chain: &Chain) -> Self {
+        assert!(
+            chain.has_plasticity(),
+            "PlasticChainSystem needs a plastic contact"
+        );
+        let n = chain.n_particles();
+        let m = chain.n_contacts();
+        let params = (0..m)
+            .map(|c| ContactParams {
+                a: chain.stiffness[c],
+                n: chain.exponent[c],
+                damping: Damping {
+                    linear: chain.damping[c],
+                    viscoelastic: chain.viscoelastic_damping[c],
+                    hunt_crossley: chain.hunt_crossley_damping[c],
+                    tsuji: chain.tsuji_damping[c],
+                },
+            })
+            .collect();
+        let mut plastic = vec![None; m];
+        let mut histories = Vec::new();
+        let mut switches: Vec<Switch> = (0..m)
+            .map(|c| Switch {
+                plus: c,
+                minus: (c + 1 < n).then_some(c + 1),
+            })
+            .collect();
+        for (c, t, h) in chain.plastic_contacts() {
+            plastic[c] = Some((t, h));
+            histories.push((c, h));
+            switches.push(Switch {
+                plus: h,
+                minus: None,
+            });
+            switches.push(Switch {
+                plus: h + 1,
+                minus: None,
+            });
+            switches.push(Switch {
+                plus: n + c,
+                minus: (c + 1 < n).then_some(n + c + 1),
+            });
+        }
+        let pulse = match chain.force_pulse {
+            Some((amplitude, duration)) => (amplitude, std::f64::consts::PI / duration, duration),
+            None => (0.0, 0.0, 0.0),
+        };
+        PlasticChainSystem {
+            inv_mass: chain.mass.iter().map(|m| 1.0 / m).collect(),
+            params,
+            plastic,
+            histories,
+            damped: chain.has_damping(),
+            gravity: chain.gravity_m_s2,
+            wall: chain.wall,
+            clip: chain.clip_tensile,
+            top: chain.first_chain_particle(),
+            precompression: chain.precompression_force_n,
+            pulse,
+            force: vec![0.0; m],
+            switches,
+        }
+    }
+
+    /// Overlap and its rate of contact `c` in state `(x, v)`.
+    #[inline(always)]
+    fn kinematics(&self, c: usize, x: &[f64], v: &[f64]) -> (f64, f64) {
+        if c + 1 < x.len() {
+            (x[c] - x[c + 1], v[c] - v[c + 1])
+        } else {
+            (x[c], v[c])
+        }
+    }
+}
+
+impl OdeSystem for PlasticChainSystem {
+    fn n_pos(&self) -> usize {
+        self.inv_mass.len()
+    }
+
+    fn n_quad(&self) -> usize {
+        self.damped as usize
+            + self.wall as usize
+            + (self.pulse.0 != 0.0) as usize
+            + 2 * self.histories.len()
+    }
+
+    fn switches(&self) -> &[Switch] {
+        &self.switches
+    }
+
+    fn acceleration_jacobian(
+        &self,
+        _t: f64,
+        y: &[f64],
+        kx: &mut Tridiagonal,
+        kv: &mut Tridiagonal,
+    ) -> bool {
+        let n = self.inv_mass.len();
+        // Zeroed in place: allocates only if the order differs.
+        for m in [&mut *kx, &mut *kv] {
+            for part in [&mut m.lower, &mut m.upper] {
+                part.clear();
+                part.resize(n.saturating_sub(1), 0.0);
+            }
+            m.diag.clear();
+            m.diag.resize(n, 0.0);
+        }
+        let (x, v) = (&y[..n], &y[n..2 * n]);
+        let im = &self.inv_mass;
+        for c in 0..self.params.len() {
+            let (d, dv) = self.kinematics(c, x, v);
+            // The plastic law at its present largest overlap (the history held fixed: the
+            // linearly implicit method needs only an approximation of the Jacobian).
+            let (k, eta) = match self.plastic[c] {
+                Some((t, h)) => (t.stiffness(d, y[h]), 0.0),
+                None => general_derivatives::<POWER, true, true>(&self.params[c], d, dv, self.clip),
+            };
+            if c + 1 < n {
+                kx.diag[c] -= k * im[c];
+                kx.upper[c] += k * im[c];
+                kx.lower[c] += k * im[c + 1];
+                kx.diag[c + 1] -= k * im[c + 1];
+                kv.diag[c] -= eta * im[c];
+                kv.upper[c] += eta * im[c];
+                kv.lower[c] += eta * im[c + 1];
+                kv.diag[c + 1] -= eta * im[c + 1];
+            } else {
+                kx.diag[c] -= k * im[c];
+                kv.diag[c] -= eta * im[c];
+            }
+        }
+        true
+    }
+
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let n = self.inv_mass.len();
+        let (x, rest) = y.split_at(n);
+        let v = &rest[..n];
+        let (dx, rest) = dy.split_at_mut(n);
+        let (dv, dq) = rest.split_at_mut(n);
+        dx.copy_from_slice(v);
+        let mut dissipated = 0.0;
+        for c in 0..self.params.len() {
+            let (d, rate) = self.kinematics(c, x, v);
+            self.force[c] = match self.plastic[c] {
+                Some((law, h)) => law.force(d, y[h]),
+                None => {
+                    let (f, p) =
+                        general_force::<POWER, true, true>(&self.params[c], d, rate, self.clip);
+                    dissipated += p;
+                    f
+                }
+            };
+        }
+        let m = n - 1;
+        let force = &self.force;
+        let wall_force = if self.wall { force[m] } else { 0.0 };
+        let g = self.gravity;
+        let im = &self.inv_mass;
+        if n == 1 {
+            dv[0] = g - wall_force * im[0];
+        } else {
+            dv[0] = g - force[0] * im[0];
+            for i in 1..n - 1 {
+                dv[i] = g + (force[i - 1] - force[i]) * im[i];
+            }
+            dv[n - 1] = g + (force[n - 2] - wall_force) * im[n - 1];
+        }
+        let (amplitude, omega, duration) = self.pulse;
+        let pulse = if amplitude != 0.0 && t < duration {
+            amplitude * (omega * t).sin()
+        } else {
+            0.0
+        };
+        let external = self.precompression + pulse;
+        if external != 0.0 {
+            dv[self.top] += external * im[self.top];
+        }
+        let mut k = 0;
+        if self.damped {
+            dq[k] = dissipated;
+            k += 1;
+        }
+        if self.wall {
+            dq[k] = wall_force;
+            k += 1;
+        }
+        if amplitude != 0.0 {
+            dq[k] = pulse * v[self.top];
+        }
+        for &(c, h) in &self.histories {
+            let (d, rate) = self.kinematics(c, x, v);
+            let law = self.plastic[c].expect("a plastic contact").0;
+            dy[h] = Thornton::gap_rate(rate, y[h]);
+            dy[h + 1] = law.opening_rate(d, rate, y[h]);
+        }
+    }
+}
