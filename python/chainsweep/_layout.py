@@ -34,9 +34,17 @@ def _flag_attrs(name: str) -> dict:
 STATUS_PENDING, STATUS_OK, STATUS_FAILED = COLUMNS["status"]["flag_values"]
 STATUS_ATTRS = {"long_name": COLUMNS["status"]["description"], **_flag_attrs("status")}
 
-#: Per-run float summaries: name -> (units, long_name).
+#: Per-run float summaries: name -> (units, long_name) (the linear spectrum's apart).
 RUN_FLOATS: dict[str, tuple[str, str]] = {
-    n: _label(c) for n, c in COLUMNS.items() if c["kind"] in ("ok_f64", "run_f64")
+    n: _label(c)
+    for n, c in COLUMNS.items()
+    if c["kind"] in ("ok_f64", "run_f64") and c["written"] != "with_spectrum"
+}
+
+#: The linear spectrum's columns (record.spectrum): name -> (units, long_name). The files have
+#: them only where the sweep records the spectrum, :func:`chainsweep.run` only for such a scene.
+SPECTRUM_COLUMNS: dict[str, tuple[str, str]] = {
+    n: _label(c) for n, c in COLUMNS.items() if c["written"] == "with_spectrum"
 }
 
 #: Per-run integer counters: name -> (units, long_name). The files store -1 where a run failed or
@@ -86,6 +94,7 @@ ORDER: list[str] = [
     *RUN_FLOATS,
     *RUN_COUNTERS,
     *MOVING_PART_COLUMNS,
+    *SPECTRUM_COLUMNS,
     "status",
     "reason",
     "warnings",

@@ -47,6 +47,9 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
         out[name] = np.array(col[name], dtype=np.uint8)
     for name in L.RUN_FLOATS:
         out[name] = np.float64(col[name])
+    for name in L.SPECTRUM_COLUMNS:  # where the scene records the spectrum
+        if name in col:
+            out[name] = np.float64(col[name])
     # Counts: None where the file stores its fill (-1; a failed run counted nothing that is
     # kept): NaN, as chainsweep.open masks it.
     def count(name: str):
@@ -108,6 +111,9 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
         data[name] = ("probe", a[name], {"long_name": long_name, **flag_attrs})
     for name, (unit, long_name) in {**L.RUN_FLOATS, **L.RUN_COUNTERS}.items():
         data[name] = ((), a[name], {"units": unit, "long_name": long_name})
+    for name, (unit, long_name) in L.SPECTRUM_COLUMNS.items():
+        if name in a:
+            data[name] = ((), a[name], {"units": unit, "long_name": long_name})
     for name, (unit, long_name) in L.MOVING_PART_COLUMNS.items():
         if name in a:
             attrs = {"long_name": long_name} if unit is None else {"units": unit, "long_name": long_name}
