@@ -323,6 +323,34 @@ def plastic_impact():
         savefig(fig, "examples/plastic-impact")
 
 
+def dimer_bands():
+    """The precompressed dimer's band structure from the linear spectrum (no time integration):
+    the acoustic band, the gap and the optical band against the static force, for each mass of
+    the small sphere."""
+    with load("dimer-bands") as sw:
+        force = sw.coord("precompression_force_n").astype(float)
+        masses = sw.coord("small_mass_kg").astype(float)
+        fig, axes = plt.subplots(1, len(masses), figsize=(3.2 * len(masses), 3.6), sharey=True)
+        for ax, m in zip(np.atleast_1d(axes), masses):
+            low = sw.summary("gap_lower_hz", small_mass_kg=m) / 1e3
+            high = sw.summary("gap_upper_hz", small_mass_kg=m) / 1e3
+            top = sw.summary("band_top_hz", small_mass_kg=m) / 1e3
+            ax.fill_between(force, 0, low, color="tab:blue", alpha=0.35, label="acoustic band")
+            ax.fill_between(force, low, high, color="0.9", label="band gap")
+            ax.fill_between(force, high, top, color="tab:orange", alpha=0.35, label="optical band")
+            ax.set_xscale("log")
+            ax.set_ylim(0, None)
+            ax.set_xlabel("precompression force (N)")
+            ax.set_title(f"small sphere {m * 1e3:g} g", fontsize=9)
+            ax.grid(alpha=0.3)
+        np.atleast_1d(axes)[0].set_ylabel("frequency (kHz)")
+        np.atleast_1d(axes)[0].legend(fontsize=7, loc="upper left")
+        fig.suptitle("Precompressed dimer [8 mm, 5 mm spheres] × 100: bands and gap grow as F^(1/6)",
+                     fontsize=10)
+        fig.tight_layout()
+        savefig(fig, "examples/dimer-bands")
+
+
 PLOTS = {
     "trimer": trimer,
     "tapered": tapered,
@@ -335,6 +363,7 @@ PLOTS = {
     "fig08-surface": fig08_surface,
     "alternating-dimer-minimum": alternating_dimer_minimum,
     "plastic-impact": plastic_impact,
+    "dimer-bands": dimer_bands,
 }
 
 
