@@ -199,9 +199,7 @@ impl RecordSpec {
     pub fn needs_integration(&self) -> bool {
         self.spectrum.is_none() || !self.probes.is_empty() || self.history || self.min_overlap
     }
-}
 
-impl RecordSpec {
     /// Checks the record block against a built chain; errors name the field (relative to `record`).
     pub fn validate(&self, chain: &Chain) -> Result<(), SpecError> {
         if let Some(spectrum) = &self.spectrum {
