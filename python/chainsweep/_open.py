@@ -342,23 +342,28 @@ def _stack_histories(
     attrs = L.probe_attrs(grid.probe_units, L.HISTORY_LONG_NAME)
     shared = all(np.array_equal(t, longest[: len(t)]) for t in times.values())
     coords: dict[str, Any]
-    if shared:
-        # One time axis: every run sampled at the same instants (shorter runs stopped earlier).
+    return _history_of_groups(grid, values, attrs, longest if shared else None, times)
+
+
+def _history_of_groups(
+    grid: "_Grid", values: Any, attrs: dict[str, Any], longest: np.ndarray | None,
+    times: dict[int, np.ndarray],
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """LAYOUT (run groups): the `history` variable and its time coordinate: over `time_s` (the
+    `longest` run's instants, which every run shares: shorter runs stopped earlier), else (runs
+    sampled at different instants: the interval or the duration an axis) over a `sample`
+    dimension, with each run's own instants (`times`) as a coordinate over the grid."""
+    if longest is not None:
         coords = {"time_s": ("time_s", longest, {"units": "s"})}
-        data = {"history": ((*grid.dims, "probe", "time_s"), values, attrs)}
-    else:
-        # Runs sampled at different instants (the interval or the duration is an axis): a sample
-        # dimension, with each run's own times as a coordinate over the grid.
-        all_times = np.full((n, width), np.nan)
-        for i, t in times.items():
-            all_times[i, : len(t)] = t
-        coords = {
-            "time_s": (
-                (*grid.dims, "sample"), all_times.reshape(*grid.shape, width), {"units": "s"}
-            )
-        }
-        data = {"history": ((*grid.dims, "probe", "sample"), values, attrs)}
-    return data, coords
+        return {"history": ((*grid.dims, "probe", "time_s"), values, attrs)}, coords
+    width = values.shape[-1]
+    all_times = np.full((int(np.prod(grid.shape)), width), np.nan)
+    for i, t in times.items():
+        all_times[i, : len(t)] = t
+    coords = {
+        "time_s": ((*grid.dims, "sample"), all_times.reshape(*grid.shape, width), {"units": "s"})
+    }
+    return {"history": ((*grid.dims, "probe", "sample"), values, attrs)}, coords
 
 
 # Runs per block of the lazy `history` (along the grid's last axis): blocks of about this many
@@ -485,20 +490,7 @@ def _lazy_histories(
     )
     attrs = L.probe_attrs(grid.probe_units, L.HISTORY_LONG_NAME)
     coords: dict[str, Any]
-    if shared:
-        coords = {"time_s": ("time_s", longest, {"units": "s"})}
-        data = {"history": ((*grid.dims, "probe", "time_s"), values, attrs)}
-    else:
-        all_times = np.full((int(np.prod(grid.shape)), width), np.nan)
-        for i, t in times.items():
-            all_times[i, : len(t)] = t
-        coords = {
-            "time_s": (
-                (*grid.dims, "sample"), all_times.reshape(*grid.shape, width), {"units": "s"}
-            )
-        }
-        data = {"history": ((*grid.dims, "probe", "sample"), values, attrs)}
-    return data, coords
+    return _history_of_groups(grid, values, attrs, longest if shared else None, times)
 
 
 def _lazy_arrays(
