@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
 use crate::chain::sequence::SequenceSpec;
-use crate::contact::{overlap_at_force, Damping, DissipationSpec, Thornton};
+use crate::contact::{overlap_at_force, ContactParams, Damping, DissipationSpec, Thornton};
 pub(crate) use crate::spec::check_positive;
 pub use crate::spec::{spec_err, SpecError};
 
@@ -972,6 +972,20 @@ impl Chain {
         self.force_pulse
             .is_some()
             .then_some(2 * self.n_particles() + self.has_damping() as usize + self.wall as usize)
+    }
+
+    /// Contact `c`'s elastic law and dissipation, as the general laws of `contact.rs` take them.
+    pub(crate) fn contact_params(&self, c: usize) -> ContactParams {
+        ContactParams {
+            a: self.stiffness[c],
+            n: self.exponent[c],
+            damping: Damping {
+                linear: self.damping[c],
+                viscoelastic: self.viscoelastic_damping[c],
+                hunt_crossley: self.hunt_crossley_damping[c],
+                tsuji: self.tsuji_damping[c],
+            },
+        }
     }
 
     /// Whether any contact has Thornton's elastic–plastic law (its own right-hand side).

@@ -16,7 +16,7 @@
 //! step boundaries where the law changes branch.
 
 use crate::chain::model::Chain;
-use crate::contact::{general_derivatives, general_force, ContactParams, Damping, Thornton, POWER};
+use crate::contact::{general_derivatives, general_force, ContactParams, Thornton, POWER};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 
 /// Right-hand side of a chain with elastic–plastic contacts.
@@ -50,18 +50,7 @@ impl PlasticChainSystem {
         );
         let n = chain.n_particles();
         let m = chain.n_contacts();
-        let params = (0..m)
-            .map(|c| ContactParams {
-                a: chain.stiffness[c],
-                n: chain.exponent[c],
-                damping: Damping {
-                    linear: chain.damping[c],
-                    viscoelastic: chain.viscoelastic_damping[c],
-                    hunt_crossley: chain.hunt_crossley_damping[c],
-                    tsuji: chain.tsuji_damping[c],
-                },
-            })
-            .collect();
+        let params = (0..m).map(|c| chain.contact_params(c)).collect();
         let mut plastic = vec![None; m];
         let mut histories = Vec::new();
         let mut switches: Vec<Switch> = (0..m)

@@ -25,7 +25,7 @@ mod damped;
 pub mod tridiagonal;
 
 use crate::chain::model::Chain;
-use crate::contact::{general_derivatives, ContactParams, Damping, POWER};
+use crate::contact::{general_derivatives, POWER};
 use crate::spec::{spec_err, SpecError};
 use bloch::UnitCell;
 use tridiagonal::SymTridiagonal;
@@ -203,16 +203,7 @@ impl LinearChain {
         let f = chain.first_chain_particle();
         let n = chain.n_particles();
         let linear = |c: usize| {
-            let p = ContactParams {
-                a: chain.stiffness[c],
-                n: chain.exponent[c],
-                damping: Damping {
-                    linear: chain.damping[c],
-                    viscoelastic: chain.viscoelastic_damping[c],
-                    hunt_crossley: chain.hunt_crossley_damping[c],
-                    tsuji: chain.tsuji_damping[c],
-                },
-            };
+            let p = chain.contact_params(c);
             general_derivatives::<POWER, true, true>(
                 &p,
                 chain.static_overlap[c],
