@@ -388,6 +388,18 @@ def _identity(path: str) -> tuple[int, int, int, int]:
     return st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns
 
 
+def _same_file(path: str, identity: tuple[int, int, int, int]) -> None:
+    """Raises unless `path` is still the file chainsweep.open checked (a lazy block reads it
+    long after: a sweep may have published it again since)."""
+    if _identity(path) != identity:
+        raise DamagedFileError(
+            path,
+            f"{path} was replaced since chainsweep.open checked it (a sweep published it again): "
+            "open it again",
+            [],
+        )
+
+
 def _lazy_histories(
     path: str, grid: _Grid, masked: set[int]
 ) -> tuple[dict[str, Any], dict[str, Any]] | None:
@@ -459,13 +471,7 @@ def _lazy_histories(
         # (One block at a time: HDF5 reads one at a time anyway, and two threads opening the
         # same file at once can deadlock in h5py.)
         with _BLOCK_LOCK, h5py.File(path, "r") as f:
-            if _identity(path) != identity:
-                raise DamagedFileError(
-                    path,
-                    f"{path} was replaced since chainsweep.open checked it (a sweep published it "
-                    "again): open it again",
-                    [],
-                )
+            _same_file(path, identity)
             for local in np.ndindex(*out.shape[:nd]):
                 i = int(np.ravel_multi_index(tuple(x + k for x, k in zip(lo, local)), grid.shape))
                 if i in masked or i not in readable:
@@ -527,13 +533,7 @@ def _lazy_arrays(
         loc = block_info[None]["array-location"][:nd]
         sel = tuple(slice(a, b) for a, b in loc)
         with _BLOCK_LOCK, h5py.File(path, "r") as g:
-            if _identity(path) != identity:
-                raise DamagedFileError(
-                    path,
-                    f"{path} was replaced since chainsweep.open checked it (a sweep published it "
-                    "again): open it again",
-                    [],
-                )
+            _same_file(path, identity)
             out = _array_histories(g, grid, sel)
         for local in np.ndindex(*out.shape[:nd]):
             i = int(np.ravel_multi_index(tuple(s.start + k for s, k in zip(sel, local)), grid.shape))
