@@ -52,6 +52,8 @@ pub fn chain(
         taper: None,
         disorder: None,
         contacts,
+        top_wall_material: None,
+        ring: false,
     }
 }
 

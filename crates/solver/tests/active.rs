@@ -252,7 +252,7 @@ fn excited_chains_of_the_general_kernel_integrate_their_moving_part() {
             },
             Excitation::Impulse { velocity_m_s: 0.5 },
         ] {
-            let mut s = Scene::excited(monodisperse(600, law, false), excitation, 2e-4);
+            let mut s = Scene::excited(monodisperse(600, law, false), excitation.clone(), 2e-4);
             s.physics.damping_kg_s = 2.0;
             s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-10));
             s.record.probes = vec![

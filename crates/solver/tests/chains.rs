@@ -324,7 +324,7 @@ fn impulse_and_pulse_excitations_need_no_striker() {
             duration_s: 5e-5,
         },
     ] {
-        let mut scene = Scene::excited(spec.clone(), excitation, 2e-4);
+        let mut scene = Scene::excited(spec.clone(), excitation.clone(), 2e-4);
         scene.integrator = dop(1e-11);
         scene.record.probes = vec![Probe::ParticleForce { particle: 10 }];
         let out = run(&scene).unwrap();
@@ -555,9 +555,9 @@ fn energy_ledger_closes_for_every_law_model_and_excitation() {
                 }),
             ] {
                 let spec = build(excitation.is_none());
-                let mut scene = match excitation {
+                let mut scene = match &excitation {
                     None => Scene::new(spec, 0.8, 6e-4),
-                    Some(e) => Scene::excited(spec, e, 6e-4),
+                    Some(e) => Scene::excited(spec, e.clone(), 6e-4),
                 };
                 scene.physics = PhysicsSpec {
                     precompression_force_n: 2.0,

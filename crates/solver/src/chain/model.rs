@@ -17,6 +17,7 @@ pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
 use crate::chain::sequence::SequenceSpec;
 use crate::contact::{overlap_at_force, ContactParams, Damping, DissipationSpec, Thornton};
+use crate::integrate::Switch;
 pub(crate) use crate::spec::check_positive;
 pub use crate::spec::{spec_err, SpecError};
 
@@ -292,6 +293,8 @@ mod chain_spec_serde {
         "taper",
         "disorder",
         "contacts",
+        "top_wall_material",
+        "ring",
     ];
     const ALL_FIELDS: &[&str] = &[
         "cylinders",
@@ -304,6 +307,8 @@ mod chain_spec_serde {
         "taper",
         "disorder",
         "contacts",
+        "top_wall_material",
+        "ring",
     ];
 
     /// A striker: a sphere (dimer) or the name of a particle type (sequence).
@@ -344,6 +349,8 @@ mod chain_spec_serde {
         taper: Option<Option<TaperSpec>>,
         disorder: Option<Option<DisorderSpec>>,
         contacts: Option<Vec<ContactRule>>,
+        top_wall_material: Option<Option<Material>>,
+        ring: Option<bool>,
     }
 
     fn once<T, E: de::Error>(slot: &mut Option<T>, value: T, key: &'static str) -> Result<(), E> {
@@ -378,6 +385,12 @@ mod chain_spec_serde {
                             "taper" => once(&mut f.taper, map.next_value()?, "taper")?,
                             "disorder" => once(&mut f.disorder, map.next_value()?, "disorder")?,
                             "contacts" => once(&mut f.contacts, map.next_value()?, "contacts")?,
+                            "top_wall_material" => once(
+                                &mut f.top_wall_material,
+                                map.next_value()?,
+                                "top_wall_material",
+                            )?,
+                            "ring" => once(&mut f.ring, map.next_value()?, "ring")?,
                             other => return Err(de::Error::unknown_field(other, ALL_FIELDS)),
                         }
                     }
@@ -386,6 +399,8 @@ mod chain_spec_serde {
                         || f.taper.is_some()
                         || f.disorder.is_some()
                         || f.contacts.is_some()
+                        || f.top_wall_material.is_some()
+                        || f.ring.is_some()
                         || matches!(f.striker, Some(Striker::Name(_)));
                     if sequence {
                         let stray = [
@@ -420,6 +435,8 @@ mod chain_spec_serde {
                             taper: f.taper.flatten(),
                             disorder: f.disorder.flatten(),
                             contacts: f.contacts.unwrap_or_default(),
+                            top_wall_material: f.top_wall_material.flatten(),
+                            ring: f.ring.unwrap_or(false),
                         }))
                     } else {
                         let striker = match f.striker {
@@ -614,6 +631,8 @@ impl DimerSpec {
         Layout {
             particles,
             striker: true,
+            ring: false,
+            top_wall: false,
             laws,
             dissipation: vec![None; n_contacts],
             plasticity: Vec::new(),
@@ -737,6 +756,11 @@ pub struct Chain {
     pub gravity_m_s2: f64,
     /// Whether the last particle rests on a wall.
     pub wall: bool,
+    /// Whether the last particle touches the first (a ring; its closing contact is contact `N`).
+    pub ring: bool,
+    /// Position of the wall at the top of the chain, m, when there is one: its contact with
+    /// particle 1, the last contact, has overlap `x_top − x₁`.
+    pub top_wall_m: Option<f64>,
     /// Clip tensile net contact forces at zero.
     pub clip_tensile: bool,
     /// Whether particle 1 is a striker.
@@ -791,6 +815,20 @@ impl Chain {
                 "the chain has no striker (a sequence chain names one in chain.striker)",
             ));
         }
+        if layout.ring {
+            if physics.gravity {
+                return Err(spec_err(
+                    "physics.gravity",
+                    "must be false for a ring (chain.ring = true): gravity has no direction along a ring",
+                ));
+            }
+            if physics.precompression_force_n != 0.0 {
+                return Err(spec_err(
+                    "physics.precompression_force_n",
+                    "must be 0 for a ring (chain.ring = true): nothing holds a ring's load",
+                ));
+            }
+        }
         let chain = Self::from_layout(layout, physics);
         for (c, law) in chain.plasticity.iter().enumerate() {
             if let Some(t) = law {
@@ -828,13 +866,25 @@ impl Chain {
         let mut viscoelastic_damping = Vec::with_capacity(n_contacts);
         let mut hunt_crossley_damping = Vec::with_capacity(n_contacts);
         let mut tsuji_damping = Vec::with_capacity(n_contacts);
+        let ends = |c: usize| {
+            contact_ends(
+                n_particles,
+                physics.wall,
+                layout.ring,
+                layout.top_wall.then_some(0.0),
+                c,
+            )
+        };
         for c in 0..n_contacts {
             let model = layout.dissipation[c].or(physics.dissipation);
-            // Contact c joins particles c and c + 1, or the last one and the wall.
-            let reduced_mass = if c + 1 < n_particles {
-                mass[c] * mass[c + 1] / (mass[c] + mass[c + 1])
-            } else {
-                mass[c]
+            // Contact c joins two particles, or a particle and a wall.
+            let reduced_mass = match ends(c) {
+                ContactEnds {
+                    above: Some(a),
+                    below: Some(b),
+                    ..
+                } => mass[a] * mass[b] / (mass[a] + mass[b]),
+                ContactEnds { above, below, .. } => mass[above.or(below).expect("a particle")],
             };
             let d = match model {
                 Some(m) => m.coefficients(
@@ -864,12 +914,18 @@ impl Chain {
         // Static equilibrium (docs/MODEL.md, docs/CHAINS.md): contact j carries the precompression
         // and the weight of the chain particles above it. Without a wall nothing supports the
         // chain, it falls freely and no contact is preloaded.
+        // A wall at the top carries the precompression itself (it is pressed in until it does)
+        // and touches a chain under gravity alone without load.
         let mut static_overlap = vec![0.0; n_contacts];
         if physics.wall && (g > 0.0 || top > 0.0) {
             let mut load = top;
-            for j in first..n_contacts {
+            for j in first..n_particles {
                 load += g * mass[j];
                 static_overlap[j] = overlap_at_force(stiffness[j], exponent[j], load);
+            }
+            if layout.top_wall {
+                let t = n_contacts - 1;
+                static_overlap[t] = overlap_at_force(stiffness[t], exponent[t], top);
             }
         }
         // Positions measured from the undeformed chain touching the wall (or, without a wall, from
@@ -881,6 +937,9 @@ impl Chain {
         for i in (0..n_particles - 1).rev() {
             equilibrium_position[i] = equilibrium_position[i + 1] + static_overlap[i];
         }
+        let top_wall_m = layout
+            .top_wall
+            .then(|| equilibrium_position[0] + static_overlap[n_contacts - 1]);
 
         Chain {
             mass,
@@ -894,6 +953,8 @@ impl Chain {
             tsuji_damping,
             gravity_m_s2: g,
             wall: physics.wall,
+            ring: layout.ring,
+            top_wall_m,
             clip_tensile: physics.clip_tensile,
             striker: layout.striker,
             precompression_force_n: top,
@@ -954,6 +1015,29 @@ impl Chain {
             && self.precompression_force_n == 0.0
             && self.force_pulse.is_none()
             && !self.has_plasticity()
+            && !self.ring
+            && self.top_wall_m.is_none()
+    }
+
+    /// What contact `c` joins ([`ContactEnds`]).
+    #[inline]
+    pub fn contact_ends(&self, c: usize) -> ContactEnds {
+        contact_ends(self.n_particles(), self.wall, self.ring, self.top_wall_m, c)
+    }
+
+    /// Whether a wall holds either end of the chain (then the state carries the walls' impulse).
+    pub fn has_walls(&self) -> bool {
+        self.wall || self.top_wall_m.is_some()
+    }
+
+    /// The external force pressing the first chain particle towards the wall, N: the
+    /// precompression, unless a wall at the top carries it.
+    pub fn top_force_n(&self) -> f64 {
+        if self.top_wall_m.is_some() {
+            0.0
+        } else {
+            self.precompression_force_n
+        }
     }
 
     /// Index of the dissipated-work quadrature in the state `[x, v, q]`, when damping is on.
@@ -961,17 +1045,19 @@ impl Chain {
         self.has_damping().then_some(2 * self.n_particles())
     }
 
-    /// Index of the wall-impulse quadrature in the state `[x, v, q]`, when there is a wall.
+    /// Index of the quadrature of the walls' impulse in the state `[x, v, q]` (the impulse the
+    /// wall under the chain has taken, less the one the wall at the top has given), when there
+    /// is a wall.
     pub fn wall_impulse_index(&self) -> Option<usize> {
-        self.wall
+        self.has_walls()
             .then_some(2 * self.n_particles() + self.has_damping() as usize)
     }
 
     /// Index of the quadrature of the work done by a force pulse, when there is one.
     pub fn pulse_work_index(&self) -> Option<usize> {
-        self.force_pulse
-            .is_some()
-            .then_some(2 * self.n_particles() + self.has_damping() as usize + self.wall as usize)
+        self.force_pulse.is_some().then_some(
+            2 * self.n_particles() + self.has_damping() as usize + self.has_walls() as usize,
+        )
     }
 
     /// Contact `c`'s elastic law and dissipation, as the general laws of `contact.rs` take them.
@@ -999,7 +1085,7 @@ impl Chain {
     pub fn history_index(&self, k: usize) -> usize {
         2 * self.n_particles()
             + self.has_damping() as usize
-            + self.wall as usize
+            + self.has_walls() as usize
             + self.force_pulse.is_some() as usize
             + 2 * k
     }
@@ -1020,7 +1106,7 @@ impl Chain {
     pub fn state_len(&self) -> usize {
         2 * self.n_particles()
             + self.has_damping() as usize
-            + self.wall as usize
+            + self.has_walls() as usize
             + self.force_pulse.is_some() as usize
             + 2 * self.plasticity.iter().filter(|t| t.is_some()).count()
     }
@@ -1084,6 +1170,130 @@ impl Chain {
                 self.shape[i].length_m() / longitudinal_speed(&self.materials[i], rho)
             })
             .fold(0.0, f64::max)
+    }
+}
+
+/// What a contact joins: its overlap is `x[above] − x[below] + offset`, a missing side being a
+/// fixed wall at position 0 (the wall under the chain: `below` is `None`) or at `offset` (the
+/// wall at the top: `above` is `None`). The force pushes `above` up (towards −x) and `below`
+/// down.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactEnds {
+    /// The particle above the contact, if any.
+    pub above: Option<usize>,
+    /// The particle below the contact, if any.
+    pub below: Option<usize>,
+    /// Position of the wall at the top, m (zero for every other contact).
+    pub offset: f64,
+}
+
+impl ContactEnds {
+    /// Overlap and its rate in state `(x, v)`, read through `x(i)` and `v(i)`.
+    #[inline(always)]
+    pub fn kinematics(&self, x: impl Fn(usize) -> f64, v: impl Fn(usize) -> f64) -> (f64, f64) {
+        let read = |f: &dyn Fn(usize) -> f64, i: Option<usize>| i.map_or(0.0, f);
+        (
+            read(&x, self.above) - read(&x, self.below) + self.offset,
+            read(&v, self.above) - read(&v, self.below),
+        )
+    }
+
+    /// The contact's overlap as a switching function of the positions (zero where it opens).
+    pub fn switch(&self) -> Switch {
+        match (self.above, self.below) {
+            (Some(a), b) => Switch {
+                plus: a,
+                minus: b,
+                offset: self.offset,
+            },
+            // `x_top − x₁` vanishes where `x₁ − x_top` does.
+            (None, Some(b)) => Switch {
+                plus: b,
+                minus: None,
+                offset: -self.offset,
+            },
+            (None, None) => unreachable!("a contact touches a particle"),
+        }
+    }
+}
+
+/// What every contact of a chain joins, to read overlaps from a state `[x, v, …]` (the ledger,
+/// the probes, the observers): neighbours inline, the few contacts beyond them from a table.
+#[derive(Debug, Clone)]
+pub struct ContactMap {
+    n: usize,
+    /// Contacts `N − 1` on: the wall under the chain, a ring's closing contact, the top wall.
+    ends: Vec<ContactEnds>,
+}
+
+impl ContactMap {
+    /// The map of `chain`.
+    pub fn of(chain: &Chain) -> Self {
+        let n = chain.n_particles();
+        ContactMap {
+            n,
+            ends: (n - 1..chain.n_contacts())
+                .map(|c| chain.contact_ends(c))
+                .collect(),
+        }
+    }
+
+    /// The contacts beyond the neighbours' (`N − 1` on), in order.
+    pub fn ends(&self) -> &[ContactEnds] {
+        &self.ends
+    }
+
+    /// Overlap of contact `c` and its rate, the state read through `get` (positions at `0..N`,
+    /// velocities at `N..2N`).
+    #[inline(always)]
+    pub fn kinematics(&self, c: usize, get: impl Fn(usize) -> f64) -> (f64, f64) {
+        let n = self.n;
+        if c + 1 < n {
+            (get(c) - get(c + 1), get(n + c) - get(n + c + 1))
+        } else {
+            self.ends[c + 1 - n].kinematics(&get, |i| get(n + i))
+        }
+    }
+
+    /// Overlap of contact `c` in positions `x` (negative: open).
+    #[inline(always)]
+    pub fn overlap(&self, c: usize, x: &[f64]) -> f64 {
+        let n = self.n;
+        if c + 1 < n {
+            x[c] - x[c + 1]
+        } else {
+            self.ends[c + 1 - n].kinematics(|i| x[i], |_| 0.0).0
+        }
+    }
+}
+
+/// [`Chain::contact_ends`] from the chain's shape: contacts `0..N−1` join neighbours, then come
+/// the wall under the last particle or the ring's closing contact, then the wall at the top at
+/// `top_wall_m`.
+fn contact_ends(
+    n: usize,
+    wall: bool,
+    ring: bool,
+    top_wall_m: Option<f64>,
+    c: usize,
+) -> ContactEnds {
+    let (above, below, offset) = if c + 1 < n {
+        (Some(c), Some(c + 1), 0.0)
+    } else if c + 1 == n && wall {
+        (Some(n - 1), None, 0.0)
+    } else if c + 1 == n && ring {
+        (Some(n - 1), Some(0), 0.0)
+    } else {
+        (
+            None,
+            Some(0),
+            top_wall_m.expect("the last contact is the top wall's"),
+        )
+    };
+    ContactEnds {
+        above,
+        below,
+        offset,
     }
 }
 

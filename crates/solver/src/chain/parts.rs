@@ -151,7 +151,12 @@ pub(crate) struct Particle {
 pub(crate) struct Layout {
     pub particles: Vec<Particle>,
     pub striker: bool,
-    /// `(A, n)` of each contact, the wall's last when there is a wall.
+    /// Whether the last particle touches the first (a ring).
+    pub ring: bool,
+    /// Whether a wall touches the first particle from above.
+    pub top_wall: bool,
+    /// `(A, n)` of each contact: neighbours, then the wall's or the ring's closing contact, then
+    /// the top wall's (see `Chain::contact_ends`).
     pub laws: Vec<(f64, f64)>,
     /// A per-pair dissipation model replacing the physics block's.
     pub dissipation: Vec<Option<DissipationSpec>>,

@@ -34,6 +34,8 @@ use crate::spec::{check_positive, spec_err, SpecError};
 
 /// Name a contact rule uses for the wall.
 pub const WALL: &str = "wall";
+/// Name a contact rule uses for the wall at the top of the chain (`top_wall_material`).
+pub const TOP_WALL: &str = "top_wall";
 /// Name a contact rule uses for the striker, whatever its type.
 pub const STRIKER: &str = "striker";
 
@@ -71,6 +73,16 @@ pub struct SequenceSpec {
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Vec::is_empty"))]
     #[cfg_attr(feature = "schema", schemars(default))]
     pub contacts: Vec<ContactRule>,
+    /// Material of a flat wall at the top of the chain, touching its first particle (a chain
+    /// between two walls, with `physics.wall`). Absent: no wall at the top. Contact rules name it
+    /// `"top_wall"`.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub top_wall_material: Option<Material>,
+    /// Close the chain into a ring: the last particle touches the first (no walls, no gravity,
+    /// no striker).
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "std::ops::Not::not"))]
+    #[cfg_attr(feature = "schema", schemars(default))]
+    pub ring: bool,
 }
 
 /// The wall a sequence chain stands on when it names none (as the paper's).
@@ -413,11 +425,11 @@ impl SequenceSpec {
             ));
         }
         for (name, t) in &self.particles {
-            if name.is_empty() || name == WALL || name == STRIKER {
+            if name.is_empty() || name == WALL || name == TOP_WALL || name == STRIKER {
                 return Err(spec_err(
                     "chain.particles",
                     format!(
-                        "`{name}` cannot name a particle type (reserved: \"\", {WALL}, {STRIKER})"
+                        "`{name}` cannot name a particle type (reserved: \"\", {WALL}, {TOP_WALL}, {STRIKER})"
                     ),
                 ));
             }
@@ -455,6 +467,35 @@ impl SequenceSpec {
             }
         }
         check_material("chain.wall_material", &self.wall_material)?;
+        if let Some(m) = &self.top_wall_material {
+            check_material("chain.top_wall_material", m)?;
+            if self.striker.is_some() {
+                return Err(spec_err(
+                    "chain.top_wall_material",
+                    "a chain with a wall at the top has no striker: set particles in motion with excitation.initial_state",
+                ));
+            }
+        }
+        if self.ring {
+            if n < 3 {
+                return Err(spec_err(
+                    "chain.ring",
+                    format!("a ring needs at least 3 particles, got {n}"),
+                ));
+            }
+            if self.striker.is_some() {
+                return Err(spec_err(
+                    "chain.ring",
+                    "a ring has no striker: set particles in motion with excitation.initial_state or excitation.impulse",
+                ));
+            }
+            if self.top_wall_material.is_some() {
+                return Err(spec_err(
+                    "chain.ring",
+                    "a ring has no walls: remove chain.top_wall_material",
+                ));
+            }
+        }
         if let Some(t) = &self.taper {
             check_positive("chain.taper.ratio", t.ratio)?;
         }
@@ -472,13 +513,19 @@ impl SequenceSpec {
             for (k, name) in rule.between.iter().enumerate() {
                 let known = self.particles.contains_key(name)
                     || name == WALL
+                    || (name == TOP_WALL && self.top_wall_material.is_some())
                     || (name == STRIKER && self.striker.is_some());
                 if !known {
                     return Err(spec_err(
                         &format!("{field}.between[{k}]"),
                         format!(
-                            "unknown name `{name}`; allowed: the particle types ({}), \"{WALL}\"{}",
+                            "unknown name `{name}`; allowed: the particle types ({}), \"{WALL}\"{}{}",
                             type_list(&self.particles),
+                            if self.top_wall_material.is_some() {
+                                format!(", \"{TOP_WALL}\"")
+                            } else {
+                                String::new()
+                            },
                             if self.striker.is_some() {
                                 format!(", \"{STRIKER}\"")
                             } else {
@@ -489,10 +536,11 @@ impl SequenceSpec {
                 }
             }
             let (a, b) = (rule.between[0].as_str(), rule.between[1].as_str());
-            if a == WALL && b == WALL {
+            let is_wall = |x: &str| x == WALL || x == TOP_WALL;
+            if is_wall(a) && is_wall(b) {
                 return Err(spec_err(
                     &format!("{field}.between"),
-                    "the wall touches only the last particle",
+                    "a wall touches only a particle (the wall the last one, the top wall the first)",
                 ));
             }
             let key = if a <= b { (a, b) } else { (b, a) };
@@ -548,6 +596,12 @@ impl SequenceSpec {
     /// Expands the sequence into particles (taper and disorder applied) and resolves every
     /// contact's law and dissipation override.
     pub(crate) fn layout(&self, wall: bool) -> Result<Layout, SpecError> {
+        if self.ring && wall {
+            return Err(spec_err(
+                "physics.wall",
+                "must be false for a ring (chain.ring = true): a ring has no walls",
+            ));
+        }
         let mut names: Vec<&str> = Vec::new();
         if let Some(s) = &self.striker {
             names.push(s);
@@ -620,26 +674,35 @@ impl SequenceSpec {
             }
         };
         let n = particles.len();
-        let n_contacts = if wall { n } else { n - 1 };
+        // Each contact: the particle on one side, and on the other a particle or a wall (its
+        // material and name), in the order `Chain::contact_ends` reads them: neighbours, the wall
+        // under the last particle or the ring's closing contact, the wall at the top.
+        let mut sides: Vec<(usize, Other)> =
+            (0..n - 1).map(|c| (c, Other::Neighbour(c + 1))).collect();
+        if wall {
+            sides.push((n - 1, Other::Wall(self.wall_material, WALL)));
+        }
+        if self.ring {
+            sides.push((n - 1, Other::Neighbour(0)));
+        }
+        if let Some(m) = self.top_wall_material {
+            sides.push((0, Other::Wall(m, TOP_WALL)));
+        }
+        let n_contacts = sides.len();
         let mut laws = Vec::with_capacity(n_contacts);
         let mut dissipation = Vec::with_capacity(n_contacts);
         // Allocated at the first plastic contact (empty for chains without one).
         let mut plasticity: Vec<Option<Thornton>> = Vec::new();
-        for c in 0..n_contacts {
-            let p = &particles[c];
-            let (la, lb) = if c + 1 < n {
-                (labels(c), labels(c + 1))
-            } else {
-                (labels(c), vec![WALL])
+        for (c, &(i, other)) in sides.iter().enumerate() {
+            let p = &particles[i];
+            let (la, lb) = match other {
+                Other::Neighbour(j) => (labels(i), labels(j)),
+                Other::Wall(_, name) => (labels(i), vec![name]),
             };
             let rule = self.rule(&la, &lb);
-            let (mb, rb) = if c + 1 < n {
-                (
-                    particles[c + 1].material,
-                    particles[c + 1].shape.contact_radius(),
-                )
-            } else {
-                (self.wall_material, None)
+            let (mb, rb) = match other {
+                Other::Neighbour(j) => (particles[j].material, particles[j].shape.contact_radius()),
+                Other::Wall(material, _) => (material, None),
             };
             let spec = rule.and_then(|r| r.law);
             let law = match spec {
@@ -651,14 +714,17 @@ impl SequenceSpec {
                     let ra = p.shape.contact_radius();
                     if ra.is_none() && rb.is_none() {
                         let (ta, tb) = (la[la.len() - 1], lb[lb.len() - 1]);
-                        let what = if c + 1 < n {
-                            format!(
+                        let what = match other {
+                            Other::Neighbour(j) => format!(
                                 "particles {} and {} (types `{ta}` and `{tb}`) touch flat to flat",
-                                c + 1,
-                                c + 2
-                            )
-                        } else {
-                            format!("particle {} (type `{ta}`) rests flat on the wall", c + 1)
+                                i + 1,
+                                j + 1
+                            ),
+                            Other::Wall(_, wall) => format!(
+                                "particle {} (type `{ta}`) touches the {} flat to flat",
+                                i + 1,
+                                wall.replace('_', " ")
+                            ),
                         };
                         return Err(spec_err(
                             "chain.contacts",
@@ -683,11 +749,12 @@ impl SequenceSpec {
                 let thornton = match (yield_pressure_pa, yield_velocity_m_s) {
                     (Some(p_y), _) => Thornton::new(e_star, r_star, p_y),
                     (None, Some(v_y)) => {
-                        let reduced_mass = if c + 1 < n {
-                            let (ma, mb) = (p.mass_kg, particles[c + 1].mass_kg);
-                            ma * mb / (ma + mb)
-                        } else {
-                            p.mass_kg
+                        let reduced_mass = match other {
+                            Other::Neighbour(j) => {
+                                let (ma, mb) = (p.mass_kg, particles[j].mass_kg);
+                                ma * mb / (ma + mb)
+                            }
+                            Other::Wall(..) => p.mass_kg,
                         };
                         Thornton::from_yield_velocity(e_star, r_star, reduced_mass, v_y)
                     }
@@ -707,6 +774,8 @@ impl SequenceSpec {
         Ok(Layout {
             particles,
             striker: first > 0,
+            ring: self.ring,
+            top_wall: self.top_wall_material.is_some(),
             laws,
             dissipation,
             plasticity: if plasticity.is_empty() {
@@ -719,6 +788,14 @@ impl SequenceSpec {
             cell_length_m: None,
         })
     }
+}
+
+/// What a contact joins to its particle: another particle, or a wall (its material and the name
+/// contact rules give it).
+#[derive(Debug, Clone, Copy)]
+enum Other {
+    Neighbour(usize),
+    Wall(Material, &'static str),
 }
 
 /// `shape` with every length multiplied by `factor`.

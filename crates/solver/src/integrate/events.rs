@@ -327,6 +327,7 @@ fn crossing_ahead(
             None if p < n_pos => (x[p], v[p], 0.5 * a[p]),
             None => (y[p], f[p], 0.0),
         };
+        let g0 = g0 + sw.offset;
         if !far(g0, b, c) {
             earliest = quadratic_crossing(g0, b, c, earliest.unwrap_or(h)).or(earliest);
         }
@@ -341,7 +342,9 @@ fn adjacent_pairs(switches: &[Switch], n_pos: usize) -> usize {
     switches
         .iter()
         .enumerate()
-        .take_while(|(k, sw)| sw.plus == *k && sw.minus == Some(k + 1) && k + 1 < n_pos)
+        .take_while(|(k, sw)| {
+            sw.plus == *k && sw.minus == Some(k + 1) && sw.offset == 0.0 && k + 1 < n_pos
+        })
         .count()
 }
 
@@ -386,7 +389,7 @@ fn predicted_event(switches: &[Switch], y0: &[f64], f0: &[f64], y1: &[f64], h: f
             continue;
         }
         // g(s) = g0 + b s + c s², s in [0, 1].
-        let b = sw.value(|i| f0[i]) * h;
+        let b = sw.rate(|i| f0[i]) * h;
         let c = g1 - g0 - b;
         let linear = g0 / (g0 - g1);
         let s = if c.abs() > 1e-12 * (g0.abs() + g1.abs()) {

@@ -81,24 +81,43 @@ impl Tridiagonal {
     }
 }
 
-/// A switching function `g(y) = y[plus] − y[minus]` (or `y[plus]` alone), linear in the state so
-/// that it can be evaluated on any interpolant. The right-hand side is smooth while `g > 0` and
-/// while `g <= 0`, but not across `g = 0`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// A switching function `g(y) = y[plus] − y[minus] + offset` (or `y[plus] + offset`), linear
+/// in the state so that it can be evaluated on any interpolant. The right-hand side is smooth
+/// while `g > 0` and while `g <= 0`, but not across `g = 0`. The offset places a fixed body
+/// (a wall at the top of a chain) away from the origin of the positions.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Switch {
     /// Component entering with a plus sign.
     pub plus: usize,
     /// Component entering with a minus sign, if any.
     pub minus: Option<usize>,
+    /// Constant added to the difference.
+    pub offset: f64,
 }
 
 impl Switch {
+    /// The switch `y[plus] − y[minus]` (or `y[plus]`), without offset.
+    pub const fn between(plus: usize, minus: Option<usize>) -> Self {
+        Switch {
+            plus,
+            minus,
+            offset: 0.0,
+        }
+    }
+
     /// Value of the switching function for a component accessor.
     #[inline(always)]
     pub fn value(&self, y: impl Fn(usize) -> f64) -> f64 {
+        self.rate(y) + self.offset
+    }
+
+    /// Rate of the switching function for an accessor of the components' rates (the offset is
+    /// constant).
+    #[inline(always)]
+    pub fn rate(&self, f: impl Fn(usize) -> f64) -> f64 {
         match self.minus {
-            Some(m) => y(self.plus) - y(m),
-            None => y(self.plus),
+            Some(m) => f(self.plus) - f(m),
+            None => f(self.plus),
         }
     }
 }

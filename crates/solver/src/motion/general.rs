@@ -32,6 +32,10 @@ pub struct GeneralChainSystem<const LAW: u8, const D: bool, const T: bool = fals
     hunt_crossley: Vec<f64>,
     gravity: f64,
     wall: bool,
+    /// The last contact (index `N − 1`) closes a ring: the last particle touches the first.
+    ring: bool,
+    /// The wall at the top: its contact's index and its position, m.
+    top_wall: Option<(usize, f64)>,
     clip: bool,
     /// Particle the external forces act on.
     top: usize,
@@ -85,17 +89,16 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
             tsuji: chain.tsuji_damping.clone(),
             gravity: chain.gravity_m_s2,
             wall: chain.wall,
+            ring: chain.ring,
+            top_wall: chain.top_wall_m.map(|x| (chain.n_contacts() - 1, x)),
             clip: chain.clip_tensile,
             top: chain.first_chain_particle(),
-            precompression: chain.precompression_force_n,
+            precompression: chain.top_force_n(),
             pulse,
             force: vec![0.0; n],
             power: vec![0.0; n],
             switches: (0..chain.n_contacts())
-                .map(|c| Switch {
-                    plus: c,
-                    minus: (c + 1 < n).then_some(c + 1),
-                })
+                .map(|c| chain.contact_ends(c).switch())
                 .collect(),
         }
     }
@@ -127,6 +130,16 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
     /// Whether the last particle rests on a wall.
     pub(crate) fn has_wall(&self) -> bool {
         self.wall
+    }
+
+    /// Whether the last contact closes a ring.
+    pub(crate) fn is_ring(&self) -> bool {
+        self.ring
+    }
+
+    /// The top wall's contact and position, m, when there is one.
+    pub(crate) fn top_wall(&self) -> Option<(usize, f64)> {
+        self.top_wall
     }
 
     /// Force of the half-sine pulse at time `t`, N.
@@ -193,20 +206,31 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
                 }
             }
         }
-        let (wall_force, wall_power) = if self.wall {
+        // The contact under the last particle: the wall's, or the ring's closing one; then the
+        // top wall's. Each a few operations per evaluation, whatever the chain's length.
+        let end = |c: usize, overlap: f64, rate: f64| {
             let params = ContactParams {
-                a: self.stiffness[m],
-                n: self.exponent[m],
+                a: self.stiffness[c],
+                n: self.exponent[c],
                 damping: Damping {
-                    linear: self.linear[m],
-                    viscoelastic: self.viscoelastic[m],
-                    hunt_crossley: self.hunt_crossley[m],
-                    tsuji: if T { self.tsuji[m] } else { 0.0 },
+                    linear: self.linear[c],
+                    viscoelastic: self.viscoelastic[c],
+                    hunt_crossley: self.hunt_crossley[c],
+                    tsuji: if T { self.tsuji[c] } else { 0.0 },
                 },
             };
-            general_force::<LAW, D, T>(&params, x[m], v[m], clip)
+            general_force::<LAW, D, T>(&params, overlap, rate, clip)
+        };
+        let (end_force, end_power) = if self.wall {
+            end(m, x[m], v[m])
+        } else if self.ring {
+            end(m, x[m] - x[0], v[m] - v[0])
         } else {
             (0.0, 0.0)
+        };
+        let (top_force, top_power) = match self.top_wall {
+            Some((c, position)) => end(c, position - x[0], -v[0]),
+            None => (0.0, 0.0),
         };
 
         let g = self.gravity;
@@ -215,7 +239,13 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         for i in 1..n - 1 {
             dv[i] = g + (force[i - 1] - force[i]) * im[i];
         }
-        dv[n - 1] = g + (force[n - 2] - wall_force) * im[n - 1];
+        dv[n - 1] = g + (force[n - 2] - end_force) * im[n - 1];
+        if self.ring {
+            dv[0] += end_force * im[0];
+        }
+        if self.top_wall.is_some() {
+            dv[0] += top_force * im[0];
+        }
         let pulse = self.pulse_force(t);
         let external = self.precompression + pulse;
         if external != 0.0 {
@@ -224,11 +254,12 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
 
         let mut k = 0;
         if D {
-            dq[k] = power.iter().sum::<f64>() + wall_power;
+            dq[k] = power.iter().sum::<f64>() + end_power + top_power;
             k += 1;
         }
-        if self.wall {
-            dq[k] = wall_force;
+        if self.wall || self.top_wall.is_some() {
+            // The walls' impulse: the ring's closing contact is internal, and takes none.
+            dq[k] = if self.wall { end_force } else { 0.0 } - top_force;
             k += 1;
         }
         if self.pulse.0 != 0.0 {
@@ -243,7 +274,9 @@ impl<const LAW: u8, const D: bool, const T: bool> OdeSystem for GeneralChainSyst
     }
 
     fn n_quad(&self) -> usize {
-        D as usize + self.wall as usize + (self.pulse.0 != 0.0) as usize
+        D as usize
+            + (self.wall || self.top_wall.is_some()) as usize
+            + (self.pulse.0 != 0.0) as usize
     }
 
     fn switches(&self) -> &[Switch] {

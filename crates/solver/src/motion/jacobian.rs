@@ -131,6 +131,20 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
             let (k, eta) = general_derivatives::<LAW, D, T>(&p, x[n - 1], v[n - 1], clip);
             add_contact(kx, kv, im, n - 1, true, k, eta);
         }
+        if self.is_ring() {
+            // The closing contact couples the two ends, outside the tridiagonal band: only its
+            // diagonal terms are kept (a W-method needs only an approximation of the Jacobian).
+            let p = self.contact_parameters(n - 1);
+            let (k, eta) =
+                general_derivatives::<LAW, D, T>(&p, x[n - 1] - x[0], v[n - 1] - v[0], clip);
+            add_contact(kx, kv, im, n - 1, true, k, eta);
+            add_contact(kx, kv, im, 0, true, k, eta);
+        }
+        if let Some((c, position)) = self.top_wall() {
+            let p = self.contact_parameters(c);
+            let (k, eta) = general_derivatives::<LAW, D, T>(&p, position - x[0], -v[0], clip);
+            add_contact(kx, kv, im, 0, true, k, eta);
+        }
     }
 }
 

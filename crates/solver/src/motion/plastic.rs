@@ -15,7 +15,7 @@
 //! velocity (the turn from plastic loading to unloading), so that the adaptive integrators put
 //! step boundaries where the law changes branch.
 
-use crate::chain::model::Chain;
+use crate::chain::model::{Chain, ContactEnds};
 use crate::contact::{general_derivatives, general_force, ContactParams, Thornton, POWER};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 
@@ -29,9 +29,12 @@ pub struct PlasticChainSystem {
     plastic: Vec<Option<(Thornton, usize)>>,
     /// The plastic contacts, in order: `(contact, history index)`.
     histories: Vec<(usize, usize)>,
+    /// What each contact joins.
+    ends: Vec<ContactEnds>,
     damped: bool,
     gravity: f64,
-    wall: bool,
+    /// Whether a wall holds either end (the state then carries the walls' impulse).
+    walls: bool,
     clip: bool,
     top: usize,
     precompression: f64,
@@ -53,27 +56,20 @@ impl PlasticChainSystem {
         let params = (0..m).map(|c| chain.contact_params(c)).collect();
         let mut plastic = vec![None; m];
         let mut histories = Vec::new();
-        let mut switches: Vec<Switch> = (0..m)
-            .map(|c| Switch {
-                plus: c,
-                minus: (c + 1 < n).then_some(c + 1),
-            })
-            .collect();
+        let ends: Vec<ContactEnds> = (0..m).map(|c| chain.contact_ends(c)).collect();
+        let mut switches: Vec<Switch> = ends.iter().map(ContactEnds::switch).collect();
         for (c, t, h) in chain.plastic_contacts() {
             plastic[c] = Some((t, h));
             histories.push((c, h));
-            switches.push(Switch {
-                plus: h,
-                minus: None,
-            });
-            switches.push(Switch {
-                plus: h + 1,
-                minus: None,
-            });
-            switches.push(Switch {
-                plus: n + c,
-                minus: (c + 1 < n).then_some(n + c + 1),
-            });
+            switches.push(Switch::between(h, None));
+            switches.push(Switch::between(h + 1, None));
+            // The overlap's rate (its sign only matters: a wall's side is at rest).
+            let e = ends[c];
+            let (plus, minus) = match (e.above, e.below) {
+                (Some(a), b) => (a, b),
+                (None, b) => (b.expect("a particle"), None),
+            };
+            switches.push(Switch::between(n + plus, minus.map(|b| n + b)));
         }
         let pulse = match chain.force_pulse {
             Some((amplitude, duration)) => (amplitude, std::f64::consts::PI / duration, duration),
@@ -84,12 +80,13 @@ impl PlasticChainSystem {
             params,
             plastic,
             histories,
+            ends,
             damped: chain.has_damping(),
             gravity: chain.gravity_m_s2,
-            wall: chain.wall,
+            walls: chain.has_walls(),
             clip: chain.clip_tensile,
             top: chain.first_chain_particle(),
-            precompression: chain.precompression_force_n,
+            precompression: chain.top_force_n(),
             pulse,
             force: vec![0.0; m],
             switches,
@@ -99,11 +96,7 @@ impl PlasticChainSystem {
     /// Overlap and its rate of contact `c` in state `(x, v)`.
     #[inline(always)]
     fn kinematics(&self, c: usize, x: &[f64], v: &[f64]) -> (f64, f64) {
-        if c + 1 < x.len() {
-            (x[c] - x[c + 1], v[c] - v[c + 1])
-        } else {
-            (x[c], v[c])
-        }
+        self.ends[c].kinematics(|i| x[i], |i| v[i])
     }
 }
 
@@ -114,7 +107,7 @@ impl OdeSystem for PlasticChainSystem {
 
     fn n_quad(&self) -> usize {
         self.damped as usize
-            + self.wall as usize
+            + self.walls as usize
             + (self.pulse.0 != 0.0) as usize
             + 2 * self.histories.len()
     }
@@ -150,18 +143,20 @@ impl OdeSystem for PlasticChainSystem {
                 Some((t, h)) => (t.stiffness(d, y[h]), 0.0),
                 None => general_derivatives::<POWER, true, true>(&self.params[c], d, dv, self.clip),
             };
-            if c + 1 < n {
-                kx.diag[c] -= k * im[c];
-                kx.upper[c] += k * im[c];
-                kx.lower[c] += k * im[c + 1];
-                kx.diag[c + 1] -= k * im[c + 1];
-                kv.diag[c] -= eta * im[c];
-                kv.upper[c] += eta * im[c];
-                kv.lower[c] += eta * im[c + 1];
-                kv.diag[c + 1] -= eta * im[c + 1];
-            } else {
-                kx.diag[c] -= k * im[c];
-                kv.diag[c] -= eta * im[c];
+            let e = self.ends[c];
+            for i in [e.above, e.below].into_iter().flatten() {
+                kx.diag[i] -= k * im[i];
+                kv.diag[i] -= eta * im[i];
+            }
+            // Neighbours couple within the tridiagonal band; a ring's closing contact couples the
+            // two ends, outside it, and is left out (a W-method needs only an approximation).
+            if let (Some(a), Some(b)) = (e.above, e.below) {
+                if b == a + 1 {
+                    kx.upper[a] += k * im[a];
+                    kx.lower[a] += k * im[b];
+                    kv.upper[a] += eta * im[a];
+                    kv.lower[a] += eta * im[b];
+                }
             }
         }
         true
@@ -187,19 +182,27 @@ impl OdeSystem for PlasticChainSystem {
                 }
             };
         }
-        let m = n - 1;
-        let force = &self.force;
-        let wall_force = if self.wall { force[m] } else { 0.0 };
         let g = self.gravity;
         let im = &self.inv_mass;
-        if n == 1 {
-            dv[0] = g - wall_force * im[0];
-        } else {
-            dv[0] = g - force[0] * im[0];
-            for i in 1..n - 1 {
-                dv[i] = g + (force[i - 1] - force[i]) * im[i];
+        dv.fill(g);
+        // The walls' impulse on the chain, towards the wall under it.
+        let mut wall_force = 0.0;
+        for (e, &f) in self.ends.iter().zip(&self.force) {
+            match (e.above, e.below) {
+                (Some(a), Some(b)) => {
+                    dv[a] -= f * im[a];
+                    dv[b] += f * im[b];
+                }
+                (Some(a), None) => {
+                    dv[a] -= f * im[a];
+                    wall_force += f;
+                }
+                (None, Some(b)) => {
+                    dv[b] += f * im[b];
+                    wall_force -= f;
+                }
+                (None, None) => unreachable!("a contact touches a particle"),
             }
-            dv[n - 1] = g + (force[n - 2] - wall_force) * im[n - 1];
         }
         let (amplitude, omega, duration) = self.pulse;
         let pulse = if amplitude != 0.0 && t < duration {
@@ -216,7 +219,7 @@ impl OdeSystem for PlasticChainSystem {
             dq[k] = dissipated;
             k += 1;
         }
-        if self.wall {
+        if self.walls {
             dq[k] = wall_force;
             k += 1;
         }

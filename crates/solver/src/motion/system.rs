@@ -5,7 +5,7 @@
 
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
-use crate::chain::model::Chain;
+use crate::chain::model::{Chain, ContactMap};
 use crate::contact::{hertz_potential_unscaled, paper_contact_force};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 
@@ -49,10 +49,7 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> ChainSystem<G, 
             force: vec![0.0; n],
             power: vec![0.0; n],
             switches: (0..chain.n_contacts())
-                .map(|c| Switch {
-                    plus: c,
-                    minus: (c + 1 < n).then_some(c + 1),
-                })
+                .map(|c| Switch::between(c, (c + 1 < n).then_some(c + 1)))
                 .collect(),
         }
     }
@@ -201,6 +198,8 @@ pub struct Ledger {
     exponent: Option<Vec<f64>>,
     gravity: f64,
     wall: bool,
+    /// What each contact joins.
+    contacts: ContactMap,
     work_index: Option<usize>,
     wall_impulse_index: Option<usize>,
     /// Particle the external forces act on, the precompression force, and the force pulse
@@ -255,11 +254,12 @@ impl Ledger {
             exponent: (chain.exponent.iter().any(|&n| n != 1.5) || chain.has_plasticity())
                 .then(|| chain.exponent.clone()),
             gravity: chain.gravity_m_s2,
-            wall: chain.wall,
+            wall: chain.has_walls(),
+            contacts: ContactMap::of(chain),
             work_index: chain.work_index(),
             wall_impulse_index: chain.wall_impulse_index(),
             top: chain.first_chain_particle(),
-            precompression: chain.precompression_force_n,
+            precompression: chain.top_force_n(),
             pulse: chain
                 .force_pulse
                 .map(|(a, d)| (a, d, chain.pulse_work_index().expect("pulse quadrature"))),
@@ -359,10 +359,12 @@ impl Ledger {
             potential[0] += hertz_potential_unscaled(a[c], d);
             largest[0] = largest[0].max(d);
         }
-        if k == n && self.stiffness.len() > interior {
-            let d = x[n - 1].max(0.0);
-            potential[0] += hertz_potential_unscaled(self.stiffness[interior], d);
-            largest[0] = largest[0].max(d);
+        if k == n {
+            for (c, &a) in self.stiffness.iter().enumerate().skip(interior) {
+                let d = self.contacts.overlap(c, x).max(0.0);
+                potential[0] += hertz_potential_unscaled(a, d);
+                largest[0] = largest[0].max(d);
+            }
         }
         let elastic = 0.4 * potential.iter().sum::<f64>();
         (elastic, largest.iter().fold(0.0f64, |a, &b| a.max(b)))
@@ -373,9 +375,13 @@ impl Ledger {
     fn general_potential(&self, x: &[f64], exponent: &[f64], k: usize) -> (f64, f64) {
         let n = self.mass.len();
         let (mut elastic, mut largest) = (0.0f64, 0.0f64);
-        let contacts = self.stiffness.len().min(k);
+        let contacts = if k == n {
+            self.stiffness.len()
+        } else {
+            k.min(n - 1)
+        };
         for (c, (&a, &e)) in self.stiffness[..contacts].iter().zip(exponent).enumerate() {
-            let d = if c + 1 < n { x[c] - x[c + 1] } else { x[c] }.max(0.0);
+            let d = self.contacts.overlap(c, x).max(0.0);
             elastic += crate::contact::potential(a, e, d);
             largest = largest.max(d);
         }
@@ -394,10 +400,14 @@ impl Ledger {
             .as_deref()
             .expect("plastic chains keep their exponents");
         let (mut elastic, mut plastic) = (0.0f64, 0.0f64);
-        let contacts = self.stiffness.len().min(k);
+        let contacts = if k == n {
+            self.stiffness.len()
+        } else {
+            k.min(n - 1)
+        };
         let mut laws = self.plastic.iter().peekable();
         for (c, (&a, &e)) in self.stiffness[..contacts].iter().zip(exponent).enumerate() {
-            let overlap = if c + 1 < n { x[c] - x[c + 1] } else { x[c] };
+            let overlap = self.contacts.overlap(c, x);
             let d = overlap.max(0.0);
             match laws.next_if(|(pc, _, _)| *pc == c) {
                 Some((_, law, h)) => {

@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::contact::{general_force, paper_contact_force, ContactParams, Damping, Thornton, POWER};
 use std::time::Instant;
 
-use crate::chain::model::{spec_err, Chain, SpecError};
+use crate::chain::model::{spec_err, Chain, ContactMap, SpecError};
 use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::motion::system::{EnergyTerms, Ledger};
 use crate::spectrum::SpectrumSpec;
@@ -342,7 +342,8 @@ pub(crate) struct ProbeSet {
     /// Thornton's law and the index of its history, per contact, when any contact has it.
     plastic: Option<Vec<Option<(Thornton, usize)>>>,
     clip: bool,
-    n: usize,
+    /// What each contact joins.
+    contacts: ContactMap,
     /// Reference scale of each probe for leading-pulse detection.
     pub scale: Vec<f64>,
 }
@@ -430,7 +431,7 @@ impl ProbeSet {
                 laws
             }),
             clip: chain.clip_tensile,
-            n,
+            contacts: ContactMap::of(chain),
             scale,
         }
     }
@@ -457,12 +458,7 @@ impl ProbeSet {
 
     #[inline]
     fn contact_force(&self, c: usize, get: &impl Fn(usize) -> f64) -> f64 {
-        let n = self.n;
-        let (overlap, rel) = if c + 1 < n {
-            (get(c) - get(c + 1), get(n + c) - get(n + c + 1))
-        } else {
-            (get(c), get(n + c))
-        };
+        let (overlap, rel) = self.contacts.kinematics(c, get);
         // The same law as the equations of motion; with zero damping the viscous term vanishes.
         let (a, mu) = (self.stiffness[c], self.damping[c]);
         if let Some((exponent, gamma, lambda, beta)) = &self.general {
@@ -511,13 +507,7 @@ impl ProbeSet {
                 }
                 s * inv_count - offset
             }
-            Compiled::Overlap { contact } => {
-                if contact + 1 < self.n {
-                    get(contact) - get(contact + 1)
-                } else {
-                    get(contact)
-                }
-            }
+            Compiled::Overlap { contact } => self.contacts.kinematics(contact, get).0,
             Compiled::Displacement { index, origin } => get(index) - origin,
             Compiled::Velocity { index } => get(index),
         }
@@ -776,6 +766,8 @@ pub(crate) struct RunObserver {
     pub t_reached: f64,
     n: usize,
     n_contacts: usize,
+    /// What each contact joins.
+    contacts: ContactMap,
     /// The components the probes read ([`ProbeSet::components`]).
     probe_components: Vec<usize>,
     /// Those components at one sample time, at their indices in the state.
@@ -928,6 +920,7 @@ impl RunObserver {
             t_reached: t0,
             n: chain.n_particles(),
             n_contacts: chain.n_contacts(),
+            contacts: ContactMap::of(chain),
             opts,
             active: chain.n_particles(),
             frozen_energy: (0.0, 0.0),
@@ -950,13 +943,7 @@ impl RunObserver {
             whole.gravitational - part.gravitational,
         );
         self.frozen_max_overlap = (k..self.n_contacts)
-            .map(|c| {
-                if c + 1 < self.n {
-                    y[c] - y[c + 1]
-                } else {
-                    y[c]
-                }
-            })
+            .map(|c| self.contacts.overlap(c, y))
             .fold(0.0, f64::max);
     }
 
@@ -1007,12 +994,7 @@ impl RunObserver {
         if let Some(mins) = &mut self.min_overlap {
             // Contacts between particles at rest keep their overlap.
             for (c, m) in mins.iter_mut().enumerate().take(self.n_contacts.min(k)) {
-                let d = if c + 1 < self.n {
-                    y[c] - y[c + 1]
-                } else {
-                    y[c]
-                };
-                *m = m.min(d);
+                *m = m.min(self.contacts.overlap(c, y));
             }
         }
     }

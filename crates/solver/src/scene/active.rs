@@ -75,6 +75,8 @@ pub(crate) fn plan(
         || n < MIN_PARTICLES
         || chain.precompression_force_n != 0.0
         || chain.has_plasticity()
+        || chain.ring
+        || chain.top_wall_m.is_some()
     {
         return None;
     }
@@ -121,7 +123,7 @@ pub fn integrates_moving_part_of(scene: &Scene, chain: &Chain) -> bool {
         return false;
     }
     let scales = scene.impact_scales(chain);
-    let y0 = chain.initial_state(scene.initial_velocity_m_s());
+    let y0 = scene.initial_state(chain);
     plan(scene, chain, &scales, &y0).is_some()
 }
 
@@ -173,6 +175,8 @@ fn prefix_chain(chain: &Chain, k: usize) -> Chain {
         tsuji_damping: chain.tsuji_damping[..k].to_vec(),
         gravity_m_s2: chain.gravity_m_s2,
         wall: true,
+        ring: false,
+        top_wall_m: None,
         clip_tensile: chain.clip_tensile,
         striker: chain.striker,
         precompression_force_n: chain.precompression_force_n,

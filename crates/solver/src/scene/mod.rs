@@ -223,7 +223,7 @@ impl IntegratorSpec {
 }
 
 /// How a chain without a striker is set in motion.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(
@@ -246,6 +246,139 @@ pub enum Excitation {
         /// Duration of the pulse, s.
         duration_s: f64,
     },
+    /// Any particles moving and/or displaced at `t = 0` from the chain's static state: several
+    /// strikers, two chains running into each other, a random state from a seed.
+    InitialState(InitialState),
+}
+
+/// Velocities and displacements at `t = 0`, added to the static state (the equilibrium on the
+/// wall, or the just-touching chain).
+#[derive(Debug, Clone, PartialEq, Default)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct InitialState {
+    /// Particles given a velocity and/or a displacement, each at most once.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Vec::is_empty")
+    )]
+    pub particles: Vec<ParticleStart>,
+    /// Random velocities of every particle, added to those of `particles`.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub random_velocity: Option<RandomVelocity>,
+}
+
+/// One particle's velocity and displacement at `t = 0`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct ParticleStart {
+    /// The particle, 1 (the top) to N.
+    pub particle: usize,
+    /// Velocity, m/s, positive towards the wall (down the chain).
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub velocity_m_s: f64,
+    /// Displacement from the static state, m, positive towards the wall.
+    #[cfg_attr(feature = "serde", serde(default))]
+    pub displacement_m: f64,
+}
+
+/// Independent normal velocities of mean zero and standard deviation `rms_m_s` for every
+/// particle, drawn from `seed` (the same seed, the same velocities, on any machine).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct RandomVelocity {
+    /// Standard deviation of each velocity, m/s.
+    pub rms_m_s: f64,
+    /// Seed of the generator.
+    pub seed: u64,
+}
+
+impl InitialState {
+    /// Checks the particles and values against a chain of `n` particles; the error names the
+    /// field (relative to `excitation.initial_state`).
+    fn validate(&self, n: usize) -> Result<(), SpecError> {
+        let base = "excitation.initial_state";
+        let mut seen = vec![false; n];
+        for (i, p) in self.particles.iter().enumerate() {
+            let field = format!("{base}.particles[{i}]");
+            if p.particle == 0 || p.particle > n {
+                return Err(spec_err(
+                    &format!("{field}.particle"),
+                    format!(
+                        "must be from 1 to {n} (the chain's particles), got {}",
+                        p.particle
+                    ),
+                ));
+            }
+            if std::mem::replace(&mut seen[p.particle - 1], true) {
+                return Err(spec_err(
+                    &format!("{field}.particle"),
+                    format!("particle {} is given twice", p.particle),
+                ));
+            }
+            for (name, v) in [
+                ("velocity_m_s", p.velocity_m_s),
+                ("displacement_m", p.displacement_m),
+            ] {
+                if !v.is_finite() {
+                    return Err(spec_err(
+                        &format!("{field}.{name}"),
+                        format!("must be a finite number, got {v}"),
+                    ));
+                }
+            }
+        }
+        if let Some(r) = &self.random_velocity {
+            crate::spec::check_positive(&format!("{base}.random_velocity.rms_m_s"), r.rms_m_s)?;
+        }
+        let moving = self.random_velocity.is_some()
+            || self
+                .particles
+                .iter()
+                .any(|p| p.velocity_m_s != 0.0 || p.displacement_m != 0.0);
+        if !moving {
+            return Err(spec_err(
+                base,
+                "sets nothing in motion: give a particle a velocity_m_s or displacement_m, or random_velocity",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Adds the velocities and displacements to the state `y = [x, v, …]` of `n` particles.
+    pub fn apply(&self, y: &mut [f64], n: usize) {
+        if let Some(r) = &self.random_velocity {
+            let mut rng = crate::contact::SplitMix64(r.seed);
+            // Box–Muller: two uniforms in (0, 1] and [0, 1) give two independent normals.
+            let mut spare: Option<f64> = None;
+            for v in &mut y[n..2 * n] {
+                let z = match spare.take() {
+                    Some(z) => z,
+                    None => {
+                        let u1 = 1.0 - 0.5 * (rng.symmetric() + 1.0);
+                        let u2 = 0.5 * (rng.symmetric() + 1.0);
+                        let radius = (-2.0 * u1.ln()).sqrt();
+                        let angle = 2.0 * std::f64::consts::PI * u2;
+                        spare = Some(radius * angle.sin());
+                        radius * angle.cos()
+                    }
+                };
+                *v += r.rms_m_s * z;
+            }
+        }
+        for p in &self.particles {
+            y[p.particle - 1] += p.displacement_m;
+            y[n + p.particle - 1] += p.velocity_m_s;
+        }
+    }
 }
 
 /// One simulation: everything needed to reproduce a run.
@@ -370,7 +503,7 @@ impl Scene {
     pub fn validate(&self) -> Result<Chain, SpecError> {
         let mut chain = Chain::build(&self.chain, &self.physics)?;
         let positive = crate::spec::check_positive;
-        match (chain.striker, self.striker_velocity_m_s, self.excitation) {
+        match (chain.striker, self.striker_velocity_m_s, &self.excitation) {
             (true, Some(v0), None) => positive("striker_velocity_m_s", v0)?,
             (true, None, _) => {
                 return Err(spec_err(
@@ -397,7 +530,10 @@ impl Scene {
                 ))
             }
             (false, None, Some(Excitation::Impulse { velocity_m_s })) => {
-                positive("excitation.impulse.velocity_m_s", velocity_m_s)?
+                positive("excitation.impulse.velocity_m_s", *velocity_m_s)?
+            }
+            (false, None, Some(Excitation::InitialState(state))) => {
+                state.validate(chain.n_particles())?
             }
             (
                 false,
@@ -407,9 +543,9 @@ impl Scene {
                     duration_s,
                 }),
             ) => {
-                positive("excitation.half_sine_force.amplitude_n", amplitude_n)?;
-                positive("excitation.half_sine_force.duration_s", duration_s)?;
-                chain = chain.with_force_pulse(amplitude_n, duration_s);
+                positive("excitation.half_sine_force.amplitude_n", *amplitude_n)?;
+                positive("excitation.half_sine_force.duration_s", *duration_s)?;
+                chain = chain.with_force_pulse(*amplitude_n, *duration_s);
             }
         }
         let d = self.duration_s;
@@ -483,19 +619,18 @@ impl Scene {
         // A linear damper μ between masses m_a and m_b decays at μ (1/m_a + 1/m_b): an explicit
         // method's stable step is about its inverse.
         let explicit = !matches!(self.integrator, IntegratorSpec::Ros34pw2(_));
-        let n = chain.n_particles();
         let stable_step = chain
             .damping
             .iter()
             .enumerate()
             .filter(|(_, &mu)| mu > 0.0)
             .map(|(c, &mu)| {
-                let inv_mass = 1.0 / chain.mass[c]
-                    + if c + 1 < n {
-                        1.0 / chain.mass[c + 1]
-                    } else {
-                        0.0
-                    };
+                let e = chain.contact_ends(c);
+                let inv_mass: f64 = [e.above, e.below]
+                    .into_iter()
+                    .flatten()
+                    .map(|i| 1.0 / chain.mass[i])
+                    .sum();
                 1.0 / (mu * inv_mass)
             })
             .reduce(f64::min);
@@ -518,22 +653,36 @@ impl Scene {
         warnings
     }
 
-    /// Initial velocity of particle 1: the striker's, the impulse's, or zero under a force pulse.
+    /// Initial velocity of particle 1: the striker's, the impulse's, or zero under a force pulse
+    /// (an initial state sets it in [`Scene::initial_state`]).
     pub fn initial_velocity_m_s(&self) -> f64 {
-        match (self.striker_velocity_m_s, self.excitation) {
+        match (self.striker_velocity_m_s, &self.excitation) {
             (Some(v0), _) => v0,
-            (None, Some(Excitation::Impulse { velocity_m_s })) => velocity_m_s,
+            (None, Some(Excitation::Impulse { velocity_m_s })) => *velocity_m_s,
             _ => 0.0,
         }
     }
 
+    /// The state `[x, v, q, …]` the run starts from on the scene's built chain
+    /// ([`Scene::validate`]).
+    pub fn initial_state(&self, chain: &Chain) -> Vec<f64> {
+        let mut y = chain.initial_state(self.initial_velocity_m_s());
+        if let Some(Excitation::InitialState(state)) = &self.excitation {
+            state.apply(&mut y, chain.n_particles());
+        }
+        y
+    }
+
     /// Natural scales of the scene's excitation on its built chain ([`Scene::validate`]).
     pub fn impact_scales(&self, chain: &Chain) -> ImpactScales {
-        match self.excitation {
+        match &self.excitation {
             Some(Excitation::HalfSineForce {
                 amplitude_n,
                 duration_s,
-            }) => ImpactScales::force_pulse(chain, amplitude_n, duration_s),
+            }) => ImpactScales::force_pulse(chain, *amplitude_n, *duration_s),
+            Some(Excitation::InitialState(_)) => {
+                ImpactScales::initial_state(chain, &self.initial_state(chain))
+            }
             _ => ImpactScales::new(chain, self.initial_velocity_m_s()),
         }
     }
@@ -603,6 +752,17 @@ impl ImpactScales {
             momentum: m1 * v0,
             duration_s: duration,
         }
+    }
+
+    /// Scales for an initial state `y0` of the chain: those of a striker on contact 1 whose kinetic
+    /// energy is the energy the initial state puts in (kinetic and elastic, above the static
+    /// state's), so that a displaced particle counts like a moving one.
+    pub fn initial_state(chain: &Chain, y0: &[f64]) -> Self {
+        let ledger = crate::motion::system::Ledger::new(chain);
+        let at_rest = ledger.energy(&chain.initial_state(0.0));
+        let started = ledger.energy(y0);
+        let energy = (started.kinetic + started.elastic - at_rest.elastic).max(f64::MIN_POSITIVE);
+        ImpactScales::new(chain, (2.0 * energy / chain.mass[0]).sqrt())
     }
 
     /// Scales for a half-sine force pulse of `amplitude` N and `duration` s on particle 1: the

@@ -251,7 +251,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             momentum_residual_max: 0.0,
             // The state the run starts from (the striker or impulse moving), as at t = 0.
             final_energy: crate::motion::system::Ledger::new(&chain)
-                .energy(&chain.initial_state(scene.initial_velocity_m_s())),
+                .energy(&scene.initial_state(&chain)),
             impact_energy_j: scales.energy_j,
             max_overlap_m: chain.static_overlap.iter().fold(0.0, |m: f64, &d| m.max(d)),
             active_particles: None,
@@ -264,7 +264,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
     let mut observer = RunObserver::new(&chain, probes, opts, t0, t_end);
     observer.deadline = deadline;
 
-    let y0 = chain.initial_state(scene.initial_velocity_m_s());
+    let y0 = scene.initial_state(&chain);
     let mut leg_ends = scene.breakpoints_s();
     leg_ends.push(t_end);
 

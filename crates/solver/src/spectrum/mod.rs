@@ -154,6 +154,10 @@ pub struct LinearChain {
     pub wall_stiffness: f64,
     /// Damping of the wall contact, kg/s.
     pub wall_damping: f64,
+    /// Stiffness of the first particle's contact with a wall at the top, N/m (0 without one).
+    pub top_stiffness: f64,
+    /// Damping of the top wall's contact, kg/s.
+    pub top_damping: f64,
 }
 
 /// Natural frequencies and, when asked for, mode shapes.
@@ -194,6 +198,12 @@ impl LinearChain {
     /// is statically compressed: without a wall (`physics.wall`: nothing holds the chain still),
     /// or on a wall without gravity or precompression (`physics.precompression_force_n`).
     pub fn of(chain: &Chain) -> Result<LinearChain, SpecError> {
+        if chain.ring {
+            return Err(spec_err(
+                "chain.ring",
+                "a ring's stiffness matrix is not tridiagonal (its closing contact couples the ends): the bands of a periodic chain are those of its unit cell: record a straight chain's spectrum with record.spectrum.cell_particles",
+            ));
+        }
         if !chain.wall {
             return Err(spec_err(
                 "physics.wall",
@@ -213,6 +223,10 @@ impl LinearChain {
         };
         let (stiffness, damping): (Vec<f64>, Vec<f64>) = (f..n - 1).map(linear).unzip();
         let (wall_stiffness, wall_damping) = linear(n - 1);
+        let (top_stiffness, top_damping) = match chain.top_wall_m {
+            Some(_) => linear(chain.n_contacts() - 1),
+            None => (0.0, 0.0),
+        };
         if wall_stiffness == 0.0 && stiffness.iter().all(|&k| k == 0.0) {
             return Err(spec_err(
                 "physics.precompression_force_n",
@@ -226,6 +240,8 @@ impl LinearChain {
             damping,
             wall_stiffness,
             wall_damping,
+            top_stiffness,
+            top_damping,
         })
     }
 
@@ -239,12 +255,13 @@ impl LinearChain {
         self.mass.is_empty()
     }
 
-    /// `M^{−1/2} X M^{−1/2}` of the tridiagonal `X` of contact coefficients `x` (wall: `x_wall`).
-    fn scaled(&self, x: &[f64], x_wall: f64) -> SymTridiagonal {
+    /// `M^{−1/2} X M^{−1/2}` of the tridiagonal `X` of contact coefficients `x` (wall: `x_wall`,
+    /// top wall: `x_top`).
+    fn scaled(&self, x: &[f64], x_wall: f64, x_top: f64) -> SymTridiagonal {
         let n = self.len();
         let diag = (0..n)
             .map(|i| {
-                let above = if i > 0 { x[i - 1] } else { 0.0 };
+                let above = if i > 0 { x[i - 1] } else { x_top };
                 let below = if i + 1 < n { x[i] } else { x_wall };
                 (above + below) / self.mass[i]
             })
@@ -257,7 +274,7 @@ impl LinearChain {
 
     /// The symmetric tridiagonal `A = M^{−1/2} K M^{−1/2}`, whose eigenvalues are `ω²`.
     pub fn reduced_stiffness(&self) -> SymTridiagonal {
-        self.scaled(&self.stiffness, self.wall_stiffness)
+        self.scaled(&self.stiffness, self.wall_stiffness, self.top_stiffness)
     }
 
     /// The natural frequencies of indices `first..first + count` (0 the lowest), with their mode
@@ -296,7 +313,9 @@ impl LinearChain {
         &self,
         field: &str,
     ) -> Result<(Vec<DampedEigenvalue>, DampedMethod), SpecError> {
-        let undamped = self.wall_damping == 0.0 && self.damping.iter().all(|&c| c == 0.0);
+        let undamped = self.wall_damping == 0.0
+            && self.top_damping == 0.0
+            && self.damping.iter().all(|&c| c == 0.0);
         let alpha = self.proportional_damping();
         let (mut out, method) = if undamped || alpha.is_some() {
             let alpha = alpha.unwrap_or(0.0);
@@ -336,10 +355,10 @@ impl LinearChain {
     /// `α` with `c = α k` on every contact (the wall's included), when there is one.
     fn proportional_damping(&self) -> Option<f64> {
         let pairs = || {
-            self.stiffness
-                .iter()
-                .zip(&self.damping)
-                .chain([(&self.wall_stiffness, &self.wall_damping)])
+            self.stiffness.iter().zip(&self.damping).chain([
+                (&self.wall_stiffness, &self.wall_damping),
+                (&self.top_stiffness, &self.top_damping),
+            ])
         };
         let (k0, c0) = pairs().find(|(&k, _)| k > 0.0)?;
         let alpha = c0 / k0;
@@ -362,7 +381,7 @@ impl LinearChain {
             ));
         }
         let a = self.reduced_stiffness();
-        let c = self.scaled(&self.damping, self.wall_damping);
+        let c = self.scaled(&self.damping, self.wall_damping, self.top_damping);
         let m = 2 * n;
         let mut z = vec![0.0; m * m];
         for i in 0..n {
