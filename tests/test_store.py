@@ -21,6 +21,8 @@ import signal
 import subprocess
 import time
 
+import h5py
+import numpy as np
 import pytest
 
 from conftest import (
@@ -132,6 +134,81 @@ def test_kill_storm_resumes_bitwise(references, tmp_path, kind):
     assert log_records(out) == []
     assert [f.name for f in work_dir_files(out)] == ["lock", "snapshot"]
     print(f"{kind}: {kills} kills, {finished_early} runs finished before their kill")
+
+
+def large_summary_sweep():
+    """20 000 runs of a 4-cylinder chain over 0.1 ms, summaries only: the store, not the solver,
+    is what such a sweep costs, and every summary column spans several chunks."""
+    s = base_sweep(cylinders=4, duration_s=1e-4, probes=(1, 3))
+    s["base"]["integrator"]["rtol"] = 1e-6
+    s["axes"] = [
+        {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "range": {"start": 0.1, "stop": 1.0, "num": 200}},
+        {"field": "physics.damping_kg_s", "range": {"start": 0.0, "stop": 20.0, "num": 100}},
+    ]
+    return s
+
+
+def test_a_partial_output_costs_what_it_holds(tmp_path, binary):
+    """The output published while a sweep runs holds the chunks of its finished points only: a
+    file of few finished runs is small (refreshing it costs what it holds, not the whole grid),
+    reads the same (a pending point reads as pending wherever it lies), and the sweep resumes
+    from it to the file an uninterrupted run writes."""
+    path = write_sweep(tmp_path / "big.json", large_summary_sweep())
+    ref = tmp_path / "ref.h5"
+    r = run("run", path, "-o", ref, "--jobs", "2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    complete = ref.stat().st_size
+    out = tmp_path / "out.h5"
+    # Killed once its first run is stored: the output is the one written before any run, which
+    # holds only what names every point (its run hash and point checksum).
+    killed_partway(path, out, 1)
+    first = out.stat().st_size
+    assert first < 0.25 * complete, (first, complete)
+    with h5py.File(out, "r") as f:
+        assert (f["status"][()] == 0).all()
+        assert np.isnan(f["leading_peak"][()]).all()
+        assert (f["events"][()] == -1).all() and (f["warnings"][()] == b"").all()
+    # Stopped (SIGTERM) after a tenth of its runs: the output holds every finished run.
+    p = start(path, out, checkpoint="0")
+    wait_stored(out, 2000, p)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate()
+    assert p.returncode == 128 + signal.SIGTERM, err
+    with h5py.File(out, "r") as f, h5py.File(ref, "r") as g:
+        status = f["status"][()]
+        done = status != 0
+        n_done = int(done.sum())
+        assert n_done >= 2000 and int(f.attrs["n_ok"]) == int((status == 1).sum())
+        for name, d in f.items():
+            if not isinstance(d, h5py.Dataset) or d.shape[:2] != status.shape:
+                continue
+            a, b = d[()], g[name][()]
+            if a.dtype == np.dtype("S1"):
+                # Text: as wide as the longest in the file.
+                a, b = (np.array(x.view(f"S{x.shape[-1]}")[..., 0].tolist(), dtype=object) for x in (a, b))
+            if name == "run_hash":
+                # Every point is named by its run hash, pending or not.
+                assert (a == b).all()
+                continue
+            if name in ("wall_time_s", "summary_checksum"):
+                continue
+            if a.dtype == object:
+                assert a[done].tolist() == b[done].tolist(), name
+                pending = a[~done].tolist()
+            else:
+                assert a[done].tobytes() == b[done].tobytes(), name
+                pending = [x.tobytes() for x in a[~done]]
+            # Every pending point reads the same, in a chunk written or not.
+            assert len(set(pending)) <= 1, name
+    fraction = n_done / status.size
+    if fraction < 0.3:
+        assert out.stat().st_size < (fraction + 0.45) * complete, (out.stat().st_size, complete, fraction)
+    st = run("status", out)
+    assert st.returncode == 3 and f"{n_done} done" in st.stdout, st.stdout
+    r = run("run", path, "-o", out, "--jobs", "2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(ref, out)
+    assert out.stat().st_size == complete
 
 
 def test_full_disk_is_a_clear_error_and_resumes(references, tmp_path):

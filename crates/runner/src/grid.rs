@@ -227,8 +227,14 @@ impl Grid {
         };
         // A grid of one chunk is expanded on this thread; a larger one on a pool of a thread per
         // CPU this process may use, made for it and gone after (no thread outlives it).
-        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-        let chunks: Vec<Result<ChunkInfo>> = if n <= CHUNK_POINTS || threads == 1 {
+        // (The CPUs are asked only for a grid of several chunks: on Linux the answer reads the
+        // cgroup's quota files, tens of microseconds that a one-point run from Python would pay.)
+        let threads = if n <= CHUNK_POINTS {
+            1
+        } else {
+            std::thread::available_parallelism().map_or(1, |t| t.get())
+        };
+        let chunks: Vec<Result<ChunkInfo>> = if threads == 1 {
             vec![expand_chunk(0, &mut grid.hashes, &mut grid.particles)]
         } else {
             let pool = rayon::ThreadPoolBuilder::new()

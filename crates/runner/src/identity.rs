@@ -29,7 +29,25 @@ pub fn checksum64(feed: impl FnOnce(&mut Sha256)) -> u64 {
 
 /// Lower-case hex of a run hash.
 pub fn hex(hash: &RunHash) -> String {
-    hash.iter().map(|b| format!("{b:02x}")).collect()
+    let mut s = String::with_capacity(64);
+    for &b in hash {
+        s.push(char::from(HEX_DIGITS[usize::from(b >> 4)]));
+        s.push(char::from(HEX_DIGITS[usize::from(b & 0xf)]));
+    }
+    s
+}
+
+const HEX_DIGITS: &[u8; 16] = b"0123456789abcdef";
+
+/// Whether `text` is the lower-case hex of `hash` (as [`hex`] writes it), compared without
+/// writing it out (a file's run hashes are compared point by point).
+pub fn is_hex_of(text: &str, hash: &RunHash) -> bool {
+    let t = text.as_bytes();
+    t.len() == 64
+        && hash.iter().enumerate().all(|(k, &b)| {
+            t[2 * k] == HEX_DIGITS[usize::from(b >> 4)]
+                && t[2 * k + 1] == HEX_DIGITS[usize::from(b & 0xf)]
+        })
 }
 
 /// The run hash written as 64 hex digits, read back; `None` for anything else.
@@ -131,6 +149,14 @@ mod tests {
         assert_eq!(from_hex(&hex(&h)), Some(h));
         assert_eq!(from_hex("00"), None);
         assert_eq!(from_hex(&"g".repeat(64)), None);
+        let spelled: String = h.iter().map(|b| format!("{b:02x}")).collect();
+        assert_eq!(hex(&h), spelled);
+        assert!(is_hex_of(&spelled, &h));
+        assert!(!is_hex_of(&spelled.to_uppercase(), &h));
+        assert!(!is_hex_of(&spelled[..62], &h));
+        let mut other = h;
+        other[31] ^= 1;
+        assert!(!is_hex_of(&spelled, &other));
     }
 
     #[test]

@@ -166,6 +166,15 @@ impl PublishedFile {
                 None
             }
         };
+        // Bytes exactly as published (their hash the snapshot's): every value is as it was written
+        // and checked then, so neither the points' checksums nor the run groups need be read to
+        // be checked again.
+        let as_published = check == Check::Everything
+            && exists
+            && snapshot.as_ref().is_some_and(|s| {
+                !s.header.file_sha256.is_empty()
+                    && file_sha256(path).as_deref() == Some(s.header.file_sha256.as_str())
+            });
         let recs = if !exists {
             damage.file = Some("it does not exist".into());
             None
@@ -176,7 +185,12 @@ impl PublishedFile {
             damage.file = Some("it does not start with the HDF5 signature".into());
             None
         } else {
-            match FileRecords::open(path) {
+            let opened = if as_published {
+                FileRecords::open_as_published(path)
+            } else {
+                FileRecords::open(path)
+            };
+            match opened {
                 Ok(r) => Some(r),
                 Err(e) => {
                     damage.file = Some(format!("HDF5 cannot read it: {e}"));
@@ -184,14 +198,7 @@ impl PublishedFile {
                 }
             }
         };
-        // Bytes exactly as published (their hash the snapshot's): every value is as it was written
-        // and checked then, so the run groups need not be read to be checked again.
-        let intact = check == Check::Everything
-            && recs.is_some()
-            && snapshot.as_ref().is_some_and(|s| {
-                !s.header.file_sha256.is_empty()
-                    && file_sha256(path).as_deref() == Some(s.header.file_sha256.as_str())
-            });
+        let intact = as_published && recs.is_some();
         let mut p = PublishedFile {
             grid: None,
             points: HashMap::new(),

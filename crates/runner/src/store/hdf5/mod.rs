@@ -186,6 +186,29 @@ pub(crate) fn char_dataset(
     data: &[String],
     scale: Option<&str>,
 ) -> Result<CharVar> {
+    char_dataset_of(group, name, shape, data, scale, None)
+}
+
+/// [`char_dataset`] of a summary column: the chunks that hold only pending points (`pending`,
+/// one per point) and only NULs are left unwritten, as [`write_points`] does.
+pub(crate) fn char_column(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[String],
+    pending: &[bool],
+) -> Result<CharVar> {
+    char_dataset_of(group, name, shape, data, None, Some(pending))
+}
+
+fn char_dataset_of(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[String],
+    scale: Option<&str>,
+    pending: Option<&[bool]>,
+) -> Result<CharVar> {
     let texts: Vec<Vec<u8>> = data
         .iter()
         .map(|s| s.replace('\0', "\u{FFFD}").into_bytes())
@@ -202,7 +225,19 @@ pub(crate) fn char_dataset(
     let d = checked_builder::<Char>(group, &full)
         .shape(full.clone())
         .create(name)?;
-    write_chars(&d, &bytes)?;
+    match pending {
+        None => write_chars(&d, &bytes)?,
+        Some(pending) => {
+            let ty = d.dtype()?;
+            if ty.size() != 1 {
+                return Err(Error::Other(format!(
+                    "dataset {} holds no characters",
+                    d.name()
+                )));
+            }
+            write_points(&d, ty.id(), &full, &bytes, &[0], pending)?;
+        }
+    }
     match scale {
         Some(dim_name) => set_scale(&d, dim_name)?,
         None => attach_scale(&d, &dim, shape.len(), &strlen)?,
@@ -391,6 +426,165 @@ pub(crate) fn filled_checked_dataset<T: H5Type + Copy + Into<hdf5::types::OwnedD
     }
     attr_scalar(&d, "_FillValue", fill)?;
     Ok(d)
+}
+
+/// [`checked_dataset`] (with `fill`: [`filled_checked_dataset`]) of a summary column: the chunks
+/// that hold only pending points (`pending`, one per point of the grid, whose dimensions lead
+/// `shape`) and only the fill value are left unwritten ([`write_points`]).
+pub(crate) fn checked_column<T: H5Type + Copy + Into<hdf5::types::OwnedDynValue>>(
+    group: &Group,
+    name: &str,
+    shape: &[usize],
+    data: &[T],
+    fill: Option<T>,
+    pending: &[bool],
+) -> Result<Dataset> {
+    let b = checked_builder::<T>(group, shape);
+    let b = match fill {
+        Some(f) => b.fill_value(f),
+        None => b,
+    };
+    let d = b.shape(shape.to_vec()).create(name)?;
+    // The bytes HDF5 gives back where nothing was written: the fill value, or zeros without one.
+    let fill_bytes = match &fill {
+        Some(f) => as_bytes(std::slice::from_ref(f)).to_vec(),
+        None => vec![0u8; std::mem::size_of::<T>()],
+    };
+    let mem = hdf5::Datatype::from_type::<T>()?;
+    write_points(&d, mem.id(), shape, as_bytes(data), &fill_bytes, pending)?;
+    if let Some(f) = fill {
+        attr_scalar(&d, "_FillValue", f)?;
+    }
+    Ok(d)
+}
+
+/// The bytes of `data` as they lie in memory (numbers and one-byte characters: no padding).
+fn as_bytes<T: H5Type + Copy>(data: &[T]) -> &[u8] {
+    // SAFETY: the element types written here (f64, i64, u64, u8) are plain data without padding
+    // or invalid bit patterns; the slice covers exactly `data`'s memory, borrowed as long as it.
+    unsafe { std::slice::from_raw_parts(data.as_ptr().cast::<u8>(), std::mem::size_of_val(data)) }
+}
+
+/// Writes `bytes` (every element of `d`, row-major, in memory type `mem_type`) chunk by chunk
+/// ([`chunk_shape`]: each chunk a contiguous run of elements), leaving out every chunk whose
+/// points are all pending (`pending`, one per grid point: the leading dimensions of `shape`,
+/// `pending.len()` points) and whose elements all equal `fill` (the bytes of one element that
+/// HDF5 gives back where nothing was written). Such a chunk is never allocated: a reader gets
+/// exactly the values it would have held, and a file with few finished points is small, so that
+/// refreshing the output while a sweep runs costs what it holds, not the whole grid.
+fn write_points(
+    d: &Dataset,
+    mem_type: hdf5_sys::h5i::hid_t,
+    shape: &[usize],
+    bytes: &[u8],
+    fill: &[u8],
+    pending: &[bool],
+) -> Result<()> {
+    let item = fill.len().max(1);
+    let elements: usize = shape.iter().product();
+    if elements == 0 {
+        return Ok(());
+    }
+    if bytes.len() != elements * item || pending.is_empty() || elements % pending.len() != 0 {
+        return Err(Error::Other(format!(
+            "dataset {}: {} bytes for {} elements of {} points",
+            d.name(),
+            bytes.len(),
+            elements,
+            pending.len()
+        )));
+    }
+    let per_point = elements / pending.len();
+    let chunk = chunk_shape(shape, item);
+    // The dimension a chunk cuts (the ones after it are whole, the ones before it one wide).
+    let cut = (0..shape.len())
+        .rev()
+        .find(|&k| chunk[k] < shape[k])
+        .unwrap_or(0);
+    let inner: usize = shape[cut + 1..].iter().product();
+    let outer: usize = shape[..cut].iter().product();
+    let step = chunk[cut];
+    let mut start = vec![0u64; shape.len()];
+    let mut count: Vec<u64> = chunk.iter().map(|&c| c as u64).collect();
+    for o in 0..outer {
+        // The leading coordinates of outer index `o`.
+        let mut rest = o;
+        for k in (0..cut).rev() {
+            start[k] = (rest % shape[k]) as u64;
+            rest /= shape[k];
+        }
+        let mut at = 0;
+        while at < shape[cut] {
+            let n = step.min(shape[cut] - at);
+            let first = (o * shape[cut] + at) * inner;
+            let len = n * inner;
+            let block = &bytes[first * item..(first + len) * item];
+            let points = &pending[first / per_point..=(first + len - 1) / per_point];
+            let unwritten =
+                points.iter().all(|&p| p) && block.chunks_exact(item).all(|e| e == fill);
+            if !unwritten {
+                start[cut] = at as u64;
+                count[cut] = n as u64;
+                write_block(d, mem_type, &start, &count, block)?;
+            }
+            at += n;
+        }
+    }
+    Ok(())
+}
+
+/// Writes `block` (in memory type `mem_type`) into the hyperslab `start`, `count` of `d`.
+fn write_block(
+    d: &Dataset,
+    mem_type: hdf5_sys::h5i::hid_t,
+    start: &[u64],
+    count: &[u64],
+    block: &[u8],
+) -> Result<()> {
+    use hdf5_sys::h5d::{H5Dget_space, H5Dwrite};
+    use hdf5_sys::h5p::H5P_DEFAULT;
+    use hdf5_sys::h5s::{H5S_seloper_t, H5Sclose, H5Screate_simple, H5Sselect_hyperslab};
+    let n: u64 = count.iter().product();
+    // SAFETY: `d.id()` and `mem_type` are open ids (borrowed for the call); the file space
+    // selects `count` elements starting at `start` (inside the dataset: the callers' chunks), the
+    // memory space is `n` elements of `mem_type`, which `block` holds exactly; both spaces are
+    // closed before returning; the calls run under hdf5-metno's global lock.
+    let r = hdf5::sync::sync(|| unsafe {
+        let file_space = H5Dget_space(d.id());
+        if file_space < 0 {
+            return -1;
+        }
+        let mut r = H5Sselect_hyperslab(
+            file_space,
+            H5S_seloper_t::H5S_SELECT_SET,
+            start.as_ptr(),
+            std::ptr::null(),
+            count.as_ptr(),
+            std::ptr::null(),
+        );
+        let mem_space = H5Screate_simple(1, &n, std::ptr::null());
+        if r >= 0 && mem_space >= 0 {
+            r = H5Dwrite(
+                d.id(),
+                mem_type,
+                mem_space,
+                file_space,
+                H5P_DEFAULT,
+                block.as_ptr().cast(),
+            );
+        } else {
+            r = -1;
+        }
+        if mem_space >= 0 {
+            H5Sclose(mem_space);
+        }
+        H5Sclose(file_space);
+        r
+    });
+    if r < 0 {
+        return Err(Error::Other(format!("writing dataset {} failed", d.name())));
+    }
+    Ok(())
 }
 
 /// The text attributes of `loc` (name, text), by name: HDF5 checksums the other attributes itself

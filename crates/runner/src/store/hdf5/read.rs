@@ -22,7 +22,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::identity::{hex, RunHash};
+use crate::identity::RunHash;
 use crate::record::columns::{
     distinct_units, history_checksum, split_name, Column, ColumnData, Dtype, Table, Units, COLUMNS,
 };
@@ -154,11 +154,19 @@ impl FileRecords {
     /// its points cannot be told apart (`status` or `run_hash` unreadable); other damage is kept
     /// per point ([`FileRecords::damage`]) and in [`FileRecords::header_damage`].
     pub fn open(path: &Path) -> Result<FileRecords> {
-        FileRecords::read(path)
+        FileRecords::read(path, false)
             .map_err(|e| e.hdf5_context(|| format!("reading {}", path.display())))
     }
 
-    fn read(path: &Path) -> Result<FileRecords> {
+    /// [`FileRecords::open`] of a file whose bytes are known to be exactly those published (their
+    /// SHA-256 the one its snapshot recorded when it was written from checked records): its
+    /// points' values are not checked against their checksums again (every other check is made).
+    pub fn open_as_published(path: &Path) -> Result<FileRecords> {
+        FileRecords::read(path, true)
+            .map_err(|e| e.hdf5_context(|| format!("reading {}", path.display())))
+    }
+
+    fn read(path: &Path, as_published: bool) -> Result<FileRecords> {
         let file = File::open(path)?;
         let has_attr = |name: &str| file.attr_names().is_ok_and(|a| a.iter().any(|x| x == name));
         let layout_version = if has_attr("layout_version") {
@@ -259,13 +267,14 @@ impl FileRecords {
             damage: vec![None; n],
             arrays: OnceLock::new(),
         };
-        recs.check_points();
+        recs.check_points(as_published);
         Ok(recs)
     }
 
     /// Finds every damaged point: a status outside the known codes, and (layout 3 and later) a
-    /// point whose values do not match its `summary_checksum`; checks the header.
-    fn check_points(&mut self) {
+    /// point whose values do not match its `summary_checksum` (not computed again with
+    /// `as_published`, see [`FileRecords::open_as_published`]); checks the header.
+    fn check_points(&mut self, as_published: bool) {
         let unreadable = self
             .unreadable
             .iter()
@@ -273,13 +282,14 @@ impl FileRecords {
             .collect::<Vec<_>>()
             .join("; ");
         let checked = self.layout_version >= CHECKED_LAYOUT;
+        let sums = checked && !(as_published && self.unreadable.is_empty());
         for i in 0..self.table.n {
             let st = self.table.status(i);
             let why = if ![STATUS_PENDING, STATUS_OK, STATUS_FAILED].contains(&st) {
                 Some(format!(
                     "its status code {st} is none of 0 (pending), 1 (ok), 2 (failed)"
                 ))
-            } else if checked
+            } else if sums
                 && self.table.point_checksum(i) != self.table.checksum_at("summary_checksum", i)
             {
                 Some(if unreadable.is_empty() {
@@ -614,6 +624,6 @@ impl FileRecords {
 
     /// Whether point `i` holds the run hash `hash`.
     pub fn holds(&self, i: usize, hash: &RunHash) -> bool {
-        self.hash_hex(i) == hex(hash)
+        crate::identity::is_hex_of(self.hash_hex(i), hash)
     }
 }

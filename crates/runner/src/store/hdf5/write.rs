@@ -12,9 +12,9 @@ use serde_json::Value;
 use super::arrays::ArrayWriter;
 use super::search::{self, SearchTables};
 use super::{
-    attach_scale, attr_scalar, attr_str, attr_vec, char_dataset, checked_dataset,
-    column_text_checksum, dimension_only, filled_checked_dataset, header_checksum,
-    number_dimensions, set_scale, Counts, Provenance, CONVENTIONS, LAYOUT_VERSION,
+    attach_scale, attr_scalar, attr_str, attr_vec, char_column, char_dataset, checked_column,
+    checked_dataset, column_text_checksum, dimension_only, header_checksum, number_dimensions,
+    set_scale, Counts, Provenance, CONVENTIONS, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
@@ -23,7 +23,7 @@ use crate::record::columns::{
     distinct_units, split_name, Column, ColumnData, FillValue, PointOutcome, Presence, Table,
     Units, COLUMNS,
 };
-use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
+use crate::record::{RunRecord, VerifyInfo, STATUS_PENDING, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
@@ -495,6 +495,10 @@ fn write_columns(
     others: &[&str],
 ) -> Result<Vec<String>> {
     let shape: Vec<usize> = dims.iter().map(|d| d.len).collect();
+    // The points not finished: chunks of theirs only are not written (see `write_points`).
+    let pending: Vec<bool> = (0..table.n)
+        .map(|i| table.status(i) == STATUS_PENDING)
+        .collect();
     let mut written = Vec::new();
     for (c, data) in COLUMNS.iter().zip(&table.columns) {
         let Some(data) = data else {
@@ -527,14 +531,14 @@ fn write_columns(
             };
             let split = parts.len() > 1;
             for (name, part, unit) in &parts {
-                let d = write_column(file, c, name, &pshape, part, *unit, split)?;
+                let d = write_column(file, c, name, &pshape, part, *unit, split, &pending)?;
                 attach_grid(&d, dims)?;
                 attach_scale(&d, &p.scale, shape.len(), "probe")?;
                 attr_str(&d, "coordinates", &coords.join(" "))?;
                 written.push(name.clone());
             }
         } else {
-            let d = write_column(file, c, c.name, &shape, data, None, false)?;
+            let d = write_column(file, c, c.name, &shape, data, None, false, &pending)?;
             attach_grid(&d, dims)?;
             if !others.is_empty() {
                 attr_str(&d, "coordinates", &others.join(" "))?;
@@ -546,7 +550,10 @@ fn write_columns(
 }
 
 /// One column's dataset `name` and attributes (`unit`: the probes' unit, for [`Units::OfProbes`];
-/// `split`: the dataset holds the values of the probes of that unit only, [`split_name`]).
+/// `split`: the dataset holds the values of the probes of that unit only, [`split_name`];
+/// `pending`: which grid points are not finished, whose chunks are left unwritten where they hold
+/// nothing but the fill value).
+#[allow(clippy::too_many_arguments)]
 fn write_column(
     file: &File,
     c: &Column,
@@ -555,19 +562,20 @@ fn write_column(
     data: &ColumnData,
     unit: Option<&str>,
     split: bool,
+    pending: &[bool],
 ) -> Result<Dataset> {
     let d = match (data, c.fill_value()) {
         (ColumnData::F64(v), Some(FillValue::F64(fill))) => {
-            filled_checked_dataset(file, name, shape, v, fill)?
+            checked_column(file, name, shape, v, Some(fill), pending)?
         }
         (ColumnData::I64(v), Some(FillValue::I64(fill))) => {
-            filled_checked_dataset(file, name, shape, v, fill)?
+            checked_column(file, name, shape, v, Some(fill), pending)?
         }
-        (ColumnData::F64(v), _) => checked_dataset(file, name, shape, v)?,
-        (ColumnData::I64(v), _) => checked_dataset(file, name, shape, v)?,
-        (ColumnData::U8(v), _) => checked_dataset(file, name, shape, v)?,
-        (ColumnData::U64(v), _) => checked_dataset(file, name, shape, v)?,
-        (ColumnData::Str(v), _) => char_dataset(file, name, shape, v, None)?.data,
+        (ColumnData::F64(v), _) => checked_column(file, name, shape, v, None, pending)?,
+        (ColumnData::I64(v), _) => checked_column(file, name, shape, v, None, pending)?,
+        (ColumnData::U8(v), _) => checked_column(file, name, shape, v, None, pending)?,
+        (ColumnData::U64(v), _) => checked_column(file, name, shape, v, None, pending)?,
+        (ColumnData::Str(v), _) => char_column(file, name, shape, v, pending)?.data,
     };
     if let Some((values, meanings)) = c.flags {
         attr_vec(&d, "flag_values", values)?;
