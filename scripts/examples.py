@@ -351,6 +351,50 @@ def dimer_bands():
         savefig(fig, "examples/dimer-bands")
 
 
+def colliding_waves():
+    """Space-time maps of the force of every contact: two solitary waves meeting head-on between
+    two walls, equal and unequal."""
+    with load("colliding-waves") as sw:
+        speeds = sw.coord("velocity_of_particle_41_m_s")
+        fig, axes = plt.subplots(1, len(speeds), figsize=(5 * len(speeds), 4.2), sharey=True)
+        for ax, v in zip(np.atleast_1d(axes), speeds):
+            h = sw.history(velocity_of_particle_41_m_s=v)
+            t = h["time_s"] * 1e3
+            forces = np.array([h[p] for p in sw.probes])  # (contact, time)
+            image = ax.pcolormesh(np.arange(1, len(sw.probes) + 1), t, forces.T, shading="nearest", cmap="magma")
+            ax.set_xlabel("contact (42: the top wall, 41: the wall under the chain)")
+            ax.set_title(f"particle 1 at 0.5 m/s, particle 41 at {-v:g} m/s", fontsize=9)
+            fig.colorbar(image, ax=ax, label="contact force (N)")
+        np.atleast_1d(axes)[0].set_ylabel("time (ms)")
+        fig.suptitle("Two solitary waves colliding in 41 spheres between two walls", fontsize=10)
+        fig.tight_layout()
+        savefig(fig, "examples/colliding-waves")
+
+
+def between_walls():
+    """The running time average of the kinetic energy over the total, for spheres rattling
+    between two walls from random velocities, against the virial theorem's 5/9."""
+    with load("between-walls") as sw:
+        fig, ax = plt.subplots(figsize=(6, 4))
+        for seed in sw.coord("seed"):
+            h = sw.history(seed=seed)
+            t = h["time_s"]
+            kinetic = 0.5 * SPHERE_MASS_KG * sum(h[p] ** 2 for p in sw.probes)
+            # No damping and the contacts open at the start: the total is the initial kinetic energy.
+            running = np.cumsum(kinetic) / np.arange(1, len(kinetic) + 1) / kinetic[0]
+            ax.plot(t * 1e3, running, label=f"seed {seed}: {running[-1]:.4f} at the end")
+        ax.axhline(5 / 9, color="k", ls="--", lw=1, label="5/9 (virial theorem, degree 5/2)")
+        ax.set_xscale("log")
+        ax.set_xlabel("time (ms)")
+        ax.set_ylabel("running mean of kinetic / total energy")
+        ax.set_ylim(0.4, 1.02)
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3, which="both")
+        ax.set_title("8 spheres between two walls, random initial velocities", fontsize=10)
+        fig.tight_layout()
+        savefig(fig, "examples/between-walls")
+
+
 PLOTS = {
     "trimer": trimer,
     "tapered": tapered,
@@ -364,6 +408,8 @@ PLOTS = {
     "alternating-dimer-minimum": alternating_dimer_minimum,
     "plastic-impact": plastic_impact,
     "dimer-bands": dimer_bands,
+    "colliding-waves": colliding_waves,
+    "between-walls": between_walls,
 }
 
 

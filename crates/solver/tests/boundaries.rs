@@ -286,6 +286,15 @@ fn bad_boundaries_and_initial_states_name_the_field() {
         err(&scene(bad_material, bare(true), kick.clone(), 1e-4)),
         "chain.top_wall_material.youngs_modulus_pa"
     );
+    // Particle 5 of a chain hung from a top wall, with no wall under it, has one contact.
+    let mut hung = scene(between_walls(5), bare(false), kick.clone(), 1e-4);
+    hung.record.probes = vec![Probe::ParticleForce { particle: 5 }];
+    assert_eq!(err(&hung), "record.probes[0].particle");
+    let mut ring = monodisperse(5, None, false);
+    ring.ring = true;
+    let mut ring = scene(ring, bare(false), kick.clone(), 1e-4);
+    ring.record.probes = vec![Probe::ParticleForce { particle: 5 }];
+    assert!(ring.validate().is_ok());
     for (state, field) in [
         (
             InitialState {

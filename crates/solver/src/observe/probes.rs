@@ -209,8 +209,11 @@ impl RecordSpec {
         let n_c = chain.n_contacts();
         let cylinders = chain.cylinders();
         let n_cyl = cylinders.len();
-        // A gauge reads the two contacts of its particle: the one above and the one below.
-        let two_contacts = |index: usize| index >= 1 && index < n_c;
+        // A gauge reads the two contacts of its particle: the one above and the one below (the
+        // last particle's is the wall's or the ring's closing contact; the first particle's top
+        // wall is not read by a gauge).
+        let two_contacts =
+            |index: usize| index >= 1 && (index + 1 < n_p || chain.wall || chain.ring);
         for (i, p) in self.probes.iter().enumerate() {
             let field = format!("record.probes[{i}]");
             match *p {
