@@ -436,7 +436,7 @@ pub const COLUMNS: &[Column] = &[
         description: "largest contact overlap over the run (at step ends)",
         long_name: true,
         flags: None,
-        note: "",
+        note: "not refined between steps: it reads low by the part of a peak inside a step (docs/SOLVER.md, Observables); an `overlap` probe's `record_max` is refined",
         required: false,
         written: Written::Always,
         fill: Fill::OkF64 {
