@@ -15,17 +15,19 @@
 //! has_integrated (u8) [moving_part (u8: 0 whole chain, 1 moving part) | integrated_particles (u64)]
 //! has_spectrum (u8) [lowest_frequency_hz, highest_frequency_hz, gap_lower_hz, gap_upper_hz,
 //!   band_top_hz (f64 ×5)]
-//! has_fields (u8) [n_samples (u64) | time_s f64 ×n_samples | n_series (u32) | per series:
-//!   quantity (u8: 0 contact_force, 1 displacement, 2 velocity) | width (u64) |
-//!   values f64 ×(n_samples · width), time slowest]
+//! [fields, only for a run that recorded them: 1 (u8) | n_samples (u64) | time_s f64 ×n_samples |
+//!   n_series (u32) | per series: quantity (u8: 0 contact_force, 1 displacement, 2 velocity) |
+//!   width (u64) | values f64 ×(n_samples · width), time slowest]
 //! checksum (32)
 //! ```
 //!
+//! The space–time fields (`record.fields`) are an optional trailing part of format 4: a record
+//! without them is byte for byte what earlier versions wrote (which read it), one with them is
+//! longer (earlier versions, which know no fields, take it as damaged and compute the run again).
+//!
 //! Floats are stored as their bits, so a record read back is bitwise the record written.
 //!
-//! Format 5 (this one) added `has_fields` and what follows it: the space–time fields
-//! (`record.fields`). Format 4 is format 5 without it, read with no fields (no run of an earlier
-//! version recorded them). Format 4 added `has_spectrum` and what follows it: the linear spectrum at the
+//! Format 4 (this one) added `has_spectrum` and what follows it: the linear spectrum at the
 //! static state (`record.spectrum`). Format 3 is format 4 without it, read with no spectrum (no
 //! run of an earlier version recorded one). Format 3 added `has_integrated` and what follows it:
 //! how much of the chain the run integrated. Format 2 is format 3 without it; its records are read (their runs keep their
@@ -45,9 +47,7 @@ use chainsweep_solver::spectrum::SpectrumSummary;
 use crate::identity::RunHash;
 use crate::record::RunRecord;
 
-const MAGIC: &[u8; 8] = b"CSWSEG\x00\x05";
-/// Magic of format 4: format 5 without the fields (read, with none).
-const MAGIC_V4: &[u8; 8] = b"CSWSEG\x00\x04";
+const MAGIC: &[u8; 8] = b"CSWSEG\x00\x04";
 /// Magic of format 3: format 4 without the spectrum (read, with none).
 const MAGIC_V3: &[u8; 8] = b"CSWSEG\x00\x03";
 /// Magic of format 2: format 3 without what the run integrated (read, that part not known).
@@ -133,18 +133,15 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
             }
         }
     }
-    match &rec.fields {
-        None => b.push(0),
-        Some(f) => {
-            b.push(1);
-            b.extend_from_slice(&(f.time_s.len() as u64).to_le_bytes());
-            f.time_s.iter().for_each(|&x| put_f64(&mut b, x));
-            put_u32(&mut b, f.series.len() as u32);
-            for s in &f.series {
-                b.push(s.quantity.code());
-                b.extend_from_slice(&(s.width as u64).to_le_bytes());
-                s.values.iter().for_each(|&x| put_f64(&mut b, x));
-            }
+    if let Some(f) = &rec.fields {
+        b.push(1);
+        b.extend_from_slice(&(f.time_s.len() as u64).to_le_bytes());
+        f.time_s.iter().for_each(|&x| put_f64(&mut b, x));
+        put_u32(&mut b, f.series.len() as u32);
+        for s in &f.series {
+            b.push(s.quantity.code());
+            b.extend_from_slice(&(s.width as u64).to_le_bytes());
+            s.values.iter().for_each(|&x| put_f64(&mut b, x));
         }
     }
     let sum: [u8; 32] = Sha256::digest(&b).into();
@@ -164,7 +161,7 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     }
     let mut r = Reader { b: body, at: 0 };
     let magic = r.take(8)?;
-    if magic != MAGIC && magic != MAGIC_V4 && magic != MAGIC_V3 && magic != MAGIC_V2 {
+    if magic != MAGIC && magic != MAGIC_V3 && magic != MAGIC_V2 {
         return None;
     }
     let hash: RunHash = r.take(32)?.try_into().ok()?;
@@ -215,7 +212,7 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         (None, None)
     };
-    let spectrum = if (magic == MAGIC || magic == MAGIC_V4) && r.take(1)?[0] == 1 {
+    let spectrum = if magic == MAGIC && r.take(1)?[0] == 1 {
         Some(SpectrumSummary {
             lowest_frequency_hz: r.f64()?,
             highest_frequency_hz: r.f64()?,
@@ -226,7 +223,10 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
-    let fields = if magic == MAGIC && r.take(1)?[0] == 1 {
+    let fields = if magic == MAGIC && r.at < body.len() {
+        if r.take(1)?[0] != 1 {
+            return None;
+        }
         let samples = r.u64()? as usize;
         let time_s = r.f64s(samples)?;
         let n = r.u32()? as usize;
@@ -282,8 +282,7 @@ pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
     }
     let (body, sum) = bytes.split_at(bytes.len() - 32);
     let check: [u8; 32] = Sha256::digest(body).into();
-    if check != sum || ![MAGIC, MAGIC_V4, MAGIC_V3, MAGIC_V2].contains(&body[..8].try_into().ok()?)
-    {
+    if check != sum || ![MAGIC, MAGIC_V3, MAGIC_V2].contains(&body[..8].try_into().ok()?) {
         return None;
     }
     let hash: RunHash = body[8..40].try_into().ok()?;
@@ -294,7 +293,7 @@ pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
 pub fn peek_status(bytes: &[u8]) -> Option<(bool, String)> {
     let mut r = Reader { b: bytes, at: 0 };
     let magic = r.take(8)?;
-    if ![MAGIC, MAGIC_V4, MAGIC_V3, MAGIC_V2, MAGIC_V1].contains(&magic.try_into().ok()?) {
+    if ![MAGIC, MAGIC_V3, MAGIC_V2, MAGIC_V1].contains(&magic.try_into().ok()?) {
         return None;
     }
     r.take(32)?;
@@ -414,11 +413,28 @@ mod tests {
         let f = back.fields.as_ref().unwrap();
         assert_eq!(f.series[1].quantity, FieldQuantity::Velocity);
         assert_eq!(f.series[0].values[2].to_bits(), (-0.0f64).to_bits());
+        // Without fields, the record is what earlier versions wrote: the fields' part is all it
+        // adds (1 + 8 + 2 × 8 + 4 + 2 × (1 + 8) + 10 × 8 bytes).
+        let without = encode(&RunRecord {
+            fields: None,
+            ..rec.clone()
+        });
+        assert_eq!(bytes.len() - without.len(), 1 + 8 + 16 + 4 + 18 + 80);
+        assert!(decode(&without).unwrap().fields.is_none());
+        // A fields part with a bad marker or quantity is damage.
+        let mut bad = bytes.clone();
+        let at = without.len() - 32;
+        bad[at] = 2;
+        let n = bad.len() - 32;
+        let sum: [u8; 32] = Sha256::digest(&bad[..n]).into();
+        bad[n..].copy_from_slice(&sum);
+        assert!(decode(&bad).is_none());
         assert_eq!(
             (back.integrated_particles, back.moving_part),
             (Some(192), Some(true))
         );
         let whole = RunRecord {
+            fields: None,
             integrated_particles: Some(601),
             moving_part: Some(false),
             ..rec.clone()
@@ -438,29 +454,21 @@ mod tests {
         assert!(verify(&bad).is_none());
     }
 
-    /// Segment bytes of an earlier format, as earlier versions wrote them: format 5 without its
-    /// trailing `has_fields` byte (format 4), also without `has_spectrum` before it (format 3)
-    /// and, for format 2, without `has_integrated` before that, under that format's magic, with
-    /// their own checksum.
+    /// Segment bytes of an earlier format, as earlier versions wrote them: format 4 without its
+    /// trailing `has_spectrum` byte (format 3) and, for format 2, without `has_integrated` before
+    /// it, under that format's magic, with their own checksum.
     fn as_format(rec: &RunRecord, magic: &[u8; 8]) -> Vec<u8> {
-        assert!(rec.fields.is_none());
-        let v5 = encode(rec);
-        assert_eq!(v5[v5.len() - 33], 0, "the trailing has_fields byte");
-        let cut = if magic == MAGIC_V4 {
-            33
-        } else if magic == MAGIC_V2 {
-            assert!(rec.spectrum.is_none());
+        assert!(rec.spectrum.is_none());
+        let v4 = encode(rec);
+        let cut = if magic == MAGIC_V2 {
             assert!(rec.integrated_particles.is_none() && rec.moving_part.is_none());
-            assert_eq!(v5[v5.len() - 35], 0, "the trailing has_integrated byte");
-            35
-        } else {
-            assert!(rec.spectrum.is_none());
+            assert_eq!(v4[v4.len() - 34], 0, "the trailing has_integrated byte");
             34
+        } else {
+            33
         };
-        if magic != MAGIC_V4 {
-            assert_eq!(v5[v5.len() - 34], 0, "the trailing has_spectrum byte");
-        }
-        let mut body = v5[..v5.len() - cut].to_vec();
+        assert_eq!(v4[v4.len() - 33], 0, "the trailing has_spectrum byte");
+        let mut body = v4[..v4.len() - cut].to_vec();
         body[..8].copy_from_slice(magic);
         let sum: [u8; 32] = Sha256::digest(&body).into();
         body.extend_from_slice(&sum);
@@ -469,25 +477,6 @@ mod tests {
 
     fn as_format_2(rec: &RunRecord) -> Vec<u8> {
         as_format(rec, MAGIC_V2)
-    }
-
-    #[test]
-    fn format_4_is_read_without_fields() {
-        let mut rec = RunRecord::failed([6; 32], String::new(), 0.5);
-        rec.ok = true;
-        rec.spectrum = Some(SpectrumSummary {
-            lowest_frequency_hz: 12.5,
-            highest_frequency_hz: 3.5e4,
-            gap_lower_hz: f64::NAN,
-            gap_upper_hz: f64::NAN,
-            band_top_hz: 3.6e4,
-        });
-        let old = as_format(&rec, MAGIC_V4);
-        assert_eq!(verify(&old), Some(([6; 32], true)));
-        let back = decode(&old).expect("format 4 decodes");
-        assert!(back.fields.is_none());
-        assert_eq!(back.spectrum.unwrap().band_top_hz, 3.6e4);
-        assert_eq!(peek_status(&old), Some((true, String::new())));
     }
 
     #[test]
@@ -509,7 +498,7 @@ mod tests {
             band_top_hz: 3.6e4,
         });
         let new = encode(&rec);
-        assert_eq!(new.len(), old.len() + 2 + 40);
+        assert_eq!(new.len(), old.len() + 1 + 40);
         let s = decode(&new).unwrap().spectrum.unwrap();
         assert_eq!(
             (
@@ -546,12 +535,12 @@ mod tests {
         let sum: [u8; 32] = Sha256::digest(&v3_magic[..n]).into();
         v3_magic[n..].copy_from_slice(&sum);
         assert!(decode(&v3_magic).is_none());
-        // A record that knows the part grows by its 10 bytes (and format 4's has_spectrum byte
-        // and format 5's has_fields byte), and keeps them.
+        // A record that knows the part grows by its 10 bytes (and format 4's has_spectrum byte),
+        // and keeps them.
         rec.integrated_particles = Some(128);
         rec.moving_part = Some(true);
         let new = encode(&rec);
-        assert_eq!(new.len(), old.len() + 1 + 1 + 8 + 1 + 1);
+        assert_eq!(new.len(), old.len() + 1 + 1 + 8 + 1);
         assert_eq!(decode(&new).unwrap().integrated_particles, Some(128));
     }
 }

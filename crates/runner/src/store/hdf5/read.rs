@@ -465,19 +465,21 @@ impl FileRecords {
                 })
                 .as_ref()
                 .map_err(String::clone)?;
-            let (history, min_overlap, fields) = arrays.read(i).map_err(|e| {
-                format!(
-                    "its histories, minimum overlaps or fields cannot be read ({})",
-                    brief(&e)
-                )
-            })?;
+            // (Fields are named only where the grid records them.)
+            let what = if grid.fields.is_some() {
+                "histories, minimum overlaps or fields"
+            } else {
+                "histories or minimum overlaps"
+            };
+            let (history, min_overlap, fields) = arrays
+                .read(i)
+                .map_err(|e| format!("its {what} cannot be read ({})", brief(&e)))?;
             if history_checksum(history.as_ref(), min_overlap.as_deref(), fields.as_ref())
                 != checksum
             {
-                return Err(
-                    "its histories, minimum overlaps or fields do not match their checksum (history_checksum)"
-                        .to_string(),
-                );
+                return Err(format!(
+                    "its {what} do not match their checksum (history_checksum)"
+                ));
             }
             return Ok((history, min_overlap, fields));
         }
