@@ -813,6 +813,7 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
             "impact_energy_j": num(rec.impact_energy_j),
             "probes": probes,
             "history_samples": rec.history.as_ref().map(|h| h.time_s.len()),
+            "field_samples": rec.fields.as_ref().map(|f| f.time_s.len()),
         });
         if let Some(s) = &rec.spectrum {
             out["result"]["spectrum"] = serde_json::json!({
