@@ -243,3 +243,40 @@ fn a_scene_without_fields_serialises_as_before() {
     let unknown = json.replace("contact_force", "pressure");
     assert!(serde_json::from_str::<Scene>(&unknown).is_err());
 }
+
+#[test]
+fn fields_of_a_chain_too_long_for_a_whole_batch_of_instants_are_bitwise_its_probes() {
+    // 20 002 particles: 40 000 interpolated components per instant, so that a batch holds fewer
+    // than the probes' 32 instants; the values do not depend on the batch.
+    let mut s = scene(10_000, 5e-5);
+    s.record.probes = vec![
+        Probe::ContactForce { contact: 1 },
+        Probe::ContactForce { contact: 4 },
+        Probe::Velocity { particle: 30 },
+        Probe::ContactForce { contact: 20_002 },
+    ];
+    s.record.history = true;
+    s.record.history_interval_s = 4e-7;
+    s.record.fields = Some(FieldSpec {
+        quantities: vec![FieldQuantity::ContactForce, FieldQuantity::Velocity],
+        interval_s: 4e-7,
+    });
+    let out = run(&s).unwrap();
+    let (h, f) = (out.history.unwrap(), out.fields.unwrap());
+    assert_eq!(f.time_s.len() as u64, samples_in(0.0, 4e-7, 5e-5));
+    assert!(f.time_s.len() >= 125);
+    let (force, velocity) = (&f.series[0], &f.series[1]);
+    assert_eq!((force.width, velocity.width), (20_002, 20_002));
+    let column = |s: &chainsweep_solver::observe::probes::FieldSeries, k: usize| -> Vec<u64> {
+        (0..f.time_s.len())
+            .map(|i| s.values[i * s.width + k - 1].to_bits())
+            .collect()
+    };
+    let bits = |v: &[f64]| -> Vec<u64> { v.iter().map(|x| x.to_bits()).collect() };
+    assert_eq!(column(force, 1), bits(&h.values[0]));
+    assert_eq!(column(force, 4), bits(&h.values[1]));
+    assert_eq!(column(velocity, 30), bits(&h.values[2]));
+    assert_eq!(column(force, 20_002), bits(&h.values[3]));
+    // The pulse reached contact 4 (the wall, 10 000 cylinders down, still rests under the chain).
+    assert!(column(force, 4).iter().any(|&b| f64::from_bits(b) > 50.0));
+}

@@ -955,8 +955,10 @@ impl FieldRecorder {
         for s in &mut series {
             s.values.reserve_exact(cap * s.width);
         }
+        // A batch of up to FIELD_BATCH_VALUES values (a long chain's batch holds fewer instants).
+        let rows = (FIELD_BATCH_VALUES / components.len().max(1)).clamp(1, SAMPLE_BATCH);
         FieldRecorder {
-            batch: vec![0.0; SAMPLE_BATCH * components.len()],
+            batch: vec![0.0; rows * components.len()],
             probes,
             interval: spec.interval_s,
             next: 0,
@@ -1071,18 +1073,12 @@ pub(crate) struct RunObserver {
 }
 
 /// Fills `times` with the sample times `t0 + j·interval`, `j = first, first + 1, …`, up to `until`
-/// (at most [`SAMPLE_BATCH`] of them) and returns how many there are: one sampling grid for the
-/// summaries and the histories alike.
+/// (at most `times.len()` of them) and returns how many there are: one sampling grid for the
+/// summaries, the histories and the fields alike.
 #[inline]
-fn batch_times(
-    t0: f64,
-    first: u64,
-    interval: f64,
-    until: f64,
-    times: &mut [f64; SAMPLE_BATCH],
-) -> usize {
+fn batch_times(t0: f64, first: u64, interval: f64, until: f64, times: &mut [f64]) -> usize {
     let mut count = 0;
-    while count < SAMPLE_BATCH {
+    while count < times.len() {
         let t = t0 + (first + count as u64) as f64 * interval;
         if t > until {
             break;
@@ -1115,8 +1111,9 @@ pub fn samples_in(t0: f64, interval: f64, t_end: f64) -> u64 {
 /// Feeds `sink` the instants `t0 + i·interval` of `grid` from `i = *next` up to `until` (and
 /// advances `*next` past them), each with the state whose `components` are interpolated in
 /// `step` there: in batches of [`SAMPLE_BATCH`] (one interpolant set-up for all of a batch),
-/// the samples then fed in time order exactly as one at a time. `batch` holds a batch's
-/// values, `state` the components of one sample.
+/// the samples then fed in time order exactly as one at a time (the values of a sample do not
+/// depend on the batch it is in). `batch` holds a batch's values (as many rows of the components
+/// as it has room for, at most [`SAMPLE_BATCH`]), `state` the components of one sample.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn sample_grid(
@@ -1130,9 +1127,14 @@ fn sample_grid(
     mut sink: impl FnMut(f64, &[f64]),
 ) {
     let m = components.len();
+    let rows = if m == 0 {
+        SAMPLE_BATCH
+    } else {
+        (batch.len() / m).clamp(1, SAMPLE_BATCH)
+    };
     let mut times = [0.0f64; SAMPLE_BATCH];
     loop {
-        let count = batch_times(t0, *next, interval, until, &mut times);
+        let count = batch_times(t0, *next, interval, until, &mut times[..rows]);
         if count == 0 {
             break;
         }
@@ -1145,7 +1147,7 @@ fn sample_grid(
             sink(t, state);
         }
         *next += count as u64;
-        if count < SAMPLE_BATCH {
+        if count < rows {
             break;
         }
     }
@@ -1153,6 +1155,10 @@ fn sample_grid(
 
 /// Most samples interpolated in one call ([`DenseStep::eval_components_at`]).
 const SAMPLE_BATCH: usize = 32;
+
+/// Most values in the fields' batch of samples (8 MiB): a chain of millions of particles
+/// interpolates one instant at a time rather than holding [`SAMPLE_BATCH`] whole states.
+const FIELD_BATCH_VALUES: usize = 1 << 20;
 
 impl RunObserver {
     pub fn new(
