@@ -1127,11 +1127,10 @@ fn sample_grid(
     mut sink: impl FnMut(f64, &[f64]),
 ) {
     let m = components.len();
-    let rows = if m == 0 {
-        SAMPLE_BATCH
-    } else {
-        (batch.len() / m).clamp(1, SAMPLE_BATCH)
-    };
+    let rows = batch
+        .len()
+        .checked_div(m)
+        .map_or(SAMPLE_BATCH, |r| r.clamp(1, SAMPLE_BATCH));
     let mut times = [0.0f64; SAMPLE_BATCH];
     loop {
         let count = batch_times(t0, *next, interval, until, &mut times[..rows]);
