@@ -83,6 +83,16 @@ def mixed_units():
     return s
 
 
+def fields():
+    """Space-time fields of every quantity beside the histories and minimum overlaps: contact
+    forces over (grid…, field_time_s, contact), displacements and velocities over (grid…,
+    field_time_s, particle)."""
+    s = histories()
+    s["record"]["fields"] = {
+        "quantities": ["contact_force", "displacement", "velocity"], "interval_s": 2e-6}
+    return s
+
+
 def text_and_boolean_axes():
     """Gravity on and off (booleans) against two masses given as objects (text coordinates)."""
     s = base_sweep()
@@ -103,6 +113,7 @@ KINDS = {
     "failed": (failing, [], 3),
     "pending": (zipped, ["--shard", "1/2"], 0),
     "mixed-units": (mixed_units, [], 0),
+    "fields": (fields, [], 0),
     "text-axes": (text_and_boolean_axes, [], 0),
     "search": (None, [], 0),
 }

@@ -87,6 +87,19 @@ HISTORY_LONG_NAME = "history of each probe, sampled every record.history_interva
 MIN_OVERLAP_LONG_NAME = "minimum overlap of each contact over the run"
 CONTACT_LONG_NAME = "contact j, between particles j and j+1 (the last one: the wall)"
 
+#: Space–time fields (record.fields): variable -> (units, long_name), as the files store them.
+PARTICLE_LONG_NAME = "particle i (1: the striker, when there is one)"
+FIELD_TIME_LONG_NAME = "time of the field samples"
+FIELDS: dict[str, tuple[str, str]] = {
+    "field_contact_force": (
+        "N", "total force of every contact, sampled every record.fields.interval_s"
+    ),
+    "field_displacement": (
+        "m", "dynamic displacement of every particle, sampled every record.fields.interval_s"
+    ),
+    "field_velocity": ("m/s", "velocity of every particle, sampled every record.fields.interval_s"),
+}
+
 #: The order in which datasets list their variables (others follow, by name).
 ORDER: list[str] = [
     *PROBE_SUMMARIES,

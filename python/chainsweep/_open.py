@@ -210,6 +210,11 @@ _ARRAY_NAMES = {
     "history", "history_N", "history_m", "history_m_per_s", "time_s", "sample", "min_overlap_m",
     "contact",
 }
+# LAYOUT: the space–time fields (record.fields), read with the histories: one variable per
+# quantity over (grid…, field_time_s, contact | particle), and their coordinates and counts.
+_FIELD_NAMES = ("field_contact_force", "field_displacement", "field_velocity")
+_FIELD_COORDS = ("field_time_s", "field_samples", "particle")
+_ARRAY_NAMES |= {*_FIELD_NAMES, *_FIELD_COORDS}
 
 
 def _has_arrays(f: h5py.File) -> bool:
@@ -580,6 +585,100 @@ def _stack_min_overlaps(
     return data, coords
 
 
+def _field_coords(f: h5py.File) -> dict[str, Any]:
+    """LAYOUT: the coordinates of the fields of a layout-5 file: their time axis and the
+    contacts and particles they are over."""
+    coords: dict[str, Any] = {}
+    for name in ("field_time_s", "contact", "particle"):
+        if name in f:
+            d = f[name]
+            attrs = {k: _value(d.attrs[k]) for k in ("units", "long_name") if k in d.attrs}
+            coords[name] = (name, d[()], attrs)
+    return coords
+
+
+def _field_vars(f: h5py.File) -> list[tuple[str, tuple[str, str], dict[str, Any]]]:
+    """LAYOUT: each field variable of the file with its last two dimensions and attributes."""
+    out = []
+    for name in _FIELD_NAMES:
+        if name in f:
+            d = f[name]
+            last = "contact" if name == "field_contact_force" else "particle"
+            attrs = {k: _value(d.attrs[k]) for k in ("units", "long_name") if k in d.attrs}
+            out.append((name, ("field_time_s", last), attrs))
+    return out
+
+
+def _field_samples(f: h5py.File, grid: "_Grid") -> dict[str, Any]:
+    """LAYOUT: how many field samples each run recorded (NaN where none)."""
+    d = f["field_samples"]
+    values = d[()].astype(np.float64)
+    values[values == -1] = np.nan
+    attrs = {k: _value(d.attrs[k]) for k in ("units", "long_name") if k in d.attrs}
+    return {"field_samples": (tuple(grid.dims), values, attrs)}
+
+
+def _stack_fields(
+    f: h5py.File, grid: "_Grid"
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """The space–time fields over (grid…, field_time_s, contact | particle), read into memory,
+    NaN after a run's end, beyond its contacts or particles and where it has none."""
+    if not _has_arrays(f) or "field_samples" not in f:
+        return None
+    data = _field_samples(f, grid)
+    for name, last, attrs in _field_vars(f):
+        data[name] = ((*grid.dims, *last), _read_masked(f[name]), attrs)
+    return data, _field_coords(f)
+
+
+def _lazy_fields(
+    path: str, grid: "_Grid", masked: set[int]
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """The space–time fields as dask arrays read from the file block by block only when
+    computed (runs along the grid's last axis, about `_LAZY_BLOCK_BYTES`, whole chunks of the
+    file), NaN at the `masked` (damaged) points; each block opens the file anew and raises when
+    it is no longer the one checked."""
+    import dask.array as da
+
+    identity = _identity(path)
+    with h5py.File(path, "r") as f:
+        if not _has_arrays(f) or "field_samples" not in f:
+            return None
+        data = _field_samples(f, grid)
+        coords = _field_coords(f)
+        variables = [(name, last, attrs, f[name].shape, f[name].chunks)
+                     for name, last, attrs in _field_vars(f)]
+    nd = len(grid.shape)
+    for name, last, attrs, shape, chunk in variables:
+        chunks: tuple[tuple[int, ...], ...] = tuple((1,) * n for n in grid.shape[:-1])
+        if nd:
+            per_run = max(1, int(np.prod(shape[nd:])) * 8)
+            n_last = grid.shape[-1]
+            step = max(1, (chunk or shape)[nd - 1])
+            along = min(max(step, (_LAZY_BLOCK_BYTES // per_run) // step * step), n_last)
+            chunks += (tuple(min(along, n_last - s) for s in range(0, n_last, along)),)
+        chunks += ((shape[nd],), (shape[nd + 1],))
+
+        def block(block_info: Any = None, name: str = name) -> np.ndarray:
+            loc = block_info[None]["array-location"][:nd]
+            sel = tuple(slice(a, b) for a, b in loc)
+            with _BLOCK_LOCK, h5py.File(path, "r") as g:
+                _same_file(path, identity)
+                out = _read_masked(g[name], sel)
+            for local in np.ndindex(*out.shape[:nd]):
+                at = tuple(s.start + k for s, k in zip(sel, local))
+                if int(np.ravel_multi_index(at, grid.shape)) in masked:
+                    out[local] = np.nan
+            return out
+
+        token = f"{name}-{os.path.abspath(path)}-{identity}-{sorted(masked)[:8]}-{len(masked)}"
+        values = da.map_blocks(
+            block, chunks=chunks, dtype=np.float64, meta=np.empty((0,) * (nd + 2)), name=token
+        )
+        data[name] = ((*grid.dims, *last), values, attrs)
+    return data, coords
+
+
 def _check(
     path: str, histories: bool, damaged: str
 ) -> tuple[list[tuple[int, str, str]], list[tuple[str, str, bool]]]:
@@ -697,6 +796,12 @@ def open(  # noqa: A001 (chainsweep.open)
     ``probe_units``.
     ``min_overlap_m`` over (grid…, ``contact``) is there when the sweep recorded it.
 
+    Space–time fields (``record.fields``) are read with the histories (``histories=True`` or
+    ``"lazy"``): ``field_contact_force`` over (grid…, ``field_time_s``, ``contact``),
+    ``field_displacement`` and ``field_velocity`` over (grid…, ``field_time_s``, ``particle``),
+    NaN after a run's end and beyond its contacts or particles, and ``field_samples`` (how many
+    instants each run recorded).
+
     With ``histories=True``, every run's history is read into ``history`` over (grid…,
     ``probe``, ``time_s``), NaN where a run failed, is pending or stopped earlier. When the runs
     were sampled at different instants (the history interval an axis), the last dimension is
@@ -750,6 +855,7 @@ def open(  # noqa: A001 (chainsweep.open)
         lazy = histories == "lazy" and ("runs" in f or arrays) and _has_dask()
         if histories and not lazy:
             extras.append(_stack_histories(f, grid))
+            extras.append(_stack_fields(f, grid))
         for extra in extras:
             if extra is not None:
                 data.update(extra[0])
@@ -758,7 +864,8 @@ def open(  # noqa: A001 (chainsweep.open)
     if lazy:
         # (After the file is closed: HDF5 frees what it read of the run groups only then.)
         extras.append(_lazy_histories(fspath, grid, {i for i, _, _ in points}))
-    for extra in extras[-1:] if lazy else []:
+        extras.append(_lazy_fields(fspath, grid, {i for i, _, _ in points}))
+    for extra in extras[-2:] if lazy else []:
         if extra is not None:
             data.update(extra[0])
             coords.update(extra[1])

@@ -77,6 +77,16 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
         m = raw["min_overlap_m"]
         out["min_overlap_m"] = np.zeros(0) if m is None else _floats(m)
         out["contact"] = np.arange(1, len(out["min_overlap_m"]) + 1, dtype=np.int64)
+    if raw["fields_recorded"] is not None:
+        if raw["fields"] is None:  # a failed run records no fields
+            out["field_time_s"] = np.zeros(0)
+            for name in raw["fields_recorded"]:
+                out[f"field_{name}"] = np.zeros((0, 0))
+        else:
+            time = _floats(raw["field_time_s"])
+            out["field_time_s"] = time
+            for name, width, values in raw["fields"]:
+                out[f"field_{name}"] = _floats(values).reshape(len(time), width)
     limit = raw["energy_drift_limit"]
     attrs: dict[str, Any] = {
         "scene": raw["scene"],
@@ -137,6 +147,27 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
             a["min_overlap_m"],
             {"units": "m", "long_name": L.MIN_OVERLAP_LONG_NAME},
         )
+    if "field_time_s" in a:
+        coords["field_time_s"] = (
+            "field_time_s", a["field_time_s"], {"units": "s", "long_name": L.FIELD_TIME_LONG_NAME}
+        )
+        for name, (unit, long_name) in L.FIELDS.items():
+            if name not in a:
+                continue
+            last = "contact" if name == "field_contact_force" else "particle"
+            width = a[name].shape[1]
+            if last == "contact":
+                coords.setdefault(
+                    "contact",
+                    ("contact", np.arange(1, width + 1, dtype=np.int64),
+                     {"long_name": L.CONTACT_LONG_NAME}),
+                )
+            else:
+                coords["particle"] = (
+                    "particle", np.arange(1, width + 1, dtype=np.int64),
+                    {"long_name": L.PARTICLE_LONG_NAME},
+                )
+            data[name] = (("field_time_s", last), a[name], {"units": unit, "long_name": long_name})
     return xr.Dataset(data, coords=coords, attrs=a["attrs"])
 
 
@@ -196,7 +227,9 @@ def run(
     moving part), ``status`` (1 ok),
     ``reason``, ``warnings`` (one per line), ``run_hash``; ``history`` over (``probe``,
     ``time_s``) when ``record.history`` is on; ``min_overlap_m`` over ``contact`` (1-based) when
-    ``record.min_overlap`` is on. Every variable has ``units``; ``attrs`` hold the scene as run
+    ``record.min_overlap`` is on; with ``record.fields``, ``field_contact_force`` over
+    (``field_time_s``, ``contact``) and ``field_displacement``, ``field_velocity`` over
+    (``field_time_s``, ``particle``), each quantity asked for. Every variable has ``units``; ``attrs`` hold the scene as run
     (JSON, defaults filled in), the integrator, the run hash and the versions. With
     ``as_dataset=False``: a dict of the same names holding numpy arrays and scalars, plus
     ``"attrs"``.

@@ -203,6 +203,29 @@ pub fn run_scene<'py>(
         Some(m) => d.set_item("min_overlap_m", f64_bytes(py, m))?,
         None => d.set_item("min_overlap_m", py.None())?,
     }
+    match &rec.fields {
+        Some(f) => {
+            d.set_item("field_time_s", f64_bytes(py, &f.time_s))?;
+            let series: Vec<(&str, usize, Bound<'py, PyBytes>)> = f
+                .series
+                .iter()
+                .map(|s| (s.quantity.name(), s.width, f64_bytes(py, &s.values)))
+                .collect();
+            d.set_item("fields", PyList::new(py, series)?)?;
+        }
+        None => {
+            d.set_item("field_time_s", py.None())?;
+            d.set_item("fields", py.None())?;
+        }
+    }
+    d.set_item(
+        "fields_recorded",
+        run.scene
+            .record
+            .fields
+            .as_ref()
+            .map(|f| f.quantities.iter().map(|q| q.name()).collect::<Vec<_>>()),
+    )?;
     d.set_item("history_recorded", run.scene.record.history)?;
     d.set_item("min_overlap_recorded", run.scene.record.min_overlap)?;
     Ok(d)

@@ -214,6 +214,7 @@ fn record_of(
         probes: out.probes,
         min_overlap_m: out.min_overlap_m,
         history: out.history,
+        fields: out.fields,
         spectrum: out.spectrum,
     }
 }
@@ -258,6 +259,14 @@ fn non_finite(scene: &Scene, out: &RunOutput) -> Vec<String> {
     if let Some(m) = &out.min_overlap_m {
         if m.iter().any(|x| !x.is_finite()) {
             bad.push("min_overlap_m holds a non-finite value".to_string());
+        }
+    }
+    if let Some(f) = &out.fields {
+        // (Stored fields are NaN only beyond a run's end and its contacts or particles.)
+        for s in &f.series {
+            if let Some(x) = s.values.iter().find(|x| !x.is_finite()) {
+                bad.push(format!("the {} field holds {x}", s.quantity.name()));
+            }
         }
     }
     bad

@@ -6,7 +6,7 @@
 
 use serde_json::Value;
 
-use chainsweep_solver::observe::probes::samples_in;
+use chainsweep_solver::observe::probes::{samples_in, FieldSpec};
 use chainsweep_solver::{Probe, Scene};
 
 use crate::error::{Error, Result};
@@ -33,8 +33,15 @@ pub struct Grid {
     /// The history interval every point shares, s (`None`: the points' intervals differ, or
     /// there are no histories): the output file then stores one time axis for every run.
     pub history_interval_s: Option<f64>,
-    /// Largest number of contacts of any point (for minimum overlaps).
+    /// Largest number of contacts of any point (for minimum overlaps and contact fields).
     pub max_contacts: usize,
+    /// The space–time fields every point records (`record.fields`, the same at every point:
+    /// one time axis `i · interval_s` for every run).
+    pub fields: Option<FieldSpec>,
+    /// Largest number of field samples any point records (0 without fields).
+    pub max_field_samples: usize,
+    /// Largest number of particles of any point (for particle fields).
+    pub max_particles: usize,
     /// Whether some point integrates only the moving part of its chain
     /// ([`chainsweep_solver::integrates_moving_part`]): the output file then says, per run, how
     /// much of its chain each run integrated.
@@ -135,6 +142,7 @@ struct ChunkInfo {
     history_interval_s: Option<f64>,
     history_intervals_differ: bool,
     max_contacts: usize,
+    max_field_samples: usize,
     moving_part: bool,
     warnings: Vec<(usize, Vec<String>)>,
     warned_points: usize,
@@ -146,9 +154,16 @@ struct Record<'a> {
     history: bool,
     min_overlap: bool,
     spectrum: bool,
+    fields: &'a Option<FieldSpec>,
 }
 
 impl Grid {
+    /// Whether the grid's runs record arrays of their own beside the summaries: histories,
+    /// minimum overlaps or space–time fields (in layouts 4 and earlier, a group under `runs/`).
+    pub fn has_run_arrays(&self) -> bool {
+        self.history || self.min_overlap || self.fields.is_some()
+    }
+
     /// Expands and validates every point of the sweep: an invalid point is an input error naming
     /// the field and the axis value that made it (the first such point in grid order).
     pub fn new(sweep: &Sweep) -> Result<Grid> {
@@ -191,6 +206,9 @@ impl Grid {
             max_history_samples: 0,
             history_interval_s: None,
             max_contacts: 0,
+            fields: None,
+            max_field_samples: 0,
+            max_particles: 0,
             moving_part: false,
             particles: vec![0; n],
             warnings: Vec::new(),
@@ -203,11 +221,14 @@ impl Grid {
         grid.history = first.record.history;
         grid.min_overlap = first.record.min_overlap;
         grid.spectrum = first.record.spectrum.is_some();
+        grid.fields = first.record.fields.clone();
+        let fields = grid.fields.clone();
         let record = Record {
             probes: &grid.probes,
             history: grid.history,
             min_overlap: grid.min_overlap,
             spectrum: grid.spectrum,
+            fields: &fields,
         };
         let shape = &grid.shape;
         let done = AtomicUsize::new(0);
@@ -266,6 +287,7 @@ impl Grid {
                 }
             }
             grid.max_contacts = grid.max_contacts.max(c.max_contacts);
+            grid.max_field_samples = grid.max_field_samples.max(c.max_field_samples);
             grid.moving_part |= c.moving_part;
             grid.warned_points += c.warned_points;
             for w in c.warnings {
@@ -277,6 +299,7 @@ impl Grid {
         if intervals_differ {
             grid.history_interval_s = None;
         }
+        grid.max_particles = grid.particles.iter().max().map_or(0, |&p| p as usize);
         Ok(grid)
     }
 
@@ -310,6 +333,7 @@ impl Grid {
             history: reference.history,
             min_overlap: reference.min_overlap,
             spectrum: reference.spectrum.is_some(),
+            fields: &reference.fields,
         };
         // A base field's error is the same at many points, told apart only by the point named
         // at its end: listed once, with the number of points it holds at.
@@ -397,13 +421,14 @@ impl Grid {
             || scene.record.history != record.history
             || scene.record.min_overlap != record.min_overlap
             || scene.record.spectrum.is_some() != record.spectrum
+            || scene.record.fields != *record.fields
         {
             return Err(locate(
                 sweep,
                 shape,
                 i,
                 "record",
-                "must be the same at every grid point (probes, history, min_overlap, whether spectrum is recorded): the stored arrays and columns share one layout",
+                "must be the same at every grid point (probes, history, min_overlap, fields, whether spectrum is recorded): the stored arrays and columns share one layout",
             ));
         }
         if scene.record.history {
@@ -417,6 +442,10 @@ impl Grid {
             }
         }
         info.max_contacts = info.max_contacts.max(chain.n_contacts());
+        if let Some(f) = &scene.record.fields {
+            let samples = samples_in(0.0, f.interval_s, scene.duration_s) as usize;
+            info.max_field_samples = info.max_field_samples.max(samples);
+        }
         // At most MAX_PARTICLES (2 000 002), checked by validate.
         *particles = chain.n_particles() as u32;
         let warnings = scene.plausibility_warnings(&chain);

@@ -96,6 +96,11 @@ fn record(grid: &Grid) -> Value {
         "history": grid.history,
         "max_history_samples": grid.max_history_samples,
         "min_overlap": grid.min_overlap,
+        "fields": grid.fields.as_ref().map(|f| json!({
+            "quantities": f.quantities.iter().map(|q| q.name()).collect::<Vec<_>>(),
+            "interval_s": f.interval_s,
+            "max_samples": grid.max_field_samples,
+        })),
     })
 }
 
@@ -324,6 +329,7 @@ pub fn dry_run(
         json!({
             "per_run_summaries": d.size.summary,
             "per_run_histories_uncompressed": d.size.history,
+            "per_run_fields_uncompressed": d.size.fields,
             "total_estimate": d.size.total(points.len()),
         }),
     );

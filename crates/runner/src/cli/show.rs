@@ -195,7 +195,7 @@ pub fn dry_run(
     plausibility(sweep, grid);
     let probe_names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
     outln!(
-        "record: probes [{}]; {}{}",
+        "record: probes [{}]; {}{}{}",
         probe_names.join(", "),
         if grid.history {
             format!(
@@ -209,6 +209,19 @@ pub fn dry_run(
             "; minimum overlaps"
         } else {
             ""
+        },
+        match &grid.fields {
+            Some(f) => format!(
+                "; fields of {} every {:e} s, up to {} samples per run",
+                f.quantities
+                    .iter()
+                    .map(|q| q.name())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                f.interval_s,
+                grid.max_field_samples
+            ),
+            None => String::new(),
         }
     );
     outln!(
@@ -218,13 +231,14 @@ pub fn dry_run(
         d.failed,
         points.len() - d.ok - d.failed
     );
-    let (summary, history) = (d.size.summary, d.size.history);
+    let (summary, history, fields) = (d.size.summary, d.size.history, d.size.fields);
     outln!(
-        "estimated output size: {} ({} per run: {} summaries{}); histories are deflate-compressed, so usually less",
+        "estimated output size: {} ({} per run: {} summaries{}{}); histories and fields are deflate-compressed, so usually less",
         human(d.size.total(points.len())),
-        human(summary + history),
+        human(summary + history + fields),
         human(summary),
-        if history > 0.0 { format!(" + {} histories, uncompressed", human(history)) } else { String::new() }
+        if history > 0.0 { format!(" + {} histories, uncompressed", human(history)) } else { String::new() },
+        if fields > 0.0 { format!(" + {} fields, uncompressed", human(fields)) } else { String::new() }
     );
     if let Some(c) = &d.cost {
         let how = if c.extrapolated > 0 {
@@ -799,6 +813,7 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
             "impact_energy_j": num(rec.impact_energy_j),
             "probes": probes,
             "history_samples": rec.history.as_ref().map(|h| h.time_s.len()),
+            "field_samples": rec.fields.as_ref().map(|f| f.time_s.len()),
         });
         if let Some(s) = &rec.spectrum {
             out["result"]["spectrum"] = serde_json::json!({

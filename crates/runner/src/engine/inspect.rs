@@ -26,6 +26,9 @@ pub struct SizeEstimate {
     pub summary: f64,
     /// Histories and minimum overlaps per run, uncompressed (0 without).
     pub history: f64,
+    /// Space–time fields per run, uncompressed (0 without): every quantity's values at every
+    /// instant of the longest run, and its sample count.
+    pub fields: f64,
 }
 
 impl SizeEstimate {
@@ -49,12 +52,23 @@ impl SizeEstimate {
         if grid.min_overlap {
             history += grid.max_contacts as f64 * 8.0;
         }
-        SizeEstimate { summary, history }
+        let fields = match &grid.fields {
+            Some(spec) => {
+                let per_sample = spec.values_per_sample(grid.max_particles, grid.max_contacts);
+                (per_sample * grid.max_field_samples) as f64 * 8.0 + 8.0
+            }
+            None => 0.0,
+        };
+        SizeEstimate {
+            summary,
+            history,
+            fields,
+        }
     }
 
     /// The estimated output size of `runs` runs.
     pub fn total(&self, runs: usize) -> f64 {
-        runs as f64 * (self.summary + self.history) + 16384.0
+        runs as f64 * (self.summary + self.history + self.fields) + 16384.0
     }
 }
 
@@ -312,7 +326,12 @@ fn check_fits(grid: &Grid, bytes: f64, output: &Path) -> Result<()> {
         return Ok(());
     }
     let gib = |b: f64| format!("{:.3} GiB", b / (1u64 << 30) as f64);
-    let (field, what) = if grid.history {
+    let (field, what) = if grid.fields.is_some() {
+        (
+            "record.fields.interval_s",
+            "a longer field interval, fewer quantities or fewer points",
+        )
+    } else if grid.history {
         (
             "record.history_interval_s",
             "a longer history interval, fewer probes or fewer points",

@@ -273,9 +273,7 @@ pub fn check_file(path: &Path, histories: bool) -> FileCheck {
             Some(why) => Some(why.to_string()),
             None => match &labelled {
                 Some((_, grid))
-                    if histories
-                        && (grid.history || grid.min_overlap)
-                        && recs.status(i) == STATUS_OK =>
+                    if histories && grid.has_run_arrays() && recs.status(i) == STATUS_OK =>
                 {
                     match recs.record(i, grid.hashes[i], grid) {
                         crate::store::hdf5::read::PointRead::Damaged(why) => Some(why),

@@ -9,7 +9,7 @@
 //! column's value at that point (the `history_checksum` of its run group included), so that a
 //! reader finds out which points of a damaged file it can still trust.
 
-use chainsweep_solver::observe::probes::{History, ProbeSummary};
+use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
 use sha2::{Digest, Sha256};
 
 use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
@@ -436,7 +436,7 @@ pub const COLUMNS: &[Column] = &[
         description: "largest contact overlap over the run (at step ends)",
         long_name: true,
         flags: None,
-        note: "",
+        note: "not refined between steps: it reads low by the part of a peak inside a step (docs/SOLVER.md, Observables); an `overlap` probe's `record_max` is refined",
         required: false,
         written: Written::Always,
         fill: Fill::OkF64 {
@@ -880,6 +880,24 @@ pub const SAMPLE: &str = "sample";
 pub const MIN_OVERLAP: &str = "min_overlap_m";
 /// The contacts' coordinate.
 pub const CONTACT: &str = "contact";
+/// The particles' coordinate (of the particle fields).
+pub const PARTICLE: &str = "particle";
+/// The time axis of the space–time fields (`i · record.fields.interval_s`).
+pub const FIELD_TIME: &str = "field_time_s";
+/// How many field samples each run recorded.
+pub const FIELD_SAMPLES: &str = "field_samples";
+/// The variables of the space–time fields, one per quantity (`field_contact_force`,
+/// `field_displacement`, `field_velocity`).
+pub const FIELD_NAMES: &[&str] = &[
+    "field_contact_force",
+    "field_displacement",
+    "field_velocity",
+];
+
+/// The variable of the space–time field of `quantity`.
+pub fn field_name(quantity: chainsweep_solver::observe::probes::FieldQuantity) -> &'static str {
+    FIELD_NAMES[usize::from(quantity.code())]
+}
 
 /// The names of the runs' arrays at a file's root (layout 5: the store's `hdf5::arrays`): no
 /// axis may take them.
@@ -893,6 +911,12 @@ pub const ARRAY_NAMES: &[&str] = &[
     SAMPLE,
     MIN_OVERLAP,
     CONTACT,
+    PARTICLE,
+    FIELD_TIME,
+    FIELD_SAMPLES,
+    "field_contact_force",
+    "field_displacement",
+    "field_velocity",
 ];
 
 /// Names a search's file adds at its root: its evaluations, objective and outcome.
@@ -1050,7 +1074,11 @@ impl Column {
             }
             (Fill::HistoryChecksum, ColumnData::U64(d)) => {
                 if let Some(r) = ok {
-                    d[i] = history_checksum(r.history.as_ref(), r.min_overlap_m.as_deref());
+                    d[i] = history_checksum(
+                        r.history.as_ref(),
+                        r.min_overlap_m.as_deref(),
+                        r.fields.as_ref(),
+                    );
                 }
             }
             (Fill::SummaryChecksum, ColumnData::U64(_)) => {}
@@ -1081,10 +1109,16 @@ impl Column {
     }
 }
 
-/// The checksum of a run's group under `runs/`: its time samples and history per probe, and its
-/// minimum overlaps, as stored (bit for bit); 0 for a run without a group (never 0 otherwise).
-pub fn history_checksum(history: Option<&History>, min_overlap_m: Option<&[f64]>) -> u64 {
-    if history.is_none() && min_overlap_m.is_none() {
+/// The checksum of a run's arrays (in layouts 4 and earlier its group under `runs/`): its time
+/// samples and history per probe, its minimum overlaps and its space–time fields, as stored (bit
+/// for bit); 0 for a run without any (never 0 otherwise). A run without fields has the checksum
+/// it had before fields existed.
+pub fn history_checksum(
+    history: Option<&History>,
+    min_overlap_m: Option<&[f64]>,
+    fields: Option<&Fields>,
+) -> u64 {
+    if history.is_none() && min_overlap_m.is_none() && fields.is_none() {
         return 0;
     }
     let sum = checksum64(|h| {
@@ -1104,6 +1138,14 @@ pub fn history_checksum(history: Option<&History>, min_overlap_m: Option<&[f64]>
         }
         if let Some(m) = min_overlap_m {
             series(h, b"min_overlap_m", m);
+        }
+        if let Some(f) = fields {
+            series(h, b"field_time_s", &f.time_s);
+            for s in &f.series {
+                h.update([s.quantity.code()]);
+                h.update((s.width as u64).to_le_bytes());
+                series(h, b"field", &s.values);
+            }
         }
     });
     sum.max(1)

@@ -6,7 +6,7 @@
 
 pub mod columns;
 
-use chainsweep_solver::observe::probes::{History, ProbeSummary};
+use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
 use chainsweep_solver::spectrum::SpectrumSummary;
 
 use crate::identity::RunHash;
@@ -42,6 +42,10 @@ pub const VERIFY_NONE: u8 = 0;
 pub const VERIFY_OK: u8 = 1;
 /// `verified` flag: the verification run itself failed (its reason is printed by `run`).
 pub const VERIFY_FAILED: u8 = 2;
+
+/// A run's own arrays as stored: its histories, minimum overlaps and space–time fields, each
+/// when recorded.
+pub type RunArrays = (Option<History>, Option<Vec<f64>>, Option<Fields>);
 
 /// One finished run, successful or failed.
 #[derive(Debug, Clone, PartialEq)]
@@ -91,6 +95,8 @@ pub struct RunRecord {
     pub min_overlap_m: Option<Vec<f64>>,
     /// Histories, when recorded.
     pub history: Option<History>,
+    /// Space–time fields, when recorded (`record.fields`).
+    pub fields: Option<Fields>,
     /// The linear spectrum at the static state, when recorded (`record.spectrum`).
     pub spectrum: Option<SpectrumSummary>,
 }
@@ -138,6 +144,7 @@ impl RunRecord {
             probes: Vec::new(),
             min_overlap_m: None,
             history: None,
+            fields: None,
             spectrum: None,
         }
     }

@@ -274,7 +274,7 @@ impl PublishedFile {
             }
             return;
         };
-        let groups = grid.history || grid.min_overlap;
+        let groups = grid.has_run_arrays();
         let whole_chain = |i: usize| (!grid.moving_part).then(|| u64::from(grid.particles[i]));
         let mut lost = Vec::new();
         let mut restored = Vec::new();
@@ -441,11 +441,12 @@ impl PublishedFile {
             Source::Snapshot => {
                 let whole_chain = (!grid.moving_part).then(|| u64::from(grid.particles[i]));
                 let (mut rec, group_sum) = self.snapshot.as_ref()?.record(hash, whole_chain)?;
-                if rec.ok && (grid.history || grid.min_overlap) {
-                    let (history, min_overlap) =
+                if rec.ok && grid.has_run_arrays() {
+                    let (history, min_overlap, fields) =
                         self.recs.as_ref()?.read_group(i, grid, group_sum).ok()?;
                     rec.history = history;
                     rec.min_overlap_m = min_overlap;
+                    rec.fields = fields;
                 }
                 Some(rec)
             }
@@ -494,7 +495,7 @@ pub fn snapshot_of(
         points: grid.len(),
         probes: grid.probes.len(),
         moving_part: grid.moving_part,
-        run_groups: grid.history || grid.min_overlap,
+        run_groups: grid.has_run_arrays(),
         spectrum: grid.spectrum,
         sweep: sweep.text.clone(),
         auto: sweep

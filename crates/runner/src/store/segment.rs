@@ -15,8 +15,15 @@
 //! has_integrated (u8) [moving_part (u8: 0 whole chain, 1 moving part) | integrated_particles (u64)]
 //! has_spectrum (u8) [lowest_frequency_hz, highest_frequency_hz, gap_lower_hz, gap_upper_hz,
 //!   band_top_hz (f64 ×5)]
+//! [fields, only for a run that recorded them: 1 (u8) | n_samples (u64) | time_s f64 ×n_samples |
+//!   n_series (u32) | per series: quantity (u8: 0 contact_force, 1 displacement, 2 velocity) |
+//!   width (u64) | values f64 ×(n_samples · width), time slowest]
 //! checksum (32)
 //! ```
+//!
+//! The space–time fields (`record.fields`) are an optional trailing part of format 4: a record
+//! without them is byte for byte what earlier versions wrote (which read it), one with them is
+//! longer (earlier versions, which know no fields, take it as damaged and compute the run again).
 //!
 //! Floats are stored as their bits, so a record read back is bitwise the record written.
 //!
@@ -30,7 +37,9 @@
 //! they cannot be looked up anyway, since their runs were hashed with numerics version 1 and are
 //! recomputed.
 
-use chainsweep_solver::observe::probes::{History, ProbeSummary};
+use chainsweep_solver::observe::probes::{
+    FieldQuantity, FieldSeries, Fields, History, ProbeSummary,
+};
 use sha2::{Digest, Sha256};
 
 use chainsweep_solver::spectrum::SpectrumSummary;
@@ -124,6 +133,17 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
             }
         }
     }
+    if let Some(f) = &rec.fields {
+        b.push(1);
+        b.extend_from_slice(&(f.time_s.len() as u64).to_le_bytes());
+        f.time_s.iter().for_each(|&x| put_f64(&mut b, x));
+        put_u32(&mut b, f.series.len() as u32);
+        for s in &f.series {
+            b.push(s.quantity.code());
+            b.extend_from_slice(&(s.width as u64).to_le_bytes());
+            s.values.iter().for_each(|&x| put_f64(&mut b, x));
+        }
+    }
     let sum: [u8; 32] = Sha256::digest(&b).into();
     b.extend_from_slice(&sum);
     b
@@ -203,6 +223,28 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
+    let fields = if magic == MAGIC && r.at < body.len() {
+        if r.take(1)?[0] != 1 {
+            return None;
+        }
+        let samples = r.u64()? as usize;
+        let time_s = r.f64s(samples)?;
+        let n = r.u32()? as usize;
+        let mut series = Vec::with_capacity(n.min(FieldQuantity::ALL.len()));
+        for _ in 0..n {
+            let quantity = FieldQuantity::from_code(r.take(1)?[0])?;
+            let width = r.u64()? as usize;
+            let values = r.f64s(samples.checked_mul(width)?)?;
+            series.push(FieldSeries {
+                quantity,
+                width,
+                values,
+            });
+        }
+        Some(Fields { time_s, series })
+    } else {
+        None
+    };
     if r.at != body.len() {
         return None;
     }
@@ -227,6 +269,7 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
         probes,
         min_overlap_m,
         history,
+        fields,
         spectrum,
     })
 }
@@ -335,6 +378,21 @@ mod tests {
                 time_s: vec![0.0, 1e-6],
                 values: vec![vec![1.0, 2.0]],
             }),
+            fields: Some(Fields {
+                time_s: vec![0.0, 1e-6],
+                series: vec![
+                    FieldSeries {
+                        quantity: FieldQuantity::ContactForce,
+                        width: 3,
+                        values: vec![0.0, 1.5, -0.0, 2.0, f64::NAN, 4.0],
+                    },
+                    FieldSeries {
+                        quantity: FieldQuantity::Velocity,
+                        width: 2,
+                        values: vec![1.3, 0.0, 1.2, 0.1],
+                    },
+                ],
+            }),
             spectrum: Some(SpectrumSummary {
                 lowest_frequency_hz: 17.0,
                 highest_frequency_hz: 2.4e4,
@@ -352,11 +410,31 @@ mod tests {
             (12, 2.5e-6f64.to_bits())
         );
         assert_eq!(back.warnings, "first\nsecond ü");
+        let f = back.fields.as_ref().unwrap();
+        assert_eq!(f.series[1].quantity, FieldQuantity::Velocity);
+        assert_eq!(f.series[0].values[2].to_bits(), (-0.0f64).to_bits());
+        // Without fields, the record is what earlier versions wrote: the fields' part is all it
+        // adds (1 + 8 + 2 × 8 + 4 + 2 × (1 + 8) + 10 × 8 bytes).
+        let without = encode(&RunRecord {
+            fields: None,
+            ..rec.clone()
+        });
+        assert_eq!(bytes.len() - without.len(), 1 + 8 + 16 + 4 + 18 + 80);
+        assert!(decode(&without).unwrap().fields.is_none());
+        // A fields part with a bad marker or quantity is damage.
+        let mut bad = bytes.clone();
+        let at = without.len() - 32;
+        bad[at] = 2;
+        let n = bad.len() - 32;
+        let sum: [u8; 32] = Sha256::digest(&bad[..n]).into();
+        bad[n..].copy_from_slice(&sum);
+        assert!(decode(&bad).is_none());
         assert_eq!(
             (back.integrated_particles, back.moving_part),
             (Some(192), Some(true))
         );
         let whole = RunRecord {
+            fields: None,
             integrated_particles: Some(601),
             moving_part: Some(false),
             ..rec.clone()

@@ -126,6 +126,176 @@ impl Default for LeadingPulseSpec {
     }
 }
 
+/// A quantity of a space–time field ([`FieldSpec`]): one value per contact or per particle at
+/// every field instant.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
+pub enum FieldQuantity {
+    /// The total force of every contact, N: what a `contact_force` probe on it reads (the preload
+    /// subtracted with `record.preload: subtract`).
+    ContactForce,
+    /// The dynamic displacement of every particle, m: what a `displacement` probe reads.
+    Displacement,
+    /// The velocity of every particle, m/s: what a `velocity` probe reads.
+    Velocity,
+}
+
+impl FieldQuantity {
+    /// Every quantity, in the order a run stores them.
+    pub const ALL: [FieldQuantity; 3] = [
+        FieldQuantity::ContactForce,
+        FieldQuantity::Displacement,
+        FieldQuantity::Velocity,
+    ];
+
+    /// Its name in a scene (`contact_force`, `displacement`, `velocity`).
+    pub fn name(self) -> &'static str {
+        match self {
+            FieldQuantity::ContactForce => "contact_force",
+            FieldQuantity::Displacement => "displacement",
+            FieldQuantity::Velocity => "velocity",
+        }
+    }
+
+    /// SI unit of its values.
+    pub fn unit(self) -> &'static str {
+        match self {
+            FieldQuantity::ContactForce => "N",
+            FieldQuantity::Displacement => "m",
+            FieldQuantity::Velocity => "m/s",
+        }
+    }
+
+    /// Whether it has one value per contact (else one per particle).
+    pub fn per_contact(self) -> bool {
+        self == FieldQuantity::ContactForce
+    }
+
+    /// Its code in stored records (0, 1, 2).
+    pub fn code(self) -> u8 {
+        match self {
+            FieldQuantity::ContactForce => 0,
+            FieldQuantity::Displacement => 1,
+            FieldQuantity::Velocity => 2,
+        }
+    }
+
+    /// The quantity of a code ([`FieldQuantity::code`]).
+    pub fn from_code(code: u8) -> Option<FieldQuantity> {
+        FieldQuantity::ALL.into_iter().find(|q| q.code() == code)
+    }
+
+    /// The probe that reads this quantity at contact or particle `k` (1-based).
+    pub fn probe(self, k: usize) -> Probe {
+        match self {
+            FieldQuantity::ContactForce => Probe::ContactForce { contact: k },
+            FieldQuantity::Displacement => Probe::Displacement { particle: k },
+            FieldQuantity::Velocity => Probe::Velocity { particle: k },
+        }
+    }
+}
+
+/// Space–time fields: quantities of every contact or particle sampled every `interval_s` from
+/// the start, on the grid the histories use (`t = i · interval_s`), through the same dense output
+/// and the same arithmetic as the probes: a field of contact forces at the history interval holds
+/// bitwise the history of a `contact_force` probe on each contact.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
+pub struct FieldSpec {
+    /// What to record: any of `contact_force`, `displacement`, `velocity`, each once.
+    pub quantities: Vec<FieldQuantity>,
+    /// Sampling interval, s (> 0; at most [`MAX_HISTORY_VALUES_PER_RUN`] values per run over
+    /// every quantity).
+    pub interval_s: f64,
+}
+
+impl FieldSpec {
+    /// Values one sample holds over every quantity, for a chain of `particles` particles and
+    /// `contacts` contacts.
+    pub fn values_per_sample(&self, particles: usize, contacts: usize) -> usize {
+        self.quantities
+            .iter()
+            .map(|q| if q.per_contact() { contacts } else { particles })
+            .sum()
+    }
+
+    /// Checks the quantities and the interval; errors name the field.
+    pub fn validate(&self) -> Result<(), SpecError> {
+        if self.quantities.is_empty() {
+            return Err(spec_err(
+                "record.fields.quantities",
+                "must name at least one of contact_force, displacement, velocity",
+            ));
+        }
+        for (i, q) in self.quantities.iter().enumerate() {
+            if self.quantities[..i].contains(q) {
+                return Err(spec_err(
+                    &format!("record.fields.quantities[{i}]"),
+                    format!("{} is listed twice", q.name()),
+                ));
+            }
+        }
+        let v = self.interval_s;
+        if !(v.is_finite() && v > 0.0) {
+            return Err(spec_err(
+                "record.fields.interval_s",
+                format!("must be a finite number > 0, got {v}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The interval against the run's duration on the built `chain`: at most
+    /// [`MAX_HISTORY_VALUES_PER_RUN`] values per run over every quantity, so that no interval can
+    /// make a run allocate without bound.
+    pub fn check_samples(&self, chain: &Chain, duration_s: f64) -> Result<(), SpecError> {
+        let per_sample = self
+            .values_per_sample(chain.n_particles(), chain.n_contacts())
+            .max(1) as u64;
+        let most = (MAX_HISTORY_VALUES_PER_RUN / per_sample).max(1);
+        if samples_in(0.0, self.interval_s, duration_s) > most {
+            let smallest = duration_s / (most.max(2) - 1) as f64;
+            return Err(spec_err(
+                "record.fields.interval_s",
+                format!(
+                    "must be at least {smallest:e} s for this chain and duration (at most {MAX_HISTORY_VALUES_PER_RUN} field values per run, {per_sample} per sample), got {:e}",
+                    self.interval_s
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// A run's space–time fields ([`FieldSpec`]).
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+pub struct Fields {
+    /// Sample times, s: `i · interval_s`, `i = 0, 1, …`.
+    pub time_s: Vec<f64>,
+    /// One series per quantity, in the order of the record block.
+    pub series: Vec<FieldSeries>,
+}
+
+/// One quantity of a run's fields.
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+pub struct FieldSeries {
+    /// The quantity.
+    pub quantity: FieldQuantity,
+    /// Contacts or particles: values per sample.
+    pub width: usize,
+    /// Row-major over (time, contact or particle): `values[i · width + k]` is contact or
+    /// particle `k + 1` at `time_s[i]`.
+    pub values: Vec<f64>,
+}
+
 /// What a run records: nothing is computed or stored that is not asked for here.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
@@ -166,6 +336,13 @@ pub struct RecordSpec {
         serde(default, skip_serializing_if = "Option::is_none")
     )]
     pub spectrum: Option<SpectrumSpec>,
+    /// Space–time fields of every contact or particle (none by default; nothing is sampled
+    /// without them).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub fields: Option<FieldSpec>,
 }
 
 #[cfg(feature = "serde")]
@@ -189,6 +366,7 @@ impl Default for RecordSpec {
             leading_pulse: LeadingPulseSpec::default(),
             stop_after_leading_pulses: false,
             spectrum: None,
+            fields: None,
         }
     }
 }
@@ -197,13 +375,20 @@ impl RecordSpec {
     /// Whether a run needs its time integration: it records probes, histories or minimum
     /// overlaps, or nothing at all (a run with only `spectrum` is not integrated).
     pub fn needs_integration(&self) -> bool {
-        self.spectrum.is_none() || !self.probes.is_empty() || self.history || self.min_overlap
+        self.spectrum.is_none()
+            || !self.probes.is_empty()
+            || self.history
+            || self.min_overlap
+            || self.fields.is_some()
     }
 
     /// Checks the record block against a built chain; errors name the field (relative to `record`).
     pub fn validate(&self, chain: &Chain) -> Result<(), SpecError> {
         if let Some(spectrum) = &self.spectrum {
             spectrum.validate(chain)?;
+        }
+        if let Some(fields) = &self.fields {
+            fields.validate()?;
         }
         let n_p = chain.n_particles();
         let n_c = chain.n_contacts();
@@ -720,6 +905,100 @@ pub(crate) struct ObserverOptions {
     pub stop_after_leading_pulses: bool,
     pub impact_energy: f64,
     pub impact_momentum: f64,
+    /// Space–time fields to record, with the preload setting of the force probes.
+    pub fields: Option<(FieldSpec, Preload)>,
+}
+
+/// Samples a run's space–time fields: one probe per contact or particle of each quantity, on the
+/// grid `t0 + i · interval`, with the probes' own sampling ([`sample_grid`]) and arithmetic
+/// ([`ProbeSet::value`]).
+struct FieldRecorder {
+    probes: ProbeSet,
+    interval: f64,
+    /// The next instant's index on the grid.
+    next: u64,
+    components: Vec<usize>,
+    state: Vec<f64>,
+    batch: Vec<f64>,
+    out: Fields,
+}
+
+impl FieldRecorder {
+    fn new(chain: &Chain, spec: &FieldSpec, preload: Preload, t0: f64, t_end: f64) -> Self {
+        let (n_p, n_c) = (chain.n_particles(), chain.n_contacts());
+        let mut list = Vec::new();
+        let mut series = Vec::new();
+        for &q in &spec.quantities {
+            let width = if q.per_contact() { n_c } else { n_p };
+            list.extend((1..=width).map(|k| q.probe(k)));
+            series.push(FieldSeries {
+                quantity: q,
+                width,
+                values: Vec::new(),
+            });
+        }
+        // (The reference scales only serve leading pulses, which fields do not track.)
+        let probes = ProbeSet::new(chain, &list, preload, 1.0, 1.0, 1.0);
+        let components = probes.components();
+        let state = vec![0.0; components.last().map_or(0, |i| i + 1)];
+        // Bounded whatever the caller validated: a longer record grows as it goes.
+        let per_sample = list.len().max(1) as u64;
+        let cap = samples_in(t0, spec.interval_s, t_end)
+            .min((MAX_HISTORY_VALUES_PER_RUN / per_sample).max(1)) as usize;
+        for s in &mut series {
+            s.values.reserve_exact(cap * s.width);
+        }
+        // A batch of up to FIELD_BATCH_VALUES values (a long chain's batch holds fewer instants).
+        let rows = (FIELD_BATCH_VALUES / components.len().max(1)).clamp(1, SAMPLE_BATCH);
+        FieldRecorder {
+            batch: vec![0.0; rows * components.len()],
+            probes,
+            interval: spec.interval_s,
+            next: 0,
+            components,
+            state,
+            out: Fields {
+                time_s: Vec::with_capacity(cap),
+                series,
+            },
+        }
+    }
+
+    /// Appends one sample at `t` from the state components `get` gives.
+    #[inline]
+    fn push(probes: &ProbeSet, out: &mut Fields, t: f64, get: &impl Fn(usize) -> f64) {
+        out.time_s.push(t);
+        let mut k = 0;
+        for s in &mut out.series {
+            for _ in 0..s.width {
+                s.values.push(probes.value(k, get));
+                k += 1;
+            }
+        }
+    }
+
+    fn start(&mut self, t0: f64, y0: &[f64]) {
+        let get = |i: usize| y0[i];
+        FieldRecorder::push(&self.probes, &mut self.out, t0, &get);
+        self.next = 1;
+    }
+
+    fn step(&mut self, step: &dyn DenseStep, t0: f64, until: f64) {
+        let (probes, out) = (&self.probes, &mut self.out);
+        sample_grid(
+            step,
+            (t0, self.interval),
+            &mut self.next,
+            until,
+            &self.components,
+            &mut self.batch[..],
+            &mut self.state,
+            |t, state| {
+                let g = |i: usize| state[i];
+                FieldRecorder::push(probes, out, t, &g);
+            },
+        );
+    }
 }
 
 /// Time histories of the probes.
@@ -761,6 +1040,8 @@ pub(crate) struct RunObserver {
     next_history: u64,
     pub history: Option<History>,
     pub min_overlap: Option<Vec<f64>>,
+    /// The space–time fields, when recorded.
+    fields: Option<FieldRecorder>,
     pub energy_drift_max: f64,
     pub energy_drift_final: f64,
     pub momentum_residual_max: f64,
@@ -787,18 +1068,12 @@ pub(crate) struct RunObserver {
 }
 
 /// Fills `times` with the sample times `t0 + j·interval`, `j = first, first + 1, …`, up to `until`
-/// (at most [`SAMPLE_BATCH`] of them) and returns how many there are: one sampling grid for the
-/// summaries and the histories alike.
+/// (at most `times.len()` of them) and returns how many there are: one sampling grid for the
+/// summaries, the histories and the fields alike.
 #[inline]
-fn batch_times(
-    t0: f64,
-    first: u64,
-    interval: f64,
-    until: f64,
-    times: &mut [f64; SAMPLE_BATCH],
-) -> usize {
+fn batch_times(t0: f64, first: u64, interval: f64, until: f64, times: &mut [f64]) -> usize {
     let mut count = 0;
-    while count < SAMPLE_BATCH {
+    while count < times.len() {
         let t = t0 + (first + count as u64) as f64 * interval;
         if t > until {
             break;
@@ -831,8 +1106,9 @@ pub fn samples_in(t0: f64, interval: f64, t_end: f64) -> u64 {
 /// Feeds `sink` the instants `t0 + i·interval` of `grid` from `i = *next` up to `until` (and
 /// advances `*next` past them), each with the state whose `components` are interpolated in
 /// `step` there: in batches of [`SAMPLE_BATCH`] (one interpolant set-up for all of a batch),
-/// the samples then fed in time order exactly as one at a time. `batch` holds a batch's
-/// values, `state` the components of one sample.
+/// the samples then fed in time order exactly as one at a time (the values of a sample do not
+/// depend on the batch it is in). `batch` holds a batch's values (as many rows of the components
+/// as it has room for, at most [`SAMPLE_BATCH`]), `state` the components of one sample.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn sample_grid(
@@ -846,9 +1122,13 @@ fn sample_grid(
     mut sink: impl FnMut(f64, &[f64]),
 ) {
     let m = components.len();
+    let rows = batch
+        .len()
+        .checked_div(m)
+        .map_or(SAMPLE_BATCH, |r| r.clamp(1, SAMPLE_BATCH));
     let mut times = [0.0f64; SAMPLE_BATCH];
     loop {
-        let count = batch_times(t0, *next, interval, until, &mut times);
+        let count = batch_times(t0, *next, interval, until, &mut times[..rows]);
         if count == 0 {
             break;
         }
@@ -861,7 +1141,7 @@ fn sample_grid(
             sink(t, state);
         }
         *next += count as u64;
-        if count < SAMPLE_BATCH {
+        if count < rows {
             break;
         }
     }
@@ -869,6 +1149,10 @@ fn sample_grid(
 
 /// Most samples interpolated in one call ([`DenseStep::eval_components_at`]).
 const SAMPLE_BATCH: usize = 32;
+
+/// Most values in the fields' batch of samples (8 MiB): a chain of millions of particles
+/// interpolates one instant at a time rather than holding [`SAMPLE_BATCH`] whole states.
+const FIELD_BATCH_VALUES: usize = 1 << 20;
 
 impl RunObserver {
     pub fn new(
@@ -915,6 +1199,10 @@ impl RunObserver {
             min_overlap: opts
                 .min_overlap
                 .then(|| vec![f64::INFINITY; chain.n_contacts()]),
+            fields: opts
+                .fields
+                .as_ref()
+                .map(|(spec, preload)| FieldRecorder::new(chain, spec, *preload, t0, t_end)),
             energy_drift_max: 0.0,
             energy_drift_final: 0.0,
             momentum_residual_max: 0.0,
@@ -1002,6 +1290,11 @@ impl RunObserver {
         }
     }
 
+    /// The space–time fields recorded, when asked for (taken: a second call gives `None`).
+    pub fn take_fields(&mut self) -> Option<Fields> {
+        self.fields.take().map(|f| f.out)
+    }
+
     fn all_leading_passed(&self) -> bool {
         !self.trackers.is_empty() && self.trackers.iter().all(|t| t.phase == PulsePhase::Passed)
     }
@@ -1046,6 +1339,9 @@ impl StepObserver for RunObserver {
             }
         }
         self.next_history = 1;
+        if let Some(f) = &mut self.fields {
+            f.start(t0, y0);
+        }
         self.t_reached = t0;
     }
 
@@ -1089,6 +1385,9 @@ impl StepObserver for RunObserver {
                     },
                 );
             }
+        }
+        if let Some(f) = &mut self.fields {
+            f.step(step, self.t0, t1.min(self.t_end));
         }
         self.update_ledger(t1, step.y_end());
         self.t_reached = t1;

@@ -561,6 +561,9 @@ impl Scene {
         self.integrator.validate()?;
         self.record.validate(&chain)?;
         self.check_sample_counts()?;
+        if let Some(fields) = &self.record.fields {
+            fields.check_samples(&chain, self.duration_s)?;
+        }
         Ok(chain)
     }
 

@@ -13,7 +13,9 @@ use crate::integrate::{
     VelocityVerlet, Vern6,
 };
 use crate::motion::system::EnergyTerms;
-use crate::observe::probes::{History, ObserverOptions, ProbeSet, ProbeSummary, RunObserver};
+use crate::observe::probes::{
+    Fields, History, ObserverOptions, ProbeSet, ProbeSummary, RunObserver,
+};
 use crate::scene::{
     Excitation, ImpactScales, IntegratorSpec, Scene, MAX_HERTZ_OVERLAP_RATIO,
     MIN_PULSE_TO_TRANSIT_RATIO,
@@ -81,6 +83,8 @@ pub struct RunOutput {
     pub history: Option<History>,
     /// Minimum overlap of every contact over the run, m, when recorded.
     pub min_overlap_m: Option<Vec<f64>>,
+    /// Space–time fields, when recorded (`record.fields`).
+    pub fields: Option<Fields>,
     /// Largest |E(t) − E(0)| over accepted steps, relative to the impact energy (the excitation's
     /// energy scale, [`ImpactScales::energy_j`]).
     pub energy_drift_max: f64,
@@ -232,6 +236,11 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         stop_after_leading_pulses: scene.record.stop_after_leading_pulses,
         impact_energy: scales.energy_j,
         impact_momentum: scales.momentum,
+        fields: scene
+            .record
+            .fields
+            .clone()
+            .map(|f| (f, scene.record.preload)),
     };
     let spectrum = match &scene.record.spectrum {
         Some(spec) => Some(spec.summarise(&chain)?),
@@ -246,6 +255,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             probes: Vec::new(),
             history: None,
             min_overlap_m: None,
+            fields: None,
             energy_drift_max: 0.0,
             energy_drift_final: 0.0,
             momentum_residual_max: 0.0,
@@ -344,6 +354,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         impact_energy_j: scales.energy_j,
         min_overlap_m: observer.min_overlap.take(),
         history: observer.history.take(),
+        fields: observer.take_fields(),
         spectrum,
     })
 }

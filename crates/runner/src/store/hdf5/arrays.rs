@@ -13,6 +13,11 @@
 //!   variable) and `time_s` a variable over (grid…, `sample`) with each run's own instants.
 //! - `min_overlap_m` over (grid…, `contact`), NaN beyond a run's contacts and for failed and
 //!   pending runs, on the coordinate `contact` (1, 2, …).
+//! - the space–time fields (`record.fields`): `field_contact_force` over (grid…, `field_time_s`,
+//!   `contact`), `field_displacement` and `field_velocity` over (grid…, `field_time_s`,
+//!   `particle`), NaN after a run's end, beyond its contacts or particles and for failed and
+//!   pending runs; the coordinate `field_time_s` (`i · record.fields.interval_s`, the same at
+//!   every point), `particle` (1, 2, …) and `field_samples` over (grid…) (−1: none).
 //!
 //! The last dimension of each (time, sample, contact) can grow while the file is written (a run
 //! longer than the grid foresaw, as a searched duration gives). Chunks: every probe, the time
@@ -37,10 +42,11 @@ use super::{
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid};
 use crate::record::columns::{
-    distinct_units, split_name, CONTACT, HISTORY, HISTORY_SAMPLES, MIN_OVERLAP, SAMPLE, TIME,
+    distinct_units, field_name, split_name, CONTACT, FIELD_SAMPLES, FIELD_TIME, HISTORY,
+    HISTORY_SAMPLES, MIN_OVERLAP, PARTICLE, SAMPLE, TIME,
 };
-use crate::record::{RunRecord, INT_FILL};
-use chainsweep_solver::observe::probes::History;
+use crate::record::{RunArrays, RunRecord, INT_FILL};
+use chainsweep_solver::observe::probes::{FieldQuantity, FieldSeries, Fields, History};
 
 /// Long name of the histories.
 pub const HISTORY_LONG_NAME: &str =
@@ -50,6 +56,25 @@ pub const MIN_OVERLAP_LONG_NAME: &str = "minimum overlap of each contact over th
 /// Long name of the contact coordinate.
 pub const CONTACT_LONG_NAME: &str =
     "contact j, between particles j and j+1 (the last one: the wall)";
+/// Long name of the particle coordinate.
+pub const PARTICLE_LONG_NAME: &str = "particle i (1: the striker, when there is one)";
+/// Long name of the fields' time coordinate.
+pub const FIELD_TIME_LONG_NAME: &str = "time of the field samples";
+
+/// Long name of the field of `quantity`.
+pub fn field_long_name(quantity: FieldQuantity) -> &'static str {
+    match quantity {
+        FieldQuantity::ContactForce => {
+            "total force of every contact, sampled every record.fields.interval_s"
+        }
+        FieldQuantity::Displacement => {
+            "dynamic displacement of every particle, sampled every record.fields.interval_s"
+        }
+        FieldQuantity::Velocity => {
+            "velocity of every particle, sampled every record.fields.interval_s"
+        }
+    }
+}
 
 /// Bytes of one chunk at most (unless one run's one time sample of every probe is more): 256
 /// KiB, whose 8 runs × 4 probes × 1 001 samples of the measured sweep read at 620 MB/s with h5py
@@ -85,15 +110,36 @@ pub fn history_chunk(shape: &[usize], probes: usize, width: usize) -> Vec<usize>
     run_chunk(shape, &[probes, time])
 }
 
+/// The chunk of a field dataset over (grid `shape`…, `samples`, `width`): up to
+/// [`ARRAY_CHUNK_BYTES`] of every contact or particle (as many as fit) over as many instants as
+/// fit beside them.
+pub fn field_chunk(shape: &[usize], samples: usize, width: usize) -> Vec<usize> {
+    let most = ARRAY_CHUNK_BYTES / 8;
+    let width = width.clamp(1, most);
+    let time = (most / width).clamp(1, samples.max(1));
+    run_chunk(shape, &[time, width])
+}
+
 /// A float array over (grid…, …) whose last dimension can grow, chunked `chunk`, shuffled,
 /// deflated and checksummed, NaN where nothing is written (its fill value and `_FillValue`).
 fn growing_dataset(file: &File, name: &str, shape: &[usize], chunk: Vec<usize>) -> Result<Dataset> {
-    let last = shape.len() - 1;
+    growing_dataset_in(file, name, shape, chunk, 1)
+}
+
+/// [`growing_dataset`] whose last `growing` dimensions can grow.
+fn growing_dataset_in(
+    file: &File,
+    name: &str,
+    shape: &[usize],
+    chunk: Vec<usize>,
+    growing: usize,
+) -> Result<Dataset> {
+    let first_growing = shape.len() - growing;
     let extents: Vec<Extent> = shape
         .iter()
         .enumerate()
         .map(|(k, &n)| {
-            if k == last {
+            if k >= first_growing {
                 Extent::resizable(n)
             } else {
                 Extent::fixed(n)
@@ -181,6 +227,109 @@ pub(super) struct ArrayWriter {
     shape: Vec<usize>,
     history: Option<HistoryWriter>,
     min_overlap: Option<MinOverlapWriter>,
+    fields: Option<FieldWriter>,
+}
+
+struct FieldPart {
+    quantity: FieldQuantity,
+    data: Dataset,
+    /// Contacts or particles: the dataset's current width.
+    width: usize,
+}
+
+struct FieldWriter {
+    parts: Vec<FieldPart>,
+    /// Samples of every point (INT_FILL: none).
+    samples: Vec<i64>,
+    /// The time axis's current length.
+    length: usize,
+    /// The interval every point shares.
+    interval: f64,
+}
+
+impl FieldWriter {
+    fn create(file: &File, grid: &Grid) -> Result<Option<FieldWriter>> {
+        let Some(spec) = &grid.fields else {
+            return Ok(None);
+        };
+        let shape = &grid.shape;
+        let length = grid.max_field_samples.max(1);
+        let parts = spec
+            .quantities
+            .iter()
+            .map(|&quantity| {
+                let width = if quantity.per_contact() {
+                    grid.max_contacts
+                } else {
+                    grid.max_particles
+                }
+                .max(1);
+                let mut full = shape.clone();
+                full.extend([length, width]);
+                let data = growing_dataset_in(
+                    file,
+                    field_name(quantity),
+                    &full,
+                    field_chunk(shape, length, width),
+                    2,
+                )?;
+                Ok(FieldPart {
+                    quantity,
+                    data,
+                    width,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Some(FieldWriter {
+            parts,
+            samples: vec![INT_FILL; grid.len()],
+            length,
+            interval: spec.interval_s,
+        }))
+    }
+
+    fn write(&mut self, shape: &[usize], index: usize, f: &Fields) -> Result<()> {
+        let len = f.time_s.len();
+        let quantities: Vec<FieldQuantity> = f.series.iter().map(|s| s.quantity).collect();
+        let wanted: Vec<FieldQuantity> = self.parts.iter().map(|p| p.quantity).collect();
+        if quantities != wanted {
+            return Err(Error::Other(format!(
+                "run {index}'s fields hold {quantities:?}, the file {wanted:?}"
+            )));
+        }
+        if let Some(k) =
+            (0..len).find(|&k| f.time_s[k].to_bits() != (k as f64 * self.interval).to_bits())
+        {
+            return Err(Error::Other(format!(
+                "run {index}'s field sample {k} is at {:e} s, not at {k} × the interval {:e} s the file's one time axis holds",
+                f.time_s[k], self.interval
+            )));
+        }
+        if len > self.length {
+            self.length = len;
+        }
+        for (p, s) in self.parts.iter_mut().zip(&f.series) {
+            if s.values.len() != len * s.width {
+                return Err(Error::Other(format!(
+                    "run {index}'s {} field holds {} values for {len} instants of {}",
+                    s.quantity.name(),
+                    s.values.len(),
+                    s.width
+                )));
+            }
+            p.width = p.width.max(s.width);
+            let have = p.data.shape();
+            let g = shape.len();
+            if have[g] < self.length || have[g + 1] < p.width {
+                let mut want = shape.to_vec();
+                want.extend([self.length.max(have[g]), p.width.max(have[g + 1])]);
+                p.data.resize(want)?;
+            }
+            write_rows(&p.data, shape, index, &[len, s.width], &s.values)?;
+        }
+        self.samples[index] = len as i64;
+        Ok(())
+    }
 }
 
 struct HistoryPart {
@@ -270,10 +419,12 @@ impl ArrayWriter {
         } else {
             None
         };
+        let fields = FieldWriter::create(file, grid)?;
         Ok(ArrayWriter {
             shape,
             history,
             min_overlap,
+            fields,
         })
     }
 
@@ -341,6 +492,9 @@ impl ArrayWriter {
             w.buf.clear();
             w.buf.extend_from_slice(m);
             write_rows(&w.data, shape, index, &[m.len()], &w.buf)?;
+        }
+        if let (Some(w), Some(f)) = (&mut self.fields, &rec.fields) {
+            w.write(shape, index, f)?;
         }
         Ok(())
     }
@@ -433,18 +587,88 @@ impl ArrayWriter {
                 attr_str(&d, "coordinates", &listed(&[]))?;
             }
         }
-        if let Some(w) = self.min_overlap {
-            let contacts: Vec<i64> = (1..=w.width as i64).collect();
-            let c = checked_dataset(file, CONTACT, &[w.width], &contacts)?;
+        // The contacts' coordinate, shared by the minimum overlaps and the contact forces' field
+        // (both as wide as the widest chain's contacts), and the particles'.
+        let field_parts = self.fields.as_ref().map_or(&[][..], |f| &f.parts[..]);
+        let width_of = |contacts: bool| {
+            field_parts
+                .iter()
+                .filter(|p| p.quantity.per_contact() == contacts)
+                .map(|p| p.width)
+                .max()
+        };
+        let contact_width = match (&self.min_overlap, width_of(true)) {
+            (Some(w), f) => Some(w.width.max(f.unwrap_or(0))),
+            (None, f) => f,
+        };
+        let particle_width = width_of(false);
+        let coordinate = |name: &str, width: usize, long_name: &str| -> Result<Dataset> {
+            let k: Vec<i64> = (1..=width as i64).collect();
+            let c = checked_dataset(file, name, &[width], &k)?;
             attr_str(&c, "units", "1")?;
-            attr_str(&c, "long_name", CONTACT_LONG_NAME)?;
-            set_scale(&c, CONTACT)?;
+            attr_str(&c, "long_name", long_name)?;
+            set_scale(&c, name)?;
+            Ok(c)
+        };
+        let contact = contact_width
+            .map(|w| coordinate(CONTACT, w, CONTACT_LONG_NAME))
+            .transpose()?;
+        let particle = particle_width
+            .map(|w| coordinate(PARTICLE, w, PARTICLE_LONG_NAME))
+            .transpose()?;
+        if let Some(w) = self.min_overlap {
+            let c = contact.as_ref().expect("made with the minimum overlaps");
+            let width = contact_width.expect("made with the minimum overlaps");
+            if width > w.width {
+                let mut s = self.shape.clone();
+                s.push(width);
+                w.data.resize(s)?;
+            }
             attach_grid(&w.data)?;
-            attach_scale(&w.data, &c, g, CONTACT)?;
+            attach_scale(&w.data, c, g, CONTACT)?;
             attr_str(&w.data, "units", "m")?;
             attr_str(&w.data, "long_name", MIN_OVERLAP_LONG_NAME)?;
             if !coordinates.is_empty() {
                 attr_str(&w.data, "coordinates", &listed(&[]))?;
+            }
+        }
+        if let Some(w) = self.fields {
+            let t: Vec<f64> = (0..w.length).map(|k| k as f64 * w.interval).collect();
+            let time = checked_dataset(file, FIELD_TIME, &[w.length], &t)?;
+            attr_str(&time, "units", "s")?;
+            attr_str(&time, "long_name", FIELD_TIME_LONG_NAME)?;
+            set_scale(&time, FIELD_TIME)?;
+            for p in &w.parts {
+                let (scale, name, width) = if p.quantity.per_contact() {
+                    (contact.as_ref(), CONTACT, contact_width)
+                } else {
+                    (particle.as_ref(), PARTICLE, particle_width)
+                };
+                let (scale, width) = (scale.expect("made above"), width.expect("made above"));
+                let mut s = self.shape.clone();
+                s.extend([w.length, width]);
+                if p.data.shape() != s {
+                    p.data.resize(s)?;
+                }
+                attach_grid(&p.data)?;
+                attach_scale(&p.data, &time, g, FIELD_TIME)?;
+                attach_scale(&p.data, scale, g + 1, name)?;
+                attr_str(&p.data, "units", p.quantity.unit())?;
+                attr_str(&p.data, "long_name", field_long_name(p.quantity))?;
+                if !coordinates.is_empty() {
+                    attr_str(&p.data, "coordinates", &listed(&[]))?;
+                }
+            }
+            let d = filled_checked_dataset(file, FIELD_SAMPLES, &self.shape, &w.samples, INT_FILL)?;
+            attach_grid(&d)?;
+            attr_str(&d, "units", "1")?;
+            attr_str(
+                &d,
+                "long_name",
+                "number of field samples the run recorded (its fields are NaN after them)",
+            )?;
+            if !coordinates.is_empty() {
+                attr_str(&d, "coordinates", &listed(&[]))?;
             }
         }
         Ok(())
@@ -461,6 +685,14 @@ pub struct ArrayReader {
     samples: Vec<i64>,
     time: Time,
     min_overlap: Option<Dataset>,
+    fields: Option<FieldReader>,
+}
+
+struct FieldReader {
+    /// Each quantity's dataset.
+    parts: Vec<(FieldQuantity, Dataset)>,
+    samples: Vec<i64>,
+    time: Vec<f64>,
 }
 
 enum Time {
@@ -507,6 +739,31 @@ impl ArrayReader {
         } else {
             None
         };
+        let fields = match &grid.fields {
+            Some(spec) => {
+                let parts = spec
+                    .quantities
+                    .iter()
+                    .map(|&q| Ok((q, file.dataset(field_name(q))?)))
+                    .collect::<Result<Vec<_>>>()?;
+                // (Unchecked: a damaged count or instant is caught by the run's checksum.)
+                let samples = read_unchecked::<i64>(&file.dataset(FIELD_SAMPLES)?)?;
+                if samples.len() != grid.len() {
+                    return Err(Error::Other(format!(
+                        "{FIELD_SAMPLES} holds {} values for {} points",
+                        samples.len(),
+                        grid.len()
+                    )));
+                }
+                let time = read_unchecked::<f64>(&file.dataset(FIELD_TIME)?)?;
+                Some(FieldReader {
+                    parts,
+                    samples,
+                    time,
+                })
+            }
+            None => None,
+        };
         Ok(ArrayReader {
             shape,
             parts,
@@ -514,12 +771,13 @@ impl ArrayReader {
             samples,
             time,
             min_overlap,
+            fields,
         })
     }
 
-    /// The history (when recorded) and minimum overlaps (when recorded) of the run at flat index
+    /// The history, minimum overlaps and fields (each when recorded) of the run at flat index
     /// `index`, as stored.
-    pub fn read(&self, index: usize) -> Result<(Option<History>, Option<Vec<f64>>)> {
+    pub fn read(&self, index: usize) -> Result<RunArrays> {
         let history = match &self.time {
             Time::None => None,
             time => {
@@ -566,6 +824,53 @@ impl ArrayReader {
             }
             None => None,
         };
-        Ok((history, min_overlap))
+        let fields = match &self.fields {
+            Some(r) => Some(r.read(&self.shape, index)?),
+            None => None,
+        };
+        Ok((history, min_overlap, fields))
+    }
+}
+
+impl FieldReader {
+    /// The fields of the run at flat index `index`, as stored: its instants, and each quantity
+    /// over its own contacts or particles (those before the fill: a field value is a finite
+    /// number, never NaN).
+    fn read(&self, shape: &[usize], index: usize) -> Result<Fields> {
+        let len = self.samples[index];
+        if len < 0 {
+            return Err(Error::Other(format!(
+                "{FIELD_SAMPLES} says the run has no fields"
+            )));
+        }
+        let len = len as usize;
+        let time_s = self
+            .time
+            .get(..len)
+            .ok_or_else(|| {
+                Error::Other(format!(
+                    "{FIELD_SAMPLES} ({len}) exceeds the time axis ({})",
+                    self.time.len()
+                ))
+            })?
+            .to_vec();
+        let mut series = Vec::with_capacity(self.parts.len());
+        for (quantity, d) in &self.parts {
+            let all = d.shape().last().copied().unwrap_or(0);
+            let rows = read_rows(d, shape, index, &[len, all])?;
+            let width = rows
+                .get(..all.min(rows.len()))
+                .map_or(0, |first| first.iter().take_while(|x| !x.is_nan()).count());
+            let mut values = Vec::with_capacity(len * width);
+            for row in rows.chunks_exact(all.max(1)) {
+                values.extend_from_slice(&row[..width]);
+            }
+            series.push(FieldSeries {
+                quantity: *quantity,
+                width,
+                values,
+            });
+        }
+        Ok(Fields { time_s, series })
     }
 }

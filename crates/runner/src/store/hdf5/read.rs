@@ -26,7 +26,7 @@ use crate::identity::RunHash;
 use crate::record::columns::{
     distinct_units, history_checksum, split_name, Column, ColumnData, Dtype, Table, Units, COLUMNS,
 };
-use crate::record::{RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use crate::record::{RunArrays, RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use crate::sweep::Sweep;
 
 /// The first layout whose files carry checksums.
@@ -439,11 +439,12 @@ impl FileRecords {
         let Some(mut rec) = self.table.record(i, hash, whole_chain) else {
             return PointRead::Pending;
         };
-        if rec.ok && (grid.history || grid.min_overlap) {
+        if rec.ok && grid.has_run_arrays() {
             match self.read_group(i, grid, self.table.checksum_at("history_checksum", i)) {
-                Ok((history, min_overlap)) => {
+                Ok((history, min_overlap, fields)) => {
                     rec.history = history;
                     rec.min_overlap_m = min_overlap;
+                    rec.fields = fields;
                 }
                 Err(why) => return PointRead::Damaged(why),
             }
@@ -460,7 +461,7 @@ impl FileRecords {
         i: usize,
         grid: &Grid,
         checksum: u64,
-    ) -> std::result::Result<(Option<History>, Option<Vec<f64>>), String> {
+    ) -> std::result::Result<RunArrays, String> {
         if self.layout_version >= ARRAYS_LAYOUT {
             let arrays = self
                 .arrays
@@ -474,19 +475,23 @@ impl FileRecords {
                 })
                 .as_ref()
                 .map_err(String::clone)?;
-            let (history, min_overlap) = arrays.read(i).map_err(|e| {
-                format!(
-                    "its histories or minimum overlaps cannot be read ({})",
-                    brief(&e)
-                )
-            })?;
-            if history_checksum(history.as_ref(), min_overlap.as_deref()) != checksum {
-                return Err(
-                    "its histories or minimum overlaps do not match their checksum (history_checksum)"
-                        .to_string(),
-                );
+            // (Fields are named only where the grid records them.)
+            let what = if grid.fields.is_some() {
+                "histories, minimum overlaps or fields"
+            } else {
+                "histories or minimum overlaps"
+            };
+            let (history, min_overlap, fields) = arrays
+                .read(i)
+                .map_err(|e| format!("its {what} cannot be read ({})", brief(&e)))?;
+            if history_checksum(history.as_ref(), min_overlap.as_deref(), fields.as_ref())
+                != checksum
+            {
+                return Err(format!(
+                    "its {what} do not match their checksum (history_checksum)"
+                ));
             }
-            return Ok((history, min_overlap));
+            return Ok((history, min_overlap, fields));
         }
         let name = run_group_name_in(self.layout_version, grid.len(), i);
         let path = format!("runs/{name}");
@@ -511,13 +516,15 @@ impl FileRecords {
         };
         let (history, min_overlap) =
             read().map_err(|e| format!("its group {path} cannot be read ({})", brief(&e)))?;
-        if self.checked() && history_checksum(history.as_ref(), min_overlap.as_deref()) != checksum
+        if self.checked()
+            && history_checksum(history.as_ref(), min_overlap.as_deref(), None) != checksum
         {
             return Err(format!(
                 "its group {path} (histories, minimum overlaps) does not match its checksum (history_checksum)"
             ));
         }
-        Ok((history, min_overlap))
+        // (Run groups, layouts 4 and earlier, never held fields.)
+        Ok((history, min_overlap, None))
     }
 
     /// The `auto` root attribute (what `integrator: auto` chose, JSON), when the file has one.
@@ -580,8 +587,10 @@ impl FileRecords {
         if let Ok(names) = self.file.member_names() {
             for name in names {
                 let over_points = crate::record::columns::is_column_dataset(&name)
-                    || name == crate::record::columns::HISTORY_SAMPLES;
+                    || name == crate::record::columns::HISTORY_SAMPLES
+                    || name == crate::record::columns::FIELD_SAMPLES;
                 if matches!(name.as_str(), "runs" | "history" | "min_overlap_m")
+                    || crate::record::columns::FIELD_NAMES.contains(&name.as_str())
                     || name.starts_with("history_") && name != "history_samples"
                     || name == "time_s" && self.file.dataset(&name).is_ok_and(|d| d.ndim() > 1)
                     || over_points && points_damaged

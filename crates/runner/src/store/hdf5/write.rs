@@ -41,7 +41,7 @@ pub fn presence(grid: &Grid) -> Presence {
     Presence {
         probes: grid.probes.len(),
         moving_part: grid.moving_part,
-        run_groups: grid.history || grid.min_overlap,
+        run_groups: grid.has_run_arrays(),
         spectrum: grid.spectrum,
     }
 }
