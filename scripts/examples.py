@@ -352,16 +352,16 @@ def dimer_bands():
 
 
 def colliding_waves():
-    """Space-time maps of the force of every contact: two solitary waves meeting head-on between
-    two walls, equal and unequal."""
-    with load("colliding-waves") as sw:
-        speeds = sw.coord("velocity_of_particle_41_m_s")
+    """Space-time maps of the force of every contact (the run's `record.fields`): two solitary
+    waves meeting head-on between two walls, equal and unequal."""
+    path = EXAMPLES / "colliding-waves.h5"
+    with chainsweep.open(path, histories=True) as ds:
+        speeds = ds["velocity_of_particle_41_m_s"].values
         fig, axes = plt.subplots(1, len(speeds), figsize=(5 * len(speeds), 4.2), sharey=True)
         for ax, v in zip(np.atleast_1d(axes), speeds):
-            h = sw.history(velocity_of_particle_41_m_s=v)
-            t = h["time_s"] * 1e3
-            forces = np.array([h[p] for p in sw.probes])  # (contact, time)
-            image = ax.pcolormesh(np.arange(1, len(sw.probes) + 1), t, forces.T, shading="nearest", cmap="magma")
+            field = ds["field_contact_force"].sel(velocity_of_particle_41_m_s=v)
+            t = field["field_time_s"].values * 1e3
+            image = ax.pcolormesh(field["contact"].values, t, field.values, shading="nearest", cmap="magma")
             ax.set_xlabel("contact (42: the top wall, 41: the wall under the chain)")
             ax.set_title(f"particle 1 at 0.5 m/s, particle 41 at {-v:g} m/s", fontsize=9)
             fig.colorbar(image, ax=ax, label="contact force (N)")
@@ -386,7 +386,7 @@ def between_walls():
         ax.axhline(5 / 9, color="k", ls="--", lw=1, label="5/9 (virial theorem, degree 5/2)")
         ax.set_xscale("log")
         ax.set_xlabel("time (ms)")
-        ax.set_ylabel("running mean of kinetic / total energy")
+        ax.set_ylabel("⟨K⟩ / E, running mean")
         ax.set_ylim(0.4, 1.02)
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3, which="both")

@@ -357,3 +357,40 @@ fn random_initial_velocities_depend_on_the_seed_alone() {
     let other = scene(between_walls(2000), bare(true), state(6), 1e-4);
     assert_ne!(y, other.initial_state(&chain));
 }
+
+#[test]
+fn plastic_waves_between_two_walls_close_the_ledger_and_stay_symmetric() {
+    use chainsweep_solver::contact::LawSpec;
+    use chainsweep_solver::problems::rule;
+    let n = 12;
+    let mut spec = between_walls(n);
+    let thornton = Some(LawSpec::Thornton {
+        yield_pressure_pa: None,
+        yield_velocity_m_s: Some(0.1),
+    });
+    spec.contacts = vec![
+        rule("ball", "ball", thornton, None),
+        rule("ball", "wall", thornton, None),
+        rule("ball", "top_wall", thornton, None),
+    ];
+    let state = InitialState {
+        particles: vec![start(1, 2.0), start(n, -2.0)],
+        random_velocity: None,
+    };
+    let mut s = scene(spec, bare(true), state, 3e-4);
+    for particle in [1, n, 3, n - 2] {
+        s.record.probes.push(Probe::Velocity { particle });
+    }
+    s.record.history = true;
+    s.record.history_interval_s = 1e-6;
+    let out = run(&s).unwrap();
+    assert!(out.final_energy.plastic > 0.05 * out.impact_energy_j);
+    assert!(out.energy_drift_max < 1e-8, "{}", out.energy_drift_max);
+    assert!(out.momentum_residual_max < 1e-8, "{}", out.momentum_residual_max);
+    let h = out.history.unwrap();
+    for (a, b) in [(0, 1), (2, 3)] {
+        for (u, w) in h.values[a].iter().zip(&h.values[b]) {
+            assert!((u + w).abs() <= 1e-10 * 2.0, "{u} {w}");
+        }
+    }
+}

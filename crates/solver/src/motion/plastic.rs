@@ -182,28 +182,39 @@ impl OdeSystem for PlasticChainSystem {
                 }
             };
         }
+        // Neighbours' contacts first, in the order every other kernel sums them; then the wall
+        // under the chain or the ring's closing contact (contact N − 1), then the top wall.
+        let m = n - 1;
+        let force = &self.force;
+        let below = |c: usize| self.ends.get(c).filter(|e| e.below.is_none());
+        let wall_force = if below(m).is_some() { force[m] } else { 0.0 };
         let g = self.gravity;
         let im = &self.inv_mass;
-        dv.fill(g);
-        // The walls' impulse on the chain, towards the wall under it.
-        let mut wall_force = 0.0;
-        for (e, &f) in self.ends.iter().zip(&self.force) {
+        if n == 1 {
+            dv[0] = g - wall_force * im[0];
+        } else {
+            dv[0] = g - force[0] * im[0];
+            for i in 1..n - 1 {
+                dv[i] = g + (force[i - 1] - force[i]) * im[i];
+            }
+            dv[n - 1] = g + (force[n - 2] - wall_force) * im[n - 1];
+        }
+        let mut top_force = 0.0;
+        for (e, &f) in self.ends.iter().zip(force).skip(m) {
             match (e.above, e.below) {
+                // The ring's closing contact, between particles N and 1.
                 (Some(a), Some(b)) => {
                     dv[a] -= f * im[a];
                     dv[b] += f * im[b];
                 }
-                (Some(a), None) => {
-                    dv[a] -= f * im[a];
-                    wall_force += f;
-                }
                 (None, Some(b)) => {
                     dv[b] += f * im[b];
-                    wall_force -= f;
+                    top_force = f;
                 }
-                (None, None) => unreachable!("a contact touches a particle"),
+                _ => {}
             }
         }
+        let wall_force = wall_force - top_force;
         let (amplitude, omega, duration) = self.pulse;
         let pulse = if amplitude != 0.0 && t < duration {
             amplitude * (omega * t).sin()
