@@ -17,7 +17,6 @@ pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
 use crate::chain::sequence::SequenceSpec;
 use crate::contact::{overlap_at_force, ContactParams, Damping, DissipationSpec, Thornton};
-use crate::integrate::Switch;
 pub(crate) use crate::spec::check_positive;
 pub use crate::spec::{spec_err, SpecError};
 
@@ -1196,24 +1195,6 @@ impl ContactEnds {
             read(&x, self.above) - read(&x, self.below) + self.offset,
             read(&v, self.above) - read(&v, self.below),
         )
-    }
-
-    /// The contact's overlap as a switching function of the positions (zero where it opens).
-    pub fn switch(&self) -> Switch {
-        match (self.above, self.below) {
-            (Some(a), b) => Switch {
-                plus: a,
-                minus: b,
-                offset: self.offset,
-            },
-            // `x_top − x₁` vanishes where `x₁ − x_top` does.
-            (None, Some(b)) => Switch {
-                plus: b,
-                minus: None,
-                offset: -self.offset,
-            },
-            (None, None) => unreachable!("a contact touches a particle"),
-        }
     }
 }
 

@@ -98,7 +98,7 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
             force: vec![0.0; n],
             power: vec![0.0; n],
             switches: (0..chain.n_contacts())
-                .map(|c| chain.contact_ends(c).switch())
+                .map(|c| crate::motion::contact_switch(&chain.contact_ends(c)))
                 .collect(),
         }
     }

@@ -8,3 +8,25 @@ pub mod general;
 mod jacobian;
 pub mod plastic;
 pub mod system;
+
+use crate::chain::model::ContactEnds;
+use crate::integrate::Switch;
+
+/// A contact's overlap as a switching function of the positions (zero where it opens), for the
+/// integrators that put step boundaries there.
+pub(crate) fn contact_switch(e: &ContactEnds) -> Switch {
+    match (e.above, e.below) {
+        (Some(a), b) => Switch {
+            plus: a,
+            minus: b,
+            offset: e.offset,
+        },
+        // `x_top − x₁` vanishes where `x₁ − x_top` does.
+        (None, Some(b)) => Switch {
+            plus: b,
+            minus: None,
+            offset: -e.offset,
+        },
+        (None, None) => unreachable!("a contact touches a particle"),
+    }
+}

@@ -57,7 +57,7 @@ impl PlasticChainSystem {
         let mut plastic = vec![None; m];
         let mut histories = Vec::new();
         let ends: Vec<ContactEnds> = (0..m).map(|c| chain.contact_ends(c)).collect();
-        let mut switches: Vec<Switch> = ends.iter().map(ContactEnds::switch).collect();
+        let mut switches: Vec<Switch> = ends.iter().map(crate::motion::contact_switch).collect();
         for (c, t, h) in chain.plastic_contacts() {
             plastic[c] = Some((t, h));
             histories.push((c, h));
