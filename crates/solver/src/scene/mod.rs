@@ -526,7 +526,7 @@ impl Scene {
             (false, None, None) => {
                 return Err(spec_err(
                     "excitation",
-                    "required for a chain without a striker: {\"impulse\": {\"velocity_m_s\": …}} or {\"half_sine_force\": {\"amplitude_n\": …, \"duration_s\": …}}",
+                    "required for a chain without a striker: {\"impulse\": {\"velocity_m_s\": …}}, {\"half_sine_force\": {\"amplitude_n\": …, \"duration_s\": …}} or {\"initial_state\": {\"particles\": [{\"particle\": …, \"velocity_m_s\": …}]}}",
                 ))
             }
             (false, None, Some(Excitation::Impulse { velocity_m_s })) => {
