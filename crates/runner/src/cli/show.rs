@@ -813,8 +813,11 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
             "impact_energy_j": num(rec.impact_energy_j),
             "probes": probes,
             "history_samples": rec.history.as_ref().map(|h| h.time_s.len()),
-            "field_samples": rec.fields.as_ref().map(|f| f.time_s.len()),
         });
+        // Only where fields are recorded, so that the result of every other run reads as it did.
+        if let Some(f) = &rec.fields {
+            out["result"]["field_samples"] = f.time_s.len().into();
+        }
         if let Some(s) = &rec.spectrum {
             out["result"]["spectrum"] = serde_json::json!({
                 "lowest_frequency_hz": num(s.lowest_frequency_hz),
