@@ -25,6 +25,7 @@
 
 pub mod auto;
 pub mod diagnose;
+mod recording;
 pub mod schema;
 pub mod search;
 
@@ -1136,8 +1137,15 @@ impl Sweep {
     /// Parses and checks a sweep file's text: syntax, unknown fields, types, axes. Grid points
     /// are checked by [`crate::grid::Grid::new`].
     pub fn parse(text: &str) -> Result<Sweep> {
+        Sweep::parse_in(text, std::path::Path::new("."))
+    }
+
+    /// [`Sweep::parse`] for a sweep file in folder `dir`, from which the relative paths it names
+    /// (recorded drives) are read.
+    pub fn parse_in(text: &str, dir: &std::path::Path) -> Result<Sweep> {
         let file = read_json(text)?;
-        let (base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
+        let (mut base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
+        recording::resolve(&mut base, dir)?;
         let limits = parse_limits(file.limits)?;
         let dims = parse_dims(
             file.axes,
@@ -1180,7 +1188,8 @@ impl Sweep {
         }
         let text = Value::Object(file).to_string();
         let file = read_json(&text)?;
-        let (base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
+        let (mut base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
+        recording::resolve(&mut base, std::path::Path::new("."))?;
         let limits = parse_limits(file.limits)?;
         Ok(Sweep {
             text,
@@ -1216,7 +1225,11 @@ impl Sweep {
             field: String::new(),
             message,
         })?;
-        Sweep::parse(&text).map_err(|e| e.in_file(path))
+        let dir = std::path::Path::new(path)
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(std::path::Path::new("."));
+        Sweep::parse_in(&text, dir).map_err(|e| e.in_file(path))
     }
 
     /// Shape of the grid, outermost dimension first.

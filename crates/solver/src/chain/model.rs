@@ -13,6 +13,7 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
+use crate::chain::drive::{Drive, DrivePoint};
 pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
 use crate::chain::sequence::SequenceSpec;
@@ -768,6 +769,9 @@ pub struct Chain {
     pub precompression_force_n: f64,
     /// A half-sine force pulse on the first chain particle: `(amplitude N, duration s)`.
     pub force_pulse: Option<(f64, f64)>,
+    /// A boundary drive ([`Drive`]): a force on the first chain particle, an actuator at the top
+    /// (the top wall, moving) or a moving base (the wall under the chain).
+    pub drive: Option<Drive>,
     /// Static overlap of each contact in the loaded chain, m (zero for the striker contact).
     pub static_overlap: Vec<f64>,
     /// Equilibrium displacement of each particle from the undeformed, just-touching chain, m.
@@ -871,6 +875,7 @@ impl Chain {
                 physics.wall,
                 layout.ring,
                 layout.top_wall.then_some(0.0),
+                None,
                 c,
             )
         };
@@ -958,6 +963,7 @@ impl Chain {
             striker: layout.striker,
             precompression_force_n: top,
             force_pulse: None,
+            drive: None,
             static_overlap,
             equilibrium_position,
             cell_length_m: layout.cell_length_m,
@@ -970,6 +976,35 @@ impl Chain {
     pub fn with_force_pulse(mut self, amplitude_n: f64, duration_s: f64) -> Chain {
         self.force_pulse = Some((amplitude_n, duration_s));
         self
+    }
+
+    /// The chain driven by `drive`; the error names the field when the chain lacks the wall the
+    /// drive moves.
+    pub fn with_drive(mut self, drive: Drive) -> Result<Chain, SpecError> {
+        let field = format!("excitation.drive.{}", drive.point.key());
+        match drive.point {
+            DrivePoint::Actuator if self.top_wall_m.is_none() => {
+                return Err(spec_err(
+                    &field,
+                    "an actuator is a wall at the top that moves: give the chain one (chain.top_wall_material, the actuator's face), or drive with force_n",
+                ))
+            }
+            DrivePoint::Base if !self.wall => {
+                return Err(spec_err(
+                    &field,
+                    "a moving base is the wall under the chain: turn physics.wall on, or drive with force_n or actuator_m",
+                ))
+            }
+            _ => {}
+        }
+        if self.ring {
+            return Err(spec_err(
+                &field,
+                "a ring has no boundary to drive (chain.ring); excite it with an initial state",
+            ));
+        }
+        self.drive = Some(drive);
+        Ok(self)
     }
 
     /// Number of particles `N`, striker included.
@@ -1013,6 +1048,7 @@ impl Chain {
             && !self.has_tsuji_damping()
             && self.precompression_force_n == 0.0
             && self.force_pulse.is_none()
+            && self.drive.is_none()
             && !self.has_plasticity()
             && !self.ring
             && self.top_wall_m.is_none()
@@ -1021,7 +1057,23 @@ impl Chain {
     /// What contact `c` joins ([`ContactEnds`]).
     #[inline]
     pub fn contact_ends(&self, c: usize) -> ContactEnds {
-        contact_ends(self.n_particles(), self.wall, self.ring, self.top_wall_m, c)
+        contact_ends(
+            self.n_particles(),
+            self.wall,
+            self.ring,
+            self.top_wall_m,
+            self.moving_wall(),
+            c,
+        )
+    }
+
+    /// The wall a drive moves, and the index in the state of its displacement (its velocity
+    /// follows it), when one does.
+    pub fn moving_wall(&self) -> Option<(DrivePoint, usize)> {
+        let d = self.drive.as_ref()?;
+        d.point
+            .moves_a_wall()
+            .then(|| (d.point, self.drive_state_index().expect("a drive")))
     }
 
     /// Whether a wall holds either end of the chain (then the state carries the walls' impulse).
@@ -1052,11 +1104,30 @@ impl Chain {
             .then_some(2 * self.n_particles() + self.has_damping() as usize)
     }
 
-    /// Index of the quadrature of the work done by a force pulse, when there is one.
-    pub fn pulse_work_index(&self) -> Option<usize> {
-        self.force_pulse.is_some().then_some(
+    /// Index of the quadrature of the work done by a force pulse or a drive, when there is one.
+    pub fn external_work_index(&self) -> Option<usize> {
+        (self.force_pulse.is_some() || self.drive.is_some()).then_some(
             2 * self.n_particles() + self.has_damping() as usize + self.has_walls() as usize,
         )
+    }
+
+    /// Index in the state of a drive's own quadratures, after its work: a force drive's impulse
+    /// `∫F dt`; a moving wall's displacement, then its velocity.
+    pub fn drive_state_index(&self) -> Option<usize> {
+        self.drive.as_ref()?;
+        self.external_work_index().map(|w| w + 1)
+    }
+
+    /// Number of quadratures in the state: dissipated work, the walls' impulse, an external force's
+    /// work, a drive's impulse or its wall's displacement and velocity.
+    fn quadratures(&self) -> usize {
+        self.has_damping() as usize
+            + self.has_walls() as usize
+            + (self.force_pulse.is_some() || self.drive.is_some()) as usize
+            + self
+                .drive
+                .as_ref()
+                .map_or(0, |d| 1 + d.point.moves_a_wall() as usize)
     }
 
     /// Contact `c`'s elastic law and dissipation, as the general laws of `contact.rs` take them.
@@ -1082,11 +1153,7 @@ impl Chain {
     /// order), after the positions, the velocities and the quadratures: its gap `g = s − δ`, and
     /// at the next index its opening distance `o = δ − δ_p(s)` (see [`Thornton`]).
     pub fn history_index(&self, k: usize) -> usize {
-        2 * self.n_particles()
-            + self.has_damping() as usize
-            + self.has_walls() as usize
-            + self.force_pulse.is_some() as usize
-            + 2 * k
+        2 * self.n_particles() + self.quadratures() + 2 * k
     }
 
     /// Each contact with Thornton's law, its law and the index of its history in the state.
@@ -1104,9 +1171,7 @@ impl Chain {
     /// two histories of each contact with Thornton's law.
     pub fn state_len(&self) -> usize {
         2 * self.n_particles()
-            + self.has_damping() as usize
-            + self.has_walls() as usize
-            + self.force_pulse.is_some() as usize
+            + self.quadratures()
             + 2 * self.plasticity.iter().filter(|t| t.is_some()).count()
     }
 
@@ -1122,6 +1187,13 @@ impl Chain {
         for (c, t, h) in self.plastic_contacts() {
             y[h] = t.initial_gap(self.static_overlap[c]);
             y[h + 1] = self.static_overlap[c];
+        }
+        if let Some((_, w)) = self.moving_wall() {
+            // The wall where its waveform puts it at t = 0, at its velocity.
+            let drive = self.drive.as_ref().expect("a drive");
+            let (u, du, _) = drive.waveform.eval(0.0);
+            y[w] = u;
+            y[w + 1] = du;
         }
         y
     }
@@ -1175,7 +1247,9 @@ impl Chain {
 /// What a contact joins: its overlap is `x[above] − x[below] + offset`, a missing side being a
 /// fixed wall at position 0 (the wall under the chain: `below` is `None`) or at `offset` (the
 /// wall at the top: `above` is `None`). The force pushes `above` up (towards −x) and `below`
-/// down.
+/// down. A wall that a drive moves is displaced by the state's component `wall_state` (its
+/// velocity the next), positive downwards for the base, into the chain for the actuator: the
+/// overlap is then `x[n−1] − u` under the chain, `offset + u − x[0]` at the top.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactEnds {
     /// The particle above the contact, if any.
@@ -1184,17 +1258,33 @@ pub struct ContactEnds {
     pub below: Option<usize>,
     /// Position of the wall at the top, m (zero for every other contact).
     pub offset: f64,
+    /// Index in the state of the displacement of the wall a drive moves (its velocity at the
+    /// next index), when this contact's wall moves.
+    pub wall_state: Option<usize>,
 }
 
 impl ContactEnds {
-    /// Overlap and its rate in state `(x, v)`, read through `x(i)` and `v(i)`.
+    /// Overlap and its rate in state `(x, v)`, read through `x(i)` and `v(i)`; a moving wall's
+    /// displacement and velocity through `wall(k)` (`k` its index in the state).
     #[inline(always)]
-    pub fn kinematics(&self, x: impl Fn(usize) -> f64, v: impl Fn(usize) -> f64) -> (f64, f64) {
+    pub fn kinematics(
+        &self,
+        x: impl Fn(usize) -> f64,
+        v: impl Fn(usize) -> f64,
+        wall: impl Fn(usize) -> f64,
+    ) -> (f64, f64) {
         let read = |f: &dyn Fn(usize) -> f64, i: Option<usize>| i.map_or(0.0, f);
-        (
+        let (mut overlap, mut rate) = (
             read(&x, self.above) - read(&x, self.below) + self.offset,
             read(&v, self.above) - read(&v, self.below),
-        )
+        );
+        if let Some(w) = self.wall_state {
+            // The wall is the missing side: above the chain it adds, below it takes away.
+            let sign = if self.above.is_none() { 1.0 } else { -1.0 };
+            overlap += sign * wall(w);
+            rate += sign * wall(w + 1);
+        }
+        (overlap, rate)
     }
 }
 
@@ -1232,30 +1322,34 @@ impl ContactMap {
         if c + 1 < n {
             (get(c) - get(c + 1), get(n + c) - get(n + c + 1))
         } else {
-            self.ends[c + 1 - n].kinematics(&get, |i| get(n + i))
+            self.ends[c + 1 - n].kinematics(&get, |i| get(n + i), &get)
         }
     }
 
-    /// Overlap of contact `c` in positions `x` (negative: open).
+    /// Overlap of contact `c` in state `y` (negative: open): positions first, then whatever a
+    /// moving wall's displacement needs.
     #[inline(always)]
-    pub fn overlap(&self, c: usize, x: &[f64]) -> f64 {
+    pub fn overlap(&self, c: usize, y: &[f64]) -> f64 {
         let n = self.n;
         if c + 1 < n {
-            x[c] - x[c + 1]
+            y[c] - y[c + 1]
         } else {
-            self.ends[c + 1 - n].kinematics(|i| x[i], |_| 0.0).0
+            self.ends[c + 1 - n]
+                .kinematics(|i| y[i], |_| 0.0, |i| y[i])
+                .0
         }
     }
 }
 
 /// [`Chain::contact_ends`] from the chain's shape: contacts `0..N−1` join neighbours, then come
 /// the wall under the last particle or the ring's closing contact, then the wall at the top at
-/// `top_wall_m`.
+/// `top_wall_m`; `moving` is the wall a drive moves and its displacement's index in the state.
 fn contact_ends(
     n: usize,
     wall: bool,
     ring: bool,
     top_wall_m: Option<f64>,
+    moving: Option<(DrivePoint, usize)>,
     c: usize,
 ) -> ContactEnds {
     let (above, below, offset) = if c + 1 < n {
@@ -1271,10 +1365,16 @@ fn contact_ends(
             top_wall_m.expect("the last contact is the top wall's"),
         )
     };
+    let wall_state = match moving {
+        Some((DrivePoint::Base, w)) if below.is_none() => Some(w),
+        Some((DrivePoint::Actuator, w)) if above.is_none() => Some(w),
+        _ => None,
+    };
     ContactEnds {
         above,
         below,
         offset,
+        wall_state,
     }
 }
 

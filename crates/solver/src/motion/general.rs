@@ -17,10 +17,11 @@ use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 use crate::chain::model::Chain;
 use crate::contact::{general_force, ContactParams, Damping, HERTZ, LINEAR, POWER};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
+use crate::motion::DriveTerm;
 
 /// Right-hand side of a general chain. State `[x (N), v (N), q]`, `q` holding in order the
-/// dissipated work (when `D`), the wall impulse (with a wall) and the work of the force pulse
-/// (with one), the layout [`Chain::state_len`] defines. `T`: some contact carries Tsuji's term
+/// dissipated work (when `D`), the wall impulse (with a wall), the work of the force pulse or the
+/// drive (with one) and the drive's own quadratures, the layout [`Chain::state_len`] defines. `T`: some contact carries Tsuji's term
 /// (only with `D`).
 #[derive(Debug, Clone)]
 pub struct GeneralChainSystem<const LAW: u8, const D: bool, const T: bool = false> {
@@ -47,6 +48,8 @@ pub struct GeneralChainSystem<const LAW: u8, const D: bool, const T: bool = fals
     switches: Vec<Switch>,
     /// Tsuji coefficients β, read only when `T`.
     tsuji: Vec<f64>,
+    /// A boundary drive, when there is one.
+    drive: Option<DriveTerm>,
 }
 
 /// `LAW` of a kernel whose contacts are all Hertz's (`n = 3/2`).
@@ -100,6 +103,7 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
             switches: (0..chain.n_contacts())
                 .map(|c| crate::motion::contact_switch(&chain.contact_ends(c)))
                 .collect(),
+            drive: DriveTerm::of(chain),
         }
     }
 
@@ -142,6 +146,13 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         self.top_wall
     }
 
+    /// Displacements and velocities of the wall under the chain and of the wall at the top at
+    /// `(t, y)` (zero unless a drive moves them; see [`DriveTerm::walls`]).
+    #[inline(always)]
+    pub(crate) fn wall_motion(&self, t: f64, y: &[f64]) -> ((f64, f64), (f64, f64)) {
+        DriveTerm::walls(&self.drive, y, DriveTerm::at(&self.drive, t))
+    }
+
     /// Force of the half-sine pulse at time `t`, N.
     #[inline(always)]
     fn pulse_force(&self, t: f64) -> f64 {
@@ -168,6 +179,8 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         const LANES: usize = 8;
         let m = n - 1;
         let clip = self.clip;
+        let wave = DriveTerm::at(&self.drive, t);
+        let ((base_u, base_du), (top_u, top_du)) = DriveTerm::walls(&self.drive, y, wave);
         let force = &mut self.force[..m];
         let contact_power = &mut self.power[..m];
         let (a, e) = (&self.stiffness[..m], &self.exponent[..m]);
@@ -222,14 +235,14 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
             general_force::<LAW, D, T>(&params, overlap, rate, clip)
         };
         let (end_force, end_power) = if self.wall {
-            end(m, x[m], v[m])
+            end(m, x[m] - base_u, v[m] - base_du)
         } else if self.ring {
             end(m, x[m] - x[0], v[m] - v[0])
         } else {
             (0.0, 0.0)
         };
         let (top_force, top_power) = match self.top_wall {
-            Some((c, position)) => end(c, position - x[0], -v[0]),
+            Some((c, position)) => end(c, position + top_u - x[0], top_du - v[0]),
             None => (0.0, 0.0),
         };
 
@@ -247,7 +260,8 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
             dv[0] += top_force * im[0];
         }
         let pulse = self.pulse_force(t);
-        let external = self.precompression + pulse;
+        let drive_force = self.drive.as_ref().map_or(0.0, |d| d.force(wave));
+        let external = self.precompression + pulse + drive_force;
         if external != 0.0 {
             dv[self.top] += external * im[self.top];
         }
@@ -265,6 +279,9 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         if self.pulse.0 != 0.0 {
             dq[k] = pulse * v[self.top];
         }
+        if let Some(d) = &self.drive {
+            d.rates(wave, v[self.top], top_force, -end_force, dq, 2 * n);
+        }
     }
 }
 
@@ -277,6 +294,10 @@ impl<const LAW: u8, const D: bool, const T: bool> OdeSystem for GeneralChainSyst
         D as usize
             + (self.wall || self.top_wall.is_some()) as usize
             + (self.pulse.0 != 0.0) as usize
+            + self
+                .drive
+                .as_ref()
+                .map_or(0, |d| 2 + d.point.moves_a_wall() as usize)
     }
 
     fn switches(&self) -> &[Switch] {

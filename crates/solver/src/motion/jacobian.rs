@@ -113,13 +113,14 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
     /// contact unloading fast under Kuwabara–Kono or Hunt–Crossley damping), so the iteration
     /// matrix is not always an M-matrix; the factorisation pivots where needed. The external
     /// forces depend on time only and contribute nothing.
-    pub fn jacobian(&self, _t: f64, y: &[f64], kx: &mut Tridiagonal, kv: &mut Tridiagonal) {
+    pub fn jacobian(&self, t: f64, y: &[f64], kx: &mut Tridiagonal, kv: &mut Tridiagonal) {
         let im = self.inverse_masses();
         let n = im.len();
         reset(kx, n);
         reset(kv, n);
         let (x, v) = (&y[..n], &y[n..2 * n]);
         let clip = self.clips();
+        let ((base_u, base_du), (top_u, top_du)) = self.wall_motion(t, y);
         for c in 0..n.saturating_sub(1) {
             let p = self.contact_parameters(c);
             let (k, eta) =
@@ -128,7 +129,8 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         }
         if self.has_wall() && n > 0 {
             let p = self.contact_parameters(n - 1);
-            let (k, eta) = general_derivatives::<LAW, D, T>(&p, x[n - 1], v[n - 1], clip);
+            let (k, eta) =
+                general_derivatives::<LAW, D, T>(&p, x[n - 1] - base_u, v[n - 1] - base_du, clip);
             add_contact(kx, kv, im, n - 1, true, k, eta);
         }
         if self.is_ring() {
@@ -142,7 +144,8 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         }
         if let Some((c, position)) = self.top_wall() {
             let p = self.contact_parameters(c);
-            let (k, eta) = general_derivatives::<LAW, D, T>(&p, position - x[0], -v[0], clip);
+            let (k, eta) =
+                general_derivatives::<LAW, D, T>(&p, position + top_u - x[0], top_du - v[0], clip);
             add_contact(kx, kv, im, 0, true, k, eta);
         }
     }

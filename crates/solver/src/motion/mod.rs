@@ -9,24 +9,128 @@ mod jacobian;
 pub mod plastic;
 pub mod system;
 
-use crate::chain::model::ContactEnds;
+use crate::chain::drive::{DrivePoint, Signal};
+use crate::chain::model::{Chain, ContactEnds};
 use crate::integrate::Switch;
 
 /// A contact's overlap as a switching function of the positions (zero where it opens), for the
 /// integrators that put step boundaries there.
 pub(crate) fn contact_switch(e: &ContactEnds) -> Switch {
     match (e.above, e.below) {
+        // The wall under the chain, moving: `x_N − u`.
+        (Some(a), None) => Switch {
+            plus: a,
+            minus: e.wall_state,
+            offset: e.offset,
+        },
         (Some(a), b) => Switch {
             plus: a,
             minus: b,
             offset: e.offset,
         },
-        // `x_top − x₁` vanishes where `x₁ − x_top` does.
+        // `x_top + u − x₁` vanishes where `x₁ − u − x_top` does.
         (None, Some(b)) => Switch {
             plus: b,
-            minus: None,
+            minus: e.wall_state,
             offset: -e.offset,
         },
         (None, None) => unreachable!("a contact touches a particle"),
+    }
+}
+
+/// A boundary drive as the right-hand sides apply it ([`crate::chain::drive`]).
+#[derive(Debug, Clone)]
+pub(crate) struct DriveTerm {
+    /// Where it acts.
+    pub point: DrivePoint,
+    /// Its waveform.
+    pub signal: Signal,
+    /// Index in the state of its work, then of its impulse (a force) or its wall's displacement
+    /// and velocity (an actuator or a base).
+    pub work: usize,
+}
+
+impl DriveTerm {
+    /// The drive of `chain`, when it has one.
+    pub fn of(chain: &Chain) -> Option<Self> {
+        let d = chain.drive.as_ref()?;
+        Some(DriveTerm {
+            point: d.point,
+            signal: d.waveform.clone(),
+            work: chain.external_work_index().expect("a drive's work"),
+        })
+    }
+
+    /// The waveform's value, velocity and acceleration at `t` (zero without a drive): evaluated
+    /// once per right-hand side.
+    #[inline(always)]
+    pub fn at(drive: &Option<DriveTerm>, t: f64) -> (f64, f64, f64) {
+        drive.as_ref().map_or((0.0, 0.0, 0.0), |d| d.signal.eval(t))
+    }
+
+    /// Displacement and velocity of the wall under the chain and of the wall at the top (zero for
+    /// a wall that does not move): the displacement from the state `y` (so that overlaps,
+    /// switches and the ledger read the state alone), the velocity the waveform's own at the
+    /// time of `wave` ([`DriveTerm::at`]), so that the work the wall does is exactly the
+    /// elastic energy and the dissipation it feeds.
+    #[inline(always)]
+    pub fn walls(
+        drive: &Option<DriveTerm>,
+        y: &[f64],
+        wave: (f64, f64, f64),
+    ) -> ((f64, f64), (f64, f64)) {
+        match drive {
+            Some(d) if d.point == DrivePoint::Base => ((y[d.work + 1], wave.1), (0.0, 0.0)),
+            Some(d) if d.point == DrivePoint::Actuator => ((0.0, 0.0), (y[d.work + 1], wave.1)),
+            _ => ((0.0, 0.0), (0.0, 0.0)),
+        }
+    }
+
+    /// The force a force drive puts on the first chain particle, N, from `wave`
+    /// ([`DriveTerm::at`]; zero for the others).
+    #[inline(always)]
+    pub fn force(&self, wave: (f64, f64, f64)) -> f64 {
+        if self.point == DrivePoint::Force {
+            wave.0
+        } else {
+            0.0
+        }
+    }
+
+    /// Writes the drive's quadratures into `dq` (the rates of the state from index `offset` on):
+    /// its work, from the forces the right-hand side found (`top_force` from the wall at the top,
+    /// `base_force` from the wall under the chain, both pushing the chain downwards), and its
+    /// impulse (a force) or its wall's displacement and velocity, from `wave` ([`DriveTerm::at`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn rates(
+        &self,
+        wave: (f64, f64, f64),
+        top_velocity: f64,
+        top_force: f64,
+        base_force: f64,
+        dq: &mut [f64],
+        offset: usize,
+    ) {
+        let k = self.work - offset;
+        let (u, du, ddu) = wave;
+        match self.point {
+            DrivePoint::Force => {
+                dq[k] = u * top_velocity;
+                dq[k + 1] = u;
+            }
+            DrivePoint::Actuator | DrivePoint::Base => {
+                let force = if self.point == DrivePoint::Actuator {
+                    top_force
+                } else {
+                    base_force
+                };
+                dq[k] = force * du;
+                dq[k + 1] = du;
+                // The wall's velocity in the state serves the probes and the switches, which
+                // read the state alone; the right-hand side takes the waveform's own.
+                dq[k + 2] = ddu;
+            }
+        }
     }
 }

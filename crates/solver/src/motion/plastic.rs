@@ -18,6 +18,7 @@
 use crate::chain::model::{Chain, ContactEnds};
 use crate::contact::{general_derivatives, general_force, ContactParams, Thornton, POWER};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
+use crate::motion::DriveTerm;
 
 /// Right-hand side of a chain with elastic–plastic contacts.
 #[derive(Debug, Clone)]
@@ -42,6 +43,8 @@ pub struct PlasticChainSystem {
     pulse: (f64, f64, f64),
     force: Vec<f64>,
     switches: Vec<Switch>,
+    /// A boundary drive, when there is one.
+    drive: Option<DriveTerm>,
 }
 
 impl PlasticChainSystem {
@@ -63,13 +66,15 @@ impl PlasticChainSystem {
             histories.push((c, h));
             switches.push(Switch::between(h, None));
             switches.push(Switch::between(h + 1, None));
-            // The overlap's rate (its sign only matters: a wall's side is at rest).
+            // The overlap's rate (its sign only matters): a wall's side at rest, or moving at
+            // the velocity the state holds beside its displacement.
             let e = ends[c];
+            let wall_velocity = e.wall_state.map(|w| w + 1);
             let (plus, minus) = match (e.above, e.below) {
-                (Some(a), b) => (a, b),
-                (None, b) => (b.expect("a particle"), None),
+                (Some(a), b) => (n + a, b.map(|b| n + b).or(wall_velocity)),
+                (None, b) => (n + b.expect("a particle"), wall_velocity),
             };
-            switches.push(Switch::between(n + plus, minus.map(|b| n + b)));
+            switches.push(Switch::between(plus, minus));
         }
         let pulse = match chain.force_pulse {
             Some((amplitude, duration)) => (amplitude, std::f64::consts::PI / duration, duration),
@@ -90,13 +95,28 @@ impl PlasticChainSystem {
             pulse,
             force: vec![0.0; m],
             switches,
+            drive: DriveTerm::of(chain),
         }
     }
 
     /// Overlap and its rate of contact `c` in state `(x, v)`.
     #[inline(always)]
-    fn kinematics(&self, c: usize, x: &[f64], v: &[f64]) -> (f64, f64) {
-        self.ends[c].kinematics(|i| x[i], |i| v[i])
+    /// A moving wall's velocity is `wall_velocity` (the waveform's at the time of `y`, see
+    /// [`DriveTerm::walls`]), not the state's copy.
+    fn kinematics(&self, c: usize, y: &[f64], wall_velocity: f64) -> (f64, f64) {
+        let n = self.inv_mass.len();
+        let velocity_index = self.drive.as_ref().map(|d| d.work + 2);
+        self.ends[c].kinematics(
+            |i| y[i],
+            |i| y[n + i],
+            |i| {
+                if Some(i) == velocity_index {
+                    wall_velocity
+                } else {
+                    y[i]
+                }
+            },
+        )
     }
 }
 
@@ -109,6 +129,10 @@ impl OdeSystem for PlasticChainSystem {
         self.damped as usize
             + self.walls as usize
             + (self.pulse.0 != 0.0) as usize
+            + self
+                .drive
+                .as_ref()
+                .map_or(0, |d| 2 + d.point.moves_a_wall() as usize)
             + 2 * self.histories.len()
     }
 
@@ -118,12 +142,13 @@ impl OdeSystem for PlasticChainSystem {
 
     fn acceleration_jacobian(
         &self,
-        _t: f64,
+        t: f64,
         y: &[f64],
         kx: &mut Tridiagonal,
         kv: &mut Tridiagonal,
     ) -> bool {
         let n = self.inv_mass.len();
+        let wall_velocity = DriveTerm::at(&self.drive, t).1;
         // Zeroed in place: allocates only if the order differs.
         for m in [&mut *kx, &mut *kv] {
             for part in [&mut m.lower, &mut m.upper] {
@@ -133,10 +158,9 @@ impl OdeSystem for PlasticChainSystem {
             m.diag.clear();
             m.diag.resize(n, 0.0);
         }
-        let (x, v) = (&y[..n], &y[n..2 * n]);
         let im = &self.inv_mass;
         for c in 0..self.params.len() {
-            let (d, dv) = self.kinematics(c, x, v);
+            let (d, dv) = self.kinematics(c, y, wall_velocity);
             // The plastic law at its present largest overlap (the history held fixed: the
             // linearly implicit method needs only an approximation of the Jacobian).
             let (k, eta) = match self.plastic[c] {
@@ -164,14 +188,14 @@ impl OdeSystem for PlasticChainSystem {
 
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
         let n = self.inv_mass.len();
-        let (x, rest) = y.split_at(n);
-        let v = &rest[..n];
+        let wave = DriveTerm::at(&self.drive, t);
+        let v = &y[n..2 * n];
         let (dx, rest) = dy.split_at_mut(n);
         let (dv, dq) = rest.split_at_mut(n);
         dx.copy_from_slice(v);
         let mut dissipated = 0.0;
         for c in 0..self.params.len() {
-            let (d, rate) = self.kinematics(c, x, v);
+            let (d, rate) = self.kinematics(c, y, wave.1);
             self.force[c] = match self.plastic[c] {
                 Some((law, h)) => law.force(d, y[h]),
                 None => {
@@ -221,7 +245,8 @@ impl OdeSystem for PlasticChainSystem {
         } else {
             0.0
         };
-        let external = self.precompression + pulse;
+        let drive_force = self.drive.as_ref().map_or(0.0, |d| d.force(wave));
+        let external = self.precompression + pulse + drive_force;
         if external != 0.0 {
             dv[self.top] += external * im[self.top];
         }
@@ -237,8 +262,12 @@ impl OdeSystem for PlasticChainSystem {
         if amplitude != 0.0 {
             dq[k] = pulse * v[self.top];
         }
+        if let Some(d) = &self.drive {
+            let base_force = if below(m).is_some() { force[m] } else { 0.0 };
+            d.rates(wave, v[self.top], top_force, -base_force, dq, 2 * n);
+        }
         for &(c, h) in &self.histories {
-            let (d, rate) = self.kinematics(c, x, v);
+            let (d, rate) = self.kinematics(c, y, wave.1);
             let law = self.plastic[c].expect("a plastic contact").0;
             dy[h] = Thornton::gap_rate(rate, y[h]);
             dy[h + 1] = law.opening_rate(d, rate, y[h]);

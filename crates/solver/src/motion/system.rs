@@ -207,6 +207,9 @@ pub struct Ledger {
     top: usize,
     precompression: f64,
     pulse: Option<(f64, f64, usize)>,
+    /// The index of a drive's work in the state, and of a force drive's impulse.
+    drive_work: Option<usize>,
+    drive_impulse: Option<usize>,
     /// The contacts with Thornton's law: `(contact, law, index of its history in the state)`.
     plastic: Vec<(usize, crate::contact::Thornton, usize)>,
 }
@@ -226,7 +229,7 @@ pub struct EnergyTerms {
     /// no unloading gives back (their `elastic` term is the recoverable part). Zero without them.
     pub plastic: f64,
     /// Minus the work of the external forces so far: `−F_p x_top` for the precompression (its
-    /// potential) minus the work the force pulse has done. Zero without them.
+    /// potential) minus the work the force pulse or the drive has done. Zero without them.
     pub external: f64,
     /// Largest contact overlap in the state, m (not an energy; computed in the same pass).
     pub max_overlap: f64,
@@ -262,7 +265,13 @@ impl Ledger {
             precompression: chain.top_force_n(),
             pulse: chain
                 .force_pulse
-                .map(|(a, d)| (a, d, chain.pulse_work_index().expect("pulse quadrature"))),
+                .map(|(a, d)| (a, d, chain.external_work_index().expect("pulse quadrature"))),
+            drive_work: chain.drive.as_ref().and(chain.external_work_index()),
+            drive_impulse: chain
+                .drive
+                .as_ref()
+                .filter(|d| d.point == crate::chain::drive::DrivePoint::Force)
+                .and(chain.drive_state_index()),
             plastic: chain.plastic_contacts(),
         }
     }
@@ -285,7 +294,8 @@ impl Ledger {
         // Evaluated after every accepted step: sums run over eight partial sums so they vectorise.
         const L: usize = 8;
         let n = self.mass.len();
-        let x = &y[..n];
+        // Positions first; the overlap of a wall a drive moves reads its displacement further on.
+        let x = y;
         let (v, m) = (&y[n..n + k], &self.mass[..k]);
         let (mut twice_kinetic, mut weight_moment) = ([0.0f64; L], [0.0f64; L]);
         let full = k - k % L;
@@ -317,6 +327,9 @@ impl Ledger {
             external -= self.precompression * x[self.top];
         }
         if let Some((_, _, w)) = self.pulse {
+            external -= y[w];
+        }
+        if let Some(w) = self.drive_work {
             external -= y[w];
         }
         EnergyTerms {
@@ -450,11 +463,15 @@ impl Ledger {
         let m_total = self.total_mass;
         let j = self.wall_impulse_index.map_or(0.0, |k| y[k]);
         debug_assert!(self.wall || j == 0.0);
-        let external = if self.precompression != 0.0 || self.pulse.is_some() {
+        let mut external = if self.precompression != 0.0 || self.pulse.is_some() {
             self.external_impulse(t, t0)
         } else {
             0.0
         };
+        if let Some(i) = self.drive_impulse {
+            // A force drive's impulse since the start, where its quadrature is zero.
+            external += y[i];
+        }
         p - p0 - m_total * self.gravity * (t - t0) - external + j
     }
 

@@ -77,6 +77,7 @@ pub(crate) fn plan(
         || chain.has_plasticity()
         || chain.ring
         || chain.top_wall_m.is_some()
+        || chain.drive.is_some()
     {
         return None;
     }
@@ -181,6 +182,8 @@ fn prefix_chain(chain: &Chain, k: usize) -> Chain {
         striker: chain.striker,
         precompression_force_n: chain.precompression_force_n,
         force_pulse: chain.force_pulse,
+        // Never driven: driven chains are integrated whole (see `plan`).
+        drive: None,
         static_overlap: chain.static_overlap[..k].to_vec(),
         equilibrium_position,
         cell_length_m: chain.cell_length_m,
@@ -226,10 +229,11 @@ impl StateMap {
             wall: wall.map(|w| (w, whole.then_some(w))),
             wall_since: (t, wall.map_or(0.0, |w| full[w])),
             wall_force,
-            pulse: chain.pulse_work_index().map(|w| {
+            pulse: chain.external_work_index().map(|w| {
                 (
                     w,
-                    sub.pulse_work_index().expect("the prefix keeps the pulse"),
+                    sub.external_work_index()
+                        .expect("the prefix keeps the pulse"),
                 )
             }),
         }

@@ -7,6 +7,7 @@ pub mod solve;
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
+use crate::chain::drive::{Drive, DrivePoint, DriveSpec};
 use crate::chain::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::integrate::AdaptiveMethod as _;
 use crate::integrate::{
@@ -249,6 +250,10 @@ pub enum Excitation {
     /// Any particles moving and/or displaced at `t = 0` from the chain's static state: several
     /// strikers, two chains running into each other, a random state from a seed.
     InitialState(InitialState),
+    /// A boundary driven for the whole run: a force on particle 1 (`force_n`), an actuator at the
+    /// top (`actuator_m`, the top wall moving) or a moving base (`base_m`), each following a
+    /// waveform; static precompression combines with it.
+    Drive(DriveSpec),
 }
 
 /// Velocities and displacements at `t = 0`, added to the static state (the equilibrium on the
@@ -526,7 +531,7 @@ impl Scene {
             (false, None, None) => {
                 return Err(spec_err(
                     "excitation",
-                    "required for a chain without a striker: {\"impulse\": {\"velocity_m_s\": …}}, {\"half_sine_force\": {\"amplitude_n\": …, \"duration_s\": …}} or {\"initial_state\": {\"particles\": [{\"particle\": …, \"velocity_m_s\": …}]}}",
+                    "required for a chain without a striker: {\"impulse\": {\"velocity_m_s\": …}}, {\"half_sine_force\": {\"amplitude_n\": …, \"duration_s\": …}}, {\"initial_state\": {\"particles\": [{\"particle\": …, \"velocity_m_s\": …}]}} or {\"drive\": {\"force_n\" | \"actuator_m\" | \"base_m\": {\"harmonic\": {\"amplitude\": …, \"frequency_hz\": …}}}}",
                 ))
             }
             (false, None, Some(Excitation::Impulse { velocity_m_s })) => {
@@ -534,6 +539,16 @@ impl Scene {
             }
             (false, None, Some(Excitation::InitialState(state))) => {
                 state.validate(chain.n_particles())?
+            }
+            (false, None, Some(Excitation::Drive(drive))) => {
+                let d = self.duration_s;
+                if !(d.is_finite() && d > 0.0) {
+                    return Err(spec_err(
+                        "duration_s",
+                        format!("must be a finite number > 0, got {d}"),
+                    ));
+                }
+                chain = chain.with_drive(drive.validate(d)?)?;
             }
             (
                 false,
@@ -686,6 +701,9 @@ impl Scene {
             Some(Excitation::InitialState(_)) => {
                 ImpactScales::initial_state(chain, &self.initial_state(chain))
             }
+            Some(Excitation::Drive(_)) => {
+                ImpactScales::drive(chain, chain.drive.as_ref().expect("a driven chain"))
+            }
             _ => ImpactScales::new(chain, self.initial_velocity_m_s()),
         }
     }
@@ -693,11 +711,27 @@ impl Scene {
     /// Times at which the right-hand side is not smooth in time (the end of a force pulse),
     /// strictly inside the run: the run is integrated in legs between them.
     pub fn breakpoints_s(&self) -> Vec<f64> {
-        match self.excitation {
-            Some(Excitation::HalfSineForce { duration_s, .. }) if duration_s < self.duration_s => {
-                vec![duration_s]
+        match &self.excitation {
+            Some(Excitation::HalfSineForce { duration_s, .. }) if *duration_s < self.duration_s => {
+                vec![*duration_s]
             }
+            Some(Excitation::Drive(d)) => d
+                .validate(self.duration_s)
+                .map(|d| d.breakpoints_s(self.duration_s))
+                .unwrap_or_default(),
             _ => Vec::new(),
+        }
+    }
+
+    /// The frequency a driven chain's steady response settles at, Hz: a harmonic drive's;
+    /// `None` for every other excitation (a chirp, a sum of harmonics or a recording has none).
+    pub fn drive_frequency_hz(&self) -> Option<f64> {
+        match &self.excitation {
+            Some(Excitation::Drive(d)) => match d.waveform() {
+                crate::chain::drive::Waveform::Harmonic(h) => Some(h.frequency_hz),
+                _ => None,
+            },
+            _ => None,
         }
     }
 }
@@ -766,6 +800,24 @@ impl ImpactScales {
         let started = ledger.energy(y0);
         let energy = (started.kinetic + started.elastic - at_rest.elastic).max(f64::MIN_POSITIVE);
         ImpactScales::new(chain, (2.0 * energy / chain.mass[0]).sqrt())
+    }
+
+    /// Scales for a drive: a force drive as a force pulse of its peak over half its shortest
+    /// period; a moving wall as a striker at the wall's peak velocity, whose overlap scale is at
+    /// least the drive's amplitude.
+    pub fn drive(chain: &Chain, drive: &Drive) -> Self {
+        let signal = &drive.waveform;
+        let half_period = 0.5 / signal.highest_frequency_hz();
+        match drive.point {
+            DrivePoint::Force => ImpactScales::force_pulse(chain, signal.peak(), half_period),
+            DrivePoint::Actuator | DrivePoint::Base => {
+                let velocity = signal.peak_rate().max(f64::MIN_POSITIVE);
+                let mut s = ImpactScales::new(chain, velocity);
+                s.overlap_m = s.overlap_m.max(signal.peak());
+                s.duration_s = half_period;
+                s
+            }
+        }
     }
 
     /// Scales for a half-sine force pulse of `amplitude` N and `duration` s on particle 1: the

@@ -137,6 +137,7 @@ fn validity_warnings(
     if duration < MIN_PULSE_TO_TRANSIT_RATIO * transit {
         let what = match scene.excitation {
             Some(Excitation::HalfSineForce { .. }) => "force pulse",
+            Some(Excitation::Drive(_)) => "drive's half period at its highest frequency",
             _ => "impact pulse",
         };
         warnings.push(format!(
@@ -149,7 +150,7 @@ fn validity_warnings(
 
 /// Per-component absolute-tolerance scales for the state `[x, v, q]`: the two-body peak overlap
 /// for positions, the striker velocity for velocities, the impact energy and momentum for the
-/// dissipated work, the wall impulse and the work of a force pulse. The adaptive integrators
+/// dissipated work, the wall impulse and the work of a force pulse or a drive. The adaptive integrators
 /// multiply them by `atol`.
 pub fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
     let n = chain.n_particles();
@@ -161,8 +162,16 @@ pub fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
     if let Some(k) = chain.wall_impulse_index() {
         s[k] = scales.momentum;
     }
-    if let Some(k) = chain.pulse_work_index() {
+    if let Some(k) = chain.external_work_index() {
         s[k] = scales.energy_j;
+    }
+    if let (Some(d), Some(k)) = (&chain.drive, chain.drive_state_index()) {
+        // A force drive's impulse; a moving wall's displacement (the overlap's scale) and velocity.
+        if d.point.moves_a_wall() {
+            s[k + 1] = scales.velocity_m_s;
+        } else {
+            s[k] = scales.momentum;
+        }
     }
     s
 }

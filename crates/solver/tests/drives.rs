@@ -1,0 +1,445 @@
+//! Driven chains: a precompressed linear chain with viscous damping under a harmonic force settles
+//! on the steady response the complex linear system `(K − ω²M + iωC) X = F` gives (amplitude and
+//! phase of every particle to 1e-6); the ledger of a driven chain closes with the drive's work
+//! (< 1e-8 of the work put in) for a force, an actuator and a moving base, and for chirps, sums
+//! and recordings; an actuator that pulls away loses contact and the chain flies free; a moving
+//! base with no chain motion relative to it carries the chain rigidly; bad drives name the field.
+
+use chainsweep_solver::chain::drive::{
+    Chirp, ChirpSpacing, DriveSpec, Harmonic, Recorded, SumOfHarmonics, Tone, Waveform,
+};
+use chainsweep_solver::chain::model::{Chain, PhysicsSpec};
+use chainsweep_solver::chain::sequence::SequenceSpec;
+use chainsweep_solver::observe::probes::Probe;
+use chainsweep_solver::problems::{monodisperse, power_law};
+use chainsweep_solver::scene::solve::{run, RunOutput};
+use chainsweep_solver::scene::{Excitation, IntegratorSpec, Scene};
+use chainsweep_solver::{AdaptiveOptions, ChainSpec};
+
+fn harmonic(amplitude: f64, frequency_hz: f64, ramp_periods: f64) -> Waveform {
+    Waveform::Harmonic(Harmonic {
+        amplitude,
+        frequency_hz,
+        phase_rad: 0.0,
+        ramp_periods,
+    })
+}
+
+fn driven(spec: SequenceSpec, physics: PhysicsSpec, drive: DriveSpec, duration: f64) -> Scene {
+    let mut s = Scene::excited(spec, Excitation::Drive(drive), duration);
+    s.physics = physics;
+    s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-11));
+    s
+}
+
+/// A complex number as `(re, im)`, and the few operations a small dense solve needs.
+type C = (f64, f64);
+fn mul(a: C, b: C) -> C {
+    (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+}
+fn div(a: C, b: C) -> C {
+    let d = b.0 * b.0 + b.1 * b.1;
+    ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
+}
+fn sub(a: C, b: C) -> C {
+    (a.0 - b.0, a.1 - b.1)
+}
+
+/// Solves `A x = b` by Gaussian elimination (the matrix is small and diagonally dominant enough
+/// not to need pivoting here: `K − ω²M + iωC` below resonance).
+#[allow(clippy::needless_range_loop)] // rows and columns of a dense matrix
+fn solve(mut a: Vec<Vec<C>>, mut b: Vec<C>) -> Vec<C> {
+    let n = b.len();
+    for k in 0..n {
+        for i in k + 1..n {
+            let f = div(a[i][k], a[k][k]);
+            for j in k..n {
+                a[i][j] = sub(a[i][j], mul(f, a[k][j]));
+            }
+            b[i] = sub(b[i], mul(f, b[k]));
+        }
+    }
+    let mut x = vec![(0.0, 0.0); n];
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for j in i + 1..n {
+            s = sub(s, mul(a[i][j], x[j]));
+        }
+        x[i] = div(s, a[i][i]);
+    }
+    x
+}
+
+/// `(b, a)` with `y ≈ b sin ωt + a cos ωt` over the samples at `times` from `from` on, summed over
+/// whole periods (exact for a signal that holds only the harmonics of ω).
+fn fourier(times: &[f64], y: &[f64], omega: f64, from: usize, per_period: usize) -> (f64, f64) {
+    let periods = (times.len() - from - 1) / per_period;
+    let count = periods * per_period;
+    let (mut s, mut c) = (0.0, 0.0);
+    for k in from..from + count {
+        let (sn, cs) = (omega * times[k]).sin_cos();
+        s += y[k] * sn;
+        c += y[k] * cs;
+    }
+    (2.0 * s / count as f64, 2.0 * c / count as f64)
+}
+
+/// Three particles with a linear law (`n = 1`) on a wall, precompressed so that no contact opens,
+/// with viscous damping: driven by a harmonic force on the first particle, each particle settles
+/// on `Im(X e^{iωt})` with `(K − ω²M + iωC) X = F e₁`, amplitude and phase to 1e-6.
+#[test]
+fn a_linear_chain_settles_on_the_closed_form_steady_response() {
+    let (k, mu, n) = (2e7, 40.0, 3);
+    let spec = monodisperse(n, Some(power_law(k, 1.0)), false);
+    let physics = PhysicsSpec {
+        gravity: false,
+        wall: true,
+        damping_kg_s: mu,
+        precompression_force_n: 50.0,
+        ..PhysicsSpec::default()
+    };
+    let chain = Chain::build(&ChainSpec::Sequence(spec.clone()), &physics).unwrap();
+    let m = chain.mass[0];
+    let omega1 = (k / m).sqrt();
+    let omega = 0.6 * omega1;
+    let f = omega / std::f64::consts::TAU;
+    let period = 1.0 / f;
+    // Damping proportional to stiffness: mode j decays at μ ω_j² / (2k), the slowest (ω₁² ≈ 0.2
+    // k/m) at about 1.9e3 /s: 200 periods (21 ms) leave e^{-40} of the transient.
+    let amplitude = 1.0;
+    let settle = 200.0 * period;
+    let window = 20.0 * period;
+    let per_period = 64;
+    let mut s = driven(
+        spec,
+        physics,
+        DriveSpec::ForceN(harmonic(amplitude, f, 4.0)),
+        settle + window,
+    );
+    for particle in 1..=n {
+        s.record.probes.push(Probe::Displacement { particle });
+    }
+    s.record.history = true;
+    s.record.history_interval_s = period / per_period as f64;
+    let out = run(&s).unwrap();
+    let h = out.history.clone().unwrap();
+    let from = h.time_s.iter().position(|&t| t >= settle - 1e-15).unwrap();
+
+    // K − ω²M + iωC: every contact (the wall's included) a spring k and a dashpot μ.
+    let mut a = vec![vec![(0.0, 0.0); n]; n];
+    for c in 0..n {
+        let (i, j) = (c, c + 1);
+        for (p, q, sign) in [(i, i, 1.0), (i, j, -1.0), (j, i, -1.0), (j, j, 1.0)] {
+            if p < n && q < n {
+                a[p][q].0 += sign * k;
+                a[p][q].1 += sign * omega * mu;
+            }
+        }
+    }
+    for (i, row) in a.iter_mut().enumerate() {
+        row[i].0 -= omega * omega * m;
+    }
+    let mut b = vec![(0.0, 0.0); n];
+    b[0] = (amplitude, 0.0);
+    let x = solve(a, b);
+    for (i, xi) in x.iter().enumerate() {
+        let (sin_part, cos_part) = fourier(&h.time_s, &h.values[i], omega, from, per_period);
+        let got = (sin_part * sin_part + cos_part * cos_part).sqrt();
+        let want = (xi.0 * xi.0 + xi.1 * xi.1).sqrt();
+        assert!(
+            (got - want).abs() < 1e-6 * want,
+            "particle {}: amplitude {got:e} against {want:e}",
+            i + 1
+        );
+        // y = Im(X e^{iωt}) = X_re sin ωt + X_im cos ωt.
+        let phase_got = cos_part.atan2(sin_part);
+        let phase_want = xi.1.atan2(xi.0);
+        assert!(
+            (phase_got - phase_want).abs() < 1e-6,
+            "particle {}: phase {phase_got} against {phase_want}",
+            i + 1
+        );
+    }
+    assert!(out.energy_drift_max < 1e-8, "{}", out.energy_drift_max);
+    assert!(
+        out.momentum_residual_max < 1e-8,
+        "{}",
+        out.momentum_residual_max
+    );
+}
+
+/// The work the drive has done by the end, from the ledger's external term (no other external
+/// force acts on these scenes).
+fn work_put_in(out: &RunOutput) -> f64 {
+    -out.final_energy.external
+}
+
+/// The ledger closes with the drive's work: the largest departure of `E(t) − W(t)` from its start
+/// against the work put in.
+fn assert_ledger_closes(out: &RunOutput, what: &str) {
+    let work = work_put_in(out);
+    assert!(work > 0.0, "{what}: the drive did no work ({work})");
+    let departure = out.energy_drift_max * out.impact_energy_j;
+    assert!(
+        departure < 1e-8 * work,
+        "{what}: ledger off by {departure:e} J for {work:e} J put in"
+    );
+}
+
+fn hertz_between_walls(n: usize) -> SequenceSpec {
+    let mut spec = monodisperse(n, None, false);
+    spec.top_wall_material = Some(spec.wall_material);
+    spec
+}
+
+fn damped(precompression_force_n: f64) -> PhysicsSpec {
+    PhysicsSpec {
+        gravity: false,
+        wall: true,
+        damping_kg_s: 3.0,
+        precompression_force_n,
+        ..PhysicsSpec::default()
+    }
+}
+
+/// Every drive and waveform, on damped Hertz chains, closes the ledger with its work.
+#[test]
+fn driven_ledgers_close_with_the_drives_work() {
+    let f = 3000.0;
+    let waves = [
+        ("harmonic", harmonic(1.0, f, 2.0)),
+        (
+            "linear chirp",
+            Waveform::Chirp(Chirp {
+                amplitude: 1.0,
+                start_hz: 1000.0,
+                end_hz: 8000.0,
+                duration_s: 2e-3,
+                spacing: ChirpSpacing::Linear,
+                ramp_periods: 1.0,
+            }),
+        ),
+        (
+            "logarithmic chirp",
+            Waveform::Chirp(Chirp {
+                amplitude: 1.0,
+                start_hz: 1000.0,
+                end_hz: 8000.0,
+                duration_s: 2e-3,
+                spacing: ChirpSpacing::Logarithmic,
+                ramp_periods: 0.0,
+            }),
+        ),
+        (
+            "sum",
+            Waveform::Sum(SumOfHarmonics {
+                tones: vec![
+                    Tone {
+                        amplitude: 0.7,
+                        frequency_hz: 2000.0,
+                        phase_rad: 0.0,
+                    },
+                    Tone {
+                        amplitude: 0.3,
+                        frequency_hz: 5000.0,
+                        phase_rad: 1.0,
+                    },
+                ],
+                ramp_periods: 1.0,
+            }),
+        ),
+        (
+            "recorded",
+            Waveform::Recorded(Recorded {
+                times_s: (0..=400).map(|k| k as f64 * 1e-5).collect(),
+                values: (0..=400)
+                    .map(|k| {
+                        let t = k as f64 * 1e-5;
+                        (1.0 - (-t / 2e-4f64).exp()) * (std::f64::consts::TAU * f * t).sin()
+                    })
+                    .collect(),
+                ..Recorded::default()
+            }),
+        ),
+    ];
+    let duration = 3e-3;
+    for (name, wave) in waves {
+        // A force of a tenth of the precompression, and a displacement of a tenth of the static
+        // overlap under it, so that contacts breathe without opening (and at the base, open).
+        let force = DriveSpec::ForceN(scaled(&wave, 5.0));
+        let chain =
+            Chain::build(&ChainSpec::Sequence(hertz_between_walls(20)), &damped(50.0)).unwrap();
+        let static_overlap = chain.static_overlap[0];
+        let actuator = DriveSpec::ActuatorM(scaled(&wave, 0.3 * static_overlap));
+        let base = DriveSpec::BaseM(scaled(&wave, 0.3 * static_overlap));
+        for (drive, spec) in [
+            (force, monodisperse(20, None, false)),
+            (actuator, hertz_between_walls(20)),
+            (base, monodisperse(20, None, false)),
+        ] {
+            let what = format!("{name} {:?}", drive.point());
+            let s = driven(spec, damped(50.0), drive, duration);
+            let out = run(&s).unwrap_or_else(|e| panic!("{what}: {e}"));
+            assert_ledger_closes(&out, &what);
+            assert!(
+                out.momentum_residual_max < 1e-8,
+                "{what}: {}",
+                out.momentum_residual_max
+            );
+        }
+    }
+}
+
+/// `wave` with its amplitude scaled to `amplitude` (a recording's values times it).
+fn scaled(wave: &Waveform, amplitude: f64) -> Waveform {
+    let mut w = wave.clone();
+    match &mut w {
+        Waveform::Harmonic(h) => h.amplitude *= amplitude,
+        Waveform::Chirp(c) => c.amplitude *= amplitude,
+        Waveform::Sum(s) => s.tones.iter_mut().for_each(|t| t.amplitude *= amplitude),
+        Waveform::Recorded(r) => r.values.iter_mut().for_each(|v| *v *= amplitude),
+    }
+    w
+}
+
+/// An actuator that pulls away faster than the chain can follow loses contact: the force it
+/// exerts is zero while the gap is open (it pushes, it never pulls), and the contact closes again.
+#[test]
+fn an_actuator_loses_contact_and_never_pulls() {
+    let spec = hertz_between_walls(10);
+    let physics = PhysicsSpec {
+        gravity: false,
+        wall: true,
+        precompression_force_n: 20.0,
+        ..PhysicsSpec::default()
+    };
+    let chain = Chain::build(&ChainSpec::Sequence(spec.clone()), &physics).unwrap();
+    let n = chain.n_particles();
+    // Ten static overlaps of stroke at 20 kHz: the actuator leaves the chain behind on each
+    // return stroke.
+    let amplitude = 10.0 * chain.static_overlap[0];
+    let mut s = driven(
+        spec,
+        physics,
+        DriveSpec::ActuatorM(harmonic(amplitude, 20_000.0, 0.0)),
+        4e-4,
+    );
+    // The top wall's contact is the last one, N + 1 with the wall under the chain.
+    s.record.probes = vec![
+        Probe::ContactForce { contact: n + 1 },
+        Probe::Overlap { contact: n + 1 },
+    ];
+    s.record.history = true;
+    s.record.history_interval_s = 2e-7;
+    let out = run(&s).unwrap();
+    let h = out.history.unwrap();
+    let (force, overlap) = (&h.values[0], &h.values[1]);
+    let open = overlap.iter().filter(|&&d| d < 0.0).count();
+    assert!(
+        open > 100,
+        "the actuator never left the chain ({open} samples open)"
+    );
+    for (f, d) in force.iter().zip(overlap) {
+        if *d < 0.0 {
+            assert_eq!(*f, 0.0, "an open contact carries {f} N");
+        }
+        assert!(*f >= 0.0, "the actuator pulled: {f} N");
+    }
+    assert!(force.iter().cloned().fold(0.0, f64::max) > 100.0);
+}
+
+/// A base oscillating far below the chain's lowest natural frequency carries the chain with it:
+/// under a constant force at the top, every particle's displacement is the base's, to within the
+/// inertial correction (the particles' `m ω² u` summed down the chain over the contacts'
+/// stiffness, a few parts in a thousand here).
+#[test]
+fn a_slow_base_carries_the_chain_with_it() {
+    let spec = monodisperse(5, None, false);
+    let physics = PhysicsSpec {
+        gravity: false,
+        wall: true,
+        precompression_force_n: 20.0,
+        ..PhysicsSpec::default()
+    };
+    let chain = Chain::build(&ChainSpec::Sequence(spec.clone()), &physics).unwrap();
+    let amplitude = 0.2 * chain.static_overlap[0];
+    let f = 200.0;
+    let mut s = driven(
+        spec,
+        physics,
+        DriveSpec::BaseM(harmonic(amplitude, f, 3.0)),
+        10.0 / f,
+    );
+    s.record.probes = (1..=5)
+        .map(|particle| Probe::Displacement { particle })
+        .collect();
+    s.record.history = true;
+    s.record.history_interval_s = 1e-5;
+    let out = run(&s).unwrap();
+    let h = out.history.unwrap();
+    let w = std::f64::consts::TAU * f;
+    for (k, &t) in h.time_s.iter().enumerate() {
+        if t < 3.0 / f {
+            continue;
+        }
+        let base = amplitude * (w * t).sin();
+        for series in &h.values {
+            assert!(
+                (series[k] - base).abs() < 1e-2 * amplitude,
+                "at {t}: {} against {base}",
+                series[k]
+            );
+        }
+    }
+}
+
+/// Bad drives exit naming the field.
+#[test]
+fn bad_drives_name_the_field() {
+    let field = |scene: &Scene| scene.validate().unwrap_err().field;
+    let s = driven(
+        monodisperse(5, None, false),
+        damped(10.0),
+        DriveSpec::ForceN(harmonic(1.0, -5.0, 0.0)),
+        1e-3,
+    );
+    assert_eq!(field(&s), "excitation.drive.force_n.harmonic.frequency_hz");
+    let s = driven(
+        monodisperse(5, None, false),
+        damped(10.0),
+        DriveSpec::ActuatorM(harmonic(1e-7, 5.0, 0.0)),
+        1e-3,
+    );
+    assert_eq!(field(&s), "excitation.drive.actuator_m");
+    let mut physics = damped(0.0);
+    physics.wall = false;
+    let s = driven(
+        monodisperse(5, None, false),
+        physics,
+        DriveSpec::BaseM(harmonic(1e-7, 5.0, 0.0)),
+        1e-3,
+    );
+    assert_eq!(field(&s), "excitation.drive.base_m");
+    let s = driven(
+        monodisperse(5, None, false),
+        damped(10.0),
+        DriveSpec::ForceN(Waveform::Recorded(Recorded {
+            times_s: vec![0.0, 1e-4, 5e-4],
+            values: vec![0.0, 1.0, 0.0],
+            ..Recorded::default()
+        })),
+        1e-3,
+    );
+    assert_eq!(field(&s), "excitation.drive.force_n.recorded.times_s");
+    let s = driven(
+        monodisperse(5, None, false),
+        damped(10.0),
+        DriveSpec::ForceN(Waveform::Recorded(Recorded {
+            times_s: vec![0.0, 1e-3, 1e-3, 2e-3],
+            values: vec![0.0; 4],
+            ..Recorded::default()
+        })),
+        1e-3,
+    );
+    assert_eq!(field(&s), "excitation.drive.force_n.recorded.times_s[2]");
+}
