@@ -395,6 +395,38 @@ def between_walls():
         savefig(fig, "examples/between-walls")
 
 
+def driven_sweep_up_down():
+    """The envelope of the force on the wall under a chain shaken by a slow chirp through its first
+    resonance, upwards and downwards, per unit stroke of the actuator, against the chirp's
+    instantaneous frequency: one panel per stroke."""
+    with chainsweep.open(EXAMPLES / "driven-sweep-up-down.h5", histories=True) as ds:
+        strokes = ds["amplitude_m"].values
+        duration = float(ds["time_s"].values[-1])
+        t = ds["time_s"].values
+        fig, axes = plt.subplots(1, len(strokes), figsize=(4.2 * len(strokes), 4.2), sharey=True)
+        for ax, stroke in zip(np.atleast_1d(axes), strokes):
+            for start in ds["start_hz"].values:
+                end = float(ds["end_hz"].sel(start_hz=start))
+                force = ds["history"].sel(amplitude_m=stroke, start_hz=start).values[0]
+                frequency = start + (end - start) * t / duration
+                # The envelope: the largest |force| over windows of about four periods.
+                w = 60
+                n = len(force) // w
+                envelope = np.abs(force[: n * w]).reshape(n, w).max(axis=1)
+                centre = frequency[: n * w].reshape(n, w).mean(axis=1)
+                label = "upwards" if end > start else "downwards"
+                ax.plot(centre / 1e3, envelope / stroke / 1e6, label=label, lw=1.2)
+            ax.set_xlabel("drive frequency (kHz)")
+            ax.set_title(f"stroke {stroke * 1e9:g} nm", fontsize=9)
+            ax.grid(alpha=0.3)
+        np.atleast_1d(axes)[0].set_ylabel("wall force / stroke (N/µm)")
+        np.atleast_1d(axes)[0].legend(fontsize=8)
+        fig.suptitle("8 spheres between two walls under 2 N, shaken from the top by a slow chirp",
+                     fontsize=10)
+        fig.tight_layout()
+        savefig(fig, "examples/driven-sweep-up-down")
+
+
 PLOTS = {
     "trimer": trimer,
     "tapered": tapered,
@@ -410,6 +442,7 @@ PLOTS = {
     "dimer-bands": dimer_bands,
     "colliding-waves": colliding_waves,
     "between-walls": between_walls,
+    "driven-sweep-up-down": driven_sweep_up_down,
 }
 
 

@@ -143,3 +143,52 @@ def test_bad_drives_exit_2_naming_the_field(binary, tmp_path):
         assert r.returncode == 2, (excitation, r.stderr)
         assert field in r.stderr, (field, r.stderr)
         assert not out.exists()
+
+
+def test_the_driven_sweep_up_and_down_traces_the_resonance_and_its_hysteresis(binary, tmp_path):
+    """sweeps/examples/driven-sweep-up-down.json: at the smallest stroke both chirps peak within
+    1 % of the chain's lowest natural frequency (record.spectrum of the same chain); at the largest
+    the response collapses at a higher frequency on the way up than on the way down."""
+    from conftest import REPO
+
+    example = REPO / "sweeps" / "examples" / "driven-sweep-up-down.json"
+    out = tmp_path / "updown.h5"
+    r = run("run", example, "-o", out, "--jobs", "2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    s = json.loads(example.read_text())
+    s["record"] = {"spectrum": {}}
+    s["axes"] = [{"field": "duration_s", "values": [1e-3]}]
+    spectrum_file = tmp_path / "spectrum.json"
+    spectrum_file.write_text(json.dumps(s))
+    r = run("point", spectrum_file, "0")
+    assert r.returncode == 0, r.stderr
+    lowest = json.loads(r.stdout)["result"]["spectrum"]["lowest_frequency_hz"]
+    with xr.open_dataset(out) as ds:
+        t = ds["time_s"].values
+        duration = t[-1]
+        assert (ds["energy_drift_max"].values < 1e-6).all()
+
+        def envelope(stroke, start):
+            end = float(ds["end_hz"].sel(start_hz=start))
+            force = ds["history"].sel(amplitude_m=stroke, start_hz=start).values[0]
+            w = 60
+            n = len(force) // w
+            env = np.abs(force[: n * w]).reshape(n, w).max(axis=1)
+            f = (start + (end - start) * t / duration)[: n * w].reshape(n, w).mean(axis=1)
+            return f, env
+
+        small, large = ds["amplitude_m"].values[0], ds["amplitude_m"].values[-1]
+        for start in ds["start_hz"].values:
+            f, env = envelope(small, start)
+            peak = f[np.argmax(env)]
+            assert abs(peak / lowest - 1) < 0.01, (start, peak, lowest)
+
+        def collapse(start):
+            # Where the envelope falls below half its largest value on the high side.
+            f, env = envelope(large, start)
+            high = f > f[np.argmax(env)]
+            falls = f[high & (env < 0.5 * env.max())]
+            return falls.min()
+
+        up, down = (collapse(s) for s in sorted(ds["start_hz"].values))
+        assert up > down + 10.0, (up, down)

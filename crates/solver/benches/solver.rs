@@ -1,5 +1,7 @@
 //! `make bench`: right-hand-side cost per contact (the paper's specialised kernel, and the general
-//! kernel under every contact law and dissipation model) and the cost of one reference run.
+//! kernel under every contact law and dissipation model), the cost of one reference run, the cost
+//! per drive period of a driven 100-particle chain and the linear spectrum of a 10⁴-particle
+//! chain.
 //!
 //! The reference run is the issue's: the 0.55 chain (3.77 g cylinders, 50 cylinders), μ = 6 kg/s,
 //! v0 = 1.3 m/s, 1 ms simulated, DOP853 with `predict_switches` at the tolerance whose leading peak
@@ -267,5 +269,90 @@ fn bench_general_rhs(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_rhs, bench_general_rhs, bench_run);
+/// A 100-sphere chain between two walls under 20 N, damped (2 kg/s per contact), its top wall an
+/// actuator shaking it harmonically at 5 kHz with a 10 nm stroke (inside the acoustic band):
+/// 20 periods, DOP853 at rtol 1e-8, so that the cost per drive period is the time over 20.
+fn driven_scene(particles: usize) -> chainsweep_solver::scene::Scene {
+    use chainsweep_solver::chain::drive::{DriveSpec, Harmonic, Waveform};
+    use chainsweep_solver::problems::monodisperse;
+    use chainsweep_solver::scene::{Excitation, IntegratorSpec};
+    let mut spec = monodisperse(particles, None, false);
+    spec.top_wall_material = Some(spec.wall_material);
+    let frequency_hz = 5000.0;
+    let mut s = chainsweep_solver::scene::Scene::excited(
+        spec,
+        Excitation::Drive(DriveSpec::ActuatorM(Waveform::Harmonic(Harmonic {
+            amplitude: 1e-8,
+            frequency_hz,
+            phase_rad: 0.0,
+            ramp_periods: 2.0,
+        }))),
+        DRIVE_PERIODS / frequency_hz,
+    );
+    s.physics = PhysicsSpec {
+        gravity: false,
+        damping_kg_s: 2.0,
+        precompression_force_n: 20.0,
+        ..PhysicsSpec::default()
+    };
+    s.integrator = IntegratorSpec::Dop853(chainsweep_solver::AdaptiveOptions::new(1e-8));
+    s
+}
+
+/// Periods of the driven benchmark run.
+const DRIVE_PERIODS: f64 = 20.0;
+
+/// The cost per drive period of a driven 100-particle chain, and the linear spectrum of a
+/// 10 000-particle chain: its lowest and highest frequencies (what `record.spectrum` records), and
+/// every frequency.
+fn bench_drive_and_spectrum(c: &mut Criterion) {
+    use chainsweep_solver::problems::monodisperse;
+    use chainsweep_solver::spectrum::{LinearChain, SpectrumSpec};
+    let driven = driven_scene(100);
+    let out = run(&driven).unwrap();
+    eprintln!(
+        "driven 100 spheres, {DRIVE_PERIODS} periods: {} steps, {} rhs evals, energy drift {:.2e}",
+        out.stats.steps, out.stats.rhs_evals, out.energy_drift_max
+    );
+    let mut group = c.benchmark_group("drive");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(DRIVE_PERIODS as u64));
+    group.bench_function("actuator_100_spheres_per_period", |b| {
+        b.iter(|| run(black_box(&driven)).unwrap())
+    });
+    group.finish();
+
+    let physics = PhysicsSpec {
+        gravity: false,
+        precompression_force_n: 20.0,
+        ..PhysicsSpec::default()
+    };
+    let chain = Chain::build(
+        &ChainSpec::Sequence(monodisperse(10_000, None, false)),
+        &physics,
+    )
+    .unwrap();
+    let mut group = c.benchmark_group("spectrum");
+    group.sample_size(10);
+    group.bench_function("10000_particles_lowest_and_highest", |b| {
+        b.iter(|| {
+            SpectrumSpec::default()
+                .summarise(black_box(&chain))
+                .unwrap()
+        })
+    });
+    let linear = LinearChain::of(&chain).unwrap();
+    group.bench_function("10000_particles_every_frequency", |b| {
+        b.iter(|| black_box(&linear).spectrum(false))
+    });
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_rhs,
+    bench_general_rhs,
+    bench_run,
+    bench_drive_and_spectrum
+);
 criterion_main!(benches);

@@ -86,7 +86,8 @@ pub struct RunOutput {
     /// Space–time fields, when recorded (`record.fields`).
     pub fields: Option<Fields>,
     /// Largest |E(t) − E(0)| over accepted steps, relative to the impact energy (the excitation's
-    /// energy scale, [`ImpactScales::energy_j`]).
+    /// energy scale, [`ImpactScales::energy_j`]; for a driven chain, the larger of it and the work
+    /// the drive has done so far).
     pub energy_drift_max: f64,
     /// |E(t_end) − E(0)| relative to the impact energy.
     pub energy_drift_final: f64,
@@ -245,6 +246,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         stop_after_leading_pulses: scene.record.stop_after_leading_pulses,
         impact_energy: scales.energy_j,
         impact_momentum: scales.momentum,
+        driven: chain.drive.is_some(),
         fields: scene
             .record
             .fields
