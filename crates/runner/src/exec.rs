@@ -93,6 +93,27 @@ pub fn execute(scene: &Scene, hash: RunHash, limits: &Limits, index: usize) -> R
     execute_inner(scene, hash, limits, Some(index))
 }
 
+/// Runs the scene of grid point `index` on a continuation axis (its `continuation` set): its
+/// record under `hash`, and its final state when it succeeded (what the next point on the axis
+/// starts from).
+pub fn execute_continued(
+    scene: &Scene,
+    hash: RunHash,
+    limits: &Limits,
+    index: Option<usize>,
+) -> (RunRecord, Option<Vec<f64>>) {
+    let (result, wall) = run_bounded(scene, (limits.max_run_seconds, SWEEP_LIMIT), index);
+    match result {
+        Err(reason) => (RunRecord::failed(hash, reason, wall), None),
+        Ok(mut out) => {
+            let state = out.final_state.take();
+            let record = record_of(scene, hash, limits, out, wall);
+            let state = state.filter(|_| record.ok);
+            (record, state)
+        }
+    }
+}
+
 /// Runs a verification scene and records the outcome under `hash`.
 pub fn execute_verification(scene: &Scene, hash: RunHash, limits: &Limits) -> RunRecord {
     execute_inner(scene, hash, limits, None)

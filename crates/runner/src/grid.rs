@@ -300,6 +300,21 @@ impl Grid {
             grid.history_interval_s = None;
         }
         grid.max_particles = grid.particles.iter().max().map_or(0, |&p| p as usize);
+        if let Some(c) = sweep.continuation {
+            // Each point's identity takes in its predecessor's, already continued: points are
+            // visited in the line's own order, so the predecessor always comes first.
+            let order: Vec<usize> = if c.downwards {
+                (0..n).rev().collect()
+            } else {
+                (0..n).collect()
+            };
+            for p in order {
+                if let Some(q) = c.predecessor(&grid.shape, p) {
+                    grid.hashes[p] =
+                        crate::identity::continued_hash(&grid.hashes[p], &grid.hashes[q]);
+                }
+            }
+        }
         Ok(grid)
     }
 

@@ -122,6 +122,16 @@ pub fn invalid_scene_hash(scene: &serde_json::Value) -> RunHash {
     h.finalize().into()
 }
 
+/// Identity of a run on a continuation axis: its own run hash `own` (its scene's) and the identity
+/// of the run it starts from, `previous` (itself continued, back to the line's first point), so
+/// that a change anywhere up the line is a different run.
+pub fn continued_hash(own: &RunHash, previous: &RunHash) -> RunHash {
+    let mut h = Sha256::new();
+    h.update(b"chainsweep continued run v1\n");
+    h.update(format!("own={}\nfrom={}\n", hex(own), hex(previous)).as_bytes());
+    h.finalize().into()
+}
+
 /// Identity of the verification run of the point whose run hash is `base` and whose verification
 /// scene is `tight`: a different marker than run hashes, so the two never collide.
 pub fn verify_hash(base: &RunHash, tight: &Scene) -> RunHash {

@@ -271,7 +271,7 @@ pub fn run_sweep(
     if origin == AutoOrigin::Pilot {
         auto::cache(&work, sweep)?;
     }
-    let executor = SolverExecutor { sweep, grid };
+    let executor = SolverExecutor::new(sweep, grid);
     run_points(
         &work, sweep, grid, points, opts, &pool, &executor, sink, stop,
     )

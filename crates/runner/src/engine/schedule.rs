@@ -5,8 +5,9 @@
 //! take no new task once the stop flag is set (by the caller, e.g. on a signal) or once storing a
 //! run or writing a checkpoint failed; the tasks already running finish and are stored.
 
+use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc;
+use std::sync::{mpsc, Arc, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -19,6 +20,7 @@ use crate::numerics::verify;
 use crate::record::RunRecord;
 use crate::store::RunStore;
 use crate::sweep::Sweep;
+use chainsweep_solver::scene::Continuation;
 
 use super::assemble::VerifySource;
 
@@ -66,11 +68,117 @@ pub struct SolverExecutor<'a> {
     pub sweep: &'a Sweep,
     /// Its grid.
     pub grid: &'a Grid,
+    /// The final states of the points of a continuation axis, when the sweep has one.
+    continued: Option<ContinuedStates>,
+}
+
+/// The final states of a continuation axis's points, each point run once: a point's task waits
+/// for (or runs) the point before it on its line, whose record it keeps for that point's own
+/// task. Only points that ran are held (a state is `16 N` bytes for `N` particles).
+#[derive(Default)]
+struct ContinuedStates {
+    /// Per point: its final state, or why there is none (the run failed).
+    states: Mutex<HashMap<usize, Arc<FinalState>>>,
+    /// Records of points run ahead of their own task (as the predecessor of another), each taken
+    /// by that task.
+    ahead: Mutex<HashMap<usize, RunRecord>>,
+}
+
+/// A point's final state once it has run, or why it has none.
+type FinalState = OnceLock<std::result::Result<Vec<f64>, String>>;
+
+impl<'a> SolverExecutor<'a> {
+    /// The executor of `sweep` over `grid`.
+    pub fn new(sweep: &'a Sweep, grid: &'a Grid) -> Self {
+        SolverExecutor {
+            sweep,
+            grid,
+            continued: sweep.continuation.map(|_| ContinuedStates::default()),
+        }
+    }
+
+    /// The final state of point `p` of a continuation axis, running it (and, first, the points
+    /// before it on its line that have not run in this process) when it has not run yet; its
+    /// record is then kept for its own task.
+    fn final_state(&self, p: usize) -> std::result::Result<Vec<f64>, String> {
+        let states = self.continued.as_ref().expect("a continuation axis");
+        let cell = Arc::clone(
+            states
+                .states
+                .lock()
+                .expect("no panic holds the lock")
+                .entry(p)
+                .or_default(),
+        );
+        cell.get_or_init(|| {
+            let (record, state) = self.run_continued(p, self.grid.hashes[p], false);
+            let outcome = state.ok_or_else(|| record.reason.clone());
+            states
+                .ahead
+                .lock()
+                .expect("no panic holds the lock")
+                .insert(p, record);
+            outcome
+        })
+        .clone()
+    }
+
+    /// Runs point `p` of a continuation axis (its verification run when `verification`) from
+    /// the final state of the point before it on its line: its record under `hash` and its final
+    /// state. A point whose predecessor failed fails, naming it.
+    fn run_continued(
+        &self,
+        p: usize,
+        hash: RunHash,
+        verification: bool,
+    ) -> (RunRecord, Option<Vec<f64>>) {
+        let (sweep, grid) = (self.sweep, self.grid);
+        let c = sweep.continuation.expect("a continuation axis");
+        let mut scene = if verification {
+            verify::point_verification(sweep, grid, p).0
+        } else {
+            grid.build(sweep, p).expect("every point was validated")
+        };
+        let start = match c.predecessor(&grid.shape, p) {
+            None => None,
+            Some(q) => match self.final_state(q) {
+                Err(why) => {
+                    let reason = format!(
+                        "the point before it on the continuation axis ({}) failed, so this one has no state to start from: {why}",
+                        grid.point_label(sweep, q)
+                    );
+                    return (RunRecord::failed(hash, reason, 0.0), None);
+                }
+                Ok(previous) => {
+                    let chain = scene.validate().expect("every point was validated");
+                    match scene.continued_state(&chain, &previous) {
+                        Ok(y) => Some(y),
+                        Err(e) => return (RunRecord::failed(hash, e.to_string(), 0.0), None),
+                    }
+                }
+            },
+        };
+        scene.continuation = Some(Continuation { start_state: start });
+        exec::execute_continued(&scene, hash, &sweep.limits, (!verification).then_some(p))
+    }
 }
 
 impl Executor for SolverExecutor<'_> {
     fn execute(&self, task: &Task) -> RunRecord {
         let (sweep, grid, i) = (self.sweep, self.grid, task.point);
+        if let Some(states) = &self.continued {
+            if task.verification {
+                return self.run_continued(i, task.hash, true).0;
+            }
+            // Run here, or by the task of a later point on the line that needed this state.
+            let _ = self.final_state(i);
+            return states
+                .ahead
+                .lock()
+                .expect("no panic holds the lock")
+                .remove(&i)
+                .expect("each point's task runs once");
+        }
         if task.verification {
             let (tight, vh) = verify::point_verification(sweep, grid, i);
             debug_assert_eq!(vh, task.hash);

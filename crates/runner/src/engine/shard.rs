@@ -9,7 +9,8 @@
 //! of a 480-run grid cost 28.7, 29.1, 16.8 and 11.8 CPU-s. The assignment is a pure function of the sweep file and `N`: every array
 //! task computes the same one, on any machine (costs are quantised to integers before they are
 //! compared or summed). The shards partition the grid, and a merge of their files equals a
-//! single-machine run.
+//! single-machine run. A sweep that continues along an axis is shared out by whole lines along it
+//! ([`assign_lines`]): each point starts from the one before it.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -110,6 +111,27 @@ pub fn assign(shape: &[usize], costs: &[u64], n: usize) -> Vec<usize> {
     }
 }
 
+/// The shard (from 0) of every grid point of a sweep that continues along dimension `dim`: whole
+/// lines along it (each point starts from the one before it), balanced by their summed estimated
+/// cost (greedy longest-processing-time), so that no shard recomputes another's points.
+pub fn assign_lines(shape: &[usize], costs: &[u64], n: usize, dim: usize) -> Vec<usize> {
+    let stride: usize = shape[dim + 1..].iter().product();
+    let len = shape[dim];
+    // A line is named by its first point (coordinate 0 along `dim`); lines in grid order.
+    let line_of = |p: usize| p - ((p / stride) % len) * stride;
+    let lines: Vec<usize> = (0..costs.len()).filter(|&p| line_of(p) == p).collect();
+    let index: std::collections::HashMap<usize, usize> =
+        lines.iter().enumerate().map(|(k, &l)| (l, k)).collect();
+    let mut line_costs = vec![0u64; lines.len()];
+    for (p, &c) in costs.iter().enumerate() {
+        line_costs[index[&line_of(p)]] += c;
+    }
+    let shard_of_line = greedy(&line_costs, n);
+    (0..costs.len())
+        .map(|p| shard_of_line[index[&line_of(p)]])
+        .collect()
+}
+
 /// Which grid points belong to which shard, for one sweep and `N`.
 #[derive(Debug, Clone)]
 pub struct Assignment {
@@ -130,10 +152,11 @@ impl Assignment {
             },
             Some(Shard { n, .. }) => {
                 let costs = quantised_costs(sweep, grid);
-                let shard_of = assign(&grid.shape, &costs, n)
-                    .into_iter()
-                    .map(|s| s + 1)
-                    .collect();
+                let shards = match sweep.continuation {
+                    Some(c) => assign_lines(&grid.shape, &costs, n, c.dim),
+                    None => assign(&grid.shape, &costs, n),
+                };
+                let shard_of = shards.into_iter().map(|s| s + 1).collect();
                 Assignment { shard_of, costs }
             }
         }

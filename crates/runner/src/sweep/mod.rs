@@ -19,6 +19,8 @@
 //!   finished is the same run whatever the limit);
 //! - `search` (optional): a search over continuous fields run at every point of the axes (which
 //!   may then be empty), see [`search`].
+//! - `continuation` (optional): `{"axis": NAME, "direction": "up" | "down"}`, each point of that
+//!   dimension starting from the final state of the point before it ([`Continuation`]).
 //!
 //! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
@@ -191,6 +193,98 @@ pub struct Sweep {
     pub auto_choice: Option<AutoChoice>,
     /// The search run at every point of the axes, when the sweep has one ([`search`]).
     pub search: Option<SearchSpec>,
+    /// Continuation along one dimension, when the sweep asks for it ([`Continuation`]).
+    pub continuation: Option<Continuation>,
+}
+
+/// Continuation along a dimension of the grid: each point starts from the final state of the
+/// point before it along that dimension (the other coordinates the same), in the direction
+/// given, instead of from its excitation's initial state; the first point of each line starts as
+/// any run does.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Continuation {
+    /// The dimension (index into [`Sweep::dims`]).
+    pub dim: usize,
+    /// Whether the line runs from the dimension's last value to its first.
+    pub downwards: bool,
+}
+
+impl Continuation {
+    /// The point before `point` on its line (flat indices over `shape`), or `None` for a line's
+    /// first point.
+    pub fn predecessor(&self, shape: &[usize], point: usize) -> Option<usize> {
+        let stride: usize = shape[self.dim + 1..].iter().product();
+        let k = (point / stride) % shape[self.dim];
+        if self.downwards {
+            (k + 1 < shape[self.dim]).then(|| point + stride)
+        } else {
+            (k > 0).then(|| point - stride)
+        }
+    }
+}
+
+/// `continuation` as written.
+#[derive(Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+struct ContinuationFile {
+    /// The name of the dimension along which each point starts from the final state of the one
+    /// before it.
+    axis: String,
+    /// `up` (from the dimension's first value to its last, the default) or `down`.
+    #[serde(default)]
+    direction: Direction,
+}
+
+/// The direction of a continuation.
+#[derive(Deserialize, schemars::JsonSchema, Default, Clone, Copy, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+enum Direction {
+    /// From the dimension's first value to its last.
+    #[default]
+    Up,
+    /// From the dimension's last value to its first.
+    Down,
+}
+
+/// Checks `continuation` against the dimensions; errors name `continuation.…`.
+fn parse_continuation(
+    c: Option<ContinuationFile>,
+    dims: &[Dim],
+    has_search: bool,
+) -> Result<Option<Continuation>> {
+    let Some(c) = c else {
+        return Ok(None);
+    };
+    let input = |field: &str, message: String| Error::Input {
+        file: None,
+        field: field.to_string(),
+        message,
+    };
+    if has_search {
+        return Err(input(
+            "continuation",
+            "a sweep with a search cannot continue along an axis (a search's points are not ordered); remove one".into(),
+        ));
+    }
+    let names: Vec<&str> = dims.iter().map(|d| d.name.as_str()).collect();
+    let dim = names.iter().position(|&n| n == c.axis).ok_or_else(|| {
+        input(
+            "continuation.axis",
+            format!(
+                "must name a dimension of the grid ({}), got {:?}",
+                if names.is_empty() {
+                    "the sweep has none".to_string()
+                } else {
+                    names.join(", ")
+                },
+                c.axis
+            ),
+        )
+    })?;
+    Ok(Some(Continuation {
+        dim,
+        downwards: c.direction == Direction::Down,
+    }))
 }
 
 /// A chainsweep sweep file: a base scene, what to record, the axes of its grid, failure limits
@@ -222,6 +316,10 @@ struct SweepFile {
     /// A search over continuous fields at every point of the axes.
     #[serde(default)]
     search: Option<search::SearchFile>,
+    /// Continuation along one dimension: each point starts from the final state of the one
+    /// before it (hysteresis, bistability).
+    #[serde(default)]
+    continuation: Option<ContinuationFile>,
 }
 
 /// When a run counts as failed.
@@ -1156,11 +1254,13 @@ impl Sweep {
         )
         .map_err(first)?;
         check_names_and_fields(&dims)?;
+        let continuation = parse_continuation(file.continuation, &dims, file.search.is_some())?;
         let search = file
             .search
             .map(|s| search::parse(s, &base, &dims))
             .transpose()?;
         Ok(Sweep {
+            continuation,
             text: text.to_string(),
             description: file.description,
             base,
@@ -1200,6 +1300,7 @@ impl Sweep {
             auto,
             auto_choice: None,
             search: None,
+            continuation: None,
         })
     }
 

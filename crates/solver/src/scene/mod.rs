@@ -427,6 +427,22 @@ pub struct Scene {
         serde(default, skip_serializing_if = "ActiveRegion::is_auto")
     )]
     pub active_region: ActiveRegion,
+    /// Continuation along an axis of a sweep ([`Continuation`]): set by the sweep runner, never
+    /// written in a sweep file nor serialised (the run's identity carries its predecessors').
+    #[cfg_attr(feature = "serde", serde(skip))]
+    #[cfg_attr(feature = "schema", schemars(skip))]
+    pub continuation: Option<Continuation>,
+}
+
+/// A run on a continuation axis: it returns its final state ([`RunOutput::final_state`]), and
+/// starts from `start_state`, the final state of the point before it on the axis
+/// ([`Scene::continued_state`]), instead of its excitation's (`None`: the axis's first point).
+///
+/// [`RunOutput::final_state`]: crate::scene::solve::RunOutput::final_state
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Continuation {
+    /// The state to start from.
+    pub start_state: Option<Vec<f64>>,
 }
 
 /// Whether a run may integrate only the moving part of its chain.
@@ -491,6 +507,7 @@ impl Scene {
             max_steps: DEFAULT_MAX_STEPS,
             record: RecordSpec::default(),
             active_region: ActiveRegion::Auto,
+            continuation: None,
         }
     }
 
@@ -682,13 +699,52 @@ impl Scene {
     }
 
     /// The state `[x, v, q, …]` the run starts from on the scene's built chain
-    /// ([`Scene::validate`]).
+    /// ([`Scene::validate`]): its excitation's, or the one continuation gave it
+    /// ([`Continuation::start_state`]).
     pub fn initial_state(&self, chain: &Chain) -> Vec<f64> {
+        if let Some(y) = self
+            .continuation
+            .as_ref()
+            .and_then(|c| c.start_state.as_ref())
+        {
+            return y.clone();
+        }
         let mut y = chain.initial_state(self.initial_velocity_m_s());
         if let Some(Excitation::InitialState(state)) = &self.excitation {
             state.apply(&mut y, chain.n_particles());
         }
         y
+    }
+
+    /// The state a run of this scene starts from when it continues from `previous`, the final
+    /// state of a run of the same chain (the point before it on a continuation axis): every
+    /// particle's position and velocity and every plastic contact's history carried over; the
+    /// quadratures (dissipated work, the walls' impulse, the drive's work) start again from zero,
+    /// and a moving wall from where this scene's waveform puts it at `t = 0`. The error names
+    /// `continuation` when the chains differ in size.
+    pub fn continued_state(&self, chain: &Chain, previous: &[f64]) -> Result<Vec<f64>, SpecError> {
+        let mut y = Scene {
+            continuation: None,
+            ..self.clone()
+        }
+        .initial_state(chain);
+        if previous.len() != y.len() {
+            return Err(spec_err(
+                "continuation",
+                format!(
+                    "a point continues from the final state of the point before it on the axis, which must be the same chain: that state has {} components, this chain's {}",
+                    previous.len(),
+                    y.len()
+                ),
+            ));
+        }
+        let n = chain.n_particles();
+        y[..2 * n].copy_from_slice(&previous[..2 * n]);
+        for (_, _, h) in chain.plastic_contacts() {
+            y[h] = previous[h];
+            y[h + 1] = previous[h + 1];
+        }
+        Ok(y)
     }
 
     /// Natural scales of the scene's excitation on its built chain ([`Scene::validate`]).

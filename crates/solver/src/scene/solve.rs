@@ -7,7 +7,7 @@ use std::time::Instant;
 #[cfg(feature = "serde")]
 use serde::Serialize;
 
-use crate::chain::model::{Chain, SpecError};
+use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::{
     Dop853, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, Rk4, Ros34pw2,
     VelocityVerlet, Vern6,
@@ -112,6 +112,10 @@ pub struct RunOutput {
     pub warnings: Vec<String>,
     /// The linear spectrum at the static state, when `record.spectrum` asks for it.
     pub spectrum: Option<SpectrumSummary>,
+    /// The state `[x, v, q, …]` at the end, when the run is on a continuation axis
+    /// ([`crate::scene::Continuation`]): what the next point on the axis starts from.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub final_state: Option<Vec<f64>>,
 }
 
 /// Physical-validity warnings for a scene and its largest overlap.
@@ -278,6 +282,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             active_particles: None,
             warnings: Vec::new(),
             spectrum,
+            final_state: None,
         });
     }
     let t0 = 0.0;
@@ -286,6 +291,20 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
     observer.deadline = deadline;
 
     let y0 = scene.initial_state(&chain);
+    if y0.len() != chain.state_len() {
+        return Err(RunError::Spec(spec_err(
+            "continuation",
+            format!(
+                "the start state has {} components, the chain's state {}",
+                y0.len(),
+                chain.state_len()
+            ),
+        )));
+    }
+    if scene.continuation.is_some() {
+        // Kept at every accepted step: the next point on the axis starts from it.
+        observer.state = Some(y0.clone());
+    }
     let mut leg_ends = scene.breakpoints_s();
     leg_ends.push(t_end);
 
@@ -367,5 +386,9 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         history: observer.history.take(),
         fields: observer.take_fields(),
         spectrum,
+        final_state: observer
+            .state
+            .take()
+            .filter(|_| scene.continuation.is_some()),
     })
 }
