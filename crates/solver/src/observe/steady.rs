@@ -31,9 +31,8 @@ pub const MAX_SAMPLES_PER_PERIOD: u32 = 4096;
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[cfg_attr(feature = "serde", serde(deny_unknown_fields))]
 pub struct SteadyStateSpec {
-    /// Frequency analysed, Hz (> 0). Absent: the scene's drive frequency
-    /// ([`crate::scene::Scene::drive_frequency_hz`]); a scene without a drive frequency must give
-    /// it here.
+    /// Frequency analysed, Hz (> 0). Absent: the frequency of the scene's drive; a scene without
+    /// one (a striker, an impulse, a half-sine pulse, an initial state) must give it here.
     #[cfg_attr(
         feature = "serde",
         serde(default, skip_serializing_if = "Option::is_none")
