@@ -3,7 +3,8 @@ springs between two walls, precompressed, started in one normal mode of the fixe
 oscillate at exactly the mode's frequency, so the stored mean, RMS, amplitude and phase of each
 probe have closed forms (1e-8); a sweep over the amplitude of a second mode started beside the
 first leaves the window's halves different (not settled, flagged, warned); the columns read back
-exactly labelled through h5py, both xarray engines, chainsweep.open and chainsweep.run;
+exactly labelled through h5py, both xarray engines, chainsweep.open and chainsweep.run, and a
+changed value is reported as damage;
 `--dry-run` counts their bytes; resume and shard merge give the file bit for bit; bad values exit
 2 naming the field."""
 
@@ -282,3 +283,20 @@ def test_bad_values_exit_2_naming_the_field(tmp_path, binary, edit, field):
         assert r.returncode == 2, (command, r.stderr)
         assert f"`{field}" in r.stderr, r.stderr
     assert not (tmp_path / "s.h5").exists()
+
+
+def test_a_changed_steady_state_value_is_damage_never_served(swept, tmp_path):
+    _, out = swept
+    bad = tmp_path / "bad.h5"
+    shutil.copy(out, bad)
+    with h5py.File(bad, "r+") as f:
+        d = f["steady_phase_rad"]
+        values = d[()]
+        values[1, 2, 0] += 1e-9
+        d[...] = values
+    with pytest.raises(chainsweep.DamagedFileError):
+        chainsweep.open(bad)
+    ds = chainsweep.open(bad, damaged="mask")
+    assert ds.damaged.values.tolist() == [False, True]
+    assert np.isnan(ds.steady_phase_rad.values[1]).all()
+    assert not np.isnan(ds.steady_phase_rad.values[0]).any()
