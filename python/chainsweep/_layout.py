@@ -38,8 +38,18 @@ STATUS_ATTRS = {"long_name": COLUMNS["status"]["description"], **_flag_attrs("st
 RUN_FLOATS: dict[str, tuple[str, str]] = {
     n: _label(c)
     for n, c in COLUMNS.items()
-    if c["kind"] in ("ok_f64", "run_f64") and c["written"] != "with_spectrum"
+    if c["kind"] in ("ok_f64", "run_f64")
+    and c["written"] not in ("with_spectrum", "with_steady_state")
 }
+
+#: The steady state's columns (record.steady_state): name -> the engine's column (``kind``:
+#: ``ok_f64`` per run, ``steady_f64`` and ``steady_flag`` per probe, ``steady_harmonic`` per probe
+#: and harmonic). The files have them only where the sweep records the steady state,
+#: :func:`chainsweep.run` only for such a scene.
+STEADY_COLUMNS: dict[str, dict] = {
+    n: c for n, c in COLUMNS.items() if c["written"] == "with_steady_state"
+}
+HARMONIC_LONG_NAME = "harmonic k of the steady state (frequency k times steady_frequency_hz)"
 
 #: The linear spectrum's columns (record.spectrum): name -> (units, long_name). The files have
 #: them only where the sweep records the spectrum, :func:`chainsweep.run` only for such a scene.
@@ -108,6 +118,7 @@ ORDER: list[str] = [
     *RUN_COUNTERS,
     *MOVING_PART_COLUMNS,
     *SPECTRUM_COLUMNS,
+    *STEADY_COLUMNS,
     "status",
     "reason",
     "warnings",

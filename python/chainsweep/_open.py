@@ -168,6 +168,13 @@ class _Grid:
         self.probe_units: list[str] = (
             [str(u) for u in self.coords["probe_units"][1]] if self.probes else []
         )
+        # The steady state's harmonics (record.steady_state), a coordinate of its amplitudes and
+        # phases over (grid…, probe, harmonic).
+        self.harmonics = 0
+        if "harmonic" in f:
+            values, attrs = _read(f["harmonic"])
+            self.coords["harmonic"] = ("harmonic", values, attrs)
+            self.harmonics = len(values)
 
     def dims_of(self, ds: h5py.Dataset) -> tuple[str, ...] | None:
         """The dimensions of a dataset, its text's characters left out: the names of the
@@ -178,13 +185,15 @@ class _Grid:
         if ndim == 0:  # a search's outcome when the sweep has no axes besides the search
             return ()
         names = tuple(_scale_name(d) for d in ds.dims)[:ndim]
-        known = {*self.coord_order, "probe"}
+        known = {*self.coord_order, "probe", "harmonic"}
         if len(names) == ndim and all(n in known for n in names):
             return names
         if shape == self.shape:
             return tuple(self.dims)
         if self.probes and shape == (*self.shape, len(self.probes)):
             return (*self.dims, "probe")
+        if self.harmonics and shape == (*self.shape, len(self.probes), self.harmonics):
+            return (*self.dims, "probe", "harmonic")
         return None
 
 
@@ -768,8 +777,10 @@ def _join_units(data: dict[str, Any], grid: "_Grid") -> None:
         elif parts and all(p in data for p in parts):
             dims = data[parts[0]][0]
             values = np.full(np.shape(data[parts[0]][1]), np.nan)
+            # (probe last, or before the harmonic in the steady state's amplitudes)
+            at = (Ellipsis, slice(None)) if L.COLUMNS[name].get("per_harmonic") else (Ellipsis,)
             for k, part in enumerate(parts):
-                values[..., k] = data[part][1][..., k]
+                values[(*at[:1], k, *at[1:])] = data[part][1][(*at[:1], k, *at[1:])]
             data[name] = (dims, values, L.probe_attrs(grid.probe_units, long_name, name))
 
 
@@ -795,6 +806,10 @@ def open(  # noqa: A001 (chainsweep.open)
     ``leading_peak`` and ``record_max`` (and ``history``) have no ``units``: each probe's is its
     ``probe_units``.
     ``min_overlap_m`` over (grid…, ``contact``) is there when the sweep recorded it.
+    The steady state (``record.steady_state``), when the sweep recorded it: ``steady_frequency_hz``
+    over the grid, ``steady_mean``, ``steady_rms``, ``steady_settledness``, ``steady_settled`` and
+    ``steady_transmission_db`` over (grid…, ``probe``), ``steady_amplitude`` and
+    ``steady_phase_rad`` over (grid…, ``probe``, ``harmonic``).
 
     Space–time fields (``record.fields``) are read with the histories (``histories=True`` or
     ``"lazy"``): ``field_contact_force`` over (grid…, ``field_time_s``, ``contact``),
@@ -872,8 +887,11 @@ def open(  # noqa: A001 (chainsweep.open)
     for name, why, per_probe in unreadable:
         # A dataset HDF5 cannot read at all: every point of it masked (they are damaged), never
         # left out.
+        harmonic = per_probe and L.COLUMNS.get(name, {}).get("per_harmonic", False)
         dims = (*grid.dims, "probe") if per_probe else tuple(grid.dims)
         shape = (*grid.shape, len(grid.probes)) if per_probe else grid.shape
+        if harmonic:
+            dims, shape = (*dims, "harmonic"), (*shape, grid.harmonics)
         data[name] = (dims, np.full(shape, np.nan), {"long_name": f"unreadable: {why}"})
     _join_units(data, grid)
     if points:

@@ -50,6 +50,10 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
     for name in L.SPECTRUM_COLUMNS:  # where the scene records the spectrum
         if name in col:
             out[name] = np.float64(col[name])
+    for name, c in L.STEADY_COLUMNS.items():  # where the scene records the steady state
+        if name in col:
+            dtype = np.uint8 if c["kind"] == "steady_flag" else np.float64
+            out[name] = np.array(col[name], dtype=dtype)
     # Counts: None where the file stores its fill (-1; a failed run counted nothing that is
     # kept): NaN, as chainsweep.open masks it.
     def count(name: str):
@@ -124,6 +128,25 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
     for name, (unit, long_name) in L.SPECTRUM_COLUMNS.items():
         if name in a:
             data[name] = ((), a[name], {"units": unit, "long_name": long_name})
+    for name, c in L.STEADY_COLUMNS.items():
+        if name not in a:
+            continue
+        long_name = c["description"]
+        dims = {"ok_f64": (), "steady_harmonic": ("probe", "harmonic")}.get(c["kind"], ("probe",))
+        if c["kind"] == "steady_flag":
+            attrs = {"long_name": long_name, **L._flag_attrs(name)}
+        elif c["units"] == "of_probes":
+            attrs = L.probe_attrs(units, long_name, split=name)
+            # (split by unit with the probe last, as the files store it)
+            values = np.moveaxis(a[name], 0, -1) if "harmonic" in dims else a[name]
+            for part, (_, v, pattrs) in L.split_by_unit(name, dims, values, units, long_name).items():
+                data[part] = (dims, np.moveaxis(v, -1, 0) if "harmonic" in dims else v, pattrs)
+        else:
+            attrs = {"units": c["units"], "long_name": long_name}
+        if "harmonic" in dims:
+            h = np.arange(1, a[name].shape[1] + 1, dtype=np.int64)
+            coords["harmonic"] = ("harmonic", h, {"units": "1", "long_name": L.HARMONIC_LONG_NAME})
+        data[name] = (dims, a[name], attrs)
     for name, (unit, long_name) in L.MOVING_PART_COLUMNS.items():
         if name in a:
             attrs = {"long_name": long_name} if unit is None else {"units": unit, "long_name": long_name}

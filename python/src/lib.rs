@@ -42,7 +42,7 @@ fn py_error(py: Python<'_>, e: &chainsweep::error::Error, context: &str) -> PyEr
 }
 
 /// The runner's table of stored summary columns, for the package's labels: one dict per column
-/// (name, numpy dtype, per_probe, units — `None` for none, `"of_probes"` for the probes' own —,
+/// (name, numpy dtype, per_probe, per_harmonic, units — `None` for none, `"of_probes"` for the probes' own —,
 /// description, long_name, flag_values, flag_meanings, written, kind).
 fn column_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyList>> {
     use chainsweep::record::columns::{Units, COLUMNS};
@@ -53,6 +53,7 @@ fn column_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyList>> {
             d.set_item("name", c.name)?;
             d.set_item("dtype", c.dtype.numpy())?;
             d.set_item("per_probe", c.per_probe)?;
+            d.set_item("per_harmonic", c.per_harmonic)?;
             d.set_item(
                 "units",
                 match c.units {

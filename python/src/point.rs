@@ -88,6 +88,12 @@ fn columns<'py>(
         moving_part,
         run_groups: false,
         spectrum: run.scene.record.spectrum.is_some(),
+        harmonics: run
+            .scene
+            .record
+            .steady_state
+            .as_ref()
+            .map_or(0, |s| s.harmonics as usize),
     };
     let outcome = PointOutcome {
         hash_hex: &run.hash,
@@ -102,8 +108,8 @@ fn columns<'py>(
         ) {
             continue;
         }
-        let mut data = c.empty(1, n_probes);
-        c.fill_point(&mut data, 0, n_probes, &outcome);
+        let mut data = c.empty(1, n_probes, presence.harmonics);
+        c.fill_point(&mut data, 0, n_probes, presence.harmonics, &outcome);
         let one = |v: Bound<'py, PyAny>| -> PyResult<Bound<'py, PyAny>> {
             if c.per_probe {
                 Ok(v)
@@ -112,6 +118,14 @@ fn columns<'py>(
             }
         };
         let value = match data {
+            // Over (probe, harmonic): a list per probe.
+            ColumnData::F64(x) if c.per_harmonic => PyList::new(
+                py,
+                x.chunks(presence.harmonics.max(1))
+                    .map(|h| PyList::new(py, h))
+                    .collect::<PyResult<Vec<_>>>()?,
+            )?
+            .into_any(),
             ColumnData::F64(x) => one(PyList::new(py, x)?.into_any())?,
             ColumnData::I64(x) => one(PyList::new(
                 py,

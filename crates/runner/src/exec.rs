@@ -237,6 +237,7 @@ fn record_of(
         history: out.history,
         fields: out.fields,
         spectrum: out.spectrum,
+        steady_state: out.steady_state,
     }
 }
 

@@ -28,6 +28,9 @@ pub struct Grid {
     pub min_overlap: bool,
     /// Whether points record the linear spectrum at the static state (`record.spectrum`).
     pub spectrum: bool,
+    /// Harmonics of the steady state every point records (`record.steady_state.harmonics`; 0
+    /// without it).
+    pub steady_harmonics: usize,
     /// Largest number of history samples any point records (0 without histories).
     pub max_history_samples: usize,
     /// The history interval every point shares, s (`None`: the points' intervals differ, or
@@ -155,6 +158,15 @@ struct Record<'a> {
     min_overlap: bool,
     spectrum: bool,
     fields: &'a Option<FieldSpec>,
+    steady_harmonics: usize,
+}
+
+/// The steady state's harmonics a record block asks for (0 without `steady_state`).
+fn steady_harmonics(record: &chainsweep_solver::RecordSpec) -> usize {
+    record
+        .steady_state
+        .as_ref()
+        .map_or(0, |s| s.harmonics as usize)
 }
 
 impl Grid {
@@ -203,6 +215,7 @@ impl Grid {
             history: false,
             min_overlap: false,
             spectrum: false,
+            steady_harmonics: 0,
             max_history_samples: 0,
             history_interval_s: None,
             max_contacts: 0,
@@ -222,6 +235,7 @@ impl Grid {
         grid.min_overlap = first.record.min_overlap;
         grid.spectrum = first.record.spectrum.is_some();
         grid.fields = first.record.fields.clone();
+        grid.steady_harmonics = steady_harmonics(&first.record);
         let fields = grid.fields.clone();
         let record = Record {
             probes: &grid.probes,
@@ -229,6 +243,7 @@ impl Grid {
             min_overlap: grid.min_overlap,
             spectrum: grid.spectrum,
             fields: &fields,
+            steady_harmonics: grid.steady_harmonics,
         };
         let shape = &grid.shape;
         let done = AtomicUsize::new(0);
@@ -349,6 +364,7 @@ impl Grid {
             min_overlap: reference.min_overlap,
             spectrum: reference.spectrum.is_some(),
             fields: &reference.fields,
+            steady_harmonics: steady_harmonics(&reference),
         };
         // A base field's error is the same at many points, told apart only by the point named
         // at its end: listed once, with the number of points it holds at.
@@ -437,13 +453,14 @@ impl Grid {
             || scene.record.min_overlap != record.min_overlap
             || scene.record.spectrum.is_some() != record.spectrum
             || scene.record.fields != *record.fields
+            || steady_harmonics(&scene.record) != record.steady_harmonics
         {
             return Err(locate(
                 sweep,
                 shape,
                 i,
                 "record",
-                "must be the same at every grid point (probes, history, min_overlap, fields, whether spectrum is recorded): the stored arrays and columns share one layout",
+                "must be the same at every grid point (probes, history, min_overlap, fields, whether spectrum is recorded, whether steady_state is and its harmonics): the stored arrays and columns share one layout",
             ));
         }
         if scene.record.history {

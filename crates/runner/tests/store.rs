@@ -2,7 +2,7 @@
 
 use chainsweep::exec::execute;
 use chainsweep::grid::Grid;
-use chainsweep::record::columns::{COLUMNS, LAYOUT_NAMES};
+use chainsweep::record::columns::{COLUMNS, HARMONIC, LAYOUT_NAMES};
 use chainsweep::record::{VerifyInfo, VERIFY_NONE, VERIFY_OK};
 use chainsweep::store::hdf5::read::PointRead;
 use chainsweep::store::hdf5::write::presence;
@@ -117,8 +117,14 @@ fn records_survive_segments_and_hdf5_bitwise() {
         .iter()
         .filter(|c| c.is_written(presence(&grid)))
         .map(|c| c.name)
-        // (`runs`: the run groups of layouts 4 and earlier, reserved, not written)
-        .chain(LAYOUT_NAMES.iter().copied().filter(|&n| n != "runs"))
+        // (`runs`: the run groups of layouts 4 and earlier, reserved, not written; `harmonic`:
+        // only with the steady state)
+        .chain(
+            LAYOUT_NAMES
+                .iter()
+                .copied()
+                .filter(|&n| n != "runs" && n != HARMONIC),
+        )
         // the runs' arrays (one unit: one `history`; a common interval: no `sample`)
         .chain([
             "history",

@@ -827,6 +827,30 @@ pub fn point(grid: &Grid, index: usize, p: &Point) -> String {
                 "band_top_hz": num(s.band_top_hz),
             });
         }
+        if let Some(st) = &rec.steady_state {
+            let nums = |v: &[f64]| v.iter().map(|&x| num(x)).collect::<Vec<_>>();
+            let probes: Vec<serde_json::Value> = st
+                .probes
+                .iter()
+                .zip(&grid.probes)
+                .map(|(s, p)| {
+                    serde_json::json!({
+                        "probe": p.name(),
+                        "mean": num(s.mean),
+                        "rms": num(s.rms),
+                        "amplitude": nums(&s.amplitude),
+                        "phase_rad": nums(&s.phase_rad),
+                        "settledness": num(s.settledness),
+                        "settled": s.settled,
+                        "transmission_db": num(s.transmission_db),
+                    })
+                })
+                .collect();
+            out["result"]["steady_state"] = serde_json::json!({
+                "frequency_hz": num(st.frequency_hz),
+                "probes": probes,
+            });
+        }
     }
     serde_json::to_string_pretty(&out).expect("json")
 }

@@ -22,7 +22,7 @@ use super::{all_cpus, thread_pool, ProgressSink};
 /// before compression.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SizeEstimate {
-    /// Summaries per run.
+    /// Summaries per run (the steady state's included).
     pub summary: f64,
     /// Histories and minimum overlaps per run, uncompressed (0 without).
     pub history: f64,
@@ -36,7 +36,13 @@ impl SizeEstimate {
     pub fn of(grid: &Grid) -> SizeEstimate {
         let np = grid.probes.len() as f64;
         // Summaries: 8 f64, 4 i64, 2 flag bytes, 7 f64 per probe, hash, reason and warning strings.
-        let summary = 8.0 * 8.0 + 4.0 * 8.0 + 2.0 + np * 7.0 * 8.0 + 64.0 + 16.0 + 48.0;
+        let mut summary = 8.0 * 8.0 + 4.0 * 8.0 + 2.0 + np * 7.0 * 8.0 + 64.0 + 16.0 + 48.0;
+        // The steady state: its frequency; per probe mean, RMS, settledness, transmission and
+        // the settled flag, and an amplitude and a phase per harmonic.
+        if grid.steady_harmonics > 0 {
+            let h = grid.steady_harmonics as f64;
+            summary += 8.0 + np * (4.0 * 8.0 + 1.0 + 2.0 * h * 8.0);
+        }
         // The runs' arrays, uncompressed: each run's rows of the histories (and of its own time
         // samples where the runs' intervals differ), its sample count, its minimum overlaps.
         let mut history = 0.0;

@@ -10,11 +10,13 @@
 //! reader finds out which points of a damaged file it can still trust.
 
 use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
+use chainsweep_solver::observe::steady::{SteadyProbe, SteadyState};
 use sha2::{Digest, Sha256};
 
 use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use super::{LEADING_NOT_PASSED, LEADING_NO_RUN, LEADING_PASSED};
 use super::{MOVING_PART_ONLY, MOVING_PART_UNKNOWN, MOVING_PART_WHOLE_CHAIN};
+use super::{STEADY_NOT_SETTLED, STEADY_NO_RUN, STEADY_SETTLED};
 use super::{VERIFY_FAILED, VERIFY_NONE, VERIFY_OK};
 use crate::identity::{checksum64, RunHash};
 
@@ -92,6 +94,15 @@ pub const SPLIT_NAMES: &[&str] = &[
     "record_max_N",
     "record_max_m",
     "record_max_m_per_s",
+    "steady_mean_N",
+    "steady_mean_m",
+    "steady_mean_m_per_s",
+    "steady_rms_N",
+    "steady_rms_m",
+    "steady_rms_m_per_s",
+    "steady_amplitude_N",
+    "steady_amplitude_m",
+    "steady_amplitude_m_per_s",
 ];
 
 /// The distinct units of `probe_units`, in the order they first appear.
@@ -170,6 +181,27 @@ pub enum Fill {
         /// The flag of a probe's summary.
         get: fn(&ProbeSummary) -> u8,
     },
+    /// A number per probe of a successful run's steady state; NaN elsewhere.
+    SteadyF64 {
+        /// The value in a probe's steady state.
+        get: fn(&SteadyProbe) -> f64,
+        /// Puts it back.
+        set: fn(&mut SteadyProbe, f64),
+    },
+    /// A flag per probe of a successful run's steady state; 0 elsewhere.
+    SteadyFlag {
+        /// The flag of a probe's steady state.
+        get: fn(&SteadyProbe) -> u8,
+        /// Puts it back.
+        set: fn(&mut SteadyProbe, u8),
+    },
+    /// A number per probe and harmonic of a successful run's steady state; NaN elsewhere.
+    SteadyHarmonic {
+        /// The values of a probe's steady state, one per harmonic.
+        get: fn(&SteadyProbe) -> &[f64],
+        /// The same, to put them back.
+        set: fn(&mut SteadyProbe) -> &mut Vec<f64>,
+    },
     /// The point's status: [`STATUS_PENDING`], [`STATUS_OK`] or [`STATUS_FAILED`].
     Status,
     /// The point's run hash (hex), pending points included.
@@ -202,6 +234,9 @@ impl Fill {
             Fill::Reason => "reason",
             Fill::ProbeF64 { .. } => "probe_f64",
             Fill::ProbeFlag { .. } => "probe_flag",
+            Fill::SteadyF64 { .. } => "steady_f64",
+            Fill::SteadyFlag { .. } => "steady_flag",
+            Fill::SteadyHarmonic { .. } => "steady_harmonic",
             Fill::Status => "status",
             Fill::RunHash => "run_hash",
             Fill::Verified => "verified",
@@ -221,6 +256,7 @@ impl Written {
             Written::WithMovingPart => "with_moving_part",
             Written::WithRunGroups => "with_run_groups",
             Written::WithSpectrum => "with_spectrum",
+            Written::WithSteadyState => "with_steady_state",
         }
     }
 }
@@ -240,6 +276,8 @@ pub enum Written {
     /// Files of grids that record the linear spectrum (`record.spectrum`): nothing on disk for
     /// a result not asked for.
     WithSpectrum,
+    /// Files of grids that record the steady state (`record.steady_state`).
+    WithSteadyState,
 }
 
 /// What decides which columns a file has: its grid's probes and recorded arrays.
@@ -254,6 +292,8 @@ pub struct Presence {
     pub run_groups: bool,
     /// Whether the grid records the linear spectrum.
     pub spectrum: bool,
+    /// Harmonics of the steady state the grid records (0: none recorded).
+    pub harmonics: usize,
 }
 
 /// One stored column.
@@ -265,6 +305,9 @@ pub struct Column {
     pub dtype: Dtype,
     /// One value per grid point and probe (shape `grid + (P,)`), else one per grid point.
     pub per_probe: bool,
+    /// One value per grid point, probe and harmonic (shape `grid + (P, H)`, `per_probe` too):
+    /// the steady state's amplitudes and phases.
+    pub per_harmonic: bool,
     /// The `units` attribute.
     pub units: Units,
     /// What it holds; written as the `long_name` attribute when `long_name` is set.
@@ -304,7 +347,17 @@ impl Column {
                 Written::WithMovingPart => presence.moving_part,
                 Written::WithRunGroups => presence.run_groups,
                 Written::WithSpectrum => presence.spectrum,
+                Written::WithSteadyState => presence.harmonics > 0,
             }
+    }
+
+    /// Values per grid point: 1, the probes `np`, or probes × harmonics `np · nh`.
+    pub fn width(&self, np: usize, nh: usize) -> usize {
+        match (self.per_probe, self.per_harmonic) {
+            (_, true) => np * nh,
+            (true, false) => np,
+            (false, false) => 1,
+        }
     }
 
     /// The marker of a missing value: NaN in a float column, [`INT_FILL`] in a count. Flags
@@ -324,6 +377,7 @@ const VERIFY_ERROR_NOTE: &str =
     "NaN where not verified or where neither run has the value, inf where only one has it";
 const VERIFY_FLAGS: &[u8] = &[VERIFY_NONE, VERIFY_OK, VERIFY_FAILED];
 const LEADING_FLAGS: &[u8] = &[LEADING_NO_RUN, LEADING_PASSED, LEADING_NOT_PASSED];
+const STEADY_FLAGS: &[u8] = &[STEADY_NO_RUN, STEADY_SETTLED, STEADY_NOT_SETTLED];
 const MOVING_PART_FLAGS: &[u8] = &[
     MOVING_PART_UNKNOWN,
     MOVING_PART_WHOLE_CHAIN,
@@ -336,6 +390,7 @@ pub const COLUMNS: &[Column] = &[
         name: "t_end_s",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("s"),
         description: "time the run reached",
         long_name: true,
@@ -352,6 +407,7 @@ pub const COLUMNS: &[Column] = &[
         name: "energy_drift_max",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "largest |E(t) - E(0)| over the run, relative to the impact energy",
         long_name: true,
@@ -368,6 +424,7 @@ pub const COLUMNS: &[Column] = &[
         name: "energy_drift_final",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "|E(t_end) - E(0)| relative to the impact energy",
         long_name: true,
@@ -384,6 +441,7 @@ pub const COLUMNS: &[Column] = &[
         name: "momentum_residual_max",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "largest momentum-balance residual, relative to the striker momentum",
         long_name: true,
@@ -400,6 +458,7 @@ pub const COLUMNS: &[Column] = &[
         name: "impact_energy_j",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("J"),
         description: "striker kinetic energy",
         long_name: true,
@@ -416,6 +475,7 @@ pub const COLUMNS: &[Column] = &[
         name: "wall_time_s",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("s"),
         description: "wall-clock time of the run (kept for failed runs)",
         long_name: true,
@@ -432,6 +492,7 @@ pub const COLUMNS: &[Column] = &[
         name: "max_overlap_m",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("m"),
         description: "largest contact overlap over the run (at step ends)",
         long_name: true,
@@ -448,6 +509,7 @@ pub const COLUMNS: &[Column] = &[
         name: "steps",
         dtype: Dtype::I64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "accepted integrator steps",
         long_name: true,
@@ -464,6 +526,7 @@ pub const COLUMNS: &[Column] = &[
         name: "rejected_steps",
         dtype: Dtype::I64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "rejected step attempts",
         long_name: true,
@@ -480,6 +543,7 @@ pub const COLUMNS: &[Column] = &[
         name: "rhs_evals",
         dtype: Dtype::I64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "right-hand-side evaluations",
         long_name: true,
@@ -496,6 +560,7 @@ pub const COLUMNS: &[Column] = &[
         name: "events",
         dtype: Dtype::I64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "steps retaken to end on a contact opening or closing (located events)",
         long_name: true,
@@ -512,6 +577,7 @@ pub const COLUMNS: &[Column] = &[
         name: "integrated_particles",
         dtype: Dtype::I64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "particles integrated at the end of the run (striker included): the chain's count when the whole chain was integrated, the final length of the growing prefix when only its moving part was",
         long_name: true,
@@ -528,6 +594,7 @@ pub const COLUMNS: &[Column] = &[
         name: "moving_part",
         dtype: Dtype::U8,
         per_probe: false,
+        per_harmonic: false,
         units: Units::None,
         description: "whether the run integrated only the moving part of its chain",
         long_name: true,
@@ -544,6 +611,7 @@ pub const COLUMNS: &[Column] = &[
         name: "lowest_frequency_hz",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("Hz"),
         description: "lowest natural frequency of the chain linearised about its static state",
         long_name: true,
@@ -560,6 +628,7 @@ pub const COLUMNS: &[Column] = &[
         name: "highest_frequency_hz",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("Hz"),
         description: "highest natural frequency of the chain linearised about its static state",
         long_name: true,
@@ -576,6 +645,7 @@ pub const COLUMNS: &[Column] = &[
         name: "gap_lower_hz",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("Hz"),
         description: "lower edge of the periodic chain's first band gap (top of the acoustic band)",
         long_name: true,
@@ -592,6 +662,7 @@ pub const COLUMNS: &[Column] = &[
         name: "gap_upper_hz",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("Hz"),
         description: "upper edge of the periodic chain's first band gap (bottom of the next band)",
         long_name: true,
@@ -608,6 +679,7 @@ pub const COLUMNS: &[Column] = &[
         name: "band_top_hz",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("Hz"),
         description: "upper edge of the periodic chain's highest band (its cut-off frequency)",
         long_name: true,
@@ -621,9 +693,27 @@ pub const COLUMNS: &[Column] = &[
         },
     },
     Column {
+        name: "steady_frequency_hz",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("Hz"),
+        description: "frequency f of the steady-state analysis (record.steady_state)",
+        long_name: true,
+        flags: None,
+        note: "record.steady_state.frequency_hz, or the scene's drive frequency; NaN where the run failed",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::OkF64 {
+            get: RunRecord::steady_frequency_hz,
+            set: RunRecord::set_steady_frequency_hz,
+        },
+    },
+    Column {
         name: "status",
         dtype: Dtype::U8,
         per_probe: false,
+        per_harmonic: false,
         units: Units::None,
         description: "state of the point's run: 0 pending, 1 ok, 2 failed",
         long_name: true,
@@ -637,6 +727,7 @@ pub const COLUMNS: &[Column] = &[
         name: "reason",
         dtype: Dtype::Str,
         per_probe: false,
+        per_harmonic: false,
         units: Units::None,
         description: "why the run failed (empty unless status == 2)",
         long_name: true,
@@ -650,6 +741,7 @@ pub const COLUMNS: &[Column] = &[
         name: "warnings",
         dtype: Dtype::Str,
         per_probe: false,
+        per_harmonic: false,
         units: Units::None,
         description: "physical-validity warnings of the run, one per line (empty when none)",
         long_name: true,
@@ -666,6 +758,7 @@ pub const COLUMNS: &[Column] = &[
         name: "verified",
         dtype: Dtype::U8,
         per_probe: false,
+        per_harmonic: false,
         units: Units::None,
         description: "whether the point was re-run at a tighter setting (run --verify)",
         long_name: true,
@@ -679,6 +772,7 @@ pub const COLUMNS: &[Column] = &[
         name: "verify_rel_error_max",
         dtype: Dtype::F64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "largest verify_rel_error_* over the probes (NaN where not verified)",
         long_name: true,
@@ -692,6 +786,7 @@ pub const COLUMNS: &[Column] = &[
         name: "run_hash",
         dtype: Dtype::Str,
         per_probe: false,
+        per_harmonic: false,
         units: Units::None,
         description:
             "SHA-256 identity of the run: numerics version, solver version, limits, full scene",
@@ -706,6 +801,7 @@ pub const COLUMNS: &[Column] = &[
         name: "leading_peak",
         dtype: Dtype::F64,
         per_probe: true,
+        per_harmonic: false,
         units: Units::OfProbes,
         description: "peak of the leading pulse (first excursion), refined between samples",
         long_name: true,
@@ -722,6 +818,7 @@ pub const COLUMNS: &[Column] = &[
         name: "leading_peak_time_s",
         dtype: Dtype::F64,
         per_probe: true,
+        per_harmonic: false,
         units: Units::Fixed("s"),
         description: "time of the leading peak",
         long_name: true,
@@ -738,6 +835,7 @@ pub const COLUMNS: &[Column] = &[
         name: "leading_pulse",
         dtype: Dtype::U8,
         per_probe: true,
+        per_harmonic: false,
         units: Units::None,
         description: "whether the leading pulse had passed the probe by the end of the run",
         long_name: true,
@@ -759,6 +857,7 @@ pub const COLUMNS: &[Column] = &[
         name: "record_max",
         dtype: Dtype::F64,
         per_probe: true,
+        per_harmonic: false,
         units: Units::OfProbes,
         description: "maximum over the whole record, refined between samples",
         long_name: true,
@@ -775,6 +874,7 @@ pub const COLUMNS: &[Column] = &[
         name: "record_max_time_s",
         dtype: Dtype::F64,
         per_probe: true,
+        per_harmonic: false,
         units: Units::Fixed("s"),
         description: "time of the record maximum",
         long_name: true,
@@ -788,9 +888,129 @@ pub const COLUMNS: &[Column] = &[
         },
     },
     Column {
+        name: "steady_mean",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: false,
+        units: Units::OfProbes,
+        description: "mean of the probe over the steady-state window",
+        long_name: true,
+        flags: None,
+        note: "the window: record.steady_state.window_periods whole periods after settle_periods",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::SteadyF64 {
+            get: |p| p.mean,
+            set: |p, x| p.mean = x,
+        },
+    },
+    Column {
+        name: "steady_rms",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: false,
+        units: Units::OfProbes,
+        description: "root mean square of the probe over the steady-state window (the mean included)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::SteadyF64 {
+            get: |p| p.rms,
+            set: |p, x| p.rms = x,
+        },
+    },
+    Column {
+        name: "steady_amplitude",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: true,
+        units: Units::OfProbes,
+        description: "amplitude A_k of the probe at harmonic k (frequency k f) over the steady-state window",
+        long_name: true,
+        flags: None,
+        note: "y = mean + sum over k of A_k cos(2 pi k f t + phase_k), t from the run's start; harmonic 1 is the fundamental",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::SteadyHarmonic {
+            get: |p| &p.amplitude,
+            set: |p| &mut p.amplitude,
+        },
+    },
+    Column {
+        name: "steady_phase_rad",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: true,
+        units: Units::Fixed("rad"),
+        description: "phase of the probe at harmonic k, of a cosine referenced to the run's start (t = 0)",
+        long_name: true,
+        flags: None,
+        note: "in (-pi, pi]",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::SteadyHarmonic {
+            get: |p| &p.phase_rad,
+            set: |p| &mut p.phase_rad,
+        },
+    },
+    Column {
+        name: "steady_settledness",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: false,
+        units: Units::Fixed("1"),
+        description: "change of the fundamental's complex amplitude between the window's first and last halves, relative to the probe's amplitude (sqrt(2) times its standard deviation)",
+        long_name: true,
+        flags: None,
+        note: "0 for a constant signal",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::SteadyF64 {
+            get: |p| p.settledness,
+            set: |p, x| p.settledness = x,
+        },
+    },
+    Column {
+        name: "steady_settled",
+        dtype: Dtype::U8,
+        per_probe: true,
+        per_harmonic: false,
+        units: Units::None,
+        description: "whether the probe had settled: steady_settledness <= record.steady_state.settled_tolerance",
+        long_name: true,
+        flags: Some((STEADY_FLAGS, "no_run settled not_settled")),
+        note: "0 no run (pending or failed), 1 settled, 2 not settled (the run's warnings say so too)",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::SteadyFlag {
+            get: |p| if p.settled { STEADY_SETTLED } else { STEADY_NOT_SETTLED },
+            set: |p, x| p.settled = x == STEADY_SETTLED,
+        },
+    },
+    Column {
+        name: "steady_transmission_db",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: false,
+        units: Units::Fixed("1"),
+        description: "transmission in dB: 20 log10 of the probe's fundamental amplitude over the reference probe's (record.steady_state.reference_probe)",
+        long_name: true,
+        flags: None,
+        note: "decibels; 0 at the reference probe",
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::SteadyF64 {
+            get: |p| p.transmission_db,
+            set: |p, x| p.transmission_db = x,
+        },
+    },
+    Column {
         name: "verify_rel_error_leading_peak",
         dtype: Dtype::F64,
         per_probe: true,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "relative error of leading_peak against the verification run",
         long_name: true,
@@ -804,6 +1024,7 @@ pub const COLUMNS: &[Column] = &[
         name: "verify_rel_error_leading_peak_time",
         dtype: Dtype::F64,
         per_probe: true,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "relative error of leading_peak_time_s against the verification run",
         long_name: true,
@@ -817,6 +1038,7 @@ pub const COLUMNS: &[Column] = &[
         name: "verify_rel_error_record_max",
         dtype: Dtype::F64,
         per_probe: true,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "relative error of record_max against the verification run",
         long_name: true,
@@ -830,6 +1052,7 @@ pub const COLUMNS: &[Column] = &[
         name: "history_checksum",
         dtype: Dtype::U64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "checksum of the run's group under runs/ (its histories and minimum overlaps)",
         long_name: true,
@@ -843,6 +1066,7 @@ pub const COLUMNS: &[Column] = &[
         name: "summary_checksum",
         dtype: Dtype::U64,
         per_probe: false,
+        per_harmonic: false,
         units: Units::Fixed("1"),
         description: "checksum of every other value the file stores for the point (run hash, status, summaries, verification, history_checksum)",
         long_name: true,
@@ -855,10 +1079,11 @@ pub const COLUMNS: &[Column] = &[
 ];
 
 /// Names the file uses at its root beside the columns: the probe coordinate, the probes' units,
-/// the group of full histories, and the dimensions of the characters of the text columns and
-/// coordinates (`<name>_strlen`).
+/// the harmonic coordinate of the steady state, the group of full histories, and the dimensions
+/// of the characters of the text columns and coordinates (`<name>_strlen`).
 pub const LAYOUT_NAMES: &[&str] = &[
     "probe",
+    HARMONIC,
     "probe_units",
     "runs",
     "reason_strlen",
@@ -867,6 +1092,9 @@ pub const LAYOUT_NAMES: &[&str] = &[
     "probe_strlen",
     "probe_units_strlen",
 ];
+
+/// The coordinate of the steady state's harmonics (1, 2, …).
+pub const HARMONIC: &str = "harmonic";
 
 /// The histories of every probe (or of the probes of one unit: [`split_name`]).
 pub const HISTORY: &str = "history";
@@ -976,13 +1204,10 @@ pub struct PointOutcome<'a> {
 }
 
 impl Column {
-    /// The column for `n_points` points of `n_probes` probes, every value its fill.
-    pub fn empty(&self, n_points: usize, n_probes: usize) -> ColumnData {
-        let n = if self.per_probe {
-            n_points * n_probes
-        } else {
-            n_points
-        };
+    /// The column for `n_points` points of `n_probes` probes and `n_harmonics` harmonics, every
+    /// value its fill.
+    pub fn empty(&self, n_points: usize, n_probes: usize, n_harmonics: usize) -> ColumnData {
+        let n = n_points * self.width(n_probes, n_harmonics);
         match (self.dtype, self.fill_value()) {
             (Dtype::F64, Some(FillValue::F64(x))) => ColumnData::F64(vec![x; n]),
             (Dtype::I64, Some(FillValue::I64(x))) => ColumnData::I64(vec![x; n]),
@@ -993,8 +1218,16 @@ impl Column {
         }
     }
 
-    /// Fills in point `i` (of `n_probes` probes) of `data` from its outcome `o`.
-    pub fn fill_point(&self, data: &mut ColumnData, i: usize, n_probes: usize, o: &PointOutcome) {
+    /// Fills in point `i` (of `n_probes` probes and `nh` harmonics) of `data` from its outcome
+    /// `o`.
+    pub fn fill_point(
+        &self,
+        data: &mut ColumnData,
+        i: usize,
+        n_probes: usize,
+        nh: usize,
+        o: &PointOutcome,
+    ) {
         let ok = o.record.filter(|r| r.ok);
         let verified = o.verify.filter(|v| v.status == VERIFY_OK);
         match (self.fill, data) {
@@ -1047,6 +1280,29 @@ impl Column {
                     }
                 }
             }
+            (Fill::SteadyF64 { get, .. }, ColumnData::F64(d)) => {
+                if let Some(st) = ok.and_then(|r| r.steady_state.as_ref()) {
+                    for (p, s) in st.probes.iter().enumerate().take(n_probes) {
+                        d[i * n_probes + p] = get(s);
+                    }
+                }
+            }
+            (Fill::SteadyFlag { get, .. }, ColumnData::U8(d)) => {
+                if let Some(st) = ok.and_then(|r| r.steady_state.as_ref()) {
+                    for (p, s) in st.probes.iter().enumerate().take(n_probes) {
+                        d[i * n_probes + p] = get(s);
+                    }
+                }
+            }
+            (Fill::SteadyHarmonic { get, .. }, ColumnData::F64(d)) => {
+                if let Some(st) = ok.and_then(|r| r.steady_state.as_ref()) {
+                    for (p, s) in st.probes.iter().enumerate().take(n_probes) {
+                        for (k, &x) in get(s).iter().enumerate().take(nh) {
+                            d[(i * n_probes + p) * nh + k] = x;
+                        }
+                    }
+                }
+            }
             (Fill::Status, ColumnData::U8(d)) => {
                 d[i] = match o.record {
                     None => STATUS_PENDING,
@@ -1088,7 +1344,14 @@ impl Column {
 
     /// Puts the value of point `i` of `data` back into `rec` (a record read from the file):
     /// columns of successful runs when `rec.ok`, those of every finished run always.
-    pub fn restore(&self, data: &ColumnData, i: usize, n_probes: usize, rec: &mut RunRecord) {
+    pub fn restore(
+        &self,
+        data: &ColumnData,
+        i: usize,
+        n_probes: usize,
+        nh: usize,
+        rec: &mut RunRecord,
+    ) {
         match (self.fill, data) {
             (Fill::OkF64 { set, .. }, ColumnData::F64(d)) if rec.ok => set(rec, d[i]),
             (Fill::RunF64 { set, .. }, ColumnData::F64(d)) => set(rec, d[i]),
@@ -1102,6 +1365,28 @@ impl Column {
             (Fill::ProbeF64 { set, .. }, ColumnData::F64(d)) if rec.ok => {
                 for (p, s) in rec.probes.iter_mut().enumerate().take(n_probes) {
                     set(s, d[i * n_probes + p]);
+                }
+            }
+            (Fill::SteadyF64 { set, .. }, ColumnData::F64(d)) if rec.ok => {
+                for p in 0..n_probes {
+                    if let Some(s) = rec.steady_probe_mut(p) {
+                        set(s, d[i * n_probes + p]);
+                    }
+                }
+            }
+            (Fill::SteadyFlag { set, .. }, ColumnData::U8(d)) if rec.ok => {
+                for p in 0..n_probes {
+                    if let Some(s) = rec.steady_probe_mut(p) {
+                        set(s, d[i * n_probes + p]);
+                    }
+                }
+            }
+            (Fill::SteadyHarmonic { set, .. }, ColumnData::F64(d)) if rec.ok => {
+                for p in 0..n_probes {
+                    if let Some(s) = rec.steady_probe_mut(p) {
+                        let at = (i * n_probes + p) * nh;
+                        *set(s) = d[at..at + nh].to_vec();
+                    }
                 }
             }
             _ => {}
@@ -1160,6 +1445,8 @@ pub struct Table {
     pub n: usize,
     /// Probes per point.
     pub np: usize,
+    /// Harmonics of the steady state per probe (0 without).
+    pub nh: usize,
     /// Every column, in [`COLUMNS`] order.
     pub columns: Vec<Option<ColumnData>>,
 }
@@ -1171,9 +1458,13 @@ impl Table {
         Table {
             n,
             np: presence.probes,
+            nh: presence.harmonics,
             columns: COLUMNS
                 .iter()
-                .map(|c| c.is_written(presence).then(|| c.empty(n, presence.probes)))
+                .map(|c| {
+                    c.is_written(presence)
+                        .then(|| c.empty(n, presence.probes, presence.harmonics))
+                })
                 .collect(),
         }
     }
@@ -1230,10 +1521,10 @@ impl Table {
 
     /// Fills in point `i` from its outcome `o`: every column, then the point's checksum.
     pub fn fill_point(&mut self, i: usize, o: &PointOutcome) {
-        let np = self.np;
+        let (np, nh) = (self.np, self.nh);
         for (c, data) in COLUMNS.iter().zip(&mut self.columns) {
             if let Some(d) = data {
-                c.fill_point(d, i, np, o);
+                c.fill_point(d, i, np, nh, o);
             }
         }
         let sum = self.point_checksum(i);
@@ -1259,7 +1550,7 @@ impl Table {
                 }
                 h.update(c.name.as_bytes());
                 h.update(b"=");
-                let k = if c.per_probe { self.np } else { 1 };
+                let k = c.width(self.np, self.nh);
                 let at = i * k..(i + 1) * k;
                 match d {
                     ColumnData::F64(v) => v[at]
@@ -1327,10 +1618,32 @@ impl Table {
                 np
             ];
         }
+        // The steady state's values go back into one of the table's shape.
+        let steady = COLUMNS
+            .iter()
+            .zip(&self.columns)
+            .any(|(c, d)| c.written == Written::WithSteadyState && d.is_some());
+        if rec.ok && steady {
+            rec.steady_state = Some(SteadyState {
+                frequency_hz: f64::NAN,
+                probes: vec![
+                    SteadyProbe {
+                        mean: f64::NAN,
+                        rms: f64::NAN,
+                        amplitude: vec![f64::NAN; self.nh],
+                        phase_rad: vec![f64::NAN; self.nh],
+                        settledness: f64::NAN,
+                        settled: false,
+                        transmission_db: f64::NAN,
+                    };
+                    np
+                ],
+            });
+        }
         // A column the table lacks leaves the value of a failed run's record (NaN, 0, empty).
         for (c, data) in COLUMNS.iter().zip(&self.columns) {
             if let Some(d) = data {
-                c.restore(d, i, np, &mut rec);
+                c.restore(d, i, np, self.nh, &mut rec);
             }
         }
         // Tables of grids where no point integrates only its moving part leave out how much each
@@ -1353,10 +1666,10 @@ pub fn markdown_table() -> String {
     let mut out =
         String::from("| dataset | shape | dtype | units | content |\n|---|---|---|---|---|\n");
     for c in COLUMNS {
-        let shape = if c.per_probe {
-            "`(n0, n1, …, P)`"
-        } else {
-            "`(n0, n1, …)`"
+        let shape = match (c.per_probe, c.per_harmonic) {
+            (_, true) => "`(n0, n1, …, P, H)`",
+            (true, false) => "`(n0, n1, …, P)`",
+            (false, false) => "`(n0, n1, …)`",
         };
         let units = match c.units {
             Units::None => "—".to_string(),
@@ -1384,6 +1697,8 @@ pub fn markdown_table() -> String {
             Written::WithSpectrum => {
                 content.push_str("; only in files that record the spectrum (`record.spectrum`)")
             }
+            Written::WithSteadyState => content
+                .push_str("; only in files that record the steady state (`record.steady_state`)"),
         }
         let content = content.replace('|', "\\|");
         let dtype = match c.dtype {
@@ -1424,21 +1739,32 @@ mod tests {
                 Fill::OkF64 { .. }
                 | Fill::RunF64 { .. }
                 | Fill::ProbeF64 { .. }
+                | Fill::SteadyF64 { .. }
+                | Fill::SteadyHarmonic { .. }
                 | Fill::VerifyMax
                 | Fill::VerifyProbe(_) => Dtype::F64,
                 Fill::OkCount { .. } | Fill::OkOptCount { .. } => Dtype::I64,
                 Fill::OkText { .. } | Fill::Reason | Fill::RunHash => Dtype::Str,
-                Fill::Status | Fill::Verified | Fill::OkFlag { .. } | Fill::ProbeFlag { .. } => {
-                    Dtype::U8
-                }
+                Fill::Status
+                | Fill::Verified
+                | Fill::OkFlag { .. }
+                | Fill::ProbeFlag { .. }
+                | Fill::SteadyFlag { .. } => Dtype::U8,
                 Fill::HistoryChecksum | Fill::SummaryChecksum => Dtype::U64,
             };
             assert_eq!(c.dtype, dtype, "{}", c.name);
             let per_probe = matches!(
                 c.fill,
-                Fill::ProbeF64 { .. } | Fill::ProbeFlag { .. } | Fill::VerifyProbe(_)
+                Fill::ProbeF64 { .. }
+                    | Fill::ProbeFlag { .. }
+                    | Fill::VerifyProbe(_)
+                    | Fill::SteadyF64 { .. }
+                    | Fill::SteadyFlag { .. }
+                    | Fill::SteadyHarmonic { .. }
             );
             assert_eq!(c.per_probe, per_probe, "{}", c.name);
+            let per_harmonic = matches!(c.fill, Fill::SteadyHarmonic { .. });
+            assert_eq!(c.per_harmonic, per_harmonic, "{}", c.name);
         }
     }
 

@@ -7,6 +7,7 @@
 pub mod columns;
 
 use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
+use chainsweep_solver::observe::steady::{SteadyProbe, SteadyState};
 use chainsweep_solver::spectrum::SpectrumSummary;
 
 use crate::identity::RunHash;
@@ -35,6 +36,13 @@ pub const LEADING_PASSED: u8 = 1;
 /// `leading_pulse` flag: the leading pulse had not passed the probe by the end of the run (it had
 /// not arrived, or was still rising): `leading_peak` and `leading_peak_time_s` are NaN.
 pub const LEADING_NOT_PASSED: u8 = 2;
+
+/// `steady_settled`: no run (pending or failed).
+pub const STEADY_NO_RUN: u8 = 0;
+/// `steady_settled`: the probe had settled within `record.steady_state.settled_tolerance`.
+pub const STEADY_SETTLED: u8 = 1;
+/// `steady_settled`: the probe had not settled.
+pub const STEADY_NOT_SETTLED: u8 = 2;
 
 /// `verified` flag: the point was not verified.
 pub const VERIFY_NONE: u8 = 0;
@@ -99,6 +107,8 @@ pub struct RunRecord {
     pub fields: Option<Fields>,
     /// The linear spectrum at the static state, when recorded (`record.spectrum`).
     pub spectrum: Option<SpectrumSummary>,
+    /// Steady-state observables of every probe, when recorded (`record.steady_state`).
+    pub steady_state: Option<SteadyState>,
 }
 
 impl RunRecord {
@@ -146,6 +156,7 @@ impl RunRecord {
             history: None,
             fields: None,
             spectrum: None,
+            steady_state: None,
         }
     }
 
@@ -160,6 +171,32 @@ impl RunRecord {
             return;
         }
         set(self.spectrum.get_or_insert(SpectrumSummary::NAN), x);
+    }
+}
+
+impl RunRecord {
+    /// The steady state's frequency, NaN where none was recorded.
+    pub fn steady_frequency_hz(&self) -> f64 {
+        self.steady_state
+            .as_ref()
+            .map_or(f64::NAN, |s| s.frequency_hz)
+    }
+
+    /// Puts back the steady state's frequency (a NaN where none was recorded leaves none).
+    pub fn set_steady_frequency_hz(&mut self, x: f64) {
+        if let Some(s) = &mut self.steady_state {
+            s.frequency_hz = x;
+        }
+    }
+
+    /// The steady state of probe `p`, where recorded.
+    pub fn steady_probe(&self, p: usize) -> Option<&SteadyProbe> {
+        self.steady_state.as_ref().and_then(|s| s.probes.get(p))
+    }
+
+    /// The steady state of probe `p` to put values back into, where recorded.
+    pub fn steady_probe_mut(&mut self, p: usize) -> Option<&mut SteadyProbe> {
+        self.steady_state.as_mut().and_then(|s| s.probes.get_mut(p))
     }
 }
 

@@ -497,6 +497,7 @@ pub fn snapshot_of(
         moving_part: grid.moving_part,
         run_groups: grid.has_run_arrays(),
         spectrum: grid.spectrum,
+        harmonics: grid.steady_harmonics,
         sweep: sweep.text.clone(),
         auto: sweep
             .auto_choice

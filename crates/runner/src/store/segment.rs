@@ -18,8 +18,15 @@
 //! [fields, only for a run that recorded them: 1 (u8) | n_samples (u64) | time_s f64 ×n_samples |
 //!   n_series (u32) | per series: quantity (u8: 0 contact_force, 1 displacement, 2 velocity) |
 //!   width (u64) | values f64 ×(n_samples · width), time slowest]
+//! [steady state, only for a run that recorded it: 2 (u8) | frequency_hz (f64) | n_probes (u32) |
+//!   harmonics (u32) | per probe: mean, rms, settledness, transmission_db (f64 ×4), settled (u8),
+//!   amplitude f64 ×harmonics, phase_rad f64 ×harmonics]
 //! checksum (32)
 //! ```
+//!
+//! The steady state (`record.steady_state`) is a second optional trailing part, told from the
+//! fields by its first byte: records without it are byte for byte what earlier versions wrote;
+//! earlier versions take one with it as damaged and compute the run again.
 //!
 //! The space–time fields (`record.fields`) are an optional trailing part of format 4: a record
 //! without them is byte for byte what earlier versions wrote (which read it), one with them is
@@ -42,6 +49,7 @@ use chainsweep_solver::observe::probes::{
 };
 use sha2::{Digest, Sha256};
 
+use chainsweep_solver::observe::steady::{SteadyProbe, SteadyState};
 use chainsweep_solver::spectrum::SpectrumSummary;
 
 use crate::identity::RunHash;
@@ -134,7 +142,7 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
         }
     }
     if let Some(f) = &rec.fields {
-        b.push(1);
+        b.push(FIELDS_TAG);
         b.extend_from_slice(&(f.time_s.len() as u64).to_le_bytes());
         f.time_s.iter().for_each(|&x| put_f64(&mut b, x));
         put_u32(&mut b, f.series.len() as u32);
@@ -144,10 +152,31 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
             s.values.iter().for_each(|&x| put_f64(&mut b, x));
         }
     }
+    if let Some(st) = &rec.steady_state {
+        b.push(STEADY_TAG);
+        put_f64(&mut b, st.frequency_hz);
+        put_u32(&mut b, st.probes.len() as u32);
+        let h = st.probes.first().map_or(0, |p| p.amplitude.len());
+        put_u32(&mut b, h as u32);
+        for p in &st.probes {
+            for x in [p.mean, p.rms, p.settledness, p.transmission_db] {
+                put_f64(&mut b, x);
+            }
+            b.push(p.settled as u8);
+            debug_assert_eq!((p.amplitude.len(), p.phase_rad.len()), (h, h));
+            p.amplitude.iter().for_each(|&x| put_f64(&mut b, x));
+            p.phase_rad.iter().for_each(|&x| put_f64(&mut b, x));
+        }
+    }
     let sum: [u8; 32] = Sha256::digest(&b).into();
     b.extend_from_slice(&sum);
     b
 }
+
+/// First byte of the fields' trailing part.
+const FIELDS_TAG: u8 = 1;
+/// First byte of the steady state's trailing part.
+const STEADY_TAG: u8 = 2;
 
 /// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
 pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
@@ -223,10 +252,8 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
-    let fields = if magic == MAGIC && r.at < body.len() {
-        if r.take(1)?[0] != 1 {
-            return None;
-        }
+    let fields = if magic == MAGIC && r.at < body.len() && body[r.at] == FIELDS_TAG {
+        r.take(1)?;
         let samples = r.u64()? as usize;
         let time_s = r.f64s(samples)?;
         let n = r.u32()? as usize;
@@ -242,6 +269,40 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
             });
         }
         Some(Fields { time_s, series })
+    } else {
+        None
+    };
+    let steady_state = if magic == MAGIC && r.at < body.len() {
+        if r.take(1)?[0] != STEADY_TAG {
+            return None;
+        }
+        let frequency_hz = r.f64()?;
+        let n = r.u32()? as usize;
+        let h = r.u32()? as usize;
+        // (Bounded by the record's length: each probe takes at least 33 bytes.)
+        let mut probes = Vec::with_capacity(n.min(body.len() / 33));
+        for _ in 0..n {
+            let (mean, rms, settledness, transmission_db) =
+                (r.f64()?, r.f64()?, r.f64()?, r.f64()?);
+            let settled = match r.take(1)?[0] {
+                0 => false,
+                1 => true,
+                _ => return None,
+            };
+            probes.push(SteadyProbe {
+                mean,
+                rms,
+                amplitude: r.f64s(h)?,
+                phase_rad: r.f64s(h)?,
+                settledness,
+                settled,
+                transmission_db,
+            });
+        }
+        Some(SteadyState {
+            frequency_hz,
+            probes,
+        })
     } else {
         None
     };
@@ -271,6 +332,7 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
         history,
         fields,
         spectrum,
+        steady_state,
     })
 }
 
@@ -400,9 +462,34 @@ mod tests {
                 gap_upper_hz: 1.6e4,
                 band_top_hz: 2.5e4,
             }),
+            steady_state: Some(SteadyState {
+                frequency_hz: 1302.5,
+                probes: vec![SteadyProbe {
+                    mean: 10.0,
+                    rms: 10.5,
+                    amplitude: vec![3.1, 1e-12, f64::NAN],
+                    phase_rad: vec![-3.0, 0.5, f64::NAN],
+                    settledness: 2e-3,
+                    settled: false,
+                    transmission_db: f64::NEG_INFINITY,
+                }],
+            }),
         };
         let bytes = encode(&rec);
         let back = decode(&bytes).unwrap();
+        let st = back.steady_state.as_ref().unwrap();
+        assert_eq!((st.frequency_hz, st.probes[0].settled), (1302.5, false));
+        assert_eq!(st.probes[0].phase_rad[..2], [-3.0, 0.5]);
+        // Without the fields before it, the steady state alone still reads back.
+        let mut alone = rec.clone();
+        alone.fields = None;
+        let alone_bytes = encode(&alone);
+        assert_eq!(encode(&decode(&alone_bytes).unwrap()), alone_bytes);
+        // A record cut inside its steady state is damaged, never read short.
+        let mut cut = alone_bytes[..alone_bytes.len() - 32 - 8].to_vec();
+        let sum: [u8; 32] = Sha256::digest(&cut).into();
+        cut.extend_from_slice(&sum);
+        assert!(decode(&cut).is_none());
         assert_eq!(encode(&back), bytes);
         assert!(back.probes[0].leading_peak_time_s.is_nan());
         assert_eq!(
@@ -415,8 +502,14 @@ mod tests {
         assert_eq!(f.series[0].values[2].to_bits(), (-0.0f64).to_bits());
         // Without fields, the record is what earlier versions wrote: the fields' part is all it
         // adds (1 + 8 + 2 × 8 + 4 + 2 × (1 + 8) + 10 × 8 bytes).
+        // (The fields' part, of a record without the steady state after it.)
+        let bytes = encode(&RunRecord {
+            steady_state: None,
+            ..rec.clone()
+        });
         let without = encode(&RunRecord {
             fields: None,
+            steady_state: None,
             ..rec.clone()
         });
         assert_eq!(bytes.len() - without.len(), 1 + 8 + 16 + 4 + 18 + 80);
@@ -424,7 +517,7 @@ mod tests {
         // A fields part with a bad marker or quantity is damage.
         let mut bad = bytes.clone();
         let at = without.len() - 32;
-        bad[at] = 2;
+        bad[at] = 3;
         let n = bad.len() - 32;
         let sum: [u8; 32] = Sha256::digest(&bad[..n]).into();
         bad[n..].copy_from_slice(&sum);

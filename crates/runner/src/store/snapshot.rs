@@ -69,6 +69,10 @@ pub struct Header {
     /// version 1, which predate it: false.)
     #[serde(default)]
     pub spectrum: bool,
+    /// Harmonics of the steady state the grid records (its columns; 0 without, and then left out
+    /// of the header, so that the snapshot of every other grid reads as before).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub harmonics: usize,
     /// The sweep file's text.
     pub sweep: String,
     /// What `integrator: auto` chose (JSON; empty without).
@@ -89,8 +93,13 @@ impl Header {
             moving_part: self.moving_part,
             run_groups: self.run_groups,
             spectrum: self.spectrum,
+            harmonics: self.harmonics,
         }
     }
+}
+
+fn is_zero(n: &usize) -> bool {
+    *n == 0
 }
 
 /// The run-hash prefix naming a point in a snapshot.
@@ -156,7 +165,7 @@ pub fn encode(header: &Header, table: &Table, hashes: &[RunHash]) -> Vec<u8> {
             let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
                 continue;
             };
-            let k = if c.per_probe { table.np } else { 1 };
+            let k = c.width(table.np, table.nh);
             let range = start * k..(start + count) * k;
             match d {
                 ColumnData::F64(v) => {
@@ -330,14 +339,14 @@ impl Snapshot {
             return None;
         }
         let prefixes: Vec<u64> = (0..count).map(|_| r.u64()).collect::<Option<_>>()?;
-        let np = table.np;
+        let (np, nh) = (table.np, table.nh);
         // Decoded into new columns first: a block malformed halfway changes nothing.
         let mut decoded: Vec<(usize, ColumnData)> = Vec::new();
         for (at, (c, data)) in COLUMNS.iter().zip(&table.columns).enumerate() {
             let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
                 continue;
             };
-            let n = count * if c.per_probe { np } else { 1 };
+            let n = count * c.width(np, nh);
             let col = match d {
                 ColumnData::F64(_) => ColumnData::F64(
                     r.unshuffled::<8>(n)?
@@ -373,7 +382,7 @@ impl Snapshot {
             return None;
         }
         for (at, col) in decoded {
-            let k = if COLUMNS[at].per_probe { np } else { 1 };
+            let k = COLUMNS[at].width(np, nh);
             let range = start * k..(start + count) * k;
             match (table.columns[at].as_mut(), col) {
                 (Some(ColumnData::F64(v)), ColumnData::F64(c)) => v[range].copy_from_slice(&c),
@@ -444,6 +453,7 @@ mod tests {
             moving_part: false,
             run_groups: false,
             spectrum: false,
+            harmonics: 0,
             sweep: "{}".into(),
             auto: String::new(),
             shard: "1/1".into(),
@@ -459,6 +469,7 @@ mod tests {
             moving_part: false,
             run_groups: false,
             spectrum: false,
+            harmonics: 0,
         };
         let mut t = Table::empty(n, presence);
         let hashes: Vec<RunHash> = (0..n)

@@ -12,6 +12,8 @@ use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::motion::system::{EnergyTerms, Ledger};
 use crate::spectrum::SpectrumSpec;
 
+use super::steady::{SteadyRecorder, SteadyState, SteadyStateSpec};
+
 /// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
 /// striker when the chain has one, else the first particle of the sequence; contact `j` joins
 /// particles `j` and `j+1`.
@@ -343,6 +345,13 @@ pub struct RecordSpec {
         serde(default, skip_serializing_if = "Option::is_none")
     )]
     pub fields: Option<FieldSpec>,
+    /// Steady-state mean, RMS, harmonic amplitudes and phases and transmission of every probe
+    /// over a window of whole periods (none by default; nothing is sampled without it).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Option::is_none")
+    )]
+    pub steady_state: Option<SteadyStateSpec>,
 }
 
 #[cfg(feature = "serde")]
@@ -367,6 +376,7 @@ impl Default for RecordSpec {
             stop_after_leading_pulses: false,
             spectrum: None,
             fields: None,
+            steady_state: None,
         }
     }
 }
@@ -380,6 +390,7 @@ impl RecordSpec {
             || self.history
             || self.min_overlap
             || self.fields.is_some()
+            || self.steady_state.is_some()
     }
 
     /// Checks the record block against a built chain; errors name the field (relative to `record`).
@@ -911,6 +922,8 @@ pub(crate) struct ObserverOptions {
     pub driven: bool,
     /// Space–time fields to record, with the preload setting of the force probes.
     pub fields: Option<(FieldSpec, Preload)>,
+    /// The steady-state window to analyse, at its frequency (Hz).
+    pub steady_state: Option<(SteadyStateSpec, f64)>,
 }
 
 /// Samples a run's space–time fields: one probe per contact or particle of each quantity, on the
@@ -1050,6 +1063,8 @@ pub(crate) struct RunObserver {
     pub min_overlap: Option<Vec<f64>>,
     /// The space–time fields, when recorded.
     fields: Option<FieldRecorder>,
+    /// The steady-state sums, when recorded.
+    steady: Option<SteadyRecorder>,
     pub energy_drift_max: f64,
     pub energy_drift_final: f64,
     pub momentum_residual_max: f64,
@@ -1119,7 +1134,7 @@ pub fn samples_in(t0: f64, interval: f64, t_end: f64) -> u64 {
 /// as it has room for, at most [`SAMPLE_BATCH`]), `state` the components of one sample.
 #[allow(clippy::too_many_arguments)]
 #[inline]
-fn sample_grid(
+pub(crate) fn sample_grid(
     step: &dyn DenseStep,
     (t0, interval): (f64, f64),
     next: &mut u64,
@@ -1213,6 +1228,10 @@ impl RunObserver {
                 .fields
                 .as_ref()
                 .map(|(spec, preload)| FieldRecorder::new(chain, spec, *preload, t0, t_end)),
+            steady: opts
+                .steady_state
+                .as_ref()
+                .map(|(spec, f)| SteadyRecorder::new(spec, *f, n_probes)),
             energy_drift_max: 0.0,
             energy_drift_final: 0.0,
             momentum_residual_max: 0.0,
@@ -1311,6 +1330,11 @@ impl RunObserver {
         self.fields.take().map(|f| f.out)
     }
 
+    /// The steady state analysed, when asked for (taken: a second call gives `None`).
+    pub fn take_steady_state(&mut self) -> Option<SteadyState> {
+        self.steady.take().map(|s| s.finish())
+    }
+
     fn all_leading_passed(&self) -> bool {
         !self.trackers.is_empty() && self.trackers.iter().all(|t| t.phase == PulsePhase::Passed)
     }
@@ -1402,6 +1426,27 @@ impl StepObserver for RunObserver {
                         }
                     },
                 );
+            }
+            if let Some(s) = self.steady.as_mut().filter(|s| !s.complete()) {
+                // Up to the window's last instant, so that nothing is sampled after it.
+                let last = s.last_instant_s();
+                let mut next = s.next;
+                let mut j = next;
+                sample_grid(
+                    step,
+                    (s.start_s, s.interval_s),
+                    &mut next,
+                    until.min(last),
+                    &self.probe_components,
+                    &mut self.batch_values[..],
+                    &mut self.probe_state,
+                    |t, state| {
+                        let g = |i: usize| state[i];
+                        s.sample(j, t, |k| probes.value(k, &g));
+                        j += 1;
+                    },
+                );
+                s.next = next;
             }
         }
         if let Some(f) = &mut self.fields {

@@ -596,7 +596,28 @@ impl Scene {
         if let Some(fields) = &self.record.fields {
             fields.check_samples(&chain, self.duration_s)?;
         }
+        self.steady_state_frequency_hz()?;
         Ok(chain)
+    }
+
+    /// The frequency `record.steady_state` analyses, Hz, its window checked against the run
+    /// (`None` without the option); errors name the field.
+    pub fn steady_state_frequency_hz(&self) -> Result<Option<f64>, SpecError> {
+        let Some(spec) = &self.record.steady_state else {
+            return Ok(None);
+        };
+        if self.record.stop_after_leading_pulses {
+            return Err(spec_err(
+                "record.stop_after_leading_pulses",
+                "must be false with record.steady_state: the window needs the run to go on to its end",
+            ));
+        }
+        spec.validate(
+            self.record.probes.len(),
+            self.duration_s,
+            self.drive_frequency_hz(),
+        )
+        .map(Some)
     }
 
     /// The history and summary intervals against the duration: at most
@@ -779,8 +800,9 @@ impl Scene {
         }
     }
 
-    /// The frequency a driven chain's steady response settles at, Hz: a harmonic drive's;
-    /// `None` for every other excitation (a chirp, a sum of harmonics or a recording has none).
+    /// The frequency a driven chain's steady response settles at, Hz: what `record.steady_state`
+    /// analyses when it gives no `frequency_hz` of its own. A harmonic drive's; `None` for every
+    /// other excitation (a chirp, a sum of harmonics or a recording has no single frequency).
     pub fn drive_frequency_hz(&self) -> Option<f64> {
         match &self.excitation {
             Some(Excitation::Drive(d)) => match d.waveform() {

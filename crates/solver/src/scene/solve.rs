@@ -16,6 +16,7 @@ use crate::motion::system::EnergyTerms;
 use crate::observe::probes::{
     Fields, History, ObserverOptions, ProbeSet, ProbeSummary, RunObserver,
 };
+use crate::observe::steady::SteadyState;
 use crate::scene::{
     Excitation, ImpactScales, IntegratorSpec, Scene, MAX_HERTZ_OVERLAP_RATIO,
     MIN_PULSE_TO_TRANSIT_RATIO,
@@ -116,6 +117,10 @@ pub struct RunOutput {
     /// ([`crate::scene::Continuation`]): what the next point on the axis starts from.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub final_state: Option<Vec<f64>>,
+    /// Steady-state observables of every probe, when `record.steady_state` asks for them (absent
+    /// from the serialised output otherwise).
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub steady_state: Option<SteadyState>,
 }
 
 /// Physical-validity warnings for a scene and its largest overlap.
@@ -256,6 +261,10 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             .fields
             .clone()
             .map(|f| (f, scene.record.preload)),
+        steady_state: scene
+            .steady_state_frequency_hz()?
+            .zip(scene.record.steady_state.clone())
+            .map(|(f, spec)| (spec, f)),
     };
     let spectrum = match &scene.record.spectrum {
         Some(spec) => Some(spec.summarise(&chain)?),
@@ -283,6 +292,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             warnings: Vec::new(),
             spectrum,
             final_state: None,
+            steady_state: None,
         });
     }
     let t0 = 0.0;
@@ -367,6 +377,11 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             stats.stiffness_detections
         ));
     }
+    let steady_state = observer.take_steady_state();
+    if let (Some(s), Some(spec)) = (&steady_state, &scene.record.steady_state) {
+        let names: Vec<String> = scene.record.probes.iter().map(|p| p.name()).collect();
+        warnings.extend(s.warning(&names, spec.settled_tolerance));
+    }
     Ok(RunOutput {
         method: integrator.name(),
         active_particles,
@@ -390,5 +405,6 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             .state
             .take()
             .filter(|_| scene.continuation.is_some()),
+        steady_state,
     })
 }

@@ -25,6 +25,7 @@ use crate::grid::Grid;
 use crate::identity::RunHash;
 use crate::record::columns::{
     distinct_units, history_checksum, split_name, Column, ColumnData, Dtype, Table, Units, COLUMNS,
+    HARMONIC,
 };
 use crate::record::{RunArrays, RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
 use crate::sweep::Sweep;
@@ -110,11 +111,14 @@ fn read_column_of(
     c: &Column,
     names: &[String],
     units: &[String],
+    nh: usize,
 ) -> Result<ColumnData> {
     if units.is_empty() {
         return read_column(file, &names[0], c.dtype);
     }
     let np = units.len();
+    // Values per probe: one per harmonic in the steady state's amplitudes.
+    let per = if c.per_harmonic { nh.max(1) } else { 1 };
     let mut out: Option<Vec<f64>> = None;
     for (name, u) in names.iter().zip(distinct_units(units)) {
         let part: Vec<f64> = read_unchecked(&file.dataset(name)?)?;
@@ -125,7 +129,7 @@ fn read_column_of(
             )));
         }
         for (k, x) in part.iter().enumerate() {
-            if units[k % np] == u {
+            if units[k / per % np] == u {
                 out[k] = *x;
             }
         }
@@ -200,6 +204,12 @@ impl FileRecords {
             0.0
         };
         let mut unreadable = Vec::new();
+        // The steady state's harmonics: the length of their coordinate (0 without).
+        let nh = if file.link_exists(HARMONIC) {
+            file.dataset(HARMONIC).map_or(0, |d| d.size())
+        } else {
+            0
+        };
         let mut columns = Vec::with_capacity(COLUMNS.len());
         for c in COLUMNS {
             let read = column_datasets(&file, c).and_then(|(names, units)| {
@@ -211,7 +221,7 @@ impl FileRecords {
                 } else {
                     names
                 };
-                read_column_of(&file, c, &names, &units).map(Some)
+                read_column_of(&file, c, &names, &units, nh).map(Some)
             });
             columns.push(match read {
                 Ok(d) => d,
@@ -244,17 +254,21 @@ impl FileRecords {
         let np = COLUMNS
             .iter()
             .zip(&columns)
-            .find_map(|(c, d)| d.as_ref().filter(|_| c.per_probe).map(column_len))
+            .find_map(|(c, d)| {
+                d.as_ref()
+                    .filter(|_| c.per_probe && !c.per_harmonic)
+                    .map(column_len)
+            })
             .map_or(0, |len| len.checked_div(n).unwrap_or(0));
         // A column of the wrong length is damaged (its shape was): left out, like an unreadable one.
         for (c, d) in COLUMNS.iter().zip(columns.iter_mut()) {
-            let want = if c.per_probe { n * np } else { n };
+            let want = n * c.width(np, nh);
             if d.as_ref().is_some_and(|d| column_len(d) != want) {
                 unreadable.push((c.name, "holds the wrong number of values".to_string()));
                 *d = None;
             }
         }
-        let table = Table { n, np, columns };
+        let table = Table { n, np, nh, columns };
         let mut recs = FileRecords {
             sweep_text,
             verify_fraction,

@@ -21,7 +21,7 @@ use crate::grid::{Grid, Shard};
 use crate::identity::{hex, TIGHTENING};
 use crate::record::columns::{
     distinct_units, split_name, Column, ColumnData, FillValue, PointOutcome, Presence, Table,
-    Units, COLUMNS,
+    Units, COLUMNS, HARMONIC,
 };
 use crate::record::{RunRecord, VerifyInfo, STATUS_PENDING, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
@@ -43,6 +43,7 @@ pub fn presence(grid: &Grid) -> Presence {
         moving_part: grid.moving_part,
         run_groups: grid.has_run_arrays(),
         spectrum: grid.spectrum,
+        harmonics: grid.steady_harmonics,
     }
 }
 
@@ -500,6 +501,23 @@ fn write_columns(
         .map(|i| table.status(i) == STATUS_PENDING)
         .collect();
     let mut written = Vec::new();
+    // The steady state's harmonics, a coordinate (1, 2, …) of the columns over them.
+    let nh = table.nh;
+    let harmonic = match probe_scale {
+        Some(_) if nh > 0 => {
+            let k: Vec<i64> = (1..=nh as i64).collect();
+            let h = checked_dataset(file, HARMONIC, &[nh], &k)?;
+            attr_str(&h, "units", "1")?;
+            attr_str(
+                &h,
+                "long_name",
+                "harmonic k of the steady state (frequency k times steady_frequency_hz)",
+            )?;
+            set_scale(&h, HARMONIC)?;
+            Some(h)
+        }
+        _ => None,
+    };
     for (c, data) in COLUMNS.iter().zip(&table.columns) {
         let Some(data) = data else {
             continue;
@@ -508,8 +526,16 @@ fn write_columns(
             let Some(p) = probe_scale else {
                 continue;
             };
+            let np = p.units.len();
             let mut pshape = shape.clone();
-            pshape.push(p.units.len());
+            pshape.push(np);
+            // Values per probe: one, or one per harmonic (the last dimension).
+            let per = if c.per_harmonic {
+                pshape.push(nh);
+                nh
+            } else {
+                1
+            };
             let mut coords = others.to_vec();
             coords.extend(["probe", "probe_units"]);
             let units = distinct_units(&p.units);
@@ -519,7 +545,7 @@ fn write_columns(
                     .map(|&u| {
                         let mut part = v.clone();
                         for (k, x) in part.iter_mut().enumerate() {
-                            if p.units[k % p.units.len()] != u {
+                            if p.units[k / per % np] != u {
                                 *x = f64::NAN;
                             }
                         }
@@ -534,6 +560,9 @@ fn write_columns(
                 let d = write_column(file, c, name, &pshape, part, *unit, split, &pending)?;
                 attach_grid(&d, dims)?;
                 attach_scale(&d, &p.scale, shape.len(), "probe")?;
+                if let (true, Some(h)) = (c.per_harmonic, &harmonic) {
+                    attach_scale(&d, h, shape.len() + 1, HARMONIC)?;
+                }
                 attr_str(&d, "coordinates", &coords.join(" "))?;
                 written.push(name.clone());
             }
