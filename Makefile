@@ -191,7 +191,8 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 # their points and the minima and roots they found. About 15 s on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum \
-  plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down
+  plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down \
+  dimer-transmission
 
 # The reference renderings the docs show, docs/figures/ (tracked; results/ is not): each of them
 # copied from results/ where `make figures`, `make examples` or `make accuracy` has drawn it.

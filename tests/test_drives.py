@@ -192,3 +192,36 @@ def test_the_driven_sweep_up_and_down_traces_the_resonance_and_its_hysteresis(bi
 
         up, down = (collapse(s) for s in sorted(ds["start_hz"].values))
         assert up > down + 10.0, (up, down)
+
+
+def test_the_dimer_transmits_in_its_bands_and_not_in_its_gap(binary, tmp_path):
+    """sweeps/examples/dimer-transmission.json, each run's steady state against the same run's
+    linear spectrum: in the acoustic band (below 0.8 of the gap's lower edge) the settled
+    transmission is of order one (median within 10 dB of 0: a standing wave's node may fall on the
+    probe at some frequency); well inside the gap (its middle 60 %) it is below -60 dB; the gap's
+    edges rise with the precompression as F^(1/6)."""
+    from conftest import REPO
+
+    example = REPO / "sweeps" / "examples" / "dimer-transmission.json"
+    out = tmp_path / "dimer.h5"
+    r = run("run", example, "-o", out, "--jobs", "2", "--quiet")
+    assert r.returncode == 0, r.stderr
+    with xr.open_dataset(out) as ds:
+        assert ds["steady_transmission_db"].dims == ("precompression_force_n", "frequency_hz", "probe")
+        f = ds["frequency_hz"].values
+        lows = []
+        for force in ds["precompression_force_n"].values:
+            at = ds.sel(precompression_force_n=force)
+            low, high = float(at["gap_lower_hz"][0]), float(at["gap_upper_hz"][0])
+            lows.append(low)
+            db = at["steady_transmission_db"].values[:, 1]
+            settled = at["steady_settled"].values[:, 1] == 1
+            band = (f < 0.8 * low) & settled
+            assert band.sum() >= 3, force
+            assert abs(np.median(db[band])) < 10, (force, db[band])
+            gap = (f > low + 0.2 * (high - low)) & (f < high - 0.2 * (high - low))
+            assert gap.sum() >= 1 and (db[gap] < -60).all(), (force, db[gap])
+            # The reference probe's own transmission is 0 dB by definition.
+            assert np.allclose(at["steady_transmission_db"].values[:, 0], 0.0)
+        forces = ds["precompression_force_n"].values
+        np.testing.assert_allclose(np.array(lows) / lows[0], (forces / forces[0]) ** (1 / 6), rtol=1e-9)

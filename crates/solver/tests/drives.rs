@@ -1,6 +1,6 @@
 //! Driven chains: a precompressed linear chain with viscous damping under a harmonic force settles
 //! on the steady response the complex linear system `(K − ω²M + iωC) X = F` gives (amplitude and
-//! phase of every particle to 1e-6); the ledger of a driven chain closes with the drive's work
+//! phase of every particle to 1e-6, from its history and from `record.steady_state`); the ledger of a driven chain closes with the drive's work
 //! (< 1e-8 of the work put in) for a force, an actuator and a moving base, and for chirps, sums
 //! and recordings; an actuator that pulls away loses contact and the chain flies free; a moving
 //! base far below the chain's frequencies carries the chain with it; a driven frequency sweep of
@@ -13,6 +13,7 @@ use chainsweep_solver::chain::drive::{
 use chainsweep_solver::chain::model::{Chain, PhysicsSpec};
 use chainsweep_solver::chain::sequence::SequenceSpec;
 use chainsweep_solver::observe::probes::Probe;
+use chainsweep_solver::observe::steady::SteadyStateSpec;
 use chainsweep_solver::problems::{chain, monodisperse, power_law, rule, sphere, STEEL};
 use chainsweep_solver::scene::solve::{run, RunOutput};
 use chainsweep_solver::scene::{Excitation, IntegratorSpec, Scene};
@@ -123,9 +124,21 @@ fn a_linear_chain_settles_on_the_closed_form_steady_response() {
     }
     s.record.history = true;
     s.record.history_interval_s = period / per_period as f64;
+    // The same window read by `record.steady_state`, at the drive's own frequency.
+    s.record.steady_state = Some(SteadyStateSpec {
+        frequency_hz: None,
+        settle_periods: 200,
+        window_periods: 20,
+        harmonics: 2,
+        samples_per_period: 64,
+        settled_tolerance: 1e-6,
+        reference_probe: 0,
+    });
     let out = run(&s).unwrap();
     let h = out.history.clone().unwrap();
     let from = h.time_s.iter().position(|&t| t >= settle - 1e-15).unwrap();
+    let steady = out.steady_state.clone().expect("recorded");
+    assert_eq!(steady.frequency_hz, f);
 
     // K − ω²M + iωC: every contact (the wall's included) a spring k and a dashpot μ.
     let mut a = vec![vec![(0.0, 0.0); n]; n];
@@ -160,6 +173,18 @@ fn a_linear_chain_settles_on_the_closed_form_steady_response() {
             (phase_got - phase_want).abs() < 1e-6,
             "particle {}: phase {phase_got} against {phase_want}",
             i + 1
+        );
+        // The steady state's `A cos(ωt + φ)`: φ = arg X − π/2; settled, its second harmonic nil.
+        let p = &steady.probes[i];
+        assert!((p.amplitude[0] - want).abs() < 1e-6 * want, "{p:?}");
+        let dphi = (p.phase_rad[0] - (phase_want - std::f64::consts::FRAC_PI_2))
+            .rem_euclid(std::f64::consts::TAU);
+        assert!(dphi.min(std::f64::consts::TAU - dphi) < 1e-6, "{p:?}");
+        assert!(p.settled && p.amplitude[1] < 1e-6 * want, "{p:?}");
+        let x0 = (x[0].0 * x[0].0 + x[0].1 * x[0].1).sqrt();
+        assert!(
+            (p.transmission_db - 20.0 * (want / x0).log10()).abs() < 1e-5,
+            "{p:?}"
         );
     }
     assert!(out.energy_drift_max < 1e-8, "{}", out.energy_drift_max);
