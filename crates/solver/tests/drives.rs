@@ -555,3 +555,34 @@ fn a_driven_frequency_sweep_finds_the_top_of_the_acoustic_band() {
         assert!(t < 0.1, "in the gap at {ratio} of the edge: {t}");
     }
 }
+
+/// A moving base and an actuator under chains whose contacts yield (Thornton's law, 1.5 GPa):
+/// the ledger, the plastic work in it, closes with the drive's work; the contacts did yield.
+#[test]
+fn driven_plastic_chains_close_the_ledger() {
+    use chainsweep_solver::contact::LawSpec;
+    let thornton = Some(LawSpec::Thornton {
+        yield_pressure_pa: Some(1.5e9),
+        yield_velocity_m_s: None,
+    });
+    let mut spec = monodisperse(10, None, false);
+    spec.contacts = vec![rule("ball", "ball", thornton, None)];
+    let physics = PhysicsSpec {
+        gravity: false,
+        wall: true,
+        precompression_force_n: 5.0,
+        ..PhysicsSpec::default()
+    };
+    let mut between = spec.clone();
+    between.top_wall_material = Some(between.wall_material);
+    for (drive, spec) in [
+        (DriveSpec::BaseM(harmonic(2e-6, 4000.0, 0.0)), spec),
+        (DriveSpec::ActuatorM(harmonic(2e-6, 4000.0, 0.0)), between),
+    ] {
+        let what = format!("{:?}", drive.point());
+        let s = driven(spec, physics, drive, 2e-3);
+        let out = run(&s).unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert!(out.final_energy.plastic > 0.0, "{what}: nothing yielded");
+        assert_ledger_closes(&out, &what);
+    }
+}

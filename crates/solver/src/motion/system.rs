@@ -407,7 +407,6 @@ impl Ledger {
     #[inline(never)]
     fn plastic_potential(&self, y: &[f64], k: usize) -> (f64, f64) {
         let n = self.mass.len();
-        let x = &y[..n];
         let exponent = self
             .exponent
             .as_deref()
@@ -420,7 +419,7 @@ impl Ledger {
         };
         let mut laws = self.plastic.iter().peekable();
         for (c, (&a, &e)) in self.stiffness[..contacts].iter().zip(exponent).enumerate() {
-            let overlap = self.contacts.overlap(c, x);
+            let overlap = self.contacts.overlap(c, y);
             let d = overlap.max(0.0);
             match laws.next_if(|(pc, _, _)| *pc == c) {
                 Some((_, law, h)) => {
