@@ -225,3 +225,34 @@ def test_the_dimer_transmits_in_its_bands_and_not_in_its_gap(binary, tmp_path):
             assert np.allclose(at["steady_transmission_db"].values[:, 0], 0.0)
         forces = ds["precompression_force_n"].values
         np.testing.assert_allclose(np.array(lows) / lows[0], (forces / forces[0]) ** (1 / 6), rtol=1e-9)
+
+
+def test_an_output_of_a_recording_by_path_needs_no_file_beside_it(binary, tmp_path):
+    """The output keeps the sweep with the recording's samples in it: after the recording file is
+    gone, `status` reads the output as before (the sweep file, which names it, is refused, the
+    output untouched); `validate` reads a sweep file's recording from its own folder whatever
+    the working directory."""
+    t, u = recording()
+    folder = tmp_path / "study"
+    folder.mkdir()
+    np.savetxt(folder / "base.csv", np.column_stack([t, u]), delimiter=",")
+    path = folder / "sweep.json"
+    path.write_text(json.dumps(sweep({"drive": {"base_m": {"recorded": {"path": "base.csv"}}}})))
+    r = run("validate", path, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "out.h5"
+    r = run("run", path, "-o", out, "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    (folder / "base.csv").unlink()
+    r = run("status", out, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    with h5py.File(out, "r") as f:
+        text = f.attrs["sweep"]
+        text = text.decode() if isinstance(text, bytes) else str(text)
+    assert "base.csv" not in text and "times_s" in text
+    # The sweep file itself still names the recording: running it again is refused, naming the
+    # field, and the output is left as it was.
+    before = out.read_bytes()
+    r = run("run", path, "-o", out, "--quiet", cwd=tmp_path)
+    assert r.returncode == 2 and "recorded.path" in r.stderr, r.stderr
+    assert out.read_bytes() == before

@@ -218,13 +218,18 @@ pub fn input_errors(file: &Path, first: Error) -> Vec<Error> {
     let Ok(text) = crate::sweep::read_sweep_text(&name) else {
         return vec![first];
     };
-    let mut errors = crate::sweep::diagnose::diagnose(&text);
+    // Paths the file names (recorded drives) are read from its folder, as `load` reads them.
+    let dir = file
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut errors = crate::sweep::diagnose::diagnose(&text, dir);
     let only_limits = errors
         .iter()
         .all(|e| matches!(e, Error::Input { field, .. } if field.starts_with("limits")));
     let sweep = match (errors.is_empty(), only_limits) {
-        (true, _) => Sweep::parse(&text).ok(),
-        (false, true) => crate::sweep::diagnose::parse_without_limits(&text),
+        (true, _) => Sweep::parse_in(&text, dir).ok(),
+        (false, true) => crate::sweep::diagnose::parse_without_limits(&text, dir),
         (false, false) => None,
     };
     if let Some(sweep) = sweep {

@@ -208,8 +208,9 @@ pub fn from_value_collecting<T: DeserializeOwned>(
 
 /// Every error of the sweep file `text` that can be found in one pass: syntax (the first only,
 /// as nothing after it can be read), structure, and each section's values. Empty when the file
-/// parses ([`Sweep::parse`]); its grid points are checked then ([`crate::grid`]).
-pub fn diagnose(text: &str) -> Vec<Error> {
+/// parses ([`Sweep::parse_in`], the paths it names read from `dir`, the file's folder); its grid
+/// points are checked then ([`crate::grid`]).
+pub fn diagnose(text: &str, dir: &std::path::Path) -> Vec<Error> {
     let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
     let raw = match super::parse_without_duplicate_keys(stripped) {
         Ok(raw) => raw,
@@ -223,7 +224,7 @@ pub fn diagnose(text: &str) -> Vec<Error> {
     }
     if errors.is_empty() {
         // What only the whole file shows (a zipped group's lengths, names shared by axes).
-        if let Err(e) = Sweep::parse(text) {
+        if let Err(e) = Sweep::parse_in(text, dir) {
             errors.push(e);
         }
     }
@@ -234,11 +235,11 @@ pub fn diagnose(text: &str) -> Vec<Error> {
 /// The sweep of `text` read without its `limits` block, when that is all that stops it being
 /// read: the grid points do not depend on the limits, so their errors can be listed beside the
 /// limits' own.
-pub fn parse_without_limits(text: &str) -> Option<Sweep> {
+pub fn parse_without_limits(text: &str, dir: &std::path::Path) -> Option<Sweep> {
     let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut raw = super::parse_without_duplicate_keys(stripped).ok()?;
     raw.as_object_mut()?.remove("limits")?;
-    Sweep::parse(&raw.to_string()).ok()
+    Sweep::parse_in(&raw.to_string(), dir).ok()
 }
 
 /// The sections of a file read as far as its structure allows (`well_formed`: wholly), each
@@ -310,7 +311,7 @@ mod tests {
             "axis": []
         })
         .to_string();
-        let errors = diagnose(&text);
+        let errors = diagnose(&text, std::path::Path::new("."));
         let f = fields(&errors);
         for expected in [
             "axis",
@@ -359,13 +360,13 @@ mod tests {
             "axes": [{"field": "physics.damping_kg_s", "values": [0, -1, 2, -3]}]
         });
         // (Its negative dampings are the grid points' errors, found by the grid.)
-        let errors = diagnose(&ok.to_string());
+        let errors = diagnose(&ok.to_string(), std::path::Path::new("."));
         assert!(errors.is_empty(), "{errors:?}");
     }
 
     #[test]
     fn a_syntax_error_is_the_only_error() {
-        let errors = diagnose("{\"base\": {,}");
+        let errors = diagnose("{\"base\": {,}", std::path::Path::new("."));
         assert_eq!(errors.len(), 1);
         assert!(errors[0].to_string().contains("not valid JSON"));
     }

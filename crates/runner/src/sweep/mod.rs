@@ -1241,9 +1241,10 @@ impl Sweep {
     /// [`Sweep::parse`] for a sweep file in folder `dir`, from which the relative paths it names
     /// (recorded drives) are read.
     pub fn parse_in(text: &str, dir: &std::path::Path) -> Result<Sweep> {
+        let inlined = recording::inline_text(text, dir)?;
+        let text = inlined.as_deref().unwrap_or(text);
         let file = read_json(text)?;
-        let (mut base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
-        recording::resolve(&mut base, dir)?;
+        let (base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         let limits = parse_limits(file.limits)?;
         let dims = parse_dims(
             file.axes,

@@ -1,7 +1,8 @@
 //! Recorded drive waveforms named by path: a CSV file of two columns (time in s, value) or an HDF5
 //! file (`dataset`: an `(n, 2)` array, or a group holding `times_s` and `values`), read into the
 //! scene's samples when the sweep is read, so that the scene a run hashes and stores holds the
-//! samples themselves (a changed file is a different run) and the solver never reads files.
+//! samples themselves (a changed file is a different run), the sweep text an output file keeps
+//! holds them too (it is read again without the file), and the solver never reads files.
 
 use std::path::Path;
 
@@ -52,6 +53,31 @@ pub(crate) fn resolve(base: &mut Value, dir: &Path) -> Result<()> {
         recorded.insert("values".into(), values.into());
     }
     Ok(())
+}
+
+/// The sweep file `text` with every recording it names by path read into its samples (relative
+/// paths from `dir`), as the text the sweep keeps and stores: so that an output file, re-read by
+/// `status`, `merge` or a resume anywhere, needs no file beside it and holds what was run.
+/// `None` when the file names no recording (or is not JSON: the parser reports that).
+pub(crate) fn inline_text(text: &str, dir: &Path) -> Result<Option<String>> {
+    let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let Ok(mut raw) = super::parse_without_duplicate_keys(stripped) else {
+        return Ok(None);
+    };
+    let Some(base) = raw.get_mut("base") else {
+        return Ok(None);
+    };
+    let names_a_file = DRIVE_KEYS.iter().any(|key| {
+        base.pointer(&format!("/excitation/drive/{key}/recorded/path"))
+            .is_some()
+    });
+    if !names_a_file {
+        return Ok(None);
+    }
+    resolve(base, dir)?;
+    Ok(Some(
+        serde_json::to_string_pretty(&raw).expect("a JSON value serialises"),
+    ))
 }
 
 fn input(field: &str, message: impl Into<String>) -> Error {
