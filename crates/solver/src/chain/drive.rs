@@ -620,40 +620,6 @@ impl Signal {
     pub fn highest_frequency_hz(&self) -> f64 {
         self.highest_hz
     }
-
-    /// `∫₀ᵗ` of the waveform (the impulse of a force drive), by Gauss–Legendre quadrature on
-    /// pieces short against its period: for the momentum ledger, not the hot loop.
-    pub fn integral(&self, t: f64) -> f64 {
-        if t <= 0.0 {
-            return 0.0;
-        }
-        let piece = 0.05 / self.highest_hz.max(1e-300);
-        let pieces = ((t / piece).ceil() as usize).clamp(1, 1_000_000);
-        let h = t / pieces as f64;
-        // Five-point Gauss–Legendre on [0, 1].
-        const X: [f64; 5] = [
-            0.046_910_077_030_668,
-            0.230_765_344_947_158,
-            0.5,
-            0.769_234_655_052_842,
-            0.953_089_922_969_332,
-        ];
-        const W: [f64; 5] = [
-            0.118_463_442_528_095,
-            0.239_314_335_249_683,
-            0.284_444_444_444_444,
-            0.239_314_335_249_683,
-            0.118_463_442_528_095,
-        ];
-        let mut sum = 0.0;
-        for p in 0..pieces {
-            let t0 = p as f64 * h;
-            for k in 0..5 {
-                sum += W[k] * self.value(t0 + X[k] * h);
-            }
-        }
-        sum * h
-    }
 }
 
 #[cfg(test)]
@@ -825,21 +791,5 @@ mod tests {
             }),
             "excitation.drive.actuator_m.sum.tones",
         );
-    }
-
-    /// The force drive's impulse: `∫ A sin(ωt) = A (1 − cos ωt)/ω`.
-    #[test]
-    fn integral_of_a_harmonic() {
-        let s = compile(Waveform::Harmonic(Harmonic {
-            amplitude: 2.0,
-            frequency_hz: 3.0,
-            phase_rad: 0.0,
-            ramp_periods: 0.0,
-        }));
-        let w = std::f64::consts::TAU * 3.0;
-        for t in [0.1, 0.37, 1.0] {
-            let exact = 2.0 * (1.0 - (w * t).cos()) / w;
-            assert!((s.integral(t) - exact).abs() < 1e-12, "{t}");
-        }
     }
 }

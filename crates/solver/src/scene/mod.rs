@@ -785,18 +785,19 @@ impl Scene {
         }
     }
 
-    /// Times at which the right-hand side is not smooth in time (the end of a force pulse),
-    /// strictly inside the run: the run is integrated in legs between them.
-    pub fn breakpoints_s(&self) -> Vec<f64> {
+    /// Times at which the right-hand side is not smooth in time (the end of a force pulse, of a
+    /// drive's ramp or of a chirp's sweep), strictly inside the run, on the scene's built `chain`
+    /// ([`Scene::validate`], whose drive is compiled once): the run is integrated in legs between
+    /// them.
+    pub fn breakpoints_s(&self, chain: &Chain) -> Vec<f64> {
         match &self.excitation {
             Some(Excitation::HalfSineForce { duration_s, .. }) if *duration_s < self.duration_s => {
                 vec![*duration_s]
             }
-            Some(Excitation::Drive(d)) => d
-                .validate(self.duration_s)
-                .map(|d| d.breakpoints_s(self.duration_s))
-                .unwrap_or_default(),
-            _ => Vec::new(),
+            _ => chain
+                .drive
+                .as_ref()
+                .map_or_else(Vec::new, |d| d.breakpoints_s(self.duration_s)),
         }
     }
 

@@ -315,7 +315,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         // Kept at every accepted step: the next point on the axis starts from it.
         observer.state = Some(y0.clone());
     }
-    let mut leg_ends = scene.breakpoints_s();
+    let mut leg_ends = scene.breakpoints_s(&chain);
     leg_ends.push(t_end);
 
     let build = |c: &Chain| -> Box<dyn Integrator> {
