@@ -54,6 +54,7 @@ pub fn chain(
         contacts,
         top_wall_material: None,
         ring: false,
+        wall_mount: None,
     }
 }
 

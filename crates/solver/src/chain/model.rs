@@ -14,6 +14,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::chain::drive::{Drive, DrivePoint};
+pub use crate::chain::mount::WallMount;
 pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
 use crate::chain::sequence::SequenceSpec;
@@ -295,6 +296,7 @@ mod chain_spec_serde {
         "contacts",
         "top_wall_material",
         "ring",
+        "wall_mount",
     ];
     const ALL_FIELDS: &[&str] = &[
         "cylinders",
@@ -309,6 +311,7 @@ mod chain_spec_serde {
         "contacts",
         "top_wall_material",
         "ring",
+        "wall_mount",
     ];
 
     /// A striker: a sphere (dimer) or the name of a particle type (sequence).
@@ -351,6 +354,7 @@ mod chain_spec_serde {
         contacts: Option<Vec<ContactRule>>,
         top_wall_material: Option<Option<Material>>,
         ring: Option<bool>,
+        wall_mount: Option<Option<crate::chain::mount::WallMount>>,
     }
 
     fn once<T, E: de::Error>(slot: &mut Option<T>, value: T, key: &'static str) -> Result<(), E> {
@@ -391,6 +395,9 @@ mod chain_spec_serde {
                                 "top_wall_material",
                             )?,
                             "ring" => once(&mut f.ring, map.next_value()?, "ring")?,
+                            "wall_mount" => {
+                                once(&mut f.wall_mount, map.next_value()?, "wall_mount")?
+                            }
                             other => return Err(de::Error::unknown_field(other, ALL_FIELDS)),
                         }
                     }
@@ -401,6 +408,7 @@ mod chain_spec_serde {
                         || f.contacts.is_some()
                         || f.top_wall_material.is_some()
                         || f.ring.is_some()
+                        || f.wall_mount.is_some()
                         || matches!(f.striker, Some(Striker::Name(_)));
                     if sequence {
                         let stray = [
@@ -437,6 +445,7 @@ mod chain_spec_serde {
                             contacts: f.contacts.unwrap_or_default(),
                             top_wall_material: f.top_wall_material.flatten(),
                             ring: f.ring.unwrap_or(false),
+                            wall_mount: f.wall_mount.flatten(),
                         }))
                     } else {
                         let striker = match f.striker {
@@ -633,6 +642,7 @@ impl DimerSpec {
             striker: true,
             ring: false,
             top_wall: false,
+            wall_mount: None,
             laws,
             dissipation: vec![None; n_contacts],
             plasticity: Vec::new(),
@@ -787,6 +797,9 @@ pub struct Chain {
     /// contact keeps its history (the gap between its largest overlap and the present one) in the
     /// state, after the quadratures ([`Chain::history_index`]).
     pub plasticity: Vec<Option<Thornton>>,
+    /// The wall under the chain on a spring and a dashpot ([`WallMount`]), when it is: its
+    /// displacement and velocity are in the state ([`Chain::mount_state_index`]).
+    pub wall_mount: Option<WallMount>,
 }
 
 impl Chain {
@@ -832,6 +845,12 @@ impl Chain {
                 ));
             }
         }
+        if layout.wall_mount.is_some() && !physics.wall {
+            return Err(spec_err(
+                "chain.wall_mount",
+                "mounts the wall under the chain: turn physics.wall on, or remove it",
+            ));
+        }
         let chain = Self::from_layout(layout, physics);
         for (c, law) in chain.plasticity.iter().enumerate() {
             if let Some(t) = law {
@@ -875,6 +894,7 @@ impl Chain {
                 physics.wall,
                 layout.ring,
                 layout.top_wall.then_some(0.0),
+                None,
                 None,
                 c,
             )
@@ -969,6 +989,7 @@ impl Chain {
             cell_length_m: layout.cell_length_m,
             materials: layout.particles.iter().map(|p| p.material).collect(),
             plasticity: layout.plasticity,
+            wall_mount: layout.wall_mount,
         }
     }
 
@@ -993,6 +1014,12 @@ impl Chain {
                 return Err(spec_err(
                     &field,
                     "a moving base is the wall under the chain: turn physics.wall on, or drive with force_n or actuator_m",
+                ))
+            }
+            DrivePoint::Base if self.wall_mount.is_some() => {
+                return Err(spec_err(
+                    &field,
+                    "the wall under the chain is on a spring (chain.wall_mount), which a moving base is not: remove one of the two, or drive with force_n or actuator_m",
                 ))
             }
             _ => {}
@@ -1031,6 +1058,7 @@ impl Chain {
             .chain(&self.hunt_crossley_damping)
             .chain(&self.tsuji_damping)
             .any(|&m| m != 0.0)
+            || self.wall_mount.is_some_and(|m| m.damping_kg_s != 0.0)
     }
 
     /// Whether any contact carries Tsuji's term `β δ^{(n−1)/2} δ̇` (its kernels are apart).
@@ -1052,6 +1080,7 @@ impl Chain {
             && !self.has_plasticity()
             && !self.ring
             && self.top_wall_m.is_none()
+            && self.wall_mount.is_none()
     }
 
     /// What contact `c` joins ([`ContactEnds`]).
@@ -1063,6 +1092,7 @@ impl Chain {
             self.ring,
             self.top_wall_m,
             self.moving_wall(),
+            self.mount_state_index(),
             c,
         )
     }
@@ -1118,8 +1148,16 @@ impl Chain {
         self.external_work_index().map(|w| w + 1)
     }
 
+    /// Index in the state of a mounted wall's displacement (its velocity follows it), after the
+    /// drive's quadratures, when the wall under the chain is mounted ([`WallMount`]).
+    pub fn mount_state_index(&self) -> Option<usize> {
+        self.wall_mount?;
+        Some(2 * self.n_particles() + self.quadratures() - 2)
+    }
+
     /// Number of quadratures in the state: dissipated work, the walls' impulse, an external force's
-    /// work, a drive's impulse or its wall's displacement and velocity.
+    /// work, a drive's impulse or its wall's displacement and velocity, a mounted wall's
+    /// displacement and velocity.
     fn quadratures(&self) -> usize {
         self.has_damping() as usize
             + self.has_walls() as usize
@@ -1128,6 +1166,7 @@ impl Chain {
                 .drive
                 .as_ref()
                 .map_or(0, |d| 1 + d.point.moves_a_wall() as usize)
+            + 2 * self.wall_mount.is_some() as usize
     }
 
     /// Contact `c`'s elastic law and dissipation, as the general laws of `contact.rs` take them.
@@ -1249,7 +1288,8 @@ impl Chain {
 /// wall at the top: `above` is `None`). The force pushes `above` up (towards −x) and `below`
 /// down. A wall that a drive moves is displaced by the state's component `wall_state` (its
 /// velocity the next), positive downwards for the base, into the chain for the actuator: the
-/// overlap is then `x[n−1] − u` under the chain, `offset + u − x[0]` at the top.
+/// overlap is then `x[n−1] − u` under the chain, `offset + u − x[0]` at the top. A mounted wall
+/// under the chain ([`WallMount`]) is displaced the same way, by its own state.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactEnds {
     /// The particle above the contact, if any.
@@ -1343,13 +1383,15 @@ impl ContactMap {
 
 /// [`Chain::contact_ends`] from the chain's shape: contacts `0..N−1` join neighbours, then come
 /// the wall under the last particle or the ring's closing contact, then the wall at the top at
-/// `top_wall_m`; `moving` is the wall a drive moves and its displacement's index in the state.
+/// `top_wall_m`; `moving` is the wall a drive moves and its displacement's index in the state,
+/// `mount` the index of a mounted wall's displacement (the wall under the chain).
 fn contact_ends(
     n: usize,
     wall: bool,
     ring: bool,
     top_wall_m: Option<f64>,
     moving: Option<(DrivePoint, usize)>,
+    mount: Option<usize>,
     c: usize,
 ) -> ContactEnds {
     let (above, below, offset) = if c + 1 < n {
@@ -1368,6 +1410,7 @@ fn contact_ends(
     let wall_state = match moving {
         Some((DrivePoint::Base, w)) if below.is_none() => Some(w),
         Some((DrivePoint::Actuator, w)) if above.is_none() => Some(w),
+        _ if below.is_none() => mount,
         _ => None,
     };
     ContactEnds {

@@ -155,6 +155,8 @@ pub(crate) struct Layout {
     pub ring: bool,
     /// Whether a wall touches the first particle from above.
     pub top_wall: bool,
+    /// The wall under the chain on a spring and a dashpot, when it is.
+    pub wall_mount: Option<crate::chain::mount::WallMount>,
     /// `(A, n)` of each contact: neighbours, then the wall's or the ring's closing contact, then
     /// the top wall's (see `Chain::contact_ends`).
     pub laws: Vec<(f64, f64)>,

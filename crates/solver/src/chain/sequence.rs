@@ -25,6 +25,7 @@
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
+use crate::chain::mount::WallMount;
 use crate::chain::parts::{
     check_material, effective_modulus, effective_radius, hertz_coefficient, Layout, Material,
     Particle, ParticleKind, Shape, MAX_PARTICLES,
@@ -83,6 +84,10 @@ pub struct SequenceSpec {
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "std::ops::Not::not"))]
     #[cfg_attr(feature = "schema", schemars(default))]
     pub ring: bool,
+    /// The wall under the chain on a spring and a dashpot (a load cell, a soft support) rather
+    /// than rigid. Absent: a rigid wall.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
+    pub wall_mount: Option<WallMount>,
 }
 
 /// The wall a sequence chain stands on when it names none (as the paper's).
@@ -495,6 +500,15 @@ impl SequenceSpec {
                     "a ring has no walls: remove chain.top_wall_material",
                 ));
             }
+            if self.wall_mount.is_some() {
+                return Err(spec_err(
+                    "chain.ring",
+                    "a ring has no walls: remove chain.wall_mount",
+                ));
+            }
+        }
+        if let Some(m) = &self.wall_mount {
+            m.validate()?;
         }
         if let Some(t) = &self.taper {
             check_positive("chain.taper.ratio", t.ratio)?;
@@ -776,6 +790,7 @@ impl SequenceSpec {
             striker: first > 0,
             ring: self.ring,
             top_wall: self.top_wall_material.is_some(),
+            wall_mount: self.wall_mount,
             laws,
             dissipation,
             plasticity: if plasticity.is_empty() {

@@ -17,7 +17,7 @@ use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 use crate::chain::model::Chain;
 use crate::contact::{general_force, ContactParams, Damping, HERTZ, LINEAR, POWER};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
-use crate::motion::DriveTerm;
+use crate::motion::{DriveTerm, MountTerm};
 
 /// Right-hand side of a general chain. State `[x (N), v (N), q]`, `q` holding in order the
 /// dissipated work (when `D`), the wall impulse (with a wall), the work of the force pulse or the
@@ -50,6 +50,8 @@ pub struct GeneralChainSystem<const LAW: u8, const D: bool, const T: bool = fals
     tsuji: Vec<f64>,
     /// A boundary drive, when there is one.
     drive: Option<DriveTerm>,
+    /// The mount of the wall under the chain, when it has one.
+    mount: Option<MountTerm>,
 }
 
 /// `LAW` of a kernel whose contacts are all Hertz's (`n = 3/2`).
@@ -104,6 +106,7 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
                 .map(|c| crate::motion::contact_switch(&chain.contact_ends(c)))
                 .collect(),
             drive: DriveTerm::of(chain),
+            mount: MountTerm::of(chain),
         }
     }
 
@@ -150,7 +153,8 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
     /// `(t, y)` (zero unless a drive moves them; see [`DriveTerm::walls`]).
     #[inline(always)]
     pub(crate) fn wall_motion(&self, t: f64, y: &[f64]) -> ((f64, f64), (f64, f64)) {
-        DriveTerm::walls(&self.drive, y, DriveTerm::at(&self.drive, t))
+        let (base, top) = DriveTerm::walls(&self.drive, y, DriveTerm::at(&self.drive, t));
+        (self.mount.map_or(base, |m| m.wall(y)), top)
     }
 
     /// Force of the half-sine pulse at time `t`, N.
@@ -180,7 +184,10 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         let m = n - 1;
         let clip = self.clip;
         let wave = DriveTerm::at(&self.drive, t);
-        let ((base_u, base_du), (top_u, top_du)) = DriveTerm::walls(&self.drive, y, wave);
+        let ((mut base_u, mut base_du), (top_u, top_du)) = DriveTerm::walls(&self.drive, y, wave);
+        if let Some(m) = &self.mount {
+            (base_u, base_du) = m.wall(y);
+        }
         let force = &mut self.force[..m];
         let contact_power = &mut self.power[..m];
         let (a, e) = (&self.stiffness[..m], &self.exponent[..m]);
@@ -266,9 +273,10 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
             dv[self.top] += external * im[self.top];
         }
 
+        let mount_power = self.mount.map_or(0.0, |m| m.rates(y, end_force, dq, 2 * n));
         let mut k = 0;
         if D {
-            dq[k] = power.iter().sum::<f64>() + end_power + top_power;
+            dq[k] = power.iter().sum::<f64>() + end_power + top_power + mount_power;
             k += 1;
         }
         if self.wall || self.top_wall.is_some() {
@@ -298,6 +306,7 @@ impl<const LAW: u8, const D: bool, const T: bool> OdeSystem for GeneralChainSyst
                 .drive
                 .as_ref()
                 .map_or(0, |d| 2 + d.point.moves_a_wall() as usize)
+            + 2 * self.mount.is_some() as usize
     }
 
     fn switches(&self) -> &[Switch] {

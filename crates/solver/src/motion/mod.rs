@@ -11,6 +11,7 @@ pub mod system;
 
 use crate::chain::drive::{DrivePoint, Signal};
 use crate::chain::model::{Chain, ContactEnds};
+use crate::chain::mount::WallMount;
 use crate::integrate::Switch;
 
 /// A contact's overlap as a switching function of the positions (zero where it opens), for the
@@ -132,5 +133,51 @@ impl DriveTerm {
                 dq[k + 2] = ddu;
             }
         }
+    }
+}
+
+/// A mounted wall under the chain as the right-hand sides apply it ([`crate::chain::mount`]): its
+/// displacement `u` and velocity `w` are state components, moved by `M ẇ = F_w − F_s − k u − c w`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct MountTerm {
+    /// Index in the state of its displacement (its velocity at the next).
+    pub index: usize,
+    inverse_mass: f64,
+    stiffness: f64,
+    damping: f64,
+    /// The wall contact's static force `F_s`, N.
+    static_force: f64,
+}
+
+impl MountTerm {
+    /// The mount of `chain`, when its wall has one.
+    pub fn of(chain: &Chain) -> Option<Self> {
+        let m: WallMount = chain.wall_mount?;
+        Some(MountTerm {
+            index: chain.mount_state_index().expect("a mount"),
+            inverse_mass: 1.0 / m.mass_kg,
+            stiffness: m.stiffness_n_m,
+            damping: m.damping_kg_s,
+            static_force: chain.static_force(chain.n_particles() - 1),
+        })
+    }
+
+    /// The wall's displacement and velocity in state `y`.
+    #[inline(always)]
+    pub fn wall(&self, y: &[f64]) -> (f64, f64) {
+        (y[self.index], y[self.index + 1])
+    }
+
+    /// Writes the wall's rates into `dq` (the rates of the state from index `offset` on) under the
+    /// force `wall_force` of the chain's last contact, and returns the dashpot's power.
+    #[inline(always)]
+    pub fn rates(&self, y: &[f64], wall_force: f64, dq: &mut [f64], offset: usize) -> f64 {
+        let (u, w) = self.wall(y);
+        let k = self.index - offset;
+        let damper = self.damping * w;
+        dq[k] = w;
+        dq[k + 1] =
+            (wall_force - self.static_force - self.stiffness * u - damper) * self.inverse_mass;
+        damper * w
     }
 }

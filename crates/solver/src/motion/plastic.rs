@@ -18,7 +18,7 @@
 use crate::chain::model::{Chain, ContactEnds};
 use crate::contact::{general_derivatives, general_force, ContactParams, Thornton, POWER};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
-use crate::motion::DriveTerm;
+use crate::motion::{DriveTerm, MountTerm};
 
 /// Right-hand side of a chain with elastic–plastic contacts.
 #[derive(Debug, Clone)]
@@ -45,6 +45,8 @@ pub struct PlasticChainSystem {
     switches: Vec<Switch>,
     /// A boundary drive, when there is one.
     drive: Option<DriveTerm>,
+    /// The mount of the wall under the chain, when it has one.
+    mount: Option<MountTerm>,
 }
 
 impl PlasticChainSystem {
@@ -96,6 +98,7 @@ impl PlasticChainSystem {
             force: vec![0.0; m],
             switches,
             drive: DriveTerm::of(chain),
+            mount: MountTerm::of(chain),
         }
     }
 
@@ -133,6 +136,7 @@ impl OdeSystem for PlasticChainSystem {
                 .drive
                 .as_ref()
                 .map_or(0, |d| 2 + d.point.moves_a_wall() as usize)
+            + 2 * self.mount.is_some() as usize
             + 2 * self.histories.len()
     }
 
@@ -249,6 +253,10 @@ impl OdeSystem for PlasticChainSystem {
         let external = self.precompression + pulse + drive_force;
         if external != 0.0 {
             dv[self.top] += external * im[self.top];
+        }
+        if let Some(mount) = &self.mount {
+            let base_force = if below(m).is_some() { force[m] } else { 0.0 };
+            dissipated += mount.rates(y, base_force, dq, 2 * n);
         }
         let mut k = 0;
         if self.damped {

@@ -212,6 +212,9 @@ pub struct Ledger {
     drive_impulse: Option<usize>,
     /// The contacts with Thornton's law: `(contact, law, index of its history in the state)`.
     plastic: Vec<(usize, crate::contact::Thornton, usize)>,
+    /// A mounted wall: the index of its displacement in the state, its mass, its spring's
+    /// stiffness and the static force of the wall's contact.
+    mount: Option<(usize, f64, f64, f64)>,
 }
 
 /// Energy terms of a state, J.
@@ -273,6 +276,14 @@ impl Ledger {
                 .filter(|d| d.point == crate::chain::drive::DrivePoint::Force)
                 .and(chain.drive_state_index()),
             plastic: chain.plastic_contacts(),
+            mount: chain.wall_mount.map(|m| {
+                (
+                    chain.mount_state_index().expect("a mount"),
+                    m.mass_kg,
+                    m.stiffness_n_m,
+                    chain.static_force(chain.n_particles() - 1),
+                )
+            }),
         }
     }
 
@@ -319,7 +330,14 @@ impl Ledger {
         if !self.plastic.is_empty() {
             (elastic, plastic) = self.plastic_potential(y, k);
         }
-        let kinetic = 0.5 * sum(twice_kinetic);
+        let mut kinetic = 0.5 * sum(twice_kinetic);
+        if let Some((i, mass, stiffness, static_force)) = self.mount {
+            // The mounted wall: its kinetic energy, and its spring's energy over its loaded state
+            // (the work against the static force included), `F_s u + k u²/2`.
+            let (u, w) = (y[i], y[i + 1]);
+            kinetic += 0.5 * mass * w * w;
+            elastic += u * (static_force + 0.5 * stiffness * u);
+        }
         let gravitational = -self.gravity * sum(weight_moment);
         let dissipated = self.work_index.map_or(0.0, |w| y[w]);
         let mut external = 0.0;

@@ -62,6 +62,12 @@ pub enum Probe {
     },
     /// Total force on the wall, N.
     WallForce,
+    /// Force a mounted wall's spring and dashpot pass to the ground, what a load cell under the
+    /// wall reads: `F_s + k u + c u̇`, N (needs `chain.wall_mount`).
+    MountForce,
+    /// Displacement of a mounted wall from its static equilibrium, positive away from the chain,
+    /// m (needs `chain.wall_mount`).
+    MountDisplacement,
 }
 
 impl Probe {
@@ -75,6 +81,8 @@ impl Probe {
             Probe::Displacement { particle } => format!("displacement_p{particle}"),
             Probe::Velocity { particle } => format!("velocity_p{particle}"),
             Probe::WallForce => "wall_force".to_string(),
+            Probe::MountForce => "mount_force".to_string(),
+            Probe::MountDisplacement => "mount_displacement".to_string(),
         }
     }
 
@@ -84,8 +92,9 @@ impl Probe {
             Probe::GaugeForce { .. }
             | Probe::ParticleForce { .. }
             | Probe::ContactForce { .. }
-            | Probe::WallForce => "N",
-            Probe::Overlap { .. } | Probe::Displacement { .. } => "m",
+            | Probe::WallForce
+            | Probe::MountForce => "N",
+            Probe::Overlap { .. } | Probe::Displacement { .. } | Probe::MountDisplacement => "m",
             Probe::Velocity { .. } => "m/s",
         }
     }
@@ -465,6 +474,15 @@ impl RecordSpec {
                         "wall_force needs physics.wall = true",
                     ))
                 }
+                Probe::MountForce | Probe::MountDisplacement if chain.wall_mount.is_none() => {
+                    return Err(spec_err(
+                        &format!("{field}.kind"),
+                        format!(
+                            "{} reads the wall's mount: give the chain one (chain.wall_mount)",
+                            p.name()
+                        ),
+                    ))
+                }
                 _ => {}
             }
         }
@@ -523,6 +541,13 @@ enum Compiled {
     },
     Velocity {
         index: usize,
+    },
+    /// A mounted wall's force on the ground, `offset + k u + c w` (`u` at `index`, `w` after it).
+    Mount {
+        index: usize,
+        offset: f64,
+        stiffness: f64,
+        damping: f64,
     },
 }
 
@@ -592,6 +617,28 @@ impl ProbeSet {
                         index: n + particle - 1,
                     });
                     scale.push(velocity_scale);
+                    continue;
+                }
+                Probe::MountDisplacement => {
+                    compiled.push(Compiled::Displacement {
+                        index: chain.mount_state_index().expect("validated: a mount"),
+                        origin: 0.0,
+                    });
+                    scale.push(length_scale);
+                    continue;
+                }
+                Probe::MountForce => {
+                    let mount = chain.wall_mount.expect("validated: a mount");
+                    compiled.push(Compiled::Mount {
+                        index: chain.mount_state_index().expect("a mount"),
+                        offset: match preload {
+                            Preload::Include => chain.static_force(n - 1),
+                            Preload::Subtract => 0.0,
+                        },
+                        stiffness: mount.stiffness_n_m,
+                        damping: mount.damping_kg_s,
+                    });
+                    scale.push(force_scale);
                     continue;
                 }
             };
@@ -709,6 +756,12 @@ impl ProbeSet {
             Compiled::Overlap { contact } => self.contacts.kinematics(contact, get).0,
             Compiled::Displacement { index, origin } => get(index) - origin,
             Compiled::Velocity { index } => get(index),
+            Compiled::Mount {
+                index,
+                offset,
+                stiffness,
+                damping,
+            } => offset + stiffness * get(index) + damping * get(index + 1),
         }
     }
 }

@@ -78,6 +78,7 @@ pub(crate) fn plan(
         || chain.ring
         || chain.top_wall_m.is_some()
         || chain.drive.is_some()
+        || chain.wall_mount.is_some()
     {
         return None;
     }
@@ -190,6 +191,8 @@ fn prefix_chain(chain: &Chain, k: usize) -> Chain {
         materials: chain.materials[..k].to_vec(),
         // Never plastic: chains with Thornton's contacts are integrated whole (see `plan`).
         plasticity: Vec::new(),
+        // Never mounted: chains on a mounted wall are integrated whole (see `plan`).
+        wall_mount: None,
     }
 }
 

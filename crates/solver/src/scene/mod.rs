@@ -739,7 +739,8 @@ impl Scene {
 
     /// The state a run of this scene starts from when it continues from `previous`, the final
     /// state of a run of the same chain (the point before it on a continuation axis): every
-    /// particle's position and velocity and every plastic contact's history carried over; the
+    /// particle's position and velocity, every plastic contact's history and a mounted wall's
+    /// displacement and velocity carried over; the
     /// quadratures (dissipated work, the walls' impulse, the drive's work) start again from zero,
     /// and a moving wall from where this scene's waveform puts it at `t = 0`. The error names
     /// `continuation` when the chains differ in size.
@@ -764,6 +765,11 @@ impl Scene {
         for (_, _, h) in chain.plastic_contacts() {
             y[h] = previous[h];
             y[h + 1] = previous[h + 1];
+        }
+        if let Some(k) = chain.mount_state_index() {
+            // A mounted wall is a body of the chain's system: it carries on as it was.
+            y[k] = previous[k];
+            y[k + 1] = previous[k + 1];
         }
         Ok(y)
     }

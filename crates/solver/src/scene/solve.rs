@@ -183,6 +183,10 @@ pub fn state_scales(chain: &Chain, scales: &ImpactScales) -> Vec<f64> {
             s[k] = scales.momentum;
         }
     }
+    if let Some(k) = chain.mount_state_index() {
+        // A mounted wall's displacement, on the overlaps' scale, and its velocity.
+        s[k + 1] = scales.velocity_m_s;
+    }
     s
 }
 

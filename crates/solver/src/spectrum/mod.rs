@@ -14,7 +14,9 @@
 //! or precompression, or without a wall) has zero linear stiffness (the force law is not
 //! differentiable there and its one-sided stiffness vanishes for `n > 1`): its modes are zero
 //! modes, so a chain with no compressed contact is refused. The precompression force is constant,
-//! so the top is free; the wall contributes its contact's stiffness to the last particle.
+//! so the top is free; the wall contributes its contact's stiffness to the last particle. A wall on
+//! a spring and a dashpot (`chain.wall_mount`) is a body of the linear chain: one more row, the
+//! wall's mass, joined to the last particle by the wall contact and to the ground by the mount.
 //!
 //! `K` and `C` are tridiagonal (`K_ii = k_{i−1} + k_i`, `K_{i,i+1} = −k_i`), `M` diagonal; the
 //! symmetric problem `K v = ω² M v` is reduced to `A u = ω² u` with the symmetric tridiagonal
@@ -158,6 +160,10 @@ pub struct LinearChain {
     pub top_stiffness: f64,
     /// Damping of the top wall's contact, kg/s.
     pub top_damping: f64,
+    /// Whether the last row is a mounted wall ([`crate::chain::mount::WallMount`]): its contact
+    /// with the last particle is then `stiffness`'s last entry, and `wall_stiffness` and
+    /// `wall_damping` its spring and dashpot.
+    pub mounted_wall: bool,
 }
 
 /// Natural frequencies and, when asked for, mode shapes.
@@ -221,8 +227,8 @@ impl LinearChain {
                 chain.clip_tensile,
             )
         };
-        let (stiffness, damping): (Vec<f64>, Vec<f64>) = (f..n - 1).map(linear).unzip();
-        let (wall_stiffness, wall_damping) = linear(n - 1);
+        let (mut stiffness, mut damping): (Vec<f64>, Vec<f64>) = (f..n - 1).map(linear).unzip();
+        let (mut wall_stiffness, mut wall_damping) = linear(n - 1);
         let (top_stiffness, top_damping) = match chain.top_wall_m {
             Some(_) => linear(chain.n_contacts() - 1),
             None => (0.0, 0.0),
@@ -233,9 +239,17 @@ impl LinearChain {
                 "no contact is statically compressed (no precompression and no gravity): a contact's linear stiffness dF/dδ at zero overlap is zero, so every mode would be a zero mode; give physics.precompression_force_n > 0 or turn physics.gravity on",
             ));
         }
+        let mut mass = chain.mass[f..].to_vec();
+        if let Some(m) = chain.wall_mount {
+            stiffness.push(wall_stiffness);
+            damping.push(wall_damping);
+            mass.push(m.mass_kg);
+            (wall_stiffness, wall_damping) = (m.stiffness_n_m, m.damping_kg_s);
+        }
         Ok(LinearChain {
             first_particle: f,
-            mass: chain.mass[f..].to_vec(),
+            mounted_wall: chain.wall_mount.is_some(),
+            mass,
             stiffness,
             damping,
             wall_stiffness,
@@ -410,7 +424,8 @@ impl LinearChain {
     /// row's mass and every contact's stiffness (the wall's aside, a boundary) must equal those one
     /// period earlier to [`PERIODIC_TOLERANCE`], over at least two cells. The error names `field`.
     pub fn unit_cell(&self, particles: usize, field: &str) -> Result<UnitCell, SpecError> {
-        let n = self.len();
+        // A mounted wall's row is a boundary, as a rigid wall is.
+        let n = self.len() - self.mounted_wall as usize;
         let p = particles;
         if p == 0 || 2 * p > n {
             return Err(spec_err(
