@@ -99,6 +99,20 @@ CONTACT_LONG_NAME = "contact j, between particles j and j+1 (the last one: the w
 
 #: Space–time fields (record.fields): variable -> (units, long_name), as the files store them.
 PARTICLE_LONG_NAME = "particle i (1: the striker, when there is one)"
+# The energy flow (record.energy_flow): each variable, the dimension it is over and its long name.
+ENERGY_FLOW = {
+    "energy_passed_max_j": (
+        "contact",
+        "largest energy that had passed into the contact from the side of the struck end "
+        "(contact N: the energy that reached the wall)",
+    ),
+    "energy_passed_final_j": (
+        "contact",
+        "energy that had passed into the contact from the side of the struck end by the end "
+        "of the run",
+    ),
+    "max_kinetic_energy_j": ("particle", "largest kinetic energy of the particle over the run"),
+}
 FIELD_TIME_LONG_NAME = "time of the field samples"
 FIELDS: dict[str, tuple[str, str]] = {
     "field_contact_force": (
@@ -130,6 +144,7 @@ ORDER: list[str] = [
     "run_hash",
     "history",
     "min_overlap_m",
+    *ENERGY_FLOW,
 ]
 
 

@@ -223,7 +223,7 @@ _ARRAY_NAMES = {
 # quantity over (grid…, field_time_s, contact | particle), and their coordinates and counts.
 _FIELD_NAMES = ("field_contact_force", "field_displacement", "field_velocity")
 _FIELD_COORDS = ("field_time_s", "field_samples", "particle")
-_ARRAY_NAMES |= {*_FIELD_NAMES, *_FIELD_COORDS}
+_ARRAY_NAMES |= {*_FIELD_NAMES, *_FIELD_COORDS, *L.ENERGY_FLOW}
 
 
 def _has_arrays(f: h5py.File) -> bool:
@@ -594,6 +594,24 @@ def _stack_min_overlaps(
     return data, coords
 
 
+def _stack_energy_flow(
+    f: h5py.File, grid: _Grid
+) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """The energy flow (record.energy_flow) over (grid…, contact) and (grid…, particle), NaN
+    where a run has none (or fewer contacts or particles)."""
+    names = [n for n in L.ENERGY_FLOW if n in f]
+    if not _has_arrays(f) or not names:
+        return None
+    data: dict[str, Any] = {}
+    coords: dict[str, Any] = {}
+    for name in names:
+        dim, long_name = L.ENERGY_FLOW[name]
+        long_coord = L.CONTACT_LONG_NAME if dim == "contact" else L.PARTICLE_LONG_NAME
+        coords[dim] = (dim, f[dim][()], {"long_name": long_coord})
+        data[name] = ((*grid.dims, dim), _read_masked(f[name]), {"units": "J", "long_name": long_name})
+    return data, coords
+
+
 def _field_coords(f: h5py.File) -> dict[str, Any]:
     """LAYOUT: the coordinates of the fields of a layout-5 file: their time axis and the
     contacts and particles they are over."""
@@ -831,7 +849,8 @@ def open(  # noqa: A001 (chainsweep.open)
     g in f["runs"].values()``, whose lock the threads that read the blocks wait for.)
 
     Every value is first checked against the checksums the file stores (histories too with
-    ``histories=True``). A damaged point raises :class:`DamagedFileError`, naming each damaged
+    ``histories=True``; the minimum overlaps and the energy flow, which share the histories'
+    checksum, always where the file holds no histories or fields). A damaged point raises :class:`DamagedFileError`, naming each damaged
     point by its index and axis values; with ``damaged="mask"`` the intact points are served and
     the damaged ones masked (NaN, empty strings, ``status`` pending), with a boolean ``damaged``
     variable saying which. A file whose header or coordinates are damaged always raises. Files of
@@ -840,7 +859,17 @@ def open(  # noqa: A001 (chainsweep.open)
     fspath = os.fspath(path)
     if histories not in (True, False, "lazy"):
         raise InputError("histories", f'must be True, False or "lazy", got {histories!r}')
-    points, unreadable = _check(fspath, bool(histories), damaged)
+    # The minimum overlaps and the energy flow, read whatever `histories` says, share the runs'
+    # arrays' checksum: it is checked for them too where that reads no histories or fields (a
+    # few numbers per run; checking them beside histories would read every history).
+    try:
+        with h5py.File(fspath, "r") as f:
+            names = set(f)
+    except Exception:  # noqa: BLE001 (unreadable: the engine's check says what is wrong)
+        names = set()
+    heavy = {"history", "history_N", "history_m", "history_m_per_s", *_FIELD_NAMES}
+    small_arrays = bool(names & {"min_overlap_m", *L.ENERGY_FLOW}) and not names & heavy
+    points, unreadable = _check(fspath, bool(histories) or small_arrays, damaged)
     unchecked = fspath if points else None
     with h5py.File(path, "r") as f:
         if "dimensions" not in f.attrs or "grid_shape" not in f.attrs:
@@ -866,7 +895,7 @@ def open(  # noqa: A001 (chainsweep.open)
         coords: dict[str, Any] = dict(grid.coords)
         for name in auxiliary & set(data):
             coords[name] = data.pop(name)
-        extras = [_stack_min_overlaps(f, grid)]
+        extras = [_stack_min_overlaps(f, grid), _stack_energy_flow(f, grid)]
         lazy = histories == "lazy" and ("runs" in f or arrays) and _has_dask()
         if histories and not lazy:
             extras.append(_stack_histories(f, grid))

@@ -81,6 +81,10 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
         m = raw["min_overlap_m"]
         out["min_overlap_m"] = np.zeros(0) if m is None else _floats(m)
         out["contact"] = np.arange(1, len(out["min_overlap_m"]) + 1, dtype=np.int64)
+    if raw["energy_flow_recorded"]:
+        for name in L.ENERGY_FLOW:
+            m = raw[name]  # None for a failed run
+            out[name] = np.zeros(0) if m is None else _floats(m)
     if raw["fields_recorded"] is not None:
         if raw["fields"] is None:  # a failed run records no fields
             out["field_time_s"] = np.zeros(0)
@@ -170,6 +174,14 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
             a["min_overlap_m"],
             {"units": "m", "long_name": L.MIN_OVERLAP_LONG_NAME},
         )
+    for name, (dim, long_name) in L.ENERGY_FLOW.items():
+        if name not in a:
+            continue
+        long_coord = L.CONTACT_LONG_NAME if dim == "contact" else L.PARTICLE_LONG_NAME
+        width = len(a[name])
+        if dim not in coords:
+            coords[dim] = (dim, np.arange(1, width + 1, dtype=np.int64), {"long_name": long_coord})
+        data[name] = (dim, a[name], {"units": "J", "long_name": long_name})
     if "field_time_s" in a:
         coords["field_time_s"] = (
             "field_time_s", a["field_time_s"], {"units": "s", "long_name": L.FIELD_TIME_LONG_NAME}

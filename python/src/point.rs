@@ -217,6 +217,28 @@ pub fn run_scene<'py>(
         Some(m) => d.set_item("min_overlap_m", f64_bytes(py, m))?,
         None => d.set_item("min_overlap_m", py.None())?,
     }
+    match &rec.energy_flow {
+        Some(f) => {
+            d.set_item("energy_passed_max_j", f64_bytes(py, &f.energy_passed_max_j))?;
+            d.set_item(
+                "energy_passed_final_j",
+                f64_bytes(py, &f.energy_passed_final_j),
+            )?;
+            d.set_item(
+                "max_kinetic_energy_j",
+                f64_bytes(py, &f.max_kinetic_energy_j),
+            )?;
+        }
+        None => {
+            for name in [
+                "energy_passed_max_j",
+                "energy_passed_final_j",
+                "max_kinetic_energy_j",
+            ] {
+                d.set_item(name, py.None())?;
+            }
+        }
+    }
     match &rec.fields {
         Some(f) => {
             d.set_item("field_time_s", f64_bytes(py, &f.time_s))?;
@@ -242,5 +264,6 @@ pub fn run_scene<'py>(
     )?;
     d.set_item("history_recorded", run.scene.record.history)?;
     d.set_item("min_overlap_recorded", run.scene.record.min_overlap)?;
+    d.set_item("energy_flow_recorded", run.scene.record.energy_flow)?;
     Ok(d)
 }

@@ -236,6 +236,7 @@ fn record_of(
         min_overlap_m: out.min_overlap_m,
         history: out.history,
         fields: out.fields,
+        energy_flow: out.energy_flow,
         spectrum: out.spectrum,
         steady_state: out.steady_state,
     }
@@ -281,6 +282,16 @@ fn non_finite(scene: &Scene, out: &RunOutput) -> Vec<String> {
     if let Some(m) = &out.min_overlap_m {
         if m.iter().any(|x| !x.is_finite()) {
             bad.push("min_overlap_m holds a non-finite value".to_string());
+        }
+    }
+    if let Some(f) = &out.energy_flow {
+        let all = f
+            .energy_passed_max_j
+            .iter()
+            .chain(&f.energy_passed_final_j)
+            .chain(&f.max_kinetic_energy_j);
+        if let Some(x) = all.into_iter().find(|x| !x.is_finite()) {
+            bad.push(format!("the energy flow holds {x}"));
         }
     }
     if let Some(f) = &out.fields {

@@ -26,6 +26,8 @@ pub struct Grid {
     pub history: bool,
     /// Whether points record minimum overlaps.
     pub min_overlap: bool,
+    /// Whether points record the energy flow (`record.energy_flow`).
+    pub energy_flow: bool,
     /// Whether points record the linear spectrum at the static state (`record.spectrum`).
     pub spectrum: bool,
     /// Harmonics of the steady state every point records (`record.steady_state.harmonics`; 0
@@ -156,6 +158,7 @@ struct Record<'a> {
     probes: &'a [Probe],
     history: bool,
     min_overlap: bool,
+    energy_flow: bool,
     spectrum: bool,
     fields: &'a Option<FieldSpec>,
     steady_harmonics: usize,
@@ -171,9 +174,10 @@ fn steady_harmonics(record: &chainsweep_solver::RecordSpec) -> usize {
 
 impl Grid {
     /// Whether the grid's runs record arrays of their own beside the summaries: histories,
-    /// minimum overlaps or space–time fields (in layouts 4 and earlier, a group under `runs/`).
+    /// minimum overlaps, space–time fields or the energy flow (in layouts 4 and earlier, a group
+    /// under `runs/`).
     pub fn has_run_arrays(&self) -> bool {
-        self.history || self.min_overlap || self.fields.is_some()
+        self.history || self.min_overlap || self.fields.is_some() || self.energy_flow
     }
 
     /// Expands and validates every point of the sweep: an invalid point is an input error naming
@@ -214,6 +218,7 @@ impl Grid {
             probes: Vec::new(),
             history: false,
             min_overlap: false,
+            energy_flow: false,
             spectrum: false,
             steady_harmonics: 0,
             max_history_samples: 0,
@@ -233,6 +238,7 @@ impl Grid {
         grid.probes = first.record.probes.clone();
         grid.history = first.record.history;
         grid.min_overlap = first.record.min_overlap;
+        grid.energy_flow = first.record.energy_flow;
         grid.spectrum = first.record.spectrum.is_some();
         grid.fields = first.record.fields.clone();
         grid.steady_harmonics = steady_harmonics(&first.record);
@@ -241,6 +247,7 @@ impl Grid {
             probes: &grid.probes,
             history: grid.history,
             min_overlap: grid.min_overlap,
+            energy_flow: grid.energy_flow,
             spectrum: grid.spectrum,
             fields: &fields,
             steady_harmonics: grid.steady_harmonics,
@@ -362,6 +369,7 @@ impl Grid {
             probes: &reference.probes,
             history: reference.history,
             min_overlap: reference.min_overlap,
+            energy_flow: reference.energy_flow,
             spectrum: reference.spectrum.is_some(),
             fields: &reference.fields,
             steady_harmonics: steady_harmonics(&reference),
@@ -451,6 +459,7 @@ impl Grid {
         if scene.record.probes != record.probes
             || scene.record.history != record.history
             || scene.record.min_overlap != record.min_overlap
+            || scene.record.energy_flow != record.energy_flow
             || scene.record.spectrum.is_some() != record.spectrum
             || scene.record.fields != *record.fields
             || steady_harmonics(&scene.record) != record.steady_harmonics
@@ -460,7 +469,7 @@ impl Grid {
                 shape,
                 i,
                 "record",
-                "must be the same at every grid point (probes, history, min_overlap, fields, whether spectrum is recorded, whether steady_state is and its harmonics): the stored arrays and columns share one layout",
+                "must be the same at every grid point (probes, history, min_overlap, energy_flow, fields, whether spectrum is recorded, whether steady_state is and its harmonics): the stored arrays and columns share one layout",
             ));
         }
         if scene.record.history {

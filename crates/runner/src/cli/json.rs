@@ -96,6 +96,7 @@ fn record(grid: &Grid) -> Value {
         "history": grid.history,
         "max_history_samples": grid.max_history_samples,
         "min_overlap": grid.min_overlap,
+        "energy_flow": grid.energy_flow,
         "fields": grid.fields.as_ref().map(|f| json!({
             "quantities": f.quantities.iter().map(|q| q.name()).collect::<Vec<_>>(),
             "interval_s": f.interval_s,

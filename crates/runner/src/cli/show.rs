@@ -195,7 +195,7 @@ pub fn dry_run(
     plausibility(sweep, grid);
     let probe_names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
     outln!(
-        "record: probes [{}]; {}{}{}",
+        "record: probes [{}]; {}{}{}{}",
         probe_names.join(", "),
         if grid.history {
             format!(
@@ -207,6 +207,11 @@ pub fn dry_run(
         },
         if grid.min_overlap {
             "; minimum overlaps"
+        } else {
+            ""
+        },
+        if grid.energy_flow {
+            "; energy flow"
         } else {
             ""
         },

@@ -58,6 +58,10 @@ impl SizeEstimate {
         if grid.min_overlap {
             history += grid.max_contacts as f64 * 8.0;
         }
+        if grid.energy_flow {
+            // Two energies per contact, one per particle.
+            history += (2 * grid.max_contacts + grid.max_particles) as f64 * 8.0;
+        }
         let fields = match &grid.fields {
             Some(spec) => {
                 let per_sample = spec.values_per_sample(grid.max_particles, grid.max_contacts);

@@ -90,6 +90,7 @@ pub fn measure(
     s.integrator = spec;
     s.record.history = false;
     s.record.min_overlap = false;
+    s.record.energy_flow = false;
     s.record.fields = None;
     let mut walls = Vec::new();
     let mut out = None;
@@ -215,6 +216,7 @@ pub fn study(scene: &Scene, opts: &StudyOptions, mut log: impl FnMut(&str)) -> R
     let mut scene = scene.clone();
     scene.record.history = false;
     scene.record.min_overlap = false;
+    scene.record.energy_flow = false;
     scene.record.fields = None;
     // Generous budget: the ladders decide the cost, not the step budget.
     scene.max_steps = scene.max_steps.max(1_000_000_000);

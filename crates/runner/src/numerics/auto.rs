@@ -225,6 +225,7 @@ fn pilot_run(scene: &Scene, spec: IntegratorSpec, max_steps: u64, limits: &Limit
     s.max_steps = max_steps;
     s.record.history = false;
     s.record.min_overlap = false;
+    s.record.energy_flow = false;
     s.record.fields = None;
     exec::execute_pilot(&s, limits)
 }

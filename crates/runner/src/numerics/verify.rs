@@ -48,6 +48,7 @@ pub fn tight_scene(scene: &Scene) -> Scene {
     s.max_steps = scene.max_steps.saturating_mul(4);
     s.record.history = false;
     s.record.min_overlap = false;
+    s.record.energy_flow = false;
     s.record.fields = None;
     s
 }

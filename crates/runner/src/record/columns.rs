@@ -9,6 +9,7 @@
 //! column's value at that point (the `history_checksum` of its run group included), so that a
 //! reader finds out which points of a damaged file it can still trust.
 
+use chainsweep_solver::observe::flow::EnergyFlow;
 use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
 use chainsweep_solver::observe::steady::{SteadyProbe, SteadyState};
 use sha2::{Digest, Sha256};
@@ -1106,6 +1107,25 @@ pub const TIME: &str = "time_s";
 pub const SAMPLE: &str = "sample";
 /// Minimum overlaps of every contact.
 pub const MIN_OVERLAP: &str = "min_overlap_m";
+/// The energy flow (`record.energy_flow`): each variable's name, whether it is over the contacts
+/// (else the particles) and its long name, in the order of the [`EnergyFlow`] fields.
+pub const ENERGY_FLOW: [(&str, bool, &str); 3] = [
+    (
+        "energy_passed_max_j",
+        true,
+        "largest energy that had passed into the contact from the side of the struck end (contact N: the energy that reached the wall)",
+    ),
+    (
+        "energy_passed_final_j",
+        true,
+        "energy that had passed into the contact from the side of the struck end by the end of the run",
+    ),
+    (
+        "max_kinetic_energy_j",
+        false,
+        "largest kinetic energy of the particle over the run",
+    ),
+];
 /// The contacts' coordinate.
 pub const CONTACT: &str = "contact";
 /// The particles' coordinate (of the particle fields).
@@ -1334,6 +1354,7 @@ impl Column {
                         r.history.as_ref(),
                         r.min_overlap_m.as_deref(),
                         r.fields.as_ref(),
+                        r.energy_flow.as_ref(),
                     );
                 }
             }
@@ -1395,15 +1416,16 @@ impl Column {
 }
 
 /// The checksum of a run's arrays (in layouts 4 and earlier its group under `runs/`): its time
-/// samples and history per probe, its minimum overlaps and its space–time fields, as stored (bit
-/// for bit); 0 for a run without any (never 0 otherwise). A run without fields has the checksum
-/// it had before fields existed.
+/// samples and history per probe, its minimum overlaps, its space–time fields and its energy
+/// flow, as stored (bit for bit); 0 for a run without any (never 0 otherwise). A run without
+/// fields or energy flow has the checksum it had before they existed.
 pub fn history_checksum(
     history: Option<&History>,
     min_overlap_m: Option<&[f64]>,
     fields: Option<&Fields>,
+    energy_flow: Option<&EnergyFlow>,
 ) -> u64 {
-    if history.is_none() && min_overlap_m.is_none() && fields.is_none() {
+    if history.is_none() && min_overlap_m.is_none() && fields.is_none() && energy_flow.is_none() {
         return 0;
     }
     let sum = checksum64(|h| {
@@ -1431,6 +1453,11 @@ pub fn history_checksum(
                 h.update((s.width as u64).to_le_bytes());
                 series(h, b"field", &s.values);
             }
+        }
+        if let Some(f) = energy_flow {
+            series(h, b"energy_passed_max_j", &f.energy_passed_max_j);
+            series(h, b"energy_passed_final_j", &f.energy_passed_final_j);
+            series(h, b"max_kinetic_energy_j", &f.max_kinetic_energy_j);
         }
     });
     sum.max(1)

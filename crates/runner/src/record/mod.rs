@@ -6,6 +6,7 @@
 
 pub mod columns;
 
+use chainsweep_solver::observe::flow::EnergyFlow;
 use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
 use chainsweep_solver::observe::steady::{SteadyProbe, SteadyState};
 use chainsweep_solver::spectrum::SpectrumSummary;
@@ -51,9 +52,14 @@ pub const VERIFY_OK: u8 = 1;
 /// `verified` flag: the verification run itself failed (its reason is printed by `run`).
 pub const VERIFY_FAILED: u8 = 2;
 
-/// A run's own arrays as stored: its histories, minimum overlaps and space–time fields, each
-/// when recorded.
-pub type RunArrays = (Option<History>, Option<Vec<f64>>, Option<Fields>);
+/// A run's own arrays as stored: its histories, minimum overlaps, space–time fields and energy
+/// flow, each when recorded.
+pub type RunArrays = (
+    Option<History>,
+    Option<Vec<f64>>,
+    Option<Fields>,
+    Option<EnergyFlow>,
+);
 
 /// One finished run, successful or failed.
 #[derive(Debug, Clone, PartialEq)]
@@ -105,6 +111,9 @@ pub struct RunRecord {
     pub history: Option<History>,
     /// Space–time fields, when recorded (`record.fields`).
     pub fields: Option<Fields>,
+    /// The energy through every contact and each particle's largest kinetic energy, when
+    /// recorded (`record.energy_flow`).
+    pub energy_flow: Option<EnergyFlow>,
     /// The linear spectrum at the static state, when recorded (`record.spectrum`).
     pub spectrum: Option<SpectrumSummary>,
     /// Steady-state observables of every probe, when recorded (`record.steady_state`).
@@ -155,6 +164,7 @@ impl RunRecord {
             min_overlap_m: None,
             history: None,
             fields: None,
+            energy_flow: None,
             spectrum: None,
             steady_state: None,
         }

@@ -442,11 +442,12 @@ impl PublishedFile {
                 let whole_chain = (!grid.moving_part).then(|| u64::from(grid.particles[i]));
                 let (mut rec, group_sum) = self.snapshot.as_ref()?.record(hash, whole_chain)?;
                 if rec.ok && grid.has_run_arrays() {
-                    let (history, min_overlap, fields) =
+                    let (history, min_overlap, fields, flow) =
                         self.recs.as_ref()?.read_group(i, grid, group_sum).ok()?;
                     rec.history = history;
                     rec.min_overlap_m = min_overlap;
                     rec.fields = fields;
+                    rec.energy_flow = flow;
                 }
                 Some(rec)
             }

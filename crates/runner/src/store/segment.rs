@@ -21,12 +21,16 @@
 //! [steady state, only for a run that recorded it: 2 (u8) | frequency_hz (f64) | n_probes (u32) |
 //!   harmonics (u32) | per probe: mean, rms, settledness, transmission_db (f64 ×4), settled (u8),
 //!   amplitude f64 ×harmonics, phase_rad f64 ×harmonics]
+//! [energy flow, only for a run that recorded it: 3 (u8) | n_contacts (u32) |
+//!   energy_passed_max_j f64 ×n_contacts | energy_passed_final_j f64 ×n_contacts |
+//!   n_particles (u32) | max_kinetic_energy_j f64 ×n_particles]
 //! checksum (32)
 //! ```
 //!
 //! The steady state (`record.steady_state`) is a second optional trailing part, told from the
 //! fields by its first byte: records without it are byte for byte what earlier versions wrote;
-//! earlier versions take one with it as damaged and compute the run again.
+//! earlier versions take one with it as damaged and compute the run again. The energy flow
+//! (`record.energy_flow`) is a third, after it, the same way.
 //!
 //! The space–time fields (`record.fields`) are an optional trailing part of format 4: a record
 //! without them is byte for byte what earlier versions wrote (which read it), one with them is
@@ -49,6 +53,7 @@ use chainsweep_solver::observe::probes::{
 };
 use sha2::{Digest, Sha256};
 
+use chainsweep_solver::observe::flow::EnergyFlow;
 use chainsweep_solver::observe::steady::{SteadyProbe, SteadyState};
 use chainsweep_solver::spectrum::SpectrumSummary;
 
@@ -168,6 +173,21 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
             p.phase_rad.iter().for_each(|&x| put_f64(&mut b, x));
         }
     }
+    if let Some(f) = &rec.energy_flow {
+        b.push(FLOW_TAG);
+        put_u32(&mut b, f.energy_passed_max_j.len() as u32);
+        debug_assert_eq!(f.energy_passed_final_j.len(), f.energy_passed_max_j.len());
+        f.energy_passed_max_j
+            .iter()
+            .for_each(|&x| put_f64(&mut b, x));
+        f.energy_passed_final_j
+            .iter()
+            .for_each(|&x| put_f64(&mut b, x));
+        put_u32(&mut b, f.max_kinetic_energy_j.len() as u32);
+        f.max_kinetic_energy_j
+            .iter()
+            .for_each(|&x| put_f64(&mut b, x));
+    }
     let sum: [u8; 32] = Sha256::digest(&b).into();
     b.extend_from_slice(&sum);
     b
@@ -177,6 +197,8 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
 const FIELDS_TAG: u8 = 1;
 /// First byte of the steady state's trailing part.
 const STEADY_TAG: u8 = 2;
+/// First byte of the energy flow's trailing part.
+const FLOW_TAG: u8 = 3;
 
 /// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
 pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
@@ -272,10 +294,8 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
-    let steady_state = if magic == MAGIC && r.at < body.len() {
-        if r.take(1)?[0] != STEADY_TAG {
-            return None;
-        }
+    let steady_state = if magic == MAGIC && r.at < body.len() && body[r.at] == STEADY_TAG {
+        r.take(1)?;
         let frequency_hz = r.f64()?;
         let n = r.u32()? as usize;
         let h = r.u32()? as usize;
@@ -306,6 +326,22 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
+    let energy_flow = if magic == MAGIC && r.at < body.len() {
+        if r.take(1)?[0] != FLOW_TAG {
+            return None;
+        }
+        let n = r.u32()? as usize;
+        let energy_passed_max_j = r.f64s(n)?;
+        let energy_passed_final_j = r.f64s(n)?;
+        let n = r.u32()? as usize;
+        Some(EnergyFlow {
+            energy_passed_max_j,
+            energy_passed_final_j,
+            max_kinetic_energy_j: r.f64s(n)?,
+        })
+    } else {
+        None
+    };
     if r.at != body.len() {
         return None;
     }
@@ -331,6 +367,7 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
         min_overlap_m,
         history,
         fields,
+        energy_flow,
         spectrum,
         steady_state,
     })
@@ -474,15 +511,33 @@ mod tests {
                     transmission_db: f64::NEG_INFINITY,
                 }],
             }),
+            energy_flow: Some(EnergyFlow {
+                energy_passed_max_j: vec![1e-3, 5e-4, -0.0],
+                energy_passed_final_j: vec![9e-4, -1e-6, 0.0],
+                max_kinetic_energy_j: vec![1e-3, 2e-4],
+            }),
         };
         let bytes = encode(&rec);
         let back = decode(&bytes).unwrap();
+        assert_eq!(back.energy_flow, rec.energy_flow);
+        // The energy flow alone, and the steady state alone, read back.
+        for (steady, flow) in [(true, false), (false, true)] {
+            let part = RunRecord {
+                fields: None,
+                steady_state: rec.steady_state.clone().filter(|_| steady),
+                energy_flow: rec.energy_flow.clone().filter(|_| flow),
+                ..rec.clone()
+            };
+            let b = encode(&part);
+            assert_eq!(encode(&decode(&b).unwrap()), b);
+        }
         let st = back.steady_state.as_ref().unwrap();
         assert_eq!((st.frequency_hz, st.probes[0].settled), (1302.5, false));
         assert_eq!(st.probes[0].phase_rad[..2], [-3.0, 0.5]);
         // Without the fields before it, the steady state alone still reads back.
         let mut alone = rec.clone();
         alone.fields = None;
+        alone.energy_flow = None;
         let alone_bytes = encode(&alone);
         assert_eq!(encode(&decode(&alone_bytes).unwrap()), alone_bytes);
         // A record cut inside its steady state is damaged, never read short.
@@ -505,11 +560,13 @@ mod tests {
         // (The fields' part, of a record without the steady state after it.)
         let bytes = encode(&RunRecord {
             steady_state: None,
+            energy_flow: None,
             ..rec.clone()
         });
         let without = encode(&RunRecord {
             fields: None,
             steady_state: None,
+            energy_flow: None,
             ..rec.clone()
         });
         assert_eq!(bytes.len() - without.len(), 1 + 8 + 16 + 4 + 18 + 80);
@@ -517,7 +574,7 @@ mod tests {
         // A fields part with a bad marker or quantity is damage.
         let mut bad = bytes.clone();
         let at = without.len() - 32;
-        bad[at] = 3;
+        bad[at] = 9;
         let n = bad.len() - 32;
         let sum: [u8; 32] = Sha256::digest(&bad[..n]).into();
         bad[n..].copy_from_slice(&sum);

@@ -12,6 +12,7 @@ use crate::integrate::{Control, DenseStep, StepObserver};
 use crate::motion::system::{EnergyTerms, Ledger};
 use crate::spectrum::SpectrumSpec;
 
+use super::flow::{EnergyFlow, FlowRecorder};
 use super::steady::{SteadyRecorder, SteadyState, SteadyStateSpec};
 
 /// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
@@ -361,6 +362,14 @@ pub struct RecordSpec {
         serde(default, skip_serializing_if = "Option::is_none")
     )]
     pub steady_state: Option<SteadyStateSpec>,
+    /// The energy that has passed into every contact from the side of the struck end (its
+    /// largest value and its value at the end; the wall's contact: the energy that reached the
+    /// wall) and each particle's largest kinetic energy (see [`crate::observe::flow`]).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "std::ops::Not::not")
+    )]
+    pub energy_flow: bool,
 }
 
 #[cfg(feature = "serde")]
@@ -386,6 +395,7 @@ impl Default for RecordSpec {
             spectrum: None,
             fields: None,
             steady_state: None,
+            energy_flow: false,
         }
     }
 }
@@ -400,6 +410,7 @@ impl RecordSpec {
             || self.min_overlap
             || self.fields.is_some()
             || self.steady_state.is_some()
+            || self.energy_flow
     }
 
     /// Checks the record block against a built chain; errors name the field (relative to `record`).
@@ -687,7 +698,7 @@ impl ProbeSet {
     }
 
     /// The state components the probes read, sorted, each once.
-    fn components(&self) -> Vec<usize> {
+    pub(crate) fn components(&self) -> Vec<usize> {
         let read = std::cell::RefCell::new(Vec::new());
         let get = |i: usize| {
             read.borrow_mut().push(i);
@@ -977,6 +988,8 @@ pub(crate) struct ObserverOptions {
     pub fields: Option<(FieldSpec, Preload)>,
     /// The steady-state window to analyse, at its frequency (Hz).
     pub steady_state: Option<(SteadyStateSpec, f64)>,
+    /// Whether to integrate the energy flow ([`crate::observe::flow`]).
+    pub energy_flow: bool,
 }
 
 /// Samples a run's space–time fields: one probe per contact or particle of each quantity, on the
@@ -1118,6 +1131,8 @@ pub(crate) struct RunObserver {
     fields: Option<FieldRecorder>,
     /// The steady-state sums, when recorded.
     steady: Option<SteadyRecorder>,
+    /// The energy flow, when recorded.
+    flow: Option<FlowRecorder>,
     pub energy_drift_max: f64,
     pub energy_drift_final: f64,
     pub momentum_residual_max: f64,
@@ -1285,6 +1300,7 @@ impl RunObserver {
                 .steady_state
                 .as_ref()
                 .map(|(spec, f)| SteadyRecorder::new(spec, *f, n_probes)),
+            flow: opts.energy_flow.then(|| FlowRecorder::new(chain)),
             energy_drift_max: 0.0,
             energy_drift_final: 0.0,
             momentum_residual_max: 0.0,
@@ -1383,6 +1399,11 @@ impl RunObserver {
         self.fields.take().map(|f| f.out)
     }
 
+    /// The energy flow, when asked for (taken: a second call gives `None`).
+    pub fn take_energy_flow(&mut self) -> Option<EnergyFlow> {
+        self.flow.take().map(FlowRecorder::finish)
+    }
+
     /// The steady state analysed, when asked for (taken: a second call gives `None`).
     pub fn take_steady_state(&mut self) -> Option<SteadyState> {
         self.steady.take().map(|s| s.finish())
@@ -1436,6 +1457,9 @@ impl StepObserver for RunObserver {
         self.next_history = 1;
         if let Some(f) = &mut self.fields {
             f.start(t0, y0);
+        }
+        if let Some(f) = &mut self.flow {
+            f.start(y0);
         }
         self.t_reached = t0;
     }
@@ -1504,6 +1528,9 @@ impl StepObserver for RunObserver {
         }
         if let Some(f) = &mut self.fields {
             f.step(step, self.t0, t1.min(self.t_end));
+        }
+        if let Some(f) = &mut self.flow {
+            f.step(step);
         }
         self.update_ledger(t1, step.y_end());
         self.t_reached = t1;

@@ -117,6 +117,9 @@ pub struct RunOutput {
     /// ([`crate::scene::Continuation`]): what the next point on the axis starts from.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub final_state: Option<Vec<f64>>,
+    /// The energy through every contact and each particle's largest kinetic energy, when
+    /// `record.energy_flow` asks for them.
+    pub energy_flow: Option<crate::observe::flow::EnergyFlow>,
     /// Steady-state observables of every probe, when `record.steady_state` asks for them (absent
     /// from the serialised output otherwise).
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
@@ -269,6 +272,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             .steady_state_frequency_hz()?
             .zip(scene.record.steady_state.clone())
             .map(|(f, spec)| (spec, f)),
+        energy_flow: scene.record.energy_flow,
     };
     let spectrum = match &scene.record.spectrum {
         Some(spec) => Some(spec.summarise(&chain)?),
@@ -297,6 +301,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             spectrum,
             final_state: None,
             steady_state: None,
+            energy_flow: None,
         });
     }
     let t0 = 0.0;
@@ -410,5 +415,6 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             .take()
             .filter(|_| scene.continuation.is_some()),
         steady_state,
+        energy_flow: observer.take_energy_flow(),
     })
 }

@@ -13,6 +13,9 @@
 //!   variable) and `time_s` a variable over (grid…, `sample`) with each run's own instants.
 //! - `min_overlap_m` over (grid…, `contact`), NaN beyond a run's contacts and for failed and
 //!   pending runs, on the coordinate `contact` (1, 2, …).
+//! - the energy flow (`record.energy_flow`): `energy_passed_max_j` and `energy_passed_final_j`
+//!   over (grid…, `contact`), `max_kinetic_energy_j` over (grid…, `particle`), NaN beyond a run's
+//!   contacts or particles and for failed and pending runs.
 //! - the space–time fields (`record.fields`): `field_contact_force` over (grid…, `field_time_s`,
 //!   `contact`), `field_displacement` and `field_velocity` over (grid…, `field_time_s`,
 //!   `particle`), NaN after a run's end, beyond its contacts or particles and for failed and
@@ -42,10 +45,11 @@ use super::{
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid};
 use crate::record::columns::{
-    distinct_units, field_name, split_name, CONTACT, FIELD_SAMPLES, FIELD_TIME, HISTORY,
-    HISTORY_SAMPLES, MIN_OVERLAP, PARTICLE, SAMPLE, TIME,
+    distinct_units, field_name, split_name, CONTACT, ENERGY_FLOW, FIELD_SAMPLES, FIELD_TIME,
+    HISTORY, HISTORY_SAMPLES, MIN_OVERLAP, PARTICLE, SAMPLE, TIME,
 };
 use crate::record::{RunArrays, RunRecord, INT_FILL};
+use chainsweep_solver::observe::flow::EnergyFlow;
 use chainsweep_solver::observe::probes::{FieldQuantity, FieldSeries, Fields, History};
 
 /// Long name of the histories.
@@ -227,6 +231,8 @@ pub(super) struct ArrayWriter {
     shape: Vec<usize>,
     history: Option<HistoryWriter>,
     min_overlap: Option<MinOverlapWriter>,
+    /// The energy flow's three variables, in [`ENERGY_FLOW`]'s order.
+    flow: Vec<MinOverlapWriter>,
     fields: Option<FieldWriter>,
 }
 
@@ -352,10 +358,27 @@ struct HistoryWriter {
     buf: Vec<f64>,
 }
 
+/// The writer of a variable with one value per contact or particle of each run (the minimum
+/// overlaps, the energy flow's).
 struct MinOverlapWriter {
     data: Dataset,
     width: usize,
     buf: Vec<f64>,
+}
+
+impl MinOverlapWriter {
+    /// Writes the run at flat index `index`, widening the variable to its values.
+    fn write(&mut self, shape: &[usize], index: usize, values: &[f64]) -> Result<()> {
+        if values.len() > self.width {
+            self.width = values.len();
+            let mut s = shape.to_vec();
+            s.push(self.width);
+            self.data.resize(s)?;
+        }
+        self.buf.clear();
+        self.buf.extend_from_slice(values);
+        write_rows(&self.data, shape, index, &[values.len()], &self.buf)
+    }
 }
 
 impl ArrayWriter {
@@ -419,11 +442,31 @@ impl ArrayWriter {
         } else {
             None
         };
+        let mut flow = Vec::new();
+        if grid.energy_flow {
+            for (name, per_contact, _) in ENERGY_FLOW {
+                let width = if per_contact {
+                    grid.max_contacts
+                } else {
+                    grid.max_particles
+                }
+                .max(1);
+                let mut full = shape.clone();
+                full.push(width);
+                let data = growing_dataset(file, name, &full, run_chunk(&shape, &[width]))?;
+                flow.push(MinOverlapWriter {
+                    data,
+                    width,
+                    buf: Vec::new(),
+                });
+            }
+        }
         let fields = FieldWriter::create(file, grid)?;
         Ok(ArrayWriter {
             shape,
             history,
             min_overlap,
+            flow,
             fields,
         })
     }
@@ -483,15 +526,17 @@ impl ArrayWriter {
             w.samples[index] = len as i64;
         }
         if let (Some(w), Some(m)) = (&mut self.min_overlap, &rec.min_overlap_m) {
-            if m.len() > w.width {
-                w.width = m.len();
-                let mut s = shape.clone();
-                s.push(w.width);
-                w.data.resize(s)?;
+            w.write(shape, index, m)?;
+        }
+        if let Some(f) = &rec.energy_flow {
+            let values = [
+                &f.energy_passed_max_j,
+                &f.energy_passed_final_j,
+                &f.max_kinetic_energy_j,
+            ];
+            for (w, v) in self.flow.iter_mut().zip(values) {
+                w.write(shape, index, v)?;
             }
-            w.buf.clear();
-            w.buf.extend_from_slice(m);
-            write_rows(&w.data, shape, index, &[m.len()], &w.buf)?;
         }
         if let (Some(w), Some(f)) = (&mut self.fields, &rec.fields) {
             w.write(shape, index, f)?;
@@ -597,11 +642,23 @@ impl ArrayWriter {
                 .map(|p| p.width)
                 .max()
         };
-        let contact_width = match (&self.min_overlap, width_of(true)) {
-            (Some(w), f) => Some(w.width.max(f.unwrap_or(0))),
-            (None, f) => f,
+        let flow_width = |contacts: bool| {
+            ENERGY_FLOW
+                .iter()
+                .zip(&self.flow)
+                .filter(|((_, per_contact, _), _)| *per_contact == contacts)
+                .map(|(_, w)| w.width)
+                .max()
         };
-        let particle_width = width_of(false);
+        let widest = |a: Option<usize>, b: Option<usize>| match (a, b) {
+            (Some(x), Some(y)) => Some(x.max(y)),
+            (x, y) => x.or(y),
+        };
+        let contact_width = widest(
+            widest(self.min_overlap.as_ref().map(|w| w.width), width_of(true)),
+            flow_width(true),
+        );
+        let particle_width = widest(width_of(false), flow_width(false));
         let coordinate = |name: &str, width: usize, long_name: &str| -> Result<Dataset> {
             let k: Vec<i64> = (1..=width as i64).collect();
             let c = checked_dataset(file, name, &[width], &k)?;
@@ -631,6 +688,27 @@ impl ArrayWriter {
             if !coordinates.is_empty() {
                 attr_str(&w.data, "coordinates", &listed(&[]))?;
             }
+        }
+        for ((name, per_contact, long_name), w) in ENERGY_FLOW.iter().zip(&self.flow) {
+            let (scale, dim, width) = if *per_contact {
+                (contact.as_ref(), CONTACT, contact_width)
+            } else {
+                (particle.as_ref(), PARTICLE, particle_width)
+            };
+            let (scale, width) = (scale.expect("made above"), width.expect("made above"));
+            if width > w.width {
+                let mut s = self.shape.clone();
+                s.push(width);
+                w.data.resize(s)?;
+            }
+            attach_grid(&w.data)?;
+            attach_scale(&w.data, scale, g, dim)?;
+            attr_str(&w.data, "units", "J")?;
+            attr_str(&w.data, "long_name", long_name)?;
+            if !coordinates.is_empty() {
+                attr_str(&w.data, "coordinates", &listed(&[]))?;
+            }
+            debug_assert!(name.ends_with("_j"));
         }
         if let Some(w) = self.fields {
             let t: Vec<f64> = (0..w.length).map(|k| k as f64 * w.interval).collect();
@@ -685,6 +763,8 @@ pub struct ArrayReader {
     samples: Vec<i64>,
     time: Time,
     min_overlap: Option<Dataset>,
+    /// The energy flow's three variables, in [`ENERGY_FLOW`]'s order, when recorded.
+    flow: Vec<Dataset>,
     fields: Option<FieldReader>,
 }
 
@@ -739,6 +819,14 @@ impl ArrayReader {
         } else {
             None
         };
+        let flow = if grid.energy_flow {
+            ENERGY_FLOW
+                .iter()
+                .map(|(name, _, _)| file.dataset(name))
+                .collect::<std::result::Result<Vec<_>, _>>()?
+        } else {
+            Vec::new()
+        };
         let fields = match &grid.fields {
             Some(spec) => {
                 let parts = spec
@@ -771,6 +859,7 @@ impl ArrayReader {
             samples,
             time,
             min_overlap,
+            flow,
             fields,
         })
     }
@@ -811,24 +900,31 @@ impl ArrayReader {
                 Some(History { time_s, values })
             }
         };
-        let min_overlap = match &self.min_overlap {
-            Some(d) => {
-                let width = d.shape().last().copied().unwrap_or(0);
-                let mut m = read_rows(d, &self.shape, index, &[width])?;
-                // A run's contacts are the ones before the fill (a minimum overlap is a number,
-                // +inf for a contact the run never moved: never NaN).
-                while m.last().is_some_and(|x| x.is_nan()) {
-                    m.pop();
-                }
-                Some(m)
+        // A run's contacts or particles are the ones before the fill (a minimum overlap is a
+        // number, +inf for a contact the run never moved; an energy a finite number: never NaN).
+        let per_element = |d: &Dataset| -> Result<Vec<f64>> {
+            let width = d.shape().last().copied().unwrap_or(0);
+            let mut m = read_rows(d, &self.shape, index, &[width])?;
+            while m.last().is_some_and(|x| x.is_nan()) {
+                m.pop();
             }
-            None => None,
+            Ok(m)
+        };
+        let min_overlap = self.min_overlap.as_ref().map(per_element).transpose()?;
+        let energy_flow = if self.flow.is_empty() {
+            None
+        } else {
+            Some(EnergyFlow {
+                energy_passed_max_j: per_element(&self.flow[0])?,
+                energy_passed_final_j: per_element(&self.flow[1])?,
+                max_kinetic_energy_j: per_element(&self.flow[2])?,
+            })
         };
         let fields = match &self.fields {
             Some(r) => Some(r.read(&self.shape, index)?),
             None => None,
         };
-        Ok((history, min_overlap, fields))
+        Ok((history, min_overlap, fields, energy_flow))
     }
 }
 

@@ -455,10 +455,11 @@ impl FileRecords {
         };
         if rec.ok && grid.has_run_arrays() {
             match self.read_group(i, grid, self.table.checksum_at("history_checksum", i)) {
-                Ok((history, min_overlap, fields)) => {
+                Ok((history, min_overlap, fields, flow)) => {
                     rec.history = history;
                     rec.min_overlap_m = min_overlap;
                     rec.fields = fields;
+                    rec.energy_flow = flow;
                 }
                 Err(why) => return PointRead::Damaged(why),
             }
@@ -489,23 +490,28 @@ impl FileRecords {
                 })
                 .as_ref()
                 .map_err(String::clone)?;
-            // (Fields are named only where the grid records them.)
-            let what = if grid.fields.is_some() {
-                "histories, minimum overlaps or fields"
-            } else {
-                "histories or minimum overlaps"
+            // (Fields and the energy flow are named only where the grid records them.)
+            let what = match (grid.fields.is_some(), grid.energy_flow) {
+                (false, false) => "histories or minimum overlaps",
+                (true, false) => "histories, minimum overlaps or fields",
+                (false, true) => "histories, minimum overlaps or energy flow",
+                (true, true) => "histories, minimum overlaps, fields or energy flow",
             };
-            let (history, min_overlap, fields) = arrays
+            let (history, min_overlap, fields, flow) = arrays
                 .read(i)
                 .map_err(|e| format!("its {what} cannot be read ({})", brief(&e)))?;
-            if history_checksum(history.as_ref(), min_overlap.as_deref(), fields.as_ref())
-                != checksum
+            if history_checksum(
+                history.as_ref(),
+                min_overlap.as_deref(),
+                fields.as_ref(),
+                flow.as_ref(),
+            ) != checksum
             {
                 return Err(format!(
                     "its {what} do not match their checksum (history_checksum)"
                 ));
             }
-            return Ok((history, min_overlap, fields));
+            return Ok((history, min_overlap, fields, flow));
         }
         let name = run_group_name_in(self.layout_version, grid.len(), i);
         let path = format!("runs/{name}");
@@ -531,14 +537,14 @@ impl FileRecords {
         let (history, min_overlap) =
             read().map_err(|e| format!("its group {path} cannot be read ({})", brief(&e)))?;
         if self.checked()
-            && history_checksum(history.as_ref(), min_overlap.as_deref(), None) != checksum
+            && history_checksum(history.as_ref(), min_overlap.as_deref(), None, None) != checksum
         {
             return Err(format!(
                 "its group {path} (histories, minimum overlaps) does not match its checksum (history_checksum)"
             ));
         }
-        // (Run groups, layouts 4 and earlier, never held fields.)
-        Ok((history, min_overlap, None))
+        // (Run groups, layouts 4 and earlier, never held fields or the energy flow.)
+        Ok((history, min_overlap, None, None))
     }
 
     /// The `auto` root attribute (what `integrator: auto` chose, JSON), when the file has one.
@@ -605,6 +611,9 @@ impl FileRecords {
                     || name == crate::record::columns::FIELD_SAMPLES;
                 if matches!(name.as_str(), "runs" | "history" | "min_overlap_m")
                     || crate::record::columns::FIELD_NAMES.contains(&name.as_str())
+                    || crate::record::columns::ENERGY_FLOW
+                        .iter()
+                        .any(|(flow, _, _)| *flow == name)
                     || name.starts_with("history_") && name != "history_samples"
                     || name == "time_s" && self.file.dataset(&name).is_ok_and(|d| d.ndim() > 1)
                     || over_points && points_damaged
