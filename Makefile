@@ -192,7 +192,7 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum \
   plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down \
-  dimer-transmission
+  dimer-transmission load-cell-impact
 
 # The reference renderings the docs show, docs/figures/ (tracked; results/ is not): each of them
 # copied from results/ where `make figures`, `make examples` or `make accuracy` has drawn it.

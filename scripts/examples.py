@@ -459,6 +459,51 @@ def dimer_transmission():
         savefig(fig, "examples/dimer-transmission")
 
 
+def load_cell_impact():
+    """Spheres struck onto a load cell: the energy of the pulse that crossed each contact (its
+    attenuation along the chain) and each particle's largest kinetic energy, the share of the
+    impact energy that reached the wall, and the load cell's force against the wall's, per damping
+    (the run's `record.energy_flow` and its probes)."""
+    path = EXAMPLES / "load-cell-impact.h5"
+    with chainsweep.open(path) as ds:
+        v = ds["striker_velocity_m_s"].values
+        impact = 0.5 * SPHERE_MASS_KG * ds["striker_velocity_m_s"] ** 2
+        passed = ds["energy_passed_max_j"] / impact
+        kinetic = ds["max_kinetic_energy_j"] / impact
+        wall = int(ds["contact"].values[-1])
+        fig, axes = plt.subplots(2, 2, figsize=(9, 7))
+        (a, b), (c, d) = axes
+        for mu in ds["damping_kg_s"].values:
+            label = f"μ = {mu:g} kg/s"
+            at = {"damping_kg_s": mu, "striker_velocity_m_s": 1.0}
+            line = passed.sel(**at)
+            a.plot(line["contact"], line, marker="o", ms=3, label=label)
+            k = kinetic.sel(**at)
+            b.plot(k["particle"], k, marker="o", ms=3, label=label)
+            c.semilogx(v, passed.sel(damping_kg_s=mu, contact=wall), marker="o", label=label)
+            cell = ds["record_max"].sel(damping_kg_s=mu, probe="mount_force")
+            base = d.loglog(v, cell, marker="o", label=label)
+            d.loglog(v, ds["record_max"].sel(damping_kg_s=mu, probe="wall_force"), ls="--",
+                     color=base[0].get_color(), lw=1)
+        a.set_xlabel(f"contact ({wall}: the wall's)")
+        a.set_ylabel("energy passed / impact energy")
+        a.set_title("largest energy through each contact, 1 m/s", fontsize=9)
+        b.set_xlabel("particle (1: the striker)")
+        b.set_ylabel("kinetic energy / impact energy")
+        b.set_title("largest kinetic energy of each particle, 1 m/s", fontsize=9)
+        c.set_xlabel("striker velocity (m/s)")
+        c.set_ylabel("energy at the wall / impact energy")
+        c.set_title("energy that reached the wall", fontsize=9)
+        d.set_xlabel("striker velocity (m/s)")
+        d.set_ylabel("largest force (N)")
+        d.set_title("load cell (solid) and wall contact (dashed)", fontsize=9)
+        for ax in axes.flat:
+            ax.grid(alpha=0.3, which="both")
+        a.legend(fontsize=7)
+        fig.suptitle("20 spheres struck onto a load cell (0.1 kg on 2e8 N/m and 50 kg/s)", fontsize=10)
+        fig.tight_layout()
+        savefig(fig, "examples/load-cell-impact")
+
 PLOTS = {
     "trimer": trimer,
     "tapered": tapered,
@@ -476,6 +521,7 @@ PLOTS = {
     "between-walls": between_walls,
     "driven-sweep-up-down": driven_sweep_up_down,
     "dimer-transmission": dimer_transmission,
+    "load-cell-impact": load_cell_impact,
 }
 
 
