@@ -40,12 +40,16 @@ def _non_finite(value: Any, path: str) -> str | None:
     return None
 
 
-def dumps(value: Any, field: str = "") -> str:
-    """JSON text of `value`; `field` is its path, used to name a field that cannot be JSON."""
-    bad = _non_finite(value, field)
-    if bad is not None:
-        raise InputError(bad, "must be a finite number (NaN and infinities are not JSON)")
+def dumps(value: Any, field: str = "", indent: int | None = 2) -> str:
+    """JSON text of `value`; `field` is its path, used to name a field that cannot be JSON.
+    `indent=None`: compact (for the engine, which keeps no text of it)."""
     try:
-        return json.dumps(value, default=_plain, allow_nan=False, indent=2)
+        return json.dumps(value, default=_plain, allow_nan=False, indent=indent)
+    except ValueError:
+        # A NaN or an infinity somewhere (json names no path): found and named.
+        bad = _non_finite(value, field)
+        if bad is not None:
+            raise InputError(bad, "must be a finite number (NaN and infinities are not JSON)") from None
+        raise
     except TypeError as e:
         raise InputError(field, f"cannot be written as JSON: {e}") from None

@@ -285,9 +285,9 @@ def run(
     if record is None:
         record = scene.pop("record", None)
     raw = _native.run_scene(
-        dumps(scene),
-        None if record is None else dumps(record, "record"),
-        None if limits is None else dumps(limits, "limits"),
+        dumps(scene, indent=None),
+        None if record is None else dumps(record, "record", indent=None),
+        None if limits is None else dumps(limits, "limits", indent=None),
     )
     arrays = _arrays(raw)
     result: xr.Dataset | dict[str, Any] = _dataset(arrays) if as_dataset else arrays

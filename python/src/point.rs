@@ -30,6 +30,8 @@ struct PointRun {
     energy_drift_limit: Option<f64>,
     auto: Option<AutoChoice>,
     record: RunRecord,
+    /// Whether the scene may integrate only the moving part of its chain (its grid's flag).
+    moving_part: bool,
 }
 
 /// Normalises and runs one scene (see the module docs). Errors are input errors naming the field
@@ -37,10 +39,17 @@ struct PointRun {
 /// scene fields without the `base.` prefix).
 fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Result<PointRun> {
     let mut sweep = Sweep::of_scene(scene, record, limits)?;
-    let base: Scene = chainsweep::sweep::from_value_at(sweep.base.clone(), "base")?;
-    base.validate()
-        .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;
-    let mut grid = Grid::new(&sweep)?;
+    let mut grid = match Grid::new(&sweep) {
+        Ok(grid) => grid,
+        Err(e) => {
+            // Where the scene itself is at fault, its own error, naming its fields without the
+            // `base.` prefix (looked for only now: a valid scene is parsed and built once less).
+            let base: Scene = chainsweep::sweep::from_value_at(sweep.base.clone(), "base")?;
+            base.validate()
+                .map_err(|e| Error::input(e.field.clone(), e.message.clone()))?;
+            return Err(e);
+        }
+    };
     exec::install_panic_hook();
     if let Some(spec) = sweep.auto {
         // As `chainsweep point` without `-o`: the pilot runs on the one point there is.
@@ -58,6 +67,7 @@ fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Resu
         energy_drift_limit: sweep.limits.energy_drift_max,
         auto: sweep.auto_choice.clone(),
         record,
+        moving_part: grid.moving_part,
     })
 }
 
@@ -189,7 +199,7 @@ pub fn run_scene<'py>(
     d.set_item("reason", &rec.reason)?;
     // Kept as a sweep file keeps them: only for a scene that can integrate only the moving part
     // of its chain (elsewhere they would repeat the chain's length).
-    let moving_part = chainsweep_solver::integrates_moving_part(&run.scene);
+    let moving_part = run.moving_part;
     d.set_item("moving_part_recorded", moving_part)?;
     d.set_item("columns", columns(py, &run, moving_part)?)?;
     d.set_item("probe", PyList::new(py, probes.iter().map(|p| p.name()))?)?;
