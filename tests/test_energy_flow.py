@@ -18,7 +18,7 @@ import xarray as xr
 
 import chainsweep
 
-from conftest import assert_files_equal, run, write_sweep
+from conftest import assert_resume_and_merge_bitwise, run, write_sweep
 
 FLOW = ["energy_passed_max_j", "energy_passed_final_j", "max_kinetic_energy_j"]
 BALL = {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085,
@@ -144,22 +144,7 @@ def test_dry_run_sizes_the_flow(swept, tmp_path):
 
 
 def test_resume_and_merge_keep_the_flow_bitwise(swept, tmp_path):
-    path, out = swept
-    again = tmp_path / "again.h5"
-    shutil.copy(out, again)
-    shutil.copytree(f"{out}.d", f"{again}.d")
-    Path(f"{again}.d", "snapshot").unlink()
-    r = run("run", path, "-o", again)
-    assert r.returncode == 0 and "already done" in r.stderr, r.stderr
-    assert_files_equal(out, again)
-    parts = []
-    for k in (1, 2):
-        part = tmp_path / f"part-{k}.h5"
-        assert run("run", path, "--shard", f"{k}/2", "-o", part, "--quiet").returncode == 0
-        parts.append(part)
-    merged = tmp_path / "merged.h5"
-    assert run("merge", "-o", merged, *parts).returncode == 0
-    assert_files_equal(out, merged)
+    assert_resume_and_merge_bitwise(*swept, tmp_path)
 
 
 def test_a_changed_flow_value_is_damage(swept, tmp_path):

@@ -20,7 +20,7 @@ import xarray as xr
 
 import chainsweep
 
-from conftest import assert_files_equal, run, write_sweep
+from conftest import assert_resume_and_merge_bitwise, run, write_sweep
 
 N = 5
 MASS_KG = 0.004
@@ -222,22 +222,7 @@ def test_dry_run_counts_the_steady_state_bytes(swept, tmp_path):
 
 
 def test_resume_and_merge_keep_the_steady_state_bitwise(swept, tmp_path):
-    path, out = swept
-    again = tmp_path / "again.h5"
-    shutil.copy(out, again)
-    shutil.copytree(f"{out}.d", f"{again}.d")
-    Path(f"{again}.d", "snapshot").unlink()
-    r = run("run", path, "-o", again)
-    assert r.returncode == 0 and "already done" in r.stderr, r.stderr
-    assert_files_equal(out, again)
-    parts = []
-    for k in (1, 2):
-        part = tmp_path / f"part-{k}.h5"
-        assert run("run", path, "--shard", f"{k}/2", "-o", part, "--quiet").returncode == 0
-        parts.append(part)
-    merged = tmp_path / "merged.h5"
-    assert run("merge", "-o", merged, *parts).returncode == 0
-    assert_files_equal(out, merged)
+    assert_resume_and_merge_bitwise(*swept, tmp_path)
 
 
 def test_runs_without_the_steady_state_store_none(tmp_path, binary):

@@ -334,3 +334,56 @@ impl StepObserver for ContactTimer {
         Control::Continue
     }
 }
+
+/// Complex arithmetic for the closed-form steady responses of driven linear chains,
+/// `(K − ω²M + iωC) X = F`: a number as `(re, im)`, and the small dense solve the tests need.
+pub mod complex {
+    /// A complex number `(re, im)`.
+    pub type C = (f64, f64);
+
+    /// `a b`.
+    pub fn mul(a: C, b: C) -> C {
+        (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
+    }
+
+    /// `a / b`.
+    pub fn div(a: C, b: C) -> C {
+        let d = b.0 * b.0 + b.1 * b.1;
+        ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
+    }
+
+    /// `a − b`.
+    pub fn sub(a: C, b: C) -> C {
+        (a.0 - b.0, a.1 - b.1)
+    }
+
+    /// `|a|`.
+    pub fn abs(a: C) -> f64 {
+        a.0.hypot(a.1)
+    }
+
+    /// Solves `A x = b` by Gaussian elimination without pivoting: for the small, diagonally
+    /// dominant enough systems of a chain driven below or between its resonances.
+    #[allow(clippy::needless_range_loop)] // rows and columns of a dense matrix
+    pub fn solve(mut a: Vec<Vec<C>>, mut b: Vec<C>) -> Vec<C> {
+        let n = b.len();
+        for k in 0..n {
+            for i in k + 1..n {
+                let f = div(a[i][k], a[k][k]);
+                for j in k..n {
+                    a[i][j] = sub(a[i][j], mul(f, a[k][j]));
+                }
+                b[i] = sub(b[i], mul(f, b[k]));
+            }
+        }
+        let mut x = vec![(0.0, 0.0); n];
+        for i in (0..n).rev() {
+            let mut s = b[i];
+            for j in i + 1..n {
+                s = sub(s, mul(a[i][j], x[j]));
+            }
+            x[i] = div(s, a[i][i]);
+        }
+        x
+    }
+}

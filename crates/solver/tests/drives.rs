@@ -14,6 +14,7 @@ use chainsweep_solver::chain::model::{Chain, PhysicsSpec};
 use chainsweep_solver::chain::sequence::SequenceSpec;
 use chainsweep_solver::observe::probes::Probe;
 use chainsweep_solver::observe::steady::SteadyStateSpec;
+use chainsweep_solver::problems::complex::solve;
 use chainsweep_solver::problems::{chain, monodisperse, power_law, rule, sphere, STEEL};
 use chainsweep_solver::scene::solve::{run, RunOutput};
 use chainsweep_solver::scene::{Excitation, IntegratorSpec, Scene};
@@ -33,44 +34,6 @@ fn driven(spec: SequenceSpec, physics: PhysicsSpec, drive: DriveSpec, duration: 
     s.physics = physics;
     s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-11));
     s
-}
-
-/// A complex number as `(re, im)`, and the few operations a small dense solve needs.
-type C = (f64, f64);
-fn mul(a: C, b: C) -> C {
-    (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
-}
-fn div(a: C, b: C) -> C {
-    let d = b.0 * b.0 + b.1 * b.1;
-    ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
-}
-fn sub(a: C, b: C) -> C {
-    (a.0 - b.0, a.1 - b.1)
-}
-
-/// Solves `A x = b` by Gaussian elimination (the matrix is small and diagonally dominant enough
-/// not to need pivoting here: `K − ω²M + iωC` below resonance).
-#[allow(clippy::needless_range_loop)] // rows and columns of a dense matrix
-fn solve(mut a: Vec<Vec<C>>, mut b: Vec<C>) -> Vec<C> {
-    let n = b.len();
-    for k in 0..n {
-        for i in k + 1..n {
-            let f = div(a[i][k], a[k][k]);
-            for j in k..n {
-                a[i][j] = sub(a[i][j], mul(f, a[k][j]));
-            }
-            b[i] = sub(b[i], mul(f, b[k]));
-        }
-    }
-    let mut x = vec![(0.0, 0.0); n];
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for j in i + 1..n {
-            s = sub(s, mul(a[i][j], x[j]));
-        }
-        x[i] = div(s, a[i][i]);
-    }
-    x
 }
 
 /// `(b, a)` with `y ≈ b sin ωt + a cos ωt` over the samples at `times` from `from` on, summed over

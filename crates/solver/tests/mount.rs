@@ -14,52 +14,12 @@ use chainsweep_solver::chain::sequence::SequenceSpec;
 use chainsweep_solver::contact::LawSpec;
 use chainsweep_solver::observe::probes::Probe;
 use chainsweep_solver::observe::steady::SteadyStateSpec;
+use chainsweep_solver::problems::complex::{abs, mul, solve};
 use chainsweep_solver::problems::{monodisperse, power_law, rule};
 use chainsweep_solver::scene::solve::{run, RunOutput};
 use chainsweep_solver::scene::{Excitation, IntegratorSpec, Scene};
 use chainsweep_solver::spectrum::LinearChain;
 use chainsweep_solver::{AdaptiveOptions, ChainSpec};
-
-/// A complex number as `(re, im)`.
-type C = (f64, f64);
-fn mul(a: C, b: C) -> C {
-    (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0)
-}
-fn div(a: C, b: C) -> C {
-    let d = b.0 * b.0 + b.1 * b.1;
-    ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
-}
-fn sub(a: C, b: C) -> C {
-    (a.0 - b.0, a.1 - b.1)
-}
-fn abs(a: C) -> f64 {
-    a.0.hypot(a.1)
-}
-
-/// Solves the small complex system `A x = b` by Gaussian elimination (diagonally dominant enough
-/// below resonance not to need pivoting).
-#[allow(clippy::needless_range_loop)] // rows and columns of a dense matrix
-fn solve(mut a: Vec<Vec<C>>, mut b: Vec<C>) -> Vec<C> {
-    let n = b.len();
-    for k in 0..n {
-        for i in k + 1..n {
-            let f = div(a[i][k], a[k][k]);
-            for j in k..n {
-                a[i][j] = sub(a[i][j], mul(f, a[k][j]));
-            }
-            b[i] = sub(b[i], mul(f, b[k]));
-        }
-    }
-    let mut x = vec![(0.0, 0.0); n];
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for j in i + 1..n {
-            s = sub(s, mul(a[i][j], x[j]));
-        }
-        x[i] = div(s, a[i][i]);
-    }
-    x
-}
 
 fn mounted(mut spec: SequenceSpec, mount: WallMount) -> SequenceSpec {
     spec.wall_mount = Some(mount);
