@@ -150,10 +150,18 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
     }
 
     /// Displacements and velocities of the wall under the chain and of the wall at the top at
-    /// `(t, y)` (zero unless a drive moves them; see [`DriveTerm::walls`]).
+    /// `(t, y)` (zero unless a drive moves them, see [`DriveTerm::walls`], or the wall under the
+    /// chain is mounted).
     #[inline(always)]
     pub(crate) fn wall_motion(&self, t: f64, y: &[f64]) -> ((f64, f64), (f64, f64)) {
-        let (base, top) = DriveTerm::walls(&self.drive, y, DriveTerm::at(&self.drive, t));
+        self.walls(y, DriveTerm::at(&self.drive, t))
+    }
+
+    /// [`GeneralChainSystem::wall_motion`] with the drive's waveform already evaluated (`wave`,
+    /// [`DriveTerm::at`]): a drive's walls, and a mounted wall's from its state.
+    #[inline(always)]
+    fn walls(&self, y: &[f64], wave: (f64, f64, f64)) -> ((f64, f64), (f64, f64)) {
+        let (base, top) = DriveTerm::walls(&self.drive, y, wave);
         (self.mount.map_or(base, |m| m.wall(y)), top)
     }
 
@@ -184,10 +192,7 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
         let m = n - 1;
         let clip = self.clip;
         let wave = DriveTerm::at(&self.drive, t);
-        let ((mut base_u, mut base_du), (top_u, top_du)) = DriveTerm::walls(&self.drive, y, wave);
-        if let Some(m) = &self.mount {
-            (base_u, base_du) = m.wall(y);
-        }
+        let ((base_u, base_du), (top_u, top_du)) = self.walls(y, wave);
         let force = &mut self.force[..m];
         let contact_power = &mut self.power[..m];
         let (a, e) = (&self.stiffness[..m], &self.exponent[..m]);
