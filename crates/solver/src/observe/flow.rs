@@ -43,9 +43,15 @@ const WEIGHTS: [f64; 3] = [5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0];
 /// step, far below what the dense output resolves.
 const GOLDEN_ITERATIONS: usize = 40;
 
-/// A step is searched for a particle's new largest kinetic energy when its samples come within
-/// this fraction of the largest so far.
+/// A step is searched for a new largest value (a contact's energy, a particle's kinetic energy)
+/// when its estimate comes within this fraction of the largest so far: the estimates (the samples,
+/// the interpolant's integral) are far closer than that to the values they estimate.
 const PEAK_MARGIN: f64 = 1e-3;
+
+/// Energies below this fraction of the excitation's energy scale are taken as the samples give
+/// them, without a search: a chain's particles at rest, whose velocities are rounding noise, would
+/// otherwise be searched at every step.
+const NEGLIGIBLE: f64 = 1e-12;
 
 /// What `record.energy_flow` gives a run.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -82,11 +88,14 @@ pub(crate) struct FlowRecorder {
     max_v2: Vec<f64>,
     /// Each particle's velocity at the end of the last step.
     last_v: Vec<f64>,
+    /// Energies below this are not searched for a peak ([`NEGLIGIBLE`] of the scale), J.
+    negligible_j: f64,
     out: EnergyFlow,
 }
 
 impl FlowRecorder {
-    pub fn new(chain: &Chain) -> Self {
+    /// The recorder of a run of `chain` whose excitation's energy scale is `energy_scale_j`.
+    pub fn new(chain: &Chain, energy_scale_j: f64) -> Self {
         let (n_p, n_c) = (chain.n_particles(), chain.n_contacts());
         let list: Vec<Probe> = (1..=n_c)
             .map(|contact| Probe::ContactForce { contact })
@@ -117,6 +126,7 @@ impl FlowRecorder {
             velocity: vec![0.0; NODES.len() * n_p],
             max_v2: vec![0.0; n_p],
             last_v: vec![0.0; n_p],
+            negligible_j: NEGLIGIBLE * energy_scale_j,
             out: EnergyFlow {
                 energy_passed_max_j: vec![0.0; n_c],
                 energy_passed_final_j: vec![0.0; n_c],
@@ -164,7 +174,15 @@ impl FlowRecorder {
             let w0 = self.out.energy_passed_final_j[c];
             let w1 = w0 + h * (WEIGHTS[0] * p[0] + WEIGHTS[1] * p[1] + WEIGHTS[2] * p[2]);
             let mut best = w1;
+            let peak = self.out.energy_passed_max_j[c];
             for tau in falling_roots(p) {
+                let estimate = w0 + h * quadratic_integral(p, tau);
+                if estimate < peak - PEAK_MARGIN * peak.abs() || estimate.abs() < self.negligible_j
+                {
+                    // No new largest value here, or none worth a search.
+                    best = best.max(estimate);
+                    continue;
+                }
                 // The power falls through zero inside the step: the running energy's largest
                 // value, searched on the dense output around the interpolant's root and
                 // integrated there by Gauss–Legendre quadrature over the part of the step before it.
@@ -202,6 +220,10 @@ impl FlowRecorder {
                 continue;
             }
             let mut top = s[k];
+            if 0.5 * self.mass[i] * top < self.negligible_j {
+                self.max_v2[i] = self.max_v2[i].max(top);
+                continue;
+            }
             // The parabola through the largest sample and its neighbours: a peak lies inside the
             // samples' span only if its vertex does (at the step's ends it may lie in the
             // neighbouring step, which looks at it itself).
@@ -250,8 +272,7 @@ fn quadratic(p: &[f64]) -> (f64, f64, f64) {
 }
 
 /// `∫₀^τ` of the quadratic through `p`.
-#[cfg(test)]
-fn integral(p: &[f64], tau: f64) -> f64 {
+fn quadratic_integral(p: &[f64], tau: f64) -> f64 {
     let (a, b, c) = quadratic(p);
     tau * (a + tau * (b / 2.0 + tau * c / 3.0))
 }
@@ -349,8 +370,8 @@ mod tests {
         let f = |t: f64| 3.0 - 10.0 * t + 4.0 * t * t;
         let p = NODES.map(f);
         let gauss: f64 = WEIGHTS.iter().zip(&p).map(|(w, v)| w * v).sum();
-        assert!((integral(&p, 1.0) - gauss).abs() < 1e-14);
-        assert!((integral(&p, 1.0) - (3.0 - 5.0 + 4.0 / 3.0)).abs() < 1e-14);
+        assert!((quadratic_integral(&p, 1.0) - gauss).abs() < 1e-14);
+        assert!((quadratic_integral(&p, 1.0) - (3.0 - 5.0 + 4.0 / 3.0)).abs() < 1e-14);
         // 4τ² − 10τ + 3 = 0: τ = (10 ± √52)/8; only the smaller lies in (0, 1), where it falls.
         let roots: Vec<f64> = falling_roots(&p).collect();
         assert_eq!(roots.len(), 1);

@@ -1300,7 +1300,9 @@ impl RunObserver {
                 .steady_state
                 .as_ref()
                 .map(|(spec, f)| SteadyRecorder::new(spec, *f, n_probes)),
-            flow: opts.energy_flow.then(|| FlowRecorder::new(chain)),
+            flow: opts
+                .energy_flow
+                .then(|| FlowRecorder::new(chain, opts.impact_energy)),
             energy_drift_max: 0.0,
             energy_drift_final: 0.0,
             momentum_residual_max: 0.0,
