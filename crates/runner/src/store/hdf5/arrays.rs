@@ -230,9 +230,9 @@ fn history_parts(grid: &Grid) -> Vec<(String, String, Vec<bool>)> {
 pub(super) struct ArrayWriter {
     shape: Vec<usize>,
     history: Option<HistoryWriter>,
-    min_overlap: Option<MinOverlapWriter>,
+    min_overlap: Option<PerElementWriter>,
     /// The energy flow's three variables, in [`ENERGY_FLOW`]'s order.
-    flow: Vec<MinOverlapWriter>,
+    flow: Vec<PerElementWriter>,
     fields: Option<FieldWriter>,
 }
 
@@ -360,13 +360,13 @@ struct HistoryWriter {
 
 /// The writer of a variable with one value per contact or particle of each run (the minimum
 /// overlaps, the energy flow's).
-struct MinOverlapWriter {
+struct PerElementWriter {
     data: Dataset,
     width: usize,
     buf: Vec<f64>,
 }
 
-impl MinOverlapWriter {
+impl PerElementWriter {
     /// Writes the run at flat index `index`, widening the variable to its values.
     fn write(&mut self, shape: &[usize], index: usize, values: &[f64]) -> Result<()> {
         if values.len() > self.width {
@@ -434,7 +434,7 @@ impl ArrayWriter {
             let mut full = shape.clone();
             full.push(width);
             let data = growing_dataset(file, MIN_OVERLAP, &full, run_chunk(&shape, &[width]))?;
-            Some(MinOverlapWriter {
+            Some(PerElementWriter {
                 data,
                 width,
                 buf: Vec::new(),
@@ -454,7 +454,7 @@ impl ArrayWriter {
                 let mut full = shape.clone();
                 full.push(width);
                 let data = growing_dataset(file, name, &full, run_chunk(&shape, &[width]))?;
-                flow.push(MinOverlapWriter {
+                flow.push(PerElementWriter {
                     data,
                     width,
                     buf: Vec::new(),
@@ -673,42 +673,34 @@ impl ArrayWriter {
         let particle = particle_width
             .map(|w| coordinate(PARTICLE, w, PARTICLE_LONG_NAME))
             .transpose()?;
-        if let Some(w) = self.min_overlap {
-            let c = contact.as_ref().expect("made with the minimum overlaps");
-            let width = contact_width.expect("made with the minimum overlaps");
-            if width > w.width {
-                let mut s = self.shape.clone();
-                s.push(width);
-                w.data.resize(s)?;
-            }
-            attach_grid(&w.data)?;
-            attach_scale(&w.data, c, g, CONTACT)?;
-            attr_str(&w.data, "units", "m")?;
-            attr_str(&w.data, "long_name", MIN_OVERLAP_LONG_NAME)?;
-            if !coordinates.is_empty() {
-                attr_str(&w.data, "coordinates", &listed(&[]))?;
-            }
-        }
-        for ((name, per_contact, long_name), w) in ENERGY_FLOW.iter().zip(&self.flow) {
-            let (scale, dim, width) = if *per_contact {
-                (contact.as_ref(), CONTACT, contact_width)
-            } else {
-                (particle.as_ref(), PARTICLE, particle_width)
+        // A variable with one value per contact or particle: as wide as its coordinate, on it.
+        let per_element =
+            |w: &PerElementWriter, per_contact: bool, units: &str, long_name: &str| -> Result<()> {
+                let (scale, dim, width) = if per_contact {
+                    (contact.as_ref(), CONTACT, contact_width)
+                } else {
+                    (particle.as_ref(), PARTICLE, particle_width)
+                };
+                let (scale, width) = (scale.expect("made above"), width.expect("made above"));
+                if width > w.width {
+                    let mut s = self.shape.clone();
+                    s.push(width);
+                    w.data.resize(s)?;
+                }
+                attach_grid(&w.data)?;
+                attach_scale(&w.data, scale, g, dim)?;
+                attr_str(&w.data, "units", units)?;
+                attr_str(&w.data, "long_name", long_name)?;
+                if !coordinates.is_empty() {
+                    attr_str(&w.data, "coordinates", &listed(&[]))?;
+                }
+                Ok(())
             };
-            let (scale, width) = (scale.expect("made above"), width.expect("made above"));
-            if width > w.width {
-                let mut s = self.shape.clone();
-                s.push(width);
-                w.data.resize(s)?;
-            }
-            attach_grid(&w.data)?;
-            attach_scale(&w.data, scale, g, dim)?;
-            attr_str(&w.data, "units", "J")?;
-            attr_str(&w.data, "long_name", long_name)?;
-            if !coordinates.is_empty() {
-                attr_str(&w.data, "coordinates", &listed(&[]))?;
-            }
-            debug_assert!(name.ends_with("_j"));
+        if let Some(w) = &self.min_overlap {
+            per_element(w, true, "m", MIN_OVERLAP_LONG_NAME)?;
+        }
+        for ((_, per_contact, long_name), w) in ENERGY_FLOW.iter().zip(&self.flow) {
+            per_element(w, *per_contact, "J", long_name)?;
         }
         if let Some(w) = self.fields {
             let t: Vec<f64> = (0..w.length).map(|k| k as f64 * w.interval).collect();
