@@ -64,9 +64,12 @@ pub fn from_hex(text: &str) -> Option<RunHash> {
 
 /// Identity of the run of `scene` under the energy-drift limit `energy_drift_max` (`None`: no
 /// limit). A run that integrates only the moving part of its chain
-/// ([`chainsweep_solver::integrates_moving_part`]) adds a line saying so: its results differ from
-/// the whole chain's in the last digits, so runs stored before that path existed are recomputed
-/// rather than mixed with its results, while every other run keeps its hash.
+/// ([`chainsweep_solver::integrates_moving_part`]) adds a line saying so, with the version of that
+/// path: its results differ from the whole chain's in the last digits, so runs stored before that
+/// path existed, or by an earlier version of it, are recomputed rather than mixed with its results,
+/// while every other run keeps its hash (a bump of `NUMERICS_VERSION` would recompute those too).
+/// Version 2: the moving part of chains from 32 particles (the floor was 512), grown in blocks of 8
+/// at the step size reached.
 pub fn run_hash(scene: &Scene, energy_drift_max: Option<f64>) -> RunHash {
     let moving_part = chainsweep_solver::integrates_moving_part(scene);
     run_hash_with(scene, energy_drift_max, moving_part)
@@ -92,12 +95,15 @@ pub fn run_hash_with(scene: &Scene, energy_drift_max: Option<f64>, moving_part: 
     }
     h.0.update(b"\n");
     if moving_part {
-        h.0.update(b"moving_part=1\n");
+        h.0.update(MOVING_PART_LINE);
     }
     h.0.update(b"scene=");
     serde_json::to_writer(&mut h, scene).expect("Scene serialises");
     h.0.finalize().into()
 }
+
+/// The identity's line for a run of the moving part only: see [`run_hash`].
+const MOVING_PART_LINE: &[u8] = b"moving_part=2\n";
 
 /// Bytes written into a SHA-256.
 struct HashWriter(Sha256);

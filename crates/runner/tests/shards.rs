@@ -67,8 +67,9 @@ fn check(file: &str, shards: &[usize], every_nth_worse_than: f64) {
 
 #[test]
 fn shards_of_the_fig8_grid_cost_the_same_within_15_percent() {
-    // 91 mass ratios × 2 damping values: every-N-th gives shard pairs one damping each.
-    check("fig08.json", &[2, 4], 0.1);
+    // 91 mass ratios × 2 damping values: every-N-th gives shard pairs one damping each (8 % apart
+    // in 2 shards since the damped pulse's shorter moving part costs less, 10 % before).
+    check("fig08.json", &[2, 4], 0.05);
 }
 
 #[test]

@@ -2,7 +2,8 @@
 //! histories and ledger as the whole chain within the run's tolerance, and the whole chain
 //! whenever a scene does not qualify.
 
-use chainsweep_solver::scene::active::{BLOCK, MIN_PARTICLES};
+use chainsweep_solver::chain::model::CylinderMass;
+use chainsweep_solver::scene::active::MIN_PARTICLES;
 use chainsweep_solver::scene::solve::{run, RunOutput};
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
 use chainsweep_solver::{integrates_moving_part, ActiveRegion, AdaptiveOptions, ChainSpec, Probe};
@@ -102,15 +103,23 @@ fn assert_as_accurate_as_the_whole_chain(scene: &Scene, slack: f64, floor: f64) 
             ew[p]
         );
     }
-    for p in 0..3 {
-        let exact = reference.probes[p].leading_peak;
-        let (a, b) = (part.probes[p].leading_peak, whole.probes[p].leading_peak);
-        assert!(a > 1.0, "probe {p} saw the pulse");
-        assert!(
-            rel(a, exact, exact) <= slack * rel(b, exact, exact) + floor,
-            "probe {p}: peak {a} against {b} (reference {exact})"
-        );
-    }
+    // The leading peaks' largest error over the gauges the pulse reaches: each run's error at one
+    // gauge depends on where its steps happen to fall, the largest over several much less.
+    let peak_error = |run: &RunOutput| {
+        (0..3)
+            .map(|p| {
+                let exact = reference.probes[p].leading_peak;
+                assert!(run.probes[p].leading_peak > 1.0, "probe {p} saw the pulse");
+                rel(run.probes[p].leading_peak, exact, exact)
+            })
+            .fold(0.0, f64::max)
+    };
+    let (a, b) = (peak_error(&part), peak_error(&whole));
+    eprintln!("leading peaks' largest error: moving part {a:e}, whole chain {b:e}");
+    assert!(
+        a <= slack * b + floor,
+        "leading peaks' largest error {a:e} against the whole chain's {b:e}"
+    );
     // Not reached: the record holds the static value only (the equilibrium's).
     let (a, b) = (part.probes[4].record_max, reference.probes[4].record_max);
     assert!(rel(a, b, 110.0) <= 1e-12, "{a} against {b}");
@@ -143,7 +152,10 @@ fn assert_as_accurate_as_the_whole_chain(scene: &Scene, slack: f64, floor: f64) 
 #[test]
 fn long_chain_with_gravity_is_as_accurate_as_the_whole_chain() {
     let part = assert_as_accurate_as_the_whole_chain(&long_scene(300, true, 1e-9), 3.0, 1e-9);
-    assert!(part.active_particles.unwrap() <= 3 * BLOCK);
+    // The pulse reaches about 90 particles in 1 ms; the integrated part ends a watch and a block
+    // beyond the front, not the chain's 601 particles.
+    let k = part.active_particles.unwrap();
+    assert!(k <= 120, "{k} particles integrated");
 }
 
 #[test]
@@ -168,6 +180,60 @@ fn the_integrated_part_does_not_depend_on_the_chain_length() {
 }
 
 #[test]
+fn the_papers_chain_integrates_its_moving_part_as_accurately_as_the_whole_chain() {
+    // The Fig. 8 chain (50 cylinders, 101 particles) under the sweep's integrator over a few of its
+    // points (mass ratio × damping): the leading peaks in cylinders 4 and 21 against the whole
+    // chain at a tolerance a hundred times tighter, the largest error over the points as small as
+    // the whole chain's own (one point's error depends on where its steps happen to fall).
+    let integrator = |rtol: f64| {
+        let mut o = AdaptiveOptions::new(rtol);
+        o.predict_switches = true;
+        IntegratorSpec::Dop853(o)
+    };
+    let (mut part_error, mut whole_error) = (0.0_f64, 0.0_f64);
+    let (mut part_rhs, mut whole_rhs) = (0, 0);
+    for mass_ratio in [0.2, 0.55, 1.0] {
+        for damping in [0.0, 6.0] {
+            let mut chain = ChainSpec::chain_055(50);
+            if let ChainSpec::Dimer(d) = &mut chain {
+                d.cylinder.mass = CylinderMass::HeavyCylinders { mass_ratio };
+            }
+            let mut s = Scene::new(chain, 1.3, 6e-4);
+            s.physics.damping_kg_s = damping;
+            s.physics.gravity = true;
+            s.record.probes = vec![
+                Probe::GaugeForce { cylinder: 4 },
+                Probe::GaugeForce { cylinder: 21 },
+            ];
+            s.integrator = integrator(1e-9);
+            let part = with(&s, ActiveRegion::Auto);
+            let whole = with(&s, ActiveRegion::Off);
+            s.integrator = integrator(1e-11);
+            let reference = with(&s, ActiveRegion::Off);
+            let k = part.active_particles.expect("the paper's chain qualifies");
+            assert!(k < 101, "{k} particles integrated");
+            for p in 0..2 {
+                let exact = reference.probes[p].leading_peak;
+                part_error = part_error.max(rel(part.probes[p].leading_peak, exact, exact));
+                whole_error = whole_error.max(rel(whole.probes[p].leading_peak, exact, exact));
+            }
+            part_rhs += part.stats.rhs_evals;
+            whole_rhs += whole.stats.rhs_evals;
+        }
+    }
+    eprintln!("largest error: moving part {part_error:e}, whole chain {whole_error:e}; right-hand sides {part_rhs} against {whole_rhs}");
+    assert!(
+        part_error <= 3.0 * whole_error && part_error < 1e-7,
+        "largest error {part_error:e} against the whole chain's {whole_error:e}"
+    );
+    // Restarts at a grown part cost a right-hand side each, not a new start-up.
+    assert!(
+        part_rhs < whole_rhs * 11 / 10,
+        "{part_rhs} against {whole_rhs}"
+    );
+}
+
+#[test]
 fn scenes_that_do_not_qualify_run_the_whole_chain() {
     let base = long_scene(300, true, 1e-9);
     let whole = |s: &Scene| {
@@ -179,11 +245,11 @@ fn scenes_that_do_not_qualify_run_the_whole_chain() {
     let mut s = base.clone();
     s.active_region = ActiveRegion::Off;
     whole(&s);
-    // The paper's chains are short.
+    // A chain too short for the part at rest to pay for the restarts.
     let mut s = base.clone();
-    s.chain = ChainSpec::chain_055(50);
-    s.record.probes.truncate(3);
-    const { assert!(2 * 50 + 1 < MIN_PARTICLES) };
+    s.chain = ChainSpec::chain_055(10);
+    s.record.probes.truncate(1);
+    const { assert!(2 * 10 + 1 < MIN_PARTICLES) };
     whole(&s);
     // No wall under gravity: the whole chain falls.
     let mut s = base.clone();

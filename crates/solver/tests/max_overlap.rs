@@ -42,8 +42,9 @@ fn step_end_and_refined(mut scene: Scene) -> (f64, f64) {
 
 #[test]
 fn max_overlap_at_step_ends_reads_low_by_at_most_the_stated_bound() {
-    // (scene, the bound on how low max_overlap_m reads, relative): measured 4.15e-2, 4.50e-2,
-    // 1.78e-3, 2.71e-3, 3.51e-5 and 5.9e-11.
+    // (scene, the bound on how low max_overlap_m reads, relative): measured 3.71e-3, 1.33e-2,
+    // 5.54e-3, 6.31e-3, 3.82e-5 and 5.9e-11 (where a step falls on the peak decides how low; it
+    // moved by up to 10x when the moving part's restarts changed the steps).
     let cases = [
         (
             "dop853 rtol 1e-6",
@@ -58,12 +59,12 @@ fn max_overlap_at_step_ends_reads_low_by_at_most_the_stated_bound() {
         (
             "dop853 rtol 1e-10",
             IntegratorSpec::Dop853(AdaptiveOptions::new(1e-10)),
-            5e-3,
+            1e-2,
         ),
         (
             "vern6 rtol 1e-8",
             IntegratorSpec::Vern6(AdaptiveOptions::new(1e-8)),
-            5e-3,
+            1e-2,
         ),
         (
             "ros34pw2 rtol 1e-7",
@@ -85,5 +86,5 @@ fn max_overlap_at_step_ends_reads_low_by_at_most_the_stated_bound() {
     }
     // The deficit is real: DOP853's steps are long at the striker's contact, whose overlap is
     // the run's largest.
-    assert!(worst > 1e-2, "{worst:e}");
+    assert!(worst > 5e-3, "{worst:e}");
 }

@@ -215,35 +215,35 @@ chain_055: mass 00b12eed96bfcfb5 stiffness e791e7bd35b10d11 damping 8c5015e8f070
 light: mass ce63221521bbf3c5 stiffness cf2eb3c911fafb69 damping 229f5b70a40e2069 static_overlap e88f5bab6d364abe equilibrium 49720536407c98fc g 40239eb851eb851f\n\
 heavy: mass 90c51b7b2fd52675 stiffness e791e7bd35b10d11 damping b7adcd5caf5292e5 static_overlap 64759cea2d88bc7d equilibrium 7b3ade9c254ae345 g 40239eb851eb851f\n\
 free: mass 6f273ab86f0203b5 stiffness 4bec91e450f75ad8 damping d248d02ad9aa7fbd static_overlap 35da762063936645 equilibrium ad7f8afd9dfb20e5 g 0000000000000000\n\
-reference: steps 1321 rejected 591 events 167 rhs 26986 t_end 3f50624dd2f1a9fc drift 3ea68568298e40a2 3ea68458e9de6f6c momentum 3ce70ef84d726c54 max_overlap 3ee42fd1fecd20b0 impact 3f5cdda13066d01a warnings 0\n\
-reference: energy 3f399a54854d0d4a 3f32666960ccaaa7 bf14cc95b340f602 3f52a4bd7ff16f48\n\
-reference: probe 0 405ae1b89c000528 3f1999eed5dd0bc6 405ae1b89c000528 3f1999eed5dd0bc6\n\
-reference: probe 1 404c308aafffef09 3f414fc266f67079 404c308aafffef09 3f414fc266f67079\n\
-chain_098_probes: steps 674 rejected 206 events 151 rhs 12982 t_end 3f43a92a30553261 drift 3e20e118df0175cc 3e20c5b18f07f6d6 momentum 3ce1c8f61e9a4fab max_overlap 3ee24a8612905af1 impact 3f533102b4eebd40 warnings 0\n\
-chain_098_probes: energy 3f4554da6001b43c 3f41945939feb773 bef5f00bfa418292 0000000000000000\n\
-chain_098_probes: probe 0 405ccbe9eb77ed57 3f17c733e11dcb61 405ccbe9eb77ed57 3f17c733e11dcb61\n\
-chain_098_probes: probe 1 405d313aa1592803 3f3caa6cf37fdf0c 405d313aa1592803 3f3caa6cf37fdf0c\n\
-chain_098_probes: probe 2 406517b8feab2ca5 3ee9cf25ef36e7fc 406517b8feab2ca5 3ee9cf25ef36e7fc\n\
-chain_098_probes: probe 3 3edc8088bdfde7fd 3f1bcb558d1df0a5 3edc8088bdfde7fd 3f1bcb558d1df0a5\n\
-chain_098_probes: probe 4 3eea6a9c98ecbe75 3f2e00c8805bdc77 3eea6a9c98ecbe75 3f2e00c8805bdc77\n\
-chain_098_probes: probe 5 3fe7dff5794d32da 3ef2fad154c44073 3fe7dff5794d32da 3ef2fad154c44073\n\
-chain_098_probes: probe 6 7ff8000000000000 7ff8000000000000 3ff3ea91c8ae809d 3f43a92a30553261\n\
-chain_098_probes: min_overlap 65754cadec9587f9\n\
-chain_098_subtract_history: steps 634 rejected 251 events 24 rhs 12369 t_end 3f43a92a30553261 drift 3e1534249c484417 3e1534249c484417 momentum 3ced46013a524388 max_overlap 3ee1d32934d22894 impact 3f533102b4eebd40 warnings 0\n\
-chain_098_subtract_history: energy 3f278b64ae1bf242 3f24d44e9bd55fbb bef5f00c05a65a17 3f4bd146c855a92a\n\
-chain_098_subtract_history: probe 0 4058c3ac01d9a776 3f17bc4ea2d19206 4058c3ac01d9a776 3f17bc4ea2d19206\n\
-chain_098_subtract_history: probe 1 404e9cc2bd869ec9 3f3dc89a77018b0d 404e9cc2bd869ec9 3f3dc89a77018b0d\n\
-chain_098_subtract_history: probe 2 40643bd6803ca0a2 3ee9487704f68bd0 40643bd6803ca0a2 3ee9487704f68bd0\n\
-chain_098_subtract_history: probe 3 3ed8ca0e665773e6 3f1bda9b623d1230 3ed8ca0e665773e6 3f1bda9b623d1230\n\
-chain_098_subtract_history: probe 4 7ff8000000000000 7ff8000000000000 3eed3d916aa6a8be 3f43a92a30553261\n\
-chain_098_subtract_history: probe 5 3fe6d9fa04cd19df 3ef2c3fb7f2820ab 3fe6d9fa04cd19df 3ef2c3fb7f2820ab\n\
-chain_098_subtract_history: probe 6 7ff8000000000000 7ff8000000000000 3ed468ac9a340000 3f43a92a30553261\n\
-chain_098_subtract_history: min_overlap 82037d0b11392add\n\
-chain_098_subtract_history: history 120 3b8b30f11b22f768\n\
-light_ros34pw2_clip: steps 988 rejected 266 events 257 rhs 4752 t_end 3f33a92a30553261 drift 3ec591e023719b01 3eb69ce352c0e3dd momentum 3e71243e5db97b1c max_overlap 3ee673af1782ba11 impact 3f5cdda13066d01a warnings 0\n\
-light_ros34pw2_clip: energy 3f29e5217ad971cd 3f192a32226501a8 8000000000000000 3f580e575228c789\n\
-light_ros34pw2_clip: probe 0 404390474e4f9da6 3f110d72fcba43d2 404390474e4f9da6 3f110d72fcba43d2\n\
-light_ros34pw2_clip: probe 1 402bbb37058461d6 3f32eee51420d337 402bbb37058461d6 3f32eee51420d337\n\
+reference: steps 1414 rejected 650 events 158 rhs 29004 t_end 3f50624dd2f1a9fc drift 3e997ead380f50e0 3e997ead380f50e0 momentum 3ce59e08c89b458f max_overlap 3ee4db49ffa9a770 impact 3f5cdda13066d01a warnings 0\n\
+reference: energy 3f399a59783083dd 3f326669aae4a7e2 bf14cc95b340f5fd 3f52a4bcbdb34f74\n\
+reference: probe 0 405ae1bb4f144e0b 3f1999ed41734470 405ae1bb4f144e0b 3f1999ed41734470\n\
+reference: probe 1 404c308bddf48bd2 3f414fc24654a941 404c308bddf48bd2 3f414fc24654a941\n\
+chain_098_probes: steps 640 rejected 204 events 145 rhs 12432 t_end 3f43a92a30553261 drift 3e34436c99222bae 3e34436c99222bae momentum 3cfeee319965692a max_overlap 3ee26486d449201a impact 3f533102b4eebd40 warnings 0\n\
+chain_098_probes: energy 3f4554da5f745947 3f41945938c4303f bef5f00bfa418285 0000000000000000\n\
+chain_098_probes: probe 0 405ccbe9eac30038 3f17c733e119b8d0 405ccbe9eac30038 3f17c733e119b8d0\n\
+chain_098_probes: probe 1 405d313aa0a422e2 3f3caa6cf3988067 405d313aa0a422e2 3f3caa6cf3988067\n\
+chain_098_probes: probe 2 406517b8fd1c508a 3ee9cf25ea003b71 406517b8fd1c508a 3ee9cf25ea003b71\n\
+chain_098_probes: probe 3 3edc8088bd965a2f 3f1bcb558cfbdcd7 3edc8088bd965a2f 3f1bcb558cfbdcd7\n\
+chain_098_probes: probe 4 3eea6a9c9870e95b 3f2e00c87f970d17 3eea6a9c9870e95b 3f2e00c87f970d17\n\
+chain_098_probes: probe 5 3fe7dff5786bc89e 3ef2fad156cb1b7f 3fe7dff5786bc89e 3ef2fad156cb1b7f\n\
+chain_098_probes: probe 6 7ff8000000000000 7ff8000000000000 3ff3ea91c8904585 3f43a92a30553261\n\
+chain_098_probes: min_overlap ff417f5a8853b54b\n\
+chain_098_subtract_history: steps 639 rejected 223 events 22 rhs 12134 t_end 3f43a92a30553261 drift 3e0c0999fb18c1bc 3e0c0999fb18c1bc momentum 3ce9a0ca02c1bd89 max_overlap 3ee1ceb2306972ca impact 3f533102b4eebd40 warnings 0\n\
+chain_098_subtract_history: energy 3f278b64ad08acb4 3f24d44e9b195f30 bef5f00c05a65a19 3f4bd146c90e6c82\n\
+chain_098_subtract_history: probe 0 4058c3ac013914ec 3f17bc4ea379b95f 4058c3ac013914ec 3f17bc4ea379b95f\n\
+chain_098_subtract_history: probe 1 404e9cc2bcabfba1 3f3dc89a7726622a 404e9cc2bcabfba1 3f3dc89a7726622a\n\
+chain_098_subtract_history: probe 2 40643bd67f1446f6 3ee94877054bc2fd 40643bd67f1446f6 3ee94877054bc2fd\n\
+chain_098_subtract_history: probe 3 3ed8ca0e667fe112 3f1bda9b605dc56b 3ed8ca0e667fe112 3f1bda9b605dc56b\n\
+chain_098_subtract_history: probe 4 7ff8000000000000 7ff8000000000000 3eed3d916af6b706 3f43a92a30553261\n\
+chain_098_subtract_history: probe 5 3fe6d9fa0479007f 3ef2c3fb7fa4f008 3fe6d9fa0479007f 3ef2c3fb7fa4f008\n\
+chain_098_subtract_history: probe 6 7ff8000000000000 7ff8000000000000 3ed468ac8f8c0000 3f43a92a30553261\n\
+chain_098_subtract_history: min_overlap 1e5fa52f3e6f2397\n\
+chain_098_subtract_history: history 120 04f21e7d92262f17\n\
+light_ros34pw2_clip: steps 447 rejected 42 events 29 rhs 1920 t_end 3f33a92a30553261 drift 3ec513bf36891fbe 3eb65dffd0b9c6e2 momentum 3e7124192e640085 max_overlap 3ee673b9fc438bd6 impact 3f5cdda13066d01a warnings 0\n\
+light_ros34pw2_clip: energy 3f29e5219cb5c290 3f192a322fd8e17b 8000000000000000 3f580e57542d53ac\n\
+light_ros34pw2_clip: probe 0 4043904750cd861b 3f110d728498303b 4043904750cd861b 3f110d728498303b\n\
+light_ros34pw2_clip: probe 1 402bbb370e476590 3f32eee538156c71 402bbb370e476590 3f32eee538156c71\n\
 free_rk4: steps 10000 rejected 0 events 0 rhs 40001 t_end 3f2a36e2eb1c432d drift 3e0d4f2a3063df57 3e0c417c5a7d7a36 momentum 3cf617da48ff4b1e max_overlap 3ee22dee69810491 impact 3f533102b4eebd40 warnings 0\n\
 free_rk4: energy 3f40124698a7d62b 3f3a6000a04411ba 8000000000000000 3f323f7d01181469\n\
 free_rk4: probe 0 405aed30c02f9de3 3f12602d77a6e331 405aed30c02f9de3 3f12602d77a6e331\n\
@@ -252,21 +252,21 @@ free_verlet: steps 20000 rejected 0 events 0 rhs 20001 t_end 3f2a36e2eb1c432d dr
 free_verlet: energy 3f44fa25630f2514 3f4167dffa2945c7 8000000000000000 0000000000000000\n\
 free_verlet: probe 0 405c9fc56a038610 3f126c5f63337353 405c9fc56a038610 3f126c5f63337353\n\
 free_verlet: probe 1 3fe727d777dcb86c 3f1ff2c12eeaea19 3fe727d777dcb86c 3f1ff2c12eeaea19\n\
-heavy_stop_early: steps 680 rejected 244 events 27 rhs 12994 t_end 3f42ccde18f5483f drift 3e2ca4bd424479de 3e265bbdc34f2506 momentum 3ce17164a8ee4805 max_overlap 3ee62d8b930148ec impact 3f61f4a7dd293b62 warnings 0\n\
-heavy_stop_early: energy 3f37deca34ae05d0 3f31abd7dc45b06e bf125a5cec4ad1e3 3f5a260879358998\n\
-heavy_stop_early: probe 0 4048654001622751 3f415f72e8544a0d 4048654001622751 3f415f72e8544a0d\n\
-chain_098_vern6: steps 678 rejected 212 events 82 rhs 9402 t_end 3f43a92a30553261 drift 3e9052630e8aaf95 3e9052630c3fc1fd momentum 3d20b53d140110cf max_overlap 3ee1e535d5052568 impact 3f533102b4eebd40 warnings 0\n\
-chain_098_vern6: energy 3f278b64b476e2e0 3f24d44e86a35695 bef5f00c05a65a78 3f4bd146303840bf\n\
-chain_098_vern6: probe 0 4058cd65fcaefb75 3f17bc4e9e4bf518 4058cd65fcaefb75 3f17bc4e9e4bf518\n\
-chain_098_vern6: probe 1 404f085493958f29 3f3dc89a6ea53997 404f085493958f29 3f3dc89a6ea53997\n\
-chain_098_vern6: probe 2 3fe6d9fa7c5a69a9 3ef2c3fb73ae1982 3fe6d9fa7c5a69a9 3ef2c3fb73ae1982\n\
-chain_098_vern6: history 120 c8821081e927eaff\n\
-chain_098_dop853_predict: steps 226 rejected 56 events 53 rhs 4052 t_end 3f43a92a30553261 drift 3e8fcb3c90e84860 3e8fcb3c90e84860 momentum 3ce8be8e145120ee max_overlap 3ee1ed004b12dce8 impact 3f533102b4eebd40 warnings 0\n\
-chain_098_dop853_predict: energy 3f278b65660590d2 3f24d44f10131030 bef5f00c05a65a19 3f4bd145e58c5d84\n\
-chain_098_dop853_predict: probe 0 4058cd663fba81ea 3f17bc4e9cfffb10 4058cd663fba81ea 3f17bc4e9cfffb10\n\
-chain_098_dop853_predict: probe 1 404f0855184619cb 3f3dc89a69cbfe7a 404f0855184619cb 3f3dc89a69cbfe7a\n\
-chain_098_dop853_predict: probe 2 3fe6d9faf923cf91 3ef2c3fbdeb758d9 3fe6d9faf923cf91 3ef2c3fbdeb758d9\n\
-chain_098_dop853_predict: history 120 8fd8e3c9a0c5c902\n\
+heavy_stop_early: steps 701 rejected 262 events 29 rhs 13522 t_end 3f42ca205a6516e9 drift 3e2d277d37c92891 3e19873dde2d666b momentum 3ce4ac515feb0006 max_overlap 3ee61dd9cff3980c impact 3f61f4a7dd293b62 warnings 0\n\
+heavy_stop_early: energy 3f37e2212c25c134 3f31ab9155f3768b bf1259b5c71bc9e2 3f5a2539ed0fdecc\n\
+heavy_stop_early: probe 0 404865400420661f 3f415f72f20ba7b1 404865400420661f 3f415f72f20ba7b1\n\
+chain_098_vern6: steps 677 rejected 218 events 82 rhs 9445 t_end 3f43a92a30553261 drift 3e87b08bf4fd22c6 3e87b08bf4fd22c6 momentum 3d1371267dad754e max_overlap 3ee1d554251647a2 impact 3f533102b4eebd40 warnings 0\n\
+chain_098_vern6: energy 3f278b6489042f22 3f24d44e71277fac bef5f00c05a65a21 3f4bd1466b69ad65\n\
+chain_098_vern6: probe 0 4058cd65deab3d74 3f17bc4ea0ba7407 4058cd65deab3d74 3f17bc4ea0ba7407\n\
+chain_098_vern6: probe 1 404f08547eca308e 3f3dc89a74dd2da9 404f08547eca308e 3f3dc89a74dd2da9\n\
+chain_098_vern6: probe 2 3fe6d9fa424576bc 3ef2c3fb811816e1 3fe6d9fa424576bc 3ef2c3fb811816e1\n\
+chain_098_vern6: history 120 81194bb4a971351f\n\
+chain_098_dop853_predict: steps 233 rejected 65 events 53 rhs 4246 t_end 3f43a92a30553261 drift 3e87f2b2b3da411c 3e87f2b2b3da411c momentum 3cd63421c6cd5eb1 max_overlap 3ee1df8c35ca0cdc impact 3f533102b4eebd40 warnings 0\n\
+chain_098_dop853_predict: energy 3f278b6513b305c6 3f24d44ed925a725 bef5f00c05a65a1e 3f4bd1462d810b4c\n\
+chain_098_dop853_predict: probe 0 4058cd6608bb1659 3f17bc4e9f818823 4058cd6608bb1659 3f17bc4e9f818823\n\
+chain_098_dop853_predict: probe 1 404f0854db9cf2d7 3f3dc89a71eff206 404f0854db9cf2d7 3f3dc89a71eff206\n\
+chain_098_dop853_predict: probe 2 3fe6d9fa863f69e2 3ef2c3fbbe0fa4d1 3fe6d9fa863f69e2 3ef2c3fbbe0fa4d1\n\
+chain_098_dop853_predict: history 120 9f664d344ec8950d\n\
 ";
 
 #[test]

@@ -136,6 +136,14 @@ impl<M: Method> Adaptive<M> {
         self
     }
 
+    /// The same with the first step set to `h` when given (else chosen by the integrator).
+    pub fn with_initial_step_if(self, h: Option<f64>) -> Self {
+        match h {
+            Some(h) => self.with_initial_step(h),
+            None => self,
+        }
+    }
+
     /// The same with per-component scales of the absolute tolerance.
     pub fn with_atol_scale(mut self, scale: Vec<f64>) -> Self {
         self.atol_scale = Some(scale);

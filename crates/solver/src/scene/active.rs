@@ -1,4 +1,4 @@
-//! The moving part of a long chain: particles ahead of the leading front that still rest in their
+//! The moving part of a chain: particles ahead of the leading front that still rest in their
 //! initial static equilibrium are not integrated until the front approaches them.
 //!
 //! A run that qualifies ([`plan`]) integrates the prefix `[0, k)` of its chain, a chain of its own
@@ -6,21 +6,21 @@
 //! wall (its positions are shifted by `x_eq[k]`, so that this "wall" sits at the origin as a real
 //! wall does). After every accepted step the last [`WATCH`] integrated particles are compared with
 //! their equilibrium; once one has left it by more than a threshold tied to the run's absolute
-//! tolerance, the integrator stops at the end of that step, the prefix grows by [`BLOCK`]
-//! particles (taken from their exact equilibrium), and the integrator starts afresh from that state
-//! (a new first step, a new first right-hand side: the methods see one consistent, smaller system
-//! at a time). The probes and the ledger see the whole chain throughout: the particles at rest read
-//! their equilibrium, their energy is a constant added to the ledger's, and the wall impulse grows
-//! at the equilibrium wall force.
+//! tolerance, the integrator stops at the end of that step, the prefix grows by [`BLOCK`] particles
+//! (taken from their exact equilibrium), and the integrator starts afresh from that state at the
+//! step size it had reached (a new first right-hand side: the methods see one consistent, smaller
+//! system at a time). The probes and the ledger see the whole chain throughout: the particles at
+//! rest read their equilibrium, their energy is a constant added to the ledger's, and the wall
+//! impulse grows at the equilibrium wall force.
 //!
 //! Qualifying is proved on the scene's own numbers, never assumed: an adaptive integrator (the
-//! thresholds come from its tolerance), a chain of at least [`MIN_PARTICLES`] particles (shorter
-//! ones cost little anyway and keep their bits), no static force on the chain (a precompression
-//! sends a fast linear wave ahead of the pulse), every particle beyond the first at rest with no
-//! quadrature started, and the right-hand side at the initial state giving the particles that start
-//! at rest accelerations so small that over the whole run they would move less than a hundredth of
-//! the tolerance (a chain in free fall, a free end, a misplaced particle all fail this). Scenes that
-//! do not qualify run the whole chain, unchanged.
+//! thresholds come from its tolerance), a chain of at least [`MIN_PARTICLES`] particles (in a
+//! shorter one too little rests to pay for the restarts), no static force on the chain (a
+//! precompression sends a fast linear wave ahead of the pulse), every particle beyond the first at
+//! rest with no quadrature started, and the right-hand side at the initial state giving the
+//! particles that start at rest accelerations so small that over the whole run they would move less
+//! than a hundredth of the tolerance (a chain in free fall, a free end, a misplaced particle all
+//! fail this). Scenes that do not qualify run the whole chain, unchanged.
 
 use crate::chain::model::Chain;
 use crate::integrate::{
@@ -30,15 +30,21 @@ use crate::observe::probes::RunObserver;
 pub use crate::scene::ActiveRegion;
 use crate::scene::{ImpactScales, Scene};
 
-/// Shortest chain (particles, striker included) that integrates only its moving part: the
-/// paper's chains (about 100 particles) are all shorter and keep their bits.
-pub const MIN_PARTICLES: usize = 512;
+/// Particles integrated from the start (the striker and the particles nearest it).
+pub const INITIAL_PARTICLES: usize = 16;
 
-/// Particles added to the integrated prefix at a time (and its initial length).
-pub const BLOCK: usize = 64;
+/// Shortest chain (particles, striker included) that integrates only its moving part: below twice
+/// the initial part, the part left at rest is too short to pay for the restarts.
+pub const MIN_PARTICLES: usize = 2 * INITIAL_PARTICLES;
 
-/// The last integrated particles watched for departure from equilibrium.
-pub const WATCH: usize = 16;
+/// Particles added to the integrated prefix at a time. A restart costs a right-hand side or two
+/// (the step size goes on where it was), so small blocks keep the prefix close to the front.
+pub const BLOCK: usize = 8;
+
+/// The last integrated particles watched for departure from equilibrium: far enough ahead of the
+/// held particle that a disturbance crossing the watch within one step is seen before it reaches
+/// the held particle (a solitary wave of the δ^{3/2} law spans about five particles).
+pub const WATCH: usize = 8;
 
 /// A watched particle counts as moving once its displacement from equilibrium exceeds this
 /// fraction of the absolute tolerance on positions (`atol` times the two-body peak overlap), or its
@@ -82,7 +88,7 @@ pub(crate) fn plan(
     {
         return None;
     }
-    let k0 = BLOCK;
+    let k0 = INITIAL_PARTICLES;
     if y0[..n] != chain.equilibrium_position[..] || y0[n + 1..].iter().any(|&v| v != 0.0) {
         return None;
     }
@@ -343,6 +349,8 @@ struct PrefixObserver<'a> {
     grow: bool,
     /// The prefix's state at the end of the last accepted step.
     last: Vec<f64>,
+    /// The size of the last accepted step, s.
+    last_step_s: Option<f64>,
 }
 
 impl StepObserver for PrefixObserver<'_> {
@@ -354,6 +362,7 @@ impl StepObserver for PrefixObserver<'_> {
         let y = step.y_end();
         self.map.update(step.t_end(), y, self.full);
         self.last.copy_from_slice(y);
+        self.last_step_s = Some(step.t_end() - step.t_start());
         let control = self.inner.on_step(&WholeStep {
             step,
             map: &self.map,
@@ -376,6 +385,9 @@ impl StepObserver for PrefixObserver<'_> {
     }
 }
 
+/// Makes the run's integrator for a chain (the moving part), with the first step to take when given.
+pub(crate) type BuildIntegrator<'a> = dyn Fn(&Chain, Option<f64>) -> Box<dyn Integrator> + 'a;
+
 /// Integrates a qualifying run ([`plan`]) over its legs (as [`crate::scene::solve::run`] does for the
 /// whole chain), growing the integrated prefix as the front approaches its end. Returns the
 /// statistics summed over every start of the integrator and the number of particles integrated at
@@ -383,7 +395,7 @@ impl StepObserver for PrefixObserver<'_> {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn integrate(
     plan: &ActivePlan,
-    build: &dyn Fn(&Chain) -> Box<dyn Integrator>,
+    build: &BuildIntegrator,
     chain: &Chain,
     t0: f64,
     y0: &[f64],
@@ -408,10 +420,11 @@ pub(crate) fn integrate(
         }
         y
     };
+    let mut h_start = None;
     while leg < leg_ends.len() {
         let t_leg = leg_ends[leg];
         let map = StateMap::new(chain, &sub, k, t, &full, plan.wall_force);
-        let integrator = build(&sub);
+        let integrator = build(&sub, h_start.take());
         let watched_rest = if k < n {
             sub.equilibrium_position[k - WATCH..k].to_vec()
         } else {
@@ -426,6 +439,7 @@ pub(crate) fn integrate(
             threshold_v: plan.threshold_v,
             grow: false,
             last: y_sub.clone(),
+            last_step_s: None,
         };
         // Accepted and rejected attempts both count against the budget, as for the whole chain.
         let budget = max_steps.saturating_sub(total.attempts());
@@ -435,7 +449,7 @@ pub(crate) fn integrate(
             IntegrateError::StepBudget { t, .. } => IntegrateError::StepBudget { max_steps, t },
             other => other,
         })?;
-        let (grow, last) = (obs.grow, obs.last);
+        let (grow, last, last_step_s) = (obs.grow, obs.last, obs.last_step_s);
         total.add(&stats);
         if observer.stopped || total.attempts() >= max_steps {
             break;
@@ -443,6 +457,10 @@ pub(crate) fn integrate(
         t = observer.t_reached;
         y_sub = last;
         if grow {
+            // The grown part goes on at the step size the front's motion had set: the particles
+            // joining it rest, so they do not ask for a smaller one, and choosing afresh would
+            // start from a guess the controller must first grow out of.
+            h_start = last_step_s;
             let k_old = k;
             k = (k + BLOCK).min(n);
             observer.set_active(k, &full);

@@ -327,22 +327,30 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
     let mut leg_ends = scene.breakpoints_s(&chain);
     leg_ends.push(t_end);
 
-    let build = |c: &Chain| -> Box<dyn Integrator> {
+    // The integrator for `c` (the chain, or the moving part of it), starting with step `h0` when
+    // given (a grown moving part goes on at the step size it had reached) or choosing its own.
+    let build = |c: &Chain, h0: Option<f64>| -> Box<dyn Integrator> {
         match scene.integrator {
             IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
             IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
-            IntegratorSpec::Dop853(options) => {
-                Box::new(Dop853::with_options(options).with_atol_scale(state_scales(c, &scales)))
-            }
-            IntegratorSpec::Ros34pw2(options) => {
-                Box::new(Ros34pw2::with_options(options).with_atol_scale(state_scales(c, &scales)))
-            }
-            IntegratorSpec::Vern6(options) => {
-                Box::new(Vern6::with_options(options).with_atol_scale(state_scales(c, &scales)))
-            }
+            IntegratorSpec::Dop853(options) => Box::new(
+                Dop853::with_options(options)
+                    .with_atol_scale(state_scales(c, &scales))
+                    .with_initial_step_if(h0),
+            ),
+            IntegratorSpec::Ros34pw2(options) => Box::new(
+                Ros34pw2::with_options(options)
+                    .with_atol_scale(state_scales(c, &scales))
+                    .with_initial_step_if(h0),
+            ),
+            IntegratorSpec::Vern6(options) => Box::new(
+                Vern6::with_options(options)
+                    .with_atol_scale(state_scales(c, &scales))
+                    .with_initial_step_if(h0),
+            ),
         }
     };
-    let integrator = build(&chain);
+    let integrator = build(&chain, None);
     let (stats, active_particles) = match crate::scene::active::plan(scene, &chain, &scales, &y0) {
         Some(plan) => {
             let (stats, k) = crate::scene::active::integrate(
