@@ -423,9 +423,10 @@ def peer_sweep(n_points: int, rtol: float):
 
 
 # ---------------------------------------------------------------------------------- chainsweep
-def ours_sweep(tmp: Path, integrator: dict, tag: str):
+def ours_sweep(tmp: Path, integrator: dict, tag: str, binary: Path | None = None):
     """`chainsweep run` of fig08.json with its integrator block replaced, --jobs 2, into a fresh
-    file. Returns (F21/F4 per point in grid order, total RHS evaluations, wall seconds)."""
+    file, by `binary` (default: this tree's). Returns (F21/F4 per point in grid order, total RHS
+    evaluations, wall seconds)."""
     import chainsweep
 
     spec = json.loads(SWEEP.read_text())
@@ -434,7 +435,7 @@ def ours_sweep(tmp: Path, integrator: dict, tag: str):
     sweep = d / "fig08.json"
     sweep.write_text(json.dumps(spec))
     start = time.perf_counter()
-    subprocess.run([str(chainsweep_bin()), "run", str(sweep), "-o", str(d / "out.h5"), "--jobs", str(JOBS), "-q"],
+    subprocess.run([str(binary or chainsweep_bin()), "run", str(sweep), "-o", str(d / "out.h5"), "--jobs", str(JOBS), "-q"],
                    check=True, stdout=subprocess.DEVNULL)
     wall = time.perf_counter() - start
     ds = chainsweep.open(d / "out.h5")
@@ -531,6 +532,9 @@ def main() -> int:
     ap.add_argument("--ours-rtols", default=",".join(f"{r:g}" for r in OURS_RTOLS), help="chainsweep's ladder")
     ap.add_argument("--chunk-us", type=float, default=CHUNK_US, help="the peer's chunk of output times, µs")
     ap.add_argument("--output", type=Path, default=OUT_JSON)
+    ap.add_argument("--base-bin", type=Path, default=None,
+                    help="a chainsweep binary from before a change: its ladder is timed in the same rounds, "
+                         "alternating with this tree's and the peer's, and reported beside them")
     args = ap.parse_args()
     peer_rtols = [float(x) for x in args.rtols.split(",")]
     ours_rtols = [float(x) for x in args.ours_rtols.split(",")]
@@ -579,6 +583,7 @@ def main() -> int:
               f"{e_chk[0]:.1e} max, {e_chk[1]:.1e} median (F21/F4 over {n} points; F4 {e_f4[0]:.1e}, F21 {e_f21[0]:.1e} max)")
 
         ours_rows = {r: {"rtol": r, "walls": []} for r in ours_rtols}
+        base_rows = {r: {"rtol": r, "walls": []} for r in ours_rtols} if args.base_bin else {}
         peer_rows = {r: {"rtol": r, "walls": []} for r in peer_rtols}
         print(f"\n3. ladders, {args.repeats} alternating rounds:", flush=True)
         for rep in range(args.repeats):
@@ -592,6 +597,12 @@ def main() -> int:
                     row["rhs_evals"] = nfev
                     row["max_error"], row["median_error"] = errors(ratio, ref)
                     row["errors"] = [float(f"{x:.3g}") for x in np.abs(ratio / ref - 1.0)]
+                    if args.base_bin:
+                        ratio, nfev, wall, _, _, _ = ours_sweep(tmp, integ, f"base-{r:g}", args.base_bin)
+                        row = base_rows[r]
+                        row["walls"].append(wall)
+                        row["rhs_evals"] = nfev
+                        row["max_error"], row["median_error"] = errors(ratio, ref)
                 if k < len(peer_rtols):
                     r = peer_rtols[k]
                     ratio, nfev, wall, _ = peer_sweep(n, r)
@@ -601,16 +612,21 @@ def main() -> int:
                     row["max_error"], row["median_error"] = errors(ratio, ref)
                     row["errors"] = [float(f"{x:.3g}") for x in np.abs(ratio / ref - 1.0)]
             print(f"  round {rep + 1}: chainsweep " + ", ".join(f"{ours_rows[r]['walls'][-1]:.2f}" for r in ours_rtols)
+                  + (" s; before " + ", ".join(f"{base_rows[r]['walls'][-1]:.2f}" for r in ours_rtols) if base_rows else "")
                   + " s; peer " + ", ".join(f"{peer_rows[r]['walls'][-1]:.2f}" for r in peer_rtols) + " s", flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    for rows in (ours_rows, peer_rows):
+    for rows in (ours_rows, base_rows, peer_rows):
         for row in rows.values():
             row["wall_s"] = statistics.median(row["walls"])
 
     print(f"\n| side | rtol | F21/F4 error, max | median | RHS evaluations | sweep wall, median of {args.repeats} |")
     print("|---|---|---|---|---|---|")
-    for name, rows in (("chainsweep DOP853 + predict_switches", ours_rows), ("numba + numbalsoda LSODA", peer_rows)):
+    sides = [("chainsweep DOP853 + predict_switches", ours_rows)]
+    if base_rows:
+        sides.append((f"the same, before ({args.base_bin})", base_rows))
+    sides.append(("numba + numbalsoda LSODA", peer_rows))
+    for name, rows in sides:
         for row in rows.values():
             print(f"| {name} | {row['rtol']:.0e} | {row['max_error']:.1e} | {row['median_error']:.1e} | "
                   f"{row['rhs_evals']:,} | {row['wall_s']:.3f} s |")
@@ -619,16 +635,22 @@ def main() -> int:
     print("| chainsweep rtol | max error | chainsweep wall | peer wall, interpolated | × | peer's cheapest rung as accurate | × |")
     print("|---|---|---|---|---|---|---|")
     ratios = []
-    for row in ours_rows.values():
+    rows_at_equal_accuracy = list(ours_rows.values())
+    if base_rows:
+        rows_at_equal_accuracy += [dict(row, before=True) for row in base_rows.values()]
+    for row in rows_at_equal_accuracy:
         interp, cheapest = time_at(list(peer_rows.values()), row["max_error"])
         row["peer_wall_interpolated_s"], row["peer_wall_cheapest_rung_s"] = interp, cheapest
         row["speedup_interpolated"] = interp / row["wall_s"] if interp else None
         row["speedup_cheapest_rung"] = cheapest / row["wall_s"] if cheapest else None
         f = lambda x: f"{x:.3f} s" if x else "—"  # noqa: E731
         g = lambda x: f"**{x:.1f}×**" if x else "—"  # noqa: E731
-        print(f"| {row['rtol']:.0e} | {row['max_error']:.1e} | {row['wall_s']:.3f} s | {f(interp)} | "
+        print(f"| {row['rtol']:.0e}{' (before)' if row.get('before') else ''} | {row['max_error']:.1e} | "
+              f"{row['wall_s']:.3f} s | {f(interp)} | "
               f"{g(row['speedup_interpolated'])} | {f(cheapest)} | {g(row['speedup_cheapest_rung'])} |")
-        if row["speedup_interpolated"]:
+        if row.get("before"):
+            base_rows[row["rtol"]].update({k: row[k] for k in row if k.startswith(("peer_wall", "speedup"))})
+        elif row["speedup_interpolated"]:
             ratios.append(row["speedup_interpolated"])
     if ratios:
         print(f"speed ratio at equal accuracy (interpolated), over chainsweep's rungs the peer's ladder spans: "
@@ -648,6 +670,8 @@ def main() -> int:
         "peer": {"numba": numba.__version__, "numbalsoda": version("numbalsoda"), "import_s": t_import,
                  "jit_s": t_jit, "chunk_us": args.chunk_us, "ladder": list(peer_rows.values())},
         "chainsweep": {"ladder": list(ours_rows.values())},
+        "chainsweep_before": ({"binary": str(args.base_bin), "ladder": list(base_rows.values())}
+                              if base_rows else None),
     }, indent=1))
     print(f"\nwritten: {args.output}")
     return 0

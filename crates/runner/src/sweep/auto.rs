@@ -125,7 +125,16 @@ pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
 /// A setting in words: `dop853 rtol 3e-8`.
 pub fn describe(spec: &IntegratorSpec) -> String {
     let (x, name) = setting_of(spec);
-    format!("{} {name} {x:e}", spec.method_name())
+    let predicting = matches!(
+        spec,
+        IntegratorSpec::Dop853(o) | IntegratorSpec::Ros34pw2(o) | IntegratorSpec::Vern6(o)
+            if o.predict_switches
+    );
+    format!(
+        "{} {name} {x:e}{}",
+        spec.method_name(),
+        if predicting { " predict_switches" } else { "" }
+    )
 }
 
 /// One candidate setting tried by the pilot.
