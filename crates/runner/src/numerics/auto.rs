@@ -26,14 +26,14 @@
 //!    damping dominates (stiffness ratio over [`STIFF_RATIO`], as in `chainsweep accuracy`) and
 //!    the target is at least [`ROS_REFERENCE_MIN_TARGET`] (ROS34PW2 at 1e-10 is itself only
 //!    ~5e-9 accurate, so tighter targets keep the DOP853 reference there too).
-//! 3. **Candidates** ([`ladders`]), cheapest first: DOP853 with `predict_switches` and plain
-//!    DOP853 at rtol = target × [`DOP853_FACTORS`], and ROS34PW2 at rtol = target ×
-//!    [`ROS34PW2_FACTORS`] (ROS34PW2 first when a pilot point is damping-dominated). A candidate's error at a pilot point is the largest relative error of
-//!    `leading_peak`, `leading_peak_time_s` and `record_max` over the probes against the
-//!    reference — the quantity `run --verify` stores as `verify_rel_error_max`. It meets the
-//!    target when that error is at most `target / SAFETY_FACTOR` (ROS34PW2: `target /
-//!    ROS34PW2_SAFETY_FACTOR`) at every pilot point and every pilot run succeeds (energy-drift
-//!    limit included). A method's ladder stops at its first
+//! 3. **Candidates** ([`ladders`]), cheapest first: DOP853 with `predict_switches` and plain DOP853
+//!    at rtol = target × [`DOP853_FACTORS`], and ROS34PW2 at rtol = target × [`ROS34PW2_FACTORS`]
+//!    (ROS34PW2 first when a pilot point is damping-dominated). A candidate's error at a pilot
+//!    point is the largest relative error of `leading_peak`, `leading_peak_time_s` and `record_max`
+//!    over the probes against the reference — the quantity `run --verify` stores as
+//!    `verify_rel_error_max`. It meets the target when that error is at most `target /
+//!    SAFETY_FACTOR` (ROS34PW2: `target / ROS34PW2_SAFETY_FACTOR`) at every pilot point and every
+//!    pilot run succeeds (energy-drift limit included). A method's ladder stops at its first
 //!    candidate that meets the target, or once a candidate costs more than the best found.
 //! 4. **Choice**: the candidate meeting the target with the smallest pilot cost, the sum of its
 //!    RHS evaluations over the pilot points weighted by [`ROS34PW2_EVAL_WEIGHT`] for ROS34PW2.
@@ -199,9 +199,10 @@ pub fn pilot_points(sweep: &Sweep, grid: &Grid, n: usize) -> Result<Vec<usize>> 
 /// same accuracy), plain DOP853, ROS34PW2; ROS34PW2 first where a pilot point is
 /// damping-dominated (`stiff`).
 pub fn ladders(target: f64, stiff: bool) -> Vec<Vec<IntegratorSpec>> {
-    let predicting = ladder(Method::Dop853, target)
-        .into_iter()
-        .map(|spec| match spec {
+    let dop853 = ladder(Method::Dop853, target);
+    let predicting = dop853
+        .iter()
+        .map(|spec| match *spec {
             IntegratorSpec::Dop853(mut o) => {
                 o.predict_switches = true;
                 IntegratorSpec::Dop853(o)
@@ -209,10 +210,7 @@ pub fn ladders(target: f64, stiff: bool) -> Vec<Vec<IntegratorSpec>> {
             other => other,
         })
         .collect();
-    let (dop853, ros34pw2) = (
-        ladder(Method::Dop853, target),
-        ladder(Method::Ros34pw2, target),
-    );
+    let ros34pw2 = ladder(Method::Ros34pw2, target);
     if stiff {
         vec![ros34pw2, predicting, dop853]
     } else {

@@ -125,11 +125,7 @@ pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
 /// A setting in words: `dop853 rtol 3e-8`.
 pub fn describe(spec: &IntegratorSpec) -> String {
     let (x, name) = setting_of(spec);
-    let predicting = matches!(
-        spec,
-        IntegratorSpec::Dop853(o) | IntegratorSpec::Ros34pw2(o) | IntegratorSpec::Vern6(o)
-            if o.predict_switches
-    );
+    let predicting = spec.adaptive_options().is_some_and(|o| o.predict_switches);
     format!(
         "{} {name} {x:e}{}",
         spec.method_name(),
