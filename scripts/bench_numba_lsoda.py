@@ -635,23 +635,18 @@ def main() -> int:
     print("| chainsweep rtol | max error | chainsweep wall | peer wall, interpolated | × | peer's cheapest rung as accurate | × |")
     print("|---|---|---|---|---|---|---|")
     ratios = []
-    rows_at_equal_accuracy = list(ours_rows.values())
-    if base_rows:
-        rows_at_equal_accuracy += [dict(row, before=True) for row in base_rows.values()]
-    for row in rows_at_equal_accuracy:
-        interp, cheapest = time_at(list(peer_rows.values()), row["max_error"])
-        row["peer_wall_interpolated_s"], row["peer_wall_cheapest_rung_s"] = interp, cheapest
-        row["speedup_interpolated"] = interp / row["wall_s"] if interp else None
-        row["speedup_cheapest_rung"] = cheapest / row["wall_s"] if cheapest else None
-        f = lambda x: f"{x:.3f} s" if x else "—"  # noqa: E731
-        g = lambda x: f"**{x:.1f}×**" if x else "—"  # noqa: E731
-        print(f"| {row['rtol']:.0e}{' (before)' if row.get('before') else ''} | {row['max_error']:.1e} | "
-              f"{row['wall_s']:.3f} s | {f(interp)} | "
-              f"{g(row['speedup_interpolated'])} | {f(cheapest)} | {g(row['speedup_cheapest_rung'])} |")
-        if row.get("before"):
-            base_rows[row["rtol"]].update({k: row[k] for k in row if k.startswith(("peer_wall", "speedup"))})
-        elif row["speedup_interpolated"]:
-            ratios.append(row["speedup_interpolated"])
+    for label, rows in (("", ours_rows), (" (before)", base_rows)):
+        for row in rows.values():
+            interp, cheapest = time_at(list(peer_rows.values()), row["max_error"])
+            row["peer_wall_interpolated_s"], row["peer_wall_cheapest_rung_s"] = interp, cheapest
+            row["speedup_interpolated"] = interp / row["wall_s"] if interp else None
+            row["speedup_cheapest_rung"] = cheapest / row["wall_s"] if cheapest else None
+            f = lambda x: f"{x:.3f} s" if x else "—"  # noqa: E731
+            g = lambda x: f"**{x:.1f}×**" if x else "—"  # noqa: E731
+            print(f"| {row['rtol']:.0e}{label} | {row['max_error']:.1e} | {row['wall_s']:.3f} s | {f(interp)} | "
+                  f"{g(row['speedup_interpolated'])} | {f(cheapest)} | {g(row['speedup_cheapest_rung'])} |")
+            if rows is ours_rows and row["speedup_interpolated"]:
+                ratios.append(row["speedup_interpolated"])
     if ratios:
         print(f"speed ratio at equal accuracy (interpolated), over chainsweep's rungs the peer's ladder spans: "
               f"{min(ratios):.1f}× … {max(ratios):.1f}×")
