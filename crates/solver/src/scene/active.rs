@@ -221,6 +221,20 @@ struct StateMap {
     pulse: Option<(usize, usize)>,
 }
 
+/// Where a component of the whole chain's state comes from during a step of the prefix.
+#[derive(Debug, Clone, Copy)]
+enum Source {
+    /// A position in the prefix: its component, shifted ([`StateMap::shift`]).
+    Shifted(usize),
+    /// The prefix's component as it is (a velocity, or a quadrature the prefix keeps).
+    Prefix(usize),
+    /// A value the step does not change (a particle at rest, or what nothing adds to).
+    Fixed(f64),
+    /// The wall impulse while the wall is not in the prefix: it grows at the equilibrium wall
+    /// force.
+    WallRamp,
+}
+
 impl StateMap {
     fn new(chain: &Chain, sub: &Chain, k: usize, t: f64, full: &[f64], wall_force: f64) -> Self {
         let n = chain.n_particles();
@@ -269,34 +283,58 @@ impl StateMap {
         y
     }
 
-    /// Component `i` of the whole chain's state at `t`, from the prefix's components `sub` and the
-    /// whole state `full` (which holds the resting particles).
+    /// Where component `i` of the whole chain's state comes from during a step of the prefix
+    /// (`full`: the whole state, which holds the resting particles).
     #[inline]
-    fn value(&self, i: usize, t: f64, sub: impl Fn(usize) -> f64, full: &[f64]) -> f64 {
+    fn source(&self, i: usize, full: &[f64]) -> Source {
         let (n, k) = (self.n, self.k);
         if i < n {
-            return if i < k { sub(i) + self.shift } else { full[i] };
+            return if i < k {
+                Source::Shifted(i)
+            } else {
+                Source::Fixed(full[i])
+            };
         }
         if i < 2 * n {
-            return if i - n < k { sub(k + i - n) } else { 0.0 };
+            return if i - n < k {
+                Source::Prefix(k + i - n)
+            } else {
+                Source::Fixed(0.0)
+            };
         }
         if let Some((w, s)) = self.work {
             if i == w {
-                return s.map_or(full[i], sub);
+                return s.map_or(Source::Fixed(full[i]), Source::Prefix);
             }
         }
         if let Some((w, s)) = self.wall {
             if i == w {
-                return match s {
-                    Some(s) => sub(s),
-                    None => self.wall_since.1 + self.wall_force * (t - self.wall_since.0),
-                };
+                return s.map_or(Source::WallRamp, Source::Prefix);
             }
         }
         match self.pulse {
-            Some((w, s)) if i == w => sub(s),
-            _ => full[i],
+            Some((w, s)) if i == w => Source::Prefix(s),
+            _ => Source::Fixed(full[i]),
         }
+    }
+
+    /// The value at `t` of a component that comes from `source`, given the prefix's component
+    /// it names (`sub`, asked only for the prefix's components).
+    #[inline]
+    fn at(&self, source: Source, t: f64, sub: impl FnOnce(usize) -> f64) -> f64 {
+        match source {
+            Source::Shifted(j) => sub(j) + self.shift,
+            Source::Prefix(j) => sub(j),
+            Source::Fixed(v) => v,
+            Source::WallRamp => self.wall_since.1 + self.wall_force * (t - self.wall_since.0),
+        }
+    }
+
+    /// Component `i` of the whole chain's state at `t`, from the prefix's components `sub` and the
+    /// whole state `full` (which holds the resting particles).
+    #[inline]
+    fn value(&self, i: usize, t: f64, sub: impl FnOnce(usize) -> f64, full: &[f64]) -> f64 {
+        self.at(self.source(i, full), t, sub)
     }
 
     /// Writes the prefix's state `y` at `t` into the whole chain's `full`.
@@ -334,7 +372,70 @@ impl DenseStep for WholeStep<'_> {
         self.map
             .value(i, t, |j| self.step.eval_component(t, j), self.full)
     }
+    fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
+        let mut row = [0.0f64; BATCH_COMPONENTS];
+        if indices.len() > BATCH_COMPONENTS {
+            for &i in indices {
+                out[i] = self.eval_component(t, i);
+            }
+            return;
+        }
+        let row = &mut row[..indices.len()];
+        self.eval_components_at(&[t], indices, row);
+        for (&i, &v) in indices.iter().zip(row.iter()) {
+            out[i] = v;
+        }
+    }
+    /// The prefix's components among `indices` interpolated by the prefix's step in one call
+    /// for a batch of times (its batched interpolant: the probes' samples cost what they cost
+    /// when the whole chain is integrated), the others from the whole state; each value is the
+    /// one [`DenseStep::eval_component`] gives.
+    fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
+        let m = indices.len();
+        if m == 0 || m > BATCH_COMPONENTS {
+            for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
+                for (o, &i) in row.iter_mut().zip(indices) {
+                    *o = self.eval_component(t, i);
+                }
+            }
+            return;
+        }
+        let mut sources = [Source::Fixed(0.0); BATCH_COMPONENTS];
+        let mut in_prefix = [0usize; BATCH_COMPONENTS];
+        let mut p = 0;
+        for (source, &i) in sources.iter_mut().zip(indices) {
+            *source = self.map.source(i, self.full);
+            if let Source::Shifted(j) | Source::Prefix(j) = *source {
+                in_prefix[p] = j;
+                p += 1;
+            }
+        }
+        let (sources, in_prefix) = (&sources[..m], &in_prefix[..p]);
+        let mut values = [0.0f64; BATCH_COMPONENTS * BATCH_TIMES];
+        for (times, rows) in times
+            .chunks(BATCH_TIMES)
+            .zip(out.chunks_mut(BATCH_TIMES * m))
+        {
+            let values = &mut values[..times.len() * p];
+            if p > 0 {
+                self.step.eval_components_at(times, in_prefix, values);
+            }
+            for (r, (&t, row)) in times.iter().zip(rows.chunks_exact_mut(m)).enumerate() {
+                let mut sub = values[r * p..(r + 1) * p].iter();
+                for (o, &source) in row.iter_mut().zip(sources) {
+                    *o = self.map.at(source, t, |_| {
+                        *sub.next().expect("one value per prefix component")
+                    });
+                }
+            }
+        }
+    }
 }
+
+/// Most components [`WholeStep`] interpolates in one batch (the probes read a handful), and
+/// most times per batch.
+const BATCH_COMPONENTS: usize = 16;
+const BATCH_TIMES: usize = 16;
 
 /// Feeds the run's observer with the whole chain's view and asks for a larger prefix once a watched
 /// particle moves.
@@ -484,4 +585,92 @@ pub(crate) fn integrate(
         }
     }
     Ok((total, k))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A step whose component `j` is the polynomial `j + (j + 1) t + t²` over `[0, 1e-6]`.
+    struct Polynomials {
+        end: Vec<f64>,
+    }
+
+    impl DenseStep for Polynomials {
+        fn t_start(&self) -> f64 {
+            0.0
+        }
+        fn t_end(&self) -> f64 {
+            1e-6
+        }
+        fn y_end(&self) -> &[f64] {
+            &self.end
+        }
+        fn eval_component(&self, t: f64, j: usize) -> f64 {
+            j as f64 + (j as f64 + 1.0) * t + t * t
+        }
+    }
+
+    #[test]
+    fn the_batched_whole_state_is_component_for_component_the_single_one() {
+        // A chain of 40 particles of which 24 are integrated, with its dissipated work and wall
+        // impulse (the wall not in the prefix: it grows at the equilibrium wall force).
+        let (n, k) = (40, 24);
+        let map = StateMap {
+            n,
+            k,
+            shift: 3.5e-5,
+            work: Some((2 * n, Some(2 * k))),
+            wall: Some((2 * n + 1, None)),
+            wall_since: (2e-7, 1e-3),
+            wall_force: 12.0,
+            pulse: None,
+        };
+        let full: Vec<f64> = (0..2 * n + 2).map(|i| 1e-4 * i as f64 - 0.5).collect();
+        let prefix = Polynomials {
+            end: vec![0.0; 2 * k + 1],
+        };
+        let whole = WholeStep {
+            step: &prefix,
+            map: &map,
+            full: &full,
+        };
+        let times: Vec<f64> = (0..37).map(|r| r as f64 * 2.7e-8).collect();
+        let sets: [Vec<usize>; 5] = [
+            vec![3, 4, n + 3, n + 4, 2 * n + 1],
+            vec![k - 1, k, n + k - 1, n + k, 2 * n],
+            vec![30, 31, n + 30],
+            (0..2 * n + 2).step_by(5).collect(),
+            Vec::new(),
+        ];
+        for indices in &sets {
+            let m = indices.len();
+            let mut batched = vec![f64::NAN; times.len() * m];
+            whole.eval_components_at(&times, indices, &mut batched);
+            for (r, &t) in times.iter().enumerate() {
+                for (c, &i) in indices.iter().enumerate() {
+                    let single = whole.eval_component(t, i);
+                    assert_eq!(
+                        batched[r * m + c].to_bits(),
+                        single.to_bits(),
+                        "component {i} at {t:e} of {indices:?}"
+                    );
+                }
+            }
+            let mut at_once = vec![f64::NAN; full.len()];
+            whole.eval_components(times[5], indices, &mut at_once);
+            for &i in indices {
+                assert_eq!(
+                    at_once[i].to_bits(),
+                    whole.eval_component(times[5], i).to_bits()
+                );
+            }
+        }
+        // The sources themselves: a shifted position, a resting one, a resting velocity, the ramp.
+        let t = 5e-7;
+        assert_eq!(whole.eval_component(t, 3), 3.0 + 4.0 * t + t * t + 3.5e-5);
+        assert_eq!(whole.eval_component(t, 30), full[30]);
+        assert_eq!(whole.eval_component(t, n + 30), 0.0);
+        assert_eq!(whole.eval_component(t, 2 * n + 1), 1e-3 + 12.0 * (t - 2e-7));
+    }
 }
