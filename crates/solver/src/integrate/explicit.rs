@@ -18,7 +18,7 @@ use std::marker::PhantomData;
 use chainsweep_cpu::MulAdd;
 
 use super::adaptive::{Attempt, Rhs, Stepper};
-use super::{all_finite, DenseStep};
+use super::{all_finite, DenseStep, BATCH_COMPONENTS};
 
 /// One stage of an explicit tableau: its node and the non-zero entries of its row of `A`.
 #[derive(Debug, Clone, Copy)]
@@ -476,9 +476,8 @@ impl<M: ExplicitMethod> DenseStep for ExplicitStep<'_, M> {
         }
     }
     fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
-        const MAX: usize = 16;
         let m = indices.len();
-        if m > MAX || m == 0 {
+        if m > BATCH_COMPONENTS || m == 0 {
             for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
                 for (o, &i) in row.iter_mut().zip(indices) {
                     *o = self.eval_component(t, i);
@@ -488,25 +487,52 @@ impl<M: ExplicitMethod> DenseStep for ExplicitStep<'_, M> {
         }
         // The coefficients of the components side by side (row r: coefficient r of each), so
         // that one sample evaluates the interpolant for all of them in vector lanes; the
-        // arithmetic of each lane is the scalar interpolant's, operation for operation.
-        let mut c = [[0.0f64; MAX]; MAX_DENSE_COEFFICIENTS];
+        // arithmetic of each lane is the scalar interpolant's, operation for operation (sums
+        // and products, no fused ones: the same bits at every vector width).
+        let mut c = [[0.0f64; BATCH_COMPONENTS]; MAX_DENSE_COEFFICIENTS];
         for (j, &i) in indices.iter().enumerate() {
             for (r, v) in self.coefficients(i).into_iter().enumerate() {
                 c[r][j] = v;
             }
         }
-        for (&t, row) in times.iter().zip(out.chunks_exact_mut(m)) {
-            if t == self.t1 {
+        chainsweep_cpu::dispatch(InterpolateKernel::<M> {
+            step: self,
+            c: &c,
+            times,
+            indices,
+            out,
+        });
+    }
+}
+
+/// The batched interpolant's loop over the samples, compiled for the CPU's vector width.
+struct InterpolateKernel<'a, 'w, M> {
+    step: &'a ExplicitStep<'w, M>,
+    c: &'a [[f64; BATCH_COMPONENTS]; MAX_DENSE_COEFFICIENTS],
+    times: &'a [f64],
+    indices: &'a [usize],
+    out: &'a mut [f64],
+}
+
+impl<M: ExplicitMethod> chainsweep_cpu::Kernel for InterpolateKernel<'_, '_, M> {
+    type Output = ();
+    #[inline(always)]
+    fn run<F: MulAdd>(self) {
+        let (step, c, indices) = (self.step, self.c, self.indices);
+        let m = indices.len();
+        // Whole vectors of eight lanes (the lanes past `m` hold zeros and are not read).
+        let width = m.div_ceil(8) * 8;
+        for (&t, row) in self.times.iter().zip(self.out.chunks_exact_mut(m)) {
+            if t == step.t1 {
                 for (o, &i) in row.iter_mut().zip(indices) {
-                    *o = self.w.y_new[i];
+                    *o = step.w.y_new[i];
                 }
                 continue;
             }
-            let s = (t - self.t0) / self.h;
-            let mut lanes = [0.0f64; MAX];
-            // Whole vectors of four lanes (the lanes past `m` hold zeros and are not read).
-            for j in 0..m.div_ceil(4) * 4 {
-                lanes[j] = M::interpolate(|r| c[r][j], s);
+            let s = (t - step.t0) / step.h;
+            let mut lanes = [0.0f64; BATCH_COMPONENTS];
+            for (j, lane) in lanes[..width].iter_mut().enumerate() {
+                *lane = M::interpolate(|r| c[r][j], s);
             }
             row.copy_from_slice(&lanes[..m]);
         }

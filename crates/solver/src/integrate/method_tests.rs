@@ -12,7 +12,7 @@ use super::order_conditions::{
 };
 use super::{
     all_finite, Control, DenseStep, Dop853Method, IntegrateError, IntegrationStats, Integrator,
-    OdeSystem, OdeSystemDyn, Ros34pw2Method, StepObserver, Vern6Method,
+    OdeSystem, OdeSystemDyn, Ros34pw2Method, StepObserver, Vern6Method, BATCH_COMPONENTS,
 };
 use crate::problems::{run_recorded, HarmonicOscillator, QuadraticGrowth, StepRecord};
 
@@ -275,17 +275,21 @@ fn batched_dense_output_is_bitwise_the_scalar_one<M: Method>() {
         fn on_step(&mut self, step: &dyn DenseStep) -> Control {
             let (t0, t1) = (step.t_start(), step.t_end());
             let times: Vec<f64> = (1..=7).map(|k| t0 + (t1 - t0) * k as f64 / 7.0).collect();
-            let indices = [2, 0, 1];
-            let mut out = vec![f64::NAN; times.len() * indices.len()];
-            step.eval_components_at(&times, &indices, &mut out);
-            for (r, &t) in times.iter().enumerate() {
-                for (j, &i) in indices.iter().enumerate() {
-                    let one = step.eval_component(t, i);
-                    assert_eq!(
-                        out[r * indices.len() + j].to_bits(),
-                        one.to_bits(),
-                        "t {t}, i {i}"
-                    );
+            // Three components, and lists of them (repeated) as wide as a batch holds at
+            // most, one past it (interpolated one by one), and odd widths between.
+            for width in [3, 9, 17, BATCH_COMPONENTS, BATCH_COMPONENTS + 1] {
+                let indices: Vec<usize> = [2, 0, 1].into_iter().cycle().take(width).collect();
+                let mut out = vec![f64::NAN; times.len() * indices.len()];
+                step.eval_components_at(&times, &indices, &mut out);
+                for (r, &t) in times.iter().enumerate() {
+                    for (j, &i) in indices.iter().enumerate() {
+                        let one = step.eval_component(t, i);
+                        assert_eq!(
+                            out[r * indices.len() + j].to_bits(),
+                            one.to_bits(),
+                            "t {t}, i {i}, {width} components"
+                        );
+                    }
                 }
             }
             self.steps += 1;

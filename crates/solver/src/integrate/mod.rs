@@ -160,6 +160,10 @@ pub trait DenseStep {
     }
 }
 
+/// Most components a step interpolates side by side in [`DenseStep::eval_components_at`] (the
+/// probes of a run read a few dozen at most; more are interpolated one by one).
+pub const BATCH_COMPONENTS: usize = 32;
+
 /// What an observer tells the integrator after a step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Control {

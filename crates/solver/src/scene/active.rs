@@ -25,6 +25,7 @@
 use crate::chain::model::Chain;
 use crate::integrate::{
     Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, StepObserver,
+    BATCH_COMPONENTS,
 };
 use crate::observe::probes::RunObserver;
 pub use crate::scene::ActiveRegion;
@@ -432,9 +433,7 @@ impl DenseStep for WholeStep<'_> {
     }
 }
 
-/// Most components [`WholeStep`] interpolates in one batch (the probes read a handful), and
-/// most times per batch.
-const BATCH_COMPONENTS: usize = 16;
+/// Most times [`WholeStep`] interpolates in one batch.
 const BATCH_TIMES: usize = 16;
 
 /// Feeds the run's observer with the whole chain's view and asks for a larger prefix once a watched
@@ -636,11 +635,13 @@ mod tests {
             full: &full,
         };
         let times: Vec<f64> = (0..37).map(|r| r as f64 * 2.7e-8).collect();
-        let sets: [Vec<usize>; 5] = [
+        // (The last two: more components than a batch holds, and none.)
+        let sets: [Vec<usize>; 6] = [
             vec![3, 4, n + 3, n + 4, 2 * n + 1],
             vec![k - 1, k, n + k - 1, n + k, 2 * n],
             vec![30, 31, n + 30],
             (0..2 * n + 2).step_by(5).collect(),
+            (0..2 * n + 2).collect(),
             Vec::new(),
         ];
         for indices in &sets {
