@@ -412,29 +412,27 @@ impl DenseStep for WholeStep<'_> {
             }
         }
         let (sources, in_prefix) = (&sources[..m], &in_prefix[..p]);
-        let mut values = [0.0f64; BATCH_COMPONENTS * BATCH_TIMES];
-        for (times, rows) in times
-            .chunks(BATCH_TIMES)
-            .zip(out.chunks_mut(BATCH_TIMES * m))
-        {
-            let values = &mut values[..times.len() * p];
-            if p > 0 {
-                self.step.eval_components_at(times, in_prefix, values);
-            }
-            for (r, (&t, row)) in times.iter().zip(rows.chunks_exact_mut(m)).enumerate() {
-                let mut sub = values[r * p..(r + 1) * p].iter();
-                for (o, &source) in row.iter_mut().zip(sources) {
-                    *o = self.map.at(source, t, |_| {
-                        *sub.next().expect("one value per prefix component")
-                    });
-                }
+        // The prefix's values, `p` a row, packed at the start of `out`, then each row spread out
+        // to its `m` columns, the last row first: a value is read before its place is written
+        // (row `r`'s prefix values start at `r·p ≤ r·m`).
+        let count = times.len().min(out.len() / m);
+        if p > 0 {
+            self.step
+                .eval_components_at(&times[..count], in_prefix, &mut out[..count * p]);
+        }
+        for r in (0..count).rev() {
+            let t = times[r];
+            let mut q = p;
+            for c in (0..m).rev() {
+                let source = sources[c];
+                out[r * m + c] = self.map.at(source, t, |_| {
+                    q -= 1;
+                    out[r * p + q]
+                });
             }
         }
     }
 }
-
-/// Most times [`WholeStep`] interpolates in one batch.
-const BATCH_TIMES: usize = 16;
 
 /// Feeds the run's observer with the whole chain's view and asks for a larger prefix once a watched
 /// particle moves.
