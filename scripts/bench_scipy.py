@@ -12,6 +12,8 @@ within 1e-6 of the reference: `crates/solver/tests/accuracy.rs`).
    right-hand-side evaluations, wall time; the loosest setting whose error is at most 1e-6 at that
    rung and at every tighter one is the script's cost of the accuracy chainsweep's run has.
 3. That setting and chainsweep's run timed alternately, ROUNDS times each; medians side by side.
+4. What a `chainsweep.run` call costs beyond its run: between the scipy runs of 3 (cold caches)
+   and back to back (3 × ROUNDS calls, warm), each against the run's own `wall_time_s`.
 
     python scripts/bench_scipy.py [--rounds N] [--methods DOP853,RK45,LSODA]
 """
@@ -124,6 +126,14 @@ def main() -> int:
         them = statistics.median(walls[method])
         print(f"| scipy solve_ivp {method} | rtol {rtol:.0e} | {e:.1e} | {r.nfev} | {them * 1e3:.1f} ms "
               f"| {them / us:.0f}× |")
+    # What a call costs beyond its run, between scipy runs (above: the caches hold scipy's data
+    # and code when our call starts) and back to back (warm: what a loop of calls pays).
+    back = [ours(BENCHMARKED) for _ in range(3 * args.rounds)]
+    call_b = statistics.median(b[2] for b in back)
+    engine_b = statistics.median(b[3] for b in back)
+    print(f"\nchainsweep.run against its own run: {us / engine:.2f}× between the scipy runs "
+          f"({us * 1e3:.2f} / {engine * 1e3:.2f} ms); {call_b / engine_b:.2f}× back to back "
+          f"({call_b * 1e3:.2f} / {engine_b * 1e3:.2f} ms, median of {len(back)} calls)")
     return 0
 
 
