@@ -18,7 +18,7 @@ use std::marker::PhantomData;
 use chainsweep_cpu::MulAdd;
 
 use super::adaptive::{Attempt, Rhs, Stepper};
-use super::{all_finite, DenseStep, BATCH_COMPONENTS};
+use super::{all_finite, eval_each_at, DenseStep, BATCH_COMPONENTS};
 
 /// One stage of an explicit tableau: its node and the non-zero entries of its row of `A`.
 #[derive(Debug, Clone, Copy)]
@@ -478,12 +478,7 @@ impl<M: ExplicitMethod> DenseStep for ExplicitStep<'_, M> {
     fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
         let m = indices.len();
         if m > BATCH_COMPONENTS || m == 0 {
-            for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
-                for (o, &i) in row.iter_mut().zip(indices) {
-                    *o = self.eval_component(t, i);
-                }
-            }
-            return;
+            return eval_each_at(self, times, indices, out);
         }
         // The coefficients of the components side by side (row r: coefficient r of each), so
         // that one sample evaluates the interpolant for all of them in vector lanes; the

@@ -151,11 +151,23 @@ pub trait DenseStep {
     /// holds lets a method set up its interpolant once and evaluate it for several components at
     /// a time.
     fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
-        let m = indices.len();
-        for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
-            for (o, &i) in row.iter_mut().zip(indices) {
-                *o = self.eval_component(t, i);
-            }
+        eval_each_at(self, times, indices, out);
+    }
+}
+
+/// [`DenseStep::eval_components_at`] one time and one component at a time, through
+/// [`DenseStep::eval_component`]: its default, and what a batched implementation does with more
+/// components than it batches.
+pub fn eval_each_at<S: DenseStep + ?Sized>(
+    step: &S,
+    times: &[f64],
+    indices: &[usize],
+    out: &mut [f64],
+) {
+    let m = indices.len();
+    for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
+        for (o, &i) in row.iter_mut().zip(indices) {
+            *o = step.eval_component(t, i);
         }
     }
 }

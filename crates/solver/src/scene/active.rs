@@ -24,8 +24,8 @@
 
 use crate::chain::model::Chain;
 use crate::integrate::{
-    Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, StepObserver,
-    BATCH_COMPONENTS,
+    eval_each_at, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem,
+    StepObserver, BATCH_COMPONENTS,
 };
 use crate::observe::probes::RunObserver;
 pub use crate::scene::ActiveRegion;
@@ -374,13 +374,13 @@ impl DenseStep for WholeStep<'_> {
             .value(i, t, |j| self.step.eval_component(t, j), self.full)
     }
     fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
-        let mut row = [0.0f64; BATCH_COMPONENTS];
         if indices.len() > BATCH_COMPONENTS {
             for &i in indices {
                 out[i] = self.eval_component(t, i);
             }
             return;
         }
+        let mut row = [0.0f64; BATCH_COMPONENTS];
         let row = &mut row[..indices.len()];
         self.eval_components_at(&[t], indices, row);
         for (&i, &v) in indices.iter().zip(row.iter()) {
@@ -394,12 +394,7 @@ impl DenseStep for WholeStep<'_> {
     fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
         let m = indices.len();
         if m == 0 || m > BATCH_COMPONENTS {
-            for (&t, row) in times.iter().zip(out.chunks_exact_mut(m.max(1))) {
-                for (o, &i) in row.iter_mut().zip(indices) {
-                    *o = self.eval_component(t, i);
-                }
-            }
-            return;
+            return eval_each_at(self, times, indices, out);
         }
         let mut sources = [Source::Fixed(0.0); BATCH_COMPONENTS];
         let mut in_prefix = [0usize; BATCH_COMPONENTS];
