@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::{
-    Dop853, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn, Rk4, Ros34pw2,
-    VelocityVerlet, Vern6,
+    Adaptive, AdaptiveMethod, AdaptiveOptions, Dop853Method, IntegrateError, IntegrationStats,
+    Integrator, OdeSystemDyn, Rk4, Ros34pw2Method, VelocityVerlet, Vern6Method,
 };
 use crate::motion::system::EnergyTerms;
 use crate::observe::probes::{
@@ -159,6 +159,21 @@ fn validity_warnings(
         ));
     }
     warnings
+}
+
+/// Adaptive method `M` with `options` for `chain`, its absolute tolerances scaled by
+/// [`state_scales`], starting with step `h0` when given (else choosing its first step).
+fn adaptive<M: AdaptiveMethod + 'static>(
+    options: AdaptiveOptions,
+    chain: &Chain,
+    scales: &ImpactScales,
+    h0: Option<f64>,
+) -> Box<dyn Integrator> {
+    Box::new(
+        Adaptive::<M>::with_options(options)
+            .with_atol_scale(state_scales(chain, scales))
+            .with_initial_step_if(h0),
+    )
 }
 
 /// Per-component absolute-tolerance scales for the state `[x, v, q]`: the two-body peak overlap
@@ -333,21 +348,11 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
         match scene.integrator {
             IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
             IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
-            IntegratorSpec::Dop853(options) => Box::new(
-                Dop853::with_options(options)
-                    .with_atol_scale(state_scales(c, &scales))
-                    .with_initial_step_if(h0),
-            ),
-            IntegratorSpec::Ros34pw2(options) => Box::new(
-                Ros34pw2::with_options(options)
-                    .with_atol_scale(state_scales(c, &scales))
-                    .with_initial_step_if(h0),
-            ),
-            IntegratorSpec::Vern6(options) => Box::new(
-                Vern6::with_options(options)
-                    .with_atol_scale(state_scales(c, &scales))
-                    .with_initial_step_if(h0),
-            ),
+            IntegratorSpec::Dop853(options) => adaptive::<Dop853Method>(options, c, &scales, h0),
+            IntegratorSpec::Ros34pw2(options) => {
+                adaptive::<Ros34pw2Method>(options, c, &scales, h0)
+            }
+            IntegratorSpec::Vern6(options) => adaptive::<Vern6Method>(options, c, &scales, h0),
         }
     };
     let integrator = build(&chain, None);
