@@ -46,7 +46,7 @@ use std::io::{Read, Write};
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Mutex, MutexGuard};
+use std::sync::{Mutex, MutexGuard, OnceLock};
 
 use fs4::fs_std::FileExt as _;
 
@@ -135,7 +135,7 @@ impl Loc {
 pub struct Stored {
     dir: PathBuf,
     entries: HashMap<RunHash, Loc>,
-    logs: Vec<PathBuf>,
+    logs: Vec<LogFile>,
     segments: usize,
     published: Option<PublishedFile>,
     damage: Damage,
@@ -149,9 +149,40 @@ impl std::fmt::Debug for Stored {
         f.debug_struct("Stored")
             .field("dir", &self.dir)
             .field("runs", &self.entries.len())
-            .field("logs", &self.logs)
+            .field(
+                "logs",
+                &self.logs.iter().map(|l| &l.path).collect::<Vec<_>>(),
+            )
             .field("segments", &self.segments)
             .finish()
+    }
+}
+
+/// A log of [`Stored`]: its path, and the handle its records are read through, opened at the
+/// first read and kept while the log is, so that assembling a file of 100 000 runs does not open
+/// and close the log 100 000 times. (A log is only ever appended to while it is in use, and is
+/// replaced by a new path when compacted, so the handle always reads the file the offsets were
+/// found in.)
+struct LogFile {
+    path: PathBuf,
+    reader: OnceLock<File>,
+}
+
+impl LogFile {
+    fn new(path: PathBuf) -> LogFile {
+        LogFile {
+            path,
+            reader: OnceLock::new(),
+        }
+    }
+
+    /// The log's read handle, opened now if it is not yet.
+    fn reader(&self) -> Result<&File> {
+        if let Some(f) = self.reader.get() {
+            return Ok(f);
+        }
+        let f = File::open(&self.path).map_err(Error::io("open", &self.path))?;
+        Ok(self.reader.get_or_init(|| f))
     }
 }
 
@@ -243,7 +274,7 @@ impl Stored {
             })
             .map_err(Error::io("read", &path))?;
             s.corrupt += end.corrupt + usize::from(end.torn);
-            s.logs.push(path);
+            s.logs.push(LogFile::new(path));
         }
         Ok(s)
     }
@@ -324,11 +355,11 @@ impl Stored {
     }
 
     fn log_bytes(&self, log: usize, offset: u64, len: u64) -> Result<Vec<u8>> {
-        let path = &self.logs[log];
-        let f = File::open(path).map_err(Error::io("open", path))?;
+        let log = &self.logs[log];
         let mut b = vec![0u8; len as usize];
-        f.read_exact_at(&mut b, offset)
-            .map_err(Error::io("read", path))?;
+        log.reader()?
+            .read_exact_at(&mut b, offset)
+            .map_err(Error::io("read", &log.path))?;
         Ok(b)
     }
 
@@ -485,7 +516,7 @@ impl RunStore for WorkDir {
         let mut st = lock(&self.state);
         let State { stored, writer } = &mut *st;
         if let Some(w) = writer.as_mut().filter(|w| w.dirty) {
-            let path = &stored.logs[w.log];
+            let path = &stored.logs[w.log].path;
             w.file.sync_data().map_err(Error::io("sync", path))?;
             w.dirty = false;
         }
@@ -642,7 +673,7 @@ impl WorkDir {
             *writer = Some(self.new_log(stored)?);
         }
         let w = writer.as_mut().expect("just created");
-        let path = &stored.logs[w.log];
+        let path = &stored.logs[w.log].path;
         if let Err(e) = w.file.write_all(&bytes) {
             let _ = w.file.set_len(w.end);
             return Err(Error::io("write", path)(e));
@@ -675,7 +706,7 @@ impl WorkDir {
             {
                 Ok(file) => {
                     fsync_dir(&log_dir)?;
-                    stored.logs.push(path);
+                    stored.logs.push(LogFile::new(path));
                     return Ok(Writer {
                         file,
                         log: stored.logs.len() - 1,
@@ -943,7 +974,7 @@ impl WorkDir {
         }
         // The new log is durable: the old logs and segments can go.
         *writer = None;
-        for path in &stored.logs {
+        for LogFile { path, .. } in &stored.logs {
             if Some(path) != new_log.as_ref() && fs::remove_file(path).is_ok() {
                 report.files_removed += 1;
             }
@@ -958,7 +989,7 @@ impl WorkDir {
         let _ = fs::remove_dir(&seg_dir);
         fsync_dir(&log_dir)?;
         stored.segments = 0;
-        stored.logs = new_log.into_iter().collect();
+        stored.logs = new_log.into_iter().map(LogFile::new).collect();
         for h in gone {
             stored.entries.remove(&h);
         }
