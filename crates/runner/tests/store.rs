@@ -331,7 +331,10 @@ fn logs_stay_few_survive_torn_tails_and_prune_only_what_is_not_needed() {
         .filter(|&n| work.read(&[n; 32]).unwrap().is_some())
         .count();
     assert_eq!(n_read, 39);
-    assert!(!index.contains_key(&[40; 32]), "the corrupt record is the last one written");
+    assert!(
+        !index.contains_key(&[40; 32]),
+        "the corrupt record is the last one written"
+    );
     // Pruning keeps every run named as needed, removes the others. (Every third run: the kept
     // records lie at other offsets in the new log than in the old ones.)
     let c = work.prune(&|h| h[0] % 3 == 0, false).unwrap();

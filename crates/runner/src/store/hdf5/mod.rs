@@ -544,11 +544,15 @@ fn write_block(
     use hdf5_sys::h5d::{H5Dget_space, H5Dwrite};
     use hdf5_sys::h5p::H5P_DEFAULT;
     use hdf5_sys::h5s::{H5S_seloper_t, H5Sclose, H5Screate_simple, H5Sselect_hyperslab};
-    let n: u64 = count.iter().product();
+    // The memory space has the file selection's shape (`block` is that hyperslab, row-major):
+    // HDF5 then maps memory to file a block at a time. With a one-dimensional memory space it
+    // maps them an element at a time, which made writing the text columns (one element per
+    // character) most of the time a file took to write.
+    let rank = count.len() as std::ffi::c_int;
     // SAFETY: `d.id()` and `mem_type` are open ids (borrowed for the call); the file space
     // selects `count` elements starting at `start` (inside the dataset: the callers' chunks), the
-    // memory space is `n` elements of `mem_type`, which `block` holds exactly; both spaces are
-    // closed before returning; the calls run under hdf5-metno's global lock.
+    // memory space is the same `count` elements of `mem_type`, which `block` holds exactly; both
+    // spaces are closed before returning; the calls run under hdf5-metno's global lock.
     let r = hdf5::sync::sync(|| unsafe {
         let file_space = H5Dget_space(d.id());
         if file_space < 0 {
@@ -562,7 +566,7 @@ fn write_block(
             count.as_ptr(),
             std::ptr::null(),
         );
-        let mem_space = H5Screate_simple(1, &n, std::ptr::null());
+        let mem_space = H5Screate_simple(rank, count.as_ptr(), std::ptr::null());
         if r >= 0 && mem_space >= 0 {
             r = H5Dwrite(
                 d.id(),
