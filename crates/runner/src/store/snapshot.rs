@@ -29,7 +29,6 @@ use std::io::{Read, Write};
 use flate2::read::DeflateDecoder;
 use flate2::write::DeflateEncoder;
 use flate2::Compression;
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
@@ -148,57 +147,43 @@ pub fn encode(header: &Header, table: &Table, hashes: &[RunHash]) -> Vec<u8> {
         KIND_HEADER,
         serde_json::to_string(header).expect("json").as_bytes(),
     );
-    // The blocks are compressed side by side (deflate is most of a snapshot's cost, and the
-    // last publish of a sweep waits for it), and laid out in order: the bytes do not depend on
-    // the number of threads.
-    let blocks: Vec<Vec<u8>> = (0..table.n.div_ceil(BLOCK_POINTS))
-        .into_par_iter()
-        .map(|b| {
-            let start = b * BLOCK_POINTS;
-            let count = BLOCK_POINTS.min(table.n - start);
-            let mut raw = Vec::new();
-            raw.extend_from_slice(&(start as u64).to_le_bytes());
-            raw.extend_from_slice(&(count as u64).to_le_bytes());
-            for (i, h) in hashes.iter().enumerate().skip(start).take(count) {
-                let p = if table.status(i) == STATUS_PENDING {
-                    0
-                } else {
-                    prefix(h)
-                };
-                raw.extend_from_slice(&p.to_le_bytes());
-            }
-            for (c, data) in COLUMNS.iter().zip(&table.columns) {
-                let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
-                    continue;
-                };
-                let k = c.width(table.np, table.nh);
-                let range = start * k..(start + count) * k;
-                match d {
-                    ColumnData::F64(v) => {
-                        shuffled(&mut raw, v[range].iter().map(|x| x.to_bits().to_le_bytes()))
-                    }
-                    ColumnData::I64(v) => {
-                        shuffled(&mut raw, v[range].iter().map(|x| x.to_le_bytes()))
-                    }
-                    ColumnData::U64(v) => {
-                        shuffled(&mut raw, v[range].iter().map(|x| x.to_le_bytes()))
-                    }
-                    ColumnData::U8(v) => raw.extend_from_slice(&v[range]),
-                    ColumnData::Str(v) => {
-                        for s in &v[range] {
-                            raw.extend_from_slice(&(s.len() as u32).to_le_bytes());
-                            raw.extend_from_slice(s.as_bytes());
-                        }
+    let mut start = 0;
+    while start < table.n {
+        let count = BLOCK_POINTS.min(table.n - start);
+        let mut raw = Vec::new();
+        raw.extend_from_slice(&(start as u64).to_le_bytes());
+        raw.extend_from_slice(&(count as u64).to_le_bytes());
+        for (i, h) in hashes.iter().enumerate().skip(start).take(count) {
+            let p = if table.status(i) == STATUS_PENDING {
+                0
+            } else {
+                prefix(h)
+            };
+            raw.extend_from_slice(&p.to_le_bytes());
+        }
+        for (c, data) in COLUMNS.iter().zip(&table.columns) {
+            let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
+                continue;
+            };
+            let k = c.width(table.np, table.nh);
+            let range = start * k..(start + count) * k;
+            match d {
+                ColumnData::F64(v) => {
+                    shuffled(&mut raw, v[range].iter().map(|x| x.to_bits().to_le_bytes()))
+                }
+                ColumnData::I64(v) => shuffled(&mut raw, v[range].iter().map(|x| x.to_le_bytes())),
+                ColumnData::U64(v) => shuffled(&mut raw, v[range].iter().map(|x| x.to_le_bytes())),
+                ColumnData::U8(v) => raw.extend_from_slice(&v[range]),
+                ColumnData::Str(v) => {
+                    for s in &v[range] {
+                        raw.extend_from_slice(&(s.len() as u32).to_le_bytes());
+                        raw.extend_from_slice(s.as_bytes());
                     }
                 }
             }
-            let mut block = Vec::new();
-            section(&mut block, KIND_BLOCK, &raw);
-            block
-        })
-        .collect();
-    for block in blocks {
-        out.extend_from_slice(&block);
+        }
+        section(&mut out, KIND_BLOCK, &raw);
+        start += count;
     }
     out
 }
@@ -537,14 +522,6 @@ mod tests {
         let n = 2 * BLOCK_POINTS + 17;
         let (t, hashes) = table(n);
         let bytes = encode(&header(n), &t, &hashes);
-        // The blocks, compressed side by side, lie in the same order whatever the threads.
-        for threads in [1, 3] {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            assert_eq!(pool.install(|| encode(&header(n), &t, &hashes)), bytes);
-        }
         let s = Snapshot::decode(&bytes).unwrap();
         assert_eq!(s.header, header(n));
         assert_eq!(s.damaged_blocks, 0);
