@@ -141,9 +141,7 @@ pub trait DenseStep {
     /// Interpolated components `indices` at `t`, each written to `out[i]` (the same values as
     /// [`DenseStep::eval_component`]); one call for the handful of components probes read.
     fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
-        for &i in indices {
-            out[i] = self.eval_component(t, i);
-        }
+        eval_each(self, t, indices, out);
     }
     /// Interpolated components `indices` at each of `times`: row `r` of `out` (the `indices.len()`
     /// values from `out[r * indices.len()]`) holds them at `times[r]`, in the order of `indices`
@@ -152,6 +150,15 @@ pub trait DenseStep {
     /// a time.
     fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
         eval_each_at(self, times, indices, out);
+    }
+}
+
+/// [`DenseStep::eval_components`] one component at a time, through
+/// [`DenseStep::eval_component`]: its default, and what a batched implementation does with more
+/// components than it batches.
+pub fn eval_each<S: DenseStep + ?Sized>(step: &S, t: f64, indices: &[usize], out: &mut [f64]) {
+    for &i in indices {
+        out[i] = step.eval_component(t, i);
     }
 }
 

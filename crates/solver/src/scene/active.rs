@@ -24,8 +24,8 @@
 
 use crate::chain::model::Chain;
 use crate::integrate::{
-    eval_each_at, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem,
-    StepObserver, BATCH_COMPONENTS,
+    eval_each, eval_each_at, Control, DenseStep, IntegrateError, IntegrationStats, Integrator,
+    OdeSystem, StepObserver, BATCH_COMPONENTS,
 };
 use crate::observe::probes::RunObserver;
 pub use crate::scene::ActiveRegion;
@@ -375,10 +375,7 @@ impl DenseStep for WholeStep<'_> {
     }
     fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
         if indices.len() > BATCH_COMPONENTS {
-            for &i in indices {
-                out[i] = self.eval_component(t, i);
-            }
-            return;
+            return eval_each(self, t, indices, out);
         }
         let mut row = [0.0f64; BATCH_COMPONENTS];
         let row = &mut row[..indices.len()];
