@@ -186,19 +186,18 @@ pub(crate) fn char_dataset(
     data: &[String],
     scale: Option<&str>,
 ) -> Result<CharVar> {
-    char_dataset_of(group, name, shape, data, scale, None)
+    char_dataset_of(group, name, shape, data, scale, false)
 }
 
-/// [`char_dataset`] of a summary column: the chunks that hold only pending points (`pending`,
-/// one per point) and only NULs are left unwritten, as [`write_points`] does.
+/// [`char_dataset`] of a summary column: the chunks that hold only NULs (empty texts) are left
+/// unwritten, as [`write_points`] does.
 pub(crate) fn char_column(
     group: &Group,
     name: &str,
     shape: &[usize],
     data: &[String],
-    pending: &[bool],
 ) -> Result<CharVar> {
-    char_dataset_of(group, name, shape, data, None, Some(pending))
+    char_dataset_of(group, name, shape, data, None, true)
 }
 
 fn char_dataset_of(
@@ -207,7 +206,7 @@ fn char_dataset_of(
     shape: &[usize],
     data: &[String],
     scale: Option<&str>,
-    pending: Option<&[bool]>,
+    sparse: bool,
 ) -> Result<CharVar> {
     let texts: Vec<Vec<u8>> = data
         .iter()
@@ -225,18 +224,17 @@ fn char_dataset_of(
     let d = checked_builder::<Char>(group, &full)
         .shape(full.clone())
         .create(name)?;
-    match pending {
-        None => write_chars(&d, &bytes)?,
-        Some(pending) => {
-            let ty = d.dtype()?;
-            if ty.size() != 1 {
-                return Err(Error::Other(format!(
-                    "dataset {} holds no characters",
-                    d.name()
-                )));
-            }
-            write_points(&d, ty.id(), &full, &bytes, &[0], pending)?;
+    if sparse {
+        let ty = d.dtype()?;
+        if ty.size() != 1 {
+            return Err(Error::Other(format!(
+                "dataset {} holds no characters",
+                d.name()
+            )));
         }
+        write_points(&d, ty.id(), &full, &bytes, &[0])?;
+    } else {
+        write_chars(&d, &bytes)?;
     }
     match scale {
         Some(dim_name) => set_scale(&d, dim_name)?,
@@ -429,15 +427,13 @@ pub(crate) fn filled_checked_dataset<T: H5Type + Copy + Into<hdf5::types::OwnedD
 }
 
 /// [`checked_dataset`] (with `fill`: [`filled_checked_dataset`]) of a summary column: the chunks
-/// that hold only pending points (`pending`, one per point of the grid, whose dimensions lead
-/// `shape`) and only the fill value are left unwritten ([`write_points`]).
+/// that hold only the fill value are left unwritten ([`write_points`]).
 pub(crate) fn checked_column<T: H5Type + Copy + Into<hdf5::types::OwnedDynValue>>(
     group: &Group,
     name: &str,
     shape: &[usize],
     data: &[T],
     fill: Option<T>,
-    pending: &[bool],
 ) -> Result<Dataset> {
     let b = checked_builder::<T>(group, shape);
     let b = match fill {
@@ -451,7 +447,7 @@ pub(crate) fn checked_column<T: H5Type + Copy + Into<hdf5::types::OwnedDynValue>
         None => vec![0u8; std::mem::size_of::<T>()],
     };
     let mem = hdf5::Datatype::from_type::<T>()?;
-    write_points(&d, mem.id(), shape, as_bytes(data), &fill_bytes, pending)?;
+    write_points(&d, mem.id(), shape, as_bytes(data), &fill_bytes)?;
     if let Some(f) = fill {
         attr_scalar(&d, "_FillValue", f)?;
     }
@@ -467,34 +463,32 @@ fn as_bytes<T: H5Type + Copy>(data: &[T]) -> &[u8] {
 
 /// Writes `bytes` (every element of `d`, row-major, in memory type `mem_type`) chunk by chunk
 /// ([`chunk_shape`]: each chunk a contiguous run of elements), leaving out every chunk whose
-/// points are all pending (`pending`, one per grid point: the leading dimensions of `shape`,
-/// `pending.len()` points) and whose elements all equal `fill` (the bytes of one element that
-/// HDF5 gives back where nothing was written). Such a chunk is never allocated: a reader gets
-/// exactly the values it would have held, and a file with few finished points is small, so that
-/// refreshing the output while a sweep runs costs what it holds, not the whole grid.
+/// elements all equal `fill` (the bytes of one element that HDF5 gives back where nothing was
+/// written). Such a chunk is never allocated: a reader gets exactly the values it would have
+/// held. So a column costs what it holds: a file with few finished points is small (refreshing
+/// the output while a sweep runs costs what it holds, not the whole grid), and a column nothing
+/// was recorded in (the verification's errors of a sweep that verifies nothing, the failure
+/// reasons of one where nothing failed) costs its header only.
 fn write_points(
     d: &Dataset,
     mem_type: hdf5_sys::h5i::hid_t,
     shape: &[usize],
     bytes: &[u8],
     fill: &[u8],
-    pending: &[bool],
 ) -> Result<()> {
     let item = fill.len().max(1);
     let elements: usize = shape.iter().product();
     if elements == 0 {
         return Ok(());
     }
-    if bytes.len() != elements * item || pending.is_empty() || elements % pending.len() != 0 {
+    if bytes.len() != elements * item {
         return Err(Error::Other(format!(
-            "dataset {}: {} bytes for {} elements of {} points",
+            "dataset {}: {} bytes for {} elements",
             d.name(),
             bytes.len(),
             elements,
-            pending.len()
         )));
     }
-    let per_point = elements / pending.len();
     let chunk = chunk_shape(shape, item);
     // The dimension a chunk cuts (the ones after it are whole, the ones before it one wide).
     let cut = (0..shape.len())
@@ -519,10 +513,7 @@ fn write_points(
             let first = (o * shape[cut] + at) * inner;
             let len = n * inner;
             let block = &bytes[first * item..(first + len) * item];
-            let points = &pending[first / per_point..=(first + len - 1) / per_point];
-            let unwritten =
-                points.iter().all(|&p| p) && block.chunks_exact(item).all(|e| e == fill);
-            if !unwritten {
+            if !block.chunks_exact(item).all(|e| e == fill) {
                 start[cut] = at as u64;
                 count[cut] = n as u64;
                 write_block(d, mem_type, &start, &count, block)?;

@@ -23,7 +23,7 @@ use crate::record::columns::{
     distinct_units, split_name, Column, ColumnData, FillValue, PointOutcome, Presence, Table,
     Units, COLUMNS, HARMONIC,
 };
-use crate::record::{RunRecord, VerifyInfo, STATUS_PENDING, VERIFY_OK};
+use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
@@ -496,10 +496,6 @@ fn write_columns(
     others: &[&str],
 ) -> Result<Vec<String>> {
     let shape: Vec<usize> = dims.iter().map(|d| d.len).collect();
-    // The points not finished: chunks of theirs only are not written (see `write_points`).
-    let pending: Vec<bool> = (0..table.n)
-        .map(|i| table.status(i) == STATUS_PENDING)
-        .collect();
     let mut written = Vec::new();
     // The steady state's harmonics, a coordinate (1, 2, …) of the columns over them.
     let nh = table.nh;
@@ -557,7 +553,7 @@ fn write_columns(
             };
             let split = parts.len() > 1;
             for (name, part, unit) in &parts {
-                let d = write_column(file, c, name, &pshape, part, *unit, split, &pending)?;
+                let d = write_column(file, c, name, &pshape, part, *unit, split)?;
                 attach_grid(&d, dims)?;
                 attach_scale(&d, &p.scale, shape.len(), "probe")?;
                 if let (true, Some(h)) = (c.per_harmonic, &harmonic) {
@@ -567,7 +563,7 @@ fn write_columns(
                 written.push(name.clone());
             }
         } else {
-            let d = write_column(file, c, c.name, &shape, data, None, false, &pending)?;
+            let d = write_column(file, c, c.name, &shape, data, None, false)?;
             attach_grid(&d, dims)?;
             if !others.is_empty() {
                 attr_str(&d, "coordinates", &others.join(" "))?;
@@ -579,9 +575,8 @@ fn write_columns(
 }
 
 /// One column's dataset `name` and attributes (`unit`: the probes' unit, for [`Units::OfProbes`];
-/// `split`: the dataset holds the values of the probes of that unit only, [`split_name`];
-/// `pending`: which grid points are not finished, whose chunks are left unwritten where they hold
-/// nothing but the fill value).
+/// `split`: the dataset holds the values of the probes of that unit only, [`split_name`]). The
+/// chunks that hold nothing but the fill value are left unwritten.
 #[allow(clippy::too_many_arguments)]
 fn write_column(
     file: &File,
@@ -591,20 +586,19 @@ fn write_column(
     data: &ColumnData,
     unit: Option<&str>,
     split: bool,
-    pending: &[bool],
 ) -> Result<Dataset> {
     let d = match (data, c.fill_value()) {
         (ColumnData::F64(v), Some(FillValue::F64(fill))) => {
-            checked_column(file, name, shape, v, Some(fill), pending)?
+            checked_column(file, name, shape, v, Some(fill))?
         }
         (ColumnData::I64(v), Some(FillValue::I64(fill))) => {
-            checked_column(file, name, shape, v, Some(fill), pending)?
+            checked_column(file, name, shape, v, Some(fill))?
         }
-        (ColumnData::F64(v), _) => checked_column(file, name, shape, v, None, pending)?,
-        (ColumnData::I64(v), _) => checked_column(file, name, shape, v, None, pending)?,
-        (ColumnData::U8(v), _) => checked_column(file, name, shape, v, None, pending)?,
-        (ColumnData::U64(v), _) => checked_column(file, name, shape, v, None, pending)?,
-        (ColumnData::Str(v), _) => char_column(file, name, shape, v, pending)?.data,
+        (ColumnData::F64(v), _) => checked_column(file, name, shape, v, None)?,
+        (ColumnData::I64(v), _) => checked_column(file, name, shape, v, None)?,
+        (ColumnData::U8(v), _) => checked_column(file, name, shape, v, None)?,
+        (ColumnData::U64(v), _) => checked_column(file, name, shape, v, None)?,
+        (ColumnData::Str(v), _) => char_column(file, name, shape, v)?.data,
     };
     if let Some((values, meanings)) = c.flags {
         attr_vec(&d, "flag_values", values)?;
