@@ -211,6 +211,8 @@ def bench(binary, work, name, spec, jobs, checkpoint):
         "final_file_mb": round(size / 1e6, 3),
         "written_mb": round(m["wchar"] / 1e6, 3),
         "written_over_final": round(m["wchar"] / size, 2),
+        # Per run, the measure that a smaller final file cannot flatter.
+        "written_per_run_b": round(m["wchar"] / runs),
         "block_written_mb": round(m["write_bytes"] / 1e6, 3),
         "peak_rss_mib": round(m["peak_rss_mib"], 1),
         "work_dir_files": files,
@@ -283,6 +285,7 @@ def side_by_side(results):
         ("final file, MB", "final_file_mb"),
         ("bytes written, MB (every write() of the process)", "written_mb"),
         ("bytes written / final file", "written_over_final"),
+        ("bytes written per run", "written_per_run_b"),
         ("peak RSS, MiB", "peak_rss_mib"),
         ("`run` again with nothing to do, s (median of 3)", "resume_nothing_to_do_s"),
     ]
@@ -300,7 +303,8 @@ def report(name, r):
     """Prints one case's measurements."""
     if r:
         print(f"{name}: {r['runs']} runs in {r['wall_s']} s; final file {r['final_file_mb']} MB; "
-              f"written {r['written_mb']} MB ({r['written_over_final']}x the final file; "
+              f"written {r['written_mb']} MB ({r['written_over_final']}x the final file, "
+              f"{r['written_per_run_b']} B a run; "
               f"{r['block_written_mb']} MB to the block layer); peak RSS {r['peak_rss_mib']} MiB; "
               f"work dir after: {r['work_dir_files']} files, {r['work_dir_bytes']} bytes; "
               f"resume with nothing to do {r['resume_nothing_to_do_s']} s; "
