@@ -431,8 +431,9 @@ struct Running<'a> {
 
 /// A checkpoint publishes the output file again only once the stored runs have grown by this
 /// factor since it was last published (and the end of the run always does): a file holds the
-/// chunks of its finished points only (those of pending points are not written, see
-/// `store::hdf5::write_points`), so its size follows the runs it holds, and the publishes of a
+/// chunks of its finished points only (a chunk of nothing but the fill value, as every chunk of
+/// pending points is, is not written: `store::hdf5::write_points`), so its size follows the runs
+/// it holds, and the publishes of a
 /// sweep write about `GROWTH / (GROWTH - 1)` times the final file in all, whatever the
 /// checkpoint interval (plus, per publish, the run hashes and point checksums that name every
 /// point, pending or not), while every checkpoint makes the runs stored so far durable.
