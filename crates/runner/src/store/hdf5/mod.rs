@@ -186,28 +186,6 @@ pub(crate) fn char_dataset(
     data: &[String],
     scale: Option<&str>,
 ) -> Result<CharVar> {
-    char_dataset_of(group, name, shape, data, scale, false)
-}
-
-/// [`char_dataset`] of a summary column: the chunks that hold only NULs (empty texts) are left
-/// unwritten, as [`write_points`] does.
-pub(crate) fn char_column(
-    group: &Group,
-    name: &str,
-    shape: &[usize],
-    data: &[String],
-) -> Result<CharVar> {
-    char_dataset_of(group, name, shape, data, None, true)
-}
-
-fn char_dataset_of(
-    group: &Group,
-    name: &str,
-    shape: &[usize],
-    data: &[String],
-    scale: Option<&str>,
-    sparse: bool,
-) -> Result<CharVar> {
     let texts: Vec<Vec<u8>> = data
         .iter()
         .map(|s| s.replace('\0', "\u{FFFD}").into_bytes())
@@ -224,57 +202,22 @@ fn char_dataset_of(
     let d = checked_builder::<Char>(group, &full)
         .shape(full.clone())
         .create(name)?;
-    if sparse {
-        let ty = d.dtype()?;
-        if ty.size() != 1 {
-            return Err(Error::Other(format!(
-                "dataset {} holds no characters",
-                d.name()
-            )));
-        }
-        write_points(&d, ty.id(), &full, &bytes, &[0])?;
-    } else {
-        write_chars(&d, &bytes)?;
+    // In the dataset's own (one-byte string) type, so that HDF5 converts nothing; the chunks of
+    // empty texts only (NULs) are left unwritten, as every column's chunks of its fill value.
+    let ty = d.dtype()?;
+    if ty.size() != 1 {
+        return Err(Error::Other(format!(
+            "dataset {} holds no characters",
+            d.name()
+        )));
     }
+    write_points(&d, ty.id(), &full, &bytes, &[0])?;
     match scale {
         Some(dim_name) => set_scale(&d, dim_name)?,
         None => attach_scale(&d, &dim, shape.len(), &strlen)?,
     }
     attr_str(&d, "_Encoding", CHAR_ENCODING)?;
     Ok(CharVar { data: d, strlen })
-}
-
-/// Writes every element of the one-byte string dataset `d` from `bytes` (one per element), as
-/// they are: in the dataset's own type, so that HDF5 converts nothing.
-fn write_chars(d: &Dataset, bytes: &[u8]) -> Result<()> {
-    use hdf5_sys::h5d::H5Dwrite;
-    use hdf5_sys::h5p::H5P_DEFAULT;
-    use hdf5_sys::h5s::H5S_ALL;
-    let ty = d.dtype()?;
-    if ty.size() != 1 || d.size() != bytes.len() {
-        return Err(Error::Other(format!(
-            "dataset {} holds no {} characters",
-            d.name(),
-            bytes.len()
-        )));
-    }
-    // SAFETY: `d.id()` and `ty.id()` are open ids (borrowed for the call); `bytes` holds exactly
-    // the dataset's elements, one byte each in the dataset's own (one-byte string) type, which
-    // H5S_ALL selects; the call runs under hdf5-metno's global lock.
-    let r = hdf5::sync::sync(|| unsafe {
-        H5Dwrite(
-            d.id(),
-            ty.id(),
-            H5S_ALL,
-            H5S_ALL,
-            H5P_DEFAULT,
-            bytes.as_ptr().cast(),
-        )
-    });
-    if r < 0 {
-        return Err(Error::Other(format!("writing dataset {} failed", d.name())));
-    }
-    Ok(())
 }
 
 /// Whether `d` holds netCDF `char`s (one-byte strings): text along its last dimension.

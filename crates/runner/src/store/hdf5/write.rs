@@ -12,9 +12,9 @@ use serde_json::Value;
 use super::arrays::ArrayWriter;
 use super::search::{self, SearchTables};
 use super::{
-    attach_scale, attr_scalar, attr_str, attr_vec, char_column, char_dataset, checked_column,
-    checked_dataset, column_text_checksum, dimension_only, header_checksum, number_dimensions,
-    set_scale, Counts, Provenance, CONVENTIONS, LAYOUT_VERSION,
+    attach_scale, attr_scalar, attr_str, attr_vec, char_dataset, checked_column, checked_dataset,
+    column_text_checksum, dimension_only, header_checksum, number_dimensions, set_scale, Counts,
+    Provenance, CONVENTIONS, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
@@ -598,7 +598,7 @@ fn write_column(
         (ColumnData::I64(v), _) => checked_column(file, name, shape, v, None)?,
         (ColumnData::U8(v), _) => checked_column(file, name, shape, v, None)?,
         (ColumnData::U64(v), _) => checked_column(file, name, shape, v, None)?,
-        (ColumnData::Str(v), _) => char_column(file, name, shape, v)?.data,
+        (ColumnData::Str(v), _) => char_dataset(file, name, shape, v, None)?.data,
     };
     if let Some((values, meanings)) = c.flags {
         attr_vec(&d, "flag_values", values)?;
