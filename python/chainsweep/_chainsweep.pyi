@@ -10,7 +10,7 @@ GIT_REVISION: str
 DEFAULT_CHECKPOINT_INTERVAL_S: float
 DEFAULT_PROGRESS_INTERVAL_S: float
 
-def run_scene(scene: str, record: str | None = None, limits: str | None = None) -> dict[str, Any]: ...
+def run_scene(scene: Any, record: Any = None, limits: Any = None) -> dict[str, Any] | None: ...
 def spectrum(
     scene: str | None = None,
     path: str | None = None,

@@ -284,11 +284,16 @@ def run(
         )
     if record is None:
         record = scene.pop("record", None)
-    raw = _native.run_scene(
-        dumps(scene, indent=None),
-        None if record is None else dumps(record, "record", indent=None),
-        None if limits is None else dumps(limits, "limits", indent=None),
-    )
+    # Plain values (dicts, lists, text, numbers, bools) are read by the engine as they are; for
+    # anything else (numpy values, NaN) it answers None, and the JSON text is written here, which
+    # converts numpy values and names what cannot be JSON.
+    raw = _native.run_scene(scene, record, limits)
+    if raw is None:
+        raw = _native.run_scene(
+            dumps(scene, indent=None),
+            None if record is None else dumps(record, "record", indent=None),
+            None if limits is None else dumps(limits, "limits", indent=None),
+        )
     arrays = _arrays(raw)
     result: xr.Dataset | dict[str, Any] = _dataset(arrays) if as_dataset else arrays
     if not raw["ok"]:

@@ -7,7 +7,7 @@
 //! numbers are bitwise those of `chainsweep point` for the same scene.
 
 use pyo3::prelude::*;
-use pyo3::types::{PyBytes, PyDict, PyList};
+use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde_json::Value;
 
 use chainsweep::engine;
@@ -39,8 +39,9 @@ struct PointRun {
 /// scene fields without the `base.` prefix).
 fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Result<PointRun> {
     let mut sweep = Sweep::of_scene(scene, record, limits)?;
-    let mut grid = match Grid::new(&sweep) {
-        Ok(grid) => grid,
+    // The grid's one point is the scene run: read from its JSON once, by the expansion.
+    let (mut grid, mut scene) = match Grid::with_first_scene(&sweep) {
+        Ok(expanded) => expanded,
         Err(e) => {
             // Where the scene itself is at fault, its own error, naming its fields without the
             // `base.` prefix (looked for only now: a valid scene is parsed and built once less).
@@ -56,9 +57,8 @@ fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Resu
         let pool = engine::thread_pool(engine::all_cpus())?;
         let choice = pilot::resolve(&sweep, &grid, &spec, &pool, |_| {})?;
         sweep.apply_auto(choice);
-        grid = Grid::new(&sweep)?;
+        (grid, scene) = Grid::with_first_scene(&sweep)?;
     }
-    let scene = grid.build(&sweep, 0)?;
     let hash = grid.hashes[0];
     let record = exec::execute(&scene, hash, &sweep.limits, 0);
     Ok(PointRun {
@@ -151,27 +151,115 @@ fn columns<'py>(
     Ok(d)
 }
 
-/// Runs one scene given as JSON text (`scene`: a sweep file's `base`; `record`, `limits`: its
-/// blocks, or `None`) with the GIL released, and returns everything the run recorded as a dict of
-/// plain Python values (histories as little-endian float64 bytes). Raises `chainsweep.InputError`
-/// for bad input; a failed run is returned with `ok` false and its `reason`.
+/// An argument of [`run_scene`]: JSON text, or the value itself read from plain Python values.
+enum Json {
+    Text(String),
+    Value(Value),
+}
+
+impl Json {
+    /// `None` where `obj` is neither text nor plain values.
+    fn of(obj: &Bound<'_, PyAny>) -> Option<Json> {
+        match obj.cast::<PyString>() {
+            Ok(text) => text.to_str().ok().map(|t| Json::Text(t.to_string())),
+            Err(_) => plain_json(obj, 0).map(Json::Value),
+        }
+    }
+
+    fn value(self, what: &str) -> Result<Value> {
+        match self {
+            Json::Text(text) => parse_json(&text, what),
+            Json::Value(value) => Ok(value),
+        }
+    }
+}
+
+/// An optional argument: `Some(None)` where it is not given, `None` where it is given and
+/// neither text nor plain values.
+fn optional_json(arg: Option<&Bound<'_, PyAny>>) -> Option<Option<Json>> {
+    match arg {
+        None => Some(None),
+        Some(obj) => Json::of(obj).map(Some),
+    }
+}
+
+/// How deep [`plain_json`] reads nested dicts and lists (serde_json's own limit on parsing text).
+const MAX_PLAIN_DEPTH: usize = 128;
+
+/// The JSON value of plain Python values: a dict with text keys, a list or tuple, text, a bool,
+/// an integer within 64 bits, a finite float, `None`. It is the value their JSON text (Python's
+/// `json.dumps`) parses to, read without writing and parsing that text. `None` for anything else
+/// (numpy values, NaN and infinities, other keys, nesting deeper than [`MAX_PLAIN_DEPTH`]).
+fn plain_json(obj: &Bound<'_, PyAny>, depth: usize) -> Option<Value> {
+    if depth > MAX_PLAIN_DEPTH {
+        return None;
+    }
+    if obj.is_none() {
+        return Some(Value::Null);
+    }
+    if let Ok(b) = obj.cast::<PyBool>() {
+        return Some(Value::Bool(b.is_true()));
+    }
+    if obj.cast::<PyInt>().is_ok() {
+        return match obj.extract::<i64>() {
+            Ok(i) => Some(Value::from(i)),
+            Err(_) => obj.extract::<u64>().ok().map(Value::from),
+        };
+    }
+    if let Ok(x) = obj.cast::<PyFloat>() {
+        return serde_json::Number::from_f64(x.value()).map(Value::Number);
+    }
+    if let Ok(text) = obj.cast::<PyString>() {
+        return text.to_str().ok().map(|t| Value::String(t.to_string()));
+    }
+    if let Ok(dict) = obj.cast::<PyDict>() {
+        let mut map = serde_json::Map::new();
+        for (k, v) in dict.iter() {
+            let key = k.cast::<PyString>().ok()?.to_str().ok()?.to_string();
+            map.insert(key, plain_json(&v, depth + 1)?);
+        }
+        return Some(Value::Object(map));
+    }
+    let items = |seq: &mut dyn Iterator<Item = Bound<'_, PyAny>>| {
+        seq.map(|v| plain_json(&v, depth + 1))
+            .collect::<Option<Vec<_>>>()
+            .map(Value::Array)
+    };
+    if let Ok(list) = obj.cast::<PyList>() {
+        return items(&mut list.iter());
+    }
+    if let Ok(tuple) = obj.cast::<PyTuple>() {
+        return items(&mut tuple.iter());
+    }
+    None
+}
+
+/// Runs one scene (`scene`: a sweep file's `base`; `record`, `limits`: its blocks, or `None`) with
+/// the GIL released, and returns everything the run recorded as a dict of plain Python values
+/// (histories as little-endian float64 bytes). Each argument is JSON text or plain values (see
+/// [`plain_json`]); an argument that holds anything else returns `None` and runs nothing: the
+/// caller writes it as JSON text, which converts what it can and names what it cannot. Raises
+/// `chainsweep.InputError` for bad input; a failed run is returned with `ok` false and its
+/// `reason`.
 #[pyfunction]
 #[pyo3(signature = (scene, record=None, limits=None))]
 pub fn run_scene<'py>(
     py: Python<'py>,
-    scene: &str,
-    record: Option<&str>,
-    limits: Option<&str>,
-) -> PyResult<Bound<'py, PyDict>> {
-    let (scene, record, limits) = (
-        scene.to_string(),
-        record.map(str::to_string),
-        limits.map(str::to_string),
-    );
+    scene: &Bound<'py, PyAny>,
+    record: Option<&Bound<'py, PyAny>>,
+    limits: Option<&Bound<'py, PyAny>>,
+) -> PyResult<Option<Bound<'py, PyDict>>> {
+    let (Some(scene), Some(record), Some(limits)) = (
+        Json::of(scene),
+        optional_json(record),
+        optional_json(limits),
+    ) else {
+        return Ok(None);
+    };
     let outcome = py.detach(move || -> Result<PointRun> {
-        let scene = parse_json(&scene, "scene")?;
-        let record = record.map(|r| parse_json(&r, "record")).transpose()?;
-        let limits = limits.map(|l| parse_json(&l, "limits")).transpose()?;
+        let scene = scene.value("scene")?;
+        let record = record.map(|r| r.value("record")).transpose()?;
+        let limits = limits.map(|l| l.value("limits")).transpose()?;
         run_point(scene, record, limits)
     });
     let run = outcome.map_err(|e| crate::py_error(py, &e, "scene"))?;
@@ -275,5 +363,5 @@ pub fn run_scene<'py>(
     d.set_item("history_recorded", run.scene.record.history)?;
     d.set_item("min_overlap_recorded", run.scene.record.min_overlap)?;
     d.set_item("energy_flow_recorded", run.scene.record.energy_flow)?;
-    Ok(d)
+    Ok(Some(d))
 }

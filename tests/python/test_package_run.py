@@ -162,6 +162,49 @@ def test_numpy_values_in_the_scene_are_accepted():
     assert chainsweep.run(s).run_hash.item() == chainsweep.run(t).run_hash.item()
 
 
+def test_plain_values_are_read_as_their_json_text():
+    """The engine reads a scene of plain values as the JSON text of it would read (bitwise the same
+    run), and declines, running nothing, whatever that text would not give back exactly: the
+    caller then writes the text, which converts numpy values and names what cannot be JSON."""
+    from chainsweep import _chainsweep as native
+
+    s = scene(history=True)
+    s["physics"]["damping_kg_s"] = 6  # an int where the field is a float
+    s["striker_velocity_m_s"] = np.float64(1.3)  # a float subclass: its float value
+    s["physics"]["gravity"] = True
+    s["record"]["probes"] = tuple(s["record"]["probes"])  # a JSON list
+    record = s.pop("record")
+    plain = native.run_scene(s, record)
+    text = native.run_scene(json.dumps(s), json.dumps(record))
+    assert plain is not None and plain["ok"]
+    assert plain["run_hash"] == text["run_hash"] and plain["scene"] == text["scene"]
+    for name in ("leading_peak", "record_max", "t_end_s", "steps", "rhs_evals"):
+        assert plain["columns"][name] == text["columns"][name], name
+    assert plain["history"] == text["history"]
+
+    # Not plain: declined, whatever else the argument holds.
+    for path, value in [
+        ("physics.damping_kg_s", np.int64(6)),
+        ("physics.damping_kg_s", float("nan")),
+        ("physics.damping_kg_s", float("inf")),
+        ("chain.cylinders", 2**70),
+        ("chain.cylinders", object()),
+    ]:
+        t = copy.deepcopy(s)
+        set_path(t, path, value)
+        assert native.run_scene(t, record) is None, (path, value)
+    assert native.run_scene(s, {**record, 3: 4}) is None
+    assert native.run_scene(s, record, {"energy_drift_max": np.float32(1e-3)}) is None
+    deep: dict = {}
+    for _ in range(200):
+        deep = {"x": deep}
+    assert native.run_scene({**s, "extra": deep}, record) is None
+    # Through chainsweep.run they take the written path: the same run, or the named field.
+    t = copy.deepcopy(s)
+    t["physics"]["damping_kg_s"] = np.int64(6)
+    assert chainsweep.run({**t, "record": record}).run_hash.item() == plain["run_hash"]
+
+
 @pytest.mark.parametrize(
     "path, value, field",
     [

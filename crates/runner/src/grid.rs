@@ -186,11 +186,25 @@ impl Grid {
         Grid::expand(sweep, &|_| {})
     }
 
+    /// [`Grid::new`] and the scene of its first point, which the expansion builds anyway: what a
+    /// one-point sweep (a scene run from Python) runs, without reading its JSON again.
+    pub fn with_first_scene(sweep: &Sweep) -> Result<(Grid, Scene)> {
+        Grid::expand_keeping_first(sweep, &|_| {})
+    }
+
     /// [`Grid::new`], calling `progress` with the number of points expanded so far every few
     /// thousand points (from the worker threads). The points are expanded in parallel on rayon's
     /// global pool, in chunks; the grid is the same as a sequential expansion's, whatever the
     /// threads (every value is computed per point, and a chunk's findings are merged in order).
     pub fn expand(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> Result<Grid> {
+        Grid::expand_keeping_first(sweep, progress).map(|(grid, _)| grid)
+    }
+
+    /// [`Grid::expand`], returning the first point's scene too.
+    fn expand_keeping_first(
+        sweep: &Sweep,
+        progress: &(dyn Fn(usize) + Sync),
+    ) -> Result<(Grid, Scene)> {
         use rayon::prelude::*;
         use std::sync::atomic::{AtomicUsize, Ordering};
         let shape = sweep.shape();
@@ -262,7 +276,11 @@ impl Grid {
             let mut value = sweep.base.clone();
             for (k, (hash, parts)) in hashes.iter_mut().zip(particles.iter_mut()).enumerate() {
                 let i = start + k;
-                Grid::point(sweep, shape, i, &record, &mut value, hash, parts, &mut info)?;
+                // The first point was read above: its scene is not read from its JSON twice.
+                let known = (i == 0).then_some(&first);
+                Grid::point(
+                    sweep, shape, i, &record, &mut value, known, hash, parts, &mut info,
+                )?;
             }
             let total = done.fetch_add(hashes.len(), Ordering::Relaxed) + hashes.len();
             progress(total);
@@ -337,7 +355,7 @@ impl Grid {
                 }
             }
         }
-        Ok(grid)
+        Ok((grid, first))
     }
 
     /// The errors of a sweep's grid points, each distinct error once, at most `most`: what
@@ -388,7 +406,7 @@ impl Grid {
         for i in 0..n {
             let (mut hash, mut parts, mut info) = ([0; 32], 0, ChunkInfo::default());
             let r = Grid::point(
-                sweep, &shape, i, &record, &mut value, &mut hash, &mut parts, &mut info,
+                sweep, &shape, i, &record, &mut value, None, &mut hash, &mut parts, &mut info,
             );
             if let Err(e) = r {
                 match index.entry(key(&e)) {
@@ -436,7 +454,7 @@ impl Grid {
 
     /// Expands point `i` into `value` (the base scene with every axis value of the point set),
     /// validates it, and writes its run hash and particle count; what it adds to the chunk goes
-    /// to `info`.
+    /// to `info`. `known`: the point's scene, where it was read from that JSON already.
     #[allow(clippy::too_many_arguments)]
     fn point(
         sweep: &Sweep,
@@ -444,15 +462,25 @@ impl Grid {
         i: usize,
         record: &Record<'_>,
         value: &mut Value,
+        known: Option<&Scene>,
         hash: &mut RunHash,
         particles: &mut u32,
         info: &mut ChunkInfo,
     ) -> Result<()> {
         Grid::set_point(sweep, shape, i, value);
-        let scene: Scene = from_ref_at(value, "").map_err(|e| match e {
-            Error::Input { field, message, .. } => locate(sweep, shape, i, &field, &message),
-            other => other,
-        })?;
+        let read;
+        let scene: &Scene = match known {
+            Some(scene) => scene,
+            None => {
+                read = from_ref_at::<Scene>(value, "").map_err(|e| match e {
+                    Error::Input { field, message, .. } => {
+                        locate(sweep, shape, i, &field, &message)
+                    }
+                    other => other,
+                })?;
+                &read
+            }
+        };
         let chain = scene
             .validate()
             .map_err(|e| locate(sweep, shape, i, &e.field, &e.message))?;
@@ -496,9 +524,9 @@ impl Grid {
                 info.warnings.push((i, warnings));
             }
         }
-        let moving_part = chainsweep_solver::integrates_moving_part_of(&scene, &chain);
+        let moving_part = chainsweep_solver::integrates_moving_part_of(scene, &chain);
         info.moving_part |= moving_part;
-        *hash = run_hash_with(&scene, sweep.limits.energy_drift_max, moving_part);
+        *hash = run_hash_with(scene, sweep.limits.energy_drift_max, moving_part);
         Ok(())
     }
 

@@ -397,8 +397,12 @@ fn first(errors: Vec<Error>) -> Error {
         .expect("a failed check names at least one error")
 }
 
-/// Deserialises `value` as `T`, naming the failing field (prefixed by `prefix`) on error.
+/// Deserialises `value` as `T`, naming the failing field (prefixed by `prefix`) on error. Read
+/// plainly first, as [`from_ref_at`] does, and again tracking the path only when that fails.
 pub fn from_value_at<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T> {
+    if let Ok(t) = T::deserialize(&value) {
+        return Ok(t);
+    }
     serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
         let path = e.path().to_string();
         let field = join_path(prefix, if path == "." { "" } else { &path });
@@ -1287,8 +1291,11 @@ impl Sweep {
         if let Some(l) = limits {
             file.insert("limits".into(), l);
         }
-        let text = Value::Object(file).to_string();
-        let file = read_json(&text)?;
+        let file = Value::Object(file);
+        let text = file.to_string();
+        // Read from the value itself: its text, parsed again, gives the same value (a map has
+        // no duplicate keys to refuse).
+        let file: SweepFile = from_value_at(file, "")?;
         let (mut base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         recording::resolve(&mut base, std::path::Path::new("."))?;
         let limits = parse_limits(file.limits)?;
