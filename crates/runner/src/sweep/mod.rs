@@ -397,17 +397,10 @@ fn first(errors: Vec<Error>) -> Error {
         .expect("a failed check names at least one error")
 }
 
-/// Deserialises `value` as `T`, naming the failing field (prefixed by `prefix`) on error. Read
-/// plainly first, as [`from_ref_at`] does, and again tracking the path only when that fails.
+/// Deserialises `value` as `T`, naming the failing field (prefixed by `prefix`) on error
+/// ([`from_ref_at`] of it).
 pub fn from_value_at<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T> {
-    if let Ok(t) = T::deserialize(&value) {
-        return Ok(t);
-    }
-    serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
-        let path = e.path().to_string();
-        let field = join_path(prefix, if path == "." { "" } else { &path });
-        Error::input(field, e.into_inner().to_string())
-    })
+    from_ref_at(&value, prefix)
 }
 
 /// [`from_value_at`] reading a borrowed value (no copy of it is made). Read plainly first, and
