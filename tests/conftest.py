@@ -8,6 +8,7 @@ import hashlib
 import json
 import os
 import subprocess
+import zlib
 from pathlib import Path
 
 import h5py
@@ -65,11 +66,52 @@ def interruptible_sweep():
     return s
 
 
+PACKED = 1 << 63
+
+
+def log_frames(data):
+    """The frames of a log's bytes, in order, up to a torn tail: (start, payload length, packed,
+    segment bytes or None where they cannot be had). A frame is `u64 length | payload`; a plain
+    frame's payload is the segment (a run record ending in its SHA-256); a packed frame (bit 63 of
+    its length set) holds `u32 back | raw deflate of the segment`, with the segment of its key,
+    the plain frame starting `back` bytes before it, as the deflate dictionary. This reads the
+    format independently of chainsweep, with Python's own zlib."""
+    frames, at = [], 0
+    plain = {}
+    while at + 8 <= len(data):
+        head = int.from_bytes(data[at : at + 8], "little")
+        n, packed = head & ~PACKED, bool(head & PACKED)
+        if n > len(data) - at - 8:
+            break
+        payload = bytes(data[at + 8 : at + 8 + n])
+        seg = None
+        if not packed:
+            seg = payload
+            plain[at] = payload
+        elif n >= 4:
+            key = plain.get(at - int.from_bytes(payload[:4], "little"))
+            if key is not None:
+                d = zlib.decompressobj(wbits=-15, zdict=key)
+                try:
+                    seg = d.decompress(payload[4:], 4097)
+                    seg = seg if d.eof and not d.unused_data and len(seg) <= 4096 else None
+                except zlib.error:
+                    seg = None
+        frames.append((at, n, packed, seg))
+        at += 8 + n
+    return frames
+
+
 def log_records(out):
     """Every whole, checksummed run record in the logs of the work directory of output `out`
-    (`X.h5.d/logs/<n>.log`: frames `u64 length | record ending in its SHA-256`), as
-    (log name, run hash hex, ok) in the order written; a torn tail or corrupt record is left out,
-    as chainsweep leaves it out."""
+    (`X.h5.d/logs/<n>.log`, see `log_frames`), as (log name, run hash hex, ok) in the order
+    written; a torn tail or corrupt record is left out, as chainsweep leaves it out."""
+    return [(name, seg[8:40].hex(), seg[40] == 1) for name, seg in log_segments(out)]
+
+
+def log_segments(out):
+    """Every whole, checksummed record (its segment bytes) in the logs of the work directory of
+    output `out`, as (log name, segment bytes) in the order written."""
     d = out.parent / (out.name + ".d") / "logs"
     found = []
     if not d.is_dir():
@@ -79,15 +121,9 @@ def log_records(out):
             data = log.read_bytes()
         except FileNotFoundError:  # compacted away meanwhile
             continue
-        at = 0
-        while at + 8 <= len(data):
-            n = int.from_bytes(data[at : at + 8], "little")
-            if n > len(data) - at - 8:
-                break
-            rec = data[at + 8 : at + 8 + n]
-            at += 8 + n
-            if _whole(rec):
-                found.append((log.name, rec[8:40].hex(), rec[40] == 1))
+        for _, _, _, seg in log_frames(data):
+            if seg is not None and _whole(seg):
+                found.append((log.name, seg))
     return found
 
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import BIN, base_sweep, log_records, run, texts, with_axes, write_sweep
+from conftest import BIN, base_sweep, log_records, log_segments, run, texts, with_axes, write_sweep
 
 
 def long_sweep():
@@ -203,18 +203,7 @@ def test_the_reference_integrates_what_active_region_says(reference):
 
 def _records(out):
     """Every stored record of the work directory's logs: run hash (hex) -> record bytes."""
-    d = out.parent / (out.name + ".d") / "logs"
-    found = {}
-    for log in sorted(d.glob("*.log")):
-        data = log.read_bytes()
-        at = 0
-        while at + 8 <= len(data):
-            n = int.from_bytes(data[at : at + 8], "little")
-            if n > len(data) - at - 8:
-                break
-            found[data[at + 16 : at + 48].hex()] = data[at + 8 : at + 8 + n]
-            at += 8 + n
-    return found
+    return {seg[8:40].hex(): seg for _, seg in log_segments(out)}
 
 
 def _integrated_of(rec):

@@ -30,7 +30,9 @@ from conftest import (
     assert_files_equal,
     base_sweep,
     interruptible_sweep,
+    log_frames,
     log_records,
+    log_segments,
     run,
     segment_count,
     work_dir_files,
@@ -296,14 +298,10 @@ def test_torn_and_corrupt_records_are_recomputed_and_status_agrees(references, t
     assert len(recs) >= 12
     log = out.parent / (out.name + ".d") / "logs" / recs[0][0]
     data = bytearray(log.read_bytes())
-    # Flip a byte inside the third record, and tear the last one in half.
-    starts, at = [], 0
-    while at + 8 <= len(data):
-        n = int.from_bytes(data[at : at + 8], "little")
-        if n > len(data) - at - 8:
-            break
-        starts.append((at, n))
-        at += 8 + n
+    # Flip a byte inside the third record (packed against the first, which it does not touch),
+    # and tear the last one in half.
+    starts = [(at, n) for at, n, _, _ in log_frames(data)]
+    assert log_frames(data)[2][2], "the third record is packed"
     third, n3 = starts[2]
     data[third + 8 + n3 // 2] ^= 0x01
     last, nl = starts[-1]
@@ -346,16 +344,10 @@ def test_one_file_segments_of_earlier_versions_resume(references, tmp_path):
     seg = work / "segments"
     seg.mkdir()
     n = 0
+    for _, rec in log_segments(out):
+        (seg / (rec[8:40].hex() + ".seg")).write_bytes(rec)
+        n += 1
     for log in sorted((work / "logs").glob("*.log")):
-        data, at = log.read_bytes(), 0
-        while at + 8 <= len(data):
-            k = int.from_bytes(data[at : at + 8], "little")
-            if k > len(data) - at - 8:
-                break
-            rec = data[at + 8 : at + 8 + k]
-            (seg / (rec[8:40].hex() + ".seg")).write_bytes(rec)
-            n += 1
-            at += 8 + k
         log.unlink()
     stored = segment_count(out)
     assert stored >= 10

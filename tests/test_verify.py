@@ -4,7 +4,7 @@ setting, the observed relative errors stored per point, resumable, and identical
 import h5py
 import numpy as np
 
-from conftest import assert_files_equal, base_sweep, log_records, run, segment_count, write_sweep
+from conftest import assert_files_equal, base_sweep, log_frames, log_records, run, segment_count, write_sweep
 
 VERIFY_PROBE = [
     "verify_rel_error_leading_peak",
@@ -128,10 +128,8 @@ def test_a_corrupt_verification_record_is_recomputed(tmp_path, binary):
     assert len(recs) == 3
     log = out.parent / (out.name + ".d") / "logs" / recs[0][0]
     data = bytearray(log.read_bytes())
-    at, n = 0, 0
-    while n < 1:
-        at += 8 + int.from_bytes(data[at : at + 8], "little")
-        n += 1
+    at, n, _, _ = log_frames(data)[1]
+    assert n > 60
     data[at + 8 + 60] ^= 0x10
     log.write_bytes(bytes(data))
     assert len(log_records(out)) == 2

@@ -1,21 +1,39 @@
 //! Append-only logs of run records: `X.h5.d/logs/<n>.log`.
 //!
 //! Each process that stores runs in a work directory appends them to a log of its own (a new
-//! one each time it takes the lock), as frames
+//! one each time it takes the lock), as frames of two kinds:
 //!
 //! ```text
-//! length (u64, little endian) | segment bytes (see [`super::segment`], ending in their SHA-256)
+//! plain:  length (u64, little endian) | segment bytes (see [`super::segment`], ending in their SHA-256)
+//! packed: length | 1 << 63 (u64) | back (u32) | the segment bytes, raw deflate with a dictionary
 //! ```
+//!
+//! A packed frame's dictionary is the segment bytes of its *key*, the plain frame that starts
+//! `back` bytes before it in the same log. Every plain frame of at most [`PACK_MAX`] segment bytes
+//! is the key of the packed frames after it, up to the next such frame; the writer ([`Framer`])
+//! writes one at the start of a log, every [`KEY_EVERY`] frames and wherever packing would not
+//! save a byte. A run's record shares most of its bytes with its neighbour's (the format, the
+//! counters' high bytes, the warnings' text), so a summary run's frame is about half as long
+//! packed, and what a damaged key costs is bounded: the packed frames that use it read as
+//! damaged, and their runs are computed again. Segments longer than [`PACK_MAX`] (histories,
+//! fields) are always plain: their floats would not pay for the time to deflate them.
 //!
 //! A frame is written with one `write` call and made durable by `fdatasync` at the next
 //! checkpoint ([`super::WorkDir`]). A process killed in the middle of a frame leaves a torn tail;
-//! a disk that flips bits leaves a record whose checksum fails. [`scan`] reads past neither as a
-//! record: such a run is missing and is computed again. A log is never appended to by a later
-//! process, so a torn tail is never followed by good frames of another writer.
+//! a disk that flips bits leaves a record whose checksum fails (a packed one is checked after it
+//! is inflated). [`scan`] reads past neither as a record: such a run is missing and is computed
+//! again. A log is never appended to by a later process, so a torn tail is never followed by good
+//! frames of another writer. (Versions before packed frames read a log up to its first packed
+//! frame, as a torn tail.)
 
+use std::cell::RefCell;
 use std::fs::File;
 use std::io::{self, BufReader, Read};
+use std::os::unix::fs::FileExt;
 use std::path::Path;
+use std::sync::Mutex;
+
+use flate2::{Compress, Compression, Decompress, FlushCompress, FlushDecompress, Status};
 
 use crate::identity::RunHash;
 
@@ -41,12 +59,173 @@ pub fn log_seq(name: &str) -> Option<u64> {
     stem.parse().ok()
 }
 
-/// A frame of `segment_bytes`, ready to append.
+/// The bit of a frame's length field that marks it packed.
+pub const PACKED: u64 = 1 << 63;
+
+/// Segment bytes up to which a record is packed (a summary run's record is a few hundred).
+pub const PACK_MAX: usize = 4096;
+
+/// At most this many packed frames follow a key before the next key, so that a damaged key costs
+/// at most as many runs, and the dictionary follows the records' drift through the grid.
+pub const KEY_EVERY: u32 = 256;
+
+/// Bytes of a packed frame's back reference.
+const BACK: usize = 4;
+
+/// A plain frame of `segment_bytes`.
 pub fn frame(segment_bytes: &[u8]) -> Vec<u8> {
     let mut f = Vec::with_capacity(segment_bytes.len() + FRAME_HEAD as usize);
     f.extend_from_slice(&(segment_bytes.len() as u64).to_le_bytes());
     f.extend_from_slice(segment_bytes);
     f
+}
+
+/// Frames the records one writer appends to one log, packing each against the last key.
+pub struct Framer {
+    deflate: Compress,
+    /// The segment bytes of the key, and where its frame starts in the log.
+    key: Vec<u8>,
+    key_start: Option<u64>,
+    since_key: u32,
+}
+
+impl std::fmt::Debug for Framer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Framer")
+            .field("key_start", &self.key_start)
+            .field("since_key", &self.since_key)
+            .finish()
+    }
+}
+
+impl Default for Framer {
+    fn default() -> Self {
+        Framer {
+            deflate: Compress::new(Compression::fast(), false),
+            key: Vec::new(),
+            key_start: None,
+            since_key: 0,
+        }
+    }
+}
+
+impl Framer {
+    /// The frame of `segment_bytes`, to be appended at byte `start` of the log, and whether it
+    /// is packed.
+    pub fn frame(&mut self, segment_bytes: &[u8], start: u64) -> (Vec<u8>, bool) {
+        if segment_bytes.len() > PACK_MAX {
+            return (frame(segment_bytes), false);
+        }
+        if let Some(key_start) = self.key_start.filter(|_| self.since_key < KEY_EVERY) {
+            if let Some(packed) = self.pack(segment_bytes, start - key_start) {
+                self.since_key += 1;
+                return (packed, true);
+            }
+        }
+        self.key.clear();
+        self.key.extend_from_slice(segment_bytes);
+        self.key_start = Some(start);
+        self.since_key = 0;
+        (frame(segment_bytes), false)
+    }
+
+    /// Forgets the key: the last frame was not written after all (a write that failed and was cut
+    /// off again), and it may have been the key.
+    pub fn forget(&mut self) {
+        self.key_start = None;
+    }
+
+    /// The packed frame of `segment_bytes`, `back` bytes after the key's; `None` when it would not
+    /// be shorter than the plain one.
+    fn pack(&mut self, segment_bytes: &[u8], back: u64) -> Option<Vec<u8>> {
+        let back = u32::try_from(back).ok()?;
+        self.deflate.reset();
+        self.deflate.set_dictionary(&self.key).ok()?;
+        // Room for less than the plain frame: a stream that does not fit does not pay.
+        let plain = FRAME_HEAD as usize + segment_bytes.len();
+        let mut f = Vec::with_capacity(plain - 1);
+        f.extend_from_slice(&[0; FRAME_HEAD as usize]);
+        f.extend_from_slice(&back.to_le_bytes());
+        match self
+            .deflate
+            .compress_vec(segment_bytes, &mut f, FlushCompress::Finish)
+        {
+            Ok(Status::StreamEnd) if f.len() < plain => {}
+            _ => return None,
+        }
+        let len = (f.len() as u64 - FRAME_HEAD) | PACKED;
+        f[..FRAME_HEAD as usize].copy_from_slice(&len.to_le_bytes());
+        Some(f)
+    }
+}
+
+/// How far before a packed frame's start its key frame starts.
+fn back_of(payload: &[u8]) -> Option<u64> {
+    let b: [u8; BACK] = payload.get(..BACK)?.try_into().ok()?;
+    Some(u32::from_le_bytes(b) as u64)
+}
+
+thread_local! {
+    /// One inflater a thread, reset for every packed frame (its window is kept, not reallocated).
+    static INFLATE: RefCell<Decompress> = RefCell::new(Decompress::new(false));
+}
+
+/// The segment bytes of a packed frame's `payload`, given its key's segment bytes; `None` when
+/// they do not inflate to a whole stream of at most [`PACK_MAX`] bytes.
+fn unpack(payload: &[u8], key: &[u8]) -> Option<Vec<u8>> {
+    let stream = payload.get(BACK..)?;
+    INFLATE.with_borrow_mut(|inflate| {
+        inflate.reset(false);
+        inflate.set_dictionary(key).ok()?;
+        let before = inflate.total_in();
+        let mut out = Vec::with_capacity(PACK_MAX + 1);
+        match inflate.decompress_vec(stream, &mut out, FlushDecompress::Finish) {
+            Ok(Status::StreamEnd) if inflate.total_in() - before == stream.len() as u64 => {
+                Some(out)
+            }
+            _ => None,
+        }
+    })
+}
+
+/// The last key [`read_at`] read from a log, where its frame starts: the packed frames after a
+/// key are mostly read one after another.
+pub type KeyCache = Mutex<Option<(u64, Vec<u8>)>>;
+
+/// Reads the segment bytes of the frame whose payload is `len` bytes at `offset` of `log`
+/// (inflated, when `packed`, with its key, from `keys` or read from the log); `None` when a
+/// packed frame's key is no plain frame of at most [`PACK_MAX`] bytes, or it does not inflate.
+/// The caller checks the bytes' checksum.
+pub fn read_at(
+    log: &File,
+    offset: u64,
+    len: u64,
+    packed: bool,
+    keys: &KeyCache,
+) -> io::Result<Option<Vec<u8>>> {
+    let mut payload = vec![0u8; len as usize];
+    log.read_exact_at(&mut payload, offset)?;
+    if !packed {
+        return Ok(Some(payload));
+    }
+    let Some(key_start) = back_of(&payload).and_then(|b| (offset - FRAME_HEAD).checked_sub(b))
+    else {
+        return Ok(None);
+    };
+    let mut cached = keys.lock().unwrap_or_else(|e| e.into_inner());
+    if cached.as_ref().map(|(at, _)| *at) != Some(key_start) {
+        let mut head = [0u8; FRAME_HEAD as usize];
+        log.read_exact_at(&mut head, key_start)?;
+        let key_len = u64::from_le_bytes(head);
+        if key_len > PACK_MAX as u64 {
+            return Ok(None);
+        }
+        let mut key = vec![0u8; key_len as usize];
+        log.read_exact_at(&mut key, key_start + FRAME_HEAD)?;
+        *cached = Some((key_start, key));
+    }
+    let key = &cached.as_ref().expect("just read").1;
+    Ok(unpack(&payload, key))
 }
 
 /// A whole, checksummed record found in a log.
@@ -56,10 +235,12 @@ pub struct Found {
     pub hash: RunHash,
     /// Whether the run succeeded.
     pub ok: bool,
-    /// Where its segment bytes start in the log.
+    /// Where its frame's payload starts in the log.
     pub offset: u64,
-    /// How many segment bytes.
+    /// How many payload bytes.
     pub len: u64,
+    /// Whether the frame is packed (its payload is not the segment bytes themselves).
+    pub packed: bool,
 }
 
 /// How a scan of a log ended.
@@ -88,6 +269,8 @@ pub fn scan(path: &Path, from: u64, mut found: impl FnMut(Found)) -> io::Result<
         ..ScanEnd::default()
     };
     let mut buf = Vec::new();
+    // The last plain frame that may be a key: where it starts, and its segment bytes (whole).
+    let mut key: Option<(u64, Vec<u8>)> = None;
     while at < size {
         let mut head = [0u8; FRAME_HEAD as usize];
         if size - at < FRAME_HEAD {
@@ -95,22 +278,40 @@ pub fn scan(path: &Path, from: u64, mut found: impl FnMut(Found)) -> io::Result<
             break;
         }
         r.read_exact(&mut head)?;
-        let len = u64::from_le_bytes(head);
+        let head = u64::from_le_bytes(head);
+        let (len, packed) = (head & !PACKED, head & PACKED != 0);
         if len > size - at - FRAME_HEAD {
             out.torn = true;
             break;
         }
         buf.clear();
         Read::by_ref(&mut r).take(len).read_to_end(&mut buf)?;
+        let start = at;
         let offset = at + FRAME_HEAD;
         at = offset + len;
         out.end = at;
-        match segment::verify(&buf) {
+        let checked = if packed {
+            let from_key = back_of(&buf).and_then(|b| start.checked_sub(b));
+            match &key {
+                Some((key_start, k)) if Some(*key_start) == from_key => {
+                    unpack(&buf, k).and_then(|seg| segment::verify(&seg))
+                }
+                _ => None,
+            }
+        } else {
+            let checked = segment::verify(&buf);
+            if buf.len() <= PACK_MAX {
+                key = checked.is_some().then(|| (start, buf.clone()));
+            }
+            checked
+        };
+        match checked {
             Some((hash, ok)) => found(Found {
                 hash,
                 ok,
                 offset,
                 len,
+                packed,
             }),
             None => out.corrupt += 1,
         }
@@ -126,6 +327,92 @@ mod tests {
 
     fn rec(n: u8) -> RunRecord {
         RunRecord::failed([n; 32], format!("reason {n}"), 0.5)
+    }
+
+    /// A log's bytes, each frame's start and whether it is packed, and each record's segment
+    /// bytes.
+    type FramedLog = (Vec<u8>, Vec<(usize, bool)>, Vec<Vec<u8>>);
+
+    /// A log of `n` records as one writer frames them.
+    fn framed_log(n: u32) -> FramedLog {
+        let mut framer = Framer::default();
+        let (mut log, mut frames, mut segs) = (Vec::new(), Vec::new(), Vec::new());
+        for i in 0..n {
+            let mut hash = [0u8; 32];
+            hash[..4].copy_from_slice(&i.to_le_bytes());
+            // Summaries that differ from run to run, a warning shared by most.
+            let mut r = RunRecord::failed(hash, String::new(), 0.1 + f64::from(i) * 1.3e-7);
+            r.warnings = format!(
+                "impact pulse of {:.3e} s is short",
+                2.3e-5 + f64::from(i % 7) * 1e-8
+            );
+            let seg = segment::encode(&r);
+            let (f, packed) = framer.frame(&seg, log.len() as u64);
+            frames.push((log.len(), packed));
+            log.extend_from_slice(&f);
+            segs.push(seg);
+        }
+        (log, frames, segs)
+    }
+
+    fn scan_bytes(bytes: &[u8]) -> (Vec<Found>, ScanEnd) {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(log_name(1));
+        File::create(&path).unwrap().write_all(bytes).unwrap();
+        let mut got = Vec::new();
+        let end = scan(&path, 0, |f| got.push(f)).unwrap();
+        (got, end)
+    }
+
+    #[test]
+    fn packed_frames_read_back_bitwise_and_a_damaged_key_costs_only_its_own() {
+        let n = 2 * KEY_EVERY + 40;
+        let (log, frames, segs) = framed_log(n);
+        // A key every KEY_EVERY + 1 frames, the rest packed, and packing pays: under two thirds.
+        let keys: Vec<usize> = (0..frames.len()).filter(|&i| !frames[i].1).collect();
+        assert_eq!(keys, vec![0, 257, 514]);
+        let plain: usize = segs.iter().map(|s| s.len() + FRAME_HEAD as usize).sum();
+        assert!(log.len() * 3 < plain * 2, "{} of {plain}", log.len());
+        let (got, end) = scan_bytes(&log);
+        assert_eq!((got.len(), end.corrupt, end.torn), (n as usize, 0, false));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(log_name(1));
+        File::create(&path).unwrap().write_all(&log).unwrap();
+        let file = File::open(&path).unwrap();
+        let keys = KeyCache::default();
+        for (f, seg) in got.iter().zip(&segs) {
+            let back = read_at(&file, f.offset, f.len, f.packed, &keys).unwrap();
+            assert_eq!(back.as_deref(), Some(&seg[..]));
+        }
+        // A flipped byte in the second key: it and the packed frames after it are damaged, up to
+        // the third key; every other record reads as before.
+        let mut bad = log.clone();
+        bad[frames[257].0 + 60] ^= 0x04;
+        let (got, end) = scan_bytes(&bad);
+        assert_eq!(end.corrupt, 257);
+        let first: Vec<u32> = got
+            .iter()
+            .map(|f| u32::from_le_bytes(f.hash[..4].try_into().unwrap()))
+            .collect();
+        let want: Vec<u32> = (0..257).chain(514..n).collect();
+        assert_eq!(first, want);
+        // A flipped byte in a packed frame costs that frame alone; a packed frame torn in half is
+        // a torn tail.
+        let mut bad = log.clone();
+        bad[frames[3].0 + FRAME_HEAD as usize + 30] ^= 0x01;
+        let torn_at = frames[n as usize - 1].0 + 20;
+        bad.truncate(torn_at);
+        let (got, end) = scan_bytes(&bad);
+        assert_eq!(
+            (got.len(), end.corrupt, end.torn),
+            (n as usize - 2, 1, true)
+        );
+        assert_eq!(end.end, frames[n as usize - 1].0 as u64);
+        // A packed frame whose key went (the log cut before it is rewritten elsewhere) reads as
+        // damaged, never as another record.
+        let (got, end) = scan_bytes(&log[frames[300].0..frames[514].0]);
+        assert!(got.is_empty() && !end.torn);
+        assert_eq!(end.corrupt, 514 - 300);
     }
 
     #[test]

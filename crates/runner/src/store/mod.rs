@@ -43,7 +43,6 @@ pub mod snapshot;
 use std::collections::HashMap;
 use std::fs::{self, File, OpenOptions};
 use std::io::{Read, Write};
-use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, MutexGuard, OnceLock};
@@ -56,7 +55,7 @@ use crate::identity::{from_hex, hex, RunHash};
 use crate::record::RunRecord;
 use crate::sweep::auto::AutoChoice;
 
-use self::log::{frame, log_name, log_seq, LOG_DIR};
+use self::log::{log_name, log_seq, Framer, LOG_DIR};
 use self::published::{Check, Damage, PublishedFile};
 use self::snapshot::SNAPSHOT_FILE;
 
@@ -111,11 +110,13 @@ fn segment_hash(file_name: &str) -> Option<RunHash> {
 enum Loc {
     /// `segments/<hash>.seg` of an earlier version.
     Segment { ok: bool },
-    /// In log number `log` (an index into [`Stored::logs`]).
+    /// In log number `log` (an index into [`Stored::logs`]): the frame's payload, packed or not
+    /// (see [`log`]).
     Log {
         log: usize,
         offset: u64,
         len: u64,
+        packed: bool,
         ok: bool,
     },
     /// In the published output file (or restored from its snapshot).
@@ -166,6 +167,7 @@ impl std::fmt::Debug for Stored {
 struct LogFile {
     path: PathBuf,
     reader: OnceLock<File>,
+    keys: log::KeyCache,
 }
 
 impl LogFile {
@@ -173,6 +175,7 @@ impl LogFile {
         LogFile {
             path,
             reader: OnceLock::new(),
+            keys: log::KeyCache::default(),
         }
     }
 
@@ -268,6 +271,7 @@ impl Stored {
                         log,
                         offset: f.offset,
                         len: f.len,
+                        packed: f.packed,
                         ok: f.ok,
                     },
                 );
@@ -348,19 +352,31 @@ impl Stored {
                 }
             }
             Loc::Log {
-                log, offset, len, ..
-            } => self.log_bytes(log, offset, len)?,
+                log,
+                offset,
+                len,
+                packed,
+                ..
+            } => match self.log_bytes(log, offset, len, packed)? {
+                Some(b) => b,
+                None => return Ok(None),
+            },
         };
         Ok(segment::decode(&bytes).filter(|r| &r.hash == hash))
     }
 
-    fn log_bytes(&self, log: usize, offset: u64, len: u64) -> Result<Vec<u8>> {
+    /// The segment bytes of the frame at `offset` of log `log`; `None` when a packed one no
+    /// longer inflates.
+    fn log_bytes(
+        &self,
+        log: usize,
+        offset: u64,
+        len: u64,
+        packed: bool,
+    ) -> Result<Option<Vec<u8>>> {
         let log = &self.logs[log];
-        let mut b = vec![0u8; len as usize];
-        log.reader()?
-            .read_exact_at(&mut b, offset)
-            .map_err(Error::io("read", &log.path))?;
-        Ok(b)
+        log::read_at(log.reader()?, offset, len, packed, &log.keys)
+            .map_err(Error::io("read", &log.path))
     }
 
     /// The segment bytes of a run stored in a log or segment (for compaction); `None` for one
@@ -368,8 +384,12 @@ impl Stored {
     fn raw(&self, hash: &RunHash) -> Result<Option<Vec<u8>>> {
         match self.entries.get(hash) {
             Some(&Loc::Log {
-                log, offset, len, ..
-            }) => self.log_bytes(log, offset, len).map(Some),
+                log,
+                offset,
+                len,
+                packed,
+                ..
+            }) => self.log_bytes(log, offset, len, packed),
             Some(Loc::Segment { .. }) => {
                 let path = self
                     .dir
@@ -447,6 +467,7 @@ struct Writer {
     log: usize,
     end: u64,
     dirty: bool,
+    framer: Framer,
 }
 
 #[derive(Debug)]
@@ -666,7 +687,7 @@ impl WorkDir {
     /// fails (a full disk) is cut off again, so the log stays whole and the run is simply not
     /// stored.
     pub fn write_segment(&self, rec: &RunRecord) -> Result<()> {
-        let bytes = frame(&segment::encode(rec));
+        let segment_bytes = segment::encode(rec);
         let mut st = lock(&self.state);
         let State { stored, writer } = &mut *st;
         if writer.is_none() {
@@ -674,8 +695,10 @@ impl WorkDir {
         }
         let w = writer.as_mut().expect("just created");
         let path = &stored.logs[w.log].path;
+        let (bytes, packed) = w.framer.frame(&segment_bytes, w.end);
         if let Err(e) = w.file.write_all(&bytes) {
             let _ = w.file.set_len(w.end);
+            w.framer.forget();
             return Err(Error::io("write", path)(e));
         }
         stored.entries.insert(
@@ -684,6 +707,7 @@ impl WorkDir {
                 log: w.log,
                 offset: w.end + log::FRAME_HEAD,
                 len: bytes.len() as u64 - log::FRAME_HEAD,
+                packed,
                 ok: rec.ok,
             },
         );
@@ -712,6 +736,7 @@ impl WorkDir {
                         log: stored.logs.len() - 1,
                         end: 0,
                         dirty: false,
+                        framer: Framer::default(),
                     });
                 }
                 Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => continue,
@@ -932,6 +957,7 @@ impl WorkDir {
                 let f = File::create(&tmp).map_err(Error::io("create", &tmp))?;
                 let mut out = std::io::BufWriter::with_capacity(1 << 20, f);
                 let mut at = 0u64;
+                let mut framer = Framer::default();
                 for (h, loc) in &moved {
                     let Some(bytes) = stored.raw(h)? else {
                         continue;
@@ -939,14 +965,15 @@ impl WorkDir {
                     if segment::verify(&bytes).map(|(vh, _)| vh) != Some(*h) {
                         continue;
                     }
-                    let framed = frame(&bytes);
+                    let (framed, packed) = framer.frame(&bytes, at);
                     out.write_all(&framed).map_err(Error::io("write", &tmp))?;
                     new_entries.push((
                         *h,
                         Loc::Log {
                             log: 0,
                             offset: at + log::FRAME_HEAD,
-                            len: bytes.len() as u64,
+                            len: framed.len() as u64 - log::FRAME_HEAD,
+                            packed,
                             ok: loc.ok(),
                         },
                     ));
