@@ -93,8 +93,8 @@ def log_frames(data):
             if key is not None:
                 d = zlib.decompressobj(wbits=-15, zdict=key)
                 try:
-                    seg = d.decompress(payload[4:], 4097)
-                    seg = seg if d.eof and not d.unused_data and len(seg) <= 4096 else None
+                    seg = d.decompress(payload[4:], 1025)
+                    seg = seg if d.eof and not d.unused_data and len(seg) <= 1024 else None
                 except zlib.error:
                     seg = None
         frames.append((at, n, packed, seg))
