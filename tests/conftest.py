@@ -122,7 +122,7 @@ def log_segments(out):
         except FileNotFoundError:  # compacted away meanwhile
             continue
         for _, _, _, seg in log_frames(data):
-            if seg is not None and _whole(seg):
+            if seg is not None and whole_record(seg):
                 found.append((log.name, seg))
     return found
 
@@ -153,7 +153,8 @@ def file_runs(out):
 SEGMENT_MAGICS = (b"CSWSEG\x00\x04", b"CSWSEG\x00\x03", b"CSWSEG\x00\x02")
 
 
-def _whole(rec):
+def whole_record(rec):
+    """Whether `rec` is a whole run record of a format chainsweep reads, its SHA-256 holding."""
     return (
         len(rec) > 73
         and rec[:8] in SEGMENT_MAGICS
@@ -166,7 +167,7 @@ def old_segments(out):
     d = out.parent / (out.name + ".d") / "segments"
     if not d.is_dir():
         return set()
-    return {p.stem for p in d.glob("*.seg") if p.is_file() and _whole(p.read_bytes())}
+    return {p.stem for p in d.glob("*.seg") if p.is_file() and whole_record(p.read_bytes())}
 
 
 def segment_count(out):
