@@ -264,7 +264,7 @@ impl Stored {
         for (_, path) in logs {
             let log = s.logs.len();
             let entries = &mut s.entries;
-            let end = log::scan(&path, 0, |f| {
+            let end = log::scan(&path, |f| {
                 entries.insert(
                     f.hash,
                     Loc::Log {
