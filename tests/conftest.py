@@ -74,10 +74,13 @@ def log_frames(data):
     segment bytes or None where they cannot be had). A frame is `u64 length | payload`; a plain
     frame's payload is the segment (a run record ending in its SHA-256); a packed frame (bit 63 of
     its length set) holds `u32 back | raw deflate of the segment`, with the segment of its key,
-    the plain frame starting `back` bytes before it, as the deflate dictionary. This reads the
-    format independently of chainsweep, with Python's own zlib."""
+    the plain frame of at most 1 KiB starting `back` bytes before it, as the deflate dictionary.
+    As chainsweep does, a packed frame is read against the last such plain frame that is whole or
+    the last that is not, whichever starts there (a key is only a dictionary: the packed record
+    is checked by its own SHA-256). This reads the format independently of chainsweep, with
+    Python's own zlib."""
     frames, at = [], 0
-    plain = {}
+    keys = {True: None, False: None}  # whole or not -> (start, bytes)
     while at + 8 <= len(data):
         head = int.from_bytes(data[at : at + 8], "little")
         n, packed = head & ~PACKED, bool(head & PACKED)
@@ -87,9 +90,11 @@ def log_frames(data):
         seg = None
         if not packed:
             seg = payload
-            plain[at] = payload
+            if n <= 1024:
+                keys[whole_record(payload)] = (at, payload)
         elif n >= 4:
-            key = plain.get(at - int.from_bytes(payload[:4], "little"))
+            start = at - int.from_bytes(payload[:4], "little")
+            key = next((k for s, k in filter(None, keys.values()) if s == start), None)
             if key is not None:
                 d = zlib.decompressobj(wbits=-15, zdict=key)
                 try:

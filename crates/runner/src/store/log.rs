@@ -184,7 +184,9 @@ fn unpack(payload: &[u8], key: &[u8]) -> Option<Vec<u8>> {
         let before = inflate.total_in();
         let mut out = Vec::with_capacity(PACK_MAX + 1);
         match inflate.decompress_vec(stream, &mut out, FlushDecompress::Finish) {
-            Ok(Status::StreamEnd) if inflate.total_in() - before == stream.len() as u64 => {
+            Ok(Status::StreamEnd)
+                if inflate.total_in() - before == stream.len() as u64 && out.len() <= PACK_MAX =>
+            {
                 Some(out)
             }
             _ => None,
@@ -225,7 +227,10 @@ pub fn read_at(
             return Ok(None);
         }
         let mut key = vec![0u8; key_len as usize];
-        log.read_exact_at(&mut key, key_start + FRAME_HEAD)?;
+        match log.read_exact_at(&mut key, key_start + FRAME_HEAD) {
+            Err(e) if e.kind() == io::ErrorKind::UnexpectedEof => return Ok(None),
+            r => r?,
+        }
         *cached = Some((key_start, key));
     }
     let key = &cached.as_ref().expect("just read").1;
@@ -268,8 +273,13 @@ pub fn scan(path: &Path, mut found: impl FnMut(Found)) -> io::Result<ScanEnd> {
     let mut at = 0;
     let mut out = ScanEnd::default();
     let mut buf = Vec::new();
-    // The last plain frame that may be a key: where it starts, and its segment bytes (whole).
+    // The frames that may be the key of a packed frame, where they start and their bytes: the last
+    // plain frame of at most PACK_MAX bytes that is whole, and the last that is not. A key is only
+    // a dictionary, and a packed record is checked by its own SHA-256, so a damaged key loses only
+    // the records that copy from its damaged bytes; and a packed frame whose flag a damaged byte
+    // cleared (read as a damaged plain frame) does not displace the key of the frames after it.
     let mut key: Option<(u64, Vec<u8>)> = None;
+    let mut damaged_key: Option<(u64, Vec<u8>)> = None;
     while at < size {
         let mut head = [0u8; FRAME_HEAD as usize];
         if size - at < FRAME_HEAD {
@@ -291,16 +301,21 @@ pub fn scan(path: &Path, mut found: impl FnMut(Found)) -> io::Result<ScanEnd> {
         out.end = at;
         let checked = if packed {
             let from_key = back_of(&buf).and_then(|b| start.checked_sub(b));
-            match &key {
-                Some((key_start, k)) if Some(*key_start) == from_key => {
-                    unpack(&buf, k).and_then(|seg| segment::verify(&seg))
-                }
-                _ => None,
-            }
+            [&key, &damaged_key]
+                .into_iter()
+                .flatten()
+                .find(|(key_start, _)| Some(*key_start) == from_key)
+                .and_then(|(_, k)| unpack(&buf, k))
+                .and_then(|seg| segment::verify(&seg))
         } else {
             let checked = segment::verify(&buf);
             if buf.len() <= PACK_MAX {
-                key = checked.is_some().then(|| (start, buf.clone()));
+                let slot = if checked.is_some() {
+                    &mut key
+                } else {
+                    &mut damaged_key
+                };
+                *slot = Some((start, buf.clone()));
             }
             checked
         };
@@ -383,18 +398,36 @@ mod tests {
             let back = read_at(&file, f.offset, f.len, f.packed, &keys).unwrap();
             assert_eq!(back.as_deref(), Some(&seg[..]));
         }
-        // A flipped byte in the second key: it and the packed frames after it are damaged, up to
-        // the third key; every other record reads as before.
+        let hashes = |got: &[Found]| -> Vec<u32> {
+            got.iter()
+                .map(|f| u32::from_le_bytes(f.hash[..4].try_into().unwrap()))
+                .collect()
+        };
+        // A flipped byte in the magic of the second key, which every record copies: the key and
+        // the packed frames after it are damaged, up to the third key; every other record reads.
         let mut bad = log.clone();
-        bad[frames[257].0 + 60] ^= 0x04;
+        bad[frames[257].0 + FRAME_HEAD as usize + 2] ^= 0x04;
         let (got, end) = scan_bytes(&bad);
         assert_eq!(end.corrupt, 257);
-        let first: Vec<u32> = got
-            .iter()
-            .map(|f| u32::from_le_bytes(f.hash[..4].try_into().unwrap()))
-            .collect();
         let want: Vec<u32> = (0..257).chain(514..n).collect();
-        assert_eq!(first, want);
+        assert_eq!(hashes(&got), want);
+        // A flipped byte in the key's own checksum, which no record copies: only the key is lost
+        // (a key is a dictionary; each packed record is checked by its own SHA-256).
+        let mut bad = log.clone();
+        let key_end = frames[257].0 + FRAME_HEAD as usize + segs[257].len();
+        bad[key_end - 5] ^= 0x04;
+        let (got, end) = scan_bytes(&bad);
+        assert_eq!(end.corrupt, 1);
+        let want: Vec<u32> = (0..257).chain(258..n).collect();
+        assert_eq!(hashes(&got), want);
+        // A packed frame whose flag a damaged byte cleared reads as a damaged plain frame, and
+        // does not take the key from the frames after it.
+        let mut bad = log.clone();
+        bad[frames[5].0 + 7] &= 0x7f;
+        let (got, end) = scan_bytes(&bad);
+        assert_eq!(end.corrupt, 1);
+        let want: Vec<u32> = (0..5).chain(6..n).collect();
+        assert_eq!(hashes(&got), want);
         // A flipped byte in a packed frame costs that frame alone; a packed frame torn in half is
         // a torn tail.
         let mut bad = log.clone();
