@@ -15,8 +15,8 @@
 //! save a byte. A run's record shares most of its bytes with its neighbour's (the format, the
 //! counters' high bytes, the warnings' text), so a summary run's frame is about two thirds as
 //! long packed (what is left is mostly its hash, its checksum and its floats), and what a damaged
-//! key costs is bounded: the packed frames that use it read as damaged, and their runs are
-//! computed again. Segments longer than [`PACK_MAX`] (histories, fields) are always plain:
+//! key costs is bounded: the packed frames after it that copy from its damaged bytes fail their
+//! own checksum, and their runs are computed again. Segments longer than [`PACK_MAX`] (histories, fields) are always plain:
 //! their floats would not pay for the time to deflate them.
 //!
 //! A frame is written with one `write` call and made durable by `fdatasync` at the next
