@@ -107,6 +107,20 @@ def log_frames(data):
     return frames
 
 
+def damage_frame(data, index, skip, mask):
+    """Flips a byte (XOR `mask`) of frame `index` of the log bytes `data` (a bytearray), from
+    `skip` bytes into its payload on, until its record no longer reads whole. (A flipped bit of a
+    packed record's deflate stream can decode to the same bytes, as when a match's distance moves
+    between two equal runs: such a record is rightly whole, so the flip moves on.)"""
+    at, n, _, _ = log_frames(data)[index]
+    for k in range(skip, n):
+        data[at + 8 + k] ^= mask
+        if not whole_record(log_frames(data)[index][3] or b""):
+            return
+        data[at + 8 + k] ^= mask
+    raise AssertionError(f"no flipped byte damages frame {index}")
+
+
 def log_records(out):
     """Every whole, checksummed run record in the logs of the work directory of output `out`
     (`X.h5.d/logs/<n>.log`, see `log_frames`), as (log name, run hash hex, ok) in the order

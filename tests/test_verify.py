@@ -4,7 +4,7 @@ setting, the observed relative errors stored per point, resumable, and identical
 import h5py
 import numpy as np
 
-from conftest import assert_files_equal, base_sweep, log_frames, log_records, run, segment_count, whole_record, write_sweep
+from conftest import assert_files_equal, base_sweep, damage_frame, log_records, run, segment_count, write_sweep
 
 VERIFY_PROBE = [
     "verify_rel_error_leading_peak",
@@ -128,16 +128,7 @@ def test_a_corrupt_verification_record_is_recomputed(tmp_path, binary):
     assert len(recs) == 3
     log = out.parent / (out.name + ".d") / "logs" / recs[0][0]
     data = bytearray(log.read_bytes())
-    at, n, _, _ = log_frames(data)[1]
-    # (A flipped bit of a packed record can decode to the same bytes; the flip moves on until the
-    # record no longer reads.)
-    for k in range(60, n):
-        data[at + 8 + k] ^= 0x10
-        if not whole_record(log_frames(data)[1][3] or b""):
-            break
-        data[at + 8 + k] ^= 0x10
-    else:
-        raise AssertionError("no flipped byte damages the second record")
+    damage_frame(data, 1, 60, 0x10)
     log.write_bytes(bytes(data))
     assert len(log_records(out)) == 2
     r = run("run", path, "-o", out, "--verify", "0.5", "--jobs", "2")
