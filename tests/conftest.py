@@ -67,6 +67,7 @@ def interruptible_sweep():
 
 
 PACKED = 1 << 63
+PACK_MAX = 1024  # segment bytes up to which a record may be packed, and a plain frame a key
 
 
 def log_frames(data):
@@ -74,7 +75,8 @@ def log_frames(data):
     segment bytes or None where they cannot be had). A frame is `u64 length | payload`; a plain
     frame's payload is the segment (a run record ending in its SHA-256); a packed frame (bit 63 of
     its length set) holds `u32 back | raw deflate of the segment`, with the segment of its key,
-    the plain frame of at most 1 KiB starting `back` bytes before it, as the deflate dictionary.
+    the plain frame of at most PACK_MAX bytes starting `back` bytes before it, as the deflate
+    dictionary.
     As chainsweep does, a packed frame is read against the last such plain frame that is whole or
     the last that is not, whichever starts there (a key is only a dictionary: the packed record
     is checked by its own SHA-256). This reads the format independently of chainsweep, with
@@ -90,7 +92,7 @@ def log_frames(data):
         seg = None
         if not packed:
             seg = payload
-            if n <= 1024:
+            if n <= PACK_MAX:
                 keys[whole_record(payload)] = (at, payload)
         elif n >= 4:
             start = at - int.from_bytes(payload[:4], "little")
@@ -98,8 +100,8 @@ def log_frames(data):
             if key is not None:
                 d = zlib.decompressobj(wbits=-15, zdict=key)
                 try:
-                    seg = d.decompress(payload[4:], 1025)
-                    seg = seg if d.eof and not d.unused_data and len(seg) <= 1024 else None
+                    seg = d.decompress(payload[4:], PACK_MAX + 1)
+                    seg = seg if d.eof and not d.unused_data and len(seg) <= PACK_MAX else None
                 except zlib.error:
                     seg = None
         frames.append((at, n, packed, seg))

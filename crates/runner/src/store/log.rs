@@ -77,7 +77,7 @@ pub const KEY_EVERY: u32 = 256;
 const BACK: usize = 4;
 
 /// A plain frame of `segment_bytes`.
-pub fn frame(segment_bytes: &[u8]) -> Vec<u8> {
+fn frame(segment_bytes: &[u8]) -> Vec<u8> {
     let mut f = Vec::with_capacity(segment_bytes.len() + FRAME_HEAD as usize);
     f.extend_from_slice(&(segment_bytes.len() as u64).to_le_bytes());
     f.extend_from_slice(segment_bytes);
