@@ -68,15 +68,18 @@ def interruptible_sweep():
 
 PACKED = 1 << 63
 PACK_MAX = 1024  # segment bytes up to which a record may be packed, and a plain frame a key
+PACKED_SUM = 8  # bytes of its SHA-256 a packed record keeps
 
 
 def log_frames(data):
     """The frames of a log's bytes, in order, up to a torn tail: (start, payload length, packed,
     segment bytes or None where they cannot be had). A frame is `u64 length | payload`; a plain
     frame's payload is the segment (a run record ending in its SHA-256); a packed frame (bit 63 of
-    its length set) holds `u32 back | raw deflate of the segment`, with the segment of its key,
-    the plain frame of at most PACK_MAX bytes starting `back` bytes before it, as the deflate
-    dictionary.
+    its length set) holds `u32 back | raw deflate of the segment with only the first PACKED_SUM
+    bytes of its SHA-256`, with the segment of its key, the plain frame of at most PACK_MAX bytes
+    starting `back` bytes before it, as the deflate dictionary. A packed record's segment is given
+    with the rest of its SHA-256 computed from its body, so it is whole exactly when the bytes kept
+    match.
     As chainsweep does, a packed frame is read against the last such plain frame that is whole or
     the last that is not, whichever starts there (a key is only a dictionary: the packed record
     is checked by its own SHA-256). This reads the format independently of chainsweep, with
@@ -102,6 +105,9 @@ def log_frames(data):
                 try:
                     seg = d.decompress(payload[4:], PACK_MAX + 1)
                     seg = seg if d.eof and not d.unused_data and len(seg) <= PACK_MAX else None
+                    if seg is not None and len(seg) >= PACKED_SUM:
+                        body = seg[:-PACKED_SUM]
+                        seg = seg + hashlib.sha256(body).digest()[PACKED_SUM:]
                 except zlib.error:
                     seg = None
         frames.append((at, n, packed, seg))

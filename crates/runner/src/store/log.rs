@@ -5,7 +5,8 @@
 //!
 //! ```text
 //! plain:  length (u64, little endian) | segment bytes (see [`super::segment`], ending in their SHA-256)
-//! packed: length | 1 << 63 (u64) | back (u32) | the segment bytes, raw deflate with a dictionary
+//! packed: length | 1 << 63 (u64) | back (u32) | raw deflate, with a dictionary, of the segment
+//!         bytes with the first 8 bytes of their SHA-256 in place of all 32
 //! ```
 //!
 //! A packed frame's dictionary is the segment bytes of its *key*, the plain frame that starts
@@ -13,11 +14,16 @@
 //! is the key of the packed frames after it, up to the next such frame; the writer ([`Framer`])
 //! writes one at the start of a log, every [`KEY_EVERY`] frames and wherever packing would not
 //! save a byte. A run's record shares most of its bytes with its neighbour's (the format, the
-//! counters' high bytes, the warnings' text), so a summary run's frame is about two thirds as
-//! long packed (what is left is mostly its hash, its checksum and its floats), and what a damaged
-//! key costs is bounded: the packed frames after it that copy from its damaged bytes fail their
-//! own checksum, and their runs are computed again. Segments longer than [`PACK_MAX`] (histories, fields) are always plain:
-//! their floats would not pay for the time to deflate them.
+//! counters' high bytes, the warnings' text), so a summary run's frame is a little over half as
+//! long packed (what is left is mostly its hash and its floats), and what a damaged key costs is
+//! bounded: the packed frames after it that copy from its damaged bytes fail their own checksum,
+//! and their runs are computed again. Segments longer than [`PACK_MAX`] (histories, fields) are
+//! always plain: their floats would not pay for the time to deflate them.
+//!
+//! A packed record keeps [`PACKED_SUM`] bytes of its SHA-256, as the output file keeps of each
+//! point's (`summary_checksum`): the other 24 are incompressible, a tenth of the frame, and
+//! computed again when it is read, once the 8 kept have been checked; the segment bytes read back
+//! are bitwise those written, whole checksum included.
 //!
 //! A frame is written with one `write` call and made durable by `fdatasync` at the next
 //! checkpoint ([`super::WorkDir`]). A process killed in the middle of a frame leaves a torn tail;
@@ -35,6 +41,7 @@ use std::path::Path;
 use std::sync::Mutex;
 
 use flate2::{Compress, Compression, Decompress, FlushCompress, FlushDecompress, Status};
+use sha2::{Digest, Sha256};
 
 use crate::identity::RunHash;
 
@@ -75,6 +82,30 @@ pub const KEY_EVERY: u32 = 256;
 
 /// Bytes of a packed frame's back reference.
 const BACK: usize = 4;
+
+/// Bytes of its segment's SHA-256 a packed frame keeps (the first ones).
+pub const PACKED_SUM: usize = 8;
+
+/// The segment bytes of a packed frame's record as deflated: its SHA-256 cut to [`PACKED_SUM`]
+/// bytes; `None` for bytes too short to end in a checksum.
+fn cut_sum(segment_bytes: &[u8]) -> Option<&[u8]> {
+    let n = segment_bytes.len().checked_sub(segment::CHECKSUM_BYTES)?;
+    Some(&segment_bytes[..n + PACKED_SUM])
+}
+
+/// The segment bytes of an inflated packed record (its checksum cut to [`PACKED_SUM`] bytes),
+/// whole again: the SHA-256 of its body, provided it begins with the bytes kept; `None` when it
+/// does not (damaged).
+fn restore_sum(mut cut: Vec<u8>) -> Option<Vec<u8>> {
+    let body = cut.len().checked_sub(PACKED_SUM)?;
+    let sum: [u8; segment::CHECKSUM_BYTES] = Sha256::digest(&cut[..body]).into();
+    if cut[body..] != sum[..PACKED_SUM] {
+        return None;
+    }
+    cut.truncate(body);
+    cut.extend_from_slice(&sum);
+    Some(cut)
+}
 
 /// A plain frame of `segment_bytes`.
 fn frame(segment_bytes: &[u8]) -> Vec<u8> {
@@ -143,6 +174,7 @@ impl Framer {
     /// be shorter than the plain one.
     fn pack(&mut self, segment_bytes: &[u8], back: u64) -> Option<Vec<u8>> {
         let back = u32::try_from(back).ok()?;
+        let cut = cut_sum(segment_bytes)?;
         self.deflate.reset();
         self.deflate.set_dictionary(&self.key).ok()?;
         // Room for less than the plain frame: a stream that does not fit does not pay.
@@ -152,7 +184,7 @@ impl Framer {
         f.extend_from_slice(&back.to_le_bytes());
         match self
             .deflate
-            .compress_vec(segment_bytes, &mut f, FlushCompress::Finish)
+            .compress_vec(cut, &mut f, FlushCompress::Finish)
         {
             Ok(Status::StreamEnd) if f.len() < plain => {}
             _ => return None,
@@ -174,24 +206,28 @@ thread_local! {
     static INFLATE: RefCell<Decompress> = RefCell::new(Decompress::new(false));
 }
 
-/// The segment bytes of a packed frame's `payload`, given its key's segment bytes; `None` when
-/// they do not inflate to a whole stream of at most [`PACK_MAX`] bytes.
+/// The segment bytes of a packed frame's `payload`, given its key's segment bytes, whole checksum
+/// included; `None` when they do not inflate to a whole stream of at most [`PACK_MAX`] bytes
+/// whose kept checksum bytes hold.
 fn unpack(payload: &[u8], key: &[u8]) -> Option<Vec<u8>> {
     let stream = payload.get(BACK..)?;
-    INFLATE.with_borrow_mut(|inflate| {
-        inflate.reset(false);
-        inflate.set_dictionary(key).ok()?;
-        let before = inflate.total_in();
-        let mut out = Vec::with_capacity(PACK_MAX + 1);
-        match inflate.decompress_vec(stream, &mut out, FlushDecompress::Finish) {
-            Ok(Status::StreamEnd)
-                if inflate.total_in() - before == stream.len() as u64 && out.len() <= PACK_MAX =>
-            {
-                Some(out)
+    INFLATE
+        .with_borrow_mut(|inflate| {
+            inflate.reset(false);
+            inflate.set_dictionary(key).ok()?;
+            let before = inflate.total_in();
+            let mut out = Vec::with_capacity(PACK_MAX + 1);
+            match inflate.decompress_vec(stream, &mut out, FlushDecompress::Finish) {
+                Ok(Status::StreamEnd)
+                    if inflate.total_in() - before == stream.len() as u64
+                        && out.len() <= PACK_MAX =>
+                {
+                    Some(out)
+                }
+                _ => None,
             }
-            _ => None,
-        }
-    })
+        })
+        .and_then(restore_sum)
 }
 
 /// The last key [`read_at`] read from a log, where its frame starts: the packed frames after a
@@ -445,6 +481,35 @@ mod tests {
         let (got, end) = scan_bytes(&log[frames[300].0..frames[514].0]);
         assert!(got.is_empty() && !end.torn);
         assert_eq!(end.corrupt, 514 - 300);
+    }
+
+    #[test]
+    fn a_packed_record_keeps_eight_bytes_of_its_checksum_and_they_are_checked() {
+        let (log, frames, segs) = framed_log(3);
+        assert_eq!(
+            frames.iter().map(|f| f.1).collect::<Vec<_>>(),
+            [false, true, true]
+        );
+        // What frame 1 deflates: its segment bytes with the first PACKED_SUM bytes of the SHA-256.
+        let payload = &log[frames[1].0 + FRAME_HEAD as usize + BACK..frames[2].0];
+        let mut inflate = Decompress::new(false);
+        inflate.set_dictionary(&segs[0]).unwrap();
+        let mut out = Vec::with_capacity(PACK_MAX);
+        let status = inflate
+            .decompress_vec(payload, &mut out, FlushDecompress::Finish)
+            .unwrap();
+        assert_eq!(status, Status::StreamEnd);
+        let n = segs[1].len() - segment::CHECKSUM_BYTES + PACKED_SUM;
+        assert_eq!(out, segs[1][..n]);
+        // A record whose body does not match its checksum, packed as it is: the bytes kept tell.
+        let mut bad = segs[2].clone();
+        bad[45] ^= 0x10;
+        let mut framer = Framer::default();
+        let (key, _) = framer.frame(&segs[0], 0);
+        let (packed, is_packed) = framer.frame(&bad, key.len() as u64);
+        assert!(is_packed);
+        let (got, end) = scan_bytes(&[key, packed].concat());
+        assert_eq!((got.len(), end.corrupt, end.torn), (1, 1, false));
     }
 
     #[test]

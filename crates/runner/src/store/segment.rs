@@ -61,6 +61,8 @@ use crate::identity::RunHash;
 use crate::record::RunRecord;
 
 const MAGIC: &[u8; 8] = b"CSWSEG\x00\x04";
+/// Bytes of the SHA-256 that ends a segment.
+pub const CHECKSUM_BYTES: usize = 32;
 /// Magic of format 3: format 4 without the spectrum (read, with none).
 const MAGIC_V3: &[u8; 8] = b"CSWSEG\x00\x03";
 /// Magic of format 2: format 3 without what the run integrated (read, that part not known).
@@ -188,7 +190,7 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
             .iter()
             .for_each(|&x| put_f64(&mut b, x));
     }
-    let sum: [u8; 32] = Sha256::digest(&b).into();
+    let sum: [u8; CHECKSUM_BYTES] = Sha256::digest(&b).into();
     b.extend_from_slice(&sum);
     b
 }
@@ -202,11 +204,11 @@ const FLOW_TAG: u8 = 3;
 
 /// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
 pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
-    if bytes.len() < MAGIC.len() + 32 + 32 {
+    if bytes.len() < MAGIC.len() + 32 + CHECKSUM_BYTES {
         return None;
     }
-    let (body, sum) = bytes.split_at(bytes.len() - 32);
-    let check: [u8; 32] = Sha256::digest(body).into();
+    let (body, sum) = bytes.split_at(bytes.len() - CHECKSUM_BYTES);
+    let check: [u8; CHECKSUM_BYTES] = Sha256::digest(body).into();
     if check != sum {
         return None;
     }
@@ -376,11 +378,11 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
 /// The run hash and status of segment bytes whose checksum holds; `None` if they are truncated,
 /// corrupt or not a segment of a format [`decode`] reads (4, 3 or 2). Reads no more than the header past the checksum.
 pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
-    if bytes.len() < MAGIC.len() + 32 + 1 + 32 {
+    if bytes.len() < MAGIC.len() + 32 + 1 + CHECKSUM_BYTES {
         return None;
     }
-    let (body, sum) = bytes.split_at(bytes.len() - 32);
-    let check: [u8; 32] = Sha256::digest(body).into();
+    let (body, sum) = bytes.split_at(bytes.len() - CHECKSUM_BYTES);
+    let check: [u8; CHECKSUM_BYTES] = Sha256::digest(body).into();
     if check != sum || ![MAGIC, MAGIC_V3, MAGIC_V2].contains(&body[..8].try_into().ok()?) {
         return None;
     }
