@@ -8,7 +8,7 @@
 //! run again. The snapshot holds the file's summary columns ([`COLUMNS`], without the run hash
 //! and the point checksum) in blocks of [`BLOCK_POINTS`] points, each column byte-shuffled and the
 //! block deflate-compressed; each point is named by the first 8 bytes of its run hash. On the
-//! paper's summary sweeps it takes about a quarter of the output file's size.
+//! paper's summary sweeps it takes a quarter of the output file's size or less.
 //!
 //! Format (little endian):
 //!
@@ -24,8 +24,8 @@
 //! From version 3 on, a column of [`PREDICTED`] holds the XOR of its values' bits with those of
 //! the column it mostly equals (`record_max` with `leading_peak`: the leading pulse is most often
 //! the record's largest force), so that where they are equal it holds zeros, which deflate packs
-//! to almost nothing: a fifth of the snapshot of the paper's summary sweeps. Equal values are a
-//! whole column's width apart once shuffled, beyond deflate's reach without it.
+//! to almost nothing: a quarter of the snapshot of a 100 000-point summary sweep. Equal values are
+//! a whole column's width apart once shuffled, beyond deflate's window in a block of many points.
 //!
 //! A section whose checksum fails is skipped: its points are not in the snapshot.
 
