@@ -172,6 +172,10 @@ def test_names_shapes_dtypes(produced):
         # text: netCDF `char`s, the UTF-8 bytes along a last dimension <name>_strlen
         for name in TEXT + ["probe", "probe_units"]:
             assert f[name].dtype == np.dtype("S1") and f[name].attrs["_Encoding"] == "utf-8", name
+            assert f[name].fletcher32, name
+            # Free text is deflated; run hashes and labels are not (hex digits barely pay).
+            free = name in ("reason", "warnings")
+            assert f[name].compression == ("gzip" if free else None), name
         assert f["run_hash"].shape == (3, 2, 64)
         assert all(len(h) == 64 for h in texts(f["run_hash"]).ravel())
         assert (f["status"][...] == 1).all()

@@ -18,7 +18,7 @@ use hdf5::{Dataset, File};
 
 use super::{
     attach_scale, attr_str, attr_vec, char_dataset, checked_dataset, filled_checked_dataset,
-    read_text, set_scale,
+    read_text, set_scale, Text,
 };
 use crate::error::Result;
 
@@ -160,7 +160,15 @@ pub fn write(
     attach(&d, outer)?;
     attr_str(&d, "units", "1")?;
     attr_str(&d, "long_name", "runs each search used")?;
-    let d = char_dataset(file, "search_reason", &outer_shape, &t.reason, None)?.data;
+    let d = char_dataset(
+        file,
+        "search_reason",
+        &outer_shape,
+        &t.reason,
+        None,
+        Text::Free,
+    )?
+    .data;
     attach(&d, outer)?;
     attr_str(&d, "long_name", "why each search ended, in a sentence")?;
     if let Some(e) = &t.refine_error {

@@ -14,13 +14,13 @@ use super::search::{self, SearchTables};
 use super::{
     attach_scale, attr_scalar, attr_str, attr_vec, char_dataset, checked_column, checked_dataset,
     column_text_checksum, dimension_only, header_checksum, number_dimensions, set_scale, Counts,
-    Provenance, CONVENTIONS, LAYOUT_VERSION,
+    Provenance, Text, CONVENTIONS, LAYOUT_VERSION,
 };
 use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
 use crate::identity::{hex, TIGHTENING};
 use crate::record::columns::{
-    distinct_units, split_name, Column, ColumnData, FillValue, PointOutcome, Presence, Table,
+    distinct_units, split_name, Column, ColumnData, Fill, FillValue, PointOutcome, Presence, Table,
     Units, COLUMNS, HARMONIC,
 };
 use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
@@ -363,7 +363,7 @@ fn write_axis(
             d
         }
         Coord::Str(v) => {
-            let c = char_dataset(file, name, &shape, &v, scale)?;
+            let c = char_dataset(file, name, &shape, &v, scale, Text::Names)?;
             return Ok((c.data, Some(c.strlen)));
         }
     };
@@ -451,7 +451,7 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<ProbeScale>> {
         return Ok(None);
     }
     let names: Vec<String> = grid.probes.iter().map(|p| p.name()).collect();
-    let probe = char_dataset(file, "probe", &[np], &names, Some("probe"))?;
+    let probe = char_dataset(file, "probe", &[np], &names, Some("probe"), Text::Names)?;
     let d = probe.data;
     let json: Vec<String> = grid
         .probes
@@ -461,7 +461,7 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<ProbeScale>> {
     attr_str(&d, "long_name", "probe (as in the record block)")?;
     attr_str(&d, "probes_json", &format!("[{}]", json.join(",")))?;
     let units: Vec<String> = grid.probes.iter().map(|p| p.unit().to_string()).collect();
-    let u = char_dataset(file, "probe_units", &[np], &units, None)?;
+    let u = char_dataset(file, "probe_units", &[np], &units, None, Text::Names)?;
     attach_scale(&u.data, &d, 0, "probe")?;
     attr_str(&u.data, "long_name", "unit of each probe's values")?;
     Ok(Some(ProbeScale {
@@ -598,7 +598,14 @@ fn write_column(
         (ColumnData::I64(v), _) => checked_column(file, name, shape, v, None)?,
         (ColumnData::U8(v), _) => checked_column(file, name, shape, v, None)?,
         (ColumnData::U64(v), _) => checked_column(file, name, shape, v, None)?,
-        (ColumnData::Str(v), _) => char_dataset(file, name, shape, v, None)?.data,
+        (ColumnData::Str(v), _) => {
+            let text = if matches!(c.fill, Fill::RunHash) {
+                Text::Names
+            } else {
+                Text::Free
+            };
+            char_dataset(file, name, shape, v, None, text)?.data
+        }
     };
     if let Some((values, meanings)) = c.flags {
         attr_vec(&d, "flag_values", values)?;
