@@ -12,8 +12,8 @@
 //! A packed frame's dictionary is the segment bytes of its *key*, the plain frame that starts
 //! `back` bytes before it in the same log. Every plain frame of at most [`PACK_MAX`] segment bytes
 //! is the key of the packed frames after it, up to the next such frame; the writer ([`Framer`])
-//! writes one at the start of a log, every [`KEY_EVERY`] frames and wherever packing would not
-//! save a byte. A run's record shares most of its bytes with its neighbour's (the format, the
+//! writes one at the start of a log, every [`KEY_EVERY`] frames, wherever packing would not save
+//! a byte, and where a record holds much the key lacks ([`REKEY_GROWTH`]). A run's record shares most of its bytes with its neighbour's (the format, the
 //! counters' high bytes, the warnings' text), so a summary run's frame is a little over half as
 //! long packed (what is left is mostly its hash and its floats), and what a damaged key costs is
 //! bounded: the packed frames after it that copy from its damaged bytes fail their own checksum,
@@ -83,6 +83,13 @@ pub const KEY_EVERY: u32 = 256;
 /// Bytes of a packed frame's back reference.
 const BACK: usize = 4;
 
+/// A record that packs to this many bytes more than the last packed one starts a new key: it
+/// holds what the key lacks (a warning or a failure reason the key's run did not have, which
+/// would otherwise be written out whole in every such record up to the next key), and the records
+/// after it are likely to hold it too. Records of one sweep pack to within a few bytes of each
+/// other otherwise; a warning is 50–200 bytes of text.
+pub const REKEY_GROWTH: usize = 64;
+
 /// Bytes of its segment's SHA-256 a packed frame keeps (the first ones).
 pub const PACKED_SUM: usize = 8;
 
@@ -122,6 +129,8 @@ pub struct Framer {
     key: Vec<u8>,
     key_start: Option<u64>,
     since_key: u32,
+    /// The length of the last packed frame.
+    last_packed: Option<usize>,
 }
 
 impl std::fmt::Debug for Framer {
@@ -140,6 +149,7 @@ impl Default for Framer {
             key: Vec::new(),
             key_start: None,
             since_key: 0,
+            last_packed: None,
         }
     }
 }
@@ -153,8 +163,14 @@ impl Framer {
         }
         if let Some(key_start) = self.key_start.filter(|_| self.since_key < KEY_EVERY) {
             if let Some(packed) = self.pack(segment_bytes, start - key_start) {
-                self.since_key += 1;
-                return (packed, true);
+                let resembles_key = self
+                    .last_packed
+                    .is_none_or(|last| packed.len() <= last + REKEY_GROWTH);
+                if resembles_key {
+                    self.since_key += 1;
+                    self.last_packed = Some(packed.len());
+                    return (packed, true);
+                }
             }
         }
         self.key.clear();
@@ -510,6 +526,38 @@ mod tests {
         assert!(is_packed);
         let (got, end) = scan_bytes(&[key, packed].concat());
         assert_eq!((got.len(), end.corrupt, end.torn), (1, 1, false));
+    }
+
+    #[test]
+    fn a_record_holding_what_the_key_lacks_becomes_the_key() {
+        // Twenty runs without a warning, then twenty with one: the first of those would carry its
+        // warning's text whole against the key, so it is written plain, as the key of the rest.
+        let mut framer = Framer::default();
+        let (mut log, mut frames) = (Vec::new(), Vec::new());
+        for i in 0..40u32 {
+            let mut hash = [0u8; 32];
+            hash[..4].copy_from_slice(&i.to_le_bytes());
+            let mut r = RunRecord::failed(hash, String::new(), 0.1 + f64::from(i) * 1.3e-7);
+            if i >= 20 {
+                r.warnings = format!(
+                    "energy drift {:.2e} exceeds the limit 1e-4: the run's results are doubtful; \
+                     tighten the integrator's rtol or shorten the step",
+                    1.5e-4 + f64::from(i) * 1e-7
+                );
+            }
+            let seg = segment::encode(&r);
+            let (f, packed) = framer.frame(&seg, log.len() as u64);
+            frames.push((packed, f.len(), seg.len()));
+            log.extend_from_slice(&f);
+        }
+        let keys: Vec<usize> = (0..40).filter(|&i| !frames[i].0).collect();
+        assert_eq!(keys, vec![0, 20]);
+        // Every warned record after the new key packs to well under half of its plain frame.
+        for &(_, len, seg) in &frames[21..] {
+            assert!(2 * len < seg + FRAME_HEAD as usize, "{len} of {seg}");
+        }
+        let (got, end) = scan_bytes(&log);
+        assert_eq!((got.len(), end.corrupt), (40, 0));
     }
 
     #[test]
