@@ -165,7 +165,7 @@ impl Framer {
             if let Some(packed) = self.pack(segment_bytes, start - key_start) {
                 let resembles_key = self
                     .last_packed
-                    .is_none_or(|last| packed.len() <= last + REKEY_GROWTH);
+                    .map_or(true, |last| packed.len() <= last + REKEY_GROWTH);
                 if resembles_key {
                     self.since_key += 1;
                     self.last_packed = Some(packed.len());
