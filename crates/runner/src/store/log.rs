@@ -13,11 +13,11 @@
 //! `back` bytes before it in the same log. Every plain frame of at most [`PACK_MAX`] segment bytes
 //! is the key of the packed frames after it, up to the next such frame; the writer ([`Framer`])
 //! writes one at the start of a log, every [`KEY_EVERY`] frames, wherever packing would not save
-//! a byte, and where a record holds much the key lacks ([`REKEY_GROWTH`]). A run's record shares most of its bytes with its neighbour's (the format, the
-//! counters' high bytes, the warnings' text), so a summary run's frame is a little over half as
-//! long packed (what is left is mostly its hash and its floats), and what a damaged key costs is
-//! bounded: the packed frames after it that copy from its damaged bytes fail their own checksum,
-//! and their runs are computed again. Segments longer than [`PACK_MAX`] (histories, fields) are
+//! a byte, and where a record holds much the key lacks ([`REKEY_GROWTH`]). A run's record shares
+//! most of its bytes with its neighbour's (the format, the counters' high bytes, the warnings'
+//! text), so a summary run's frame is a little over half as long packed (what is left is mostly
+//! its hash and its floats), and what a damaged key costs is bounded: the packed frames after it
+//! that copy from its damaged bytes fail their own checksum, and their runs are computed again. Segments longer than [`PACK_MAX`] (histories, fields) are
 //! always plain: their floats would not pay for the time to deflate them.
 //!
 //! A packed record keeps [`PACKED_SUM`] bytes of its SHA-256, as the output file keeps of each

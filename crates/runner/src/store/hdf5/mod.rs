@@ -175,7 +175,7 @@ pub(crate) struct CharVar {
 pub(crate) enum Text {
     /// Free text written at every point (failure reasons, warnings): the same few sentences over
     /// and over, with numbers in them. Deflated, they shrink about 80-fold (the warnings of the
-    /// 100 000-run summary bench: 5.4 MB to 90 kB), and read back as fast.
+    /// 100 000-run summary bench: 5.4 MB to 90 kB), and read back nearly as fast.
     Free,
     /// Identifiers and short labels (run hashes, probe names, coordinates). A run hash's hex digits
     /// deflate only to about half, and h5py then reads them 9 times slower, so they stay as they are.
