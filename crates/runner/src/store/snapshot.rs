@@ -8,7 +8,7 @@
 //! run again. The snapshot holds the file's summary columns ([`COLUMNS`], without the run hash
 //! and the point checksum) in blocks of [`BLOCK_POINTS`] points, each column byte-shuffled and the
 //! block deflate-compressed; each point is named by the first 8 bytes of its run hash. On the
-//! paper's summary sweeps it takes a quarter of the output file's size or less.
+//! paper's summary sweeps it takes 15–30 % of the output file's size.
 //!
 //! Format (little endian):
 //!
