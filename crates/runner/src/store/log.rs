@@ -87,7 +87,8 @@ const BACK: usize = 4;
 /// holds what the key lacks (a warning or a failure reason the key's run did not have, which
 /// would otherwise be written out whole in every such record up to the next key), and the records
 /// after it are likely to hold it too. Records of one sweep pack to within a few bytes of each
-/// other otherwise; a warning is 50–200 bytes of text.
+/// other otherwise; a warning is 50–200 bytes of text. (At worst, runs whose texts alternate
+/// from one to the next, every record is a key: the log is as long as it would be unpacked.)
 pub const REKEY_GROWTH: usize = 64;
 
 /// Bytes of its segment's SHA-256 a packed frame keeps (the first ones).
