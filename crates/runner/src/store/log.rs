@@ -41,11 +41,10 @@ use std::path::Path;
 use std::sync::Mutex;
 
 use flate2::{Compress, Compression, Decompress, FlushCompress, FlushDecompress, Status};
-use sha2::{Digest, Sha256};
 
 use crate::identity::RunHash;
 
-use super::segment;
+use super::segment::{self, Checked};
 
 /// The folder of the logs inside a work directory.
 pub const LOG_DIR: &str = "logs";
@@ -99,20 +98,6 @@ pub const PACKED_SUM: usize = 8;
 fn cut_sum(segment_bytes: &[u8]) -> Option<&[u8]> {
     let n = segment_bytes.len().checked_sub(segment::CHECKSUM_BYTES)?;
     Some(&segment_bytes[..n + PACKED_SUM])
-}
-
-/// The segment bytes of an inflated packed record (its checksum cut to [`PACKED_SUM`] bytes),
-/// whole again: the SHA-256 of its body, provided it begins with the bytes kept; `None` when it
-/// does not (damaged).
-fn restore_sum(mut cut: Vec<u8>) -> Option<Vec<u8>> {
-    let body = cut.len().checked_sub(PACKED_SUM)?;
-    let sum: [u8; segment::CHECKSUM_BYTES] = Sha256::digest(&cut[..body]).into();
-    if cut[body..] != sum[..PACKED_SUM] {
-        return None;
-    }
-    cut.truncate(body);
-    cut.extend_from_slice(&sum);
-    Some(cut)
 }
 
 /// A plain frame of `segment_bytes`.
@@ -224,9 +209,9 @@ thread_local! {
 }
 
 /// The segment bytes of a packed frame's `payload`, given its key's segment bytes, whole checksum
-/// included; `None` when they do not inflate to a whole stream of at most [`PACK_MAX`] bytes
-/// whose kept checksum bytes hold.
-fn unpack(payload: &[u8], key: &[u8]) -> Option<Vec<u8>> {
+/// included and checked ([`Checked::restore`]); `None` when they do not inflate to a whole stream
+/// of at most [`PACK_MAX`] bytes whose kept checksum bytes hold.
+fn unpack(payload: &[u8], key: &[u8]) -> Option<Checked> {
     let stream = payload.get(BACK..)?;
     INFLATE
         .with_borrow_mut(|inflate| {
@@ -244,7 +229,7 @@ fn unpack(payload: &[u8], key: &[u8]) -> Option<Vec<u8>> {
                 _ => None,
             }
         })
-        .and_then(restore_sum)
+        .and_then(|cut| Checked::restore(cut, PACKED_SUM))
 }
 
 /// The last key [`read_at`] read from a log, where its frame starts: the packed frames after a
@@ -252,20 +237,20 @@ fn unpack(payload: &[u8], key: &[u8]) -> Option<Vec<u8>> {
 pub type KeyCache = Mutex<Option<(u64, Vec<u8>)>>;
 
 /// Reads the segment bytes of the frame whose payload is `len` bytes at `offset` of `log`
-/// (inflated, when `packed`, with its key, from `keys` or read from the log); `None` when a
-/// packed frame's key is no plain frame of at most [`PACK_MAX`] bytes, or it does not inflate.
-/// The caller checks the bytes' checksum.
+/// (inflated, when `packed`, with its key, from `keys` or read from the log), checked; `None` when
+/// their checksum fails, or a packed frame's key is no plain frame of at most [`PACK_MAX`] bytes,
+/// or it does not inflate.
 pub fn read_at(
     log: &File,
     offset: u64,
     len: u64,
     packed: bool,
     keys: &KeyCache,
-) -> io::Result<Option<Vec<u8>>> {
+) -> io::Result<Option<Checked>> {
     let mut payload = vec![0u8; len as usize];
     log.read_exact_at(&mut payload, offset)?;
     if !packed {
-        return Ok(Some(payload));
+        return Ok(Checked::verify(payload));
     }
     let Some(key_start) = back_of(&payload).and_then(|b| (offset - FRAME_HEAD).checked_sub(b))
     else {
@@ -359,7 +344,7 @@ pub fn scan(path: &Path, mut found: impl FnMut(Found)) -> io::Result<ScanEnd> {
                 .flatten()
                 .find(|(key_start, _)| Some(*key_start) == from_key)
                 .and_then(|(_, k)| unpack(&buf, k))
-                .and_then(|seg| segment::verify(&seg))
+                .map(|seg| (seg.hash(), seg.ok()))
         } else {
             let checked = segment::verify(&buf);
             if buf.len() <= PACK_MAX {
@@ -449,7 +434,7 @@ mod tests {
         let keys = KeyCache::default();
         for (f, seg) in got.iter().zip(&segs) {
             let back = read_at(&file, f.offset, f.len, f.packed, &keys).unwrap();
-            assert_eq!(back.as_deref(), Some(&seg[..]));
+            assert_eq!(back.as_ref().map(Checked::bytes), Some(&seg[..]));
         }
         let hashes = |got: &[Found]| -> Vec<u32> {
             got.iter()

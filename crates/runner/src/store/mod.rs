@@ -57,6 +57,7 @@ use crate::sweep::auto::AutoChoice;
 
 use self::log::{log_name, log_seq, Framer, LOG_DIR};
 use self::published::{Check, Damage, PublishedFile};
+use self::segment::Checked;
 use self::snapshot::SNAPSHOT_FILE;
 
 /// Path of the work directory of an output file: `X.h5` → `X.h5.d`.
@@ -333,7 +334,7 @@ impl Stored {
         let Some(&loc) = self.entries.get(hash) else {
             return Ok(None);
         };
-        let bytes = match loc {
+        let checked = match loc {
             Loc::Published { .. } => {
                 let Some(p) = &self.published else {
                     return Ok(None);
@@ -346,7 +347,7 @@ impl Stored {
                     .join(SEGMENT_DIR)
                     .join(format!("{}.seg", hex(hash)));
                 match fs::read(&path) {
-                    Ok(b) => b,
+                    Ok(b) => Checked::verify(b),
                     Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
                     Err(e) => return Err(Error::io("read", &path)(e)),
                 }
@@ -357,31 +358,30 @@ impl Stored {
                 len,
                 packed,
                 ..
-            } => match self.log_bytes(log, offset, len, packed)? {
-                Some(b) => b,
-                None => return Ok(None),
-            },
+            } => self.log_bytes(log, offset, len, packed)?,
         };
-        Ok(segment::decode(&bytes).filter(|r| &r.hash == hash))
+        Ok(checked
+            .filter(|c| &c.hash() == hash)
+            .and_then(|c| c.decode()))
     }
 
-    /// The segment bytes of the frame at `offset` of log `log`; `None` when a packed one no
-    /// longer inflates.
+    /// The segment bytes of the frame at `offset` of log `log`, checked; `None` when their
+    /// checksum fails or a packed one no longer inflates.
     fn log_bytes(
         &self,
         log: usize,
         offset: u64,
         len: u64,
         packed: bool,
-    ) -> Result<Option<Vec<u8>>> {
+    ) -> Result<Option<Checked>> {
         let log = &self.logs[log];
         log::read_at(log.reader()?, offset, len, packed, &log.keys)
             .map_err(Error::io("read", &log.path))
     }
 
-    /// The segment bytes of a run stored in a log or segment (for compaction); `None` for one
-    /// only in the output file, or unreadable.
-    fn raw(&self, hash: &RunHash) -> Result<Option<Vec<u8>>> {
+    /// The segment bytes of a run stored in a log or segment (for compaction), checked; `None`
+    /// for one only in the output file, or unreadable.
+    fn raw(&self, hash: &RunHash) -> Result<Option<Checked>> {
         match self.entries.get(hash) {
             Some(&Loc::Log {
                 log,
@@ -395,7 +395,7 @@ impl Stored {
                     .dir
                     .join(SEGMENT_DIR)
                     .join(format!("{}.seg", hex(hash)));
-                Ok(fs::read(path).ok())
+                Ok(fs::read(path).ok().and_then(Checked::verify))
             }
             _ => Ok(None),
         }
@@ -959,13 +959,10 @@ impl WorkDir {
                 let mut at = 0u64;
                 let mut framer = Framer::default();
                 for (h, loc) in &moved {
-                    let Some(bytes) = stored.raw(h)? else {
+                    let Some(checked) = stored.raw(h)?.filter(|c| c.hash() == *h) else {
                         continue;
                     };
-                    if segment::verify(&bytes).map(|(vh, _)| vh) != Some(*h) {
-                        continue;
-                    }
-                    let (framed, packed) = framer.frame(&bytes, at);
+                    let (framed, packed) = framer.frame(checked.bytes(), at);
                     out.write_all(&framed).map_err(Error::io("write", &tmp))?;
                     new_entries.push((
                         *h,

@@ -212,6 +212,11 @@ pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
     if check != sum {
         return None;
     }
+    parse(body)
+}
+
+/// The record of a segment's `body` (its bytes before the checksum), not checked against it.
+fn parse(body: &[u8]) -> Option<RunRecord> {
     let mut r = Reader { b: body, at: 0 };
     let magic = r.take(8)?;
     if magic != MAGIC && magic != MAGIC_V3 && magic != MAGIC_V2 {
@@ -383,11 +388,80 @@ pub fn verify(bytes: &[u8]) -> Option<(RunHash, bool)> {
     }
     let (body, sum) = bytes.split_at(bytes.len() - CHECKSUM_BYTES);
     let check: [u8; CHECKSUM_BYTES] = Sha256::digest(body).into();
-    if check != sum || ![MAGIC, MAGIC_V3, MAGIC_V2].contains(&body[..8].try_into().ok()?) {
+    if check != sum {
+        return None;
+    }
+    header(body)
+}
+
+/// The run hash and status in a segment's `body`, if it is of a format [`decode`] reads.
+fn header(body: &[u8]) -> Option<(RunHash, bool)> {
+    if body.len() < MAGIC.len() + 32 + 1
+        || ![MAGIC, MAGIC_V3, MAGIC_V2].contains(&body[..8].try_into().ok()?)
+    {
         return None;
     }
     let hash: RunHash = body[8..40].try_into().ok()?;
     Some((hash, body[40] == 1))
+}
+
+/// Segment bytes whose SHA-256 has been checked, and whose header is of a format [`decode`] reads:
+/// made only here, by checking the whole checksum ([`Checked::verify`]) or the bytes of it a packed
+/// log record keeps ([`Checked::restore`]), so that a reader trusts a record checked once instead
+/// of hashing it again.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Checked {
+    bytes: Vec<u8>,
+    hash: RunHash,
+    ok: bool,
+}
+
+impl Checked {
+    /// `bytes` checked against the SHA-256 they end in; `None` when it does not hold (or they are
+    /// no segment [`decode`] reads).
+    pub fn verify(bytes: Vec<u8>) -> Option<Checked> {
+        let (hash, ok) = verify(&bytes)?;
+        Some(Checked { bytes, hash, ok })
+    }
+
+    /// The segment bytes of a record stored with only the first `kept` bytes of its SHA-256
+    /// (`cut`: its body, then those bytes), whole again: the SHA-256 of the body, provided it
+    /// begins with the bytes kept; `None` when it does not (damaged).
+    pub fn restore(mut cut: Vec<u8>, kept: usize) -> Option<Checked> {
+        let body = cut.len().checked_sub(kept)?;
+        let sum: [u8; CHECKSUM_BYTES] = Sha256::digest(&cut[..body]).into();
+        if kept > CHECKSUM_BYTES || cut[body..] != sum[..kept] {
+            return None;
+        }
+        let (hash, ok) = header(&cut[..body])?;
+        cut.truncate(body);
+        cut.extend_from_slice(&sum);
+        Some(Checked {
+            bytes: cut,
+            hash,
+            ok,
+        })
+    }
+
+    /// The run's hash.
+    pub fn hash(&self) -> RunHash {
+        self.hash
+    }
+
+    /// Whether the run succeeded.
+    pub fn ok(&self) -> bool {
+        self.ok
+    }
+
+    /// The record (its checksum is not computed again).
+    pub fn decode(&self) -> Option<RunRecord> {
+        parse(&self.bytes[..self.bytes.len() - CHECKSUM_BYTES])
+    }
+
+    /// The segment bytes, checksum included.
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes
+    }
 }
 
 /// Reads only the status part of segment bytes (no checksum check): `(ok, reason)`.
@@ -629,6 +703,36 @@ mod tests {
 
     fn as_format_2(rec: &RunRecord) -> Vec<u8> {
         as_format(rec, MAGIC_V2)
+    }
+
+    #[test]
+    fn a_checked_record_is_checked_once_by_its_whole_checksum_or_the_bytes_kept() {
+        let mut rec = RunRecord::failed([3; 32], "why".into(), 0.5);
+        rec.warnings = "a warning".into();
+        let seg = encode(&rec);
+        let body = seg.len() - CHECKSUM_BYTES;
+        let whole = Checked::verify(seg.clone()).unwrap();
+        assert_eq!((whole.hash(), whole.ok()), ([3; 32], false));
+        // (Compared as encoded: the failed run's NaNs are not equal to themselves.)
+        assert_eq!(whole.decode().map(|r| encode(&r)), Some(seg.clone()));
+        assert_eq!(whole.bytes(), &seg[..]);
+        // Eight bytes of the checksum kept: the whole segment back, the same record.
+        let restored = Checked::restore(seg[..body + 8].to_vec(), 8).unwrap();
+        assert_eq!(restored, whole);
+        // A flipped bit anywhere, in the body or in the checksum (kept or whole), is caught.
+        for at in [0, 9, 40, body - 1, body, body + 7] {
+            let mut bad = seg.clone();
+            bad[at] ^= 0x08;
+            assert_eq!(Checked::verify(bad.clone()), None, "byte {at}");
+            assert_eq!(
+                Checked::restore(bad[..body + 8].to_vec(), 8),
+                None,
+                "byte {at}"
+            );
+        }
+        // Too short to hold the bytes said to be kept, or more kept than a checksum has.
+        assert_eq!(Checked::restore(vec![1, 2, 3], 8), None);
+        assert_eq!(Checked::restore(seg.clone(), CHECKSUM_BYTES + 1), None);
     }
 
     #[test]
