@@ -134,7 +134,7 @@ fn read_snapshot(path: &Path) -> Option<Result<Snapshot, String>> {
         return Some(Err(format!("{} is not a regular file", p.display())));
     }
     Some(match std::fs::read(&p) {
-        Ok(bytes) => Snapshot::decode(&bytes).map_err(|e| e.0),
+        Ok(bytes) => Snapshot::decode(bytes).map_err(|e| e.0),
         Err(e) => Err(format!("{}: {e}", p.display())),
     })
 }
