@@ -204,15 +204,7 @@ const FLOW_TAG: u8 = 3;
 
 /// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
 pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
-    if bytes.len() < MAGIC.len() + 32 + CHECKSUM_BYTES {
-        return None;
-    }
-    let (body, sum) = bytes.split_at(bytes.len() - CHECKSUM_BYTES);
-    let check: [u8; CHECKSUM_BYTES] = Sha256::digest(body).into();
-    if check != sum {
-        return None;
-    }
-    parse(body)
+    Checked::verify(bytes.to_vec())?.decode()
 }
 
 /// The record of a segment's `body` (its bytes before the checksum), not checked against it.
