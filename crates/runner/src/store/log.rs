@@ -17,8 +17,9 @@
 //! most of its bytes with its neighbour's (the format, the counters' high bytes, the warnings'
 //! text), so a summary run's frame is a little over half as long packed (what is left is mostly
 //! its hash and its floats), and what a damaged key costs is bounded: the packed frames after it
-//! that copy from its damaged bytes fail their own checksum, and their runs are computed again. Segments longer than [`PACK_MAX`] (histories, fields) are
-//! always plain: their floats would not pay for the time to deflate them.
+//! that copy from its damaged bytes fail their own checksum, and their runs are computed again.
+//! Segments longer than [`PACK_MAX`] (histories, fields) are always plain: their floats would not
+//! pay for the time to deflate them.
 //!
 //! A packed record keeps [`PACKED_SUM`] bytes of its SHA-256, as the output file keeps of each
 //! point's (`summary_checksum`): the other 24 are incompressible, a tenth of the frame, and
