@@ -38,9 +38,9 @@ struct PointRun {
 /// (`base.…`, `record.…`, `limits.…` as in a sweep file; the validation of the built scene names
 /// scene fields without the `base.` prefix).
 fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Result<PointRun> {
-    let mut sweep = Sweep::of_scene(scene, record, limits)?;
-    // The grid's one point is the scene run: read from its JSON once, by the expansion.
-    let (mut grid, mut scene) = match Grid::with_first_scene(&sweep) {
+    let (mut sweep, base) = Sweep::of_scene(scene, record, limits)?;
+    // The grid's one point is the scene run: read from its JSON once, by the normalisation.
+    let (mut grid, mut scene) = match Grid::with_first_scene(&sweep, Some(base)) {
         Ok(expanded) => expanded,
         Err(e) => {
             // Where the scene itself is at fault, its own error, naming its fields without the
@@ -57,7 +57,7 @@ fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Resu
         let pool = engine::thread_pool(engine::all_cpus())?;
         let choice = pilot::resolve(&sweep, &grid, &spec, &pool, |_| {})?;
         sweep.apply_auto(choice);
-        (grid, scene) = Grid::with_first_scene(&sweep)?;
+        (grid, scene) = Grid::with_first_scene(&sweep, None)?;
     }
     let hash = grid.hashes[0];
     let record = exec::execute(&scene, hash, &sweep.limits, 0);

@@ -68,7 +68,7 @@ fn compute(
         (Some(text), None) => {
             let v: Value = serde_json::from_str(&text)
                 .map_err(|e| Error::input("scene", format!("not valid JSON: {e}")))?;
-            Sweep::of_scene(v, None, None)?
+            Sweep::of_scene(v, None, None)?.0
         }
         (None, Some(p)) => Sweep::load(&p)?,
         _ => {

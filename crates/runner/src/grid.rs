@@ -187,9 +187,11 @@ impl Grid {
     }
 
     /// [`Grid::new`] and the scene of its first point, which the expansion builds anyway: what a
-    /// one-point sweep (a scene run from Python) runs, without reading its JSON again.
-    pub fn with_first_scene(sweep: &Sweep) -> Result<(Grid, Scene)> {
-        Grid::expand_keeping_first(sweep, &|_| {})
+    /// one-point sweep (a scene run from Python) runs, without reading its JSON again. `read`:
+    /// that scene, where the caller has read it already from the sweep as it is (the base scene
+    /// [`Sweep::of_scene`] gives beside the sweep); it is not read again.
+    pub fn with_first_scene(sweep: &Sweep, read: Option<Scene>) -> Result<(Grid, Scene)> {
+        Grid::expand_keeping_first(sweep, &|_| {}, read)
     }
 
     /// [`Grid::new`], calling `progress` with the number of points expanded so far every few
@@ -197,13 +199,14 @@ impl Grid {
     /// global pool, in chunks; the grid is the same as a sequential expansion's, whatever the
     /// threads (every value is computed per point, and a chunk's findings are merged in order).
     pub fn expand(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> Result<Grid> {
-        Grid::expand_keeping_first(sweep, progress).map(|(grid, _)| grid)
+        Grid::expand_keeping_first(sweep, progress, None).map(|(grid, _)| grid)
     }
 
     /// [`Grid::expand`], returning the first point's scene too.
     fn expand_keeping_first(
         sweep: &Sweep,
         progress: &(dyn Fn(usize) + Sync),
+        read: Option<Scene>,
     ) -> Result<(Grid, Scene)> {
         use rayon::prelude::*;
         use std::sync::atomic::{AtomicUsize, Ordering};
@@ -248,7 +251,10 @@ impl Grid {
             searched: None,
         };
         // The first point sets the record block every point must share.
-        let first = grid.build(sweep, 0)?;
+        let first = match read {
+            Some(scene) => scene,
+            None => grid.build(sweep, 0)?,
+        };
         grid.probes = first.record.probes.clone();
         grid.history = first.record.history;
         grid.min_overlap = first.record.min_overlap;
@@ -272,15 +278,21 @@ impl Grid {
             let start = c * CHUNK_POINTS;
             let mut info = ChunkInfo::default();
             // One copy of the base scene per chunk, every axis value set in it per point (every
-            // point sets every axis, in the same order, so it equals a fresh copy's).
-            let mut value = sweep.base.clone();
+            // point sets every axis, in the same order, so it equals a fresh copy's); made only
+            // where a point is read from it.
+            let mut value: Option<Value> = None;
             for (k, (hash, parts)) in hashes.iter_mut().zip(particles.iter_mut()).enumerate() {
                 let i = start + k;
                 // The first point was read above: its scene is not read from its JSON twice.
-                let known = (i == 0).then_some(&first);
-                Grid::point(
-                    sweep, shape, i, &record, &mut value, known, hash, parts, &mut info,
-                )?;
+                let read;
+                let scene = if i == 0 {
+                    &first
+                } else {
+                    let value = value.get_or_insert_with(|| sweep.base.clone());
+                    read = Grid::read_point(sweep, shape, i, value)?;
+                    &read
+                };
+                Grid::check_point(sweep, shape, i, &record, scene, hash, parts, &mut info)?;
             }
             let total = done.fetch_add(hashes.len(), Ordering::Relaxed) + hashes.len();
             progress(total);
@@ -405,9 +417,11 @@ impl Grid {
         let mut index: std::collections::HashMap<String, usize> = Default::default();
         for i in 0..n {
             let (mut hash, mut parts, mut info) = ([0; 32], 0, ChunkInfo::default());
-            let r = Grid::point(
-                sweep, &shape, i, &record, &mut value, None, &mut hash, &mut parts, &mut info,
-            );
+            let r = Grid::read_point(sweep, &shape, i, &mut value).and_then(|scene| {
+                Grid::check_point(
+                    sweep, &shape, i, &record, &scene, &mut hash, &mut parts, &mut info,
+                )
+            });
             if let Err(e) = r {
                 match index.entry(key(&e)) {
                     std::collections::hash_map::Entry::Occupied(o) => errors[*o.get()].1 += 1,
@@ -452,35 +466,29 @@ impl Grid {
         }
     }
 
-    /// Expands point `i` into `value` (the base scene with every axis value of the point set),
-    /// validates it, and writes its run hash and particle count; what it adds to the chunk goes
-    /// to `info`. `known`: the point's scene, where it was read from that JSON already.
+    /// Point `i`'s scene: every axis value of the point set in `value` (see [`Grid::set_point`]),
+    /// read from that JSON; errors name the point.
+    fn read_point(sweep: &Sweep, shape: &[usize], i: usize, value: &mut Value) -> Result<Scene> {
+        Grid::set_point(sweep, shape, i, value);
+        from_ref_at::<Scene>(value, "").map_err(|e| match e {
+            Error::Input { field, message, .. } => locate(sweep, shape, i, &field, &message),
+            other => other,
+        })
+    }
+
+    /// Validates point `i`'s `scene` and writes its run hash and particle count; what it adds to
+    /// the chunk goes to `info`.
     #[allow(clippy::too_many_arguments)]
-    fn point(
+    fn check_point(
         sweep: &Sweep,
         shape: &[usize],
         i: usize,
         record: &Record<'_>,
-        value: &mut Value,
-        known: Option<&Scene>,
+        scene: &Scene,
         hash: &mut RunHash,
         particles: &mut u32,
         info: &mut ChunkInfo,
     ) -> Result<()> {
-        Grid::set_point(sweep, shape, i, value);
-        let read;
-        let scene: &Scene = match known {
-            Some(scene) => scene,
-            None => {
-                read = from_ref_at::<Scene>(value, "").map_err(|e| match e {
-                    Error::Input { field, message, .. } => {
-                        locate(sweep, shape, i, &field, &message)
-                    }
-                    other => other,
-                })?;
-                &read
-            }
-        };
         let chain = scene
             .validate()
             .map_err(|e| locate(sweep, shape, i, &e.field, &e.message))?;

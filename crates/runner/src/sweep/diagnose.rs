@@ -255,7 +255,7 @@ fn check_sections(file: SweepFile, well_formed: bool, errors: &mut Vec<Error>) {
     if let Err(e) = parse_limits(file.limits) {
         errors.push(e);
     }
-    let Some((base, auto)) = base else {
+    let Some((base, _, auto)) = base else {
         return;
     };
     let has_search = file.search.is_some();

@@ -937,14 +937,15 @@ fn read_json(text: &str) -> Result<SweepFile> {
 
 /// The base scene normalised: chain presets expanded, `integrator: auto` replaced by its
 /// stand-in (the request returned), the top-level record block put in, and every default filled
-/// in by the solver, which validates it.
+/// in by the solver, which validates it. Returned as JSON and as the scene read from it (which
+/// reads back from that JSON as itself).
 ///
 /// `every`: the errors are every one found in the scene ([`diagnose`]), else the first alone.
 fn normalise_base(
     base: Map<String, Value>,
     record: Option<Map<String, Value>>,
     every: bool,
-) -> std::result::Result<(Value, Option<AutoSpec>), Vec<Error>> {
+) -> std::result::Result<(Value, Scene, Option<AutoSpec>), Vec<Error>> {
     let mut base = Value::Object(base);
     let mut errors = Vec::new();
     if let Some(chain) = base.get_mut("chain") {
@@ -1028,6 +1029,7 @@ fn normalise_base(
     match scene {
         Some(scene) if errors.is_empty() => Ok((
             serde_json::to_value(&scene).expect("Scene serialises"),
+            scene,
             auto,
         )),
         _ => Err(errors),
@@ -1241,7 +1243,7 @@ impl Sweep {
         let inlined = recording::inline_text(text, dir)?;
         let text = inlined.as_deref().unwrap_or(text);
         let file = read_json(text)?;
-        let (base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
+        let (base, _, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         let limits = parse_limits(file.limits)?;
         let dims = parse_dims(
             file.axes,
@@ -1273,9 +1275,14 @@ impl Sweep {
     /// One scene as a sweep of a single point without axes (what the Python package's
     /// `chainsweep.run` runs): `base` normalised and checked exactly as a sweep file's `base` is
     /// (presets, defaults, `integrator: auto`), with its `record` and `limits` blocks. Its grid
-    /// ([`crate::grid::Grid::new`]) has the one point, the base scene itself. Errors name fields
+    /// ([`crate::grid::Grid::new`]) has the one point, the base scene itself, which is returned
+    /// beside the sweep as read (for [`crate::grid::Grid::with_first_scene`]). Errors name fields
     /// as in a sweep file (`base.…`, `record.…`, `limits.…`).
-    pub fn of_scene(base: Value, record: Option<Value>, limits: Option<Value>) -> Result<Sweep> {
+    pub fn of_scene(
+        base: Value,
+        record: Option<Value>,
+        limits: Option<Value>,
+    ) -> Result<(Sweep, Scene)> {
         let mut file = Map::new();
         file.insert("base".into(), base);
         if let Some(r) = record {
@@ -1284,17 +1291,29 @@ impl Sweep {
         if let Some(l) = limits {
             file.insert("limits".into(), l);
         }
-        let file = Value::Object(file);
-        let text = file.to_string();
-        // Read from the value itself: its text, parsed again, gives the same value (a map has
-        // no duplicate keys to refuse).
-        let file: SweepFile = from_value_at(file, "")?;
-        let (mut base, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
-        recording::resolve(&mut base, std::path::Path::new("."))?;
-        let limits = parse_limits(file.limits)?;
-        Ok(Sweep {
+        let text = serde_json::to_string(&file).expect("JSON serialises");
+        // Each block read from the value itself (its text, parsed again, gives the same value: a
+        // map has no duplicate keys to refuse) and moved, not copied: an object is taken as it
+        // is, anything else gets the error a sweep file's block gets.
+        let base: Map<String, Value> = match file.remove("base") {
+            Some(Value::Object(m)) => m,
+            other => from_value_at(other.unwrap_or_default(), "base")?,
+        };
+        let record: Option<Map<String, Value>> = match file.remove("record") {
+            Some(Value::Object(m)) => Some(m),
+            other => from_value_at(other.unwrap_or_default(), "record")?,
+        };
+        let limits: Option<LimitsFile> =
+            from_value_at(file.remove("limits").unwrap_or_default(), "limits")?;
+        let (mut base, mut scene, auto) = normalise_base(base, record, false).map_err(first)?;
+        if recording::resolve(&mut base, std::path::Path::new("."))? {
+            // The samples read in are the scene's now.
+            scene = from_ref_at(&base, "base")?;
+        }
+        let limits = parse_limits(limits)?;
+        let sweep = Sweep {
             text,
-            description: file.description,
+            description: String::new(),
             base,
             dims: Vec::new(),
             limits,
@@ -1302,7 +1321,8 @@ impl Sweep {
             auto_choice: None,
             search: None,
             continuation: None,
-        })
+        };
+        Ok((sweep, scene))
     }
 
     /// Whether the base integrator is `auto` and not resolved yet: the scenes of the grid hold a
@@ -1348,6 +1368,42 @@ impl Sweep {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The scene `of_scene` hands the grid is the one the grid would read from the normalised
+    /// base: its JSON reads back as itself (so a scene run from Python is identified and run as
+    /// `chainsweep point` runs the same base), for the base of every sweep file of the project.
+    #[test]
+    fn scene_of_a_one_point_sweep_reads_back_as_itself() {
+        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sweeps");
+        let mut files = Vec::new();
+        for dir in [root.clone(), root.join("examples"), root.join("stress")] {
+            for entry in std::fs::read_dir(dir).unwrap() {
+                let path = entry.unwrap().path();
+                if path.extension().is_some_and(|e| e == "json") {
+                    files.push(path);
+                }
+            }
+        }
+        let mut checked = 0;
+        for path in &files {
+            let file: Value =
+                serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+            let part = |k: &str| file.get(k).cloned();
+            let (sweep, scene) =
+                Sweep::of_scene(part("base").unwrap(), part("record"), part("limits"))
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let again: Scene = from_ref_at(&sweep.base, "").unwrap();
+            assert_eq!(again, scene, "{}", path.display());
+            assert_eq!(
+                serde_json::to_string(&again).unwrap(),
+                serde_json::to_string(&scene).unwrap(),
+                "{}",
+                path.display()
+            );
+            checked += 1;
+        }
+        assert!(checked >= 40, "only {checked} sweep files checked");
+    }
 
     #[test]
     fn units_follow_suffixes() {

@@ -15,8 +15,9 @@ use chainsweep_solver::chain::drive::MAX_RECORDED_SAMPLES;
 const DRIVE_KEYS: [&str; 3] = ["force_n", "actuator_m", "base_m"];
 
 /// Reads every recording of `base` named by `path` (relative paths from `dir`) into its
-/// `times_s` and `values`; errors name the field under `base`.
-pub(crate) fn resolve(base: &mut Value, dir: &Path) -> Result<()> {
+/// `times_s` and `values`, and says whether there was one; errors name the field under `base`.
+pub(crate) fn resolve(base: &mut Value, dir: &Path) -> Result<bool> {
+    let mut read_any = false;
     for key in DRIVE_KEYS {
         let Some(recorded) = base
             .pointer_mut(&format!("/excitation/drive/{key}/recorded"))
@@ -51,8 +52,9 @@ pub(crate) fn resolve(base: &mut Value, dir: &Path) -> Result<()> {
         recorded.remove("dataset");
         recorded.insert("times_s".into(), times.into());
         recorded.insert("values".into(), values.into());
+        read_any = true;
     }
-    Ok(())
+    Ok(read_any)
 }
 
 /// The sweep file `text` with every recording it names by path read into its samples (relative
