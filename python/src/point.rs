@@ -6,7 +6,9 @@
 //! run hash) and runs it under panic protection with its failure limits ([`exec::execute`]): the
 //! numbers are bitwise those of `chainsweep point` for the same scene.
 
+use pyo3::intern;
 use pyo3::prelude::*;
+use pyo3::sync::PyOnceLock;
 use pyo3::types::{PyBool, PyBytes, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 use serde_json::Value;
 
@@ -110,8 +112,20 @@ fn columns<'py>(
         record: Some(&run.record),
         verify: None,
     };
+    // The names as Python strings, made once (a run's answer is a few dozen names).
+    static NAMES: PyOnceLock<Vec<Py<PyString>>> = PyOnceLock::new();
+    let names = NAMES.get_or_init(py, || {
+        COLUMNS
+            .iter()
+            .map(|c| PyString::intern(py, c.name).unbind())
+            .collect()
+    });
     let d = PyDict::new(py);
-    for c in COLUMNS.iter().filter(|c| c.is_written(presence)) {
+    for (c, name) in COLUMNS
+        .iter()
+        .zip(names)
+        .filter(|(c, _)| c.is_written(presence))
+    {
         if matches!(
             c.fill,
             Fill::Verified | Fill::VerifyMax | Fill::VerifyProbe(_) | Fill::SummaryChecksum
@@ -146,7 +160,7 @@ fn columns<'py>(
             ColumnData::U64(_) => continue,
             ColumnData::Str(x) => one(PyList::new(py, x)?.into_any())?,
         };
-        d.set_item(c.name, value)?;
+        d.set_item(name.bind(py), value)?;
     }
     Ok(d)
 }
@@ -267,71 +281,80 @@ pub fn run_scene<'py>(
     let probes = &run.scene.record.probes;
     let d = PyDict::new(py);
     d.set_item(
-        "scene",
+        intern!(py, "scene"),
         serde_json::to_string(&run.scene).expect("Scene serialises"),
     )?;
     d.set_item(
-        "integrator",
+        intern!(py, "integrator"),
         serde_json::to_string(&run.scene.integrator).expect("IntegratorSpec serialises"),
     )?;
-    d.set_item("run_hash", &run.hash)?;
-    d.set_item("energy_drift_limit", run.energy_drift_limit)?;
-    d.set_item("auto", run.auto.as_ref().map(AutoChoice::to_json))?;
+    d.set_item(intern!(py, "run_hash"), &run.hash)?;
+    d.set_item(intern!(py, "energy_drift_limit"), run.energy_drift_limit)?;
     d.set_item(
-        "auto_setting",
+        intern!(py, "auto"),
+        run.auto.as_ref().map(AutoChoice::to_json),
+    )?;
+    d.set_item(
+        intern!(py, "auto_setting"),
         run.auto
             .as_ref()
             .map(|c| serde_json::to_string(&c.integrator).expect("IntegratorSpec serialises")),
     )?;
-    d.set_item("ok", rec.ok)?;
-    d.set_item("reason", &rec.reason)?;
+    d.set_item(intern!(py, "ok"), rec.ok)?;
+    d.set_item(intern!(py, "reason"), &rec.reason)?;
     // Kept as a sweep file keeps them: only for a scene that can integrate only the moving part
     // of its chain (elsewhere they would repeat the chain's length).
     let moving_part = run.moving_part;
-    d.set_item("moving_part_recorded", moving_part)?;
-    d.set_item("columns", columns(py, &run, moving_part)?)?;
-    d.set_item("probe", PyList::new(py, probes.iter().map(|p| p.name()))?)?;
+    d.set_item(intern!(py, "moving_part_recorded"), moving_part)?;
+    d.set_item(intern!(py, "columns"), columns(py, &run, moving_part)?)?;
     d.set_item(
-        "probe_units",
+        intern!(py, "probe"),
+        PyList::new(py, probes.iter().map(|p| p.name()))?,
+    )?;
+    d.set_item(
+        intern!(py, "probe_units"),
         PyList::new(py, probes.iter().map(|p| p.unit()))?,
     )?;
     d.set_item(
-        "probes_json",
+        intern!(py, "probes_json"),
         serde_json::to_string(probes).expect("probes serialise"),
     )?;
     match &rec.history {
         Some(h) => {
-            d.set_item("time_s", f64_bytes(py, &h.time_s))?;
+            d.set_item(intern!(py, "time_s"), f64_bytes(py, &h.time_s))?;
             let series: Vec<Bound<'py, PyBytes>> =
                 h.values.iter().map(|v| f64_bytes(py, v)).collect();
-            d.set_item("history", PyList::new(py, series)?)?;
+            d.set_item(intern!(py, "history"), PyList::new(py, series)?)?;
         }
         None => {
-            d.set_item("time_s", py.None())?;
-            d.set_item("history", py.None())?;
+            d.set_item(intern!(py, "time_s"), py.None())?;
+            d.set_item(intern!(py, "history"), py.None())?;
         }
     }
     match &rec.min_overlap_m {
-        Some(m) => d.set_item("min_overlap_m", f64_bytes(py, m))?,
-        None => d.set_item("min_overlap_m", py.None())?,
+        Some(m) => d.set_item(intern!(py, "min_overlap_m"), f64_bytes(py, m))?,
+        None => d.set_item(intern!(py, "min_overlap_m"), py.None())?,
     }
     match &rec.energy_flow {
         Some(f) => {
-            d.set_item("energy_passed_max_j", f64_bytes(py, &f.energy_passed_max_j))?;
             d.set_item(
-                "energy_passed_final_j",
+                intern!(py, "energy_passed_max_j"),
+                f64_bytes(py, &f.energy_passed_max_j),
+            )?;
+            d.set_item(
+                intern!(py, "energy_passed_final_j"),
                 f64_bytes(py, &f.energy_passed_final_j),
             )?;
             d.set_item(
-                "max_kinetic_energy_j",
+                intern!(py, "max_kinetic_energy_j"),
                 f64_bytes(py, &f.max_kinetic_energy_j),
             )?;
         }
         None => {
             for name in [
-                "energy_passed_max_j",
-                "energy_passed_final_j",
-                "max_kinetic_energy_j",
+                intern!(py, "energy_passed_max_j"),
+                intern!(py, "energy_passed_final_j"),
+                intern!(py, "max_kinetic_energy_j"),
             ] {
                 d.set_item(name, py.None())?;
             }
@@ -339,29 +362,35 @@ pub fn run_scene<'py>(
     }
     match &rec.fields {
         Some(f) => {
-            d.set_item("field_time_s", f64_bytes(py, &f.time_s))?;
+            d.set_item(intern!(py, "field_time_s"), f64_bytes(py, &f.time_s))?;
             let series: Vec<(&str, usize, Bound<'py, PyBytes>)> = f
                 .series
                 .iter()
                 .map(|s| (s.quantity.name(), s.width, f64_bytes(py, &s.values)))
                 .collect();
-            d.set_item("fields", PyList::new(py, series)?)?;
+            d.set_item(intern!(py, "fields"), PyList::new(py, series)?)?;
         }
         None => {
-            d.set_item("field_time_s", py.None())?;
-            d.set_item("fields", py.None())?;
+            d.set_item(intern!(py, "field_time_s"), py.None())?;
+            d.set_item(intern!(py, "fields"), py.None())?;
         }
     }
     d.set_item(
-        "fields_recorded",
+        intern!(py, "fields_recorded"),
         run.scene
             .record
             .fields
             .as_ref()
             .map(|f| f.quantities.iter().map(|q| q.name()).collect::<Vec<_>>()),
     )?;
-    d.set_item("history_recorded", run.scene.record.history)?;
-    d.set_item("min_overlap_recorded", run.scene.record.min_overlap)?;
-    d.set_item("energy_flow_recorded", run.scene.record.energy_flow)?;
+    d.set_item(intern!(py, "history_recorded"), run.scene.record.history)?;
+    d.set_item(
+        intern!(py, "min_overlap_recorded"),
+        run.scene.record.min_overlap,
+    )?;
+    d.set_item(
+        intern!(py, "energy_flow_recorded"),
+        run.scene.record.energy_flow,
+    )?;
     Ok(Some(d))
 }
