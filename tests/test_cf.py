@@ -206,7 +206,7 @@ def test_every_variable_is_labelled_with_parseable_units(files, kind):
     path = files[kind]
     with h5py.File(path, "r") as f:
         assert f.attrs["Conventions"] == CONVENTIONS
-        assert int(f.attrs["layout_version"]) == 5
+        assert int(f.attrs["layout_version"]) == 6
     seen = 0
     for name, v in variables(path):
         seen += 1
@@ -355,7 +355,7 @@ def test_a_file_of_layout_3_stays_readable_merges_and_resumes_into_a_cf_file(
                                   ds.leading_peak.sel(probe=p).values[kept]), p
         assert new.run_hash.values[kept].tolist() == ds.run_hash.values[kept].tolist()
         with h5py.File(path, "r") as f:
-            assert int(f.attrs["layout_version"]) == 5
+            assert int(f.attrs["layout_version"]) == 6
         report = cfchecks(path, tables, tmp_path)
         assert report.returncode == 0, report.stdout
 

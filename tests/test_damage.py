@@ -439,6 +439,74 @@ def test_invalid_utf8_and_unknown_status_codes_are_damage_not_undefined(tmp_path
     assert r.returncode == 3 and "status code 7 is none of" in r.stdout, r.stdout
 
 
+def test_a_pending_point_names_no_run_and_a_value_in_it_is_damage(tmp_path, binary):
+    """A pending point holds nothing: no run hash, checksum 0, every value its fill (so that a
+    block of pending points is never written). Anything written into one is reported as damage,
+    never served, and the next run computes the point as it would have."""
+    path = write_sweep(tmp_path / "x.json", sweep_2x3())
+    out = tmp_path / "x.h5"
+    assert run("run", path, "--shard", "1/2", "-o", out, "--quiet").returncode == 0
+    with h5py.File(out, "r") as f:
+        status = f["status"][()].ravel()
+        hashes = texts(f["run_hash"]).ravel()
+        sums = f["summary_checksum"][()].ravel()
+    pending = np.flatnonzero(status == 0)
+    assert len(pending) == 3 and all(hashes[i] == "" for i in pending), hashes
+    assert (sums[pending] == 0).all()
+    assert all(len(hashes[i]) == 64 and sums[i] != 0 for i in np.flatnonzero(status != 0))
+    r = run("status", out)
+    assert r.returncode == 0 and "3 done" in r.stdout and "damage" not in r.stdout, r.stdout
+    ds = chainsweep.open(out)  # nothing damaged: it opens
+    assert int((ds.status.values == 0).sum()) == 3 and set(ds.run_hash.values.ravel()[pending]) == {""}
+    # A number in one pending point, a run hash in another (written through HDF5, which makes
+    # the chunks' checksums good; the points' own checks are what is left).
+    a, b = (int(i) for i in pending[:2])
+    with h5py.File(out, "r+") as f:
+        lp = f["leading_peak"][()]
+        lp.reshape(-1, lp.shape[-1])[a, 0] = 1.0
+        f["leading_peak"][...] = lp
+        rh = f["run_hash"][()]
+        rows = rh.reshape(-1, rh.shape[-1])
+        rows[b, :64] = np.frombuffer(b"ab" * 32, dtype="S1")
+        f["run_hash"][...] = rows.reshape(rh.shape)
+    r = run("status", out)
+    assert r.returncode == 3 and damaged_points(r.stdout) == sorted([a, b]), r.stdout
+    with pytest.raises(chainsweep.DamagedFileError) as e:
+        chainsweep.open(out)
+    assert sorted(p[0] for p in e.value.damaged) == sorted([a, b])
+    # The whole sweep into it: every point computed or kept, the file an uninterrupted run writes.
+    assert run("run", path, "-o", out, "--quiet").returncode == 0
+    fresh = tmp_path / "fresh.h5"
+    assert run("run", path, "-o", fresh, "--quiet").returncode == 0
+    np.testing.assert_array_equal(xr.open_dataset(out).leading_peak, xr.open_dataset(fresh).leading_peak)
+    with h5py.File(out, "r") as f:
+        assert all(len(h) == 64 for h in texts(f["run_hash"]).ravel())
+
+
+def test_a_finished_run_wiped_to_a_pending_point_is_restored_from_the_snapshot(tmp_path, binary):
+    """A finished point rewritten to exactly what a pending point holds (status 0, no run hash,
+    checksum 0, every value its fill) passes its own check, as a pending point must; the snapshot,
+    which holds its run there, reports it, and the run is restored, not computed again."""
+    path, out = complete(tmp_path, sweep_2x3())
+    reference = copy_output(out, tmp_path / "reference.h5")
+    k = point_index(out, mass_ratio=1.0, damping_kg_s=0)
+    with h5py.File(out, "r+") as f:
+        grid = f["status"].shape
+        for name, d in f.items():
+            if isinstance(d, h5py.Dataset) and d.shape[: len(grid)] == grid:
+                a = d[()]
+                a.reshape((-1,) + a.shape[len(grid):])[k] = d.fillvalue
+                d[...] = a
+        assert texts(f["run_hash"]).ravel()[k] == "" and f["status"][()].ravel()[k] == 0
+    r = run("status", path, "-o", out)
+    assert r.returncode == 3 and "restored from its snapshot" in r.stdout, r.stdout
+    assert "reads as pending, but its snapshot holds its run" in r.stdout, r.stdout
+    r = run("run", path, "-o", out)
+    assert r.returncode == 0 and "6 of 6 runs already done" in r.stderr, r.stderr
+    assert "1 damaged run(s) restored from its snapshot" in r.stderr
+    assert_files_equal(reference, out)
+
+
 def locked_run_rss(path, out, lock_bytes):
     """Peak memory (KiB) of a `run` refused because another process holds the lock, whose lock
     file has `lock_bytes` bytes; and what it said."""

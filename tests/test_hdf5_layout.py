@@ -236,7 +236,7 @@ def test_histories(produced):
     _, _, out = produced
     with h5py.File(out, "r") as f:
         assert "runs" not in f  # no group per run
-        assert int(f.attrs["layout_version"]) == 5
+        assert int(f.attrs["layout_version"]) == 6
         t = f["time_s"]
         assert t.attrs["units"] == "s" and h5py.h5ds.is_scale(t.id)
         assert t.shape == (201,)

@@ -264,7 +264,7 @@ def test_an_old_layout_resumes_into_the_new_one(tmp_path, binary):
     r = run("run", path, "-o", out)
     assert r.returncode == 3 and "6 of 6 runs already done" in r.stderr, r.stderr
     with h5py.File(out, "r") as f:
-        assert int(f.attrs["layout_version"]) == 5 and "runs" not in f
+        assert int(f.attrs["layout_version"]) == 6 and "runs" not in f
     assert_files_equal(fresh, out)
 
 
@@ -309,7 +309,7 @@ def test_a_newer_layout_is_refused(tmp_path, binary):
     out = tmp_path / "s.h5"
     assert run("run", path, "-o", out, "--quiet").returncode == 0
     with h5py.File(out, "r+") as f:
-        f.attrs["layout_version"] = np.int64(6)
+        f.attrs["layout_version"] = np.int64(7)
     r = run("status", out)
     assert r.returncode != 0
-    assert "layout version 6" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout
+    assert "layout version 7" in r.stderr + r.stdout and "newer chainsweep" in r.stderr + r.stdout

@@ -815,7 +815,7 @@ def open(  # noqa: A001 (chainsweep.open)
     Every summary of the file is a variable over the grid (and ``probe``) with its ``units`` and
     ``long_name``: peaks and times, ledger errors, counters (``steps``, … as float64 with NaN where
     a run failed or is pending, the file's fill value masked), ``status`` (0 pending, 1 ok,
-    2 failed), ``reason``, ``warnings``, ``run_hash``, and the verification columns
+    2 failed), ``reason``, ``warnings``, ``run_hash`` (empty where pending), and the verification columns
     (``verified``, ``verify_rel_error_*``). Pending and failed points hold NaN. The file's root
     attributes (the sweep, the base scene, versions, counts) are the Dataset's ``attrs``.
     Where the probes measure in different units (a force and a velocity), the peaks and maxima are

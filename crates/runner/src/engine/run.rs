@@ -435,8 +435,8 @@ struct Running<'a> {
 /// pending points is, is not written: `store::hdf5::write_points`), so its size follows the runs
 /// it holds, and the publishes of a
 /// sweep write about `GROWTH / (GROWTH - 1)` times the final file in all, whatever the
-/// checkpoint interval (plus, per publish, the run hashes and point checksums that name every
-/// point, pending or not), while every checkpoint makes the runs stored so far durable.
+/// checkpoint interval (a pending point names no run: nothing of it is written), while every
+/// checkpoint makes the runs stored so far durable.
 pub const PUBLISH_GROWTH: usize = 2;
 
 impl Running<'_> {

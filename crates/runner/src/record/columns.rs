@@ -7,7 +7,8 @@
 //! Every stored value of a point is covered by its checksum ([`Table::point_checksum`]): the
 //! `summary_checksum` column holds, per point, the first 8 bytes of the SHA-256 of every other
 //! column's value at that point (the `history_checksum` of its run group included), so that a
-//! reader finds out which points of a damaged file it can still trust.
+//! reader finds out which points of a damaged file it can still trust. A pending point holds no
+//! run: no run hash, checksum 0 and nothing but fill values, which is what it is checked for.
 
 use chainsweep_solver::observe::flow::EnergyFlow;
 use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
@@ -205,7 +206,7 @@ pub enum Fill {
     },
     /// The point's status: [`STATUS_PENDING`], [`STATUS_OK`] or [`STATUS_FAILED`].
     Status,
-    /// The point's run hash (hex), pending points included.
+    /// The point's run hash (hex); empty where the point is pending.
     RunHash,
     /// The verification flag of a finished point ([`VERIFY_NONE`] elsewhere).
     Verified,
@@ -793,7 +794,7 @@ pub const COLUMNS: &[Column] = &[
             "SHA-256 identity of the run: numerics version, solver version, limits, full scene",
         long_name: true,
         flags: None,
-        note: "",
+        note: "empty where the point is pending (it holds no run)",
         required: true,
         written: Written::Always,
         fill: Fill::RunHash,
@@ -1072,7 +1073,7 @@ pub const COLUMNS: &[Column] = &[
         description: "checksum of every other value the file stores for the point (run hash, status, summaries, verification, history_checksum)",
         long_name: true,
         flags: None,
-        note: "the first 8 bytes of a SHA-256, little endian; pending points included. A point whose values do not match it is damaged: chainsweep reports it and computes it again",
+        note: "the first 8 bytes of a SHA-256, little endian; 0 where the point is pending, which then holds nothing but fill values (checked too). A point whose values do not match it is damaged: chainsweep reports it and computes it again",
         required: false,
         written: Written::Always,
         fill: Fill::SummaryChecksum,
@@ -1215,7 +1216,7 @@ pub enum ColumnData {
 /// pending) and, for a finished run, its verification outcome.
 #[derive(Debug, Clone, Copy)]
 pub struct PointOutcome<'a> {
-    /// The point's run hash (hex).
+    /// The point's run hash (hex), stored only with its run.
     pub hash_hex: &'a str,
     /// The finished run.
     pub record: Option<&'a RunRecord>,
@@ -1330,7 +1331,12 @@ impl Column {
                     Some(_) => STATUS_FAILED,
                 };
             }
-            (Fill::RunHash, ColumnData::Str(d)) => d[i] = o.hash_hex.to_string(),
+            // A pending point holds no run, so it names none: its run hash is empty, the fill.
+            (Fill::RunHash, ColumnData::Str(d)) => {
+                if o.record.is_some() {
+                    d[i] = o.hash_hex.to_string();
+                }
+            }
             (Fill::Verified, ColumnData::U8(d)) => {
                 if let Some(v) = o.verify {
                     d[i] = v.status;
@@ -1546,7 +1552,10 @@ impl Table {
         }
     }
 
-    /// Fills in point `i` from its outcome `o`: every column, then the point's checksum.
+    /// Fills in point `i` from its outcome `o`: every column, then the point's checksum. A
+    /// pending point (no record) holds nothing but fill values, and its checksum is 0 too, what
+    /// HDF5 gives back from a chunk never written: a block of pending points costs the file
+    /// nothing ([`Table::checks_out`] says how such a point is checked).
     pub fn fill_point(&mut self, i: usize, o: &PointOutcome) {
         let (np, nh) = (self.np, self.nh);
         for (c, data) in COLUMNS.iter().zip(&mut self.columns) {
@@ -1554,7 +1563,10 @@ impl Table {
                 c.fill_point(d, i, np, nh, o);
             }
         }
-        let sum = self.point_checksum(i);
+        let sum = match o.record {
+            Some(_) => self.point_checksum(i),
+            None => 0,
+        };
         let at = COLUMNS
             .iter()
             .position(|c| matches!(c.fill, Fill::SummaryChecksum))
@@ -1594,6 +1606,32 @@ impl Table {
                 h.update(b"\n");
             }
         })
+    }
+
+    /// The checksum [`Table::point_checksum`] of a pending point as [`Table::fill_point`] leaves
+    /// it in a table with this one's columns: every value its fill, no run hash.
+    pub fn pending_checksum(&self) -> u64 {
+        let one = Table {
+            n: 1,
+            np: self.np,
+            nh: self.nh,
+            columns: COLUMNS
+                .iter()
+                .zip(&self.columns)
+                .map(|(c, d)| d.as_ref().map(|_| c.empty(1, self.np, self.nh)))
+                .collect(),
+        };
+        one.point_checksum(0)
+    }
+
+    /// Whether point `i`'s values match its `summary_checksum`. A point's checksum covers every
+    /// value it holds (a pending point's run hash included, as layouts 3 to 5 stored it). With
+    /// `pending` (the table's [`Table::pending_checksum`], for a file of layout 6 or later), a
+    /// pending point may instead have checksum 0 and hold nothing but fill values.
+    pub fn checks_out(&self, i: usize, pending: Option<u64>) -> bool {
+        let stored = self.checksum_at("summary_checksum", i);
+        let sum = self.point_checksum(i);
+        sum == stored || (stored == 0 && self.status(i) == STATUS_PENDING && Some(sum) == pending)
     }
 
     /// The verification outcome stored for point `i`.
@@ -1835,5 +1873,85 @@ mod tests {
                 c.name
             );
         }
+    }
+
+    #[test]
+    fn a_pending_point_names_no_run_and_holds_nothing_else() {
+        let presence = Presence {
+            probes: 2,
+            moving_part: true,
+            run_groups: false,
+            spectrum: false,
+            harmonics: 0,
+        };
+        let mut t = Table::empty(3, presence);
+        let hash = [7u8; 32];
+        let hex = crate::identity::hex(&hash);
+        let first = RunRecord::failed(hash, "no".into(), 0.5);
+        let third = RunRecord::failed(hash, "also no".into(), 0.5);
+        for (i, record) in [Some(&first), None, Some(&third)].into_iter().enumerate() {
+            let outcome = PointOutcome {
+                hash_hex: &hex,
+                record,
+                verify: None,
+            };
+            t.fill_point(i, &outcome);
+        }
+        // The run and the pending point: named or not, the checksum 0 only where pending.
+        assert_eq!(t.str_at("run_hash", 0), hex);
+        assert_eq!(t.str_at("run_hash", 1), "");
+        assert_eq!(t.checksum_at("summary_checksum", 1), 0);
+        assert_ne!(t.checksum_at("summary_checksum", 0), 0);
+        let pending = t.pending_checksum();
+        assert!((0..3).all(|i| t.checks_out(i, Some(pending))));
+        // A pending point is an empty row: what a fresh table holds.
+        assert_eq!(Table::empty(1, presence).point_checksum(0), pending);
+        // A value in a pending point, a run hash in it, or a run's checksum zeroed: damage.
+        let damaged = |edit: &dyn Fn(&mut Table)| {
+            let mut u = Table::empty(3, presence);
+            u.columns.clone_from(&t.columns);
+            edit(&mut u);
+            (0..3)
+                .filter(|&i| !u.checks_out(i, Some(pending)))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            damaged(&|u| match u.columns[col("steps")].as_mut() {
+                Some(ColumnData::I64(v)) => v[1] = 5,
+                _ => unreachable!(),
+            }),
+            [1]
+        );
+        assert_eq!(
+            damaged(&|u| match u.columns[col("run_hash")].as_mut() {
+                Some(ColumnData::Str(v)) => v[1] = "ab".repeat(32),
+                _ => unreachable!(),
+            }),
+            [1]
+        );
+        assert_eq!(
+            damaged(&|u| match u.columns[col("summary_checksum")].as_mut() {
+                Some(ColumnData::U64(v)) => v[2] = 0,
+                _ => unreachable!(),
+            }),
+            [2]
+        );
+        // As layouts 3 to 5 stored a pending point: its run hash, and the checksum over it.
+        let old = damaged(&|u| {
+            if let Some(ColumnData::Str(v)) = u.columns[col("run_hash")].as_mut() {
+                v[1].clone_from(&hex);
+            }
+            let sum = u.point_checksum(1);
+            if let Some(ColumnData::U64(v)) = u.columns[col("summary_checksum")].as_mut() {
+                v[1] = sum;
+            }
+        });
+        assert!(old.is_empty(), "{old:?}");
+        // In a file of layout 5 or earlier a pending point always had its checksum.
+        assert!(!t.checks_out(1, None));
+    }
+
+    fn col(name: &str) -> usize {
+        COLUMNS.iter().position(|c| c.name == name).unwrap()
     }
 }

@@ -334,7 +334,19 @@ impl PublishedFile {
                 for i in 0..recs.len() {
                     let damaged = match recs.damage(i) {
                         Some(why) => Some(why.to_string()),
-                        None if recs.status(i) == STATUS_PENDING => continue,
+                        None if recs.status(i) == STATUS_PENDING => {
+                            // A pending point names no run, so a finished run wiped back to a
+                            // pending point's fill values passes its own check; the snapshot,
+                            // which holds the run there, says otherwise (asked only of a file
+                            // whose bytes are not those published with it).
+                            let wiped = !self.intact
+                                && self.snapshot.as_ref().and_then(|s| s.find(&grid.hashes[i]))
+                                    == Some(i);
+                            if !wiped {
+                                continue;
+                            }
+                            Some("it reads as pending, but its snapshot holds its run".to_string())
+                        }
                         None if !recs.holds(i, &grid.hashes[i]) => {
                             // A run of another version of the engine (or of the sweep): it is
                             // not this grid's and is left out, as resume always did.

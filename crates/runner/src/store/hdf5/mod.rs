@@ -48,7 +48,11 @@ use hdf5::{Dataset, File, Group, H5Type, Location};
 use crate::error::{Error, Result};
 use crate::sweep::auto::AutoChoice;
 
-/// Version of the file layout, the `layout_version` root attribute. Version 5: the runs'
+/// Version of the file layout, the `layout_version` root attribute. Version 6: a pending point
+/// names no run: its `run_hash` is empty and its `summary_checksum` 0, so that, like every other
+/// value of a pending point, they are the fill value and a block of pending points is not written
+/// ([`crate::record::columns::Table::fill_point`]); a reader checks that a pending point holds
+/// nothing but fill values. Every reader reads either. Version 5: the runs'
 /// histories and minimum overlaps as one chunked dataset per quantity over the grid
 /// ([`arrays`]: `history` over (grid…, probe, time_s) with the time axis stored once where every
 /// run samples at the same interval, `history_samples`, `min_overlap_m` over (grid…, contact))
@@ -73,7 +77,10 @@ use crate::sweep::auto::AutoChoice;
 /// numeric summary, a `contact` scale for minimum overlaps. Files without the attribute are
 /// version 1: run groups `runs/<flat index>` zero-padded to the width of the largest index. The
 /// runs stored are the same in both (this is no numerics version): `merge` reads either.
-pub const LAYOUT_VERSION: i64 = 5;
+pub const LAYOUT_VERSION: i64 = 6;
+
+/// The first layout whose pending points name no run (an empty `run_hash`, `summary_checksum` 0).
+pub const UNNAMED_PENDING_LAYOUT: i64 = 6;
 
 /// The first layout whose runs' arrays are datasets over the grid ([`arrays`]), not run groups.
 pub const ARRAYS_LAYOUT: i64 = 5;

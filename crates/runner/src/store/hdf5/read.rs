@@ -18,7 +18,7 @@ use super::arrays::ArrayReader;
 use super::write::{coord_of, Coord};
 use super::{
     column_text_checksum, header_checksum, passes_filter_check, read_attr_str, read_text,
-    read_unchecked, run_group_name_in, ARRAYS_LAYOUT, LAYOUT_VERSION,
+    read_unchecked, run_group_name_in, ARRAYS_LAYOUT, LAYOUT_VERSION, UNNAMED_PENDING_LAYOUT,
 };
 use crate::error::{Error, Result};
 use crate::grid::Grid;
@@ -297,15 +297,15 @@ impl FileRecords {
             .join("; ");
         let checked = self.layout_version >= CHECKED_LAYOUT;
         let sums = checked && !(as_published && self.unreadable.is_empty());
+        let pending =
+            (self.layout_version >= UNNAMED_PENDING_LAYOUT).then(|| self.table.pending_checksum());
         for i in 0..self.table.n {
             let st = self.table.status(i);
             let why = if ![STATUS_PENDING, STATUS_OK, STATUS_FAILED].contains(&st) {
                 Some(format!(
                     "its status code {st} is none of 0 (pending), 1 (ok), 2 (failed)"
                 ))
-            } else if sums
-                && self.table.point_checksum(i) != self.table.checksum_at("summary_checksum", i)
-            {
+            } else if sums && !self.table.checks_out(i, pending) {
                 Some(if unreadable.is_empty() {
                     "its stored values do not match their checksum (summary_checksum)".to_string()
                 } else {

@@ -210,13 +210,13 @@ fn fill_columns(
         in_points[i] = true;
     }
     for (i, &in_run) in in_points.iter().enumerate() {
-        // (A point of a search's grid without a run has no hash.)
-        let hash_hex = if grid.hashes[i] == [0; 32] {
-            String::new()
-        } else {
-            hex(&grid.hashes[i])
-        };
         let record = get(i)?;
+        // Only a point that holds a run names it (pending points and a search's points without
+        // a run store no run hash).
+        let hash_hex = match record {
+            Some(_) => hex(&grid.hashes[i]),
+            None => String::new(),
+        };
         if in_run && record.is_none() {
             counts.pending += 1;
         }
