@@ -106,10 +106,15 @@ impl DamageReport {
             let point = d.hash.as_ref().and_then(|h| at.get(h).copied());
             LostRun {
                 point,
-                label: match point {
-                    Some(i) => format!("point {i} ({})", grid.point_label(sweep, i)),
-                    None => format!(
+                label: match (point, &d.hash) {
+                    (Some(i), _) => format!("point {i} ({})", grid.point_label(sweep, i)),
+                    (None, Some(_)) => format!(
                         "point {} of the file (a point this sweep does not have)",
+                        d.point
+                    ),
+                    // A pending point names no run; a damaged run hash names none either.
+                    (None, None) => format!(
+                        "point {} of the file (which names no run: pending, or its run hash damaged)",
                         d.point
                     ),
                 },
@@ -341,4 +346,51 @@ pub const MAX_JOBS_PER_CPU: usize = 4;
 /// times `SLURM_CPUS_PER_TASK`, when that is larger).
 pub fn max_jobs() -> usize {
     MAX_JOBS_PER_CPU * all_cpus().max(default_jobs())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A damaged run is labelled by the point of the sweep it belongs to; one the sweep does not
+    /// have, or one whose point names no run (a pending point, a damaged run hash), by its point
+    /// in the file, saying which of the two it is.
+    #[test]
+    fn damaged_runs_are_labelled_by_their_point_or_say_why_they_have_none() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sweeps/examples");
+        let text = std::fs::read_to_string(dir.join("trimer.json")).unwrap();
+        let sweep = Sweep::parse_in(&text, &dir).unwrap();
+        let grid = Grid::new(&sweep).unwrap();
+        assert!(grid.len() > 2);
+        let run = |point, hash| DamagedRun {
+            point,
+            hash,
+            why: "a flipped byte".into(),
+        };
+        let damage = Damage {
+            lost: vec![
+                run(0, Some(grid.hashes[2])),
+                run(1, Some([7; 32])),
+                run(2, None),
+            ],
+            ..Damage::default()
+        };
+        let report = DamageReport::new(Path::new("x.h5"), &damage, &sweep, &grid);
+        let labels: Vec<_> = report.lost.iter().map(|l| (l.point, &l.label[..])).collect();
+        let own = format!("point 2 ({})", grid.point_label(&sweep, 2));
+        assert_eq!(
+            labels,
+            [
+                (Some(2), &own[..]),
+                (
+                    None,
+                    "point 1 of the file (a point this sweep does not have)"
+                ),
+                (
+                    None,
+                    "point 2 of the file (which names no run: pending, or its run hash damaged)"
+                ),
+            ]
+        );
+    }
 }
