@@ -376,7 +376,11 @@ mod tests {
             ..Damage::default()
         };
         let report = DamageReport::new(Path::new("x.h5"), &damage, &sweep, &grid);
-        let labels: Vec<_> = report.lost.iter().map(|l| (l.point, &l.label[..])).collect();
+        let labels: Vec<_> = report
+            .lost
+            .iter()
+            .map(|l| (l.point, &l.label[..]))
+            .collect();
         let own = format!("point 2 ({})", grid.point_label(&sweep, 2));
         assert_eq!(
             labels,
