@@ -71,7 +71,10 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// Version 2: runs record `events`, `max_overlap_m` and `warnings` (segment format 2).
 /// Version 3: vectorised sums in the solver (right-hand side, DOP853 error norm, ledger) and FMA
 /// stage sums change results in the last digits (≤ 1e-6 relative on peaks).
-pub const NUMERICS_VERSION: u32 = 3;
+/// Version 4: with event location, a step that lands on a contact holds it on its side before the
+/// crossing for its last stage, and a run that starts on a closing contact takes its first
+/// derivative on the compressed side: runs with the paper's viscous damping take other steps.
+pub const NUMERICS_VERSION: u32 = 4;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

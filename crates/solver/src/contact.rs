@@ -781,14 +781,30 @@ pub(crate) fn paper_contact_force<const D: bool, const C: bool>(
     overlap: f64,
     rel_velocity: f64,
 ) -> (f64, f64) {
+    // The viscous term acts only while the contact is compressed (paper, after Eq. 12).
+    paper_contact_force_on_side::<D, C>(a, mu, overlap, rel_velocity, overlap > 0.0)
+}
+
+/// [`paper_contact_force`] on the compressed side of the contact (`compressed`: with the viscous
+/// term) or the open side (without it), whichever side `overlap` is on: the elastic term is
+/// continuous where the contact opens or closes, the viscous term jumps there. A step that lands
+/// on that switch ends a hair past it, and holds the contact on its side before the crossing
+/// there.
+#[inline(always)]
+pub(crate) fn paper_contact_force_on_side<const D: bool, const C: bool>(
+    a: f64,
+    mu: f64,
+    overlap: f64,
+    rel_velocity: f64,
+    compressed: bool,
+) -> (f64, f64) {
     let d = overlap.max(0.0);
     let elastic = hertz_force(a, d);
     if !D {
         let f = if C { elastic.max(0.0) } else { elastic };
         return (f, 0.0);
     }
-    // The viscous term acts only while the contact is compressed (paper, after Eq. 12).
-    let c = if overlap > 0.0 { mu } else { 0.0 };
+    let c = if compressed { mu } else { 0.0 };
     let mut f = elastic + c * rel_velocity;
     if C {
         f = f.max(0.0);

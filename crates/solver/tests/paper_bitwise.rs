@@ -215,10 +215,10 @@ chain_055: mass 00b12eed96bfcfb5 stiffness e791e7bd35b10d11 damping 8c5015e8f070
 light: mass ce63221521bbf3c5 stiffness cf2eb3c911fafb69 damping 229f5b70a40e2069 static_overlap e88f5bab6d364abe equilibrium 49720536407c98fc g 40239eb851eb851f\n\
 heavy: mass 90c51b7b2fd52675 stiffness e791e7bd35b10d11 damping b7adcd5caf5292e5 static_overlap 64759cea2d88bc7d equilibrium 7b3ade9c254ae345 g 40239eb851eb851f\n\
 free: mass 6f273ab86f0203b5 stiffness 4bec91e450f75ad8 damping d248d02ad9aa7fbd static_overlap 35da762063936645 equilibrium ad7f8afd9dfb20e5 g 0000000000000000\n\
-reference: steps 1414 rejected 650 events 158 rhs 29004 t_end 3f50624dd2f1a9fc drift 3e997ead380f50e0 3e997ead380f50e0 momentum 3ce59e08c89b458f max_overlap 3ee4db49ffa9a770 impact 3f5cdda13066d01a warnings 0\n\
-reference: energy 3f399a59783083dd 3f326669aae4a7e2 bf14cc95b340f5fd 3f52a4bcbdb34f74\n\
-reference: probe 0 405ae1bb4f144e0b 3f1999ed41734470 405ae1bb4f144e0b 3f1999ed41734470\n\
-reference: probe 1 404c308bddf48bd2 3f414fc24654a941 404c308bddf48bd2 3f414fc24654a941\n\
+reference: steps 897 rejected 419 events 155 rhs 18696 t_end 3f50624dd2f1a9fc drift 3ead19643d2b077b 3ea8d7613b0dcf88 momentum 3ce9f0d75720b9df max_overlap 3ee4aaf712fd9ce8 impact 3f5cdda13066d01a warnings 0\n\
+reference: energy 3f399a5662dc3e82 3f326668da6fe667 bf14cc95b340f606 3f52a4bd0898cd2f\n\
+reference: probe 0 405ae1b95625eb47 3f1999ede2ef2793 405ae1b95625eb47 3f1999ede2ef2793\n\
+reference: probe 1 404c308a7c3c71d0 3f414fc26aef8541 404c308a7c3c71d0 3f414fc26aef8541\n\
 chain_098_probes: steps 640 rejected 204 events 145 rhs 12432 t_end 3f43a92a30553261 drift 3e34436c99222bae 3e34436c99222bae momentum 3cfeee319965692a max_overlap 3ee26486d449201a impact 3f533102b4eebd40 warnings 0\n\
 chain_098_probes: energy 3f4554da5f745947 3f41945938c4303f bef5f00bfa418285 0000000000000000\n\
 chain_098_probes: probe 0 405ccbe9eac30038 3f17c733e119b8d0 405ccbe9eac30038 3f17c733e119b8d0\n\
@@ -229,17 +229,17 @@ chain_098_probes: probe 4 3eea6a9c9870e95b 3f2e00c87f970d17 3eea6a9c9870e95b 3f2
 chain_098_probes: probe 5 3fe7dff5786bc89e 3ef2fad156cb1b7f 3fe7dff5786bc89e 3ef2fad156cb1b7f\n\
 chain_098_probes: probe 6 7ff8000000000000 7ff8000000000000 3ff3ea91c8904585 3f43a92a30553261\n\
 chain_098_probes: min_overlap ff417f5a8853b54b\n\
-chain_098_subtract_history: steps 639 rejected 223 events 22 rhs 12134 t_end 3f43a92a30553261 drift 3e0c0999fb18c1bc 3e0c0999fb18c1bc momentum 3ce9a0ca02c1bd89 max_overlap 3ee1ceb2306972ca impact 3f533102b4eebd40 warnings 0\n\
-chain_098_subtract_history: energy 3f278b64ad08acb4 3f24d44e9b195f30 bef5f00c05a65a19 3f4bd146c90e6c82\n\
-chain_098_subtract_history: probe 0 4058c3ac013914ec 3f17bc4ea379b95f 4058c3ac013914ec 3f17bc4ea379b95f\n\
-chain_098_subtract_history: probe 1 404e9cc2bcabfba1 3f3dc89a7726622a 404e9cc2bcabfba1 3f3dc89a7726622a\n\
-chain_098_subtract_history: probe 2 40643bd67f1446f6 3ee94877054bc2fd 40643bd67f1446f6 3ee94877054bc2fd\n\
-chain_098_subtract_history: probe 3 3ed8ca0e667fe112 3f1bda9b605dc56b 3ed8ca0e667fe112 3f1bda9b605dc56b\n\
-chain_098_subtract_history: probe 4 7ff8000000000000 7ff8000000000000 3eed3d916af6b706 3f43a92a30553261\n\
-chain_098_subtract_history: probe 5 3fe6d9fa0479007f 3ef2c3fb7fa4f008 3fe6d9fa0479007f 3ef2c3fb7fa4f008\n\
-chain_098_subtract_history: probe 6 7ff8000000000000 7ff8000000000000 3ed468ac8f8c0000 3f43a92a30553261\n\
-chain_098_subtract_history: min_overlap 1e5fa52f3e6f2397\n\
-chain_098_subtract_history: history 120 04f21e7d92262f17\n\
+chain_098_subtract_history: steps 515 rejected 152 events 23 rhs 9497 t_end 3f43a92a30553261 drift 3e31788768fd6508 3e31788768fd6508 momentum 3ce65069449b7245 max_overlap 3ee1dc9fa22b0e66 impact 3f533102b4eebd40 warnings 0\n\
+chain_098_subtract_history: energy 3f278b64aa5e3a1a 3f24d44e99825cdc bef5f00c05a65a19 3f4bd146c806ba45\n\
+chain_098_subtract_history: probe 0 4058c3abffdad8aa 3f17bc4ea36c8b56 4058c3abffdad8aa 3f17bc4ea36c8b56\n\
+chain_098_subtract_history: probe 1 404e9cc2baec1393 3f3dc89a776bd41f 404e9cc2baec1393 3f3dc89a776bd41f\n\
+chain_098_subtract_history: probe 2 40643bd67cbbd650 3ee94877026bc4bb 40643bd67cbbd650 3ee94877026bc4bb\n\
+chain_098_subtract_history: probe 3 3ed8ca0e64fa513b 3f1bda9b60e6e265 3ed8ca0e64fa513b 3f1bda9b60e6e265\n\
+chain_098_subtract_history: probe 4 7ff8000000000000 7ff8000000000000 3eed3d916b5c9c5e 3f43a92a30553261\n\
+chain_098_subtract_history: probe 5 3fe6d9fa02581733 3ef2c3fb81391c9c 3fe6d9fa02581733 3ef2c3fb81391c9c\n\
+chain_098_subtract_history: probe 6 7ff8000000000000 7ff8000000000000 3ed468ac77980000 3f43a92a30553261\n\
+chain_098_subtract_history: min_overlap 37b3e542e5da0400\n\
+chain_098_subtract_history: history 120 3c4ec93bbf43bdf9\n\
 light_ros34pw2_clip: steps 447 rejected 42 events 29 rhs 1920 t_end 3f33a92a30553261 drift 3ec513bf36891fbe 3eb65dffd0b9c6e2 momentum 3e7124192e640085 max_overlap 3ee673b9fc438bd6 impact 3f5cdda13066d01a warnings 0\n\
 light_ros34pw2_clip: energy 3f29e5219cb5c290 3f192a322fd8e17b 8000000000000000 3f580e57542d53ac\n\
 light_ros34pw2_clip: probe 0 4043904750cd861b 3f110d728498303b 4043904750cd861b 3f110d728498303b\n\
@@ -252,22 +252,21 @@ free_verlet: steps 20000 rejected 0 events 0 rhs 20001 t_end 3f2a36e2eb1c432d dr
 free_verlet: energy 3f44fa25630f2514 3f4167dffa2945c7 8000000000000000 0000000000000000\n\
 free_verlet: probe 0 405c9fc56a038610 3f126c5f63337353 405c9fc56a038610 3f126c5f63337353\n\
 free_verlet: probe 1 3fe727d777dcb86c 3f1ff2c12eeaea19 3fe727d777dcb86c 3f1ff2c12eeaea19\n\
-heavy_stop_early: steps 701 rejected 262 events 29 rhs 13522 t_end 3f42ca205a6516e9 drift 3e2d277d37c92891 3e19873dde2d666b momentum 3ce4ac515feb0006 max_overlap 3ee61dd9cff3980c impact 3f61f4a7dd293b62 warnings 0\n\
-heavy_stop_early: energy 3f37e2212c25c134 3f31ab9155f3768b bf1259b5c71bc9e2 3f5a2539ed0fdecc\n\
-heavy_stop_early: probe 0 404865400420661f 3f415f72f20ba7b1 404865400420661f 3f415f72f20ba7b1\n\
-chain_098_vern6: steps 677 rejected 218 events 82 rhs 9445 t_end 3f43a92a30553261 drift 3e87b08bf4fd22c6 3e87b08bf4fd22c6 momentum 3d1371267dad754e max_overlap 3ee1d554251647a2 impact 3f533102b4eebd40 warnings 0\n\
-chain_098_vern6: energy 3f278b6489042f22 3f24d44e71277fac bef5f00c05a65a21 3f4bd1466b69ad65\n\
-chain_098_vern6: probe 0 4058cd65deab3d74 3f17bc4ea0ba7407 4058cd65deab3d74 3f17bc4ea0ba7407\n\
-chain_098_vern6: probe 1 404f08547eca308e 3f3dc89a74dd2da9 404f08547eca308e 3f3dc89a74dd2da9\n\
-chain_098_vern6: probe 2 3fe6d9fa424576bc 3ef2c3fb811816e1 3fe6d9fa424576bc 3ef2c3fb811816e1\n\
-chain_098_vern6: history 120 81194bb4a971351f\n\
-chain_098_dop853_predict: steps 233 rejected 65 events 53 rhs 4246 t_end 3f43a92a30553261 drift 3e87f2b2b3da411c 3e87f2b2b3da411c momentum 3cd63421c6cd5eb1 max_overlap 3ee1df8c35ca0cdc impact 3f533102b4eebd40 warnings 0\n\
-chain_098_dop853_predict: energy 3f278b6513b305c6 3f24d44ed925a725 bef5f00c05a65a1e 3f4bd1462d810b4c\n\
-chain_098_dop853_predict: probe 0 4058cd6608bb1659 3f17bc4e9f818823 4058cd6608bb1659 3f17bc4e9f818823\n\
-chain_098_dop853_predict: probe 1 404f0854db9cf2d7 3f3dc89a71eff206 404f0854db9cf2d7 3f3dc89a71eff206\n\
-chain_098_dop853_predict: probe 2 3fe6d9fa863f69e2 3ef2c3fbbe0fa4d1 3fe6d9fa863f69e2 3ef2c3fbbe0fa4d1\n\
-chain_098_dop853_predict: history 120 9f664d344ec8950d\n\
-";
+heavy_stop_early: steps 496 rejected 161 events 28 rhs 9332 t_end 3f42c37ead0e76ec drift 3e5d7bcd90643007 3e595225a4494362 momentum 3ce3618c49ec5005 max_overlap 3ee6287c5668420c impact 3f61f4a7dd293b62 warnings 0\n\
+heavy_stop_early: energy 3f37ec46ef19ed63 3f31a8d07f8cf6cc bf1258216add12ac 3f5a23475d0e1cac\n\
+heavy_stop_early: probe 0 4048653fff1f3345 3f415f72ed771826 4048653fff1f3345 3f415f72ed771826\n\
+chain_098_vern6: steps 575 rejected 129 events 43 rhs 7494 t_end 3f43a92a30553261 drift 3e887f87c3fec453 3e887f87c3fec453 momentum 3d2112e9e4bbb1a7 max_overlap 3ee1eeb36d928d04 impact 3f533102b4eebd40 warnings 0\n\
+chain_098_vern6: energy 3f278b643c538195 3f24d44e3db56094 bef5f00c05a65ac4 3f4bd14687914c65\n\
+chain_098_vern6: probe 0 4058cd65b545f0e3 3f17bc4ea1fbab73 4058cd65b545f0e3 3f17bc4ea1fbab73\n\
+chain_098_vern6: probe 1 404f0854493e69d6 3f3dc89a7945395d 404f0854493e69d6 3f3dc89a7945395d\n\
+chain_098_vern6: probe 2 3fe6d9f9ffc7aa1c 3ef2c3fb86320faf 3fe6d9f9ffc7aa1c 3ef2c3fb86320faf\n\
+chain_098_vern6: history 120 5e8339e5634c40ef\n\
+chain_098_dop853_predict: steps 215 rejected 48 events 57 rhs 3789 t_end 3f43a92a30553261 drift 3e9945047931812c 3e9945047931812c momentum 3ce371267dad754e max_overlap 3ee1e4bb017ce39d impact 3f533102b4eebd40 warnings 0\n\
+chain_098_dop853_predict: energy 3f278b644155a6a6 3f24d44e4872ffba bef5f00c05a65a24 3f4bd14606b06367\n\
+chain_098_dop853_predict: probe 0 4058cd65902c6c46 3f17bc4ea2904279 4058cd65902c6c46 3f17bc4ea2904279\n\
+chain_098_dop853_predict: probe 1 404f0854252fbd76 3f3dc89a862533c7 404f0854252fbd76 3f3dc89a862533c7\n\
+chain_098_dop853_predict: probe 2 3fe6d9f9cb409bac 3ef2c3fbbf36aa8c 3fe6d9f9cb409bac 3ef2c3fbbf36aa8c\n\
+chain_098_dop853_predict: history 120 97bf756a5faf3454\n";
 
 #[test]
 fn paper_chains_and_runs_are_bitwise_unchanged() {

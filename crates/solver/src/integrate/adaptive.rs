@@ -225,11 +225,19 @@ impl Controller {
 pub struct Rhs<'a> {
     sys: &'a mut dyn OdeSystemDyn,
     evals: u64,
+    /// The switch the current attempt ends a hair past, and its side before the crossing: the
+    /// attempt's last stage is evaluated with that switch held on that side
+    /// ([`OdeSystem::hold_switch`]), as is the first derivative of a run that starts on a switch.
+    pub(super) held: Option<(usize, bool)>,
 }
 
 impl<'a> Rhs<'a> {
     fn new(sys: &'a mut dyn OdeSystemDyn) -> Self {
-        Rhs { sys, evals: 0 }
+        Rhs {
+            sys,
+            evals: 0,
+            held: None,
+        }
     }
 
     /// `dy = f(t, y)`.
@@ -237,6 +245,16 @@ impl<'a> Rhs<'a> {
     pub fn eval(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
         self.evals += 1;
         self.sys.rhs(t, y, dy);
+    }
+
+    /// `dy = f(t, y)` at the end of an attempt (or the start of a run), with the switch it lands
+    /// on (or starts on) held on its side before the crossing (or the side it enters).
+    #[inline]
+    pub fn eval_end(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.eval(t, y, dy);
+        if let Some((switch, positive)) = self.held {
+            self.sys.hold_switch(switch, positive, y, dy);
+        }
     }
 
     /// The system's acceleration Jacobian at `(t, y)`, if it has one.
@@ -407,7 +425,12 @@ impl<M: Method> Integrator for Adaptive<M> {
 
         obs.on_start(t0, y0);
 
-        if !w.start(&mut rhs, t0) {
+        // A run that starts on a switch (a striker touching at t = 0): its first derivative is
+        // the one on the side the motion enters, as every stage of the first step sees it.
+        rhs.held = events.entering(y0);
+        let started = w.start(&mut rhs, t0);
+        rhs.held = None;
+        if !started {
             return Err(IntegrateError::NonFinite { t: t0 });
         }
 
@@ -452,6 +475,9 @@ impl<M: Method> Integrator for Adaptive<M> {
             // A switch predicted to cross within the step: end the step just past the crossing
             // rather than have the attempt fail on it or be retaken.
             h = events.before_attempt(t, h, w.y(), w.f0());
+            // The switch it lands on is held on its side before the crossing at the attempt's last
+            // stage, evaluated a hair past it: the right-hand side stays smooth over the attempt.
+            rhs.held = events.held();
             // Land exactly on t_end, stretching the step by up to 1 % rather than leaving a
             // sliver.
             let (h_step, t_new, last) = if t + 1.01 * h >= t_end {

@@ -3,8 +3,10 @@
 //! put on the crossing. A step that passes the error test but crosses a switch is retaken to end
 //! just past the earliest crossing, located on its dense output; with `predict_switches`, a step
 //! also ends just past a crossing predicted at its start, and the step after an event resumes
-//! from the step the motion before it allowed. [`Events`] holds that state between steps; the
-//! loop asks it before an attempt, after an accepted attempt, and after a failure.
+//! from the step the motion before it allowed. An attempt that lands on a switch holds it on its
+//! side before the crossing for its last stage (see [`super::OdeSystem::hold_switch`]), so that
+//! a force that jumps there does not fail the attempt. [`Events`] holds that state between steps;
+//! the loop asks it before an attempt, after an accepted attempt, and after a failure.
 
 use super::{DenseStep, IntegrationStats, OdeSystemDyn, Switch};
 
@@ -43,6 +45,10 @@ pub(super) struct Events {
     predicted: bool,
     /// How many consecutive accepted steps ended on events (predicted or located).
     streak: u32,
+    /// The switch the current attempt lands on, and its side before the crossing.
+    held: Option<(usize, bool)>,
+    /// The switch a rejected attempt crossed, predicted for the next try.
+    aimed: Option<(usize, bool)>,
 }
 
 impl Events {
@@ -63,6 +69,8 @@ impl Events {
             resume_h: None,
             predicted: false,
             streak: 0,
+            held: None,
+            aimed: None,
         }
     }
 
@@ -76,10 +84,16 @@ impl Events {
     /// by plain event location until an ordinary step, whose size only the error test governs,
     /// is accepted.
     pub(super) fn before_attempt(&mut self, t: f64, h: f64, y: &[f64], f0: &[f64]) -> f64 {
-        if !(self.predict && !self.landing && self.streak < MAX_EVENT_STREAK) {
+        if self.landing {
             return h;
         }
-        let Some(tau) = crossing_ahead(&self.switches, self.adjacent, self.n_pos, y, f0, h) else {
+        self.held = self.aimed.take();
+        if !(self.predict && self.streak < MAX_EVENT_STREAK) {
+            return h;
+        }
+        let Some((tau, switch, positive)) =
+            crossing_ahead(&self.switches, self.adjacent, self.n_pos, y, f0, h)
+        else {
             return h;
         };
         // Slivers are taken as whole steps; the located-event path handles them.
@@ -90,6 +104,7 @@ impl Events {
             Some(h_event) => {
                 self.resume_h = Some(h);
                 self.predicted = true;
+                self.held = Some((switch, positive));
                 h_event
             }
             None => h,
@@ -119,8 +134,10 @@ impl Events {
         } else {
             t_new
         };
-        let t_event = earliest_event(&self.switches, self.adjacent, y_start, step, horizon);
-        let h_event = t_event.and_then(|te| event_step(t, h_step, te - t, h_step))?;
+        let (t_event, switch, positive) =
+            earliest_event(&self.switches, self.adjacent, y_start, step, horizon)?;
+        let h_event = event_step(t, h_step, t_event - t, h_step)?;
+        self.held = Some((switch, positive));
         stats.rejected += 1;
         stats.events += u64::from(!self.predicted);
         self.predicted = false;
@@ -134,9 +151,29 @@ impl Events {
         Some(h_event)
     }
 
+    /// The switch the current attempt lands on, and its side before the crossing.
+    pub(super) fn held(&self) -> Option<(usize, bool)> {
+        self.held
+    }
+
+    /// A switch on positions exactly at zero at the start of a run (a striker touching at
+    /// t = 0) and moving off it: the side it enters, where the first derivative is taken.
+    pub(super) fn entering(&self, y: &[f64]) -> Option<(usize, bool)> {
+        let n = self.n_pos;
+        self.switches.iter().enumerate().find_map(|(k, sw)| {
+            let on_positions = sw.plus < n && sw.minus.map_or(true, |m| m < n);
+            if !on_positions || sw.value(|i| y[i]) != 0.0 {
+                return None;
+            }
+            let rate = sw.rate(|i| y[n + i]);
+            (rate != 0.0).then_some((k, rate > 0.0))
+        })
+    }
+
     /// The attempt failed (error test or non-finite values): no landing, nothing to resume from.
     pub(super) fn on_failure(&mut self) {
         self.landing = false;
+        self.held = None;
         self.resume_h = None;
         self.predicted = false;
     }
@@ -146,7 +183,7 @@ impl Events {
     /// a switch (a re-collision, say) would shrink by at most the controller's factor per try;
     /// the next try aims at the predicted crossing instead.
     pub(super) fn after_rejection(
-        &self,
+        &mut self,
         t: f64,
         h_step: f64,
         h: f64,
@@ -157,9 +194,17 @@ impl Events {
         if self.switches.is_empty() {
             return h;
         }
-        let tau = predicted_event(&self.switches, y, f0, y_new, h_step);
-        tau.and_then(|tau| event_step(t, h_step, tau, h))
-            .unwrap_or(h)
+        let Some((tau, switch, positive)) = predicted_event(&self.switches, y, f0, y_new, h_step)
+        else {
+            return h;
+        };
+        match event_step(t, h_step, tau, h) {
+            Some(h_event) => {
+                self.aimed = Some((switch, positive));
+                h_event
+            }
+            None => h,
+        }
     }
 
     /// The attempt was accepted: counts a predicted event, and the streak of steps ending on
@@ -175,6 +220,7 @@ impl Events {
         };
         self.predicted = false;
         self.landing = false;
+        self.held = None;
     }
 
     /// The step after an accepted one, given the controller's `h`: after landing on an event, go
@@ -203,10 +249,10 @@ fn earliest_event<S: DenseStep + ?Sized>(
     y_start: &[f64],
     step: &S,
     horizon: f64,
-) -> Option<f64> {
+) -> Option<(f64, usize, bool)> {
     let (t0, t1) = (step.t_start(), step.t_end());
     let y_end = step.y_end();
-    let mut earliest: Option<f64> = None;
+    let mut earliest: Option<(f64, usize, bool)> = None;
     let changes_sign = |g0: f64, g1: f64| (g0 != 0.0) & ((g0 > 0.0) != (g1 > 0.0));
     // The first `adjacent` switches are contacts between neighbours (`x[k] − x[k+1]`, see
     // `adjacent_pairs`): eight at a time, from contiguous slices, a vectorised test finds the
@@ -224,16 +270,17 @@ fn earliest_event<S: DenseStep + ?Sized>(
             }
             any
         })
-        .flat_map(|k0| &switches[k0..k0 + 8])
-        .chain(&switches[full..]);
-    for sw in &mut candidates {
+        .flat_map(|k0| k0..k0 + 8)
+        .chain(full..switches.len());
+    for k in &mut candidates {
+        let sw = &switches[k];
         let g0 = sw.value(|i| y_start[i]);
         let g1 = sw.value(|i| y_end[i]);
         if !changes_sign(g0, g1) {
             continue;
         }
         let g = |t: f64| sw.value(|i| step.eval_component(t, i));
-        let (mut a, mut b) = (t0, earliest.unwrap_or(horizon));
+        let (mut a, mut b) = (t0, earliest.map_or(horizon, |e| e.0));
         let (mut ga, mut gb) = (g0, g(b));
         if (ga > 0.0) == (gb > 0.0) {
             // This switch crosses only after an earlier event already found.
@@ -267,7 +314,7 @@ fn earliest_event<S: DenseStep + ?Sized>(
                 break;
             }
         }
-        earliest = Some(b);
+        earliest = Some((b, k, g0 > 0.0));
     }
     earliest
 }
@@ -284,8 +331,8 @@ fn crossing_ahead(
     y: &[f64],
     f: &[f64],
     h: f64,
-) -> Option<f64> {
-    let mut earliest: Option<f64> = None;
+) -> Option<(f64, usize, bool)> {
+    let mut earliest: Option<(f64, usize, bool)> = None;
     let (x, v, a) = (&y[..n_pos], &f[..n_pos], &f[n_pos..2 * n_pos]);
     // Most switches are far from zero: |g(s) − g0| ≤ (|b| + |c| s) s rules them out cheaply.
     let far = |g0: f64, b: f64, c: f64| (g0 == 0.0) | ((b.abs() + c.abs() * h) * h < g0.abs());
@@ -307,7 +354,9 @@ fn crossing_ahead(
             for k in k0..k0 + 8 {
                 let (g0, b, c) = pair(k);
                 if !far(g0, b, c) {
-                    earliest = quadratic_crossing(g0, b, c, earliest.unwrap_or(h)).or(earliest);
+                    if let Some(r) = quadratic_crossing(g0, b, c, earliest.map_or(h, |e| e.0)) {
+                        earliest = Some((r, k, g0 > 0.0));
+                    }
                 }
             }
         }
@@ -315,10 +364,12 @@ fn crossing_ahead(
     for k in full..adjacent {
         let (g0, b, c) = pair(k);
         if !far(g0, b, c) {
-            earliest = quadratic_crossing(g0, b, c, earliest.unwrap_or(h)).or(earliest);
+            if let Some(r) = quadratic_crossing(g0, b, c, earliest.map_or(h, |e| e.0)) {
+                earliest = Some((r, k, g0 > 0.0));
+            }
         }
     }
-    for sw in &switches[adjacent..] {
+    for (k, sw) in switches.iter().enumerate().skip(adjacent) {
         let p = sw.plus;
         // Value, slope and half the curvature (for switches on positions).
         let (g0, b, c) = match sw.minus {
@@ -329,7 +380,9 @@ fn crossing_ahead(
         };
         let g0 = g0 + sw.offset;
         if !far(g0, b, c) {
-            earliest = quadratic_crossing(g0, b, c, earliest.unwrap_or(h)).or(earliest);
+            if let Some(r) = quadratic_crossing(g0, b, c, earliest.map_or(h, |e| e.0)) {
+                earliest = Some((r, k, g0 > 0.0));
+            }
         }
     }
     earliest
@@ -380,9 +433,15 @@ fn quadratic_crossing(g0: f64, b: f64, c: f64, limit: f64) -> Option<f64> {
 
 /// Earliest crossing of a switch over a rejected attempt of length `h`, predicted from the values
 /// at both ends and the slope at the start (a quadratic in time); `None` if no switch changes sign.
-fn predicted_event(switches: &[Switch], y0: &[f64], f0: &[f64], y1: &[f64], h: f64) -> Option<f64> {
-    let mut earliest: Option<f64> = None;
-    for sw in switches {
+fn predicted_event(
+    switches: &[Switch],
+    y0: &[f64],
+    f0: &[f64],
+    y1: &[f64],
+    h: f64,
+) -> Option<(f64, usize, bool)> {
+    let mut earliest: Option<(f64, usize, bool)> = None;
+    for (k, sw) in switches.iter().enumerate() {
         let g0 = sw.value(|i| y0[i]);
         let g1 = sw.value(|i| y1[i]);
         if g0 == 0.0 || (g0 > 0.0) == (g1 > 0.0) || !g1.is_finite() {
@@ -408,7 +467,9 @@ fn predicted_event(switches: &[Switch], y0: &[f64], f0: &[f64], y1: &[f64], h: f
             linear
         };
         let tau = if s.is_finite() { s } else { linear } * h;
-        earliest = Some(earliest.map_or(tau, |e: f64| e.min(tau)));
+        if earliest.map_or(true, |e| tau < e.0) {
+            earliest = Some((tau, k, g0 > 0.0));
+        }
     }
     earliest
 }

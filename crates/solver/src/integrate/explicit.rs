@@ -286,7 +286,9 @@ impl<M: ExplicitMethod> Work<M> {
         each_stage!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
     }
 
-    /// Stage `j`, evaluated at `t + c·h` (at `t_new` when `c = 1`).
+    /// Stage `j`, evaluated at `t + c·h` (at `t_new` when `c = 1`, with a switch the attempt
+    /// lands on held on its side before the crossing; not the FSAL stage, which is the next
+    /// step's first derivative, on the side after it).
     #[inline(always)]
     fn evaluate_stage<F: MulAdd>(&mut self, rhs: &mut Rhs, j: usize, t: f64, h: f64, t_new: f64) {
         let tableau = &M::TABLEAU;
@@ -297,7 +299,11 @@ impl<M: ExplicitMethod> Work<M> {
         } else {
             t + stage.c * h
         };
-        rhs.eval(t_stage, &self.ys, &mut self.k[tableau.buffers[j]]);
+        if stage.c == 1.0 && j != tableau.fsal {
+            rhs.eval_end(t_stage, &self.ys, &mut self.k[tableau.buffers[j]]);
+        } else {
+            rhs.eval(t_stage, &self.ys, &mut self.k[tableau.buffers[j]]);
+        }
     }
 
     /// Hairer's stiffness estimate `h·|λ| ≈ h ‖f(y_new) − f(ys)‖ / ‖y_new − ys‖`, where `ys` is
@@ -347,7 +353,7 @@ impl<M: ExplicitMethod> Stepper for Work<M> {
 
     fn start(&mut self, rhs: &mut Rhs, t0: f64) -> bool {
         let first = M::TABLEAU.buffers[0];
-        rhs.eval(t0, &self.y, &mut self.k[first]);
+        rhs.eval_end(t0, &self.y, &mut self.k[first]);
         all_finite(&self.k[first])
     }
     fn y(&self) -> &[f64] {

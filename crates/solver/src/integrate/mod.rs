@@ -44,6 +44,15 @@ pub trait OdeSystem {
     fn switches(&self) -> &[Switch] {
         &[]
     }
+    /// Corrects `dy = f(t, y)` so that switch number `switch` acts as on its `positive` side (the
+    /// side where its value is positive) or the other, whichever side `y` is on, every other term
+    /// unchanged: the right-hand side of one side continued a hair across the switch. An attempt
+    /// that lands on a switch ends a hair past its crossing, where its last stage is evaluated;
+    /// a term that jumps there (a viscous force that acts only while a contact is compressed)
+    /// would give that stage the other side's value, an error of the order of the jump times the
+    /// step, which the error test rejects. The default does nothing: right for a right-hand side
+    /// that is continuous across its switches.
+    fn hold_switch(&self, _switch: usize, _positive: bool, _y: &[f64], _dy: &mut [f64]) {}
     /// Jacobian of the accelerations `a(x, v)` at state `y`, for implicit methods: `kx = ∂a/∂x` and
     /// `kv = ∂a/∂v`, both tridiagonal for a chain (particle `i` feels only its neighbours).
     /// Returns `false` when the system does not provide one (the default).
@@ -310,6 +319,8 @@ pub trait OdeSystemDyn {
     fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]);
     /// See [`OdeSystem::switches`].
     fn switches(&self) -> &[Switch];
+    /// See [`OdeSystem::hold_switch`].
+    fn hold_switch(&self, switch: usize, positive: bool, y: &[f64], dy: &mut [f64]);
     /// See [`OdeSystem::acceleration_jacobian`].
     fn acceleration_jacobian(
         &self,
@@ -332,6 +343,9 @@ impl<S: OdeSystem> OdeSystemDyn for S {
     }
     fn switches(&self) -> &[Switch] {
         OdeSystem::switches(self)
+    }
+    fn hold_switch(&self, switch: usize, positive: bool, y: &[f64], dy: &mut [f64]) {
+        OdeSystem::hold_switch(self, switch, positive, y, dy)
     }
     fn acceleration_jacobian(
         &self,

@@ -6,7 +6,7 @@
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
 use crate::chain::model::{Chain, ContactMap};
-use crate::contact::{hertz_potential_unscaled, paper_contact_force};
+use crate::contact::{hertz_potential_unscaled, paper_contact_force, paper_contact_force_on_side};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 
 /// Right-hand side of the chain, specialised on gravity, damping, wall and tensile clipping so that
@@ -94,6 +94,36 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem
     #[inline]
     fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
         dispatch(RhsKernel { sys: self, y, dy });
+    }
+
+    /// Only the viscous term jumps where a contact opens or closes (the elastic force `A δ^{3/2}`
+    /// is continuous there): held on one side, the contact acts as it does on that side.
+    fn hold_switch(&self, switch: usize, positive: bool, y: &[f64], dy: &mut [f64]) {
+        if !D {
+            return;
+        }
+        let n = self.inv_mass.len();
+        // Switch `c` is contact `c`'s overlap (the wall's for the last), positive when compressed.
+        let c = switch;
+        let (overlap, rel_velocity) = if c + 1 < n {
+            (y[c] - y[c + 1], y[n + c] - y[n + c + 1])
+        } else {
+            (y[n - 1], y[2 * n - 1])
+        };
+        let (a, mu) = (self.stiffness[c], self.damping[c]);
+        let (force, power) = paper_contact_force::<D, C>(a, mu, overlap, rel_velocity);
+        let (held, held_power) =
+            paper_contact_force_on_side::<D, C>(a, mu, overlap, rel_velocity, positive);
+        let change = held - force;
+        dy[n + c] -= change * self.inv_mass[c];
+        if c + 1 < n {
+            dy[n + c + 1] += change * self.inv_mass[c + 1];
+        }
+        // The quadratures: the dissipated work, then the wall impulse.
+        dy[2 * n] += held_power - power;
+        if W && c + 1 == n {
+            dy[2 * n + 1] += change;
+        }
     }
 }
 
@@ -679,4 +709,95 @@ macro_rules! dispatch_paper_system {
             }
         }
     }};
+}
+
+#[cfg(test)]
+mod tests {
+    use super::ChainSystem;
+    use crate::chain::model::{Chain, ChainSpec, PhysicsSpec};
+    use crate::integrate::OdeSystem;
+
+    /// Contact `c` of a damped 0.55 chain just past closing (`overlap` > 0) or opening (< 0),
+    /// its particles approaching or separating at `rel_velocity`; the system and the state.
+    fn state_at(
+        c: usize,
+        overlap: f64,
+        rel_velocity: f64,
+    ) -> (ChainSystem<true, true, true, false>, Vec<f64>) {
+        let physics = PhysicsSpec {
+            damping_kg_s: 6.0,
+            striker_damping_kg_s: Some(9.0),
+            ..PhysicsSpec::default()
+        };
+        let chain = Chain::build(&ChainSpec::chain_055(4), &physics).unwrap();
+        let sys = ChainSystem::<true, true, true, false>::new(&chain);
+        let n = chain.n_particles();
+        let mut y = chain.initial_state(1.3);
+        if c + 1 < n {
+            y[c + 1] = y[c] - overlap;
+            y[n + c + 1] = y[n + c] - rel_velocity;
+        } else {
+            y[n - 1] = overlap;
+            y[2 * n - 1] = rel_velocity;
+        }
+        (sys, y)
+    }
+
+    /// Equal to rounding, component by component.
+    fn close(got: &[f64], expected: &[f64], what: &str) {
+        for (i, (a, b)) in got.iter().zip(expected).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                "{what}, component {i}: {a} against {b}"
+            );
+        }
+    }
+
+    /// A contact held on one side acts as it does there, every other term unchanged: held open
+    /// just past closing it carries no viscous force, as if its damping were zero; held compressed
+    /// just past opening it carries `μ Δv` and dissipates `μ Δv²`, the wall's impulse taking the
+    /// wall's force; held on the side it is on, nothing changes.
+    #[test]
+    fn a_held_contact_acts_as_on_its_side() {
+        let n = state_at(0, 0.0, 0.0).0.n_pos();
+        for c in [0, 3, n - 1] {
+            let (mut sys, y) = state_at(c, 1e-12, 0.4);
+            let mut dy = vec![0.0; y.len()];
+            sys.rhs(0.0, &y, &mut dy);
+            let mut same = dy.clone();
+            sys.hold_switch(c, true, &y, &mut same);
+            assert_eq!(same, dy, "contact {c} held compressed while compressed");
+            let mut open = dy.clone();
+            sys.hold_switch(c, false, &y, &mut open);
+            let mut undamped = sys.clone();
+            undamped.damping[c] = 0.0;
+            let mut expected = vec![0.0; y.len()];
+            undamped.rhs(0.0, &y, &mut expected);
+            close(&open, &expected, &format!("contact {c} held open"));
+            assert_ne!(open, dy, "contact {c}: the viscous term is a real change");
+
+            let (mut sys, y) = state_at(c, -1e-12, -0.4);
+            let mut dy = vec![0.0; y.len()];
+            sys.rhs(0.0, &y, &mut dy);
+            let mut same = dy.clone();
+            sys.hold_switch(c, false, &y, &mut same);
+            assert_eq!(same, dy, "contact {c} held open while open");
+            let mut compressed = dy.clone();
+            sys.hold_switch(c, true, &y, &mut compressed);
+            let (mu, force) = (sys.damping[c], sys.damping[c] * -0.4);
+            let mut expected = dy.clone();
+            expected[n + c] -= force * sys.inv_mass[c];
+            if c + 1 < n {
+                expected[n + c + 1] += force * sys.inv_mass[c + 1];
+            } else {
+                expected[2 * n + 1] += force;
+            }
+            expected[2 * n] += mu * 0.4 * 0.4;
+            close(
+                &compressed,
+                &expected,
+                &format!("contact {c} held compressed"),
+            );
+        }
+    }
 }
