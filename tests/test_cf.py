@@ -321,13 +321,15 @@ def test_ncdump_shows_every_variable_and_char_text(files):
 FIXTURE = Path(__file__).resolve().parent / "fixtures"
 
 
-def test_a_file_of_layout_3_stays_readable_merges_and_resumes_into_a_cf_file(
+def test_a_file_of_layout_3_and_older_numerics_is_read_refused_by_merge_and_resumed_into_a_cf_file(
     tmp_path, tables, binary
 ):
     """tests/fixtures/layout3.h5: shard 1 of 2 of fixtures/layout3.json as layout 3 wrote it
-    (variable-length strings, `leading_peak` in "see probe_units", labelled dimensions):
-    chainsweep.open and `status` read it, `merge` and `run` take its runs into a file of the
-    current layout that cfchecker accepts."""
+    (variable-length strings, `leading_peak` in "see probe_units", labelled dimensions), at
+    numerics version 3: chainsweep.open and `status` read it; `merge` refuses its runs, made by
+    other numerics, naming them; `run` computes them again into a file of the current layout that
+    cfchecker accepts, with the same numbers (an undamped scene, which numerics version 4 left
+    bitwise as it was) under the current run hashes."""
     old = tmp_path / "layout3.h5"
     shutil.copyfile(FIXTURE / "layout3.h5", old)
     sweep = tmp_path / "layout3.json"
@@ -336,6 +338,7 @@ def test_a_file_of_layout_3_stays_readable_merges_and_resumes_into_a_cf_file(
         assert int(f.attrs["layout_version"]) == 3 and "Conventions" not in f.attrs
         assert f["leading_peak"].attrs["units"] == "see probe_units"
         assert h5py.check_string_dtype(f["reason"].dtype).length is None  # variable-length
+        assert int(f.attrs["numerics_version"]) == 3
     ds = chainsweep.open(old, histories=True)
     assert list(ds.probe.values) == ["gauge_force_cyl2", "velocity_p5"]
     assert "units" not in ds.leading_peak.attrs  # the sentence dropped
@@ -347,28 +350,30 @@ def test_a_file_of_layout_3_stays_readable_merges_and_resumes_into_a_cf_file(
     assert r.returncode == 3 and "damaged" not in r.stdout + r.stderr, r.stdout + r.stderr
     kept = ds.status.values == 1
 
-    def same_runs(path):
-        new = chainsweep.open(path)
-        assert (new.status.values != 0).all()
-        for p in ds.probe.values:
-            assert np.array_equal(new.leading_peak.sel(probe=p).values[kept],
-                                  ds.leading_peak.sel(probe=p).values[kept]), p
-        assert new.run_hash.values[kept].tolist() == ds.run_hash.values[kept].tolist()
-        with h5py.File(path, "r") as f:
-            assert int(f.attrs["layout_version"]) == 6
-        report = cfchecks(path, tables, tmp_path)
-        assert report.returncode == 0, report.stdout
-
-    # Merged with the other shard, computed now.
+    # Merged with the other shard, computed now: refused, the runs being of other numerics.
     part = tmp_path / "part2.h5"
     assert run("run", sweep, "--shard", "2/2", "-o", part, "--quiet").returncode == 3
+    with h5py.File(part, "r") as f:
+        numerics = int(f.attrs["numerics_version"])
+    assert numerics > 3
     merged = tmp_path / "merged.h5"
     r = run("merge", "-o", merged, old, part)
-    assert r.returncode == 3, r.stderr
-    same_runs(merged)
-    # Resumed: its runs kept, the other shard's computed. (The fixture keeps no work directory:
-    # git keeps no empty folder, and a finished sweep's work directory holds no run.)
+    assert r.returncode == 1 and "point 0 has run hash" in r.stderr, r.stderr
+    assert "made by a different engine version" in r.stderr and not merged.exists()
+    # Resumed: its runs computed again, the other shard's computed. (The fixture keeps no work
+    # directory: git keeps no empty folder, and a finished sweep's work directory holds no run.)
     (tmp_path / "layout3.h5.d").mkdir()
     r = run("run", sweep, "-o", old)
-    assert r.returncode == 3 and "3 of 6 runs already done" in r.stderr, r.stderr
-    same_runs(old)
+    assert r.returncode == 3 and "already done" not in r.stderr, r.stderr
+    new = chainsweep.open(old)
+    assert (new.status.values != 0).all()
+    for p in ds.probe.values:
+        assert np.array_equal(new.leading_peak.sel(probe=p).values[kept],
+                              ds.leading_peak.sel(probe=p).values[kept]), p
+    assert np.array_equal(new.steps.values[kept], ds.steps.values[kept])
+    assert not set(new.run_hash.values.ravel()) & set(ds.run_hash.values.ravel())
+    with h5py.File(old, "r") as f:
+        assert int(f.attrs["layout_version"]) == 6
+        assert int(f.attrs["numerics_version"]) == numerics
+    report = cfchecks(old, tables, tmp_path)
+    assert report.returncode == 0, report.stdout
