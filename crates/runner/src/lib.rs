@@ -73,7 +73,7 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// stage sums change results in the last digits (≤ 1e-6 relative on peaks).
 /// Version 4: with event location, a step that lands on a contact holds it on its side before the
 /// crossing for its last stage, and a run that starts on a closing contact takes its first
-/// derivative on the compressed side: runs with the paper's viscous damping take other steps.
+/// derivative on the compressed side: runs with dissipation take other steps.
 pub const NUMERICS_VERSION: u32 = 4;
 
 /// Version of this crate.

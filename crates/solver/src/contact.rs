@@ -852,20 +852,34 @@ pub(crate) fn general_force<const LAW: u8, const D: bool, const T: bool>(
     rel_velocity: f64,
     clip: bool,
 ) -> (f64, f64) {
+    // Every dissipative term acts only while the contact is compressed.
+    general_force_on_side::<LAW, D, T>(p, overlap, rel_velocity, clip, overlap > 0.0)
+}
+
+/// [`general_force`] on the compressed side of the contact (`compressed`: with its dissipative
+/// terms) or the open side (without them), whichever side `overlap` is on; see
+/// [`paper_contact_force_on_side`].
+#[inline(always)]
+pub(crate) fn general_force_on_side<const LAW: u8, const D: bool, const T: bool>(
+    p: &ContactParams,
+    overlap: f64,
+    rel_velocity: f64,
+    clip: bool,
+    compressed: bool,
+) -> (f64, f64) {
     let d = overlap.max(0.0);
     let (dn, dn1) = powers::<LAW>(d, p.n);
     let elastic = p.a * dn;
     if !D {
         return (if clip { elastic.max(0.0) } else { elastic }, 0.0);
     }
-    // Every dissipative term acts only while the contact is compressed.
     let Damping {
         linear: mu,
         viscoelastic: gamma,
         hunt_crossley: lambda,
         tsuji: beta,
     } = p.damping;
-    let c = if overlap > 0.0 {
+    let c = if compressed {
         let c = mu + gamma * dn1 + lambda * dn;
         if T {
             c + beta * dn1.sqrt()

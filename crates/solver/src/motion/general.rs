@@ -15,7 +15,9 @@
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
 use crate::chain::model::Chain;
-use crate::contact::{general_force, ContactParams, Damping, HERTZ, LINEAR, POWER};
+use crate::contact::{
+    general_force, general_force_on_side, ContactParams, Damping, HERTZ, LINEAR, POWER,
+};
 use crate::integrate::{OdeSystem, Switch, Tridiagonal};
 use crate::motion::{DriveTerm, MountTerm};
 
@@ -318,6 +320,29 @@ impl<const LAW: u8, const D: bool, const T: bool> OdeSystem for GeneralChainSyst
         &self.switches
     }
 
+    /// The dissipative terms act only while a contact is compressed, and the linear viscous one
+    /// jumps where it opens or closes: held on one side, an interior contact acts as it does there.
+    /// The contacts with a wall (or the ring's closing one) are not held: their switches carry the
+    /// walls' motion.
+    fn hold_switch(&self, switch: usize, positive: bool, y: &[f64], dy: &mut [f64]) {
+        let n = self.inv_mass.len();
+        let c = switch;
+        if !D || c + 1 >= n {
+            return;
+        }
+        // Switch `c` is the overlap `x[c] − x[c+1]` of the contact between particles c and c+1.
+        let (overlap, rel_velocity) = (y[c] - y[c + 1], y[n + c] - y[n + c + 1]);
+        let params = self.contact_parameters(c);
+        let (force, power) = general_force::<LAW, D, T>(&params, overlap, rel_velocity, self.clip);
+        let (held, held_power) =
+            general_force_on_side::<LAW, D, T>(&params, overlap, rel_velocity, self.clip, positive);
+        let change = held - force;
+        dy[n + c] -= change * self.inv_mass[c];
+        dy[n + c + 1] += change * self.inv_mass[c + 1];
+        // The first quadrature is the dissipated work.
+        dy[2 * n] += held_power - power;
+    }
+
     fn acceleration_jacobian(
         &self,
         t: f64,
@@ -353,5 +378,53 @@ impl<const LAW: u8, const D: bool, const T: bool> Kernel for GeneralRhsKernel<'_
     #[inline(always)]
     fn run<M: MulAdd>(self) {
         self.sys.rhs_kernel(self.t, self.y, self.dy);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{GeneralChainSystem, HERTZ_LAW};
+    use crate::chain::model::{Chain, ChainSpec, PhysicsSpec};
+    use crate::integrate::OdeSystem;
+
+    /// An interior contact held on one side acts as it does there, as the paper's chain's does
+    /// (`motion::system::tests`): held open just past closing, as if it had no damping; held on
+    /// the side it is on, unchanged; the wall's contact is not held.
+    #[test]
+    fn a_held_interior_contact_acts_as_on_its_side() {
+        let physics = PhysicsSpec {
+            damping_kg_s: 6.0,
+            ..PhysicsSpec::default()
+        };
+        // A force pulse on the top makes it a general chain (Hertz, linear damping).
+        let chain = Chain::build(&ChainSpec::chain_055(4), &physics)
+            .unwrap()
+            .with_force_pulse(10.0, 1e-5);
+        let mut sys = GeneralChainSystem::<HERTZ_LAW, true, false>::new(&chain);
+        let n = sys.n_pos();
+        let c = 3;
+        let mut y = chain.initial_state(1.3);
+        y[c + 1] = y[c] - 1e-12;
+        y[n + c + 1] = y[n + c] - 0.4;
+        let mut dy = vec![0.0; y.len()];
+        sys.rhs(1e-6, &y, &mut dy);
+        let mut same = dy.clone();
+        sys.hold_switch(c, true, &y, &mut same);
+        assert_eq!(same, dy);
+        sys.hold_switch(n - 1, false, &y, &mut same);
+        assert_eq!(same, dy, "the wall's contact is not held");
+        let mut open = dy.clone();
+        sys.hold_switch(c, false, &y, &mut open);
+        let mut undamped = sys.clone();
+        undamped.linear[c] = 0.0;
+        let mut expected = vec![0.0; y.len()];
+        undamped.rhs(1e-6, &y, &mut expected);
+        for (i, (a, b)) in open.iter().zip(&expected).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-12 * b.abs().max(1.0),
+                "component {i}: {a} against {b}"
+            );
+        }
+        assert_ne!(open, dy, "the viscous term is a real change");
     }
 }
