@@ -479,8 +479,10 @@ impl<M: Method> Integrator for Adaptive<M> {
             // stage, evaluated a hair past it: the right-hand side stays smooth over the attempt.
             rhs.held = events.held();
             // Land exactly on t_end, stretching the step by up to 1 % rather than leaving a
-            // sliver.
-            let (h_step, t_new, last) = if t + 1.01 * h >= t_end {
+            // sliver; not a step that lands on a held switch, which would then hold it over the
+            // last hundredth of the step, past its crossing, where no test would see it.
+            let stretch = if rhs.held.is_some() { 1.0 } else { 1.01 };
+            let (h_step, t_new, last) = if t + stretch * h >= t_end {
                 (t_end - t, t_end, true)
             } else {
                 (h, t + h, false)
@@ -544,7 +546,11 @@ impl<M: Method> Integrator for Adaptive<M> {
                 events.on_accept(&mut stats);
                 let mut h_new = controller.after_accept(h_step, err);
                 stats.steps += 1;
-                if let Some(on_boundary) = w.on_stability_boundary() {
+                // A step that held a switch is left out of the stiffness test: its last stage and
+                // the derivative at its end differ by the jump held off, which the test would read
+                // as a large eigenvalue.
+                if let Some(on_boundary) = w.on_stability_boundary().filter(|_| rhs.held.is_none())
+                {
                     if stiffness.record(on_boundary) {
                         stats.stiffness_detections += 1;
                     }
