@@ -712,7 +712,7 @@ macro_rules! dispatch_paper_system {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::ChainSystem;
     use crate::chain::model::{Chain, ChainSpec, PhysicsSpec};
     use crate::integrate::OdeSystem;
@@ -744,7 +744,7 @@ mod tests {
     }
 
     /// Equal to rounding, component by component.
-    fn close(got: &[f64], expected: &[f64], what: &str) {
+    pub(crate) fn close(got: &[f64], expected: &[f64], what: &str) {
         for (i, (a, b)) in got.iter().zip(expected).enumerate() {
             assert!(
                 (a - b).abs() <= 1e-12 * b.abs().max(1.0),
