@@ -74,7 +74,9 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// Version 4: with event location, a step that lands on a contact holds it on its side before the
 /// crossing for its last stage, and a run that starts on a closing contact takes its first
 /// derivative on the compressed side: runs with dissipation take other steps.
-pub const NUMERICS_VERSION: u32 = 4;
+/// Version 5: with `predict_switches`, a crossing predicted a tiny fraction of the step ahead is
+/// crossed by a Taylor step (a sliver) instead of an attempt of the method.
+pub const NUMERICS_VERSION: u32 = 5;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -10,7 +10,8 @@
 
 use chainsweep_cpu::{dispatch, Kernel, MulAdd};
 
-use super::events::Events;
+use super::events::{Events, Next};
+use super::sliver::{Sliver, SLIVER_MAX_ERROR};
 use super::{
     all_finite, Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystemDyn,
     StepObserver, Tridiagonal,
@@ -224,7 +225,7 @@ impl Controller {
 /// The right-hand side as the steppers see it: the system, and a count of its evaluations.
 pub struct Rhs<'a> {
     sys: &'a mut dyn OdeSystemDyn,
-    evals: u64,
+    pub(super) evals: u64,
     /// The switch the current attempt ends a hair past, and its side before the crossing: the
     /// attempt's last stage is evaluated with that switch held on that side
     /// ([`OdeSystem::hold_switch`]), as is the first derivative of a run that starts on a switch.
@@ -232,7 +233,7 @@ pub struct Rhs<'a> {
 }
 
 impl<'a> Rhs<'a> {
-    fn new(sys: &'a mut dyn OdeSystemDyn) -> Self {
+    pub(super) fn new(sys: &'a mut dyn OdeSystemDyn) -> Self {
         Rhs {
             sys,
             evals: 0,
@@ -314,6 +315,9 @@ pub trait Stepper {
     fn dense(&self, t0: f64, t1: f64, h: f64) -> Self::Dense<'_>;
     /// Moves to the end of the accepted step.
     fn advance(&mut self);
+    /// The state at the start of the current step and its derivative there, for moving the
+    /// method to another point without an attempt (a sliver across a switch).
+    fn state_mut(&mut self) -> (&mut [f64], &mut [f64]);
     /// Whether the last accepted step was held by the method's stability boundary rather than its
     /// accuracy (Hairer's stiffness test), for methods that estimate it.
     fn on_stability_boundary(&self) -> Option<bool> {
@@ -420,6 +424,7 @@ impl<M: Method> Integrator for Adaptive<M> {
             self.options.predict_switches,
         );
         let mut w = M::stepper(y0, sys.n_pos());
+        let mut sliver = Sliver::new(y0.len(), sys.n_pos());
         let mut rhs = Rhs::new(sys);
         let mut stats = IntegrationStats::default();
 
@@ -473,8 +478,31 @@ impl<M: Method> Integrator for Adaptive<M> {
                 });
             }
             // A switch predicted to cross within the step: end the step just past the crossing
-            // rather than have the attempt fail on it or be retaken.
-            h = events.before_attempt(t, h, w.y(), w.f0());
+            // rather than have the attempt fail on it or be retaken; one predicted just ahead is
+            // crossed by a sliver, unless that fails its error test.
+            h = match events.before_attempt(t, h, w.y(), w.f0()) {
+                Next::Attempt(h) => h,
+                Next::Sliver(eps) => {
+                    let err = if t + eps < t_end {
+                        sliver.attempt(&mut rhs, t, eps, w.y(), w.f0(), rtol, &atol)
+                    } else {
+                        f64::INFINITY
+                    };
+                    if err <= SLIVER_MAX_ERROR {
+                        let (y, f) = w.state_mut();
+                        sliver.commit(y, f);
+                        stats.steps += 1;
+                        h = events.on_sliver(h, &mut stats);
+                        t = sliver.t_end();
+                        if obs.on_step(&sliver) == Control::Stop {
+                            stats.rhs_evals = rhs.evals;
+                            return Ok(stats);
+                        }
+                        continue;
+                    }
+                    events.sliver_failed(t)
+                }
+            };
             // The switch it lands on is held on its side before the crossing at the attempt's last
             // stage, evaluated a hair past it: the right-hand side stays smooth over the attempt.
             rhs.held = events.held();

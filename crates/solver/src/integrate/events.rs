@@ -26,6 +26,22 @@ const MAX_EVENT_STREAK: u32 = 16;
 /// How far past a crossing a step that lands on it ends, and how much shorter than the step it
 /// replaces it must be, relative.
 const EVENT_MARGIN: f64 = 1e-6;
+/// Predicted crossings closer than this fraction of the step (and not slivers of the grazing
+/// kind above) are crossed by a Taylor step rather than an attempt of the method
+/// (`predict_switches`; see [`super::sliver`]). Most are the crossing a landing step aimed at a
+/// hair too early, a ten-thousandth of the step ahead (measured on the Fig. 8 sweep: nine in ten
+/// between 3e-6 and 7e-4 of the landing step); the Taylor step's own error test decides.
+const SLIVER_FRACTION: f64 = 1e-3;
+
+/// What the step loop does next from the current point.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum Next {
+    /// An attempt of the method of this size.
+    Attempt(f64),
+    /// A Taylor step of this size, across a crossing just ahead ([`super::sliver`]); if it fails
+    /// its error test, [`Events::sliver_failed`] gives the attempt to make instead.
+    Sliver(f64),
+}
 /// The switches of a run and what event location carries from one step to the next.
 pub(super) struct Events {
     /// The switching functions located (none when event location is off).
@@ -49,6 +65,9 @@ pub(super) struct Events {
     held: Option<(usize, bool)>,
     /// The switch a rejected attempt crossed, predicted for the next try.
     aimed: Option<(usize, bool)>,
+    /// The crossing a sliver is proposed for (its time from the current point, the switch and
+    /// its side before it) and the step the controller wanted.
+    sliver: Option<(f64, usize, bool, f64)>,
 }
 
 impl Events {
@@ -71,44 +90,87 @@ impl Events {
             streak: 0,
             held: None,
             aimed: None,
+            sliver: None,
         }
     }
 
-    /// The step to attempt from `(t, y)` with derivative `f0`, given the step `h` the controller
-    /// wants: shortened to end just past a switch crossing predicted within it.
+    /// What to do from `(t, y)` with derivative `f0`, given the step `h` the controller wants:
+    /// an attempt shortened to end just past a switch crossing predicted within it, or a sliver
+    /// across a crossing predicted just ahead.
     ///
     /// Anti-trap rule: not after [`MAX_EVENT_STREAK`] consecutive event steps. Each predicted
     /// landing resumes from half the step before it, so endless consecutive predicted landings
     /// on a grazing contact (value and slope both near zero, a crossing predicted again at every
     /// step) would halve the step without end; with the streak bounded, every streak is followed
     /// by plain event location until an ordinary step, whose size only the error test governs,
-    /// is accepted.
-    pub(super) fn before_attempt(&mut self, t: f64, h: f64, y: &[f64], f0: &[f64]) -> f64 {
+    /// is accepted. Slivers count in the streak.
+    pub(super) fn before_attempt(&mut self, t: f64, h: f64, y: &[f64], f0: &[f64]) -> Next {
         if self.landing {
-            return h;
+            return Next::Attempt(h);
         }
-        self.held = self.aimed.take();
         if !(self.predict && self.streak < MAX_EVENT_STREAK) {
-            return h;
+            self.held = self.aimed.take();
+            return Next::Attempt(h);
         }
         let Some((tau, switch, positive)) =
             crossing_ahead(&self.switches, self.adjacent, self.n_pos, y, f0, h)
         else {
-            return h;
+            self.held = self.aimed.take();
+            return Next::Attempt(h);
         };
         // Slivers are taken as whole steps; the located-event path handles them.
         let h_event = (tau >= MIN_PREDICTED_FRACTION * h)
             .then(|| event_step(t, h, tau, h))
             .flatten();
         match h_event {
-            Some(h_event) => {
-                self.resume_h = Some(h);
-                self.predicted = true;
-                self.held = Some((switch, positive));
-                h_event
+            Some(eps) if tau < SLIVER_FRACTION * h => {
+                self.sliver = Some((tau, switch, positive, h));
+                Next::Sliver(eps)
             }
-            None => h,
+            Some(h_event) => Next::Attempt(self.land(h, h_event, switch, positive)),
+            None => {
+                self.held = self.aimed.take();
+                Next::Attempt(h)
+            }
         }
+    }
+
+    /// The attempt to make instead of a sliver that failed its error test (or would pass the
+    /// run's end): the predicted landing on its crossing.
+    pub(super) fn sliver_failed(&mut self, t: f64) -> f64 {
+        let (tau, switch, positive, h) = self.sliver.take().expect("a sliver was proposed");
+        match event_step(t, h, tau, h) {
+            Some(h_event) => self.land(h, h_event, switch, positive),
+            None => {
+                self.held = self.aimed.take();
+                h
+            }
+        }
+    }
+
+    /// A sliver was taken, instead of an attempt of the controller's `h`: it ends on an event,
+    /// in the streak of event steps, and the step after it, the first past the crossing, starts
+    /// from [`RESUME_FRACTION`] of `h`, as the step after a landing does (see
+    /// [`Events::resume`]). A switch aimed at after a rejection stays aimed at.
+    ///
+    /// Measured on the Fig. 8 sweep at rtol 1e-8 / 1e-9 / 1e-10: going on with `h` itself takes
+    /// 5 %, 4 % and 1 % fewer right-hand sides but its F21/F4 errors grow 1.1×, 1.4× and 2×;
+    /// with half of it they are those of a full attempt over the sliver, to the digits printed.
+    pub(super) fn on_sliver(&mut self, h: f64, stats: &mut IntegrationStats) -> f64 {
+        self.sliver = None;
+        stats.events += 1;
+        self.streak += 1;
+        RESUME_FRACTION * h
+    }
+
+    /// An attempt of `h_event` that lands on a predicted crossing of `switch`, from its side
+    /// `positive`, instead of the controller's `h`.
+    fn land(&mut self, h: f64, h_event: f64, switch: usize, positive: bool) -> f64 {
+        self.aimed = None;
+        self.resume_h = Some(h);
+        self.predicted = true;
+        self.held = Some((switch, positive));
+        h_event
     }
 
     /// After an attempt of size `h_step` from `(t, y_start)` to `t_new` passed the error test,

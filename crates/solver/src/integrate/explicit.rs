@@ -412,6 +412,10 @@ impl<M: ExplicitMethod> Stepper for Work<M> {
         self.k
             .swap(tableau.buffers[0], tableau.buffers[tableau.fsal]);
     }
+    fn state_mut(&mut self) -> (&mut [f64], &mut [f64]) {
+        let first = M::TABLEAU.buffers[0];
+        (&mut self.y, &mut self.k[first])
+    }
     fn on_stability_boundary(&self) -> Option<bool> {
         M::STIFFNESS_BOUND.map(|bound| self.stiffness > bound)
     }

@@ -17,6 +17,7 @@ mod method_tests;
 mod order_conditions;
 mod rk4;
 mod rosenbrock;
+mod sliver;
 mod verlet;
 mod vern6;
 

@@ -601,6 +601,10 @@ impl Stepper for Work {
         std::mem::swap(&mut self.f0, &mut self.f_new);
         self.jacobian_current = false;
     }
+    fn state_mut(&mut self) -> (&mut [f64], &mut [f64]) {
+        self.jacobian_current = false;
+        (&mut self.y, &mut self.f0)
+    }
 }
 
 #[cfg(test)]
