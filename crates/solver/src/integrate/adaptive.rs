@@ -494,6 +494,10 @@ impl<M: Method> Integrator for Adaptive<M> {
                         stats.steps += 1;
                         h = events.on_sliver(h, &mut stats);
                         t = sliver.t_end();
+                        // An accepted step: what failed before it is behind it.
+                        reject = false;
+                        nonfinite_streak = 0;
+                        last_failure_nonfinite = false;
                         if obs.on_step(&sliver) == Control::Stop {
                             stats.rhs_evals = rhs.evals;
                             return Ok(stats);

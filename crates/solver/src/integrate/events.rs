@@ -3,8 +3,9 @@
 //! put on the crossing. A step that passes the error test but crosses a switch is retaken to end
 //! just past the earliest crossing, located on its dense output; with `predict_switches`, a step
 //! also ends just past a crossing predicted at its start, and the step after an event resumes
-//! from the step the motion before it allowed. An attempt that lands on a switch holds it on its
-//! side before the crossing for its last stage (see [`super::OdeSystem::hold_switch`]), so that
+//! from the step the motion before it allowed; a crossing predicted a tiny fraction of the step
+//! ahead is crossed by a Taylor step instead (see [`super::sliver`]). An attempt that lands on a
+//! switch holds it on its side before the crossing for its last stage (see [`super::OdeSystem::hold_switch`]), so that
 //! a force that jumps there does not fail the attempt. [`Events`] holds that state between steps;
 //! the loop asks it before an attempt, after an accepted attempt, and after a failure.
 
@@ -12,8 +13,8 @@ use super::{DenseStep, IntegrationStats, OdeSystemDyn, Switch};
 
 /// Fraction of the step before an event that the step after it starts from (`predict_switches`).
 const RESUME_FRACTION: f64 = 0.5;
-/// Predicted crossings closer than this fraction of the step are slivers (grazing contacts): the
-/// step is not shortened to them (`predict_switches`).
+/// Predicted crossings closer than this fraction of the step are grazing (a contact touching at
+/// its turning point): the step is not shortened to them (`predict_switches`).
 const MIN_PREDICTED_FRACTION: f64 = 1e-9;
 /// Consecutive accepted steps that end on events (predicted or located) after which prediction
 /// and the resume rule pause until an ordinary step is accepted (`predict_switches`): the
@@ -26,8 +27,8 @@ const MAX_EVENT_STREAK: u32 = 16;
 /// How far past a crossing a step that lands on it ends, and how much shorter than the step it
 /// replaces it must be, relative.
 const EVENT_MARGIN: f64 = 1e-6;
-/// Predicted crossings closer than this fraction of the step (and not slivers of the grazing
-/// kind above) are crossed by a Taylor step rather than an attempt of the method
+/// Predicted crossings closer than this fraction of the step (and not grazing, above) are
+/// crossed by a Taylor step rather than an attempt of the method
 /// (`predict_switches`; see [`super::sliver`]). Most are the crossing a landing step aimed at a
 /// hair too early, a ten-thousandth of the step ahead (measured on the Fig. 8 sweep: nine in ten
 /// between 3e-6 and 7e-4 of the landing step); the Taylor step's own error test decides.
@@ -118,7 +119,7 @@ impl Events {
             self.held = self.aimed.take();
             return Next::Attempt(h);
         };
-        // Slivers are taken as whole steps; the located-event path handles them.
+        // Grazing crossings are taken inside whole steps; the located-event path handles them.
         let h_event = (tau >= MIN_PREDICTED_FRACTION * h)
             .then(|| event_step(t, h, tau, h))
             .flatten();
@@ -151,13 +152,17 @@ impl Events {
     /// A sliver was taken, instead of an attempt of the controller's `h`: it ends on an event,
     /// in the streak of event steps, and the step after it, the first past the crossing, starts
     /// from [`RESUME_FRACTION`] of `h`, as the step after a landing does (see
-    /// [`Events::resume`]). A switch aimed at after a rejection stays aimed at.
+    /// [`Events::resume`]). A switch aimed at after a rejection is not aimed at any more: the
+    /// step after the sliver is not the one that lands on it, and the crossing the rejected
+    /// attempt met is most often the one the sliver has just crossed, whose held side would be
+    /// the side it left.
     ///
     /// Measured on the Fig. 8 sweep at rtol 1e-8 / 1e-9 / 1e-10: going on with `h` itself takes
     /// 5 %, 4 % and 1 % fewer right-hand sides but its F21/F4 errors grow 1.1×, 1.4× and 2×;
     /// with half of it they are those of a full attempt over the sliver, to the digits printed.
     pub(super) fn on_sliver(&mut self, h: f64, stats: &mut IntegrationStats) -> f64 {
         self.sliver = None;
+        self.aimed = None;
         stats.events += 1;
         self.streak += 1;
         RESUME_FRACTION * h
