@@ -10,7 +10,7 @@ use crate::chain::sequence::{ContactRule, ParticleType, SequenceItem, SequenceSp
 use crate::contact::{impact_duration_factor, ln_gamma, DissipationSpec, LawSpec};
 use crate::integrate::{
     Control, DenseStep, IntegrateError, IntegrationStats, Integrator, OdeSystem, OdeSystemDyn,
-    StepObserver,
+    StepObserver, Switch,
 };
 
 /// 440C steel (the paper's spheres).
@@ -212,6 +212,74 @@ impl OdeSystem for QuadraticGrowth {
     }
     fn rhs(&mut self, _t: f64, y: &[f64], dy: &mut [f64]) {
         dy[0] = y[0] * y[0];
+    }
+}
+
+/// `x'' = c0 + c1 t`, a constant jerk, with the quadrature `q' = x` (state `[x, v, q]`): its
+/// Taylor series ends at `t³` (`t⁴` for `q`), so a Taylor step's error is known exactly.
+#[derive(Debug, Clone, Copy)]
+pub struct ConstantJerk {
+    /// Acceleration at `t = 0`.
+    pub c0: f64,
+    /// The jerk.
+    pub c1: f64,
+}
+
+impl OdeSystem for ConstantJerk {
+    fn n_pos(&self) -> usize {
+        1
+    }
+    fn n_quad(&self) -> usize {
+        1
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = self.c0 + self.c1 * t;
+        dy[2] = y[0];
+    }
+}
+
+/// A sphere falling onto a Hertzian floor at `x = 0` while a force growing in time pushes it
+/// up, `x'' = c t + k (−x)₊^{3/2}` (state `[x, v]`, one switch: `x`): the jerk `c` is what a
+/// quadratic prediction of the floor's crossing misses, so that some steps aimed at it end a hair
+/// before it. It counts its evaluations in a counter an observer can read while it runs.
+#[derive(Debug, Clone)]
+pub struct PushedFall {
+    /// Growth rate of the push, m/s³.
+    pub push_rate: f64,
+    /// The floor's stiffness, m^{-1/2} s^{-2}.
+    pub stiffness: f64,
+    /// Evaluations of the right-hand side so far.
+    pub evals: std::rc::Rc<std::cell::Cell<u64>>,
+    switch: [Switch; 1],
+}
+
+impl PushedFall {
+    /// The fall with push rate `c` onto a floor of stiffness `k`, its counter at zero.
+    pub fn new(push_rate: f64, stiffness: f64) -> Self {
+        PushedFall {
+            push_rate,
+            stiffness,
+            evals: Default::default(),
+            switch: [Switch::between(0, None)],
+        }
+    }
+}
+
+impl OdeSystem for PushedFall {
+    fn n_pos(&self) -> usize {
+        1
+    }
+    fn n_quad(&self) -> usize {
+        0
+    }
+    fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
+        self.evals.set(self.evals.get() + 1);
+        dy[0] = y[1];
+        dy[1] = self.push_rate * t + self.stiffness * (-y[0]).max(0.0).powf(1.5);
+    }
+    fn switches(&self) -> &[Switch] {
+        &self.switch
     }
 }
 

@@ -141,34 +141,14 @@ impl DenseStep for Sliver {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::integrate::{
-        AdaptiveOptions, Control, Dop853, Integrator, OdeSystem, StepObserver, Switch,
-    };
+    use crate::integrate::{AdaptiveOptions, Control, Dop853, Integrator, OdeSystem, StepObserver};
+    use crate::problems::{ConstantJerk, PushedFall};
     use std::cell::Cell;
     use std::rc::Rc;
 
-    /// `x'' = c0 + c1 t` (a jerk that is constant), with the quadrature `q' = x`.
-    struct Jerk {
-        c0: f64,
-        c1: f64,
-    }
-    impl OdeSystem for Jerk {
-        fn n_pos(&self) -> usize {
-            1
-        }
-        fn n_quad(&self) -> usize {
-            1
-        }
-        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
-            dy[0] = y[1];
-            dy[1] = self.c0 + self.c1 * t;
-            dy[2] = y[0];
-        }
-    }
-
     #[test]
     fn a_sliver_is_a_taylor_step_whose_error_it_bounds() {
-        let mut sys = Jerk { c0: 2.0, c1: 6.0 };
+        let mut sys = ConstantJerk { c0: 2.0, c1: 6.0 };
         let (x0, v0) = (0.5, -1.0);
         let y = [x0, v0, 0.0];
         let mut f = [0.0; 3];
@@ -226,7 +206,7 @@ mod tests {
 
     #[test]
     fn the_sliver_interpolant_is_hermite_through_both_ends() {
-        let mut sys = Jerk { c0: 2.0, c1: 6.0 };
+        let mut sys = ConstantJerk { c0: 2.0, c1: 6.0 };
         let y = [0.5, -1.0, 0.25];
         let mut f = [0.0; 3];
         sys.rhs(1.0, &y, &mut f);
@@ -257,32 +237,6 @@ mod tests {
                 "{i}: {slope1} against {}",
                 fs[i]
             );
-        }
-    }
-
-    /// A sphere falling onto a Hertzian floor at `x = 0` while a force growing in time pushes it
-    /// up, `x'' = c t + k (−x)₊^{3/2}`: the jerk `c` is what a quadratic prediction of the
-    /// crossing misses, so that some landings end a hair before it. Counts its evaluations.
-    struct PushedFall {
-        c: f64,
-        k: f64,
-        evals: Rc<Cell<u64>>,
-        switch: [Switch; 1],
-    }
-    impl OdeSystem for PushedFall {
-        fn n_pos(&self) -> usize {
-            1
-        }
-        fn n_quad(&self) -> usize {
-            0
-        }
-        fn rhs(&mut self, t: f64, y: &[f64], dy: &mut [f64]) {
-            self.evals.set(self.evals.get() + 1);
-            dy[0] = y[1];
-            dy[1] = self.c * t + self.k * (-y[0]).max(0.0).powf(1.5);
-        }
-        fn switches(&self) -> &[Switch] {
-            &self.switch
         }
     }
 
@@ -318,18 +272,12 @@ mod tests {
     const PUSH_RATE: f64 = 0.005;
 
     fn fall(predict: bool, rtol: f64) -> (Vec<Step>, f64) {
-        let evals = Rc::new(Cell::new(0));
-        let mut sys = PushedFall {
-            c: PUSH_RATE,
-            k: 1e4,
-            evals: Rc::clone(&evals),
-            switch: [Switch::between(0, None)],
-        };
+        let mut sys = PushedFall::new(PUSH_RATE, 1e4);
         let mut options = AdaptiveOptions::new(rtol);
         options.predict_switches = predict;
         let integrator = Dop853::with_options(options);
         let mut obs = Steps {
-            evals,
+            evals: Rc::clone(&sys.evals),
             last_evals: 0,
             steps: Vec::new(),
             y_start: [0.0; 2],
@@ -397,7 +345,7 @@ mod tests {
         use super::super::adaptive::{Method, Stepper};
         use crate::integrate::{Dop853Method, Ros34pw2Method, Vern6Method};
         fn check<M: Method>() {
-            let mut sys = Jerk { c0: 2.0, c1: 6.0 };
+            let mut sys = ConstantJerk { c0: 2.0, c1: 6.0 };
             let mut w = M::stepper(&[0.5, -1.0, 0.0], 1);
             let mut rhs = Rhs::new(&mut sys);
             assert!(w.start(&mut rhs, 0.0));
