@@ -5,9 +5,10 @@
 //! also ends just past a crossing predicted at its start, and the step after an event resumes
 //! from the step the motion before it allowed; a crossing predicted a tiny fraction of the step
 //! ahead is crossed by a Taylor step instead (see [`super::sliver`]). An attempt that lands on a
-//! switch holds it on its side before the crossing for its last stage (see [`super::OdeSystem::hold_switch`]), so that
-//! a force that jumps there does not fail the attempt. [`Events`] holds that state between steps;
-//! the loop asks it before an attempt, after an accepted attempt, and after a failure.
+//! switch holds it on its side before the crossing for its last stage (see
+//! [`super::OdeSystem::hold_switch`]), so that a force that jumps there does not fail the
+//! attempt. [`Events`] holds that state between steps; the loop asks it before an attempt, after
+//! an accepted attempt, after a sliver, and after a failure.
 
 use super::{DenseStep, IntegrationStats, OdeSystemDyn, Switch};
 
