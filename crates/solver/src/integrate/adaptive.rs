@@ -504,7 +504,7 @@ impl<M: Method> Integrator for Adaptive<M> {
                         }
                         continue;
                     }
-                    events.sliver_failed(t)
+                    events.sliver_failed()
                 }
             };
             // The switch it lands on is held on its side before the crossing at the attempt's last

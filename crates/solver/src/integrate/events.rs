@@ -70,8 +70,8 @@ pub(super) struct Events {
     held: Option<(usize, bool)>,
     /// The switch a rejected attempt crossed, predicted for the next try.
     aimed: Option<(usize, bool)>,
-    /// The crossing a sliver is proposed for (its time from the current point, the switch and
-    /// its side before it) and the step the controller wanted.
+    /// The sliver proposed (the step that ends just past its crossing, the switch and its side
+    /// before it) and the step the controller wanted.
     sliver: Option<(f64, usize, bool, f64)>,
 }
 
@@ -129,7 +129,7 @@ impl Events {
             .flatten();
         match h_event {
             Some(eps) if tau < SLIVER_FRACTION * h => {
-                self.sliver = Some((tau, switch, positive, h));
+                self.sliver = Some((eps, switch, positive, h));
                 Next::Sliver(eps)
             }
             Some(h_event) => Next::Attempt(self.land(h, h_event, switch, positive)),
@@ -142,15 +142,9 @@ impl Events {
 
     /// The attempt to make instead of a sliver that failed its error test (or would pass the
     /// run's end): the predicted landing on its crossing.
-    pub(super) fn sliver_failed(&mut self, t: f64) -> f64 {
-        let (tau, switch, positive, h) = self.sliver.take().expect("a sliver was proposed");
-        match event_step(t, h, tau, h) {
-            Some(h_event) => self.land(h, h_event, switch, positive),
-            None => {
-                self.held = self.aimed.take();
-                h
-            }
-        }
+    pub(super) fn sliver_failed(&mut self) -> f64 {
+        let (h_event, switch, positive, h) = self.sliver.take().expect("a sliver was proposed");
+        self.land(h, h_event, switch, positive)
     }
 
     /// A sliver was taken, instead of an attempt of the controller's `h`: it ends on an event,
