@@ -76,7 +76,9 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// derivative on the compressed side: runs with dissipation take other steps.
 /// Version 5: with `predict_switches`, a crossing predicted a tiny fraction of the step ahead is
 /// crossed by a Taylor step (a sliver) instead of an attempt of the method.
-pub const NUMERICS_VERSION: u32 = 5;
+/// Version 6: with `predict_switches`, the step after a contact opens goes on with the whole step
+/// before it (after a contact closes, still half of it).
+pub const NUMERICS_VERSION: u32 = 6;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -261,12 +261,12 @@ chain_098_vern6: probe 0 4058cd65b545f0e3 3f17bc4ea1fbab73 4058cd65b545f0e3 3f17
 chain_098_vern6: probe 1 404f0854493e69d6 3f3dc89a7945395d 404f0854493e69d6 3f3dc89a7945395d\n\
 chain_098_vern6: probe 2 3fe6d9f9ffc7aa1c 3ef2c3fb86320faf 3fe6d9f9ffc7aa1c 3ef2c3fb86320faf\n\
 chain_098_vern6: history 120 5e8339e5634c40ef\n\
-chain_098_dop853_predict: steps 215 rejected 48 events 57 rhs 3615 t_end 3f43a92a30553261 drift 3e991a83d5bcb34a 3e991a83d5bcb34a momentum 3ce3e24474e5c39b max_overlap 3ee1e4bb017ce39d impact 3f533102b4eebd40 warnings 0\n\
-chain_098_dop853_predict: energy 3f278b6442ee38d1 3f24d44e49bd77d4 bef5f00c05a65a1b 3f4bd146078f786f\n\
-chain_098_dop853_predict: probe 0 4058cd65902cb9ef 3f17bc4ea2903b02 4058cd65902cb9ef 3f17bc4ea2903b02\n\
-chain_098_dop853_predict: probe 1 404f085426d61d9c 3f3dc89a861f4139 404f085426d61d9c 3f3dc89a861f4139\n\
+chain_098_dop853_predict: steps 200 rejected 53 events 54 rhs 3510 t_end 3f43a92a30553261 drift 3e98ee4cd6808307 3e98ee4cd6808307 momentum 3cec477dce13935a max_overlap 3ee1e4bb017ce39d impact 3f533102b4eebd40 warnings 0\n\
+chain_098_dop853_predict: energy 3f278b6439881ff2 3f24d44e4a2c7db0 bef5f00c05a65a1b 3f4bd1460b758329\n\
+chain_098_dop853_predict: probe 0 4058cd658f765e3f 3f17bc4ea37d6f88 4058cd658f765e3f 3f17bc4ea37d6f88\n\
+chain_098_dop853_predict: probe 1 404f085429449ce5 3f3dc89a8586e63f 404f085429449ce5 3f3dc89a8586e63f\n\
 chain_098_dop853_predict: probe 2 3fe6d9f9cb409bac 3ef2c3fbbf36aa8c 3fe6d9f9cb409bac 3ef2c3fbbf36aa8c\n\
-chain_098_dop853_predict: history 120 a9f5c84b80cb1d74\n";
+chain_098_dop853_predict: history 120 111a6795407f832b\n";
 
 #[test]
 fn paper_chains_and_runs_are_bitwise_unchanged() {

@@ -54,6 +54,15 @@ pub trait OdeSystem {
     /// step, which the error test rejects. The default does nothing: right for a right-hand side
     /// that is continuous across its switches.
     fn hold_switch(&self, _switch: usize, _positive: bool, _y: &[f64], _dy: &mut [f64]) {}
+    /// Whether every term that switch number `switch` turns on and off vanishes identically while
+    /// its value is `≤ 0` (a contact's force once it has opened): past a crossing into that side
+    /// the motion is as smooth as it was before, with no term starting there. The step after
+    /// landing on such a crossing goes on with the step the motion before it allowed; after any
+    /// other (a contact that closes, whose force starts like δ^{3/2}) it starts from half of it.
+    /// The default, `false`, is safe for any system: it only costs steps.
+    fn vanishes_below(&self, _switch: usize) -> bool {
+        false
+    }
     /// Jacobian of the accelerations `a(x, v)` at state `y`, for implicit methods: `kx = ∂a/∂x` and
     /// `kv = ∂a/∂v`, both tridiagonal for a chain (particle `i` feels only its neighbours).
     /// Returns `false` when the system does not provide one (the default).
@@ -322,6 +331,8 @@ pub trait OdeSystemDyn {
     fn switches(&self) -> &[Switch];
     /// See [`OdeSystem::hold_switch`].
     fn hold_switch(&self, switch: usize, positive: bool, y: &[f64], dy: &mut [f64]);
+    /// See [`OdeSystem::vanishes_below`].
+    fn vanishes_below(&self, switch: usize) -> bool;
     /// See [`OdeSystem::acceleration_jacobian`].
     fn acceleration_jacobian(
         &self,
@@ -347,6 +358,9 @@ impl<S: OdeSystem> OdeSystemDyn for S {
     }
     fn hold_switch(&self, switch: usize, positive: bool, y: &[f64], dy: &mut [f64]) {
         OdeSystem::hold_switch(self, switch, positive, y, dy)
+    }
+    fn vanishes_below(&self, switch: usize) -> bool {
+        OdeSystem::vanishes_below(self, switch)
     }
     fn acceleration_jacobian(
         &self,

@@ -320,6 +320,12 @@ impl<const LAW: u8, const D: bool, const T: bool> OdeSystem for GeneralChainSyst
         &self.switches
     }
 
+    /// Every switch is a contact's overlap (with a wall, fixed or moving, for some), and an open
+    /// contact carries no force under any law or dissipation model.
+    fn vanishes_below(&self, _switch: usize) -> bool {
+        true
+    }
+
     /// The dissipative terms act only while a contact is compressed, and the linear viscous one
     /// jumps where it opens or closes: held on one side, an interior contact acts as it does there.
     /// The contacts with a wall (or the ring's closing one) are not held: their switches carry the

@@ -80,6 +80,12 @@ impl<const G: bool, const D: bool, const W: bool, const C: bool> OdeSystem
         &self.switches
     }
 
+    /// Every switch is a contact's overlap (the wall's for the last), and an open contact carries
+    /// no force, elastic or viscous.
+    fn vanishes_below(&self, _switch: usize) -> bool {
+        true
+    }
+
     fn acceleration_jacobian(
         &self,
         t: f64,
