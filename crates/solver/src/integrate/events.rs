@@ -612,8 +612,8 @@ mod tests {
         (sys, y, f0)
     }
 
-    /// The step after landing on a crossing, and after a sliver across one, given a controller
-    /// step of 1 before it and a short one after it.
+    /// The step after landing on the crossing predicted at 0.4, from its side `held`, given a
+    /// controller step of 1 before it and a short one after it.
     fn steps_after(events: &mut Events, y: &[f64], f0: &[f64], held: (usize, bool)) -> f64 {
         let mut stats = IntegrationStats::default();
         match events.before_attempt(0.0, 1.0, y, f0) {
