@@ -78,7 +78,9 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// crossed by a Taylor step (a sliver) instead of an attempt of the method.
 /// Version 6: with `predict_switches`, the step after a contact opens goes on with the whole step
 /// before it (after a contact closes, still half of it).
-pub const NUMERICS_VERSION: u32 = 6;
+/// Version 7: a run stopped after its leading pulses ends its record (summaries, histories,
+/// fields) at the summary instant at which the last of them passed, not at the end of the step.
+pub const NUMERICS_VERSION: u32 = 7;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

@@ -337,7 +337,9 @@ pub struct RecordSpec {
     #[cfg_attr(feature = "serde", serde(default))]
     pub leading_pulse: LeadingPulseSpec,
     /// End the run as soon as every probe's leading pulse has passed (sweeps that need only
-    /// leading peaks); the ledger then covers the time simulated.
+    /// leading peaks). The record (summaries, histories, fields) ends at the summary instant at
+    /// which the last of them was seen to pass, whatever the step sizes; the integration, and so
+    /// `t_end_s` and the ledger, at the end of the step that contains that instant.
     #[cfg_attr(feature = "serde", serde(default))]
     pub stop_after_leading_pulses: bool,
     /// Record the linear spectrum at the static state (lowest and highest natural frequency and,
@@ -1139,6 +1141,10 @@ pub(crate) struct RunObserver {
     pub max_overlap: f64,
     pub last_energy: Option<EnergyTerms>,
     pub t_reached: f64,
+    /// For a run that stops after its leading pulses, the summary instant at which the last of
+    /// them was seen to pass: the summaries, histories, fields and steady-state sums end there,
+    /// while the integration (and the ledger) ends with the step that contains it.
+    pub record_end: Option<f64>,
     n: usize,
     n_contacts: usize,
     /// What each contact joins.
@@ -1309,6 +1315,7 @@ impl RunObserver {
             max_overlap: 0.0,
             last_energy: None,
             t_reached: t0,
+            record_end: None,
             n: chain.n_particles(),
             n_contacts: chain.n_contacts(),
             contacts: ContactMap::of(chain),
@@ -1410,10 +1417,6 @@ impl RunObserver {
     pub fn take_steady_state(&mut self) -> Option<SteadyState> {
         self.steady.take().map(|s| s.finish())
     }
-
-    fn all_leading_passed(&self) -> bool {
-        !self.trackers.is_empty() && self.trackers.iter().all(|t| t.phase == PulsePhase::Passed)
-    }
 }
 
 impl StepObserver for RunObserver {
@@ -1469,10 +1472,17 @@ impl StepObserver for RunObserver {
     fn on_step(&mut self, step: &dyn DenseStep) -> Control {
         let t1 = step.t_end();
         let n_probes = self.probes.len();
+        // The record's last instant in this step: the step's end, or, for a run that stops after
+        // its leading pulses, the summary instant at which the last of them is seen to pass. The
+        // step goes on past that instant by however far the integrator's step size took it, and
+        // a record reaching beyond it would depend on the step sizes (a probe still rising there
+        // would put its record maximum wherever the last step happened to end).
+        let mut until = t1.min(self.t_end);
         if n_probes > 0 {
-            let until = t1.min(self.t_end);
             let probes = &self.probes;
             let trackers = &mut self.trackers;
+            let stop_when_passed = self.opts.stop_after_leading_pulses;
+            let mut passed_at: Option<f64> = None;
             sample_grid(
                 step,
                 (self.t0, self.opts.summary_interval),
@@ -1482,12 +1492,22 @@ impl StepObserver for RunObserver {
                 &mut self.batch_values[..],
                 &mut self.probe_state,
                 |ts, state| {
+                    if passed_at.is_some() {
+                        return;
+                    }
                     let g = |i: usize| state[i];
                     for (k, tracker) in trackers.iter_mut().enumerate() {
                         tracker.sample(ts, probes.value(k, &g));
                     }
+                    if stop_when_passed && trackers.iter().all(|t| t.phase == PulsePhase::Passed) {
+                        passed_at = Some(ts);
+                    }
                 },
             );
+            if let Some(t) = passed_at {
+                until = t;
+                self.record_end = Some(t);
+            }
             if let Some(h) = &mut self.history {
                 sample_grid(
                     step,
@@ -1529,7 +1549,7 @@ impl StepObserver for RunObserver {
             }
         }
         if let Some(f) = &mut self.fields {
-            f.step(step, self.t0, t1.min(self.t_end));
+            f.step(step, self.t0, until);
         }
         if let Some(f) = &mut self.flow {
             f.step(step);
@@ -1539,7 +1559,7 @@ impl StepObserver for RunObserver {
         if let Some(s) = &mut self.state {
             s.copy_from_slice(step.y_end());
         }
-        if self.opts.stop_after_leading_pulses && self.all_leading_passed() {
+        if self.record_end.is_some() {
             self.stopped = true;
             return Control::Stop;
         }
