@@ -1141,10 +1141,6 @@ pub(crate) struct RunObserver {
     pub max_overlap: f64,
     pub last_energy: Option<EnergyTerms>,
     pub t_reached: f64,
-    /// For a run that stops after its leading pulses, the summary instant at which the last of
-    /// them was seen to pass: the summaries, histories, fields and steady-state sums end there,
-    /// while the integration (and the ledger) ends with the step that contains it.
-    pub record_end: Option<f64>,
     n: usize,
     n_contacts: usize,
     /// What each contact joins.
@@ -1315,7 +1311,6 @@ impl RunObserver {
             max_overlap: 0.0,
             last_energy: None,
             t_reached: t0,
-            record_end: None,
             n: chain.n_particles(),
             n_contacts: chain.n_contacts(),
             contacts: ContactMap::of(chain),
@@ -1478,11 +1473,11 @@ impl StepObserver for RunObserver {
         // a record reaching beyond it would depend on the step sizes (a probe still rising there
         // would put its record maximum wherever the last step happened to end).
         let mut until = t1.min(self.t_end);
+        let mut passed_at: Option<f64> = None;
         if n_probes > 0 {
             let probes = &self.probes;
             let trackers = &mut self.trackers;
             let stop_when_passed = self.opts.stop_after_leading_pulses;
-            let mut passed_at: Option<f64> = None;
             sample_grid(
                 step,
                 (self.t0, self.opts.summary_interval),
@@ -1506,7 +1501,6 @@ impl StepObserver for RunObserver {
             );
             if let Some(t) = passed_at {
                 until = t;
-                self.record_end = Some(t);
             }
             if let Some(h) = &mut self.history {
                 sample_grid(
@@ -1559,7 +1553,7 @@ impl StepObserver for RunObserver {
         if let Some(s) = &mut self.state {
             s.copy_from_slice(step.y_end());
         }
-        if self.record_end.is_some() {
+        if passed_at.is_some() {
             self.stopped = true;
             return Control::Stop;
         }
