@@ -8,7 +8,9 @@ use std::sync::Mutex;
 use std::time::Duration;
 
 use chainsweep::engine::run::{run_points, RunOptions, RunReport};
-use chainsweep::engine::schedule::{run_tasks, Coordinator, Executor, Schedule, Task};
+use chainsweep::engine::schedule::{
+    run_tasks, Coordinator, Executor, Schedule, Task, HELD_RECORDS,
+};
 use chainsweep::engine::{shard, thread_pool, ProgressSink, Silent, Start};
 use chainsweep::error::{Error, Result};
 use chainsweep::grid::{Grid, Shard};
@@ -498,6 +500,80 @@ fn a_run_that_cannot_be_stored_stops_the_sweep_with_its_error() {
     assert_eq!(tally.finished, vec![0, 1]);
     assert_eq!(fake.calls().len(), 3);
     assert!(tally.ended);
+}
+
+/// A coordinator whose [`Coordinator::begun`] (the output file written before any run is
+/// stored) takes until the workers have had time to run more tasks than can be held.
+struct SlowToBegin<'a> {
+    fake: &'a Fake,
+    store: &'a FailingStore,
+    /// Runs computed, and records stored, when `begun` returned.
+    at_begun: Option<(usize, usize)>,
+    finished: usize,
+}
+
+impl Coordinator for SlowToBegin<'_> {
+    fn begun(&mut self) -> Result<()> {
+        let deadline = std::time::Instant::now() + Duration::from_secs(20);
+        while self.fake.calls().len() < HELD_RECORDS && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        // Time for the workers to run past the bound, were there none.
+        std::thread::sleep(Duration::from_millis(100));
+        self.at_begun = Some((
+            self.fake.calls().len(),
+            self.store.writes.load(Ordering::SeqCst),
+        ));
+        Ok(())
+    }
+    fn finished(&mut self, _task: &Task, _ok: bool) {
+        self.finished += 1;
+    }
+    fn idle(&mut self) {}
+    fn checkpoint(&mut self) -> Result<()> {
+        Ok(())
+    }
+    fn ended(&mut self) {}
+}
+
+#[test]
+fn runs_go_on_while_the_coordinator_begins_and_are_stored_only_after_it() {
+    let (_, grid) = sweep_and_grid();
+    let tasks: Vec<Task> = (0..3 * HELD_RECORDS)
+        .map(|i| Task::run(&grid, i % grid.len()))
+        .collect();
+    let store = FailingStore {
+        fail_at: usize::MAX,
+        writes: AtomicUsize::new(0),
+    };
+    let fake = Fake::default();
+    let jobs = 2;
+    let pool = thread_pool(jobs).unwrap();
+    let stop = AtomicBool::new(false);
+    let schedule = Schedule {
+        pool: &pool,
+        checkpoint_every: Duration::ZERO,
+        stop: &stop,
+    };
+    let mut coordinator = SlowToBegin {
+        fake: &fake,
+        store: &store,
+        at_begun: None,
+        finished: 0,
+    };
+    run_tasks(&tasks, &fake, &store, &schedule, &mut coordinator).unwrap();
+    let (ran, stored) = coordinator.at_begun.unwrap();
+    // The workers ran while the coordinator began, up to the records that may be held (and one
+    // more run each, waiting to be held), and stored none of them before it was done.
+    assert_eq!(stored, 0);
+    assert!(
+        (HELD_RECORDS..=HELD_RECORDS + jobs).contains(&ran),
+        "{ran} runs computed while the coordinator began"
+    );
+    // Every run was then stored and reported, the held ones included.
+    assert_eq!(store.writes.load(Ordering::SeqCst), tasks.len());
+    assert_eq!(coordinator.finished, tasks.len());
+    assert_eq!(fake.calls().len(), tasks.len());
 }
 
 #[test]

@@ -351,15 +351,18 @@ pub fn run_points(
         plan,
         sink,
         published: None,
+        publish_at_start: false,
         ran: 0,
     };
     // A readable output file from the start (every point pending or resumed), so that a run
-    // killed before its first checkpoint still leaves one that `status` and h5py read.
-    if !opts.output.exists() {
-        run.assemble()?;
-    }
+    // killed before its first checkpoint still leaves one that `status` and h5py read: written
+    // by the coordinator as soon as the workers have their tasks ([`Coordinator::begun`]), while
+    // they run, rather than holding them back for the time it takes.
+    run.publish_at_start = !opts.output.exists();
     // An output file from before holds at most the runs stored now.
-    run.published.get_or_insert(run.stored());
+    if !run.publish_at_start {
+        run.published = Some(run.stored());
+    }
     let schedule = Schedule {
         pool,
         checkpoint_every: opts.checkpoint_interval,
@@ -425,6 +428,8 @@ struct Running<'a> {
     sink: &'a mut dyn ProgressSink,
     /// Runs stored when the output file was last published (`None`: not yet by this process).
     published: Option<usize>,
+    /// No output file exists yet: one is written as soon as the tasks are handed out.
+    publish_at_start: bool,
     /// Tasks finished by this call.
     ran: usize,
 }
@@ -464,6 +469,13 @@ impl Running<'_> {
 }
 
 impl Coordinator for Running<'_> {
+    fn begun(&mut self) -> Result<()> {
+        if self.publish_at_start {
+            self.assemble()?;
+        }
+        Ok(())
+    }
+
     fn finished(&mut self, task: &Task, ok: bool) {
         self.ran += 1;
         self.plan.finish(task, ok);

@@ -7,7 +7,7 @@
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{mpsc, Arc, Mutex, OnceLock};
+use std::sync::{mpsc, Arc, Condvar, Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -193,6 +193,14 @@ impl Executor for SolverExecutor<'_> {
 /// The coordinating thread's side of a run: it hears of every finished run and writes
 /// checkpoints. Its methods run on the thread that called [`run_tasks`], one at a time.
 pub trait Coordinator {
+    /// The workers have been handed the tasks: work that must come before any task's record is
+    /// stored but need not hold the computations back (writing the output file as it stands) is
+    /// done here, on the coordinator's thread, while they run. The records of runs that end
+    /// before it returns are held (up to [`HELD_RECORDS`]; a worker with one more waits) and
+    /// stored as soon as it has. An error is handled as a failed [`Coordinator::checkpoint`].
+    fn begun(&mut self) -> Result<()> {
+        Ok(())
+    }
     /// `task` finished and its record is stored (`ok`: the run succeeded).
     fn finished(&mut self, task: &Task, ok: bool);
     /// Nothing finished for a while.
@@ -252,10 +260,13 @@ pub fn run_tasks(
     let mut store_error: Option<Error> = None;
     let mut checkpoint_error: Option<Error> = None;
     let mut last_checkpoint = Instant::now();
+    let held = Held::default();
     std::thread::scope(|s| -> Result<()> {
         let (tx, rx) = mpsc::channel::<Finished>();
         let store_failed = &store_failed;
         let started = &started;
+        let held = &held;
+        let tx_held = tx.clone();
         s.spawn(move || {
             schedule.pool.install(|| {
                 tasks.par_iter().for_each_with(tx, |tx, task| {
@@ -265,18 +276,26 @@ pub fn run_tasks(
                     }
                     started.fetch_add(1, Ordering::SeqCst);
                     let rec = run_one(executor, task);
-                    let stored = store.write(&rec);
-                    if stored.is_err() {
-                        store_failed.store(true, Ordering::Relaxed);
+                    if let Some(rec) = held.hold(*task, rec) {
+                        store_one(store, store_failed, tx, *task, &rec);
                     }
-                    let _ = tx.send(Finished {
-                        task: *task,
-                        ok: rec.ok,
-                        stored,
-                    });
                 });
             });
         });
+        {
+            // Opened however this block ends: a worker waiting at it would otherwise hold the
+            // scope (and the process) forever.
+            let mut open = OpenOnDrop(held);
+            if let Err(e) = coordinator.begun() {
+                store_failed.store(true, Ordering::Relaxed);
+                coordinator.checkpoint_failed(&e, started.load(Ordering::SeqCst));
+                checkpoint_error = Some(e);
+            }
+            for (task, rec) in open.open() {
+                store_one(store, store_failed, &tx_held, task, &rec);
+            }
+        }
+        drop(tx_held);
         loop {
             let received = rx.recv_timeout(IDLE_TICK);
             if received.is_ok() {
@@ -323,6 +342,86 @@ pub fn run_tasks(
         ))),
         (None, Some(e)) => Err(e),
         (None, None) => Ok(()),
+    }
+}
+
+/// Stores one finished run's record and tells the coordinator (a store that fails stops new
+/// tasks from starting).
+fn store_one(
+    store: &dyn RunStore,
+    store_failed: &AtomicBool,
+    tx: &mpsc::Sender<Finished>,
+    task: Task,
+    rec: &RunRecord,
+) {
+    let stored = store.write(rec);
+    if stored.is_err() {
+        store_failed.store(true, Ordering::Relaxed);
+    }
+    let _ = tx.send(Finished {
+        task,
+        ok: rec.ok,
+        stored,
+    });
+}
+
+/// Records of runs that ended before [`Coordinator::begun`] returned, at most this many: a
+/// worker with one more waits (memory stays bounded however short the runs and long the wait).
+pub const HELD_RECORDS: usize = 64;
+
+/// Where finished runs' records wait until the coordinator has begun ([`Coordinator::begun`]).
+/// Once open it costs a worker one atomic load.
+#[derive(Default)]
+struct Held {
+    open: AtomicBool,
+    /// The records held. A worker adds one only under this lock and after finding `open` unset
+    /// under it, so none is added after [`Held::open`] has taken them.
+    records: Mutex<Vec<(Task, RunRecord)>>,
+    opened: Condvar,
+}
+
+impl Held {
+    /// `rec` back to be stored now (open), or `None`: held, to be stored by whoever opens.
+    fn hold(&self, task: Task, rec: RunRecord) -> Option<RunRecord> {
+        if self.open.load(Ordering::Acquire) {
+            return Some(rec);
+        }
+        let mut records = self.records.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            if self.open.load(Ordering::Acquire) {
+                return Some(rec);
+            }
+            if records.len() < HELD_RECORDS {
+                records.push((task, rec));
+                return None;
+            }
+            records = self.opened.wait(records).unwrap_or_else(|e| e.into_inner());
+        }
+    }
+
+    /// Opens: the records held until now, to be stored by the caller (once; later calls get none).
+    fn open(&self) -> Vec<(Task, RunRecord)> {
+        let mut records = self.records.lock().unwrap_or_else(|e| e.into_inner());
+        self.open.store(true, Ordering::Release);
+        self.opened.notify_all();
+        std::mem::take(&mut *records)
+    }
+}
+
+/// Opens its [`Held`] when dropped (a panic in [`Coordinator::begun`] included), so that no
+/// worker waits forever; what it still holds then is dropped, as a process that dies drops its
+/// runs in flight.
+struct OpenOnDrop<'a>(&'a Held);
+
+impl OpenOnDrop<'_> {
+    fn open(&mut self) -> Vec<(Task, RunRecord)> {
+        self.0.open()
+    }
+}
+
+impl Drop for OpenOnDrop<'_> {
+    fn drop(&mut self) {
+        self.0.open();
     }
 }
 
