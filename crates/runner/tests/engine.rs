@@ -576,6 +576,93 @@ fn runs_go_on_while_the_coordinator_begins_and_are_stored_only_after_it() {
     assert_eq!(fake.calls().len(), tasks.len());
 }
 
+/// A coordinator whose [`Coordinator::begun`] fails, with an error or a panic, once the
+/// workers have run a few tasks (held, as no record may be stored before it returns).
+struct FailsToBegin<'a> {
+    fake: &'a Fake,
+    panic: bool,
+    finished: usize,
+    failure_heard: bool,
+}
+
+impl Coordinator for FailsToBegin<'_> {
+    fn begun(&mut self) -> Result<()> {
+        let deadline = std::time::Instant::now() + Duration::from_secs(20);
+        while self.fake.calls().len() < 4 && std::time::Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        if self.panic {
+            panic!("the first write panicked");
+        }
+        Err(Error::Other("checkpoint refused".into()))
+    }
+    fn finished(&mut self, _task: &Task, _ok: bool) {
+        self.finished += 1;
+    }
+    fn idle(&mut self) {}
+    fn checkpoint(&mut self) -> Result<()> {
+        Ok(())
+    }
+    fn checkpoint_failed(&mut self, error: &Error, _in_flight: usize) {
+        assert!(error.to_string().contains("checkpoint refused"));
+        self.failure_heard = true;
+    }
+    fn ended(&mut self) {}
+}
+
+#[test]
+fn a_coordinator_that_fails_to_begin_stops_the_sweep_and_keeps_what_finished() {
+    let (_, grid) = sweep_and_grid();
+    let tasks: Vec<Task> = (0..40 * HELD_RECORDS)
+        .map(|i| Task::run(&grid, i % grid.len()))
+        .collect();
+    for panic in [false, true] {
+        let store = FailingStore {
+            fail_at: usize::MAX,
+            writes: AtomicUsize::new(0),
+        };
+        let fake = Fake {
+            sleep: Duration::from_millis(1),
+            ..Fake::default()
+        };
+        let pool = thread_pool(2).unwrap();
+        let stop = AtomicBool::new(false);
+        let schedule = Schedule {
+            pool: &pool,
+            checkpoint_every: Duration::ZERO,
+            stop: &stop,
+        };
+        let mut coordinator = FailsToBegin {
+            fake: &fake,
+            panic,
+            finished: 0,
+            failure_heard: false,
+        };
+        let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            run_tasks(&tasks, &fake, &store, &schedule, &mut coordinator)
+        }));
+        let ran = fake.calls().len();
+        let stored = store.writes.load(Ordering::SeqCst);
+        // It returned (no worker waits forever), and no new task started after the failure:
+        // at most the runs that could be held and those in flight, not the 2 560 of the sweep.
+        assert!(
+            (4..=HELD_RECORDS + 2 * 2).contains(&ran),
+            "{ran} runs (panic: {panic})"
+        );
+        if panic {
+            assert!(outcome.is_err(), "the panic goes on");
+            // Runs finished after the panic are stored; those held at it are not.
+            assert!(stored <= ran);
+        } else {
+            let err = outcome.unwrap().unwrap_err();
+            assert!(err.to_string().contains("checkpoint refused"), "{err}");
+            assert!(coordinator.failure_heard);
+            // Every run computed is stored and reported, the held ones included.
+            assert_eq!((stored, coordinator.finished), (ran, ran));
+        }
+    }
+}
+
 #[test]
 fn a_failed_checkpoint_is_reported_at_once_and_stops_the_sweep() {
     let (_, grid) = sweep_and_grid();

@@ -197,7 +197,9 @@ pub trait Coordinator {
     /// stored but need not hold the computations back (writing the output file as it stands) is
     /// done here, on the coordinator's thread, while they run. The records of runs that end
     /// before it returns are held (up to [`HELD_RECORDS`]; a worker with one more waits) and
-    /// stored as soon as it has. An error is handled as a failed [`Coordinator::checkpoint`].
+    /// stored as soon as it has. An error is handled as a failed [`Coordinator::checkpoint`]:
+    /// no new task starts, and the runs already finished or in flight are stored all the same
+    /// (nothing computed is thrown away; the next run of the same command resumes from them).
     fn begun(&mut self) -> Result<()> {
         Ok(())
     }
@@ -285,7 +287,7 @@ pub fn run_tasks(
         {
             // Opened however this block ends: a worker waiting at it would otherwise hold the
             // scope (and the process) forever.
-            let mut open = OpenOnDrop(held);
+            let mut open = OpenOnDrop { held, store_failed };
             if let Err(e) = coordinator.begun() {
                 store_failed.store(true, Ordering::Relaxed);
                 coordinator.checkpoint_failed(&e, started.load(Ordering::SeqCst));
@@ -296,6 +298,8 @@ pub fn run_tasks(
             }
         }
         drop(tx_held);
+        // The first checkpoint interval counts from here, not from before that work.
+        last_checkpoint = Instant::now();
         loop {
             let received = rx.recv_timeout(IDLE_TICK);
             if received.is_ok() {
@@ -408,20 +412,27 @@ impl Held {
     }
 }
 
-/// Opens its [`Held`] when dropped (a panic in [`Coordinator::begun`] included), so that no
-/// worker waits forever; what it still holds then is dropped, as a process that dies drops its
-/// runs in flight.
-struct OpenOnDrop<'a>(&'a Held);
+/// Opens its [`Held`] when dropped, so that no worker waits forever. Dropped by a panic in
+/// [`Coordinator::begun`], it also stops new tasks from starting (the panic ends the call once
+/// the runs in flight are done); the records it held then are not stored, and are computed
+/// again by the next run of the same command.
+struct OpenOnDrop<'a> {
+    held: &'a Held,
+    store_failed: &'a AtomicBool,
+}
 
 impl OpenOnDrop<'_> {
     fn open(&mut self) -> Vec<(Task, RunRecord)> {
-        self.0.open()
+        self.held.open()
     }
 }
 
 impl Drop for OpenOnDrop<'_> {
     fn drop(&mut self) {
-        self.0.open();
+        if std::thread::panicking() {
+            self.store_failed.store(true, Ordering::Relaxed);
+        }
+        self.held.open();
     }
 }
 
