@@ -430,6 +430,29 @@ struct FailingStore {
     writes: AtomicUsize,
 }
 
+impl FailingStore {
+    /// Refuses its `fail_at`-th write (`usize::MAX`: none), counting them all.
+    fn failing_at(fail_at: usize) -> Self {
+        FailingStore {
+            fail_at,
+            writes: AtomicUsize::new(0),
+        }
+    }
+}
+
+/// The scheduler on `pool`, checkpoints every `checkpoint_every` (zero: none), stopped by `stop`.
+fn schedule<'a>(
+    pool: &'a rayon::ThreadPool,
+    checkpoint_every: Duration,
+    stop: &'a AtomicBool,
+) -> Schedule<'a> {
+    Schedule {
+        pool,
+        checkpoint_every,
+        stop,
+    }
+}
+
 impl RunStore for FailingStore {
     fn read(&self, _hash: &RunHash) -> Result<Option<RunRecord>> {
         Ok(None)
@@ -481,18 +504,11 @@ impl Coordinator for Tally {
 fn a_run_that_cannot_be_stored_stops_the_sweep_with_its_error() {
     let (_, grid) = sweep_and_grid();
     let tasks: Vec<Task> = (0..6).map(|i| Task::run(&grid, i)).collect();
-    let store = FailingStore {
-        fail_at: 3,
-        writes: AtomicUsize::new(0),
-    };
+    let store = FailingStore::failing_at(3);
     let fake = Fake::default();
     let pool = thread_pool(1).unwrap();
     let stop = AtomicBool::new(false);
-    let schedule = Schedule {
-        pool: &pool,
-        checkpoint_every: Duration::ZERO,
-        stop: &stop,
-    };
+    let schedule = schedule(&pool, Duration::ZERO, &stop);
     let mut tally = Tally::default();
     let err = run_tasks(&tasks, &fake, &store, &schedule, &mut tally).unwrap_err();
     assert!(err.to_string().contains("no space left"), "{err}");
@@ -542,19 +558,12 @@ fn runs_go_on_while_the_coordinator_begins_and_are_stored_only_after_it() {
     let tasks: Vec<Task> = (0..3 * HELD_RECORDS)
         .map(|i| Task::run(&grid, i % grid.len()))
         .collect();
-    let store = FailingStore {
-        fail_at: usize::MAX,
-        writes: AtomicUsize::new(0),
-    };
+    let store = FailingStore::failing_at(usize::MAX);
     let fake = Fake::default();
     let jobs = 2;
     let pool = thread_pool(jobs).unwrap();
     let stop = AtomicBool::new(false);
-    let schedule = Schedule {
-        pool: &pool,
-        checkpoint_every: Duration::ZERO,
-        stop: &stop,
-    };
+    let schedule = schedule(&pool, Duration::ZERO, &stop);
     let mut coordinator = SlowToBegin {
         fake: &fake,
         store: &store,
@@ -617,21 +626,14 @@ fn a_coordinator_that_fails_to_begin_stops_the_sweep_and_keeps_what_finished() {
         .map(|i| Task::run(&grid, i % grid.len()))
         .collect();
     for panic in [false, true] {
-        let store = FailingStore {
-            fail_at: usize::MAX,
-            writes: AtomicUsize::new(0),
-        };
+        let store = FailingStore::failing_at(usize::MAX);
         let fake = Fake {
             sleep: Duration::from_millis(1),
             ..Fake::default()
         };
         let pool = thread_pool(2).unwrap();
         let stop = AtomicBool::new(false);
-        let schedule = Schedule {
-            pool: &pool,
-            checkpoint_every: Duration::ZERO,
-            stop: &stop,
-        };
+        let schedule = schedule(&pool, Duration::ZERO, &stop);
         let mut coordinator = FailsToBegin {
             fake: &fake,
             panic,
@@ -667,21 +669,14 @@ fn a_coordinator_that_fails_to_begin_stops_the_sweep_and_keeps_what_finished() {
 fn a_failed_checkpoint_is_reported_at_once_and_stops_the_sweep() {
     let (_, grid) = sweep_and_grid();
     let tasks: Vec<Task> = (0..6).map(|i| Task::run(&grid, i)).collect();
-    let store = FailingStore {
-        fail_at: usize::MAX,
-        writes: AtomicUsize::new(0),
-    };
+    let store = FailingStore::failing_at(usize::MAX);
     let fake = Fake {
         sleep: Duration::from_millis(20),
         ..Fake::default()
     };
     let pool = thread_pool(1).unwrap();
     let stop = AtomicBool::new(false);
-    let schedule = Schedule {
-        pool: &pool,
-        checkpoint_every: Duration::from_millis(1),
-        stop: &stop,
-    };
+    let schedule = schedule(&pool, Duration::from_millis(1), &stop);
     let mut tally = Tally {
         fail_checkpoint: true,
         ..Tally::default()

@@ -261,7 +261,6 @@ pub fn run_tasks(
     let mut stopping_said = false;
     let mut store_error: Option<Error> = None;
     let mut checkpoint_error: Option<Error> = None;
-    let mut last_checkpoint = Instant::now();
     let held = Held::default();
     std::thread::scope(|s| -> Result<()> {
         let (tx, rx) = mpsc::channel::<Finished>();
@@ -299,7 +298,7 @@ pub fn run_tasks(
         }
         drop(tx_held);
         // The first checkpoint interval counts from here, not from before that work.
-        last_checkpoint = Instant::now();
+        let mut last_checkpoint = Instant::now();
         loop {
             let received = rx.recv_timeout(IDLE_TICK);
             if received.is_ok() {
