@@ -350,19 +350,12 @@ pub fn run_points(
         opts,
         plan,
         sink,
-        published: None,
-        publish_at_start: false,
+        published: 0,
         ran: 0,
     };
-    // A readable output file from the start (every point pending or resumed), so that a run
-    // killed before its first checkpoint still leaves one that `status` and h5py read: written
-    // by the coordinator as soon as the workers have their tasks ([`Coordinator::begun`]), while
-    // they run, rather than holding them back for the time it takes.
-    run.publish_at_start = !opts.output.exists();
-    // An output file from before holds at most the runs stored now.
-    if !run.publish_at_start {
-        run.published = Some(run.stored());
-    }
+    // An output file from before holds at most the runs stored now (and so does the one
+    // written at the start, [`Coordinator::begun`], when there is none).
+    run.published = run.stored();
     let schedule = Schedule {
         pool,
         checkpoint_every: opts.checkpoint_interval,
@@ -426,10 +419,9 @@ struct Running<'a> {
     opts: &'a RunOptions,
     plan: Plan,
     sink: &'a mut dyn ProgressSink,
-    /// Runs stored when the output file was last published (`None`: not yet by this process).
-    published: Option<usize>,
-    /// No output file exists yet: one is written as soon as the tasks are handed out.
-    publish_at_start: bool,
+    /// Runs stored when the output file was last published (at the start: those stored then,
+    /// which an output file from before holds at most).
+    published: usize,
     /// Tasks finished by this call.
     ran: usize,
 }
@@ -451,7 +443,7 @@ impl Running<'_> {
     }
 
     fn assemble(&mut self) -> Result<Written> {
-        self.published = Some(self.stored());
+        self.published = self.stored();
         assemble(
             self.work,
             &Assembly {
@@ -469,8 +461,12 @@ impl Running<'_> {
 }
 
 impl Coordinator for Running<'_> {
+    /// A readable output file from the start (every point pending or resumed), so that a run
+    /// killed before its first checkpoint still leaves one that `status` and h5py read: written
+    /// as soon as the workers have their tasks, while they run, rather than holding them back
+    /// for the time it takes. (No other process writes it: this one holds the work directory.)
     fn begun(&mut self) -> Result<()> {
-        if self.publish_at_start {
+        if !self.opts.output.exists() {
             self.assemble()?;
         }
         Ok(())
@@ -490,11 +486,10 @@ impl Coordinator for Running<'_> {
 
     fn checkpoint(&mut self) -> Result<()> {
         let stored = self.stored();
-        match self.published {
-            Some(p) if stored < PUBLISH_GROWTH * p.max(1) => self.work.sync()?,
-            _ => {
-                self.assemble()?;
-            }
+        if stored < PUBLISH_GROWTH * self.published.max(1) {
+            self.work.sync()?;
+        } else {
+            self.assemble()?;
         }
         self.sink.checkpoint();
         Ok(())
