@@ -1314,17 +1314,33 @@ impl ContactEnds {
         wall: impl Fn(usize) -> f64,
     ) -> (f64, f64) {
         let read = |f: &dyn Fn(usize) -> f64, i: Option<usize>| i.map_or(0.0, f);
-        let (mut overlap, mut rate) = (
-            read(&x, self.above) - read(&x, self.below) + self.offset,
-            read(&v, self.above) - read(&v, self.below),
-        );
+        let mut rate = read(&v, self.above) - read(&v, self.below);
         if let Some(w) = self.wall_state {
-            // The wall is the missing side: above the chain it adds, below it takes away.
-            let sign = if self.above.is_none() { 1.0 } else { -1.0 };
-            overlap += sign * wall(w);
-            rate += sign * wall(w + 1);
+            rate += self.wall_sign() * wall(w + 1);
         }
-        (overlap, rate)
+        (self.overlap(x, wall), rate)
+    }
+
+    /// The overlap alone (what [`ContactEnds::kinematics`] gives first), reading no velocity.
+    #[inline(always)]
+    pub fn overlap(&self, x: impl Fn(usize) -> f64, wall: impl Fn(usize) -> f64) -> f64 {
+        let read = |i: Option<usize>| i.map_or(0.0, &x);
+        let overlap = read(self.above) - read(self.below) + self.offset;
+        match self.wall_state {
+            Some(w) => overlap + self.wall_sign() * wall(w),
+            None => overlap,
+        }
+    }
+
+    /// How a moving wall's displacement enters the overlap: the wall is the missing side, above
+    /// the chain it adds, below it takes away.
+    #[inline(always)]
+    fn wall_sign(&self) -> f64 {
+        if self.above.is_none() {
+            1.0
+        } else {
+            -1.0
+        }
     }
 }
 
@@ -1370,13 +1386,18 @@ impl ContactMap {
     /// moving wall's displacement needs.
     #[inline(always)]
     pub fn overlap(&self, c: usize, y: &[f64]) -> f64 {
+        self.overlap_read(c, |i| y[i])
+    }
+
+    /// [`ContactMap::overlap`] with the state read through `get`: the overlap that
+    /// [`ContactMap::kinematics`] gives, reading no velocity.
+    #[inline(always)]
+    pub fn overlap_read(&self, c: usize, get: impl Fn(usize) -> f64) -> f64 {
         let n = self.n;
         if c + 1 < n {
-            y[c] - y[c + 1]
+            get(c) - get(c + 1)
         } else {
-            self.ends[c + 1 - n]
-                .kinematics(|i| y[i], |_| 0.0, |i| y[i])
-                .0
+            self.ends[c + 1 - n].overlap(&get, &get)
         }
     }
 }

@@ -715,38 +715,52 @@ impl ProbeSet {
         read
     }
 
+    /// Force of contact `c`, by the same law as the equations of motion. A contact without
+    /// damping is read from its overlap alone: its dissipative terms are zeros added to the
+    /// elastic force, which leave it as it is, so its rate is neither read nor interpolated at
+    /// every sample.
     #[inline]
     fn contact_force(&self, c: usize, get: &impl Fn(usize) -> f64) -> f64 {
-        let (overlap, rel) = self.contacts.kinematics(c, get);
-        // The same law as the equations of motion; with zero damping the viscous term vanishes.
         let (a, mu) = (self.stiffness[c], self.damping[c]);
-        if let Some((exponent, gamma, lambda, beta)) = &self.general {
-            // Thornton's contacts (never in the paper's physics, whose path stays as it was).
-            if let Some(plastic) = &self.plastic {
-                if let Some((law, h)) = &plastic[c] {
-                    return plastic_force(law, overlap, get(*h));
-                }
+        let Some((exponent, gamma, lambda, beta)) = &self.general else {
+            if mu == 0.0 {
+                let overlap = self.contacts.overlap_read(c, get);
+                return if self.clip {
+                    paper_contact_force::<false, true>(a, mu, overlap, 0.0).0
+                } else {
+                    paper_contact_force::<false, false>(a, mu, overlap, 0.0).0
+                };
             }
-            let p = ContactParams {
-                a,
-                n: exponent[c],
-                damping: Damping {
-                    linear: mu,
-                    viscoelastic: gamma[c],
-                    hunt_crossley: lambda[c],
-                    tsuji: beta.as_ref().map_or(0.0, |b| b[c]),
-                },
-            };
-            return if beta.is_some() {
-                general_force::<POWER, true, true>(&p, overlap, rel, self.clip).0
+            let (overlap, rel) = self.contacts.kinematics(c, get);
+            return if self.clip {
+                paper_contact_force::<true, true>(a, mu, overlap, rel).0
             } else {
-                general_force::<POWER, true, false>(&p, overlap, rel, self.clip).0
+                paper_contact_force::<true, false>(a, mu, overlap, rel).0
             };
+        };
+        // Thornton's contacts (never in the paper's physics, whose path stays as it was).
+        if let Some((law, h)) = self.plastic.as_ref().and_then(|p| p[c].as_ref()) {
+            return plastic_force(law, self.contacts.overlap_read(c, get), get(*h));
         }
-        if self.clip {
-            paper_contact_force::<true, true>(a, mu, overlap, rel).0
+        let p = ContactParams {
+            a,
+            n: exponent[c],
+            damping: Damping {
+                linear: mu,
+                viscoelastic: gamma[c],
+                hunt_crossley: lambda[c],
+                tsuji: beta.as_ref().map_or(0.0, |b| b[c]),
+            },
+        };
+        if p.damping == Damping::NONE {
+            let overlap = self.contacts.overlap_read(c, get);
+            return general_force::<POWER, false, false>(&p, overlap, 0.0, self.clip).0;
+        }
+        let (overlap, rel) = self.contacts.kinematics(c, get);
+        if beta.is_some() {
+            general_force::<POWER, true, true>(&p, overlap, rel, self.clip).0
         } else {
-            paper_contact_force::<true, false>(a, mu, overlap, rel).0
+            general_force::<POWER, true, false>(&p, overlap, rel, self.clip).0
         }
     }
 
@@ -766,7 +780,7 @@ impl ProbeSet {
                 }
                 s * inv_count - offset
             }
-            Compiled::Overlap { contact } => self.contacts.kinematics(contact, get).0,
+            Compiled::Overlap { contact } => self.contacts.overlap_read(contact, get),
             Compiled::Displacement { index, origin } => get(index) - origin,
             Compiled::Velocity { index } => get(index),
             Compiled::Mount {
@@ -1592,6 +1606,160 @@ pub const MAX_SUMMARY_SAMPLES_PER_RUN: u64 = 10_000_000;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The force of contact `c` as it was computed before contacts without damping were read
+    /// from their overlap alone: the law on the overlap and its rate, both always read.
+    fn force_from_overlap_and_rate(probes: &ProbeSet, c: usize, get: impl Fn(usize) -> f64) -> f64 {
+        let (overlap, rel) = probes.contacts.kinematics(c, get);
+        let (a, mu, clip) = (probes.stiffness[c], probes.damping[c], probes.clip);
+        let Some((exponent, gamma, lambda, beta)) = &probes.general else {
+            return if clip {
+                paper_contact_force::<true, true>(a, mu, overlap, rel).0
+            } else {
+                paper_contact_force::<true, false>(a, mu, overlap, rel).0
+            };
+        };
+        let p = ContactParams {
+            a,
+            n: exponent[c],
+            damping: Damping {
+                linear: mu,
+                viscoelastic: gamma[c],
+                hunt_crossley: lambda[c],
+                tsuji: beta.as_ref().map_or(0.0, |b| b[c]),
+            },
+        };
+        if beta.is_some() {
+            general_force::<POWER, true, true>(&p, overlap, rel, clip).0
+        } else {
+            general_force::<POWER, true, false>(&p, overlap, rel, clip).0
+        }
+    }
+
+    /// Without damping a contact's force does not depend on its rate: the force and overlap
+    /// probes of an undamped chain read positions only (the sampling loop interpolates no
+    /// velocity), those of a damped chain velocities too, and every probe gives, to the bit, the
+    /// law evaluated on the contact's overlap and rate — the paper's chain with and without
+    /// damping and clipping, and chains under a general law without damping and with each
+    /// dissipation model.
+    #[test]
+    fn force_probes_read_velocities_only_where_damping_acts() {
+        use crate::chain::model::{ChainSpec, PhysicsSpec};
+        use crate::contact::DissipationSpec;
+        use crate::problems::{chain, power_law, repeat, rule, sphere, STEEL};
+        let paper = |damping_kg_s: f64, clip_tensile: bool| {
+            let physics = PhysicsSpec {
+                damping_kg_s,
+                clip_tensile,
+                ..PhysicsSpec::default()
+            };
+            let chain = Chain::build(&ChainSpec::chain_055(4), &physics).unwrap();
+            (chain, damping_kg_s > 0.0, "the paper's chain")
+        };
+        let general = |dissipation: Option<DissipationSpec>, clip_tensile: bool| {
+            let law = Some(power_law(2e9, 2.0));
+            let spec = chain(
+                &[("ball", sphere(STEEL, 8e-3, 2.085e-3))],
+                vec![repeat(5, "ball")],
+                Some("ball"),
+                vec![
+                    rule("ball", "ball", law, dissipation),
+                    rule("ball", "wall", law, dissipation),
+                ],
+            );
+            let physics = PhysicsSpec {
+                clip_tensile,
+                ..PhysicsSpec::default()
+            };
+            let chain = Chain::build(&ChainSpec::Sequence(spec), &physics).unwrap();
+            assert!(!chain.is_paper_physics());
+            (chain, dissipation.is_some(), "a chain under F = A δ²")
+        };
+        let chains = [
+            paper(0.0, false),
+            paper(0.0, true),
+            paper(6.0, false),
+            paper(6.0, true),
+            general(None, false),
+            general(None, true),
+            general(
+                Some(DissipationSpec::KuwabaraKono {
+                    relaxation_time_s: 1e-6,
+                }),
+                true,
+            ),
+            general(
+                Some(DissipationSpec::HuntCrossley {
+                    restitution: 0.8,
+                    impact_velocity_m_s: 1.0,
+                }),
+                false,
+            ),
+            general(Some(DissipationSpec::Tsuji { restitution: 0.8 }), false),
+        ];
+        let cylinder_probes = [
+            Probe::GaugeForce { cylinder: 2 },
+            Probe::ContactForce { contact: 4 },
+            Probe::Overlap { contact: 2 },
+            Probe::WallForce,
+        ];
+        let sphere_probes = [
+            Probe::ParticleForce { particle: 3 },
+            Probe::ContactForce { contact: 4 },
+            Probe::Overlap { contact: 2 },
+            Probe::WallForce,
+        ];
+        for (chain, damped, what) in chains {
+            let list = if chain.cylinders().is_empty() {
+                &sphere_probes
+            } else {
+                &cylinder_probes
+            };
+            let n = chain.n_particles();
+            let probes = ProbeSet::new(&chain, list, Preload::Include, 1.0, 1.0, 1.0);
+            let velocities = probes
+                .components()
+                .into_iter()
+                .filter(|i| (n..2 * n).contains(i))
+                .count();
+            let clip = chain.clip_tensile;
+            assert_eq!(velocities > 0, damped, "{what}, clip {clip}");
+            // Contacts compressed, just touching and open, closing and opening.
+            let mut y = chain.initial_state(0.0);
+            let overlaps = [2e-6, 0.0, -1e-7, 3e-7, 1e-6];
+            let rates = [-0.3, 0.2, -0.0, 1e-3, -2e-3];
+            for c in 0..n - 1 {
+                y[c + 1] = y[c] - overlaps[c % overlaps.len()];
+                y[n + c + 1] = y[n + c] - rates[c % rates.len()];
+            }
+            let get = |i: usize| y[i];
+            for (k, compiled) in probes.compiled.iter().enumerate() {
+                let expected = match *compiled {
+                    Compiled::Contacts {
+                        first,
+                        count,
+                        inv_count,
+                        offset,
+                    } => {
+                        let mut s = 0.0;
+                        for c in first..first + count {
+                            s += force_from_overlap_and_rate(&probes, c, get);
+                        }
+                        s * inv_count - offset
+                    }
+                    Compiled::Overlap { contact } => probes.contacts.kinematics(contact, get).0,
+                    _ => unreachable!("only force and overlap probes here"),
+                };
+                let value = probes.value(k, &get);
+                assert_eq!(
+                    value.to_bits(),
+                    expected.to_bits(),
+                    "{what}, clip {clip}, probe {}: {value:e} against {expected:e}",
+                    list[k].name()
+                );
+            }
+        }
+    }
 
     /// `samples_in` counts the instants the sampling loop takes, including where the quotient
     /// `t_end / interval` rounds to the wrong side of an integer (1e-3 / 1e-6, 0.3 / 0.1, …).
