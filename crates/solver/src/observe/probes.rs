@@ -721,8 +721,8 @@ impl ProbeSet {
     /// every sample.
     #[inline]
     fn contact_force(&self, c: usize, get: &impl Fn(usize) -> f64) -> f64 {
-        let (a, mu) = (self.stiffness[c], self.damping[c]);
-        let Some((exponent, gamma, lambda, beta)) = &self.general else {
+        let Some((p, tsuji)) = self.general_params(c) else {
+            let (a, mu) = (self.stiffness[c], self.damping[c]);
             if mu == 0.0 {
                 let overlap = self.contacts.overlap_read(c, get);
                 return if self.clip {
@@ -742,26 +742,34 @@ impl ProbeSet {
         if let Some((law, h)) = self.plastic.as_ref().and_then(|p| p[c].as_ref()) {
             return plastic_force(law, self.contacts.overlap_read(c, get), get(*h));
         }
-        let p = ContactParams {
-            a,
-            n: exponent[c],
-            damping: Damping {
-                linear: mu,
-                viscoelastic: gamma[c],
-                hunt_crossley: lambda[c],
-                tsuji: beta.as_ref().map_or(0.0, |b| b[c]),
-            },
-        };
         if p.damping == Damping::NONE {
             let overlap = self.contacts.overlap_read(c, get);
             return general_force::<POWER, false, false>(&p, overlap, 0.0, self.clip).0;
         }
         let (overlap, rel) = self.contacts.kinematics(c, get);
-        if beta.is_some() {
+        if tsuji {
             general_force::<POWER, true, true>(&p, overlap, rel, self.clip).0
         } else {
             general_force::<POWER, true, false>(&p, overlap, rel, self.clip).0
         }
+    }
+
+    /// The general law's parameters of contact `c`, and whether the chain's contacts carry
+    /// Tsuji's term; `None` in the paper's physics.
+    #[inline]
+    fn general_params(&self, c: usize) -> Option<(ContactParams, bool)> {
+        let (exponent, gamma, lambda, beta) = self.general.as_ref()?;
+        let p = ContactParams {
+            a: self.stiffness[c],
+            n: exponent[c],
+            damping: Damping {
+                linear: self.damping[c],
+                viscoelastic: gamma[c],
+                hunt_crossley: lambda[c],
+                tsuji: beta.as_ref().map_or(0.0, |b| b[c]),
+            },
+        };
+        Some((p, beta.is_some()))
     }
 
     /// Value of probe `k` with state components supplied by `get`.
@@ -1611,25 +1619,16 @@ mod tests {
     /// from their overlap alone: the law on the overlap and its rate, both always read.
     fn force_from_overlap_and_rate(probes: &ProbeSet, c: usize, get: impl Fn(usize) -> f64) -> f64 {
         let (overlap, rel) = probes.contacts.kinematics(c, get);
-        let (a, mu, clip) = (probes.stiffness[c], probes.damping[c], probes.clip);
-        let Some((exponent, gamma, lambda, beta)) = &probes.general else {
+        let clip = probes.clip;
+        let Some((p, tsuji)) = probes.general_params(c) else {
+            let (a, mu) = (probes.stiffness[c], probes.damping[c]);
             return if clip {
                 paper_contact_force::<true, true>(a, mu, overlap, rel).0
             } else {
                 paper_contact_force::<true, false>(a, mu, overlap, rel).0
             };
         };
-        let p = ContactParams {
-            a,
-            n: exponent[c],
-            damping: Damping {
-                linear: mu,
-                viscoelastic: gamma[c],
-                hunt_crossley: lambda[c],
-                tsuji: beta.as_ref().map_or(0.0, |b| b[c]),
-            },
-        };
-        if beta.is_some() {
+        if tsuji {
             general_force::<POWER, true, true>(&p, overlap, rel, clip).0
         } else {
             general_force::<POWER, true, false>(&p, overlap, rel, clip).0
