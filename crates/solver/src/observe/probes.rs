@@ -781,13 +781,9 @@ impl ProbeSet {
                 count,
                 inv_count,
                 offset,
-            } => {
-                let mut s = 0.0;
-                for c in first..first + count {
-                    s += self.contact_force(c, get);
-                }
-                s * inv_count - offset
-            }
+            } => mean_force(first..first + count, inv_count, offset, |c| {
+                self.contact_force(c, get)
+            }),
             Compiled::Overlap { contact } => self.contacts.overlap_read(contact, get),
             Compiled::Displacement { index, origin } => get(index) - origin,
             Compiled::Velocity { index } => get(index),
@@ -799,6 +795,22 @@ impl ProbeSet {
             } => offset + stiffness * get(index) + damping * get(index + 1),
         }
     }
+}
+
+/// A force probe's value: the mean of the forces (`force`) of `contacts`, `inv_count` being one
+/// over their number, less `offset` (the static preload, when it is subtracted).
+#[inline(always)]
+fn mean_force(
+    contacts: std::ops::Range<usize>,
+    inv_count: f64,
+    offset: f64,
+    force: impl Fn(usize) -> f64,
+) -> f64 {
+    let mut s = 0.0;
+    for c in contacts {
+        s += force(c);
+    }
+    s * inv_count - offset
 }
 
 /// Force of a contact with Thornton's law, kept out of line so that the probes of every other
@@ -1739,13 +1751,9 @@ mod tests {
                         count,
                         inv_count,
                         offset,
-                    } => {
-                        let mut s = 0.0;
-                        for c in first..first + count {
-                            s += force_from_overlap_and_rate(&probes, c, get);
-                        }
-                        s * inv_count - offset
-                    }
+                    } => mean_force(first..first + count, inv_count, offset, |c| {
+                        force_from_overlap_and_rate(&probes, c, get)
+                    }),
                     Compiled::Overlap { contact } => probes.contacts.kinematics(contact, get).0,
                     _ => unreachable!("only force and overlap probes here"),
                 };
