@@ -57,12 +57,17 @@ fmt:
 
 # Every cargo step uses the release profile: the HDF5 C library is then compiled once (minutes on
 # two cores), not once per profile, and the physics tests run at full speed.
+# --all-features: the solver's benches need its `bench` feature (criterion) to be checked at all.
 lint: venv
 	$(CARGO) fmt --all -- --check
-	$(CARGO) clippy --release --workspace --all-targets -- -D warnings
+	$(CARGO) clippy --release --workspace --all-targets --all-features -- -D warnings
 
+# The unit tests, the integration tests (one binary per crate, see crates/*/tests/suite.rs) and the
+# doc tests. Not the examples, which `cargo test` would otherwise link with link-time optimisation
+# only to check that they build: `make lint` checks them, and `make bench` builds those it runs.
 test-rust: venv
-	$(CARGO) test --release --workspace
+	$(CARGO) test --release --workspace --tests
+	$(CARGO) test --release --workspace --doc
 
 # The Python package (python/): maturin builds it in the workspace's target directory, so the
 # HDF5 library and the runner are compiled once for the binary and the package, and pip installs

@@ -41,8 +41,13 @@ PREFIX = {"": 1.0, "K": 1e3, "M": 1e6, "G": 1e9}
 def bench_executable(root: Path, target_dir: Path, bench: str = "solver") -> Path:
     """Builds the solver bench `bench` at `root` into `target_dir` and returns the executable's path."""
     env = dict(os.environ, CARGO_TARGET_DIR=str(target_dir))
+    # The benches need the solver's `bench` feature (criterion), where the tree has one: earlier
+    # revisions had criterion as a dev-dependency and no such feature.
+    manifest = (root / "crates/solver/Cargo.toml").read_text()
+    features = ["--features", "bench"] if re.search(r"^bench = ", manifest, re.M) else []
     out = subprocess.run(
-        ["cargo", "bench", "-p", "chainsweep-solver", "--bench", bench, "--no-run", "--message-format=json"],
+        ["cargo", "bench", "-p", "chainsweep-solver", *features, "--bench", bench, "--no-run",
+         "--message-format=json"],
         cwd=root, env=env, check=True, stdout=subprocess.PIPE, text=True,
     ).stdout
     for line in out.splitlines():

@@ -1,4 +1,4 @@
-//! The reference run of issue 2, shared by `benches/solver.rs` and `tests/accuracy.rs`: the 0.55
+//! The reference run of issue 2, shared by `benches/solver.rs` and the tests (`tests/accuracy.rs`, `tests/paper_bitwise.rs`): the 0.55
 //! chain (3.77 g cylinders, 50 cylinders), μ = 6 kg/s, v0 = 1.3 m/s, 1 ms simulated, with the
 //! leading peaks in cylinders 4 and 21 recorded.
 
@@ -24,7 +24,6 @@ pub fn reference_scene(rtol: f64) -> Scene {
 
 /// The reference run as benchmarked: DOP853 at [`REFERENCE_RTOL`] with steps ended on predicted
 /// contact switches (`predict_switches`), the fastest settings found that meet the 1e-6.
-#[allow(dead_code)] // tests/paper_bitwise.rs includes this file for `reference_scene` alone
 pub fn benchmark_scene() -> Scene {
     let mut scene = reference_scene(REFERENCE_RTOL);
     scene.integrator = IntegratorSpec::Dop853(AdaptiveOptions {

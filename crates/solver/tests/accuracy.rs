@@ -2,12 +2,9 @@
 //! tight reference computed by a different method, which in turn agrees with DOP853 at a tight
 //! tolerance.
 
-#[path = "../benches/reference.rs"]
-mod reference;
-
+use crate::reference::{benchmark_scene, reference_scene, REFERENCE_RTOL};
 use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::IntegratorSpec;
-use reference::{benchmark_scene, reference_scene, REFERENCE_RTOL};
 
 #[test]
 fn reference_run_meets_1e6_relative_on_leading_peaks() {

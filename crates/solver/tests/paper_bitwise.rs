@@ -13,8 +13,7 @@ use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
 use chainsweep_solver::AdaptiveOptions;
 
-#[path = "../benches/reference.rs"]
-mod reference;
+use crate::reference;
 
 /// FNV-1a over the bits of a sequence of numbers: one line per array in the fingerprint.
 fn digest(values: impl IntoIterator<Item = f64>) -> u64 {
