@@ -125,10 +125,13 @@ test-python: udunits
 # --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
 # tests/python/: the Python package (run, sweep, open against the binary) and the examples.
 # tests/test_wheel.py: the wheel of `make wheel` (built first here) in a clean venv without Rust.
+# One pytest process per core (pytest-xdist), each test file whole in one of them (--dist loadfile:
+# a file's module fixtures are made once, and the SLURM tests' cluster is started once).
+PYTEST_WORKERS ?= auto
 CHAINSWEEP_BIN ?= $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/release/chainsweep
 
 test-python: build python ncdump wheel
-	CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) CHAINSWEEP_WHEEL_DIR=$(CURDIR)/$(WHEEL_DIR) $(PY) -m pytest -q tests
+	CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) CHAINSWEEP_WHEEL_DIR=$(CURDIR)/$(WHEEL_DIR) $(PY) -m pytest -q -n $(PYTEST_WORKERS) --dist loadfile tests
 
 test: lint test-rust test-python
 
