@@ -32,7 +32,7 @@ export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 # every cargo command here and in maturin's: without it, each would rebuild pyo3 after the other.
 export PYO3_CONFIG_FILE := $(CURDIR)/python/pyo3-config.txt
 
-.PHONY: all build test test-rust test-python python wheel ncdump bench figures examples fmt lint venv clean
+.PHONY: all build bin test test-rust test-python python wheel ncdump bench figures examples fmt lint venv clean
 
 all: build
 
@@ -51,6 +51,10 @@ venv: $(VENV)/.stamp
 
 build: venv
 	$(CARGO) build --release --workspace
+
+# The command-line binary alone (what the Python tests run; `make test-rust` has built it already).
+bin: venv
+	$(CARGO) build --release -p chainsweep --bin chainsweep
 
 fmt:
 	$(CARGO) fmt --all
@@ -123,14 +127,17 @@ test-python: udunits
 
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
 # --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
-# tests/python/: the Python package (run, sweep, open against the binary) and the examples.
-# tests/test_wheel.py: the wheel of `make wheel` (built first here) in a clean venv without Rust.
+# tests/python/: the Python package (run, sweep, open against the binary) and the examples, run
+# against the wheel of `make wheel` installed into .venv, the package as users install it (and the
+# extension is then built once, for the wheel, not a second time natively as `make python` would).
+# tests/test_wheel.py: that wheel in a clean venv without Rust.
 # One pytest process per core (pytest-xdist), each test file whole in one of them (--dist loadfile:
 # a file's module fixtures are made once, and the SLURM tests' cluster is started once).
 PYTEST_WORKERS ?= auto
 CHAINSWEEP_BIN ?= $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/release/chainsweep
 
-test-python: build python ncdump wheel
+test-python: bin ncdump wheel
+	$(PY) -m pip install --quiet --no-deps --force-reinstall $(WHEEL_DIR)/chainsweep-*.whl
 	CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) CHAINSWEEP_WHEEL_DIR=$(CURDIR)/$(WHEEL_DIR) $(PY) -m pytest -q -n $(PYTEST_WORKERS) --dist loadfile tests
 
 test: lint test-rust test-python
