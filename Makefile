@@ -53,8 +53,11 @@ build: venv
 	$(CARGO) build --release --workspace
 
 # The command-line binary alone (what the Python tests run; `make test-rust` has built it already).
+# --workspace, not -p chainsweep: the features of the dependencies are then resolved over the whole
+# workspace, as in every other cargo command here (pyo3's syn features among them), so nothing is
+# compiled again.
 bin: venv
-	$(CARGO) build --release -p chainsweep --bin chainsweep
+	$(CARGO) build --release --workspace --bins
 
 fmt:
 	$(CARGO) fmt --all
