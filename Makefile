@@ -96,10 +96,15 @@ $(VENV)/.wheel-stamp: requirements-wheel.txt $(VENV)/.stamp
 	$(VENV)/bin/pip install --quiet -r requirements-wheel.txt
 	touch $@
 
+# -fno-sanitize=undefined for the wheel's C code: zig's cc turns UBSan on where no optimisation level
+# is given, as in the checks of zlib-ng's and HDF5's CMake configure, and builds its UBSan runtime for
+# each CPU-feature set those checks try (13 for zlib-ng, about two minutes on two cores while zig's
+# cache is cold). The library's own objects are compiled optimised, without UBSan either way.
+WHEEL_CFLAGS := $(CFLAGS) -fno-sanitize=undefined
 wheel: venv $(VENV)/.wheel-stamp
 	$(PY) scripts/package_files.py --cargo $(CARGO)
 	rm -f $(WHEEL_DIR)/chainsweep-*.whl
-	$(VENV)/bin/maturin build --manifest-path python/Cargo.toml --profile wheel \
+	CFLAGS_x86_64_unknown_linux_gnu="$(WHEEL_CFLAGS)" $(VENV)/bin/maturin build --manifest-path python/Cargo.toml --profile wheel \
 	  --zig --compatibility manylinux_$(WHEEL_GLIBC) --out $(WHEEL_DIR)
 	@ls -l $(WHEEL_DIR)/chainsweep-*.whl
 
