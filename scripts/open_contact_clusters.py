@@ -6,7 +6,8 @@ separated by open contacts, and one of them holds the leading pulse's front. An 
 gave each cluster its own steps would pay, for the steps the front's error allows, only the
 front cluster's right-hand sides, and no cluster's step would be cut short by a switch in
 another. This script measures how large that front cluster is against the whole moving part:
-every grid point of `sweeps/fig08.json` is run through `chainsweep.run` (DOP853 at RTOL with
+every grid point of `sweeps/fig08.json` (its scene as the runner expands it, `chainsweep point …
+--scene-only`, through `bench_numba_lsoda.scenes`) is run through `chainsweep.run` (DOP853 at RTOL with
 `predict_switches`, stopped after its leading pulses as the sweep is) with the contact forces as a
 space-time field every 0.2 us (the probes' sampling interval), and at each sample
 
@@ -31,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 import chainsweep
+from bench_numba_lsoda import scenes
 
 REPO = Path(__file__).resolve().parent.parent
 RTOL = float(sys.argv[1]) if len(sys.argv) > 1 else 1e-8
@@ -56,35 +58,26 @@ def clusters(force):
 
 
 def main():
-    sweep = json.loads((REPO / "sweeps" / "fig08.json").read_text())
-    base = sweep["base"]
-    ratio_axis, damping_axis = sweep["axes"]
-    r = ratio_axis["range"]
-    ratios = np.round(np.arange(r["start"], r["stop"] + r["step"] / 2, r["step"]), 10)
+    sweep_file = REPO / "sweeps" / "fig08.json"
+    probes = json.loads(sweep_file.read_text())["record"]["probes"]
     print(f"Fig. 8 grid, DOP853 rtol {RTOL:g} with predict_switches, contact forces every "
           f"{FIELD_INTERVAL_S * 1e6:g} us")
     print("| damping | runs | moving part, mean contacts | front cluster, mean contacts | front / moving | clusters, mean |")
     print("|---|---|---|---|---|---|")
-    for mu in damping_axis["values"]:
-        sums = np.zeros(3)
-        samples = 0
-        for eps in ratios:
-            scene = json.loads(json.dumps(base))
-            scene["chain"]["cylinder"]["mass"]["heavy_cylinders"]["mass_ratio"] = float(eps)
-            scene["physics"]["damping_kg_s"] = float(mu)
-            scene["integrator"] = {"method": "dop853", "rtol": RTOL, "predict_switches": True}
-            scene["record"] = {
-                "probes": sweep["record"]["probes"],
-                "stop_after_leading_pulses": True,
-                "fields": {"quantities": ["contact_force"], "interval_s": FIELD_INTERVAL_S},
-            }
-            ds = chainsweep.run(scene)
-            moving, front, count = clusters(np.asarray(ds["field_contact_force"]))
-            sums += [moving.sum(), front.sum(), count.sum()]
-            samples += moving.size
-        moving, front, count = sums / samples
-        print(f"| {mu:g} kg/s | {len(ratios)} | {moving:.1f} | {front:.1f} | {front / moving:.2f} | {count:.1f} |")
-
+    by_damping: dict[float, list] = {}
+    for scene in scenes(sweep_file):
+        scene["integrator"] = {"method": "dop853", "rtol": RTOL, "predict_switches": True}
+        scene["record"] = {
+            "probes": probes,
+            "stop_after_leading_pulses": True,
+            "fields": {"quantities": ["contact_force"], "interval_s": FIELD_INTERVAL_S},
+        }
+        ds = chainsweep.run(scene)
+        by_damping.setdefault(scene["physics"]["damping_kg_s"], []).append(
+            clusters(np.asarray(ds["field_contact_force"])))
+    for mu, runs in sorted(by_damping.items()):
+        moving, front, count = (np.concatenate(q).mean() for q in zip(*runs))
+        print(f"| {mu:g} kg/s | {len(runs)} | {moving:.1f} | {front:.1f} | {front / moving:.2f} | {count:.1f} |")
 
 if __name__ == "__main__":
     main()
