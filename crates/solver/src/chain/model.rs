@@ -1354,6 +1354,11 @@ pub struct ContactMap {
 }
 
 impl ContactMap {
+    /// Particles of the chain: contacts `0..N−1` join neighbours `c` and `c + 1`.
+    pub fn n_particles(&self) -> usize {
+        self.n
+    }
+
     /// The map of `chain`.
     pub fn of(chain: &Chain) -> Self {
         let n = chain.n_particles();

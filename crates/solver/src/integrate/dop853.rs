@@ -18,7 +18,9 @@
 use chainsweep_cpu::MulAdd;
 
 use super::adaptive::{Adaptive, Controller, Method, RejectionForm, Rhs};
-use super::explicit::{gather, lane_sum, weighted_sum, ExplicitMethod, Stage, Tableau, Work};
+use super::explicit::{
+    gather, lane_sum, weighted_sum, ExplicitMethod, Stage, Tableau, Work, MAX_DENSE_COEFFICIENTS,
+};
 
 /// h·|λ| above which a step is on DOP853's stability boundary (Hairer's `dop853.f`).
 const STIFFNESS_BOUND: f64 = 6.1;
@@ -542,6 +544,11 @@ impl ExplicitMethod for Dop853Method {
         let s1 = 1.0 - s;
         let conpar = c(4) + s * (c(5) + s1 * (c(6) + s * c(7)));
         c(0) + s * (c(1) + s1 * (c(2) + s * (c(3) + s1 * conpar)))
+    }
+    /// Each coefficient past the first is nested inside factors `s` and `1 − s`, both in
+    /// `[0, 1]`: the interpolant strays from `c[0]` by at most the sum of their magnitudes.
+    fn interpolant_radius(c: &[f64; MAX_DENSE_COEFFICIENTS]) -> Option<f64> {
+        Some(c[1..8].iter().map(|x| x.abs()).sum())
     }
 }
 

@@ -117,7 +117,20 @@ pub trait ExplicitMethod: Copy + Default + std::fmt::Debug + 'static {
 
     /// The interpolant at `s = (t − t0)/h` from a component's coefficients `c(r)`.
     fn interpolate(c: impl Fn(usize) -> f64, s: f64) -> f64;
+
+    /// A bound on how far the interpolant strays from `c[0]` for `s` in `[0, 1]`, exact
+    /// arithmetic (`|y(s) − c[0]|`), from a component's coefficients; `None` where the method
+    /// gives none ([`DenseStep::component_range`] is then `None`).
+    fn interpolant_radius(_c: &[f64; MAX_DENSE_COEFFICIENTS]) -> Option<f64> {
+        None
+    }
 }
+
+/// Units of `f64::EPSILON` of the interpolant's magnitude allowed for the rounding of its
+/// evaluation in [`DenseStep::component_range`]: a nested evaluation of degree `d` rounds by at
+/// most about `2d` of them (14 for DOP853's degree 7), so this is a wide margin, and still about
+/// 1e-14 of the value: far below anything a sample could be told apart by.
+const RANGE_ROUNDING_EPS: f64 = 128.0;
 
 /// `out = y + h Σ_m a[m] k[m]`, element by element: the sum from the first entry on, each term one
 /// fused multiply-add where the CPU has it.
@@ -484,6 +497,18 @@ impl<M: ExplicitMethod> DenseStep for ExplicitStep<'_, M> {
             let c = self.coefficients(i);
             out[i] = M::interpolate(|r| c[r], s);
         }
+    }
+    fn component_range(&self, i: usize) -> Option<(f64, f64)> {
+        let c = self.coefficients(i);
+        let r = M::interpolant_radius(&c)?;
+        let slack = RANGE_ROUNDING_EPS * f64::EPSILON * (c[0].abs() + r);
+        let (lo, hi) = (c[0] - r - slack, c[0] + r + slack);
+        if !(lo.is_finite() && hi.is_finite()) {
+            return None;
+        }
+        // The step's end is read as it is, not interpolated.
+        let end = self.w.y_new[i];
+        Some((lo.min(end), hi.max(end)))
     }
     fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
         let m = indices.len();

@@ -170,6 +170,14 @@ pub trait DenseStep {
     fn eval_components_at(&self, times: &[f64], indices: &[usize], out: &mut [f64]) {
         eval_each_at(self, times, indices, out);
     }
+    /// An enclosure `(lo, hi)` of every value the step's interpolant gives for component `i`
+    /// anywhere in `[t_start, t_end]`, as computed (rounding included), through
+    /// [`DenseStep::eval_component`] and the batched evaluations alike; `None` where the
+    /// interpolant has no such bound. What lets an observer skip samples that provably change
+    /// nothing it records.
+    fn component_range(&self, _i: usize) -> Option<(f64, f64)> {
+        None
+    }
 }
 
 /// [`DenseStep::eval_components`] one component at a time, through

@@ -4,7 +4,9 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
-use crate::contact::{general_force, paper_contact_force, ContactParams, Damping, Thornton, POWER};
+use crate::contact::{
+    general_force, hertz_force, paper_contact_force, ContactParams, Damping, Thornton, POWER,
+};
 use std::time::Instant;
 
 use crate::chain::model::{spec_err, Chain, ContactMap, SpecError};
@@ -701,18 +703,69 @@ impl ProbeSet {
 
     /// The state components the probes read, sorted, each once.
     pub(crate) fn components(&self) -> Vec<usize> {
+        let mut read: Vec<usize> = (0..self.len())
+            .flat_map(|k| self.components_of(k))
+            .collect();
+        read.sort_unstable();
+        read.dedup();
+        read
+    }
+
+    /// The state components probe `k` reads, sorted, each once.
+    pub(crate) fn components_of(&self, k: usize) -> Vec<usize> {
         let read = std::cell::RefCell::new(Vec::new());
         let get = |i: usize| {
             read.borrow_mut().push(i);
             0.0
         };
-        for k in 0..self.len() {
-            self.value(k, &get);
-        }
+        self.value(k, &get);
         let mut read = read.into_inner();
         read.sort_unstable();
         read.dedup();
         read
+    }
+
+    /// An upper bound of every value probe `k` takes, as computed by [`ProbeSet::value`], while
+    /// each component `i` it reads stays within `range(i)` (as computed values); `None` for the
+    /// probes it is not derived for. Derived for the force probes of the paper's law between
+    /// neighbours, whose every operation is monotone in the overlap and the rate (IEEE rounding
+    /// is monotone too, so the bound holds for the rounded values): the elastic term grows with
+    /// the overlap, the viscous term `μ Δv` (`μ ≥ 0`) with the rate while compressed and is
+    /// absent while open, and clipping at zero only lowers a value.
+    pub(crate) fn upper_bound(
+        &self,
+        k: usize,
+        range: &impl Fn(usize) -> Option<(f64, f64)>,
+    ) -> Option<f64> {
+        let Compiled::Contacts {
+            first,
+            count,
+            inv_count,
+            offset,
+        } = self.compiled[k]
+        else {
+            return None;
+        };
+        if self.general.is_some() || self.plastic.is_some() {
+            return None;
+        }
+        let n = self.contacts.n_particles();
+        let mut s = 0.0;
+        for c in first..first + count {
+            if c + 1 >= n {
+                return None;
+            }
+            let (a, mu) = (self.stiffness[c], self.damping[c]);
+            let ((_, above_hi), (below_lo, _)) = (range(c)?, range(c + 1)?);
+            let elastic = hertz_force(a, (above_hi - below_lo).max(0.0));
+            s += if mu == 0.0 {
+                elastic
+            } else {
+                let ((_, above_hi), (below_lo, _)) = (range(n + c)?, range(n + c + 1)?);
+                (elastic + mu * (above_hi - below_lo)).max(0.0)
+            };
+        }
+        Some(s * inv_count - offset)
     }
 
     /// Force of contact `c`, by the same law as the equations of motion. A contact without
@@ -976,6 +1029,31 @@ impl PeakTracker {
         }
     }
 
+    /// Whether samples no larger than `upper` change nothing this tracker records but the last
+    /// two samples it keeps: its record maximum and the two samples after it are in (a sample
+    /// replaces the maximum only when larger), and its leading pulse has passed or is not seen
+    /// to arrive below `upper`.
+    fn settled_below(&self, upper: f64) -> bool {
+        let leading = match self.phase {
+            PulsePhase::Passed => true,
+            PulsePhase::Waiting => upper - self.baseline <= self.arrival,
+            PulsePhase::InPulse => false,
+        };
+        self.may_settle() && upper <= self.record.values[2] && leading
+    }
+
+    /// Whether some bound could settle this tracker ([`PeakTracker::settled_below`]): not while
+    /// its leading pulse is in progress or its record maximum still takes the samples after it.
+    fn may_settle(&self) -> bool {
+        self.record.time.is_finite() && self.record.after >= 2 && self.phase != PulsePhase::InPulse
+    }
+
+    /// Counts `count` samples that [`PeakTracker::settled_below`] showed change nothing, none of
+    /// them among the last two before the next.
+    fn skip(&mut self, count: usize) {
+        self.n_prev += count;
+    }
+
     #[inline]
     fn sample(&mut self, t: f64, s: f64) {
         self.record.offer(t, s, &self.prev, self.n_prev);
@@ -1181,6 +1259,12 @@ pub(crate) struct RunObserver {
     contacts: ContactMap,
     /// The components the probes read ([`ProbeSet::components`]).
     probe_components: Vec<usize>,
+    /// The components each probe reads ([`ProbeSet::components_of`]).
+    components_of: Vec<Vec<usize>>,
+    /// The probes whose samples in the current step provably change nothing they record
+    /// ([`PeakTracker::settled_below`]), and the components the others read.
+    settled: Vec<bool>,
+    live_components: Vec<usize>,
     /// Those components at one sample time, at their indices in the state.
     probe_state: Vec<f64>,
     /// Particles integrated (the rest rest at their static equilibrium, [`crate::scene::active`]): the
@@ -1282,6 +1366,101 @@ const SAMPLE_BATCH: usize = 32;
 const FIELD_BATCH_VALUES: usize = 1 << 20;
 
 impl RunObserver {
+    /// Marks the probes whose summary samples in this step (those up to `until`) provably change
+    /// nothing but the last two samples their trackers keep: the step's enclosure of the
+    /// components each reads ([`DenseStep::component_range`]) bounds its values
+    /// ([`ProbeSet::upper_bound`]) below what could change its tracker
+    /// ([`PeakTracker::settled_below`]). Collects the components of the others in
+    /// `live_components`; returns whether any probe is settled. Only a step of at least three
+    /// samples is looked at (below that nothing is saved).
+    fn settle(&mut self, step: &dyn DenseStep, until: f64) -> bool {
+        #[cfg(test)]
+        if tests::NO_SETTLING.with(|c| c.get()) {
+            return false;
+        }
+        let interval = self.opts.summary_interval;
+        let at = |j: u64| self.t0 + j as f64 * interval;
+        if at(self.next_summary + 2) > until {
+            return false;
+        }
+        let mut any = false;
+        for (k, tracker) in self.trackers.iter().enumerate() {
+            self.settled[k] = tracker.may_settle()
+                && self
+                    .probes
+                    .upper_bound(k, &|i| step.component_range(i))
+                    .is_some_and(|u| tracker.settled_below(u));
+            any |= self.settled[k];
+        }
+        if any {
+            self.live_components.clear();
+            for (k, c) in self.components_of.iter().enumerate() {
+                if !self.settled[k] {
+                    self.live_components.extend_from_slice(c);
+                }
+            }
+            self.live_components.sort_unstable();
+            self.live_components.dedup();
+        }
+        any
+    }
+
+    /// The settled probes' trackers ([`RunObserver::settle`]) over the summary instants from
+    /// index `first` up to `until`: every instant counted, the last two sampled as they would
+    /// have been (the two samples a tracker keeps before the next), bitwise, since each
+    /// component's interpolant is evaluated on its own whatever else is evaluated with it.
+    fn sample_settled(&mut self, step: &dyn DenseStep, first: u64, until: f64) {
+        let interval = self.opts.summary_interval;
+        let at = |j: u64| self.t0 + j as f64 * interval;
+        let mut count = 0u64;
+        while at(first + count) <= until {
+            count += 1;
+        }
+        let kept = count.min(2);
+        let times = [at(first + count - kept), at(first + count - kept + 1)];
+        let times = &times[..kept as usize];
+        for k in 0..self.trackers.len() {
+            if !self.settled[k] {
+                continue;
+            }
+            self.settled[k] = false;
+            // Under test, every skipped sample is taken on a copy, which must end as the tracker.
+            #[cfg(test)]
+            let every = {
+                let mut copy = self.trackers[k];
+                let components = &self.components_of[k];
+                let mut row = vec![0.0; components.len()];
+                for j in first..first + count {
+                    step.eval_components_at(&[at(j)], components, &mut row);
+                    for (&i, &v) in components.iter().zip(&row) {
+                        self.probe_state[i] = v;
+                    }
+                    let state = &self.probe_state;
+                    copy.sample(at(j), self.probes.value(k, &|i: usize| state[i]));
+                }
+                tests::SKIPPED.with(|c| c.set(c.get() + count - kept));
+                copy
+            };
+            let tracker = &mut self.trackers[k];
+            tracker.skip((count - kept) as usize);
+            let components = &self.components_of[k];
+            let values = &mut self.batch_values[..times.len() * components.len()];
+            step.eval_components_at(times, components, values);
+            for (&t, row) in times
+                .iter()
+                .zip(values.chunks_exact(components.len().max(1)))
+            {
+                for (&i, &v) in components.iter().zip(row) {
+                    self.probe_state[i] = v;
+                }
+                let state = &self.probe_state;
+                tracker.sample(t, self.probes.value(k, &|i: usize| state[i]));
+            }
+            #[cfg(test)]
+            tests::assert_same_tracker(tracker, &every);
+        }
+    }
+
     pub fn new(
         chain: &Chain,
         probes: ProbeSet,
@@ -1303,7 +1482,11 @@ impl RunObserver {
         });
         let probe_components = probes.components();
         let probe_state = vec![0.0; probe_components.last().map_or(0, |i| i + 1)];
+        let components_of = (0..n_probes).map(|k| probes.components_of(k)).collect();
         RunObserver {
+            components_of,
+            settled: vec![false; n_probes],
+            live_components: Vec::with_capacity(probe_components.len()),
             batch_values: vec![0.0; SAMPLE_BATCH * probe_components.len()],
             probe_components,
             probe_state,
@@ -1509,15 +1692,23 @@ impl StepObserver for RunObserver {
         let mut until = t1.min(self.t_end);
         let mut passed_at: Option<f64> = None;
         if n_probes > 0 {
+            let first_summary = self.next_summary;
+            let any_settled = self.settle(step, until);
             let probes = &self.probes;
             let trackers = &mut self.trackers;
+            let settled = &self.settled;
             let stop_when_passed = self.opts.stop_after_leading_pulses;
+            let components = if any_settled {
+                &self.live_components
+            } else {
+                &self.probe_components
+            };
             sample_grid(
                 step,
                 (self.t0, self.opts.summary_interval),
                 &mut self.next_summary,
                 until,
-                &self.probe_components,
+                components,
                 &mut self.batch_values[..],
                 &mut self.probe_state,
                 |ts, state| {
@@ -1526,8 +1717,11 @@ impl StepObserver for RunObserver {
                     }
                     let g = |i: usize| state[i];
                     for (k, tracker) in trackers.iter_mut().enumerate() {
-                        tracker.sample(ts, probes.value(k, &g));
+                        if !settled[k] {
+                            tracker.sample(ts, probes.value(k, &g));
+                        }
                     }
+                    // A settled tracker's phase stays as it is over the step.
                     if stop_when_passed && trackers.iter().all(|t| t.phase == PulsePhase::Passed) {
                         passed_at = Some(ts);
                     }
@@ -1536,6 +1730,10 @@ impl StepObserver for RunObserver {
             if let Some(t) = passed_at {
                 until = t;
             }
+            if any_settled {
+                self.sample_settled(step, first_summary, until);
+            }
+            let probes = &self.probes;
             if let Some(h) = &mut self.history {
                 sample_grid(
                     step,
@@ -1626,6 +1824,148 @@ pub const MAX_SUMMARY_SAMPLES_PER_RUN: u64 = 10_000_000;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two trackers in the same state, to the bit.
+    pub(super) fn assert_same_tracker(a: &PeakTracker, b: &PeakTracker) {
+        let window = |w: &PeakWindow| {
+            let mut v: Vec<u64> = w.values.iter().map(|x| x.to_bits()).collect();
+            v.extend([w.time.to_bits(), w.after as u64, w.before as u64]);
+            v
+        };
+        let bits = |t: &PeakTracker| {
+            let mut v = window(&t.leading);
+            v.extend(window(&t.record));
+            v.extend(t.prev.iter().map(|x| x.to_bits()));
+            v.push(t.n_prev.min(2) as u64);
+            v
+        };
+        assert_eq!(a.phase, b.phase, "a settled tracker's phase changed");
+        assert_eq!(
+            bits(a),
+            bits(b),
+            "skipping a settled tracker's samples changed it"
+        );
+    }
+
+    thread_local! {
+        /// Set: no probe settles ([`RunObserver::settle`]), every sample is taken.
+        pub(super) static NO_SETTLING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+        /// Samples settled probes skipped on this thread ([`RunObserver::sample_settled`]).
+        pub(super) static SKIPPED: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+    }
+
+    /// Samples skipped where a probe is settled change nothing: the Fig. 8 sweep's chain (the
+    /// paper's 0.55 chain of 50 cylinders, gauges in cylinders 4 and 21, stopped after the leading
+    /// pulses, DOP853 rtol 1e-8 with switch prediction), without and with damping and at a heavy
+    /// and a light mass ratio, run as it is and with every sample taken gives every summary, the
+    /// run's end, its counts and its ledger to the bit; and the first run did skip most of the
+    /// gauge in cylinder 4's samples after its pulse passed, and cylinder 21's before the pulse
+    /// came near.
+    #[test]
+    fn settled_probes_skip_samples_and_change_nothing() {
+        use crate::chain::model::{ChainSpec, CylinderMass, DimerSpec};
+        use crate::scene::solve::run;
+        use crate::scene::{IntegratorSpec, Scene};
+        use crate::AdaptiveOptions;
+        /// Every summary, the run's end, its counts and its ledger, as bits.
+        fn bits(o: &crate::scene::solve::RunOutput) -> Vec<u64> {
+            let mut v: Vec<u64> = o
+                .probes
+                .iter()
+                .flat_map(|p| {
+                    [
+                        p.leading_peak,
+                        p.leading_peak_time_s,
+                        p.record_max,
+                        p.record_max_time_s,
+                    ]
+                })
+                .map(f64::to_bits)
+                .collect();
+            v.extend(
+                [
+                    o.t_end_s,
+                    o.energy_drift_max,
+                    o.energy_drift_final,
+                    o.momentum_residual_max,
+                ]
+                .map(f64::to_bits),
+            );
+            v.extend([o.stats.steps, o.stats.rejected, o.stats.rhs_evals]);
+            v
+        }
+        for (mass_ratio, mu) in [(0.2, 0.0), (0.2, 6.0), (0.9, 0.0), (0.9, 6.0)] {
+            let mut spec = DimerSpec::chain_055(50);
+            spec.cylinder.mass = CylinderMass::HeavyCylinders { mass_ratio };
+            spec.cylinder.height_m = None;
+            let mut s = Scene::new(ChainSpec::Dimer(spec), 1.3, 3e-3);
+            s.physics.damping_kg_s = mu;
+            s.integrator = IntegratorSpec::Dop853(AdaptiveOptions {
+                predict_switches: true,
+                ..AdaptiveOptions::new(1e-8)
+            });
+            s.record.probes = vec![
+                Probe::GaugeForce { cylinder: 4 },
+                Probe::GaugeForce { cylinder: 21 },
+            ];
+            s.record.stop_after_leading_pulses = true;
+            SKIPPED.with(|c| c.set(0));
+            let skipping = run(&s).unwrap();
+            let skipped = SKIPPED.with(|c| c.get());
+            NO_SETTLING.with(|c| c.set(true));
+            let every = run(&s).unwrap();
+            NO_SETTLING.with(|c| c.set(false));
+            let samples = (skipping.t_end_s / s.record.summary_interval_s) as u64;
+            let case = format!("mass ratio {mass_ratio}, μ = {mu} kg/s");
+            assert!(
+                skipped > samples / 2,
+                "{case}: {skipped} of the two probes' {samples} samples each skipped"
+            );
+            assert_eq!(
+                SKIPPED.with(|c| c.get()),
+                skipped,
+                "{case}: skipped without settling"
+            );
+            assert_eq!(bits(&skipping), bits(&every), "{case}");
+            assert!(
+                skipping.probes.iter().all(|p| p.leading_peak.is_finite()),
+                "{case}"
+            );
+        }
+        // A short chain on its wall, integrated whole, a gauge next to the wall and run past the
+        // leading pulse: the wave reflected there brings a record maximum above the leading peak
+        // after samples were skipped, which the bound must let through.
+        for mu in [0.0, 6.0] {
+            let mut s = Scene::new(ChainSpec::chain_055(10), 1.3, 4e-4);
+            s.physics.damping_kg_s = mu;
+            s.integrator = IntegratorSpec::Dop853(AdaptiveOptions {
+                predict_switches: true,
+                ..AdaptiveOptions::new(1e-8)
+            });
+            s.record.probes = vec![
+                Probe::GaugeForce { cylinder: 2 },
+                Probe::GaugeForce { cylinder: 9 },
+            ];
+            // Sampled finely, so that the steps while the reflected wave rises hold samples
+            // enough to be looked at.
+            s.record.summary_interval_s = 2e-8;
+            SKIPPED.with(|c| c.set(0));
+            let skipping = run(&s).unwrap();
+            let skipped = SKIPPED.with(|c| c.get());
+            NO_SETTLING.with(|c| c.set(true));
+            let every = run(&s).unwrap();
+            NO_SETTLING.with(|c| c.set(false));
+            let case = format!("10 cylinders, μ = {mu} kg/s");
+            assert!(skipped > 100, "{case}: {skipped} samples skipped");
+            let near_wall = &skipping.probes[1];
+            assert!(
+                near_wall.record_max > 1.1 * near_wall.leading_peak
+                    && near_wall.record_max_time_s > near_wall.leading_peak_time_s,
+                "{case}: {near_wall:?}"
+            );
+            assert_eq!(bits(&skipping), bits(&every), "{case}");
+        }
+    }
 
     /// The force of contact `c` as it was computed before contacts without damping were read
     /// from their overlap alone: the law on the overlap and its rate, both always read.

@@ -373,6 +373,19 @@ impl DenseStep for WholeStep<'_> {
         self.map
             .value(i, t, |j| self.step.eval_component(t, j), self.full)
     }
+    /// The prefix step's enclosure, shifted as its values are (a sum rounds monotonically, so
+    /// the shifted bounds enclose the shifted values); a particle at rest is its one value.
+    fn component_range(&self, i: usize) -> Option<(f64, f64)> {
+        match self.map.source(i, self.full) {
+            Source::Shifted(j) => self
+                .step
+                .component_range(j)
+                .map(|(lo, hi)| (lo + self.map.shift, hi + self.map.shift)),
+            Source::Prefix(j) => self.step.component_range(j),
+            Source::Fixed(v) => Some((v, v)),
+            Source::WallRamp => None,
+        }
+    }
     fn eval_components(&self, t: f64, indices: &[usize], out: &mut [f64]) {
         if indices.len() > BATCH_COMPONENTS {
             return eval_each(self, t, indices, out);
