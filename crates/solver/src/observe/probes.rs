@@ -1265,6 +1265,9 @@ pub(crate) struct RunObserver {
     /// ([`PeakTracker::settled_below`]), and the components the others read.
     settled: Vec<bool>,
     live_components: Vec<usize>,
+    /// Per probe, the steps to pass before its bound is tried again, and how many it waited last
+    /// ([`MAX_SETTLE_WAIT`]).
+    settle_wait: Vec<(u8, u8)>,
     /// Those components at one sample time, at their indices in the state.
     probe_state: Vec<f64>,
     /// Particles integrated (the rest rest at their static equilibrium, [`crate::scene::active`]): the
@@ -1361,6 +1364,11 @@ pub(crate) fn sample_grid(
 /// Most samples interpolated in one call ([`DenseStep::eval_components_at`]).
 const SAMPLE_BATCH: usize = 32;
 
+/// Most steps a probe whose bound failed waits before its bound is tried again
+/// ([`RunObserver::settle`]): whether a probe settles changes no result, only what its samples
+/// cost.
+const MAX_SETTLE_WAIT: u8 = 15;
+
 /// Most values in the fields' batch of samples (8 MiB): a chain of millions of particles
 /// interpolates one instant at a time rather than holding [`SAMPLE_BATCH`] whole states.
 const FIELD_BATCH_VALUES: usize = 1 << 20;
@@ -1385,11 +1393,28 @@ impl RunObserver {
         }
         let mut any = false;
         for (k, tracker) in self.trackers.iter().enumerate() {
-            self.settled[k] = tracker.may_settle()
-                && self
-                    .probes
-                    .upper_bound(k, &|i| step.component_range(i))
-                    .is_some_and(|u| tracker.settled_below(u));
+            self.settled[k] = false;
+            if !tracker.may_settle() {
+                continue;
+            }
+            let (wait, waited) = &mut self.settle_wait[k];
+            if *wait > 0 {
+                *wait -= 1;
+                continue;
+            }
+            self.settled[k] = self
+                .probes
+                .upper_bound(k, &|i| step.component_range(i))
+                .is_some_and(|u| tracker.settled_below(u));
+            // A bound that fails is tried again after a wait that doubles while it keeps failing:
+            // a probe whose signal keeps rising by round-off (a particle at rest, integrated)
+            // costs the bound once in a while, not at every step.
+            (*wait, *waited) = if self.settled[k] {
+                (0, 0)
+            } else {
+                let next = (2 * *waited + 1).min(MAX_SETTLE_WAIT);
+                (next, next)
+            };
             any |= self.settled[k];
         }
         if any {
@@ -1486,6 +1511,7 @@ impl RunObserver {
         RunObserver {
             components_of,
             settled: vec![false; n_probes],
+            settle_wait: vec![(0, 0); n_probes],
             live_components: Vec::with_capacity(probe_components.len()),
             batch_values: vec![0.0; SAMPLE_BATCH * probe_components.len()],
             probe_components,
