@@ -1468,15 +1468,11 @@ impl RunObserver {
             };
             let tracker = &mut self.trackers[k];
             tracker.skip((count - kept) as usize);
-            let components = &self.components_of[k];
-            let values = &mut self.batch_values[..times.len() * components.len()];
-            step.eval_components_at(times, components, values);
-            for (&t, row) in times
-                .iter()
-                .zip(values.chunks_exact(components.len().max(1)))
-            {
-                for (&i, &v) in components.iter().zip(row) {
-                    self.probe_state[i] = v;
+            // Two instants: one component at a time (the batch's set-up would cost more than
+            // they do), each value the one the batch gives.
+            for &t in times {
+                for &i in &self.components_of[k] {
+                    self.probe_state[i] = step.eval_component(t, i);
                 }
                 let state = &self.probe_state;
                 tracker.sample(t, self.probes.value(k, &|i: usize| state[i]));
