@@ -1354,9 +1354,13 @@ pub struct ContactMap {
 }
 
 impl ContactMap {
-    /// Particles of the chain: contacts `0..N−1` join neighbours `c` and `c + 1`.
-    pub fn n_particles(&self) -> usize {
-        self.n
+    /// The state components an interior contact `c` reads: the positions of the particles it
+    /// joins, `c` above and `c + 1` below, and their velocities (`None` for the contacts from
+    /// `N − 1` on: a wall's, a ring's closing contact, the top wall's).
+    #[inline(always)]
+    pub fn between(&self, c: usize) -> Option<([usize; 2], [usize; 2])> {
+        let n = self.n;
+        (c + 1 < n).then_some(([c, c + 1], [n + c, n + c + 1]))
     }
 
     /// The map of `chain`.
@@ -1379,11 +1383,14 @@ impl ContactMap {
     /// velocities at `N..2N`).
     #[inline(always)]
     pub fn kinematics(&self, c: usize, get: impl Fn(usize) -> f64) -> (f64, f64) {
-        let n = self.n;
-        if c + 1 < n {
-            (get(c) - get(c + 1), get(n + c) - get(n + c + 1))
-        } else {
-            self.ends[c + 1 - n].kinematics(&get, |i| get(n + i), &get)
+        match self.between(c) {
+            Some(([above, below], [v_above, v_below])) => {
+                (get(above) - get(below), get(v_above) - get(v_below))
+            }
+            None => {
+                let n = self.n;
+                self.ends[c + 1 - n].kinematics(&get, |i| get(n + i), &get)
+            }
         }
     }
 
@@ -1398,11 +1405,9 @@ impl ContactMap {
     /// [`ContactMap::kinematics`] gives, reading no velocity.
     #[inline(always)]
     pub fn overlap_read(&self, c: usize, get: impl Fn(usize) -> f64) -> f64 {
-        let n = self.n;
-        if c + 1 < n {
-            get(c) - get(c + 1)
-        } else {
-            self.ends[c + 1 - n].overlap(&get, &get)
+        match self.between(c) {
+            Some(([above, below], _)) => get(above) - get(below),
+            None => self.ends[c + 1 - self.n].overlap(&get, &get),
         }
     }
 }

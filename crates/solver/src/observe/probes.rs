@@ -749,19 +749,16 @@ impl ProbeSet {
         if self.general.is_some() || self.plastic.is_some() {
             return None;
         }
-        let n = self.contacts.n_particles();
         let mut s = 0.0;
         for c in first..first + count {
-            if c + 1 >= n {
-                return None;
-            }
+            let ([above, below], [v_above, v_below]) = self.contacts.between(c)?;
             let (a, mu) = (self.stiffness[c], self.damping[c]);
-            let ((_, above_hi), (below_lo, _)) = (range(c)?, range(c + 1)?);
+            let ((_, above_hi), (below_lo, _)) = (range(above)?, range(below)?);
             let elastic = hertz_force(a, (above_hi - below_lo).max(0.0));
             s += if mu == 0.0 {
                 elastic
             } else {
-                let ((_, above_hi), (below_lo, _)) = (range(n + c)?, range(n + c + 1)?);
+                let ((_, above_hi), (below_lo, _)) = (range(v_above)?, range(v_below)?);
                 (elastic + mu * (above_hi - below_lo)).max(0.0)
             };
         }
@@ -1382,18 +1379,17 @@ impl RunObserver {
     /// `live_components`; returns whether any probe is settled. Only a step of at least three
     /// samples is looked at (below that nothing is saved).
     fn settle(&mut self, step: &dyn DenseStep, until: f64) -> bool {
+        self.settled.fill(false);
         #[cfg(test)]
         if tests::NO_SETTLING.with(|c| c.get()) {
             return false;
         }
-        let interval = self.opts.summary_interval;
-        let at = |j: u64| self.t0 + j as f64 * interval;
-        if at(self.next_summary + 2) > until {
+        // (The third instant from the next, as the sampling loop places it.)
+        if self.t0 + (self.next_summary + 2) as f64 * self.opts.summary_interval > until {
             return false;
         }
         let mut any = false;
         for (k, tracker) in self.trackers.iter().enumerate() {
-            self.settled[k] = false;
             if !tracker.may_settle() {
                 continue;
             }
@@ -1448,7 +1444,6 @@ impl RunObserver {
             if !self.settled[k] {
                 continue;
             }
-            self.settled[k] = false;
             // Under test, every skipped sample is taken on a copy, which must end as the tracker.
             #[cfg(test)]
             let every = {
