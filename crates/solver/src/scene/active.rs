@@ -417,14 +417,27 @@ impl DenseStep for WholeStep<'_> {
             }
         }
         let (sources, in_prefix) = (&sources[..m], &in_prefix[..p]);
-        // The prefix's values, `p` a row, packed at the start of `out`, then each row spread out
-        // to its `m` columns, the last row first: a value is read before its place is written
-        // (row `r`'s prefix values start at `r·p ≤ r·m`).
         let count = times.len().min(out.len() / m);
         if p > 0 {
             self.step
                 .eval_components_at(&times[..count], in_prefix, &mut out[..count * p]);
         }
+        if p == m {
+            // Every component is the prefix's, so its rows are already in place: only the
+            // positions are shifted (the same sum as `StateMap::at`). This is the usual case
+            // once the pulse has reached the probes' particles.
+            for (c, source) in sources.iter().enumerate() {
+                if let Source::Shifted(_) = source {
+                    for row in out[..count * m].chunks_exact_mut(m) {
+                        row[c] += self.map.shift;
+                    }
+                }
+            }
+            return;
+        }
+        // Otherwise the prefix's values, `p` a row, are packed at the start of `out`; each row is
+        // spread out to its `m` columns, the last row first: a value is read before its place is
+        // written (row `r`'s prefix values start at `r·p ≤ r·m`).
         for r in (0..count).rev() {
             let t = times[r];
             let mut q = p;
