@@ -442,18 +442,23 @@ fn crossing_ahead(
         // k0 + 8 <= adjacent <= n_pos − 1, so nine positions are there.
         let window = |s: &[f64]| -> [f64; 9] { s[k0..k0 + 9].try_into().expect("nine values") };
         let (xs, vs, as_) = (window(x), window(v), window(a));
+        let (mut g0s, mut bs, mut cs, mut nears) = ([0.0; 8], [0.0; 8], [0.0; 8], [false; 8]);
         let mut near = false;
         for j in 0..8 {
-            let (g0, b) = (xs[j] - xs[j + 1], vs[j] - vs[j + 1]);
-            near |= !far(g0, b, 0.5 * (as_[j] - as_[j + 1]));
+            // The same values `pair` gives, kept for the lanes looked at below.
+            (g0s[j], bs[j], cs[j]) = (
+                xs[j] - xs[j + 1],
+                vs[j] - vs[j + 1],
+                0.5 * (as_[j] - as_[j + 1]),
+            );
+            nears[j] = !far(g0s[j], bs[j], cs[j]);
+            near |= nears[j];
         }
         if near {
-            for k in k0..k0 + 8 {
-                let (g0, b, c) = pair(k);
-                if !far(g0, b, c) {
-                    if let Some(r) = quadratic_crossing(g0, b, c, earliest.map_or(h, |e| e.0)) {
-                        earliest = Some((r, k, g0 > 0.0));
-                    }
+            for j in (0..8).filter(|&j| nears[j]) {
+                let (g0, b, c) = (g0s[j], bs[j], cs[j]);
+                if let Some(r) = quadratic_crossing(g0, b, c, earliest.map_or(h, |e| e.0)) {
+                    earliest = Some((r, k0 + j, g0 > 0.0));
                 }
             }
         }
