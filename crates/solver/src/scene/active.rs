@@ -651,9 +651,11 @@ mod tests {
             full: &full,
         };
         let times: Vec<f64> = (0..37).map(|r| r as f64 * 2.7e-8).collect();
-        // (The last two: more components than a batch holds, and none.)
-        let sets: [Vec<usize>; 6] = [
+        // (The second: every component the prefix's, whose batch is not spread again. The last
+        // two: more components than a batch holds, and none.)
+        let sets: [Vec<usize>; 7] = [
             vec![3, 4, n + 3, n + 4, 2 * n + 1],
+            vec![n + 3, 3, 2 * n, k - 1, n + k - 1, 0],
             vec![k - 1, k, n + k - 1, n + k, 2 * n],
             vec![30, 31, n + 30],
             (0..2 * n + 2).step_by(5).collect(),
