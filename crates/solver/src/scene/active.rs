@@ -423,9 +423,9 @@ impl DenseStep for WholeStep<'_> {
                 .eval_components_at(&times[..count], in_prefix, &mut out[..count * p]);
         }
         if p == m {
-            // Every component is the prefix's, so its rows are already in place: only the
-            // positions are shifted (the same sum as `StateMap::at`). This is the usual case
-            // once the pulse has reached the probes' particles.
+            // Every component read is integrated (a force probe's once the prefix holds its
+            // particles, say), so the rows are already in place: only the positions are shifted,
+            // the same sum as `StateMap::at`.
             for (c, source) in sources.iter().enumerate() {
                 if let Source::Shifted(_) = source {
                     for row in out[..count * m].chunks_exact_mut(m) {
@@ -651,11 +651,13 @@ mod tests {
             full: &full,
         };
         let times: Vec<f64> = (0..37).map(|r| r as f64 * 2.7e-8).collect();
-        // (The second: every component the prefix's, whose batch is not spread again. The last
-        // two: more components than a batch holds, and none.)
-        let sets: [Vec<usize>; 7] = [
+        // (The second and third: every component the prefix's, whose batch is not spread again,
+        // the third with components repeated. The last two: more components than a batch holds,
+        // and none.)
+        let sets: [Vec<usize>; 8] = [
             vec![3, 4, n + 3, n + 4, 2 * n + 1],
             vec![n + 3, 3, 2 * n, k - 1, n + k - 1, 0],
+            vec![3, 3, n + 3, 3, 0, n + 3],
             vec![k - 1, k, n + k - 1, n + k, 2 * n],
             vec![30, 31, n + 30],
             (0..2 * n + 2).step_by(5).collect(),
