@@ -6,3 +6,12 @@
 pub mod flow;
 pub mod probes;
 pub mod steady;
+
+/// Instant `j` of the sampling grid that starts at `t0` with `interval` between instants: the one
+/// expression every sampling loop, count and test places an instant with (the observers, and the
+/// store checking and writing a run's time axes from 0), so that an instant is the same bits
+/// wherever it is computed.
+#[inline(always)]
+pub fn grid_instant(t0: f64, j: u64, interval: f64) -> f64 {
+    t0 + j as f64 * interval
+}

@@ -15,6 +15,7 @@ use crate::motion::system::{EnergyTerms, Ledger};
 use crate::spectrum::SpectrumSpec;
 
 use super::flow::{EnergyFlow, FlowRecorder};
+use super::grid_instant;
 use super::steady::{SteadyRecorder, SteadyState, SteadyStateSpec};
 
 /// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
@@ -1285,7 +1286,7 @@ pub(crate) struct RunObserver {
 fn batch_times(t0: f64, first: u64, interval: f64, until: f64, times: &mut [f64]) -> usize {
     let mut count = 0;
     while count < times.len() {
-        let t = t0 + (first + count as u64) as f64 * interval;
+        let t = grid_instant(t0, first + count as u64, interval);
         if t > until {
             break;
         }
@@ -1303,7 +1304,7 @@ pub fn samples_in(t0: f64, interval: f64, t_end: f64) -> u64 {
     if interval.is_nan() || interval <= 0.0 || t_end.is_nan() || t_end < t0 {
         return u64::from(t_end >= t0);
     }
-    let at = |i: u64| t0 + i as f64 * interval;
+    let at = |i: u64| grid_instant(t0, i, interval);
     let mut last = ((t_end - t0) / interval).floor().max(0.0) as u64;
     while last > 0 && at(last) > t_end {
         last -= 1;
@@ -1385,7 +1386,7 @@ impl RunObserver {
             return false;
         }
         // (The third instant from the next, as the sampling loop places it.)
-        if self.t0 + (self.next_summary + 2) as f64 * self.opts.summary_interval > until {
+        if grid_instant(self.t0, self.next_summary + 2, self.opts.summary_interval) > until {
             return false;
         }
         let mut any = false;
@@ -1432,7 +1433,7 @@ impl RunObserver {
     /// component's interpolant is evaluated on its own whatever else is evaluated with it.
     fn sample_settled(&mut self, step: &dyn DenseStep, first: u64, until: f64) {
         let interval = self.opts.summary_interval;
-        let at = |j: u64| self.t0 + j as f64 * interval;
+        let at = |j: u64| grid_instant(self.t0, j, interval);
         let mut count = 0u64;
         while at(first + count) <= until {
             count += 1;

@@ -12,6 +12,7 @@
 #[cfg(feature = "serde")]
 use serde::{Deserialize, Serialize};
 
+use super::grid_instant;
 use crate::chain::model::{spec_err, SpecError};
 
 /// Most samples of the window per run (`window_periods × samples_per_period`): as many as the
@@ -298,7 +299,7 @@ impl SteadyRecorder {
 
     /// The window's last instant, s, computed as the sampling loop computes its instants.
     pub fn last_instant_s(&self) -> f64 {
-        self.start_s + (self.total - 1) as f64 * self.interval_s
+        grid_instant(self.start_s, self.total - 1, self.interval_s)
     }
 
     /// Whether every instant of the window has been sampled.

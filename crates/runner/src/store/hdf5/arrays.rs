@@ -50,6 +50,7 @@ use crate::record::columns::{
 };
 use crate::record::{RunArrays, RunRecord, INT_FILL};
 use chainsweep_solver::observe::flow::EnergyFlow;
+use chainsweep_solver::observe::grid_instant;
 use chainsweep_solver::observe::probes::{FieldQuantity, FieldSeries, Fields, History};
 
 /// Long name of the histories.
@@ -304,9 +305,9 @@ impl FieldWriter {
                 "run {index}'s fields hold {quantities:?}, the file {wanted:?}"
             )));
         }
-        if let Some(k) =
-            (0..len).find(|&k| f.time_s[k].to_bits() != (k as f64 * self.interval).to_bits())
-        {
+        if let Some(k) = (0..len).find(|&k| {
+            f.time_s[k].to_bits() != grid_instant(0.0, k as u64, self.interval).to_bits()
+        }) {
             return Err(Error::Other(format!(
                 "run {index}'s field sample {k} is at {:e} s, not at {k} × the interval {:e} s the file's one time axis holds",
                 f.time_s[k], self.interval
@@ -501,9 +502,9 @@ impl ArrayWriter {
                 (Some(dt), _) => {
                     // The one time axis holds these instants: a run sampled elsewhere would be
                     // stored wrong, so it is an error, never a silent shift.
-                    if let Some(k) =
-                        (0..len).find(|&k| h.time_s[k].to_bits() != (k as f64 * dt).to_bits())
-                    {
+                    if let Some(k) = (0..len).find(|&k| {
+                        h.time_s[k].to_bits() != grid_instant(0.0, k as u64, dt).to_bits()
+                    }) {
                         return Err(Error::Other(format!(
                             "run {index}'s history sample {k} is at {:e} s, not at {k} × the interval {dt:e} s the file's one time axis holds",
                             h.time_s[k]
@@ -574,7 +575,9 @@ impl ArrayWriter {
         if let Some(w) = self.history {
             let (axis, axis_name) = match w.interval {
                 Some(dt) => {
-                    let t: Vec<f64> = (0..w.width).map(|k| k as f64 * dt).collect();
+                    let t: Vec<f64> = (0..w.width)
+                        .map(|k| grid_instant(0.0, k as u64, dt))
+                        .collect();
                     let d = checked_dataset(file, TIME, &[w.width], &t)?;
                     attr_str(&d, "units", "s")?;
                     // (No `axis = "T"`: CF's time coordinates count from a reference date.)
@@ -704,7 +707,9 @@ impl ArrayWriter {
             per_element(w, *per_contact, "J", long_name)?;
         }
         if let Some(w) = self.fields {
-            let t: Vec<f64> = (0..w.length).map(|k| k as f64 * w.interval).collect();
+            let t: Vec<f64> = (0..w.length)
+                .map(|k| grid_instant(0.0, k as u64, w.interval))
+                .collect();
             let time = checked_dataset(file, FIELD_TIME, &[w.length], &t)?;
             attr_str(&time, "units", "s")?;
             attr_str(&time, "long_name", FIELD_TIME_LONG_NAME)?;
