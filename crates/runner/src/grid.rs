@@ -136,8 +136,14 @@ fn locate(sweep: &Sweep, shape: &[usize], index: usize, field: &str, message: &s
     )
 }
 
-/// Points a worker expands at a time (and between two calls of the progress callback).
+/// Points a worker expands at a time, at most (and between two calls of the progress callback).
 const CHUNK_POINTS: usize = 4096;
+/// Grids of fewer points are expanded on the calling thread. A point takes about 15 µs (its
+/// scene read, validated and hashed), so the Fig. 8 sweep's 182 took 2.8 ms on one thread before
+/// its first run started. A pool of threads costs about 0.1 ms to make: a grid of fewer than
+/// about 15 points would not win it back on two CPUs, and a one-point run from Python never
+/// pays it.
+const PARALLEL_MIN_POINTS: usize = 64;
 
 /// What the points of one chunk add to the grid beside their hashes and particle counts.
 #[derive(Default)]
@@ -191,22 +197,25 @@ impl Grid {
     /// that scene, where the caller has read it already from the sweep as it is (the base scene
     /// [`Sweep::of_scene`] gives beside the sweep); it is not read again.
     pub fn with_first_scene(sweep: &Sweep, read: Option<Scene>) -> Result<(Grid, Scene)> {
-        Grid::expand_keeping_first(sweep, &|_| {}, read)
+        Grid::expand_keeping_first(sweep, &|_| {}, read, None)
     }
 
-    /// [`Grid::new`], calling `progress` with the number of points expanded so far every few
-    /// thousand points (from the worker threads). The points are expanded in parallel on rayon's
-    /// global pool, in chunks; the grid is the same as a sequential expansion's, whatever the
-    /// threads (every value is computed per point, and a chunk's findings are merged in order).
+    /// [`Grid::new`], calling `progress` with the number of points expanded so far after each
+    /// chunk of at most a few thousand points (from the worker threads). A grid of more than a
+    /// few dozen points is expanded in parallel, in chunks, on a pool of its own; the grid is the
+    /// same as a sequential expansion's, whatever the threads (every value is computed per point,
+    /// and a chunk's findings are merged in order).
     pub fn expand(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> Result<Grid> {
-        Grid::expand_keeping_first(sweep, progress, None).map(|(grid, _)| grid)
+        Grid::expand_keeping_first(sweep, progress, None, None).map(|(grid, _)| grid)
     }
 
-    /// [`Grid::expand`], returning the first point's scene too.
+    /// [`Grid::expand`], returning the first point's scene too, on `threads` threads (`None`:
+    /// one for a grid of fewer than [`PARALLEL_MIN_POINTS`], else one per CPU).
     fn expand_keeping_first(
         sweep: &Sweep,
         progress: &(dyn Fn(usize) + Sync),
         read: Option<Scene>,
+        threads: Option<usize>,
     ) -> Result<(Grid, Scene)> {
         use rayon::prelude::*;
         use std::sync::atomic::{AtomicUsize, Ordering};
@@ -274,8 +283,22 @@ impl Grid {
         };
         let shape = &grid.shape;
         let done = AtomicUsize::new(0);
+        // A grid of fewer than PARALLEL_MIN_POINTS is expanded on this thread; a larger one on a
+        // pool of a thread per CPU this process may use, made for it and gone after (no thread
+        // outlives it), in chunks of an equal share of the points (at most CHUNK_POINTS).
+        // (The CPUs are asked only for such a grid: on Linux the answer reads the cgroup's quota
+        // files, tens of microseconds that a one-point run from Python would pay.) What the
+        // chunks find is merged in grid order, so the grid is the same whatever the chunks.
+        let threads = threads.unwrap_or_else(|| {
+            if n < PARALLEL_MIN_POINTS {
+                1
+            } else {
+                std::thread::available_parallelism().map_or(1, |t| t.get())
+            }
+        });
+        let chunk_points = n.div_ceil(threads).clamp(1, CHUNK_POINTS);
         let expand_chunk = |c: usize, hashes: &mut [RunHash], particles: &mut [u32]| {
-            let start = c * CHUNK_POINTS;
+            let start = c * chunk_points;
             let mut info = ChunkInfo::default();
             // One copy of the base scene per chunk, every axis value set in it per point (every
             // point sets every axis, in the same order, so it equals a fresh copy's); made only
@@ -298,16 +321,7 @@ impl Grid {
             progress(total);
             Ok(info)
         };
-        // A grid of one chunk is expanded on this thread; a larger one on a pool of a thread per
-        // CPU this process may use, made for it and gone after (no thread outlives it).
-        // (The CPUs are asked only for a grid of several chunks: on Linux the answer reads the
-        // cgroup's quota files, tens of microseconds that a one-point run from Python would pay.)
-        let threads = if n <= CHUNK_POINTS {
-            1
-        } else {
-            std::thread::available_parallelism().map_or(1, |t| t.get())
-        };
-        let chunks: Vec<Result<ChunkInfo>> = if threads == 1 {
+        let chunks: Vec<Result<ChunkInfo>> = if threads == 1 || n <= chunk_points {
             vec![expand_chunk(0, &mut grid.hashes, &mut grid.particles)]
         } else {
             let pool = rayon::ThreadPoolBuilder::new()
@@ -319,8 +333,8 @@ impl Grid {
                 })?;
             pool.install(|| {
                 grid.hashes
-                    .par_chunks_mut(CHUNK_POINTS)
-                    .zip(grid.particles.par_chunks_mut(CHUNK_POINTS))
+                    .par_chunks_mut(chunk_points)
+                    .zip(grid.particles.par_chunks_mut(chunk_points))
                     .enumerate()
                     .map(|(c, (hashes, particles))| expand_chunk(c, hashes, particles))
                     .collect()
@@ -640,6 +654,66 @@ impl std::fmt::Display for Shard {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A grid of `values.len()` points along the damping, of a short chain.
+    fn damping_sweep(values: &[f64]) -> Sweep {
+        let values: Vec<String> = values.iter().map(|v| format!("{v:e}")).collect();
+        Sweep::parse(&format!(
+            r#"{{"base": {{"chain": {{"preset": "chain_055", "cylinders": 6}},
+                 "physics": {{"gravity": true, "damping_kg_s": 0.0, "wall": true}},
+                 "striker_velocity_m_s": 1.3, "duration_s": 1e-5,
+                 "integrator": {{"method": "dop853", "rtol": 1e-8}}}},
+                "axes": [{{"field": "physics.damping_kg_s", "values": [{}]}}]}}"#,
+            values.join(", ")
+        ))
+        .unwrap()
+    }
+
+    /// What a grid holds, comparable.
+    fn contents(g: &Grid) -> String {
+        format!(
+            "{:?} {:?} {:?} {} {} {} {}",
+            g.hashes,
+            g.particles,
+            g.warnings,
+            g.warned_points,
+            g.max_contacts,
+            g.max_particles,
+            g.moving_part
+        )
+    }
+
+    /// Expanded on a pool in chunks, a grid is the one expanded on one thread: every run hash and
+    /// particle count, the warnings listed and counted, and the first point that fails.
+    #[test]
+    fn a_grid_expanded_in_chunks_is_the_one_expanded_on_one_thread() {
+        // Every seventh point's damping holds an explicit method's steps far below the contact
+        // time (a plausibility warning); more of them than are listed.
+        let values: Vec<f64> = (0..200)
+            .map(|i| if i % 7 == 3 { 1e7 } else { i as f64 * 0.1 })
+            .collect();
+        let sweep = damping_sweep(&values);
+        let expand = |threads| Grid::expand_keeping_first(&sweep, &|_| {}, None, Some(threads));
+        let one = expand(1).unwrap().0;
+        assert!(one.warned_points > LISTED_WARNINGS, "{}", one.warned_points);
+        for threads in [2, 3, 7] {
+            assert_eq!(contents(&expand(threads).unwrap().0), contents(&one));
+        }
+        // Points 130 and 70 are refused: each expansion names the first of them, 70.
+        let mut bad = values.clone();
+        bad[130] = -1.0;
+        bad[70] = -2.0;
+        let sweep = damping_sweep(&bad);
+        for threads in [1, 2, 3] {
+            let e = Grid::expand_keeping_first(&sweep, &|_| {}, None, Some(threads))
+                .expect_err("a refused point");
+            let text = e.to_string();
+            assert!(
+                text.contains("values[70]") && text.contains("got -2"),
+                "{text}"
+            );
+        }
+    }
 
     #[test]
     fn multi_index_is_row_major() {
