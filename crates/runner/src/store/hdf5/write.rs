@@ -119,8 +119,8 @@ pub fn write_file(
         number_dimensions(&file, &text_scales)?;
         // Last: over every text attribute written above.
         let mut sums = serde_json::Map::new();
-        for name in written {
-            let sum = column_text_checksum(&file.dataset(&name)?)?;
+        for (name, d) in written {
+            let sum = column_text_checksum(&d)?;
             sums.insert(name, Value::from(sum.to_string()));
         }
         attr_str(
@@ -487,14 +487,15 @@ fn coordinate_names<'a>(dims: &'a [DimScale], extra: &'a [String]) -> Vec<&'a st
 /// the grid integrates only its moving part), and the coordinates that are no dimension scale —
 /// and the text coordinates, which are labels to CF — in its `coordinates` attribute. A column in
 /// the probes' unit is written once per unit where the probes' units differ ([`split_name`]).
-/// Returns the names of the datasets written (for `column_checksums`).
+/// Returns the datasets written with their names, still open (for `column_checksums`: a
+/// dataset opened again by name costs HDF5 a lookup and a new header read, each time).
 fn write_columns(
     file: &File,
     table: &Table,
     dims: &[DimScale],
     probe_scale: Option<&ProbeScale>,
     others: &[&str],
-) -> Result<Vec<String>> {
+) -> Result<Vec<(String, Dataset)>> {
     let shape: Vec<usize> = dims.iter().map(|d| d.len).collect();
     let mut written = Vec::new();
     // The steady state's harmonics, a coordinate (1, 2, …) of the columns over them.
@@ -560,7 +561,7 @@ fn write_columns(
                     attach_scale(&d, h, shape.len() + 1, HARMONIC)?;
                 }
                 attr_str(&d, "coordinates", &coords.join(" "))?;
-                written.push(name.clone());
+                written.push((name.clone(), d));
             }
         } else {
             let d = write_column(file, c, c.name, &shape, data, None, false)?;
@@ -568,7 +569,7 @@ fn write_columns(
             if !others.is_empty() {
                 attr_str(&d, "coordinates", &others.join(" "))?;
             }
-            written.push(c.name.to_string());
+            written.push((c.name.to_string(), d));
         }
     }
     Ok(written)
