@@ -138,11 +138,15 @@ fn locate(sweep: &Sweep, shape: &[usize], index: usize, field: &str, message: &s
 
 /// Points a worker expands at a time, at most (and between two calls of the progress callback).
 const CHUNK_POINTS: usize = 4096;
-/// Grids of fewer points are expanded on the calling thread. A point takes about 15 µs (its
-/// scene read, validated and hashed), so the Fig. 8 sweep's 182 took 2.8 ms on one thread before
-/// its first run started. A pool of threads costs about 0.1 ms to make: a grid of fewer than
-/// about 15 points would not win it back on two CPUs, and a one-point run from Python never
-/// pays it.
+/// Chunks each thread takes on average when a grid is shared out, so that a thread slow to start
+/// leaves only a few chunks to the others to take up.
+const CHUNKS_PER_THREAD: usize = 4;
+/// The fewest points a chunk of a shared-out grid holds (about 0.25 ms of work).
+const MIN_CHUNK_POINTS: usize = 16;
+/// Grids of fewer points are expanded on the calling thread alone. A point takes about 15 µs
+/// (its scene read, validated and hashed), so the Fig. 8 sweep's 182 took 2.8 ms on one thread
+/// before its first run started. A helper thread takes 0.1 ms or more to start: a grid of fewer
+/// than about 15 points would not win that back, and a one-point run from Python never pays it.
 const PARALLEL_MIN_POINTS: usize = 64;
 
 /// What the points of one chunk add to the grid beside their hashes and particle counts.
@@ -217,8 +221,8 @@ impl Grid {
         read: Option<Scene>,
         threads: Option<usize>,
     ) -> Result<(Grid, Scene)> {
-        use rayon::prelude::*;
         use std::sync::atomic::{AtomicUsize, Ordering};
+        use std::sync::Mutex;
         let shape = sweep.shape();
         let n = shape.iter().try_fold(1usize, |acc, &x| acc.checked_mul(x));
         let n = match n {
@@ -283,12 +287,12 @@ impl Grid {
         };
         let shape = &grid.shape;
         let done = AtomicUsize::new(0);
-        // A grid of fewer than PARALLEL_MIN_POINTS is expanded on this thread; a larger one on a
-        // pool of a thread per CPU this process may use, made for it and gone after (no thread
-        // outlives it), in chunks of an equal share of the points (at most CHUNK_POINTS).
-        // (The CPUs are asked only for such a grid: on Linux the answer reads the cgroup's quota
-        // files, tens of microseconds that a one-point run from Python would pay.) What the
-        // chunks find is merged in grid order, so the grid is the same whatever the chunks.
+        // A grid of fewer than PARALLEL_MIN_POINTS is expanded on this thread; a larger one by
+        // this thread and one more per further CPU this process may use, gone after (no thread
+        // outlives it). (The CPUs are asked only for such a grid: on Linux the answer reads the
+        // cgroup's quota files, tens of microseconds that a one-point run from Python would pay.)
+        // What the chunks find is merged in grid order, so the grid is the same whatever the
+        // chunks and threads.
         let threads = threads.unwrap_or_else(|| {
             if n < PARALLEL_MIN_POINTS {
                 1
@@ -296,7 +300,12 @@ impl Grid {
                 std::thread::available_parallelism().map_or(1, |t| t.get())
             }
         });
-        let chunk_points = n.div_ceil(threads).clamp(1, CHUNK_POINTS);
+        let chunk_points = if threads == 1 {
+            n.max(1)
+        } else {
+            n.div_ceil(threads * CHUNKS_PER_THREAD)
+                .clamp(MIN_CHUNK_POINTS, CHUNK_POINTS)
+        };
         let expand_chunk = |c: usize, hashes: &mut [RunHash], particles: &mut [u32]| {
             let start = c * chunk_points;
             let mut info = ChunkInfo::default();
@@ -324,21 +333,41 @@ impl Grid {
         let chunks: Vec<Result<ChunkInfo>> = if threads == 1 || n <= chunk_points {
             vec![expand_chunk(0, &mut grid.hashes, &mut grid.particles)]
         } else {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .map_err(|source| Error::Threads {
-                    jobs: threads,
-                    source,
-                })?;
-            pool.install(|| {
+            // Chunks are handed out one at a time, in grid order, to whichever thread asks next:
+            // this one starts at once, and a helper slow to start (a loaded machine; measured at
+            // up to 1.4 ms on two shared CPUs) takes fewer of them rather than holding back the
+            // rest.
+            let work = Mutex::new(
                 grid.hashes
-                    .par_chunks_mut(chunk_points)
-                    .zip(grid.particles.par_chunks_mut(chunk_points))
-                    .enumerate()
-                    .map(|(c, (hashes, particles))| expand_chunk(c, hashes, particles))
-                    .collect()
-            })
+                    .chunks_mut(chunk_points)
+                    .zip(grid.particles.chunks_mut(chunk_points))
+                    .enumerate(),
+            );
+            let found = Mutex::new(Vec::new());
+            let expand_chunks = || loop {
+                let next = work
+                    .lock()
+                    .expect("no chunk is taken while panicking")
+                    .next();
+                let Some((c, (hashes, particles))) = next else {
+                    break;
+                };
+                let info = expand_chunk(c, hashes, particles);
+                found
+                    .lock()
+                    .expect("no chunk is stored while panicking")
+                    .push((c, info));
+            };
+            std::thread::scope(|s| {
+                for _ in 1..threads {
+                    // A helper that cannot be started leaves its chunks to the others.
+                    let _ = std::thread::Builder::new().spawn_scoped(s, expand_chunks);
+                }
+                expand_chunks();
+            });
+            let mut found = found.into_inner().expect("every helper has ended");
+            found.sort_unstable_by_key(|&(c, _)| c);
+            found.into_iter().map(|(_, info)| info).collect()
         };
         let mut intervals_differ = false;
         for c in chunks {
