@@ -33,6 +33,7 @@
 
 pub mod arrays;
 pub mod read;
+mod scales;
 pub mod search;
 pub mod write;
 

@@ -10,6 +10,7 @@ use hdf5::{Dataset, File};
 use serde_json::Value;
 
 use super::arrays::ArrayWriter;
+use super::scales;
 use super::search::{self, SearchTables};
 use super::{
     attach_scale, attr_scalar, attr_str, attr_vec, char_dataset, checked_column, checked_dataset,
@@ -515,6 +516,14 @@ fn write_columns(
         }
         _ => None,
     };
+    // The grid's scale of each dimension, and every column's scales (the column's index in
+    // `written`, the scale, the dimension), attached once all columns are written.
+    let grid_scales: Vec<(&Dataset, usize)> = dims
+        .iter()
+        .enumerate()
+        .map(|(k, d)| (&d.scale, k))
+        .collect();
+    let mut scales: Vec<(usize, &Dataset, usize)> = Vec::new();
     for (c, data) in COLUMNS.iter().zip(&table.columns) {
         let Some(data) = data else {
             continue;
@@ -555,23 +564,31 @@ fn write_columns(
             let split = parts.len() > 1;
             for (name, part, unit) in &parts {
                 let d = write_column(file, c, name, &pshape, part, *unit, split)?;
-                attach_grid(&d, dims)?;
-                attach_scale(&d, &p.scale, shape.len(), "probe")?;
+                let column = written.len();
+                scales.extend(grid_scales.iter().map(|&(s, k)| (column, s, k)));
+                scales.push((column, &p.scale, shape.len()));
                 if let (true, Some(h)) = (c.per_harmonic, &harmonic) {
-                    attach_scale(&d, h, shape.len() + 1, HARMONIC)?;
+                    scales.push((column, h, shape.len() + 1));
                 }
                 attr_str(&d, "coordinates", &coords.join(" "))?;
                 written.push((name.clone(), d));
             }
         } else {
             let d = write_column(file, c, c.name, &shape, data, None, false)?;
-            attach_grid(&d, dims)?;
+            let column = written.len();
+            scales.extend(grid_scales.iter().map(|&(s, k)| (column, s, k)));
             if !others.is_empty() {
                 attr_str(&d, "coordinates", &others.join(" "))?;
             }
             written.push((c.name.to_string(), d));
         }
     }
+    // Every column's scales at once, in the order named above.
+    let attachments: Vec<(&Dataset, &Dataset, usize)> = scales
+        .iter()
+        .map(|&(column, s, k)| (&written[column].1, s, k))
+        .collect();
+    scales::attach_all(&attachments)?;
     Ok(written)
 }
 
@@ -632,12 +649,4 @@ fn write_column(
         _ => {}
     }
     Ok(d)
-}
-
-/// Attaches every dimension's scale to its dimension of `d`.
-fn attach_grid(d: &Dataset, dims: &[DimScale]) -> Result<()> {
-    for (k, dim) in dims.iter().enumerate() {
-        attach_scale(d, &dim.scale, k, &dim.name)?;
-    }
-    Ok(())
 }
