@@ -12,7 +12,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 use chainsweep_solver::observe::probes::History;
-use hdf5::File;
+use hdf5::{Dataset, File};
 
 use super::arrays::ArrayReader;
 use super::write::{coord_of, Coord};
@@ -61,6 +61,11 @@ pub struct FileRecords {
     file: File,
     /// Every summary column the file has.
     table: Table,
+    /// The datasets each column of [`COLUMNS`] was read from (none where the file has none).
+    column_names: Vec<Vec<String>>,
+    /// The columns' datasets opened to read them, with their names: their attributes are
+    /// checked from them (opening a dataset again by name costs HDF5 a lookup and a header read).
+    opened: Vec<(String, Dataset)>,
     /// Columns HDF5 could not read, with the error.
     unreadable: Vec<(&'static str, String)>,
     /// Per point: why its values cannot be trusted.
@@ -70,14 +75,13 @@ pub struct FileRecords {
     arrays: OnceLock<std::result::Result<ArrayReader, String>>,
 }
 
-fn read_column(file: &File, name: &str, dtype: Dtype) -> Result<ColumnData> {
-    let d = file.dataset(name)?;
+fn read_column(d: &Dataset, dtype: Dtype) -> Result<ColumnData> {
     Ok(match dtype {
-        Dtype::F64 => ColumnData::F64(read_unchecked(&d)?),
-        Dtype::I64 => ColumnData::I64(read_unchecked(&d)?),
-        Dtype::U8 => ColumnData::U8(read_unchecked(&d)?),
-        Dtype::U64 => ColumnData::U64(read_unchecked(&d)?),
-        Dtype::Str => ColumnData::Str(read_text(&d)?),
+        Dtype::F64 => ColumnData::F64(read_unchecked(d)?),
+        Dtype::I64 => ColumnData::I64(read_unchecked(d)?),
+        Dtype::U8 => ColumnData::U8(read_unchecked(d)?),
+        Dtype::U64 => ColumnData::U64(read_unchecked(d)?),
+        Dtype::Str => ColumnData::Str(read_text(d)?),
     })
 }
 
@@ -105,23 +109,30 @@ fn column_datasets(file: &File, c: &Column) -> Result<(Vec<String>, Vec<String>)
 }
 
 /// Column `c` of `file` as its datasets hold it ([`column_datasets`]): a column split by unit
-/// takes each probe's values from the dataset of its unit.
+/// takes each probe's values from the dataset of its unit. Each dataset opened is kept in
+/// `opened` with its name (its attributes are checked after).
 fn read_column_of(
     file: &File,
     c: &Column,
     names: &[String],
     units: &[String],
     nh: usize,
+    opened: &mut Vec<(String, Dataset)>,
 ) -> Result<ColumnData> {
+    let mut open = |name: &String| -> Result<Dataset> {
+        let d = file.dataset(name)?;
+        opened.push((name.clone(), d.clone()));
+        Ok(d)
+    };
     if units.is_empty() {
-        return read_column(file, &names[0], c.dtype);
+        return read_column(&open(&names[0])?, c.dtype);
     }
     let np = units.len();
     // Values per probe: one per harmonic in the steady state's amplitudes.
     let per = if c.per_harmonic { nh.max(1) } else { 1 };
     let mut out: Option<Vec<f64>> = None;
     for (name, u) in names.iter().zip(distinct_units(units)) {
-        let part: Vec<f64> = read_unchecked(&file.dataset(name)?)?;
+        let part: Vec<f64> = read_unchecked(&open(name)?)?;
         let out = out.get_or_insert_with(|| vec![f64::NAN; part.len()]);
         if part.len() != out.len() || part.len() % np != 0 {
             return Err(Error::Other(format!(
@@ -211,18 +222,22 @@ impl FileRecords {
             0
         };
         let mut columns = Vec::with_capacity(COLUMNS.len());
+        let mut column_names = Vec::with_capacity(COLUMNS.len());
+        let mut opened = Vec::new();
         for c in COLUMNS {
+            let mut read_names = Vec::new();
             let read = column_datasets(&file, c).and_then(|(names, units)| {
                 if names.is_empty() && !c.required {
                     return Ok(None);
                 }
-                let names = if names.is_empty() {
+                read_names = if names.is_empty() {
                     vec![c.name.to_string()]
                 } else {
                     names
                 };
-                read_column_of(&file, c, &names, &units, nh).map(Some)
+                read_column_of(&file, c, &read_names, &units, nh, &mut opened).map(Some)
             });
+            column_names.push(read_names);
             columns.push(match read {
                 Ok(d) => d,
                 Err(e) => {
@@ -277,6 +292,8 @@ impl FileRecords {
             header_damage,
             file,
             table,
+            column_names,
+            opened,
             unreadable,
             damage: vec![None; n],
             arrays: OnceLock::new(),
@@ -348,24 +365,23 @@ impl FileRecords {
                 .ok()
                 .and_then(|t| serde_json::from_str(&t).ok())?;
         let mut bad = Vec::new();
-        for (c, data) in COLUMNS.iter().zip(&self.table.columns) {
+        for (names, data) in self.column_names.iter().zip(&self.table.columns) {
             if data.is_none() {
                 continue;
             }
-            let names = match column_datasets(&self.file, c) {
-                Ok((names, _)) if !names.is_empty() => names,
-                _ => vec![c.name.to_string()],
-            };
             for name in names {
-                let want = sums.get(&name).and_then(|v| v.as_str());
-                let got = self
-                    .file
-                    .dataset(&name)
-                    .map_err(Error::from)
-                    .and_then(|d| column_text_checksum(&d))
-                    .map(|x| x.to_string());
+                let want = sums.get(name).and_then(|v| v.as_str());
+                let got = match self.opened.iter().find(|(n, _)| n == name) {
+                    Some((_, d)) => column_text_checksum(d),
+                    None => self
+                        .file
+                        .dataset(name)
+                        .map_err(Error::from)
+                        .and_then(|d| column_text_checksum(&d)),
+                }
+                .map(|x| x.to_string());
                 if want.is_none() || got.ok().as_deref() != want {
-                    bad.push(name);
+                    bad.push(name.clone());
                 }
             }
         }
