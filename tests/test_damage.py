@@ -312,6 +312,37 @@ def test_a_damaged_object_header_is_reported_not_dropped(tmp_path, binary):
     assert_files_equal(reference, out)
 
 
+def test_a_damaged_dimension_list_is_reported_not_left_to_a_reader(tmp_path, binary):
+    """The scales that label a dataset's dimensions (its DIMENSION_LIST) lie in the file's global
+    heap, which no HDF5 checksum covers, nor the file's own. A flipped byte there (a reference to
+    a scale, or the index of the heap object that holds it) is damage that `status` and
+    `chainsweep.open` report, rather than xarray failing on it or labelling the data wrongly."""
+    path, out = complete(tmp_path, base_sweep(history=True))
+    data = out.read_bytes()
+    with h5py.File(out, "r") as f:
+        scale = h5py.h5o.get_info(f["mass_ratio"].id).addr
+    # Each list of a dimension's scales is one heap object: 16 bytes of header (its index first),
+    # then the references. Those naming `mass_ratio` (every column's first dimension):
+    heaps = [m.start() for m in re.finditer(b"GCOL", data)]
+    in_heap = [(g, g + int.from_bytes(data[g + 8:g + 16], "little")) for g in heaps]
+    spots = [m.start() for m in re.finditer(re.escape(scale.to_bytes(8, "little")), data)
+             if any(a <= m.start() < b for a, b in in_heap)]
+    assert len(spots) >= 10, spots
+    for n, (offset, mask) in enumerate([(spots[0], 0x08), (spots[-1], 0x40),
+                                        (spots[1] - 16, 0x01), (spots[-2] - 16, 0x02)]):
+        work = tmp_path / f"flip{n}"
+        work.mkdir()
+        damaged = copy_output(out, work / "x.h5")
+        flip(damaged, offset, mask)
+        st = run("status", damaged)
+        assert st.returncode == 1, st.stderr
+        assert "is damaged: the dimension scales of" in st.stderr, st.stderr
+        with pytest.raises(chainsweep.DamagedFileError, match="dimension scales"):
+            chainsweep.open(damaged)
+    # The file as written reads clean.
+    assert run("status", out).returncode == 0
+
+
 def test_status_of_a_damaged_file_names_the_damage_not_utf8(tmp_path, binary):
     stray = tmp_path / "notes.h5"
     stray.write_bytes(b"\x89HDX\r\n\x1a\n" + bytes(range(256)) * 4)

@@ -33,7 +33,7 @@
 
 pub mod arrays;
 pub mod read;
-mod scales;
+pub(crate) mod scales;
 pub mod search;
 pub mod write;
 

@@ -15,6 +15,7 @@ use chainsweep_solver::observe::probes::History;
 use hdf5::{Dataset, File};
 
 use super::arrays::ArrayReader;
+use super::scales;
 use super::write::{coord_of, Coord};
 use super::{
     column_text_checksum, header_checksum, passes_filter_check, read_attr_str, read_text,
@@ -354,6 +355,69 @@ impl FileRecords {
         if checked && self.header_damage.is_none() {
             self.header_damage = self.column_attr_damage();
         }
+        if checked && self.header_damage.is_none() {
+            self.header_damage = self.scales_damage();
+        }
+    }
+
+    /// What is wrong with the dimension scales of the file's datasets: a `DIMENSION_LIST` that
+    /// cannot be read (its lists lie in the global heap, which neither HDF5 nor the file's
+    /// checksums cover), or one naming an object that is not a dataset of the file's root whose
+    /// first dimension is as long as that dimension. h5py and xarray read these lists to label every variable, so a
+    /// damaged one is reported here rather than met there.
+    fn scales_damage(&self) -> Option<String> {
+        let names = match self.file.member_names() {
+            Ok(n) => n,
+            Err(e) => {
+                return Some(format!(
+                    "its members cannot be listed ({})",
+                    brief(&e.into())
+                ))
+            }
+        };
+        // Every dataset of the root with its reference and shape.
+        let mut datasets = Vec::with_capacity(names.len());
+        for name in names {
+            let d = match self.opened.iter().find(|(n, _)| *n == name) {
+                Some((_, d)) => d.clone(),
+                None => match self.file.dataset(&name) {
+                    Ok(d) => d,
+                    // (A group of an older layout's runs.)
+                    Err(_) => continue,
+                },
+            };
+            let r = match scales::object_ref(&d) {
+                Ok(r) => r,
+                Err(e) => return Some(format!("`{name}` cannot be read ({})", brief(&e))),
+            };
+            datasets.push((name, d, r));
+        }
+        for (name, d, _) in &datasets {
+            let lists = match scales::dimension_list(d) {
+                Ok(Some(lists)) => lists,
+                Ok(None) => continue,
+                Err(e) => {
+                    return Some(format!(
+                        "the dimension scales of `{name}` cannot be read ({})",
+                        brief(&e)
+                    ))
+                }
+            };
+            let shape = d.shape();
+            for (k, list) in lists.iter().enumerate() {
+                let extent = shape.get(k).copied().unwrap_or(1);
+                for r in list {
+                    let scale = datasets.iter().find(|(_, _, sr)| sr == r);
+                    // (A text coordinate is a scale of its first dimension.)
+                    if !scale.is_some_and(|(_, s, _)| s.shape().first() == Some(&extent)) {
+                        return Some(format!(
+                            "the dimension scales of `{name}` name no dataset of its dimension {k}'s length ({extent})"
+                        ));
+                    }
+                }
+            }
+        }
+        None
     }
 
     /// What is wrong with the text attributes of the readable summary columns (units, long

@@ -1,4 +1,4 @@
-//! Dimension scales attached to many datasets in one pass.
+//! Dimension scales attached to many datasets in one pass, and read back.
 //!
 //! `H5DSattach_scale` attaches one scale to one dimension of one dataset: it reads the dataset's
 //! `DIMENSION_LIST` and the scale's `REFERENCE_LIST`, deletes both and writes them again one
@@ -55,18 +55,14 @@ impl Drop for Id {
 /// `id` as a closing [`Id`], or the failure of `what`.
 fn open(id: hid_t, close: unsafe extern "C" fn(hid_t) -> herr_t, what: &str) -> Result<Id> {
     if id < 0 {
-        return Err(Error::Other(format!(
-            "attaching dimension scales: {what} failed"
-        )));
+        return Err(Error::Other(format!("HDF5's {what} failed")));
     }
     Ok(Id(id, close))
 }
 
 fn ok(r: herr_t, what: &str) -> Result<()> {
     if r < 0 {
-        return Err(Error::Other(format!(
-            "attaching dimension scales: {what} failed"
-        )));
+        return Err(Error::Other(format!("HDF5's {what} failed")));
     }
     Ok(())
 }
@@ -83,6 +79,10 @@ fn ok(r: herr_t, what: &str) -> Result<()> {
 /// ([`super::set_scale`]) with no scales of its own, no `data` is one, and each dimension is one
 /// of its `data`'s.
 pub(crate) fn attach_all(attachments: &[(&Dataset, &Dataset, usize)]) -> Result<()> {
+    attach_each(attachments).map_err(|e| Error::Other(format!("attaching dimension scales: {e}")))
+}
+
+fn attach_each(attachments: &[(&Dataset, &Dataset, usize)]) -> Result<()> {
     hdf5::sync::sync(|| {
         // Each dataset and each scale in the order first named, with what is attached to it.
         let mut datas: Vec<(&Dataset, Vec<(hobj_ref_t, usize)>)> = Vec::new();
@@ -119,38 +119,29 @@ fn reference(d: &Dataset, refs: &mut Vec<(hid_t, hobj_ref_t)>) -> Result<hobj_re
     if let Some(&(_, r)) = refs.iter().find(|(id, _)| *id == d.id()) {
         return Ok(r);
     }
-    let mut r: hobj_ref_t = 0;
-    // SAFETY: `d.id()` is an open dataset's; `r` is the 8 bytes an object reference of the 1.10
-    // format takes; "." names the object itself; under hdf5-metno's global lock (the caller's).
-    let status = unsafe {
-        H5Rcreate(
-            (&mut r as *mut hobj_ref_t).cast::<c_void>(),
-            d.id(),
-            c".".as_ptr(),
-            H5R_type_t::H5R_OBJECT1,
-            -1,
-        )
-    };
-    ok(status, "H5Rcreate")?;
+    let r = object_ref(d)?;
     refs.push((d.id(), r));
     Ok(r)
 }
 
-/// Writes `data`'s `DIMENSION_LIST`: the references it had, then each `(scale, dimension)` of
-/// `attached` not there already.
-fn write_dimension_list(data: &Dataset, attached: &[(hobj_ref_t, usize)]) -> Result<()> {
+/// The object references of `data`'s `DIMENSION_LIST`, one list per dimension (the scales
+/// attached to it), or `None` when it has none. An error where HDF5 cannot read it: the
+/// variable-length lists lie in the file's global heap, which HDF5 keeps no checksum of.
+pub(crate) fn dimension_list(data: &Dataset) -> Result<Option<Vec<Vec<hobj_ref_t>>>> {
     let rank = data.ndim().max(1);
     let did = data.id();
-    let mut lists: Vec<Vec<hobj_ref_t>> = vec![Vec::new(); rank];
-    // SAFETY: every id is checked when made and closed by its guard; the buffers read and
-    // written hold `rank` elements of the attribute's type (a variable-length list of object
-    // references per dimension), the lists HDF5 allocates on reading are copied out and given
-    // back with H5Treclaim; under hdf5-metno's global lock (the caller's).
-    unsafe {
-        let vlen = open(H5Tvlen_create(*H5T_STD_REF_OBJ), H5Tclose, "H5Tvlen_create")?;
-        let had = H5Aexists(did, DIMENSION_LIST.as_ptr());
-        ok(had, "H5Aexists(DIMENSION_LIST)")?;
-        if had > 0 {
+    hdf5::sync::sync(|| {
+        // SAFETY: every id is checked when made and closed by its guard; the buffer read holds
+        // `rank` elements of the attribute's type (checked), a variable-length list of object
+        // references per dimension; the lists HDF5 allocates are copied out and given back with
+        // H5Treclaim; under hdf5-metno's global lock.
+        unsafe {
+            let had = H5Aexists(did, DIMENSION_LIST.as_ptr());
+            ok(had, "H5Aexists(DIMENSION_LIST)")?;
+            if had == 0 {
+                return Ok(None);
+            }
+            let vlen = open(H5Tvlen_create(*H5T_STD_REF_OBJ), H5Tclose, "H5Tvlen_create")?;
             let a = open(
                 H5Aopen(did, DIMENSION_LIST.as_ptr(), H5P_DEFAULT),
                 H5Aclose,
@@ -159,7 +150,7 @@ fn write_dimension_list(data: &Dataset, attached: &[(hobj_ref_t, usize)]) -> Res
             let space = open(H5Aget_space(a.0), H5Sclose, "H5Aget_space")?;
             if H5Sget_simple_extent_npoints(space.0) != rank as i64 {
                 return Err(Error::Other(
-                    "attaching dimension scales: a DIMENSION_LIST of another rank".into(),
+                    "a DIMENSION_LIST of another rank than its dataset".into(),
                 ));
             }
             let mut buf = vec![
@@ -173,14 +164,16 @@ fn write_dimension_list(data: &Dataset, attached: &[(hobj_ref_t, usize)]) -> Res
                 H5Aread(a.0, vlen.0, buf.as_mut_ptr().cast::<c_void>()),
                 "H5Aread(DIMENSION_LIST)",
             )?;
-            for (list, v) in lists.iter_mut().zip(&buf) {
-                if v.len > 0 && !v.p.is_null() {
-                    list.extend_from_slice(std::slice::from_raw_parts(
-                        v.p.cast::<hobj_ref_t>(),
-                        v.len,
-                    ));
-                }
-            }
+            let lists = buf
+                .iter()
+                .map(|v| {
+                    if v.len > 0 && !v.p.is_null() {
+                        std::slice::from_raw_parts(v.p.cast::<hobj_ref_t>(), v.len).to_vec()
+                    } else {
+                        Vec::new()
+                    }
+                })
+                .collect();
             ok(
                 H5Treclaim(
                     vlen.0,
@@ -190,22 +183,55 @@ fn write_dimension_list(data: &Dataset, attached: &[(hobj_ref_t, usize)]) -> Res
                 ),
                 "H5Treclaim",
             )?;
-            drop(a);
+            Ok(Some(lists))
+        }
+    })
+}
+
+/// The object reference of the dataset `d` (its address in the file, the 1.10 format's).
+pub(crate) fn object_ref(d: &Dataset) -> Result<hobj_ref_t> {
+    let mut r: hobj_ref_t = 0;
+    // SAFETY: `d.id()` is an open dataset's; `r` is the 8 bytes an object reference of the 1.10
+    // format takes; "." names the object itself; under hdf5-metno's global lock.
+    let status = hdf5::sync::sync(|| unsafe {
+        H5Rcreate(
+            (&mut r as *mut hobj_ref_t).cast::<c_void>(),
+            d.id(),
+            c".".as_ptr(),
+            H5R_type_t::H5R_OBJECT1,
+            -1,
+        )
+    });
+    ok(status, "H5Rcreate")?;
+    Ok(r)
+}
+
+/// Writes `data`'s `DIMENSION_LIST`: the references it had, then each `(scale, dimension)` of
+/// `attached` not there already.
+fn write_dimension_list(data: &Dataset, attached: &[(hobj_ref_t, usize)]) -> Result<()> {
+    let rank = data.ndim().max(1);
+    let did = data.id();
+    let had = dimension_list(data)?;
+    let mut lists = had.clone().unwrap_or_else(|| vec![Vec::new(); rank]);
+    for &(scale, dim) in attached {
+        let list = lists.get_mut(dim).ok_or_else(|| {
+            Error::Other(format!("no dimension {dim} in a dataset of rank {rank}"))
+        })?;
+        if !list.contains(&scale) {
+            list.push(scale);
+        }
+    }
+    // SAFETY: every id is checked when made and closed by its guard; the buffer written holds
+    // `rank` elements of the attribute's type, each pointing into `lists`, alive for the call;
+    // under hdf5-metno's global lock (the caller's).
+    unsafe {
+        if had.is_some() {
             ok(
                 H5Adelete(did, DIMENSION_LIST.as_ptr()),
                 "H5Adelete(DIMENSION_LIST)",
             )?;
         }
-        for &(scale, dim) in attached {
-            let list = lists.get_mut(dim).ok_or_else(|| {
-                Error::Other(format!(
-                    "attaching dimension scales: no dimension {dim} in a dataset of rank {rank}"
-                ))
-            })?;
-            if !list.contains(&scale) {
-                list.push(scale);
-            }
-        }
+        let vlen = open(H5Tvlen_create(*H5T_STD_REF_OBJ), H5Tclose, "H5Tvlen_create")?;
         let dims = [rank as hsize_t];
         let space = open(
             H5Screate_simple(1, dims.as_ptr(), std::ptr::null()),
@@ -292,7 +318,7 @@ fn write_reference_list(scale: &Dataset, new: &[Attached]) -> Result<()> {
             let n = H5Sget_simple_extent_npoints(space.0);
             if n < 0 {
                 return Err(Error::Other(
-                    "attaching dimension scales: H5Sget_simple_extent_npoints failed".into(),
+                    "HDF5's H5Sget_simple_extent_npoints failed".into(),
                 ));
             }
             entries = vec![
