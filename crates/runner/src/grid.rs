@@ -205,10 +205,10 @@ impl Grid {
     }
 
     /// [`Grid::new`], calling `progress` with the number of points expanded so far after each
-    /// chunk of at most a few thousand points (from the worker threads). A grid of more than a
-    /// few dozen points is expanded in parallel, in chunks, on a pool of its own; the grid is the
-    /// same as a sequential expansion's, whatever the threads (every value is computed per point,
-    /// and a chunk's findings are merged in order).
+    /// chunk of at most a few thousand points (from the threads expanding them). A grid of more
+    /// than a few dozen points is expanded in chunks by this thread and helpers made for it; the
+    /// grid is the same as a sequential expansion's, whatever the threads (every value is
+    /// computed per point, and the chunks' findings are merged in grid order).
     pub fn expand(sweep: &Sweep, progress: &(dyn Fn(usize) + Sync)) -> Result<Grid> {
         Grid::expand_keeping_first(sweep, progress, None, None).map(|(grid, _)| grid)
     }
@@ -359,7 +359,9 @@ impl Grid {
                     .push((c, info));
             };
             std::thread::scope(|s| {
-                for _ in 1..threads {
+                // (No more helpers than there are chunks for them.)
+                let chunks = n.div_ceil(chunk_points);
+                for _ in 1..threads.min(chunks) {
                     // A helper that cannot be started leaves its chunks to the others.
                     let _ = std::thread::Builder::new().spawn_scoped(s, expand_chunks);
                 }

@@ -363,7 +363,7 @@ impl FileRecords {
     /// What is wrong with the dimension scales of the file's datasets: a `DIMENSION_LIST` that
     /// cannot be read (its lists lie in the global heap, which neither HDF5 nor the file's
     /// checksums cover), or one naming an object that is not a dataset of the file's root whose
-    /// first dimension is as long as that dimension. h5py and xarray read these lists to label every variable, so a
+    /// first dimension is as long as that dimension and whose `REFERENCE_LIST` lists it there. h5py and xarray read these lists to label every variable, so a
     /// damaged one is reported here rather than met there.
     fn scales_damage(&self) -> Option<String> {
         let names = match self.file.member_names() {
@@ -382,8 +382,11 @@ impl FileRecords {
                 Some((_, d)) => d.clone(),
                 None => match self.file.dataset(&name) {
                     Ok(d) => d,
-                    // (A group of an older layout's runs.)
-                    Err(_) => continue,
+                    // (The runs' groups of an older layout.)
+                    Err(_) if self.file.group(&name).is_ok() => continue,
+                    Err(e) => {
+                        return Some(format!("`{name}` cannot be read ({})", brief(&e.into())))
+                    }
                 },
             };
             let r = match scales::object_ref(&d) {
@@ -392,7 +395,28 @@ impl FileRecords {
             };
             datasets.push((name, d, r));
         }
-        for (name, d, _) in &datasets {
+        // What each scale's REFERENCE_LIST says it labels, `(scale, dataset, dimension)`: it lies
+        // in the scale's object header, which HDF5 checksums, so a list of a dataset's scales
+        // must agree with it (a damaged one could otherwise name another scale of the same
+        // length).
+        let mut labelled = Vec::new();
+        for (name, d, r) in &datasets {
+            match scales::reference_list(d) {
+                Ok(Some(entries)) => labelled.extend(
+                    entries
+                        .into_iter()
+                        .map(|e| (*r, e.dataset, e.dimension as usize)),
+                ),
+                Ok(None) => {}
+                Err(e) => {
+                    return Some(format!(
+                        "what the dimension scale `{name}` labels cannot be read ({})",
+                        brief(&e)
+                    ))
+                }
+            }
+        }
+        for (name, d, data_ref) in &datasets {
             let lists = match scales::dimension_list(d) {
                 Ok(Some(lists)) => lists,
                 Ok(None) => continue,
@@ -409,9 +433,11 @@ impl FileRecords {
                 for r in list {
                     let scale = datasets.iter().find(|(_, _, sr)| sr == r);
                     // (A text coordinate is a scale of its first dimension.)
-                    if !scale.is_some_and(|(_, s, _)| s.shape().first() == Some(&extent)) {
+                    if !scale.is_some_and(|(_, s, _)| s.shape().first() == Some(&extent))
+                        || !labelled.contains(&(*r, *data_ref, k))
+                    {
                         return Some(format!(
-                            "the dimension scales of `{name}` name no dataset of its dimension {k}'s length ({extent})"
+                            "the dimension scales of `{name}` name no scale of its dimension {k} ({extent} long) that lists it"
                         ));
                     }
                 }

@@ -1,11 +1,13 @@
 //! Dimension scales attached to many datasets in one pass, and read back.
 //!
 //! `H5DSattach_scale` attaches one scale to one dimension of one dataset: it reads the dataset's
-//! `DIMENSION_LIST` and the scale's `REFERENCE_LIST`, deletes both and writes them again one
-//! entry longer. Attaching the grid's scales to every summary column so rewrote each scale's
-//! list once per column: about 1.3 ms of the 6 ms the Fig. 8 sweep's file took to write, every
-//! time it was published. [`attach_all`] leaves the same two attributes, with the same types,
-//! entries and entry order as the calls one at a time would, writing each once.
+//! `DIMENSION_LIST` and writes it over one entry longer, and reads the scale's `REFERENCE_LIST`,
+//! deletes it and creates it again one entry longer. Attaching the grid's scales to every summary
+//! column so rewrote each scale's list once per column: about 1.3 ms of the 6 ms the Fig. 8
+//! sweep's file took to write, every time it was published. [`attach_all`] leaves the same two
+//! attributes, with the same types, entries and entry order as the calls one at a time would,
+//! writing each once. The reader reads both back ([`dimension_list`], [`reference_list`]) to
+//! check them: the first lies in the file's global heap, which no checksum covers.
 
 use std::ffi::{c_void, CStr};
 use std::os::raw::c_uint;
@@ -34,10 +36,12 @@ const REFERENCE_LIST: &CStr = c"REFERENCE_LIST";
 /// HDF5's `ds_list_t` (an object reference of the 1.10 format and an `unsigned int`, 16 bytes
 /// with the padding), whose layout the attribute's compound type gives.
 #[repr(C)]
-#[derive(Clone, Copy)]
-struct Attached {
-    dataset: hobj_ref_t,
-    dimension: c_uint,
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Attached {
+    pub(crate) dataset: hobj_ref_t,
+    pub(crate) dimension: c_uint,
+    /// The padding, zero: written to the file as it lies in memory.
+    padding: c_uint,
 }
 
 /// An identifier that HDF5 gave and that is closed when dropped.
@@ -98,6 +102,7 @@ fn attach_each(attachments: &[(&Dataset, &Dataset, usize)]) -> Result<()> {
             let entry = Attached {
                 dataset: data_ref,
                 dimension: dim as c_uint,
+                padding: 0,
             };
             match scales.iter_mut().find(|(s, _)| s.id() == scale.id()) {
                 Some((_, list)) => list.push(entry),
@@ -132,8 +137,8 @@ pub(crate) fn dimension_list(data: &Dataset) -> Result<Option<Vec<Vec<hobj_ref_t
     let did = data.id();
     hdf5::sync::sync(|| {
         // SAFETY: every id is checked when made and closed by its guard; the buffer read holds
-        // `rank` elements of the attribute's type (checked), a variable-length list of object
-        // references per dimension; the lists HDF5 allocates are copied out and given back with
+        // as many elements as the attribute (checked), each a variable-length list of object
+        // references, the memory type HDF5 converts the stored one to; the lists HDF5 allocates are copied out and given back with
         // H5Treclaim; under hdf5-metno's global lock.
         unsafe {
             let had = H5Aexists(did, DIMENSION_LIST.as_ptr());
@@ -188,7 +193,8 @@ pub(crate) fn dimension_list(data: &Dataset) -> Result<Option<Vec<Vec<hobj_ref_t
     })
 }
 
-/// The object reference of the dataset `d` (its address in the file, the 1.10 format's).
+/// The object reference of the dataset `d`: an old-style reference (`H5R_OBJECT1`, its
+/// address in the file), the kind H5DS writes in this library's build.
 pub(crate) fn object_ref(d: &Dataset) -> Result<hobj_ref_t> {
     let mut r: hobj_ref_t = 0;
     // SAFETY: `d.id()` is an open dataset's; `r` is the 8 bytes an object reference of the 1.10
@@ -225,31 +231,35 @@ fn write_dimension_list(data: &Dataset, attached: &[(hobj_ref_t, usize)]) -> Res
     // `rank` elements of the attribute's type, each pointing into `lists`, alive for the call;
     // under hdf5-metno's global lock (the caller's).
     unsafe {
-        if had.is_some() {
-            ok(
-                H5Adelete(did, DIMENSION_LIST.as_ptr()),
-                "H5Adelete(DIMENSION_LIST)",
-            )?;
-        }
         let vlen = open(H5Tvlen_create(*H5T_STD_REF_OBJ), H5Tclose, "H5Tvlen_create")?;
-        let dims = [rank as hsize_t];
-        let space = open(
-            H5Screate_simple(1, dims.as_ptr(), std::ptr::null()),
-            H5Sclose,
-            "H5Screate_simple",
-        )?;
-        let a = open(
-            H5Acreate2(
-                did,
-                DIMENSION_LIST.as_ptr(),
-                vlen.0,
-                space.0,
-                H5P_DEFAULT,
-                H5P_DEFAULT,
-            ),
-            H5Aclose,
-            "H5Acreate2(DIMENSION_LIST)",
-        )?;
+        // A list there already is written over, as H5DSattach_scale writes it: writing frees
+        // its old lists in the global heap, which deleting the attribute would leave behind.
+        let a = if had.is_some() {
+            open(
+                H5Aopen(did, DIMENSION_LIST.as_ptr(), H5P_DEFAULT),
+                H5Aclose,
+                "H5Aopen(DIMENSION_LIST)",
+            )?
+        } else {
+            let dims = [rank as hsize_t];
+            let space = open(
+                H5Screate_simple(1, dims.as_ptr(), std::ptr::null()),
+                H5Sclose,
+                "H5Screate_simple",
+            )?;
+            open(
+                H5Acreate2(
+                    did,
+                    DIMENSION_LIST.as_ptr(),
+                    vlen.0,
+                    space.0,
+                    H5P_DEFAULT,
+                    H5P_DEFAULT,
+                ),
+                H5Aclose,
+                "H5Acreate2(DIMENSION_LIST)",
+            )?
+        };
         let buf: Vec<hvl_t> = lists
             .iter()
             .map(|l| hvl_t {
@@ -269,16 +279,10 @@ fn write_dimension_list(data: &Dataset, attached: &[(hobj_ref_t, usize)]) -> Res
     }
 }
 
-/// Writes `scale`'s `REFERENCE_LIST`: the entries it had, then `new`.
-fn write_reference_list(scale: &Dataset, new: &[Attached]) -> Result<()> {
-    if new.is_empty() {
-        return Ok(());
-    }
-    let sid = scale.id();
-    // SAFETY: every id is checked when made and closed by its guard; the buffers read and
-    // written hold as many `Attached` as the attribute has elements, in the compound type made
-    // here from `Attached`'s layout (HDF5 converts the stored one to it by member name); under
-    // hdf5-metno's global lock (the caller's).
+/// The compound type of a `REFERENCE_LIST` entry in memory, [`Attached`]'s layout.
+fn entry_type() -> Result<Id> {
+    // SAFETY: the type made is checked and closed by its guard; the members lie within
+    // `Attached` at its fields' offsets; under hdf5-metno's global lock (the caller's).
     unsafe {
         let memory = open(
             H5Tcreate(H5T_class_t::H5T_COMPOUND, std::mem::size_of::<Attached>()),
@@ -303,49 +307,90 @@ fn write_reference_list(scale: &Dataset, new: &[Attached]) -> Result<()> {
             ),
             "H5Tinsert(dimension)",
         )?;
-        let mut entries: Vec<Attached> = Vec::new();
-        // The stored type is kept when the list is extended, as H5DSattach_scale keeps it.
-        let mut stored = None;
+        Ok(memory)
+    }
+}
+
+/// `scale`'s `REFERENCE_LIST` read in the memory type `memory` ([`entry_type`]), with its stored
+/// type; `None` when it has none.
+fn read_reference_list(scale: &Dataset, memory: &Id) -> Result<Option<(Vec<Attached>, Id)>> {
+    let sid = scale.id();
+    // SAFETY: every id is checked when made and closed by its guard; the buffer read holds as
+    // many `Attached` as the attribute has elements, in `memory` (HDF5 converts the stored type
+    // to it by member name); under hdf5-metno's global lock (the caller's).
+    unsafe {
         let had = H5Aexists(sid, REFERENCE_LIST.as_ptr());
         ok(had, "H5Aexists(REFERENCE_LIST)")?;
-        if had > 0 {
-            let a = open(
-                H5Aopen(sid, REFERENCE_LIST.as_ptr(), H5P_DEFAULT),
-                H5Aclose,
-                "H5Aopen(REFERENCE_LIST)",
-            )?;
-            let space = open(H5Aget_space(a.0), H5Sclose, "H5Aget_space")?;
-            let n = H5Sget_simple_extent_npoints(space.0);
-            if n < 0 {
-                return Err(Error::Other(
-                    "HDF5's H5Sget_simple_extent_npoints failed".into(),
-                ));
-            }
-            entries = vec![
-                Attached {
-                    dataset: 0,
-                    dimension: 0
-                };
-                n as usize
-            ];
-            ok(
-                H5Aread(a.0, memory.0, entries.as_mut_ptr().cast::<c_void>()),
-                "H5Aread(REFERENCE_LIST)",
-            )?;
-            stored = Some(open(H5Aget_type(a.0), H5Tclose, "H5Aget_type")?);
-            drop(a);
+        if had == 0 {
+            return Ok(None);
+        }
+        let a = open(
+            H5Aopen(sid, REFERENCE_LIST.as_ptr(), H5P_DEFAULT),
+            H5Aclose,
+            "H5Aopen(REFERENCE_LIST)",
+        )?;
+        let space = open(H5Aget_space(a.0), H5Sclose, "H5Aget_space")?;
+        let n = H5Sget_simple_extent_npoints(space.0);
+        if n < 0 {
+            return Err(Error::Other(
+                "HDF5's H5Sget_simple_extent_npoints failed".into(),
+            ));
+        }
+        let mut entries = vec![
+            Attached {
+                dataset: 0,
+                dimension: 0,
+                padding: 0,
+            };
+            n as usize
+        ];
+        ok(
+            H5Aread(a.0, memory.0, entries.as_mut_ptr().cast::<c_void>()),
+            "H5Aread(REFERENCE_LIST)",
+        )?;
+        let stored = open(H5Aget_type(a.0), H5Tclose, "H5Aget_type")?;
+        Ok(Some((entries, stored)))
+    }
+}
+
+/// The entries of `scale`'s `REFERENCE_LIST` (the datasets it labels and their dimensions), or
+/// `None` when it has none.
+pub(crate) fn reference_list(scale: &Dataset) -> Result<Option<Vec<Attached>>> {
+    hdf5::sync::sync(|| {
+        let memory = entry_type()?;
+        Ok(read_reference_list(scale, &memory)?.map(|(entries, _)| entries))
+    })
+}
+
+/// Writes `scale`'s `REFERENCE_LIST`: the entries it had, then `new`.
+fn write_reference_list(scale: &Dataset, new: &[Attached]) -> Result<()> {
+    if new.is_empty() {
+        return Ok(());
+    }
+    let sid = scale.id();
+    let memory = entry_type()?;
+    let (mut entries, stored) = match read_reference_list(scale, &memory)? {
+        Some((entries, stored)) => (entries, Some(stored)),
+        None => (Vec::new(), None),
+    };
+    entries.extend_from_slice(new);
+    // SAFETY: every id is checked when made and closed by its guard; the buffer written holds
+    // as many `Attached` as the attribute has elements, in `memory`; under hdf5-metno's global
+    // lock (the caller's).
+    unsafe {
+        if stored.is_some() {
             ok(
                 H5Adelete(sid, REFERENCE_LIST.as_ptr()),
                 "H5Adelete(REFERENCE_LIST)",
             )?;
         }
-        entries.extend_from_slice(new);
         let dims = [entries.len() as hsize_t];
         let space = open(
             H5Screate_simple(1, dims.as_ptr(), std::ptr::null()),
             H5Sclose,
             "H5Screate_simple",
         )?;
+        // The stored type is kept when the list is extended, as H5DSattach_scale keeps it.
         let file_type = stored.as_ref().map_or(memory.0, |t| t.0);
         let a = open(
             H5Acreate2(
@@ -399,10 +444,31 @@ mod tests {
                 }
             }
         }
+        // The lists themselves, in order, their references named.
+        let all: Vec<&str> = datas.iter().chain(scales).copied().collect();
+        let name_of = |r: &hobj_ref_t| {
+            all.iter()
+                .find(|n| object_ref(&file.dataset(n).unwrap()).unwrap() == *r)
+                .copied()
+                .unwrap_or("?")
+        };
+        for &n in datas {
+            if let Some(lists) = dimension_list(&file.dataset(n).unwrap()).unwrap() {
+                let named: Vec<Vec<&str>> = lists
+                    .iter()
+                    .map(|l| l.iter().map(name_of).collect())
+                    .collect();
+                out.push(format!("{n} DIMENSION_LIST {named:?}"));
+            }
+        }
         for &s in scales {
-            let d = file.dataset(s).unwrap();
-            let n = d.attr("REFERENCE_LIST").map_or(0, |a| a.size());
-            out.push(format!("{s}: {n} in REFERENCE_LIST"));
+            let entries = reference_list(&file.dataset(s).unwrap()).unwrap();
+            let named: Vec<(&str, u32)> = entries
+                .iter()
+                .flatten()
+                .map(|e| (name_of(&e.dataset), e.dimension))
+                .collect();
+            out.push(format!("{s}: {} in REFERENCE_LIST {named:?}", named.len()));
         }
         out
     }
@@ -451,12 +517,14 @@ mod tests {
         let (datas, scales) = (["a", "b", "t", "u"], ["x", "y", "c"]);
         let expected = seen(&one, &datas, &scales);
         assert!(
-            expected.contains(&"x: 5 in REFERENCE_LIST".to_string()),
+            expected.iter().any(|l| l.starts_with(
+                r#"x: 5 in REFERENCE_LIST [("u", 0), ("a", 0), ("b", 0), ("a", 0), ("t", 0)]"#
+            )),
             "{expected:?}"
         );
         assert_eq!(seen(&all, &datas, &scales), expected);
-        // HDF5's own functions go on from the lists written together: attaching `u` to `y`'s
-        // list after them, detaching `b` from `x`.
+        // HDF5's own functions go on from the lists written together: detaching `b` from `x`,
+        // attaching `y` to `t`'s second dimension.
         for file in [&one, &all] {
             let (b, x) = (file.dataset("b").unwrap(), file.dataset("x").unwrap());
             let r = hdf5::sync::sync(|| unsafe { H5DSdetach_scale(b.id(), x.id(), 0) });
