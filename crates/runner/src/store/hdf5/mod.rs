@@ -361,13 +361,8 @@ fn checked_builder<T: H5Type>(group: &Group, shape: &[usize]) -> hdf5::DatasetBu
     if shape.is_empty() {
         b.layout(hdf5::plist::dataset_create::Layout::Compact)
     } else {
-        // No chunk cache: each chunk is written once, whole, and the writer keeps the columns
-        // open until their scales are attached together (`scales::attach_all`); a cache of
-        // HDF5's default megabyte each would hold their chunks until then (18 MiB more at the
-        // peak of the 100 000-run summary sweep).
         b.chunk(chunk_shape(shape, std::mem::size_of::<T>()))
             .fletcher32()
-            .chunk_cache(0, 0, 1.0)
     }
 }
 

@@ -64,9 +64,6 @@ pub struct FileRecords {
     table: Table,
     /// The datasets each column of [`COLUMNS`] was read from (none where the file has none).
     column_names: Vec<Vec<String>>,
-    /// The columns' datasets opened to read them, with their names: their attributes are
-    /// checked from them (opening a dataset again by name costs HDF5 a lookup and a header read).
-    opened: Vec<(String, Dataset)>,
     /// Columns HDF5 could not read, with the error.
     unreadable: Vec<(&'static str, String)>,
     /// Per point: why its values cannot be trusted.
@@ -110,30 +107,23 @@ fn column_datasets(file: &File, c: &Column) -> Result<(Vec<String>, Vec<String>)
 }
 
 /// Column `c` of `file` as its datasets hold it ([`column_datasets`]): a column split by unit
-/// takes each probe's values from the dataset of its unit. Each dataset opened is kept in
-/// `opened` with its name (its attributes are checked after).
+/// takes each probe's values from the dataset of its unit.
 fn read_column_of(
     file: &File,
     c: &Column,
     names: &[String],
     units: &[String],
     nh: usize,
-    opened: &mut Vec<(String, Dataset)>,
 ) -> Result<ColumnData> {
-    let mut open = |name: &String| -> Result<Dataset> {
-        let d = file.dataset(name)?;
-        opened.push((name.clone(), d.clone()));
-        Ok(d)
-    };
     if units.is_empty() {
-        return read_column(&open(&names[0])?, c.dtype);
+        return read_column(&file.dataset(&names[0])?, c.dtype);
     }
     let np = units.len();
     // Values per probe: one per harmonic in the steady state's amplitudes.
     let per = if c.per_harmonic { nh.max(1) } else { 1 };
     let mut out: Option<Vec<f64>> = None;
     for (name, u) in names.iter().zip(distinct_units(units)) {
-        let part: Vec<f64> = read_unchecked(&open(name)?)?;
+        let part: Vec<f64> = read_unchecked(&file.dataset(name)?)?;
         let out = out.get_or_insert_with(|| vec![f64::NAN; part.len()]);
         if part.len() != out.len() || part.len() % np != 0 {
             return Err(Error::Other(format!(
@@ -224,7 +214,6 @@ impl FileRecords {
         };
         let mut columns = Vec::with_capacity(COLUMNS.len());
         let mut column_names = Vec::with_capacity(COLUMNS.len());
-        let mut opened = Vec::new();
         for c in COLUMNS {
             let mut read_names = Vec::new();
             let read = column_datasets(&file, c).and_then(|(names, units)| {
@@ -236,7 +225,7 @@ impl FileRecords {
                 } else {
                     names
                 };
-                read_column_of(&file, c, &read_names, &units, nh, &mut opened).map(Some)
+                read_column_of(&file, c, &read_names, &units, nh).map(Some)
             });
             column_names.push(read_names);
             columns.push(match read {
@@ -294,7 +283,6 @@ impl FileRecords {
             file,
             table,
             column_names,
-            opened,
             unreadable,
             damage: vec![None; n],
             arrays: OnceLock::new(),
@@ -378,16 +366,11 @@ impl FileRecords {
         // Every dataset of the root with its reference and shape.
         let mut datasets = Vec::with_capacity(names.len());
         for name in names {
-            let d = match self.opened.iter().find(|(n, _)| *n == name) {
-                Some((_, d)) => d.clone(),
-                None => match self.file.dataset(&name) {
-                    Ok(d) => d,
-                    // (The runs' groups of an older layout.)
-                    Err(_) if self.file.group(&name).is_ok() => continue,
-                    Err(e) => {
-                        return Some(format!("`{name}` cannot be read ({})", brief(&e.into())))
-                    }
-                },
+            let d = match self.file.dataset(&name) {
+                Ok(d) => d,
+                // (The runs' groups of an older layout.)
+                Err(_) if self.file.group(&name).is_ok() => continue,
+                Err(e) => return Some(format!("`{name}` cannot be read ({})", brief(&e.into()))),
             };
             let r = match scales::object_ref(&d) {
                 Ok(r) => r,
@@ -461,15 +444,15 @@ impl FileRecords {
             }
             for name in names {
                 let want = sums.get(name).and_then(|v| v.as_str());
-                let got = match self.opened.iter().find(|(n, _)| n == name) {
-                    Some((_, d)) => column_text_checksum(d),
-                    None => self
-                        .file
-                        .dataset(name)
-                        .map_err(Error::from)
-                        .and_then(|d| column_text_checksum(&d)),
-                }
-                .map(|x| x.to_string());
+                // (Opened again rather than kept open from its reading: an open dataset keeps
+                // the chunks it read in its cache, 17 MB more at the end of the 100 000-run
+                // summary sweep.)
+                let got = self
+                    .file
+                    .dataset(name)
+                    .map_err(Error::from)
+                    .and_then(|d| column_text_checksum(&d))
+                    .map(|x| x.to_string());
                 if want.is_none() || got.ok().as_deref() != want {
                     bad.push(name.clone());
                 }
