@@ -351,8 +351,9 @@ impl FileRecords {
     /// What is wrong with the dimension scales of the file's datasets: a `DIMENSION_LIST` that
     /// cannot be read (its lists lie in the global heap, which neither HDF5 nor the file's
     /// checksums cover), or one naming an object that is not a dataset of the file's root whose
-    /// first dimension is as long as that dimension and whose `REFERENCE_LIST` lists it there. h5py and xarray read these lists to label every variable, so a
-    /// damaged one is reported here rather than met there.
+    /// first dimension is as long as that dimension and whose `REFERENCE_LIST` lists it there.
+    /// h5py and xarray read these lists to label every variable, so a damaged one is reported
+    /// here rather than met there.
     fn scales_damage(&self) -> Option<String> {
         let names = match self.file.member_names() {
             Ok(n) => n,
