@@ -129,6 +129,27 @@ fn reference(d: &Dataset, refs: &mut Vec<(hid_t, hobj_ref_t)>) -> Result<hobj_re
     Ok(r)
 }
 
+/// The attribute `name` of the object `loc` opened, with its dataspace; `None` when it has none.
+fn open_attribute(loc: hid_t, name: &CStr) -> Result<Option<(Id, Id)>> {
+    // SAFETY: `loc` is an open object's id (the callers'); `name` is NUL-terminated; every id
+    // made is checked and closed by its guard; under hdf5-metno's global lock (the caller's).
+    unsafe {
+        let what = name.to_string_lossy();
+        let had = H5Aexists(loc, name.as_ptr());
+        ok(had, &format!("H5Aexists({what})"))?;
+        if had == 0 {
+            return Ok(None);
+        }
+        let a = open(
+            H5Aopen(loc, name.as_ptr(), H5P_DEFAULT),
+            H5Aclose,
+            &format!("H5Aopen({what})"),
+        )?;
+        let space = open(H5Aget_space(a.0), H5Sclose, "H5Aget_space")?;
+        Ok(Some((a, space)))
+    }
+}
+
 /// The object references of `data`'s `DIMENSION_LIST`, one list per dimension (the scales
 /// attached to it), or `None` when it has none. An error where HDF5 cannot read it: the
 /// variable-length lists lie in the file's global heap, which HDF5 keeps no checksum of.
@@ -138,21 +159,13 @@ pub(crate) fn dimension_list(data: &Dataset) -> Result<Option<Vec<Vec<hobj_ref_t
     hdf5::sync::sync(|| {
         // SAFETY: every id is checked when made and closed by its guard; the buffer read holds
         // as many elements as the attribute (checked), each a variable-length list of object
-        // references, the memory type HDF5 converts the stored one to; the lists HDF5 allocates are copied out and given back with
-        // H5Treclaim; under hdf5-metno's global lock.
+        // references, the memory type HDF5 converts the stored one to; the lists HDF5 allocates
+        // are copied out and given back with H5Treclaim; under hdf5-metno's global lock.
         unsafe {
-            let had = H5Aexists(did, DIMENSION_LIST.as_ptr());
-            ok(had, "H5Aexists(DIMENSION_LIST)")?;
-            if had == 0 {
+            let Some((a, space)) = open_attribute(did, DIMENSION_LIST)? else {
                 return Ok(None);
-            }
+            };
             let vlen = open(H5Tvlen_create(*H5T_STD_REF_OBJ), H5Tclose, "H5Tvlen_create")?;
-            let a = open(
-                H5Aopen(did, DIMENSION_LIST.as_ptr(), H5P_DEFAULT),
-                H5Aclose,
-                "H5Aopen(DIMENSION_LIST)",
-            )?;
-            let space = open(H5Aget_space(a.0), H5Sclose, "H5Aget_space")?;
             if H5Sget_simple_extent_npoints(space.0) != rank as i64 {
                 return Err(Error::Other(
                     "a DIMENSION_LIST of another rank than its dataset".into(),
@@ -319,17 +332,9 @@ fn read_reference_list(scale: &Dataset, memory: &Id) -> Result<Option<(Vec<Attac
     // many `Attached` as the attribute has elements, in `memory` (HDF5 converts the stored type
     // to it by member name); under hdf5-metno's global lock (the caller's).
     unsafe {
-        let had = H5Aexists(sid, REFERENCE_LIST.as_ptr());
-        ok(had, "H5Aexists(REFERENCE_LIST)")?;
-        if had == 0 {
+        let Some((a, space)) = open_attribute(sid, REFERENCE_LIST)? else {
             return Ok(None);
-        }
-        let a = open(
-            H5Aopen(sid, REFERENCE_LIST.as_ptr(), H5P_DEFAULT),
-            H5Aclose,
-            "H5Aopen(REFERENCE_LIST)",
-        )?;
-        let space = open(H5Aget_space(a.0), H5Sclose, "H5Aget_space")?;
+        };
         let n = H5Sget_simple_extent_npoints(space.0);
         if n < 0 {
             return Err(Error::Other(
