@@ -3,9 +3,8 @@
 //! SIGPIPE stays ignored (Rust's default): a reader that goes away (`chainsweep run … 2>&1 |
 //! head`) must not kill a sweep; every line printed ignores write errors instead.
 
-/// jemalloc rather than glibc's malloc: runs allocate and free their chains, scenes and work spaces
-/// by the hundred thousand in a sweep, and glibc's malloc made that 5 % of the Fig. 8 sweep's wall
-/// (the runner's `jemalloc` feature, on by default).
+/// jemalloc rather than glibc's malloc, for a sweep's churn of allocations (why: the runner's
+/// Cargo.toml, at its `tikv-jemallocator` dependency).
 #[cfg(feature = "jemalloc")]
 #[global_allocator]
 static ALLOCATOR: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;
