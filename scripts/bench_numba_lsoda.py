@@ -49,6 +49,13 @@ What is measured (all in one run, the two sides alternating, so both see the sam
 4. The speed ratio at equal accuracy: for each chainsweep rung, the peer's time at the same max
    error, interpolated log-log between its bracketing rungs (and, without interpolation, its
    cheapest rung at least as accurate).
+5. The fixed costs of each side, in the same rounds: the sweep with every point run for one summary
+   interval (0.2 µs). The peer's are its pool's start and end and its drivers' set-up; chainsweep's
+   are its start (the sweep read, its scenes built, checked and named), each run's set-up, and
+   its output file written while the first runs compute, written again at the end, checksummed
+   and read back twice before the logs it makes redundant are removed: the peer writes nothing.
+   The ratio of the runs alone (each sweep's wall less its side's fixed costs) says how much of
+   the distance to the end-to-end ratio is the file's.
 
     python scripts/bench_numba_lsoda.py [--repeats 5] [--chunk-us 50] [--rtols 1e-6,...] [--ours-rtols 1e-6,...]
 
@@ -82,6 +89,8 @@ REFERENCE = {"method": "dop853", "rtol": 1e-12}
 PEER_CHECK_RTOL = 1e-12
 CHUNK_US = 50.0
 JOBS = 2
+# The rtol of the fixed-cost sweeps (their runs end after one summary interval: it hardly matters).
+FIXED_RTOL = 1e-8
 #: Largest allowed difference of the peer's gauge histories from chainsweep's, relative to the
 #: two-body impact force (the RHS check).
 RHS_CHECK_MAX = 1e-7
@@ -397,21 +406,23 @@ _PEER: dict = {}
 
 
 def _peer_task(args):
-    i, rtol = args
+    i, rtol, duration = args
     pt: Point = _PEER["points"][i]
     peaks, times, nfev, t_end, ok = _PEER["run_point"](
-        _PEER["funcptr"], pt.y0, pt.data.copy(), pt.cylinders, pt.arrival, pt.release, pt.dt, pt.duration,
-        rtol, _PEER["chunk"])
+        _PEER["funcptr"], pt.y0, pt.data.copy(), pt.cylinders, pt.arrival, pt.release, pt.dt,
+        pt.duration if duration is None else duration, rtol, _PEER["chunk"])
     return i, peaks, int(nfev), t_end, ok
 
 
-def peer_sweep(n_points: int, rtol: float):
-    """The 182 runs over a pool of JOBS processes (forked: they inherit the compiled code). Returns
-    (F21/F4 per point, total RHS evaluations, wall seconds including the pool's start and end)."""
+def peer_sweep(n_points: int, rtol: float, duration: float | None = None):
+    """The 182 runs over a pool of JOBS processes (forked: they inherit the compiled code), each to
+    its scene's end (or `duration`, s). Returns (F21/F4 per point, total RHS evaluations, wall
+    seconds including the pool's start and end, the leading peaks)."""
     start = time.perf_counter()
     ctx = multiprocessing.get_context("fork")
     with ctx.Pool(JOBS) as pool:
-        results = list(pool.imap_unordered(_peer_task, [(i, rtol) for i in range(n_points)], chunksize=1))
+        results = list(pool.imap_unordered(_peer_task, [(i, rtol, duration) for i in range(n_points)],
+                                           chunksize=1))
     wall = time.perf_counter() - start
     peaks = np.full((n_points, 2), np.nan)
     nfev = 0
@@ -423,14 +434,18 @@ def peer_sweep(n_points: int, rtol: float):
 
 
 # ---------------------------------------------------------------------------------- chainsweep
-def ours_sweep(tmp: Path, integrator: dict, tag: str, binary: Path | None = None):
-    """`chainsweep run` of fig08.json with its integrator block replaced, --jobs 2, into a fresh
-    file, by `binary` (default: this tree's). Returns (F21/F4 per point in grid order, total RHS
-    evaluations, wall seconds)."""
+def ours_sweep(tmp: Path, integrator: dict, tag: str, binary: Path | None = None,
+               duration_s: float | None = None):
+    """`chainsweep run` of fig08.json with its integrator block replaced (and its runs' duration,
+    when given), --jobs 2, into a fresh file, by `binary` (default: this tree's). Returns (F21/F4
+    per point in grid order, total RHS evaluations, wall seconds, ε and μ per point, the leading
+    peaks)."""
     import chainsweep
 
     spec = json.loads(SWEEP.read_text())
     spec["base"]["integrator"] = integrator
+    if duration_s is not None:
+        spec["base"]["duration_s"] = duration_s
     d = Path(tempfile.mkdtemp(dir=tmp, prefix=f"ours-{tag}-"))
     sweep = d / "fig08.json"
     sweep.write_text(json.dumps(spec))
@@ -585,6 +600,8 @@ def main() -> int:
         ours_rows = {r: {"rtol": r, "walls": []} for r in ours_rtols}
         base_rows = {r: {"rtol": r, "walls": []} for r in ours_rtols} if args.base_bin else {}
         peer_rows = {r: {"rtol": r, "walls": []} for r in peer_rtols}
+        fixed: dict[str, list[float]] = {"chainsweep": [], "before": [], "peer": []}
+        fixed_s = points[0].dt
         print(f"\n3. ladders, {args.repeats} alternating rounds:", flush=True)
         for rep in range(args.repeats):
             for k in range(max(len(ours_rtols), len(peer_rtols))):
@@ -611,9 +628,20 @@ def main() -> int:
                     row["rhs_evals"] = nfev
                     row["max_error"], row["median_error"] = errors(ratio, ref)
                     row["errors"] = [float(f"{x:.3g}") for x in np.abs(ratio / ref - 1.0)]
+            # The fixed costs: every point run for one summary interval (the processes or threads
+            # started, the scenes built, the observers set up, and for chainsweep its output file
+            # written, checksummed and read back, which the peer does not do).
+            fixed_integ = {"method": "dop853", "rtol": FIXED_RTOL, "predict_switches": True}
+            fixed["chainsweep"].append(ours_sweep(tmp, fixed_integ, "fixed", duration_s=fixed_s)[2])
+            if args.base_bin:
+                fixed["before"].append(ours_sweep(tmp, fixed_integ, "base-fixed", args.base_bin, fixed_s)[2])
+            fixed["peer"].append(peer_sweep(n, FIXED_RTOL, fixed_s)[2])
             print(f"  round {rep + 1}: chainsweep " + ", ".join(f"{ours_rows[r]['walls'][-1]:.2f}" for r in ours_rtols)
                   + (" s; before " + ", ".join(f"{base_rows[r]['walls'][-1]:.2f}" for r in ours_rtols) if base_rows else "")
-                  + " s; peer " + ", ".join(f"{peer_rows[r]['walls'][-1]:.2f}" for r in peer_rtols) + " s", flush=True)
+                  + " s; peer " + ", ".join(f"{peer_rows[r]['walls'][-1]:.2f}" for r in peer_rtols) + " s"
+                  + f"; fixed costs {fixed['chainsweep'][-1]:.3f}"
+                  + (f" (before {fixed['before'][-1]:.3f})" if args.base_bin else "")
+                  + f", peer {fixed['peer'][-1]:.3f} s", flush=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     for rows in (ours_rows, base_rows, peer_rows):
@@ -651,6 +679,24 @@ def main() -> int:
         print(f"speed ratio at equal accuracy (interpolated), over chainsweep's rungs the peer's ladder spans: "
               f"{min(ratios):.1f}× … {max(ratios):.1f}×")
 
+    fixed_med = {k: statistics.median(v) for k, v in fixed.items() if v}
+    print(f"\n5. the fixed costs (all {n} points run for {fixed_s * 1e6:g} µs, median of {args.repeats}): "
+          f"chainsweep {fixed_med['chainsweep']:.3f} s"
+          + (f" (before {fixed_med['before']:.3f} s)" if "before" in fixed_med else "")
+          + f", the peer {fixed_med['peer']:.3f} s; and the ratio of the runs alone (each side's sweep wall "
+          "less its fixed costs, the peer's interpolated at equal accuracy as above):")
+    print("| chainsweep rtol | chainsweep runs alone | peer runs alone, interpolated | × |")
+    print("|---|---|---|---|")
+    peer_alone = [{"max_error": r["max_error"], "wall_s": r["wall_s"] - fixed_med["peer"]} for r in peer_rows.values()]
+    for label, rows, key in (("", ours_rows, "chainsweep"), (" (before)", base_rows, "before")):
+        for row in rows.values():
+            alone = row["wall_s"] - fixed_med[key]
+            interp, _ = time_at(peer_alone, row["max_error"])
+            row["runs_alone_s"] = alone
+            row["runs_alone_speedup_interpolated"] = interp / alone if interp and alone > 0 else None
+            print(f"| {row['rtol']:.0e}{label} | {alone:.3f} s | {f'{interp:.3f} s' if interp else '—'} | "
+                  + (f"**{interp / alone:.1f}×** |" if interp and alone > 0 else "— |"))
+
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps({
         "date": time.strftime("%Y-%m-%d"),
@@ -664,6 +710,7 @@ def main() -> int:
         "rhs_check_max_relative_difference": worst,
         "peer": {"numba": numba.__version__, "numbalsoda": version("numbalsoda"), "import_s": t_import,
                  "jit_s": t_jit, "chunk_us": args.chunk_us, "ladder": list(peer_rows.values())},
+        "fixed_costs": {"duration_s": fixed_s, "rtol": FIXED_RTOL, "walls_s": fixed, "median_s": fixed_med},
         "chainsweep": {"ladder": list(ours_rows.values())},
         "chainsweep_before": ({"binary": str(args.base_bin), "ladder": list(base_rows.values())}
                               if base_rows else None),
