@@ -7,7 +7,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Duration;
 
-use chainsweep::engine::run::{run_points, RunOptions, RunReport};
+use chainsweep::engine::run::{run_points, RunOptions, RunReport, PUBLISH_GROWTH};
 use chainsweep::engine::schedule::{
     run_tasks, Coordinator, Executor, Schedule, Task, HELD_RECORDS,
 };
@@ -304,9 +304,10 @@ fn checkpoints_publish_the_finished_runs_while_the_sweep_goes_on() {
     let mut opts = options(&s.output);
     opts.jobs = 1;
     opts.checkpoint_interval = Duration::from_millis(5);
-    // Each run takes longer than the checkpoint interval: a checkpoint follows every run.
+    // Each run takes much longer than the checkpoint interval: a checkpoint follows every run
+    // (and, but on a loaded machine, precedes the first one's end).
     let fake = Fake {
-        sleep: Duration::from_millis(40),
+        sleep: Duration::from_millis(80),
         ..Fake::default()
     };
     let mut spy = CheckpointSpy {
@@ -325,12 +326,22 @@ fn checkpoints_publish_the_finished_runs_while_the_sweep_goes_on() {
     );
     assert!(spy.seen_ok.windows(2).all(|w| w[0] <= w[1]));
     // A checkpoint publishes the file again only once the stored runs have doubled since the
-    // last publish (the others only sync the log): 2 and 4 of 6 here, then the end.
+    // last publish (the others only sync the log): 2 and 4 of 6 here, then the end. The first
+    // checkpoint comes once the file written at the start is there, which on a loaded machine
+    // can be after the first runs: from whichever run it follows, the file it sees holds at
+    // least twice the runs of the one before.
     let mut published: Vec<usize> = spy.seen_ok.clone();
     published.dedup();
-    assert_eq!(
-        published,
-        vec![0, 2, 4],
+    published.retain(|&ok| ok > 0);
+    assert!(
+        published.first().is_some_and(|&ok| ok >= PUBLISH_GROWTH)
+            && published.windows(2).all(|w| w[1] >= PUBLISH_GROWTH * w[0]),
+        "checkpoints saw {:?}",
+        spy.seen_ok
+    );
+    // Some checkpoints only synced the log: the file they saw was the one seen before.
+    assert!(
+        spy.seen_ok.windows(2).any(|w| w[0] == w[1]),
         "checkpoints saw {:?}",
         spy.seen_ok
     );
