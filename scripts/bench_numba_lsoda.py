@@ -603,8 +603,10 @@ def main() -> int:
         ours_rows = {r: {"rtol": r, "walls": []} for r in ours_rtols}
         base_rows = {r: {"rtol": r, "walls": []} for r in ours_rtols} if args.base_bin else {}
         peer_rows = {r: {"rtol": r, "walls": []} for r in peer_rtols}
+        # The fixed costs (item 5 above): every point run for one summary interval.
         fixed: dict[str, list[float]] = {"chainsweep": [], "before": [], "peer": []}
         fixed_s = points[0].dt
+        fixed_integ = {"method": "dop853", "rtol": FIXED_RTOL, "predict_switches": True}
         print(f"\n3. ladders, {args.repeats} alternating rounds:", flush=True)
         for rep in range(args.repeats):
             for k in range(max(len(ours_rtols), len(peer_rtols))):
@@ -631,10 +633,6 @@ def main() -> int:
                     row["rhs_evals"] = nfev
                     row["max_error"], row["median_error"] = errors(ratio, ref)
                     row["errors"] = [float(f"{x:.3g}") for x in np.abs(ratio / ref - 1.0)]
-            # The fixed costs: every point run for one summary interval (the processes or threads
-            # started, the scenes built, the observers set up, and for chainsweep its output file
-            # written, checksummed and read back, which the peer does not do).
-            fixed_integ = {"method": "dop853", "rtol": FIXED_RTOL, "predict_switches": True}
             fixed["chainsweep"].append(ours_sweep(tmp, fixed_integ, "fixed", duration_s=fixed_s)[2])
             if args.base_bin:
                 fixed["before"].append(ours_sweep(tmp, fixed_integ, "base-fixed", args.base_bin, fixed_s)[2])
@@ -698,10 +696,11 @@ def main() -> int:
             alone = row["wall_s"] - fixed_med[key]
             interp, _ = time_at(peer_alone, row["max_error"])
             row["runs_alone_s"] = alone
-            row["runs_alone_speedup_interpolated"] = interp / alone if interp and alone > 0 else None
+            speedup = interp / alone if interp and alone > 0 else None
+            row["runs_alone_speedup_interpolated"] = speedup
             mine = f"{alone:.3f} s" if alone > 0 else "— (no slower than the fixed costs)"
             print(f"| {row['rtol']:.0e}{label} | {mine} | {f'{interp:.3f} s' if interp else '—'} | "
-                  + (f"**{interp / alone:.1f}×** |" if interp and alone > 0 else "— |"))
+                  + (f"**{speedup:.1f}×** |" if speedup else "— |"))
 
     args.output.parent.mkdir(parents=True, exist_ok=True)
     args.output.write_text(json.dumps({

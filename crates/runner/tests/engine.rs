@@ -305,7 +305,7 @@ fn checkpoints_publish_the_finished_runs_while_the_sweep_goes_on() {
     opts.jobs = 1;
     opts.checkpoint_interval = Duration::from_millis(5);
     // Each run takes much longer than the checkpoint interval: a checkpoint follows every run
-    // (and, but on a loaded machine, precedes the first one's end).
+    // (and, unless the machine is loaded, one comes before the first run ends).
     let fake = Fake {
         sleep: Duration::from_millis(80),
         ..Fake::default()
