@@ -188,7 +188,7 @@ clean:
 	rm -rf $(VENV) $(WHEEL_DIR)
 
 # ---------------------------------------------------------------------------------------------
-# The paper's figures and numbers (issue 4). Every sweep file below runs into results/NAME.h5;
+# The paper's figures and numbers. Every sweep file below runs into results/NAME.h5;
 # a finished sweep resumes instantly, so both targets can be run again at no cost. A sweep with
 # failed runs (exit 3) is reported and the plots still drawn; the target then fails at the end.
 # SWEEP_JOBS sets the parallel runs per sweep (default: 2).
@@ -246,7 +246,7 @@ paper-check: build
 	cd scripts && ../$(PY) paper_check.py || exit 1; \
 	if [ -n "$$partial" ]; then echo "ERROR: sweeps with failed runs:$$partial"; exit 3; fi
 
-# Work-precision studies (issue 5): every integrator over a ladder of settings on the Fig. 8 and
+# Work-precision studies: every integrator over a ladder of settings on the Fig. 8 and
 # Fig. 15 scenes and on damping-dominated light chains. HDF5, tables and logs go to
 # results/accuracy/, plots to results/work_precision_*.png. See docs/NUMERICS.md.
 ACCURACY_SCENES := fig08 fig15 stiff-100 stiff-1000 stiff-10000
@@ -259,7 +259,7 @@ accuracy: build
 	  $(PY) scripts/plot_work_precision.py results/accuracy/work_precision_$$s.h5 -o results/work_precision_$$s.png || exit 1; \
 	done
 
-# integrator: auto (issue 5): sweeps whose integrator is `auto` with a target relative error, run
+# integrator: auto: sweeps whose integrator is `auto` with a target relative error, run
 # with every point verified at a tighter setting (--verify 1); the check prints the chosen setting
 # and the largest verified error, and fails when a point misses the target. See docs/NUMERICS.md.
 AUTO_CHECK_SWEEPS := fig08-auto stress/auto-stiff

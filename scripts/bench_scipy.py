@@ -1,6 +1,6 @@
 """chainsweep against a physicist's scipy script of the same chain, side by side (`make bench`).
 
-The scene is issue 13's reference run: the 0.55 chain with 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s,
+The scene is the reference run: the 0.55 chain with 50 cylinders, μ = 6 kg/s, v0 = 1.3 m/s,
 1 ms, gauges in cylinders 4 and 21. "Them" is `scripts/scipy_chain.py` (numpy right-hand side,
 `scipy.integrate.solve_ivp`, leading peaks refined on its dense output); "us" is `chainsweep.run`
 of the benchmarked settings (DOP853 rtol 5e-8 with `predict_switches`, whose leading peaks are

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark of the results store (issue 11): what a large sweep costs on disk and in memory.
+"""Benchmark of the results store: what a large sweep costs on disk and in memory.
 
 Two sweeps of small, fast scenes (4 cylinders, 0.1 ms, so that the store, not the solver, is
 what is measured):

@@ -1,6 +1,6 @@
 """The paper's chain as a physicist would write it with numpy and scipy, from docs/MODEL.md alone.
 
-This is the "them" of chainsweep's speed claims (issue 13 compares the reference run with "a
+This is the "them" of chainsweep's speed claims (the reference run is compared with "a
 physicist's scipy script") and an independent check of its physics: it shares no code with the
 solver, only the equations of docs/MODEL.md (Hertz contacts with the linear damper while
 compressed, gravity, the wall, the static equilibrium as the initial state, the gauge force as the

@@ -1,4 +1,4 @@
-//! `make bench`: the cost of a long chain against its moving part (issue 13): the reference scene
+//! `make bench`: the cost of a long chain against its moving part: the reference scene
 //! (`benches/reference.rs`: the 0.55 chain, μ = 6 kg/s, v0 = 1.3 m/s, 1 ms, gauges in cylinders 4
 //! and 21) at the scene's default DOP853 tolerance (rtol 1e-9), with 50, 1 000 and 5 000
 //! cylinders. The pulse reaches about 45 cylinders in 1 ms.

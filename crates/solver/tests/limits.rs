@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 use chainsweep_solver::chain::model::{ChainSpec, PhysicsSpec};
 use chainsweep_solver::{run, run_until, RunError, Scene, DEADLINE_CHECK_STEPS};
 
-/// The runaway scene of issue 11: a 1000 m/s striker into a chain damped at 1e9 kg/s, whose
+/// The runaway scene: a 1000 m/s striker into a chain damped at 1e9 kg/s, whose
 /// explicit steps are held near m/μ (femtoseconds) over a 0.2 ms run.
 fn runaway() -> Scene {
     let mut s = Scene::new(ChainSpec::chain_055(10), 1000.0, 2e-4);
