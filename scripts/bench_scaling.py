@@ -3,7 +3,8 @@ reference scene (0.55 chain, mu = 6 kg/s, 1.3 m/s, 1 ms, DOP853 rtol 1e-9) with 
 5 000 cylinders (the run's own wall time, `wall_time_s`), and the wall time of the Fig. 8 sweep
 (`run sweeps/fig08.json --jobs 2`); medians. No build needed: give two built binaries. Each side
 runs its own Fig. 8 sweep file: AFTER the working tree's, BEFORE the file at the git revision
-BEFORE_REV it was built from (default b2d0522, the build before switch prediction and the moving part), which its binary understands.
+BEFORE_REV it was built from (default b2d0522, the build before switch prediction and the moving
+part), which its binary understands.
 
     [BEFORE_REV=REV] python scripts/bench_scaling.py BEFORE_BIN AFTER_BIN [ROUNDS] [nofig8]
 """

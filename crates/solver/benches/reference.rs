@@ -1,6 +1,7 @@
-//! The reference run of the speed targets (docs/PERFORMANCE.md), shared by `benches/solver.rs` and the tests (`tests/accuracy.rs`,
-//! `tests/paper_bitwise.rs`): the 0.55 chain (3.77 g cylinders, 50 cylinders), μ = 6 kg/s,
-//! v0 = 1.3 m/s, 1 ms simulated, with the leading peaks in cylinders 4 and 21 recorded.
+//! The reference run of the speed targets (docs/PERFORMANCE.md), shared by `benches/solver.rs` and
+//! the tests (`tests/accuracy.rs`, `tests/paper_bitwise.rs`): the 0.55 chain (3.77 g cylinders,
+//! 50 cylinders), μ = 6 kg/s, v0 = 1.3 m/s, 1 ms simulated, with the leading peaks in cylinders 4
+//! and 21 recorded.
 
 // The crate root's names, not module paths: the bench comparison builds this file at earlier
 // revisions too, whose modules were laid out differently.
