@@ -1,8 +1,8 @@
 //! The runner's integration tests as one test binary: each file beside this one is a module here.
 //!
-//! One binary rather than one per file because every test binary is linked with the release
-//! profile's link-time optimisation over the whole crate graph (the HDF5 library included), which
-//! made linking seven of them a large part of `make test`'s build.
+//! One binary rather than one per file because every test binary links the whole crate graph (the
+//! HDF5 library included) optimised by the release profile, which made linking seven of them a
+//! large part of `make test`'s build.
 
 mod axes_absent_fields;
 mod columns;

@@ -1,8 +1,8 @@
 //! The solver's integration tests as one test binary: each file beside this one is a module here.
 //!
-//! One binary rather than one per file because every test binary is linked with the release
-//! profile's link-time optimisation over the whole crate graph, which made linking twenty of them
-//! most of `make test`'s build. `dispatch.rs` stays a binary of its own: it forces the CPU code
+//! One binary rather than one per file because every test binary links the whole crate graph
+//! optimised by the release profile, which made linking twenty of them most of `make test`'s
+//! build. `dispatch.rs` stays a binary of its own: it forces the CPU code
 //! path process-wide, which would change the bits the other tests' runs compute under them.
 
 // The benchmark's reference run, which `accuracy` and `paper_bitwise` check.
