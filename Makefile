@@ -71,7 +71,8 @@ lint: venv
 
 # The unit tests, the integration tests (one binary per crate, see crates/*/tests/suite.rs) and the
 # doc tests. Not the examples, which `cargo test` would otherwise compile and link with the release
-# profile only to check that they build: `make lint` checks them, and `make bench` builds those it runs.
+# profile only to check that they build: `make lint` checks them, and `make bench` builds those it
+# runs.
 test-rust: venv
 	$(CARGO) test --release --workspace --tests
 	$(CARGO) test --release --workspace --doc

@@ -1,8 +1,7 @@
 //! The runner's integration tests as one test binary: each file beside this one is a module here.
 //!
-//! One binary rather than one per file because every test binary links the whole crate graph (the
-//! HDF5 library included) optimised by the release profile, which made linking seven of them a
-//! large part of `make test`'s build.
+//! One binary rather than one per file: every test binary links the whole crate graph (the HDF5
+//! library included), so one binary links it once rather than seven times.
 
 mod axes_absent_fields;
 mod columns;

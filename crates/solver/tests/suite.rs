@@ -1,9 +1,9 @@
 //! The solver's integration tests as one test binary: each file beside this one is a module here.
 //!
-//! One binary rather than one per file because every test binary links the whole crate graph
-//! optimised by the release profile, which made linking twenty of them most of `make test`'s
-//! build. `dispatch.rs` stays a binary of its own: it forces the CPU code
-//! path process-wide, which would change the bits the other tests' runs compute under them.
+//! One binary rather than one per file: every test binary links the whole crate graph, so one
+//! binary links it once rather than twenty times. `dispatch.rs` stays a binary of its own: it
+//! forces the CPU code path process-wide, which would change the bits the other tests' runs
+//! compute under them.
 
 // The benchmark's reference run, which `accuracy` and `paper_bitwise` check.
 #[path = "../benches/reference.rs"]
