@@ -80,7 +80,9 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// before it (after a contact closes, still half of it).
 /// Version 7: a run stopped after its leading pulses ends its record (summaries, histories,
 /// fields) at the summary instant at which the last of them passed, not at the end of the step.
-pub const NUMERICS_VERSION: u32 = 7;
+/// Version 8: a chain between two walls starts in static equilibrium when the walls differ (the
+/// wall under the chain at its own static overlap, not the top wall's).
+pub const NUMERICS_VERSION: u32 = 8;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

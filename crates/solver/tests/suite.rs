@@ -24,6 +24,7 @@ mod mount;
 mod paper_bitwise;
 mod serialisation;
 mod spectrum;
+mod static_state;
 mod steady_state;
 mod stiff;
 mod thornton;

@@ -954,9 +954,11 @@ impl Chain {
         }
         // Positions measured from the undeformed chain touching the wall (or, without a wall, from
         // the undeformed chain): x_N = δ_N, x_j = x_{j+1} + δ_j.
+        // (The wall's contact is contact N; with a wall at the top too, the last contact is the top
+        // wall's, which may carry another overlap.)
         let mut equilibrium_position = vec![0.0; n_particles];
         if physics.wall {
-            equilibrium_position[n_particles - 1] = static_overlap[n_contacts - 1];
+            equilibrium_position[n_particles - 1] = static_overlap[n_particles - 1];
         }
         for i in (0..n_particles - 1).rev() {
             equilibrium_position[i] = equilibrium_position[i + 1] + static_overlap[i];
