@@ -451,7 +451,7 @@ fn integrators_agree_on_the_reference_scene() {
 
 #[test]
 fn peak_refinement_matches_a_finely_sampled_history() {
-    // The on-the-fly leading peak (sampled every 0.2 µs, refined by a quartic) against the maximum
+    // The on-the-fly leading peak (sampled every 0.2 µs, located on the dense output) against the maximum
     // of a history sampled every 1 ns through the dense output.
     let mut scene = Scene::new(ChainSpec::chain_055(25), 1.3, 2.5e-4);
     scene.physics.damping_kg_s = 6.0;

@@ -1,9 +1,7 @@
-//! `max_overlap_m`, the largest contact overlap of a run, is taken at the ends of the accepted
-//! steps, not refined between them as the probes' peaks are: it reads low by the part of a
-//! contact's peak that falls inside a step. This measures that error against a reference refined
-//! from the dense output (an `overlap` probe on every contact, sampled every nanosecond, its
-//! record maximum refined by the probes' quartic), and checks the bounds docs/SOLVER.md states
-//! per integrator on the paper's reference scene.
+//! `max_overlap_m`, the largest contact overlap of a run, is located on the dense output, as the
+//! probes' peaks are: on the paper's reference scene it equals the largest record maximum of an
+//! `overlap` probe on every contact (1e-13), and its error against a run at a far tighter
+//! tolerance falls with the tolerance, for every integrator.
 
 use chainsweep_solver::scene::solve::run;
 use chainsweep_solver::scene::{IntegratorSpec, Scene};
@@ -17,74 +15,78 @@ fn reference_scene(integrator: IntegratorSpec) -> Scene {
     s
 }
 
-/// (`max_overlap_m`, the refined maximum over every contact's overlap) of `scene`.
-fn step_end_and_refined(mut scene: Scene) -> (f64, f64) {
+/// (`max_overlap_m`, the largest record maximum of an `overlap` probe on every contact) of
+/// `scene`, and which contact has it.
+fn max_overlap_and_probes(mut scene: Scene) -> (f64, f64, usize) {
     let plain = run(&scene).unwrap();
     let chain = scene.validate().unwrap();
     scene.record.probes = (1..=chain.n_contacts())
         .map(|contact| Probe::Overlap { contact })
         .collect();
-    scene.record.summary_interval_s = 1e-9;
     let probed = run(&scene).unwrap();
-    // (Probes never change the steps: the same step-end maximum.)
+    // (Probes never change the steps, nor where the largest overlap is located.)
     assert_eq!(
         plain.max_overlap_m.to_bits(),
         probed.max_overlap_m.to_bits()
     );
-    let (contact, refined) = probed.probes.iter().map(|p| p.record_max).enumerate().fold(
+    let (contact, probes) = probed.probes.iter().map(|p| p.record_max).enumerate().fold(
         (0, f64::NEG_INFINITY),
         |a, (c, x)| if x > a.1 { (c + 1, x) } else { a },
     );
-    // The striker's contact: the largest overlap of this scene.
-    assert_eq!(contact, 1);
-    (plain.max_overlap_m, refined)
+    (plain.max_overlap_m, probes, contact)
 }
 
 #[test]
-fn max_overlap_at_step_ends_reads_low_by_at_most_the_stated_bound() {
-    // (scene, the bound on how low max_overlap_m reads, relative): measured 3.71e-3, 1.33e-2,
-    // 5.54e-3, 6.31e-3, 3.82e-5 and 5.9e-11 (where a step falls on the peak decides how low; it
-    // moved by up to 10x when the moving part's restarts changed the steps).
+fn max_overlap_is_located_on_the_dense_output_and_converges_with_the_tolerance() {
+    let tight = max_overlap_and_probes(reference_scene(IntegratorSpec::Dop853(
+        AdaptiveOptions::new(1e-13),
+    )));
+    // The striker's contact: the largest overlap of this scene.
+    assert_eq!(tight.2, 1);
+    assert!((tight.0 / tight.1 - 1.0).abs() < 1e-13, "{tight:?}");
+    // (setting, bound on the relative error against the tight run): each about four times what
+    // was measured (4.7e-6, 2.1e-7, 2.2e-9, 6.1e-9, 2.7e-7, 1.4e-6), which falls with the
+    // tolerance, not with where a step happens to end (read at step ends, the same runs were
+    // up to 1.3e-2 low).
     let cases = [
         (
             "dop853 rtol 1e-6",
             IntegratorSpec::Dop853(AdaptiveOptions::new(1e-6)),
-            5e-2,
+            2e-5,
         ),
         (
-            "dop853 rtol 5e-8",
-            IntegratorSpec::Dop853(AdaptiveOptions::new(5e-8)),
-            5e-2,
+            "dop853 rtol 1e-8",
+            IntegratorSpec::Dop853(AdaptiveOptions::new(1e-8)),
+            1e-6,
         ),
         (
             "dop853 rtol 1e-10",
             IntegratorSpec::Dop853(AdaptiveOptions::new(1e-10)),
-            1e-2,
+            1e-8,
         ),
         (
             "vern6 rtol 1e-8",
             IntegratorSpec::Vern6(AdaptiveOptions::new(1e-8)),
-            1e-2,
+            3e-8,
         ),
         (
             "ros34pw2 rtol 1e-7",
             IntegratorSpec::Ros34pw2(AdaptiveOptions::new(1e-7)),
-            1e-4,
+            1e-6,
         ),
-        ("rk4 dt 2 ns", IntegratorSpec::Rk4 { dt_s: 2e-9 }, 1e-9),
+        ("rk4 dt 2 ns", IntegratorSpec::Rk4 { dt_s: 2e-9 }, 5e-6),
     ];
-    let mut worst: f64 = 0.0;
     for (name, integrator, bound) in cases {
-        let (at_ends, refined) = step_end_and_refined(reference_scene(integrator));
-        let low = (refined - at_ends) / refined;
-        println!("{name}: max_overlap_m {at_ends:.9e}, refined {refined:.9e}, low by {low:.2e}");
-        // Never above the refined maximum (beyond the reference's own round-off), and low by at
-        // most the stated bound.
-        assert!(low > -1e-9, "{name}: {low:e}");
-        assert!(low < bound, "{name}: {low:e}");
-        worst = worst.max(low);
+        let (located, probes, contact) = max_overlap_and_probes(reference_scene(integrator));
+        let error = (located - tight.0).abs() / tight.0;
+        println!("{name}: max_overlap_m {located:.12e}, error {error:.2e}");
+        assert_eq!(contact, 1, "{name}");
+        // The same maximum as the striker contact's overlap probe finds on the same dense
+        // output.
+        assert!(
+            (located / probes - 1.0).abs() < 1e-13,
+            "{name}: {located:e} against the probe's {probes:e}"
+        );
+        assert!(error < bound, "{name}: {error:e}");
     }
-    // The deficit is real: DOP853's steps are long at the striker's contact, whose overlap is
-    // the run's largest.
-    assert!(worst > 5e-3, "{worst:e}");
 }

@@ -232,8 +232,8 @@ fn upward_crossings(times: &[f64], y: &[f64], level: f64) -> Vec<f64> {
             let v = [y[j - 1], y[j], y[j + 1], y[j + 2]].map(|v| v - level);
             // Lagrange cubic in u (samples at u = -1, 0, 1, 2).
             let p = |u: f64| {
-                -v[0] * u * (u - 1.0) * (u - 2.0) / 6.0 + v[1] * (u + 1.0) * (u - 1.0) * (u - 2.0)
-                    / 2.0
+                -v[0] * u * (u - 1.0) * (u - 2.0) / 6.0
+                    + v[1] * (u + 1.0) * (u - 1.0) * (u - 2.0) / 2.0
                     - v[2] * (u + 1.0) * u * (u - 2.0) / 2.0
                     + v[3] * (u + 1.0) * u * (u - 1.0) / 6.0
             };

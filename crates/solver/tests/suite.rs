@@ -22,6 +22,7 @@ mod limits;
 mod max_overlap;
 mod mount;
 mod paper_bitwise;
+mod peaks;
 mod serialisation;
 mod spectrum;
 mod static_state;

@@ -90,7 +90,7 @@ pub struct RunRecord {
     pub impact_energy_j: f64,
     /// Wall time of the run, s.
     pub wall_time_s: f64,
-    /// Largest contact overlap over the run (at step ends), m (NaN for failed runs).
+    /// Largest contact overlap over the run (located on the dense output), m (NaN for failed runs).
     pub max_overlap_m: f64,
     /// Physical-validity warnings of the solver, one per line (empty when none).
     pub warnings: String,

@@ -4,6 +4,7 @@
 //! and each particle's largest kinetic energy ([`flow`]).
 
 pub mod flow;
+mod peaks;
 pub mod probes;
 pub mod steady;
 

@@ -16,6 +16,7 @@ use crate::spectrum::SpectrumSpec;
 
 use super::flow::{EnergyFlow, FlowRecorder};
 use super::grid_instant;
+use super::peaks::{hermite_max, maximise, PeakTracker, PulsePhase};
 use super::steady::{SteadyRecorder, SteadyState, SteadyStateSpec};
 
 /// One observable. Indices are 1-based as in the paper and `docs/MODEL.md`: particle 1 is the
@@ -326,8 +327,8 @@ pub struct RecordSpec {
     /// Output interval of histories, s.
     #[cfg_attr(feature = "serde", serde(default = "default_history_interval"))]
     pub history_interval_s: f64,
-    /// Sampling interval of the on-the-fly peak summaries, s; peaks are refined between samples by a
-    /// local quartic fit.
+    /// Sampling interval of the on-the-fly peak summaries, s: the samples tell the leading pulse
+    /// from later ones; every peak is then located on the integrator's dense output.
     #[cfg_attr(feature = "serde", serde(default = "default_summary_interval"))]
     pub summary_interval_s: f64,
     /// Track the minimum overlap of every contact (gaps open where it falls to zero or below).
@@ -876,204 +877,15 @@ fn plastic_force(law: &Thornton, overlap: f64, gap: f64) -> f64 {
 #[cfg_attr(feature = "serde", derive(Serialize, Deserialize))]
 #[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 pub struct ProbeSummary {
-    /// Peak of the leading pulse (first excursion), refined between samples; NaN if the pulse never
+    /// Peak of the leading pulse (first excursion), located on the dense output; NaN if the pulse never
     /// arrived or was still rising when the run ended.
     pub leading_peak: f64,
     /// Time of the leading peak, s; NaN if it never arrived.
     pub leading_peak_time_s: f64,
-    /// Maximum over the whole record, refined between samples.
+    /// Maximum over the whole record, located on the dense output.
     pub record_max: f64,
     /// Time of the record maximum, s.
     pub record_max_time_s: f64,
-}
-
-/// Peak of a sampled signal, refined by a quartic through five equally spaced samples around it.
-#[derive(Debug, Clone, Copy)]
-struct PeakWindow {
-    /// Samples `best-2 ..= best+2`; entries after `best` fill in as they arrive.
-    values: [f64; 5],
-    /// Time of the best sample.
-    time: f64,
-    /// How many samples after the best one have arrived (0..=2).
-    after: usize,
-    /// How many samples before the best one are known (0..=2).
-    before: usize,
-}
-
-/// Whether five equally spaced samples around a maximum look like a smooth peak: the curvature
-/// (second difference) is negative at all three interior points and nearly the same, as it is for
-/// any smooth signal sampled finely. A kink (a signal reaching a plateau, a contact opening) puts
-/// all the curvature at one point, and extrapolating there would invent a peak.
-fn smooth_peak(v: &[f64; 5]) -> bool {
-    let d = [
-        v[0] - 2.0 * v[1] + v[2],
-        v[1] - 2.0 * v[2] + v[3],
-        v[2] - 2.0 * v[3] + v[4],
-    ];
-    let (lo, hi) = d
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
-            (lo.min(x), hi.max(x))
-        });
-    hi < 0.0 && lo >= 3.0 * hi
-}
-
-impl PeakWindow {
-    fn empty() -> Self {
-        PeakWindow {
-            values: [f64::NEG_INFINITY; 5],
-            time: f64::NAN,
-            after: 0,
-            before: 0,
-        }
-    }
-
-    /// Offers a sample; `prev` holds the last two samples before it (oldest first) and how many exist.
-    #[inline]
-    fn offer(&mut self, t: f64, s: f64, prev: &[f64; 2], n_prev: usize) {
-        if s > self.values[2] {
-            self.values = [prev[0], prev[1], s, f64::NAN, f64::NAN];
-            self.time = t;
-            self.after = 0;
-            self.before = n_prev.min(2);
-        } else if self.after < 2 && self.time.is_finite() {
-            self.values[3 + self.after] = s;
-            self.after += 1;
-        }
-    }
-
-    /// Refined (value, time): the maximum of the interpolating quartic (or lower degree near the
-    /// ends of the record), kept within one sample of the best sample.
-    fn refined(&self, dt: f64) -> (f64, f64) {
-        if !self.time.is_finite() {
-            return (f64::NAN, f64::NAN);
-        }
-        let v = &self.values;
-        if self.before == 2 && self.after == 2 {
-            // Quartic through (-2..2) in units of dt: p(u) = c0 + c1 u + c2 u² + c3 u³ + c4 u⁴.
-            let c0 = v[2];
-            let c1 = (v[0] - 8.0 * v[1] + 8.0 * v[3] - v[4]) / 12.0;
-            let c2 = (-v[0] + 16.0 * v[1] - 30.0 * v[2] + 16.0 * v[3] - v[4]) / 24.0;
-            let c3 = (-v[0] + 2.0 * v[1] - 2.0 * v[3] + v[4]) / 12.0;
-            let c4 = (v[0] - 4.0 * v[1] + 6.0 * v[2] - 4.0 * v[3] + v[4]) / 24.0;
-            let p = |u: f64| c0 + u * (c1 + u * (c2 + u * (c3 + u * c4)));
-            let dp = |u: f64| c1 + u * (2.0 * c2 + u * (3.0 * c3 + u * 4.0 * c4));
-            let ddp = |u: f64| 2.0 * c2 + u * (6.0 * c3 + u * 12.0 * c4);
-            let mut u: f64 = 0.0;
-            for _ in 0..20 {
-                let h = ddp(u);
-                if h >= 0.0 {
-                    break;
-                }
-                let step = dp(u) / h;
-                u = (u - step).clamp(-1.0, 1.0);
-                if step.abs() < 1e-14 {
-                    break;
-                }
-            }
-            let pu = p(u);
-            if pu.is_finite() && pu >= v[2] && ddp(u) < 0.0 && smooth_peak(v) {
-                return (pu, self.time + u * dt);
-            }
-            (v[2], self.time)
-        } else if self.before >= 1 && self.after >= 1 {
-            // Parabola through three samples (next to the ends of the record, where five are not
-            // available and smoothness cannot be checked).
-            let (a, b, c) = (v[1], v[2], v[3]);
-            let den = a - 2.0 * b + c;
-            if den < 0.0 {
-                let u = (0.5 * (a - c) / den).clamp(-1.0, 1.0);
-                let val = b - 0.25 * (a - c) * u;
-                return (val.max(b), self.time + u * dt);
-            }
-            (b, self.time)
-        } else {
-            (v[2], self.time)
-        }
-    }
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum PulsePhase {
-    Waiting,
-    InPulse,
-    Passed,
-}
-
-/// Per-probe on-the-fly tracker of the leading pulse and the record maximum.
-#[derive(Debug, Clone, Copy)]
-struct PeakTracker {
-    baseline: f64,
-    arrival: f64,
-    release_fraction: f64,
-    phase: PulsePhase,
-    leading: PeakWindow,
-    record: PeakWindow,
-    prev: [f64; 2],
-    n_prev: usize,
-}
-
-impl PeakTracker {
-    fn new(baseline: f64, arrival: f64, release_fraction: f64) -> Self {
-        PeakTracker {
-            baseline,
-            arrival,
-            release_fraction,
-            phase: PulsePhase::Waiting,
-            leading: PeakWindow::empty(),
-            record: PeakWindow::empty(),
-            prev: [f64::NAN; 2],
-            n_prev: 0,
-        }
-    }
-
-    /// Whether samples no larger than `upper` change nothing this tracker records but the last
-    /// two samples it keeps: its record maximum and the two samples after it are in (a sample
-    /// replaces the maximum only when larger), and its leading pulse has passed or is not seen
-    /// to arrive below `upper`.
-    fn settled_below(&self, upper: f64) -> bool {
-        let leading = match self.phase {
-            PulsePhase::Passed => true,
-            PulsePhase::Waiting => upper - self.baseline <= self.arrival,
-            PulsePhase::InPulse => false,
-        };
-        self.may_settle() && upper <= self.record.values[2] && leading
-    }
-
-    /// Whether some bound could settle this tracker ([`PeakTracker::settled_below`]): not while
-    /// its leading pulse is in progress or its record maximum still takes the samples after it.
-    fn may_settle(&self) -> bool {
-        self.record.time.is_finite() && self.record.after >= 2 && self.phase != PulsePhase::InPulse
-    }
-
-    /// Counts `count` samples that [`PeakTracker::settled_below`] showed change nothing, none of
-    /// them among the last two before the next.
-    fn skip(&mut self, count: usize) {
-        self.n_prev += count;
-    }
-
-    #[inline]
-    fn sample(&mut self, t: f64, s: f64) {
-        self.record.offer(t, s, &self.prev, self.n_prev);
-        match self.phase {
-            PulsePhase::Waiting => {
-                if s - self.baseline > self.arrival {
-                    self.phase = PulsePhase::InPulse;
-                    self.leading.offer(t, s, &self.prev, self.n_prev);
-                }
-            }
-            PulsePhase::InPulse => {
-                self.leading.offer(t, s, &self.prev, self.n_prev);
-                let peak = self.leading.values[2] - self.baseline;
-                if s - self.baseline < self.release_fraction * peak && self.leading.after >= 2 {
-                    self.phase = PulsePhase::Passed;
-                }
-            }
-            PulsePhase::Passed => {}
-        }
-        self.prev = [self.prev[1], s];
-        self.n_prev += 1;
-    }
 }
 
 /// A run with a deadline reads the clock once every this many accepted steps: a few
@@ -1277,6 +1089,12 @@ pub(crate) struct RunObserver {
     frozen_max_overlap: f64,
     /// Those components at up to [`SAMPLE_BATCH`] sample times, one row per time.
     batch_values: Vec<f64>,
+    /// Each probe's value at the end of the last step (at the start, before the first).
+    last_value: Vec<f64>,
+    /// Each probe's smallest and largest sample in the current step.
+    step_range: Vec<(f64, f64)>,
+    /// The largest contact overlap at the end of the last step.
+    last_max_overlap: f64,
 }
 
 /// Fills `times` with the sample times `t0 + j·interval`, `j = first, first + 1, …`, up to `until`
@@ -1427,55 +1245,132 @@ impl RunObserver {
         any
     }
 
-    /// The settled probes' trackers ([`RunObserver::settle`]) over the summary instants from
-    /// index `first` up to `until`: every instant counted, the last two sampled as they would
-    /// have been (the two samples a tracker keeps before the next), bitwise, since each
-    /// component's interpolant is evaluated on its own whatever else is evaluated with it.
+    /// Under test, the settled probes' trackers ([`RunObserver::settle`]) against copies that
+    /// took every summary instant of the step from index `first` up to `until`: skipping them
+    /// must change nothing, bitwise.
+    #[cfg(test)]
     fn sample_settled(&mut self, step: &dyn DenseStep, first: u64, until: f64) {
         let interval = self.opts.summary_interval;
         let at = |j: u64| grid_instant(self.t0, j, interval);
-        let mut count = 0u64;
-        while at(first + count) <= until {
-            count += 1;
-        }
-        let kept = count.min(2);
-        let times = [at(first + count - kept), at(first + count - kept + 1)];
-        let times = &times[..kept as usize];
         for k in 0..self.trackers.len() {
             if !self.settled[k] {
                 continue;
             }
-            // Under test, every skipped sample is taken on a copy, which must end as the tracker.
-            #[cfg(test)]
-            let every = {
-                let mut copy = self.trackers[k];
-                let components = &self.components_of[k];
-                let mut row = vec![0.0; components.len()];
-                for j in first..first + count {
-                    step.eval_components_at(&[at(j)], components, &mut row);
-                    for (&i, &v) in components.iter().zip(&row) {
-                        self.probe_state[i] = v;
-                    }
-                    let state = &self.probe_state;
-                    copy.sample(at(j), self.probes.value(k, &|i: usize| state[i]));
-                }
-                tests::SKIPPED.with(|c| c.set(c.get() + count - kept));
-                copy
-            };
-            let tracker = &mut self.trackers[k];
-            tracker.skip((count - kept) as usize);
-            // Two instants: one component at a time (the batch's set-up would cost more than
-            // they do), each value the one the batch gives.
-            for &t in times {
-                for &i in &self.components_of[k] {
-                    self.probe_state[i] = step.eval_component(t, i);
+            let mut copy = self.trackers[k];
+            let components = &self.components_of[k];
+            let mut row = vec![0.0; components.len()];
+            let mut j = first;
+            while at(j) <= until {
+                step.eval_components_at(&[at(j)], components, &mut row);
+                for (&i, &v) in components.iter().zip(&row) {
+                    self.probe_state[i] = v;
                 }
                 let state = &self.probe_state;
-                tracker.sample(t, self.probes.value(k, &|i: usize| state[i]));
+                copy.sample(at(j), self.probes.value(k, &|i: usize| state[i]));
+                tests::SKIPPED.with(|c| c.set(c.get() + 1));
+                j += 1;
             }
-            #[cfg(test)]
-            tests::assert_same_tracker(tracker, &every);
+            tests::assert_same_tracker(&self.trackers[k], &copy);
         }
+    }
+
+    /// Locates each probe's peaks on the dense output over the step `[a, b]` (`b` the record's
+    /// last instant in it) where they may lie (see [`super::peaks`]): a probe whose samples or
+    /// ends in the step come within the step's own swing (and a thousandth of the excursion so
+    /// far) of its largest value is maximised over the step, for its record maximum, and over the
+    /// part of the step its leading pulse spans, for its leading peak. Settled probes are not:
+    /// their every value in the step is below their record.
+    fn locate_peaks(&mut self, step: &dyn DenseStep, a: f64, b: f64) {
+        let exact_end = b == step.t_end();
+        for k in 0..self.trackers.len() {
+            let end_value = if exact_end {
+                let y = step.y_end();
+                self.probes.value(k, &|i: usize| y[i])
+            } else {
+                let components = &self.components_of[k];
+                for &i in components {
+                    self.probe_state[i] = step.eval_component(b, i);
+                }
+                let state = &self.probe_state;
+                self.probes.value(k, &|i: usize| state[i])
+            };
+            let start_value = std::mem::replace(&mut self.last_value[k], end_value);
+            let (lo, hi) =
+                std::mem::replace(&mut self.step_range[k], (f64::INFINITY, f64::NEG_INFINITY));
+            if self.settled[k] {
+                continue;
+            }
+            let top = hi.max(start_value).max(end_value);
+            let swing = top - lo.min(start_value).min(end_value);
+            let tracker = &mut self.trackers[k];
+            let near = |peak: f64| {
+                let excursion = (peak - tracker.baseline).abs();
+                top + swing + 1e-3 * excursion >= peak
+            };
+            let record = near(tracker.record.peak);
+            let leading = tracker
+                .leading_span(a, b, self.opts.summary_interval)
+                .filter(|_| near(tracker.leading.peak));
+            if !record && leading.is_none() {
+                continue;
+            }
+            let components = &self.components_of[k];
+            let probes = &self.probes;
+            let state = &mut self.probe_state;
+            let mut value_at = |t: f64| {
+                for &i in components {
+                    state[i] = step.eval_component(t, i);
+                }
+                let state = &*state;
+                probes.value(k, &|i: usize| state[i])
+            };
+            let spacing = 0.5 * self.opts.summary_interval;
+            let whole = record.then(|| maximise(a, b, spacing, &mut value_at));
+            if let Some((v, t)) = whole {
+                tracker.record.consider(t, v);
+            }
+            if let Some((lo, hi)) = leading {
+                let (v, t) = match whole {
+                    Some(found) if (lo, hi) == (a, b) => found,
+                    _ => maximise(lo, hi, spacing, &mut value_at),
+                };
+                tracker.leading.consider(t, v);
+            }
+        }
+    }
+
+    /// Locates the largest contact overlap on the dense output over the step, where the largest
+    /// overlap at either end of the step (`end_max` at its end) comes within a tenth of the
+    /// largest so far: each contact of the moving part that is opening at the step's end from a
+    /// peak that could lie above the largest so far (its overlap plus its rate over the step), and
+    /// was closing at the step's start with the cubic through its ends' overlaps and rates
+    /// reaching within a thousandth of it, is maximised over the step.
+    fn locate_max_overlap(&mut self, step: &dyn DenseStep, end_max: f64) {
+        let start_max = std::mem::replace(&mut self.last_max_overlap, end_max);
+        let mut found = self.max_overlap;
+        if found <= 0.0 || start_max.max(end_max) < 0.9 * found {
+            return;
+        }
+        let (a, b) = (step.t_start(), step.t_end());
+        let h = b - a;
+        let y1 = step.y_end();
+        let at_start = |i: usize| step.eval_component(a, i);
+        for c in 0..self.n_contacts.min(self.active) {
+            let (d1, r1) = self.contacts.kinematics(c, |i| y1[i]);
+            if r1 >= 0.0 || d1 - r1 * h < 0.999 * found {
+                continue;
+            }
+            let (d0, r0) = self.contacts.kinematics(c, at_start);
+            if r0 <= 0.0 || hermite_max(h, (d0, r0), (d1, r1)) < 0.999 * found {
+                continue;
+            }
+            let contacts = &self.contacts;
+            let (d, _) = maximise(a, b, h, |t| {
+                contacts.overlap_read(c, |i| step.eval_component(t, i))
+            });
+            found = found.max(d);
+        }
+        self.max_overlap = found;
     }
 
     pub fn new(
@@ -1553,6 +1448,9 @@ impl RunObserver {
             active: chain.n_particles(),
             frozen_energy: (0.0, 0.0),
             frozen_max_overlap: 0.0,
+            last_value: vec![f64::NAN; n_probes],
+            step_range: vec![(f64::INFINITY, f64::NEG_INFINITY); n_probes],
+            last_max_overlap: 0.0,
         }
     }
 
@@ -1582,11 +1480,11 @@ impl RunObserver {
                 // A leading peak counts only once the signal has fallen after it: a run that ends
                 // while the pulse is still rising has no leading peak yet.
                 let (lv, lt) = if tr.leading.after >= 1 {
-                    tr.leading.refined(self.opts.summary_interval)
+                    tr.leading.located()
                 } else {
                     (f64::NAN, f64::NAN)
                 };
-                let (rv, rt) = tr.record.refined(self.opts.summary_interval);
+                let (rv, rt) = tr.record.located();
                 ProbeSummary {
                     leading_peak: lv,
                     leading_peak_time_s: lt,
@@ -1680,8 +1578,11 @@ impl StepObserver for RunObserver {
         self.update_ledger(t0, y0);
         self.active = active;
         for (k, tr) in self.trackers.iter_mut().enumerate() {
-            tr.sample(t0, self.probes.value(k, &get));
+            let v = self.probes.value(k, &get);
+            tr.sample(t0, v);
+            self.last_value[k] = v;
         }
+        self.last_max_overlap = self.max_overlap;
         self.next_summary = 1;
         if let Some(h) = &mut self.history {
             h.time_s.push(t0);
@@ -1710,10 +1611,12 @@ impl StepObserver for RunObserver {
         let mut until = t1.min(self.t_end);
         let mut passed_at: Option<f64> = None;
         if n_probes > 0 {
+            #[cfg(test)]
             let first_summary = self.next_summary;
             let any_settled = self.settle(step, until);
             let probes = &self.probes;
             let trackers = &mut self.trackers;
+            let step_range = &mut self.step_range;
             let settled = &self.settled;
             let stop_when_passed = self.opts.stop_after_leading_pulses;
             let components = if any_settled {
@@ -1736,7 +1639,10 @@ impl StepObserver for RunObserver {
                     let g = |i: usize| state[i];
                     for (k, tracker) in trackers.iter_mut().enumerate() {
                         if !settled[k] {
-                            tracker.sample(ts, probes.value(k, &g));
+                            let v = probes.value(k, &g);
+                            tracker.sample(ts, v);
+                            let r = &mut step_range[k];
+                            *r = (r.0.min(v), r.1.max(v));
                         }
                     }
                     // A settled tracker's phase stays as it is over the step.
@@ -1748,9 +1654,11 @@ impl StepObserver for RunObserver {
             if let Some(t) = passed_at {
                 until = t;
             }
+            #[cfg(test)]
             if any_settled {
                 self.sample_settled(step, first_summary, until);
             }
+            self.locate_peaks(step, step.t_start(), until);
             let probes = &self.probes;
             if let Some(h) = &mut self.history {
                 sample_grid(
@@ -1799,6 +1707,9 @@ impl StepObserver for RunObserver {
             f.step(step);
         }
         self.update_ledger(t1, step.y_end());
+        if let Some(e) = self.last_energy {
+            self.locate_max_overlap(step, e.max_overlap);
+        }
         self.t_reached = t1;
         if let Some(s) = &mut self.state {
             s.copy_from_slice(step.y_end());
@@ -1845,16 +1756,19 @@ mod tests {
 
     /// Two trackers in the same state, to the bit.
     pub(super) fn assert_same_tracker(a: &PeakTracker, b: &PeakTracker) {
-        let window = |w: &PeakWindow| {
-            let mut v: Vec<u64> = w.values.iter().map(|x| x.to_bits()).collect();
-            v.extend([w.time.to_bits(), w.after as u64, w.before as u64]);
-            v
+        let window = |w: &super::super::peaks::PeakWindow| {
+            vec![
+                w.best.to_bits(),
+                w.time.to_bits(),
+                w.after as u64,
+                w.peak.to_bits(),
+                w.peak_time.to_bits(),
+            ]
         };
         let bits = |t: &PeakTracker| {
             let mut v = window(&t.leading);
             v.extend(window(&t.record));
-            v.extend(t.prev.iter().map(|x| x.to_bits()));
-            v.push(t.n_prev.min(2) as u64);
+            v.extend([t.arrived_at.to_bits(), t.passed_at.to_bits()]);
             v
         };
         assert_eq!(a.phase, b.phase, "a settled tracker's phase changed");

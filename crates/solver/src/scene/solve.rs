@@ -101,7 +101,7 @@ pub struct RunOutput {
     /// Energy scale of the excitation, J: the striker's (or the impulse's) kinetic energy, or for
     /// a force pulse the estimate of [`ImpactScales::force_pulse`].
     pub impact_energy_j: f64,
-    /// Largest contact overlap over the run (at step ends), m.
+    /// Largest contact overlap over the run (located on the dense output), m.
     pub max_overlap_m: f64,
     /// Particles integrated at the end when the run integrated only the moving part of its chain
     /// ([`crate::scene::active`]): the rest stayed at rest in static equilibrium throughout. `None` when
