@@ -139,3 +139,115 @@ def test_a_corrupt_verification_record_is_recomputed(tmp_path, binary):
         np.testing.assert_array_equal(f["verified"][...], verified)
         np.testing.assert_array_equal(f["verify_rel_error_max"][...], e_first)
     assert len(log_records(out)) == 3
+
+
+def thornton_sweep(rtol):
+    """Ten spheres with Thornton's plastic contacts struck at 1 and 2 m/s: force probes whose peaks
+    have a kink at their top, the energy flow and a history."""
+    ball = {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085,
+                       "material": {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.28}}}
+    plastic = {"thornton": {"yield_velocity_m_s": 0.05}}
+    return {
+        "description": "plastic chain",
+        "base": {
+            "chain": {"particles": {"ball": ball}, "sequence": [{"repeat": 10, "of": ["ball"]}],
+                      "striker": "ball",
+                      "contacts": [{"between": ["ball", "ball"], "law": plastic},
+                                   {"between": ["ball", "wall"], "law": plastic}]},
+            "physics": {"gravity": False, "damping_kg_s": 0.0, "wall": True},
+            "striker_velocity_m_s": 1.0,
+            "duration_s": 2e-4,
+            "integrator": {"method": "dop853", "rtol": rtol},
+        },
+        "record": {"probes": [{"kind": "contact_force", "contact": c} for c in (1, 5, 11)],
+                   "energy_flow": True, "history": True, "history_interval_s": 1e-6},
+        "axes": [{"field": "striker_velocity_m_s", "values": [1.0, 2.0]}],
+    }
+
+
+def driven_sweep(rtol):
+    """Six spheres on 5 N, damped, driven by a 3 kHz force: the steady state of three probes."""
+    ball = {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085,
+                       "material": {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.28}}}
+    return {
+        "description": "driven chain",
+        "base": {
+            "chain": {"particles": {"ball": ball}, "sequence": [{"repeat": 6, "of": ["ball"]}]},
+            "physics": {"gravity": False, "damping_kg_s": 5.0, "wall": True,
+                        "precompression_force_n": 5.0},
+            "excitation": {"drive": {"force_n": {"harmonic": {"amplitude": 1.0, "frequency_hz": 3000.0}}}},
+            "duration_s": 0.03,
+            "integrator": {"method": "dop853", "rtol": rtol},
+        },
+        "record": {"probes": [{"kind": "contact_force", "contact": 1}, {"kind": "contact_force", "contact": 3},
+                              {"kind": "wall_force"}],
+                   "steady_state": {"settle_periods": 60, "window_periods": 20, "harmonics": 3}},
+        "axes": [{"field": "excitation.drive.force_n.harmonic.amplitude", "values": [0.5, 2.0]}],
+    }
+
+
+def true_relative_errors(f, g, name):
+    """|f − g| / |g| of a summary column, g from a far tighter run."""
+    a, b = f[name][...], g[name][...]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a == b, 0.0, np.abs(a - b) / np.abs(b))
+
+
+def test_verify_bounds_the_true_error_of_every_summary_it_lists(tmp_path, binary):
+    """At rtol 1e-7, `--verify 1` (the same sweep at rtol 1e-9) reports for every summary an error
+    at least as large as its true error (against rtol 1e-12), and within a few times of it where
+    that is above rounding: the peaks of plastic contacts (kinks), their times, the largest overlap,
+    the energy flow, the steady state. What it does not compare is named."""
+    pairs = [
+        ("verify_rel_error_leading_peak", "leading_peak"),
+        ("verify_rel_error_leading_peak_time", "leading_peak_time_s"),
+        ("verify_rel_error_record_max", "record_max"),
+        ("verify_rel_error_record_max_time", "record_max_time_s"),
+        ("verify_rel_error_max_overlap", "max_overlap_m"),
+    ]
+    for make in (thornton_sweep, driven_sweep):
+        outs = {}
+        for rtol in (1e-7, 1e-12):
+            path = write_sweep(tmp_path / f"{make.__name__}-{rtol}.json", make(rtol))
+            out = tmp_path / f"{make.__name__}-{rtol}.h5"
+            args = ["run", path, "-o", out] + (["--verify", "1"] if rtol == 1e-7 else [])
+            r = run(*args)
+            assert r.returncode == 0, r.stderr
+            outs[rtol] = (out, r.stderr)
+        out, stderr = outs[1e-7]
+        with h5py.File(out, "r") as f, h5py.File(outs[1e-12][0], "r") as g:
+            assert (f["verified"][...] == 1).all()
+            checked = 0
+            for column, summary in pairs:
+                reported, true = f[column][...], true_relative_errors(f, g, summary)
+                assert np.isfinite(reported).all(), column
+                assert (reported >= true).all(), (column, reported, true)
+                checked += reported.size
+            if "steady_amplitude" in f:
+                # The steady state's error: each harmonic's complex amplitude against the
+                # fundamental's, mean and RMS against the RMS.
+                amp_f, amp_g = f["steady_amplitude"][...], g["steady_amplitude"][...]
+                ph_f, ph_g = f["steady_phase_rad"][...], g["steady_phase_rad"][...]
+                z = np.abs(amp_f * np.exp(1j * ph_f) - amp_g * np.exp(1j * ph_g)).max(axis=-1)
+                scale = np.maximum(amp_g[..., 0], g["steady_rms"][...])
+                true = np.maximum(z, np.abs(f["steady_rms"][...] - g["steady_rms"][...])) / scale
+                true = np.maximum(true, np.abs(f["steady_mean"][...] - g["steady_mean"][...]) / scale)
+                reported = f["verify_rel_error_steady"][...]
+                assert (reported >= true).all(), (reported, true)
+                checked += reported.size
+            if "energy_passed_max_j" in f:
+                values = lambda h: np.concatenate(
+                    [h[n][...].reshape(2, -1) for n in
+                     ("energy_passed_max_j", "energy_passed_final_j", "max_kinetic_energy_j")], axis=1)
+                a, b = values(f), values(g)
+                true = np.nanmax(np.abs(a - b), axis=1) / np.nanmax(np.abs(b), axis=1)
+                reported = f["verify_rel_error_energy_flow"][...]
+                assert (reported >= true).all(), (reported, true)
+                checked += reported.size
+            assert checked > 0
+            emax = f["verify_rel_error_max"][...]
+            assert (emax > 1e-9).all() and (emax < 1e-3).all(), emax
+        if make is thornton_sweep:
+            assert "not verified: histories (not recorded by verification runs)" in stderr, stderr
+        else:
+            assert "not verified" not in stderr, stderr

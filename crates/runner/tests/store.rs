@@ -84,7 +84,8 @@ fn records_survive_segments_and_hdf5_bitwise() {
     // Point 0 carries a verification outcome, the others none.
     let verified = VerifyInfo {
         status: VERIFY_OK,
-        errors: vec![[1e-9, 2e-10, f64::NAN]],
+        errors: vec![[1e-9, 2e-10, f64::NAN, 3e-10, f64::NAN]],
+        run_errors: [4e-9, f64::NAN],
     };
     let counts = write_file(
         &out,

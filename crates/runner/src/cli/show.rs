@@ -356,6 +356,9 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
                 v.verified
             ),
         }
+        for (what, why) in &v.not_verified {
+            errln!("chainsweep: not verified: {what} ({why})");
+        }
     }
     if !quiet {
         if let Some(&i) = r.unpassed.first() {

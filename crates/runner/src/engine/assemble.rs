@@ -18,6 +18,8 @@ pub struct VerifySource {
     pub fraction: f64,
     /// Verification hash of each grid point (computed for the points of this shard).
     pub hashes: HashMap<usize, RunHash>,
+    /// What each point's verification run's own error adds to its difference from the run.
+    pub allowances: HashMap<usize, verify::Allowance>,
     /// Verification runs known to be stored (ok or failed), by hash.
     pub done: HashMap<RunHash, bool>,
     /// Outcomes taken as they are (from merged shard files), by point.
@@ -25,6 +27,13 @@ pub struct VerifySource {
 }
 
 impl VerifySource {
+    /// Records point `i`'s verification run: its hash and its allowance, from its scene.
+    pub fn insert(&mut self, i: usize, tight: &chainsweep_solver::Scene, hash: RunHash) {
+        self.hashes.insert(i, hash);
+        self.allowances
+            .insert(i, verify::Allowance::of(&tight.integrator));
+    }
+
     /// No verification outcome known yet; `fraction` is recorded.
     pub fn empty(fraction: f64) -> Self {
         VerifySource {
@@ -52,7 +61,8 @@ impl VerifySource {
             return Ok(VerifyInfo::none(np));
         }
         let tight = store.read(h)?;
-        Ok(verify::compare(rec, tight.as_ref(), np))
+        let allowance = self.allowances[&i];
+        Ok(verify::compare(rec, tight.as_ref(), np, allowance))
     }
 }
 

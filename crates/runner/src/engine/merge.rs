@@ -120,11 +120,11 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
         if vsrc.given.contains_key(&i) {
             continue;
         }
-        let (_, vh) = verify::point_verification(&sweep, &grid, i);
+        let (tight, vh) = verify::point_verification(&sweep, &grid, i);
         if let Some(&ok) = index.get(&vh) {
             vsrc.done.insert(vh, ok);
         }
-        vsrc.hashes.insert(i, vh);
+        vsrc.insert(i, &tight, vh);
     }
     let counts = assemble(
         &work,

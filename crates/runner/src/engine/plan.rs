@@ -183,8 +183,8 @@ fn plan_verification(
         return Ok((source, sampled, pending, counts));
     }
     for &i in points {
-        let (_, vh) = verify::point_verification(sweep, grid, i);
-        source.hashes.insert(i, vh);
+        let (tight, vh) = verify::point_verification(sweep, grid, i);
+        source.insert(i, &tight, vh);
         let state = index.get(&vh).copied();
         if let Some(ok) = state {
             source.done.insert(vh, ok);

@@ -177,6 +177,9 @@ pub struct VerificationReport {
     pub failed: usize,
     /// The first [`LISTED_FAILURES`] of them, with their reasons.
     pub failures: Vec<Failure>,
+    /// What this sweep records that verification does not compare, each with why
+    /// ([`crate::numerics::verify::NOT_VERIFIED`]).
+    pub not_verified: Vec<(&'static str, &'static str)>,
 }
 
 /// What a sweep run did.
@@ -236,6 +239,7 @@ impl RunReport {
                 worst: r.verified.1.map(|e| (e, 0)),
                 failed: 0,
                 failures: Vec::new(),
+                not_verified: Vec::new(),
             },
             stopped: r.stopped,
             ran: r.ran,
@@ -602,5 +606,16 @@ fn verification_report(
         });
     }
     report.requested = plan.points.iter().filter(|&&i| plan.sampled[i]).count();
+    let recorded = [
+        grid.history,
+        grid.min_overlap,
+        grid.fields.is_some(),
+        grid.spectrum,
+    ];
+    report.not_verified = crate::numerics::verify::NOT_VERIFIED
+        .iter()
+        .zip(recorded)
+        .filter_map(|(&what, on)| on.then_some(what))
+        .collect();
     Ok(report)
 }

@@ -754,7 +754,7 @@ fn verify_searches(
     let mut scenes: HashMap<RunHash, (Scene, usize)> = HashMap::new();
     for i in (0..grid.len()).filter(|&i| sampled[i] && grid.hashes[i] != [0; 32]) {
         let (tight, vh) = verify::point_verification(sweep, grid, i);
-        vsrc.hashes.insert(i, vh);
+        vsrc.insert(i, &tight, vh);
         if work.read(&vh)?.is_some() {
             vsrc.done.insert(vh, true);
             continue;
@@ -806,7 +806,7 @@ fn verify_searches(
         let Some(rec) = work.read(&grid.hashes[i])? else {
             continue;
         };
-        let info = verify::compare(&rec, Some(&tight), grid.probes.len());
+        let info = verify::compare(&rec, Some(&tight), grid.probes.len(), vsrc.allowances[&i]);
         if info.status == VERIFY_OK {
             n += 1;
             let e = info.max_error();

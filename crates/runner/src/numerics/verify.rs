@@ -7,7 +7,23 @@
 //!   verifications of its own points, so a merge of shards equals a single-machine run.
 //! - The tighter setting: DOP853 and ROS34PW2 at `rtol / 100` (and `atol / 100` when given),
 //!   RK4 and Verlet at `dt / 4`; the step budget is multiplied by 4 (fixed-step methods need four
-//!   times the steps); histories and minimum overlaps are not recorded by verification runs.
+//!   times the steps).
+//! - What is compared ([`compare`]): every probe's leading peak, its time, record maximum and its
+//!   time; the steady state (the complex amplitude of every harmonic against the fundamental's, the
+//!   mean and the RMS against the RMS); the largest overlap; the energy flow (every contact's
+//!   largest and final energy passed, every particle's largest kinetic energy, against the largest
+//!   of them). Each error is a bound on the run's own error `e` from its difference `d` to the
+//!   tighter run, whose own error `e_t` it cannot see: `|e| ≤ d + |e_t|` ([`Allowance`]). A
+//!   fixed-step method's error falls as the step's power, so `|e_t| ≤ s |e|` with `s = 4^-p` and
+//!   `|e| ≤ d / (1 − s)`. An adaptive method's error usually falls tenfold or more with a
+//!   hundredfold tighter tolerance (`s` = [`TIGHTER_ERROR_SHARE`]), but not everywhere: where an
+//!   error is set by where a step lands on a switch rather than by the tolerance, both runs can
+//!   share it (measured: a plastic contact's peak 2.5e-8 off from rtol 1e-6 to 1e-9, the two runs
+//!   6.6e-9 apart). So the tighter run's error is also bounded by its tolerance: `|e_t| ≤ K
+//!   rtol_t` with `K` = [`TIGHTER_ERROR_FACTOR`] (global errors measured 25–100 rtol), and the
+//!   bound is `d / (1 − s) + K rtol_t` — never below the run's own rtol.
+//! - What is not ([`NOT_VERIFIED`]): histories, minimum overlaps and space–time fields are not
+//!   recorded by verification runs; the spectrum is not integrated (it is the same in both).
 //! - A verification run is a run like any other: its record is stored in the work directory,
 //!   under the hash of the tightened scene with a marker ([`verify_hash`]), so an interrupted
 //!   verification resumes, and a point once verified stays verified in later assemblies.
@@ -15,11 +31,26 @@
 use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, Scene};
 use sha2::{Digest, Sha256};
 
-use super::probe_errors;
+use chainsweep_solver::observe::flow::EnergyFlow;
+use chainsweep_solver::observe::steady::SteadyProbe;
+
+use super::{max_ignoring_nan, rel_error};
 use crate::grid::Grid;
 use crate::identity::{verify_hash, RunHash};
-use crate::record::{RunRecord, VerifyInfo, VERIFY_FAILED, VERIFY_OK};
+use crate::record::{RunRecord, VerifyInfo, VERIFY_FAILED, VERIFY_OK, VERIFY_PROBE_ERRORS};
 use crate::sweep::Sweep;
+
+/// What `--verify` does not compare, each with why: named by `run`'s report where a sweep records
+/// it.
+pub const NOT_VERIFIED: [(&str, &str); 4] = [
+    ("histories", "not recorded by verification runs"),
+    ("minimum overlaps", "not recorded by verification runs"),
+    ("space-time fields", "not recorded by verification runs"),
+    (
+        "the spectrum",
+        "not integrated in time: the same at any tolerance (exact to rounding)",
+    ),
+];
 
 /// The integrator one notch tighter (see the module docs).
 pub fn tighten(spec: IntegratorSpec) -> IntegratorSpec {
@@ -48,7 +79,6 @@ pub fn tight_scene(scene: &Scene) -> Scene {
     s.max_steps = scene.max_steps.saturating_mul(4);
     s.record.history = false;
     s.record.min_overlap = false;
-    s.record.energy_flow = false;
     s.record.fields = None;
     s
 }
@@ -89,8 +119,64 @@ pub fn sample(grid: &Grid, fraction: f64) -> Vec<bool> {
     chosen
 }
 
+/// The largest share of a run's error that its verification run, a hundred times tighter, is
+/// taken to keep (adaptive methods; see the module docs).
+pub const TIGHTER_ERROR_SHARE: f64 = 0.1;
+
+/// How many times its relative tolerance an adaptive verification run's own error is taken to be
+/// at most (see the module docs).
+pub const TIGHTER_ERROR_FACTOR: f64 = 100.0;
+
+/// What a verification run's own error adds to the difference between it and the run it
+/// verifies: a share of the run's error, and a floor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Allowance {
+    /// The largest share of the run's error the verification run keeps.
+    pub share: f64,
+    /// The largest error of the verification run whatever the run's (relative).
+    pub floor: f64,
+}
+
+impl Allowance {
+    /// The allowance of a verification run under `tight`, the tightened integrator.
+    pub fn of(tight: &IntegratorSpec) -> Allowance {
+        match *tight {
+            // Orders 2 and 4 at a quarter of the step.
+            IntegratorSpec::Verlet { .. } => Allowance {
+                share: 1.0 / 16.0,
+                floor: 0.0,
+            },
+            IntegratorSpec::Rk4 { .. } => Allowance {
+                share: 1.0 / 256.0,
+                floor: 0.0,
+            },
+            IntegratorSpec::Dop853(o) | IntegratorSpec::Ros34pw2(o) | IntegratorSpec::Vern6(o) => {
+                Allowance {
+                    share: TIGHTER_ERROR_SHARE,
+                    floor: TIGHTER_ERROR_FACTOR * o.rtol,
+                }
+            }
+        }
+    }
+
+    /// The bound on a run's error from its difference `d` to the verification run (NaN and
+    /// infinities as they are).
+    pub fn bound(&self, d: f64) -> f64 {
+        if d.is_finite() {
+            d / (1.0 - self.share) + self.floor
+        } else {
+            d
+        }
+    }
+}
+
 /// The verification outcome of a point from its run and its verification run.
-pub fn compare(base: &RunRecord, tight: Option<&RunRecord>, n_probes: usize) -> VerifyInfo {
+pub fn compare(
+    base: &RunRecord,
+    tight: Option<&RunRecord>,
+    n_probes: usize,
+    allowance: Allowance,
+) -> VerifyInfo {
     let Some(tight) = tight else {
         return VerifyInfo::none(n_probes);
     };
@@ -103,10 +189,83 @@ pub fn compare(base: &RunRecord, tight: Option<&RunRecord>, n_probes: usize) -> 
     if !base.ok {
         return VerifyInfo::none(n_probes);
     }
-    let errors = probe_errors(&base.probes, &tight.probes);
+    let errors: Vec<[f64; VERIFY_PROBE_ERRORS]> = (0..n_probes)
+        .map(|p| {
+            let (a, r) = (base.probes.get(p), tight.probes.get(p));
+            let e = |get: fn(&chainsweep_solver::observe::probes::ProbeSummary) -> f64| match (a, r)
+            {
+                (Some(a), Some(r)) => rel_error(get(a), get(r)),
+                _ => f64::NAN,
+            };
+            [
+                e(|s| s.leading_peak),
+                e(|s| s.leading_peak_time_s),
+                e(|s| s.record_max),
+                e(|s| s.record_max_time_s),
+                match (base.steady_probe(p), tight.steady_probe(p)) {
+                    (Some(a), Some(r)) => steady_error(a, r),
+                    _ => f64::NAN,
+                },
+            ]
+        })
+        .collect();
+    let flow = match (&base.energy_flow, &tight.energy_flow) {
+        (Some(a), Some(r)) => flow_error(a, r),
+        _ => f64::NAN,
+    };
+    let bound = |d| allowance.bound(d);
+    let errors = errors.into_iter().map(|e| e.map(bound)).collect();
     VerifyInfo {
         status: VERIFY_OK,
         errors,
+        run_errors: [rel_error(base.max_overlap_m, tight.max_overlap_m), flow].map(bound),
+    }
+}
+
+/// The error of a probe's steady state against the tighter run's: the largest of each harmonic's
+/// complex amplitude `A_k e^{iφ_k}` against the fundamental's, and of the mean and the RMS against
+/// the RMS (a mean or a harmonic may be near zero, which a relative error of its own would inflate).
+fn steady_error(a: &SteadyProbe, r: &SteadyProbe) -> f64 {
+    let scale = r.amplitude.first().copied().unwrap_or(0.0).max(r.rms);
+    let against = |d: f64| if d == 0.0 { 0.0 } else { d / scale };
+    let mut worst = against((a.mean - r.mean).abs()).max(against((a.rms - r.rms).abs()));
+    for k in 0..a.amplitude.len().min(r.amplitude.len()) {
+        let (x, y) = (
+            (
+                a.amplitude[k] * a.phase_rad[k].cos(),
+                a.amplitude[k] * a.phase_rad[k].sin(),
+            ),
+            (
+                r.amplitude[k] * r.phase_rad[k].cos(),
+                r.amplitude[k] * r.phase_rad[k].sin(),
+            ),
+        );
+        worst = worst.max(against((x.0 - y.0).hypot(x.1 - y.1)));
+    }
+    worst
+}
+
+/// The error of an energy flow against the tighter run's: the largest difference of any of its
+/// values against the largest of them (the energy that flows is a fraction of what came in).
+fn flow_error(a: &EnergyFlow, r: &EnergyFlow) -> f64 {
+    let values = |f: &EnergyFlow| -> Vec<f64> {
+        f.energy_passed_max_j
+            .iter()
+            .chain(&f.energy_passed_final_j)
+            .chain(&f.max_kinetic_energy_j)
+            .copied()
+            .collect()
+    };
+    let (x, y) = (values(a), values(r));
+    if x.len() != y.len() {
+        return f64::INFINITY;
+    }
+    let scale = max_ignoring_nan(y.iter().map(|v| v.abs()));
+    let worst = max_ignoring_nan(x.iter().zip(&y).map(|(a, b)| (a - b).abs()));
+    if worst == 0.0 {
+        0.0
+    } else {
+        worst / scale
     }
 }
 

@@ -220,6 +220,8 @@ pub enum Fill {
     /// Verification error `k` of [`VerifyInfo::errors`] per probe of a verified point; NaN
     /// elsewhere.
     VerifyProbe(usize),
+    /// Verification error `k` of [`VerifyInfo::run_errors`] of a verified point; NaN elsewhere.
+    VerifyRun(usize),
 }
 
 impl Fill {
@@ -246,6 +248,7 @@ impl Fill {
             Fill::HistoryChecksum => "history_checksum",
             Fill::SummaryChecksum => "summary_checksum",
             Fill::VerifyProbe(_) => "verify_probe",
+            Fill::VerifyRun(_) => "verify_run",
         }
     }
 }
@@ -776,7 +779,7 @@ pub const COLUMNS: &[Column] = &[
         per_probe: false,
         per_harmonic: false,
         units: Units::Fixed("1"),
-        description: "largest verify_rel_error_* over the probes (NaN where not verified)",
+        description: "largest verify_rel_error_* of the point (NaN where not verified)",
         long_name: true,
         flags: None,
         note: "",
@@ -1049,6 +1052,62 @@ pub const COLUMNS: &[Column] = &[
         required: false,
         written: Written::Always,
         fill: Fill::VerifyProbe(2),
+    },
+    Column {
+        name: "verify_rel_error_record_max_time",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: false,
+        units: Units::Fixed("1"),
+        description: "relative error of record_max_time_s against the verification run",
+        long_name: true,
+        flags: None,
+        note: VERIFY_ERROR_NOTE,
+        required: false,
+        written: Written::Always,
+        fill: Fill::VerifyProbe(3),
+    },
+    Column {
+        name: "verify_rel_error_steady",
+        dtype: Dtype::F64,
+        per_probe: true,
+        per_harmonic: false,
+        units: Units::Fixed("1"),
+        description: "error of the steady state against the verification run: the largest of each harmonic's complex amplitude, the mean and the RMS, relative to the fundamental's amplitude (or the RMS where larger)",
+        long_name: true,
+        flags: None,
+        note: VERIFY_ERROR_NOTE,
+        required: false,
+        written: Written::WithSteadyState,
+        fill: Fill::VerifyProbe(4),
+    },
+    Column {
+        name: "verify_rel_error_max_overlap",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("1"),
+        description: "relative error of max_overlap_m against the verification run",
+        long_name: true,
+        flags: None,
+        note: VERIFY_ERROR_NOTE,
+        required: false,
+        written: Written::Always,
+        fill: Fill::VerifyRun(0),
+    },
+    Column {
+        name: "verify_rel_error_energy_flow",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("1"),
+        description: "error of the energy flow against the verification run: the largest difference of any energy_passed_max_j, energy_passed_final_j or max_kinetic_energy_j, relative to the largest of them",
+        long_name: true,
+        flags: None,
+        note: "NaN where not verified or where the energy flow is not recorded",
+        required: false,
+        written: Written::WithRunGroups,
+        fill: Fill::VerifyRun(1),
     },
     Column {
         name: "history_checksum",
@@ -1354,6 +1413,11 @@ impl Column {
                     }
                 }
             }
+            (Fill::VerifyRun(k), ColumnData::F64(d)) => {
+                if let Some(v) = verified {
+                    d[i] = v.run_errors[k];
+                }
+            }
             (Fill::HistoryChecksum, ColumnData::U64(d)) => {
                 if let Some(r) = ok {
                     d[i] = history_checksum(
@@ -1641,23 +1705,37 @@ impl Table {
             Some(ColumnData::U8(v)) => v[i],
             _ => VERIFY_NONE,
         };
-        let mut errors = vec![[f64::NAN; 3]; np];
-        let per_probe: Vec<(usize, &Vec<f64>)> = COLUMNS
+        let mut info = VerifyInfo::none(np);
+        info.status = status;
+        let stored: Vec<(Fill, &Vec<f64>)> = COLUMNS
             .iter()
             .zip(&self.columns)
             .filter_map(|(c, data)| match (c.fill, data) {
-                (Fill::VerifyProbe(k), Some(ColumnData::F64(v))) => Some((k, v)),
+                (f @ (Fill::VerifyProbe(_) | Fill::VerifyRun(_)), Some(ColumnData::F64(v))) => {
+                    Some((f, v))
+                }
                 _ => None,
             })
             .collect();
-        if status == VERIFY_OK && per_probe.len() == 3 {
-            for (p, e) in errors.iter_mut().enumerate() {
-                for &(k, v) in &per_probe {
-                    e[k] = v[i * np + p];
+        // (Files written before the later errors were kept hold the first three.)
+        let base = stored
+            .iter()
+            .filter(|(f, _)| matches!(f, Fill::VerifyProbe(k) if *k < 3))
+            .count();
+        if status == VERIFY_OK && base == 3 {
+            for &(f, v) in &stored {
+                match f {
+                    Fill::VerifyProbe(k) => {
+                        for (p, e) in info.errors.iter_mut().enumerate() {
+                            e[k] = v[i * np + p];
+                        }
+                    }
+                    Fill::VerifyRun(k) => info.run_errors[k] = v[i],
+                    _ => {}
                 }
             }
         }
-        VerifyInfo { status, errors }
+        info
     }
 
     /// The record of point `i` as the table holds it (without the run's group: histories and
@@ -1807,7 +1885,8 @@ mod tests {
                 | Fill::SteadyF64 { .. }
                 | Fill::SteadyHarmonic { .. }
                 | Fill::VerifyMax
-                | Fill::VerifyProbe(_) => Dtype::F64,
+                | Fill::VerifyProbe(_)
+                | Fill::VerifyRun(_) => Dtype::F64,
                 Fill::OkCount { .. } | Fill::OkOptCount { .. } => Dtype::I64,
                 Fill::OkText { .. } | Fill::Reason | Fill::RunHash => Dtype::Str,
                 Fill::Status

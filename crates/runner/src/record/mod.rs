@@ -210,14 +210,25 @@ impl RunRecord {
     }
 }
 
+/// Verification errors per probe ([`VerifyInfo::errors`]): the leading peak, its time, the record
+/// maximum, its time, and the steady state (its complex harmonic amplitudes, mean and RMS).
+pub const VERIFY_PROBE_ERRORS: usize = 5;
+
+/// Verification errors per run ([`VerifyInfo::run_errors`]): the largest overlap, and the energy
+/// flow.
+pub const VERIFY_RUN_ERRORS: usize = 2;
+
 /// The verification outcome of one grid point.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VerifyInfo {
     /// [`VERIFY_NONE`], [`VERIFY_OK`] or [`VERIFY_FAILED`].
     pub status: u8,
-    /// Per probe: relative error of the leading peak, its time and the record maximum (NaN
-    /// where not verified, or where neither run has the value).
-    pub errors: Vec<[f64; 3]>,
+    /// Per probe: the relative errors of the leading peak, its time, the record maximum, its
+    /// time and the steady state (NaN where not verified, or where neither run has the value).
+    pub errors: Vec<[f64; VERIFY_PROBE_ERRORS]>,
+    /// The relative errors of the largest overlap and of the energy flow (NaN where not
+    /// verified or not recorded).
+    pub run_errors: [f64; VERIFY_RUN_ERRORS],
 }
 
 impl VerifyInfo {
@@ -225,14 +236,21 @@ impl VerifyInfo {
     pub fn none(n_probes: usize) -> Self {
         VerifyInfo {
             status: VERIFY_NONE,
-            errors: vec![[f64::NAN; 3]; n_probes],
+            errors: vec![[f64::NAN; VERIFY_PROBE_ERRORS]; n_probes],
+            run_errors: [f64::NAN; VERIFY_RUN_ERRORS],
         }
     }
 
-    /// The largest error over probes and summaries, NaN where there is none (stored as
-    /// `verify_rel_error_max`).
+    /// The largest error over probes, summaries and the run's own values, NaN where there is
+    /// none (stored as `verify_rel_error_max`).
     pub fn max_error(&self) -> f64 {
-        max_ignoring_nan(self.errors.iter().flatten().copied())
+        max_ignoring_nan(
+            self.errors
+                .iter()
+                .flatten()
+                .chain(&self.run_errors)
+                .copied(),
+        )
     }
 }
 
