@@ -81,7 +81,10 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// Version 7: a run stopped after its leading pulses ends its record (summaries, histories,
 /// fields) at the summary instant at which the last of them passed, not at the end of the step.
 /// Version 8: a chain between two walls starts in static equilibrium when the walls differ (the
-/// wall under the chain at its own static overlap, not the top wall's).
+/// wall under the chain at its own static overlap, not the top wall's); peaks and the largest
+/// overlap are located on the dense output; the energy drift of a chain loaded by a
+/// precompression, a drive or a load cell is measured from its static state (a driven one against
+/// the energy its motion exchanges).
 pub const NUMERICS_VERSION: u32 = 8;
 
 /// Version of this crate.

@@ -549,3 +549,52 @@ fn driven_plastic_chains_close_the_ledger() {
         assert_ledger_closes(&out, &what);
     }
 }
+
+/// The energy drift of a driven precompressed chain is measured from its static state and against
+/// the energy the motion exchanges, so it falls with the tolerance whatever the drive's size: six
+/// spheres on 5 N, 5 kg/s per contact, driven at 5 kHz by 1e-7 N to 1e3 N, each drift at least
+/// eight times smaller per hundredfold tighter tolerance from rtol 1e-5 to 1e-9 (and 1e-11 for
+/// 1e-3 N and 1e3 N). Measured from the absolute energies, the rounding of the static energy
+/// (microjoules) made a 1e-7 N drive's drift 1.6e-2 to 8.7e-2 at every tolerance, and a 1e-9 N
+/// drive's 0.25: both failed the default limit of 1e-3. A 1e-9 N drive moves the chain by 1e-16 m,
+/// below a billionth of the positions, whose rounding then limits the run itself: its drift stays
+/// near 1e-5 (well within the limit at rtol 1e-7), and reports that floor rather than falling.
+#[test]
+fn a_driven_chain_s_drift_falls_with_the_tolerance_for_drives_of_every_size() {
+    let spec = monodisperse(6, None, false);
+    let physics = PhysicsSpec {
+        gravity: false,
+        wall: true,
+        damping_kg_s: 5.0,
+        precompression_force_n: 5.0,
+        ..PhysicsSpec::default()
+    };
+    let drift = |amplitude: f64, rtol: f64| {
+        let mut s = driven(
+            spec.clone(),
+            physics,
+            DriveSpec::ForceN(harmonic(amplitude, 5e3, 0.0)),
+            0.01,
+        );
+        s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(rtol));
+        s.record.probes = vec![Probe::ContactForce { contact: 1 }];
+        run(&s).unwrap().energy_drift_max
+    };
+    for amplitude in [1e-7, 1e-5, 1e-3, 0.1, 10.0, 1e3] {
+        let mut rtols = vec![1e-5, 1e-7, 1e-9];
+        if amplitude == 1e-3 || amplitude == 1e3 {
+            rtols.push(1e-11);
+        }
+        let drifts: Vec<f64> = rtols.iter().map(|&r| drift(amplitude, r)).collect();
+        println!("{amplitude:e} N: {drifts:?}");
+        for pair in drifts.windows(2) {
+            assert!(
+                pair[1] < pair[0] / 8.0,
+                "{amplitude:e} N: drift {drifts:?} at rtol {rtols:?}"
+            );
+        }
+        assert!(drifts[0] < 1e-3, "{amplitude:e} N: {drifts:?}");
+    }
+    let tiny = drift(1e-9, 1e-7);
+    assert!(tiny < 1e-4, "1e-9 N at rtol 1e-7: drift {tiny:e}");
+}

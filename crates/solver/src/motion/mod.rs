@@ -4,6 +4,7 @@
 //! contacts, whose history is part of the state ([`plastic`]); and the
 //! chain's tridiagonal Jacobian for the linearly implicit integrator (`jacobian`).
 
+pub mod balance;
 pub mod general;
 mod jacobian;
 pub mod plastic;
