@@ -24,6 +24,7 @@ mod mount;
 mod paper_bitwise;
 mod peaks;
 mod serialisation;
+mod single;
 mod spectrum;
 mod static_state;
 mod steady_state;

@@ -845,6 +845,12 @@ impl Chain {
                 ));
             }
         }
+        if layout.particles.len() == 1 && !physics.wall && !layout.top_wall {
+            return Err(spec_err(
+                "chain.sequence",
+                "a single particle touches nothing: give it a wall to rest on (physics.wall) or one at the top (chain.top_wall_material), or add particles",
+            ));
+        }
         if layout.wall_mount.is_some() && !physics.wall {
             return Err(spec_err(
                 "chain.wall_mount",
@@ -1072,7 +1078,8 @@ impl Chain {
     /// no precompression and no force pulse. Such chains run on the paper's specialised
     /// right-hand side ([`crate::motion::system::ChainSystem`]), all others on the general one.
     pub fn is_paper_physics(&self) -> bool {
-        self.exponent.iter().all(|&n| n == 1.5)
+        self.n_particles() > 1
+            && self.exponent.iter().all(|&n| n == 1.5)
             && self.viscoelastic_damping.iter().all(|&g| g == 0.0)
             && self.hunt_crossley_damping.iter().all(|&l| l == 0.0)
             && !self.has_tsuji_damping()

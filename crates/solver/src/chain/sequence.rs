@@ -448,12 +448,6 @@ impl SequenceSpec {
         }
         check_names(&self.sequence, "chain.sequence", &self.particles)?;
         let n = count(&self.sequence, "chain.sequence")? + self.striker.is_some() as usize;
-        if n < 2 {
-            return Err(spec_err(
-                "chain.sequence",
-                "a chain needs at least two particles, the striker included",
-            ));
-        }
         if n > MAX_PARTICLES {
             return Err(spec_err(
                 "chain.sequence",

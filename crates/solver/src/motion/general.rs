@@ -262,11 +262,16 @@ impl<const LAW: u8, const D: bool, const T: bool> GeneralChainSystem<LAW, D, T> 
 
         let g = self.gravity;
         let im = &self.inv_mass[..n];
-        dv[0] = g - force[0] * im[0];
-        for i in 1..n - 1 {
-            dv[i] = g + (force[i - 1] - force[i]) * im[i];
+        if n == 1 {
+            // One particle: on its wall (and under a wall at the top), no neighbour.
+            dv[0] = g - end_force * im[0];
+        } else {
+            dv[0] = g - force[0] * im[0];
+            for i in 1..n - 1 {
+                dv[i] = g + (force[i - 1] - force[i]) * im[i];
+            }
+            dv[n - 1] = g + (force[n - 2] - end_force) * im[n - 1];
         }
-        dv[n - 1] = g + (force[n - 2] - end_force) * im[n - 1];
         if self.ring {
             dv[0] += end_force * im[0];
         }

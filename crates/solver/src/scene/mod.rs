@@ -848,11 +848,14 @@ impl ImpactScales {
         self.duration_s
     }
 
-    /// Scales for particle 1 moving at `v0` into particle 2 (a striker, or a δ-force impulse).
+    /// Scales for particle 1 moving at `v0` into particle 2 (a striker, or a δ-force impulse), or
+    /// into its wall when it is alone.
     pub fn new(chain: &Chain, v0: f64) -> Self {
         let m1 = chain.mass[0];
-        let m2 = chain.mass[1];
-        let reduced = m1 * m2 / (m1 + m2);
+        let reduced = match chain.mass.get(1) {
+            Some(&m2) => m1 * m2 / (m1 + m2),
+            None => m1,
+        };
         let (a1, n) = (chain.stiffness[0], chain.exponent[0]);
         let (overlap, force, duration) = if n == 1.5 {
             let overlap = (1.25 * reduced * v0 * v0 / a1).powf(0.4);
