@@ -3,8 +3,15 @@
 //! The scene is the JSON of a sweep file's `base` (chain presets, defaults, `integrator: auto`),
 //! with the `record` and `limits` blocks beside it. The runner makes it a sweep of one point
 //! without axes ([`Sweep::of_scene`]), normalised as a sweep file's base, identifies it ([`Grid`]'s
-//! run hash) and runs it under panic protection with its failure limits ([`exec::execute`]): the
-//! numbers are bitwise those of `chainsweep point` for the same scene.
+//! run hash) and runs it under panic protection with its failure limits
+//! ([`exec::execute_stoppable`]): the numbers are bitwise those of `chainsweep point` for the same
+//! scene. The run goes on a thread of its own while this one checks Python's signals every
+//! [`SIGNAL_INTERVAL`]: Ctrl-C (a notebook's interrupt) stops it within a step and raises
+//! `KeyboardInterrupt`.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::Duration;
 
 use pyo3::intern;
 use pyo3::prelude::*;
@@ -39,7 +46,12 @@ struct PointRun {
 /// Normalises and runs one scene (see the module docs). Errors are input errors naming the field
 /// (`base.…`, `record.…`, `limits.…` as in a sweep file; the validation of the built scene names
 /// scene fields without the `base.` prefix).
-fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Result<PointRun> {
+fn run_point(
+    scene: Value,
+    record: Option<Value>,
+    limits: Option<Value>,
+    stop: Arc<AtomicBool>,
+) -> Result<Option<PointRun>> {
     let (mut sweep, base) = Sweep::of_scene(scene, record, limits)?;
     // The grid's one point is the scene run: read from its JSON once, by the normalisation.
     let (mut grid, mut scene) = match Grid::with_first_scene(&sweep, Some(base)) {
@@ -62,16 +74,21 @@ fn run_point(scene: Value, record: Option<Value>, limits: Option<Value>) -> Resu
         (grid, scene) = Grid::with_first_scene(&sweep, None)?;
     }
     let hash = grid.hashes[0];
-    let record = exec::execute(&scene, hash, &sweep.limits, 0);
-    Ok(PointRun {
+    let Some(record) = exec::execute_stoppable(&scene, hash, &sweep.limits, stop) else {
+        return Ok(None);
+    };
+    Ok(Some(PointRun {
         scene,
         hash: hex(&hash),
         energy_drift_limit: sweep.limits.energy_drift_max,
         auto: sweep.auto_choice.clone(),
         record,
         moving_part: grid.moving_part,
-    })
+    }))
 }
+
+/// How often Python's signals are checked while a point runs.
+const SIGNAL_INTERVAL: Duration = Duration::from_millis(50);
 
 fn parse_json(text: &str, what: &str) -> Result<Value> {
     serde_json::from_str(text).map_err(|e| Error::input(what, format!("not valid JSON: {e}")))
@@ -270,13 +287,50 @@ pub fn run_scene<'py>(
     ) else {
         return Ok(None);
     };
-    let outcome = py.detach(move || -> Result<PointRun> {
-        let scene = scene.value("scene")?;
-        let record = record.map(|r| r.value("record")).transpose()?;
-        let limits = limits.map(|l| l.value("limits")).transpose()?;
-        run_point(scene, record, limits)
+    let stop = Arc::new(AtomicBool::new(false));
+    let runner_stop = Arc::clone(&stop);
+    let (tx, rx) = mpsc::channel::<Result<Option<PointRun>>>();
+    let runner = std::thread::spawn(move || {
+        let outcome = (|| {
+            let scene = scene.value("scene")?;
+            let record = record.map(|r| r.value("record")).transpose()?;
+            let limits = limits.map(|l| l.value("limits")).transpose()?;
+            run_point(scene, record, limits, runner_stop)
+        })();
+        let _ = tx.send(outcome);
     });
-    let run = outcome.map_err(|e| crate::py_error(py, &e, "scene"))?;
+    // (A receiver is not `Sync`; the wait below borrows it from a thread without the GIL.)
+    let rx = std::sync::Mutex::new(rx);
+    let mut interrupt: Option<PyErr> = None;
+    let outcome = loop {
+        match py.detach(|| {
+            rx.lock()
+                .expect("only this thread locks it")
+                .recv_timeout(SIGNAL_INTERVAL)
+        }) {
+            Ok(r) => break r,
+            Err(mpsc::RecvTimeoutError::Timeout) => {}
+            Err(mpsc::RecvTimeoutError::Disconnected) => {
+                break Err(Error::Other(
+                    "the run's thread ended without a result (a panic outside the run)".into(),
+                ))
+            }
+        }
+        if interrupt.is_none() {
+            if let Err(e) = py.check_signals() {
+                stop.store(true, Ordering::SeqCst);
+                interrupt = Some(e);
+            }
+        }
+    };
+    let _ = runner.join();
+    if let Some(e) = interrupt {
+        return Err(e);
+    }
+    let run = match outcome.map_err(|e| crate::py_error(py, &e, "scene"))? {
+        Some(run) => run,
+        None => unreachable!("a run stops early only when interrupted"),
+    };
     let rec = &run.record;
     let probes = &run.scene.record.probes;
     let d = PyDict::new(py);

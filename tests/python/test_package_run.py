@@ -4,6 +4,9 @@ plain arrays; bad input naming the field; failed runs; integrator auto; the GIL 
 from __future__ import annotations
 
 import copy
+import signal
+import subprocess
+import sys
 import json
 import threading
 import time
@@ -366,3 +369,38 @@ def test_two_threads_run_scenes_at_once():
         for name in ("leading_peak", "leading_peak_time_s", "record_max", "energy_drift_max",
                      "steps", "rhs_evals"):
             assert results[k][name].values.tobytes() == alone[k][name].values.tobytes(), name
+
+
+RUN_INTERRUPTED = """
+import json, signal, sys, time
+import chainsweep
+signal.signal(signal.SIGINT, signal.default_int_handler)
+print("started", flush=True)
+try:
+    chainsweep.run(json.loads(sys.argv[1]), limits={"max_run_seconds": 600})
+except KeyboardInterrupt:
+    print(f"KeyboardInterrupt {time.monotonic()!r}", flush=True)
+    sys.exit(130)
+print("finished", flush=True)
+"""
+
+
+def test_ctrl_c_stops_a_run_within_a_second():
+    """A long run (3 000 cylinders over 0.5 s: minutes) stops within a second of SIGINT and raises
+    KeyboardInterrupt, as a notebook's interrupt needs (before, it ran on to its
+    max_run_seconds)."""
+    s = scene(cylinders=3000, duration_s=0.5, probes=(4, 21))
+    proc = subprocess.Popen(
+        [sys.executable, "-c", RUN_INTERRUPTED, json.dumps(s)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    assert proc.stdout.readline().strip() == "started"
+    time.sleep(2.0)  # the run is under way
+    assert proc.poll() is None
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, (stdout, stderr)
+    word, at = stdout.split()
+    assert word == "KeyboardInterrupt"
+    assert float(at) - sent < 1.0, float(at) - sent

@@ -114,6 +114,33 @@ pub fn execute_continued(
     }
 }
 
+/// Runs the scene of a single point (not a grid's: `chainsweep.run`) and records the outcome, or
+/// `None` when `stop` was set before it ended (an interrupt: nothing is recorded).
+pub fn execute_stoppable(
+    scene: &Scene,
+    hash: RunHash,
+    limits: &Limits,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+) -> Option<RunRecord> {
+    let start = Instant::now();
+    let limit = (limits.max_run_seconds, SWEEP_LIMIT);
+    let deadline = start + Duration::from_secs_f64(limit.0);
+    let result = guarded(|| {
+        chainsweep_solver::scene::solve::run_stoppable(scene, Some(deadline), Some(stop))
+    });
+    let wall = start.elapsed().as_secs_f64();
+    match result {
+        Ok(Err(RunError::Stopped { .. })) => None,
+        Ok(Ok(out)) => Some(record_of(scene, hash, limits, out, wall)),
+        Ok(Err(e)) => Some(RunRecord::failed(
+            hash,
+            failure_reason(scene, limit, &e),
+            wall,
+        )),
+        Err(reason) => Some(RunRecord::failed(hash, reason, wall)),
+    }
+}
+
 /// Runs a verification scene and records the outcome under `hash`.
 pub fn execute_verification(scene: &Scene, hash: RunHash, limits: &Limits) -> RunRecord {
     execute_inner(scene, hash, limits, None)

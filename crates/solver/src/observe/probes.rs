@@ -1032,6 +1032,10 @@ pub(crate) struct RunObserver {
     pub deadline: Option<Instant>,
     /// Whether the run was stopped by its deadline.
     pub deadline_reached: bool,
+    /// The run stops once this flag is set (read after every accepted step).
+    pub stop_flag: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
+    /// Whether the run was stopped by its stop flag.
+    pub interrupted: bool,
     /// Accepted steps since the clock was last read.
     steps_since_clock: u32,
     /// The state at the end of the last accepted step, kept when the run has several legs.
@@ -1413,6 +1417,8 @@ impl RunObserver {
             stopped: false,
             deadline: None,
             deadline_reached: false,
+            stop_flag: None,
+            interrupted: false,
             steps_since_clock: 0,
             state: None,
             ledger: Ledger::new(chain),
@@ -1754,6 +1760,13 @@ impl StepObserver for RunObserver {
         if passed_at.is_some() {
             self.stopped = true;
             return Control::Stop;
+        }
+        if let Some(flag) = &self.stop_flag {
+            if flag.load(std::sync::atomic::Ordering::Relaxed) {
+                self.interrupted = true;
+                self.stopped = true;
+                return Control::Stop;
+            }
         }
         if let Some(deadline) = self.deadline {
             self.steps_since_clock += 1;

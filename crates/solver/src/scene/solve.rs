@@ -2,6 +2,8 @@
 //! [`crate::scene::active`]) with the probes and the ledger watching, into a [`RunOutput`] or a
 //! [`RunError`]. The scene itself, what it says, is [`crate::scene`].
 
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use std::time::Instant;
 
 #[cfg(feature = "serde")]
@@ -39,6 +41,11 @@ pub enum RunError {
         /// Rejected step attempts.
         rejected: u64,
     },
+    /// The stop flag given to [`run_stoppable`] was set (an interrupt) before the run ended.
+    Stopped {
+        /// Simulated time reached, s.
+        t_s: f64,
+    },
 }
 
 impl std::fmt::Display for RunError {
@@ -50,6 +57,7 @@ impl std::fmt::Display for RunError {
                 f,
                 "deadline reached at t = {t_s:.6e} s after {steps} steps ({rejected} rejected attempts)"
             ),
+            RunError::Stopped { t_s } => write!(f, "stopped at t = {t_s:.6e} s (interrupted)"),
         }
     }
 }
@@ -257,6 +265,16 @@ pub fn run(scene: &Scene) -> Result<RunOutput, RunError> {
 /// within that many steps of the deadline; a run that only rejects attempts ends on its step
 /// budget ([`Scene::max_steps`]) instead.
 pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, RunError> {
+    run_stoppable(scene, deadline, None)
+}
+
+/// [`run_until`], also giving up with [`RunError::Stopped`] once `stop` is set (read after every
+/// accepted step: an interrupt from another thread ends the run within one step).
+pub fn run_stoppable(
+    scene: &Scene,
+    deadline: Option<Instant>,
+    stop: Option<Arc<AtomicBool>>,
+) -> Result<RunOutput, RunError> {
     let chain = scene.validate()?;
     let scales = scene.impact_scales(&chain);
     let probes = ProbeSet::new(
@@ -323,6 +341,7 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
     let t_end = scene.duration_s;
     let mut observer = RunObserver::new(&chain, probes, opts, t0, t_end);
     observer.deadline = deadline;
+    observer.stop_flag = stop;
 
     let y0 = scene.initial_state(&chain);
     if y0.len() != chain.state_len() {
@@ -383,6 +402,11 @@ pub fn run_until(scene: &Scene, deadline: Option<Instant>) -> Result<RunOutput, 
             None,
         ),
     };
+    if observer.interrupted {
+        return Err(RunError::Stopped {
+            t_s: observer.t_reached,
+        });
+    }
     if observer.deadline_reached {
         return Err(RunError::Deadline {
             t_s: observer.t_reached,
