@@ -389,6 +389,20 @@ _GROUPS_PER_OPEN = 512
 _BLOCK_LOCK = threading.Lock()
 
 
+def _array_bytes(f: h5py.File) -> int:
+    """Bytes of the runs' histories and fields as stored uncompressed (what reading them whole
+    takes): the datasets of layout 5 and later, or every dataset under ``runs/`` of earlier
+    layouts."""
+    sizes = [f[name].size * f[name].dtype.itemsize
+             for name in ("history", "history_N", "history_m", "history_m_per_s", *_FIELD_NAMES)
+             if isinstance(f.get(name), h5py.Dataset)]
+    if isinstance(f.get("runs"), h5py.Group):
+        f["runs"].visititems(
+            lambda _, o: sizes.append(o.size * o.dtype.itemsize) if isinstance(o, h5py.Dataset) else None
+        )
+    return sum(sizes)
+
+
 def _has_dask() -> bool:
     try:
         import dask.array  # noqa: F401
@@ -840,7 +854,8 @@ def open(  # noqa: A001 (chainsweep.open)
     were sampled at different instants (the history interval an axis), the last dimension is
     ``sample`` and ``time_s`` a coordinate over (grid…, ``sample``).
 
-    With ``histories="lazy"`` (and dask installed), ``history`` is the same variable as a dask
+    With ``histories="lazy"`` (dask installed: else :class:`InputError` says so, rather than
+    read a multi-gigabyte file into memory), ``history`` is the same variable as a dask
     array read from the file only when computed, in blocks of runs along the grid's last axis
     (about 8 MB each, whole chunks of the file): a reduction over every history
     (``ds.history.max("time_s")``) holds a few blocks at a time, not the file. Each block opens
@@ -896,7 +911,15 @@ def open(  # noqa: A001 (chainsweep.open)
         for name in auxiliary & set(data):
             coords[name] = data.pop(name)
         extras = [_stack_min_overlaps(f, grid), _stack_energy_flow(f, grid)]
-        lazy = histories == "lazy" and ("runs" in f or arrays) and _has_dask()
+        lazy = histories == "lazy" and ("runs" in f or arrays)
+        if lazy and not _has_dask():
+            raise InputError(
+                "histories",
+                '"lazy" needs dask, which is not installed (pip install dask, or the extra: '
+                "pip install 'chainsweep[xarray]'); without it the histories would be read into "
+                f"memory whole ({_array_bytes(f) / 1e6:.0f} MB in this file): pass histories=True "
+                "to read them so",
+            )
         if histories and not lazy:
             extras.append(_stack_histories(f, grid))
             extras.append(_stack_fields(f, grid))

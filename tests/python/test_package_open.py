@@ -5,6 +5,8 @@ NaN where a run failed or is pending; partial files; the Dataset written and rea
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 import os
 import shutil
 
@@ -94,7 +96,7 @@ def test_every_summary_labelled_and_equal_to_h5py(files):
         for name in STRINGS:
             assert list(ds[name].values.ravel()) == list(texts(f[name]).ravel()), name
         assert ds.status.values.tobytes() == f["status"][()].tobytes()
-        assert ds.status.attrs["flag_meanings"] == "pending ok failed"
+        assert ds.status.attrs["flag_meanings"] == "pending ok failed unsettled"
         assert ds.verified.values.tobytes() == f["verified"][()].tobytes()
         assert int((ds.verified == 1).sum()) == 3
         for k, v in f.attrs.items():
@@ -126,6 +128,32 @@ def test_lazy_histories_read_nothing_until_computed_and_equal_the_stacked_ones(f
         ds.history.values
     with pytest.raises(InputError):
         chainsweep.open(files["full"], histories="yes")
+
+
+WITHOUT_DASK = """
+import sys
+# An interpreter where dask is not installed: `import dask` raises, find_spec finds nothing.
+sys.modules["dask"] = sys.modules["dask.array"] = None
+import chainsweep
+try:
+    chainsweep.open(sys.argv[1], histories="lazy")
+except chainsweep.InputError as e:
+    print(e.field, "|", e, flush=True)
+    sys.exit(0)
+print("served", flush=True)
+sys.exit(1)
+"""
+
+
+def test_lazy_histories_without_dask_name_the_package_and_read_nothing(files):
+    """Without dask, histories="lazy" raises naming it and the extra that brings it, with the
+    memory a whole read would take, rather than read every history into memory unasked."""
+    r = subprocess.run([sys.executable, "-c", WITHOUT_DASK, str(files["full"])],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    field, message = r.stdout.split(" | ", 1)
+    assert field == "histories"
+    assert "needs dask" in message and "chainsweep[xarray]" in message and " MB " in message
 
 
 def test_units_of_run_and_open_agree(files):
