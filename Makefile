@@ -228,12 +228,19 @@ docs-figures:
 	done
 .PHONY: docs-figures
 
+# Examples whose sweep is expected to leave some steady states unsettled (exit 3): the dimer's
+# far end deep in its band gap, where the tiny forced response stays below the slowest modes
+# still ringing from the start. Their other runs must all be ok (no failed or pending run).
+EXAMPLES_WITH_UNSETTLED := dimer-transmission
 examples: build
 	@mkdir -p results/examples; \
 	for s in $(EXAMPLE_SWEEPS); do \
 	  echo "example $$s"; \
-	  $(CHAINSWEEP_BIN) run sweeps/examples/$$s.json -o results/examples/$$s.h5 --jobs $(SWEEP_JOBS) --quiet \
-	    || { echo "ERROR: example $$s failed (exit $$?)"; exit 1; }; \
+	  $(CHAINSWEEP_BIN) run sweeps/examples/$$s.json -o results/examples/$$s.h5 --jobs $(SWEEP_JOBS) --quiet; rc=$$?; \
+	  if [ $$rc -eq 3 ] && echo " $(EXAMPLES_WITH_UNSETTLED) " | grep -q " $$s " && \
+	     $(CHAINSWEEP_BIN) status results/examples/$$s.h5 --json | $(PY) -c 'import json,sys; c=json.load(sys.stdin)["counts"]; sys.exit(c["failed"] + c["pending"] > 0)'; then \
+	    echo "  (some steady states unsettled, as expected: drawn hollow)"; \
+	  elif [ $$rc -ne 0 ]; then echo "ERROR: example $$s failed (exit $$rc)"; exit 1; fi; \
 	done; \
 	cd scripts && ../$(PY) examples.py
 
@@ -266,7 +273,8 @@ accuracy: build
 AUTO_CHECK_SWEEPS := fig08-auto stress/auto-stiff
 AUTO_CHECK_PY := import h5py, json, sys, numpy as np; \
 	f = h5py.File(sys.argv[1], "r"); t = float(f.attrs["auto_target_rel_error"]); \
-	e = f["verify_rel_error_max"][...]; v = f["verified"][...]; m = float(np.nanmax(e)); \
+	e = np.nanmax(np.stack([f["verify_rel_error_" + n][...] for n in ("leading_peak", "leading_peak_time", "record_max")]), axis=(0, -1)); \
+	v = f["verified"][...]; m = float(np.nanmax(e)); \
 	i = int(np.nanargmax(e)); a = f.attrs["auto_setting"]; \
 	print(f"{sys.argv[1]}: integrator auto, target {t:g}: {a}; " \
 	      f"{int((v == 1).sum())}/{v.size} points verified, largest relative error {m:.3g} at point {i}: " \

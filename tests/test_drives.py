@@ -205,7 +205,9 @@ def test_the_dimer_transmits_in_its_bands_and_not_in_its_gap(binary, tmp_path):
     example = REPO / "sweeps" / "examples" / "dimer-transmission.json"
     out = tmp_path / "dimer.h5"
     r = run("run", example, "-o", out, "--jobs", "2", "--quiet")
-    assert r.returncode == 0, r.stderr
+    # Deep in the gap the far end's response stays below the slowest modes' ringing: those runs
+    # are unsettled (exit 3), named, and nothing else is wrong.
+    assert r.returncode == 3 and "did not settle" in r.stderr and "failed run" not in r.stderr, r.stderr
     with xr.open_dataset(out) as ds:
         assert ds["steady_transmission_db"].dims == ("precompression_force_n", "frequency_hz", "probe")
         f = ds["frequency_hz"].values

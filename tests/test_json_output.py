@@ -60,7 +60,8 @@ def test_status_and_dry_run_json_agree_with_the_file(tmp_path, binary):
         status = h["status"][...].ravel()
     assert code == 3 and (status == 2).sum() == 3
     assert f["counts"] == {
-        "ok": int((status == 1).sum()), "failed": int((status == 2).sum()), "pending": int((status == 0).sum())}
+        "ok": int((status == 1).sum()), "failed": int((status == 2).sum()), "pending": int((status == 0).sum()),
+        "unsettled": int((status == 3).sum())}
     assert sorted(x["point"] for x in f["failures"]) == list(np.flatnonzero(status == 2))
     assert all(x["reason"] for x in f["failures"])
 

@@ -112,7 +112,12 @@ def swept(tmp_path_factory, binary):
     path = write_sweep(d / "s.json", sweep())
     out = d / "s.h5"
     r = run("run", path, "-o", out, "--quiet")
-    assert r.returncode == 0, r.stderr
+    # The second point did not settle: not ok, counted apart, named with the remedy.
+    assert r.returncode == 3, r.stderr
+    assert "1 run(s) did not settle" in r.stderr and "settle_periods" in r.stderr, r.stderr
+    assert "unsettled: point 1 (displacement_1_m=" in r.stderr, r.stderr
+    # (The leading pulse is no question a steady-state sweep asks: no hint about it.)
+    assert "leading_peak" not in r.stderr, r.stderr
     return path, out
 
 
@@ -165,6 +170,29 @@ def test_h5py_reads_the_closed_forms_and_the_layout(swept):
         assert "velocity_p3" not in warnings and "contact_force_1" not in warnings, warnings
         assert "displacement_p2" in warnings and "wall_force" in warnings, warnings
         assert "record.steady_state" not in f["warnings"][0].tobytes().decode()
+        assert f["status"][()].tolist() == [1, 3]
+        assert f["status"].attrs["flag_meanings"] == "pending ok failed unsettled"
+        assert (int(f.attrs["n_ok"]), int(f.attrs["n_unsettled"])) == (1, 1)
+
+
+def test_an_unsettled_run_is_counted_apart_everywhere(swept, tmp_path):
+    """`status` (text and --json), chainsweep.sweep and chainsweep.open count the run whose
+    steady state did not settle apart from the ok ones, and a driven-free hint about leading
+    peaks is not printed for it; lengthening the settling makes a new, settled run."""
+    path, out = swept
+    r = run("status", out)
+    assert r.returncode == 3, r.stdout + r.stderr
+    assert "(1 ok, 1 unsettled, 0 failed)" in r.stdout, r.stdout
+    assert "lengthen record.steady_state.settle_periods" in r.stdout, r.stdout
+    j = json.loads(run("status", out, "--json").stdout)
+    assert j["counts"] == {"ok": 1, "unsettled": 1, "failed": 0, "pending": 0}, j["counts"]
+    assert j["unsettled"] == {"runs": 1, "points": [1]}, j["unsettled"]
+    res = chainsweep.sweep(path, out, progress=False)
+    assert (res.exit_code, res.n_ok, res.n_unsettled, res.unsettled) == (3, 1, 1, [1])
+    assert not res.complete
+    ds = chainsweep.open(out)
+    assert ds.status.values.tolist() == [1, 3]
+    assert ds.status.attrs["flag_meanings"] == "pending ok failed unsettled"
 
 
 @pytest.mark.parametrize("engine", ["h5netcdf", "netcdf4"])
@@ -222,7 +250,7 @@ def test_dry_run_counts_the_steady_state_bytes(swept, tmp_path):
 
 
 def test_resume_and_merge_keep_the_steady_state_bitwise(swept, tmp_path):
-    assert_resume_and_merge_bitwise(*swept, tmp_path)
+    assert_resume_and_merge_bitwise(*swept, tmp_path, exit_code=3)
 
 
 def test_runs_without_the_steady_state_store_none(tmp_path, binary):

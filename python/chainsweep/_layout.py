@@ -30,8 +30,8 @@ def _flag_attrs(name: str) -> dict:
     }
 
 
-# `status`: 0 pending, 1 ok, 2 failed (the file's long_name, flag_values / flag_meanings).
-STATUS_PENDING, STATUS_OK, STATUS_FAILED = COLUMNS["status"]["flag_values"]
+# `status`: 0 pending, 1 ok, 2 failed, 3 unsettled (the file's long_name, flag_values / flag_meanings).
+STATUS_PENDING, STATUS_OK, STATUS_FAILED, STATUS_UNSETTLED = COLUMNS["status"]["flag_values"]
 STATUS_ATTRS = {"long_name": COLUMNS["status"]["description"], **_flag_attrs("status")}
 
 #: Per-run float summaries: name -> (units, long_name) (the linear spectrum's apart).

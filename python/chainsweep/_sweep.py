@@ -51,7 +51,8 @@ class SweepResult:
     path: Path
     """The output HDF5 file."""
     exit_code: int
-    """The command line's exit code: 0 every run succeeded, 3 some failed or are pending."""
+    """The command line's exit code: 0 every run succeeded, 3 some failed, did not settle or are
+    pending."""
     n_runs: int
     """Grid points of the sweep (of the shard, with ``shard``)."""
     n_ok: int
@@ -61,11 +62,16 @@ class SweepResult:
     """Runs made by this call (0 when the sweep was finished already)."""
     failures: list[Failure] = field(default_factory=list)
     """Every failed point, with its reason."""
+    n_unsettled: int = 0
+    """Runs that finished but whose steady state did not settle (``status`` 3): their values
+    are stored, but they are not the steady state asked for (lengthen ``settle_periods``)."""
+    unsettled: list[int] = field(default_factory=list)
+    """Their flat indices."""
 
     @property
     def complete(self) -> bool:
-        """Whether every run of the sweep (or shard) succeeded."""
-        return self.n_failed == 0 and self.n_pending == 0
+        """Whether every run of the sweep (or shard) succeeded (and settled)."""
+        return self.n_failed == 0 and self.n_pending == 0 and self.n_unsettled == 0
 
     def open(self, histories: bool = False) -> xr.Dataset:
         """The result as a Dataset (:func:`chainsweep.open`)."""
@@ -200,6 +206,8 @@ def _summary(path: Path, exit_code: int, ran: int) -> SweepResult:
             n_pending=int(f.attrs["n_pending"]),
             ran=ran,
             failures=failures,
+            n_unsettled=int(f.attrs.get("n_unsettled", 0)),
+            unsettled=[int(i) for i in np.flatnonzero(status == L.STATUS_UNSETTLED)],
         )
 
 

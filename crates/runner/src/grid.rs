@@ -30,6 +30,8 @@ pub struct Grid {
     pub energy_flow: bool,
     /// Whether points record the linear spectrum at the static state (`record.spectrum`).
     pub spectrum: bool,
+    /// Whether the points are driven (`excitation.drive`, as the first point is).
+    pub driven: bool,
     /// Harmonics of the steady state every point records (`record.steady_state.harmonics`; 0
     /// without it).
     pub steady_harmonics: usize,
@@ -183,6 +185,12 @@ fn steady_harmonics(record: &chainsweep_solver::RecordSpec) -> usize {
 }
 
 impl Grid {
+    /// Whether the leading pulse is a question this grid's runs ask: not where they are driven or
+    /// record a steady state (a NaN leading peak there calls for no remedy, and none is offered).
+    pub fn asks_leading_pulses(&self) -> bool {
+        !self.driven && self.steady_harmonics == 0
+    }
+
     /// Whether the grid's runs record arrays of their own beside the summaries: histories,
     /// minimum overlaps, space–time fields or the energy flow (in layouts 4 and earlier, a group
     /// under `runs/`).
@@ -250,6 +258,7 @@ impl Grid {
             min_overlap: false,
             energy_flow: false,
             spectrum: false,
+            driven: false,
             steady_harmonics: 0,
             max_history_samples: 0,
             history_interval_s: None,
@@ -273,6 +282,10 @@ impl Grid {
         grid.min_overlap = first.record.min_overlap;
         grid.energy_flow = first.record.energy_flow;
         grid.spectrum = first.record.spectrum.is_some();
+        grid.driven = matches!(
+            first.excitation,
+            Some(chainsweep_solver::scene::Excitation::Drive(_))
+        );
         grid.fields = first.record.fields.clone();
         grid.steady_harmonics = steady_harmonics(&first.record);
         let fields = grid.fields.clone();

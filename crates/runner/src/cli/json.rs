@@ -44,7 +44,7 @@ fn path_text(p: &Path) -> Value {
 }
 
 fn counts(c: &Counts) -> Value {
-    json!({"ok": c.ok, "failed": c.failed, "pending": c.pending})
+    json!({"ok": c.ok, "unsettled": c.unsettled, "failed": c.failed, "pending": c.pending})
 }
 
 /// A grid point: its flat index, and its axis values by axis name.
@@ -198,6 +198,10 @@ pub fn file_status(file: &Path, s: &FileStatus, exit_code: i32) -> Value {
         "leading_pulse_not_passed".into(),
         json!({"runs": s.unpassed.len(), "points": s.unpassed}),
     );
+    m.insert(
+        "unsettled".into(),
+        json!({"runs": s.unsettled.len(), "points": s.unsettled}),
+    );
     m.insert("searches".into(), searches(&s.searches));
     m.insert("damage".into(), damage(&s.damage));
     m.insert("exit_code".into(), json!(exit_code));
@@ -247,6 +251,10 @@ pub fn sweep_status(
     m.insert(
         "leading_pulse_not_passed".into(),
         json!({"runs": s.unpassed.len(), "points": s.unpassed}),
+    );
+    m.insert(
+        "unsettled".into(),
+        json!({"runs": s.unsettled.len(), "points": s.unsettled}),
     );
     m.insert(
         "ignored".into(),

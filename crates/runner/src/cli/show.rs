@@ -360,20 +360,43 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
             errln!("chainsweep: not verified: {what} ({why})");
         }
     }
+    if !r.unsettled.is_empty() {
+        for line in unsettled_lines(&r.unsettled, |i| grid.point_label(sweep, i)) {
+            errln!("chainsweep: {line}");
+        }
+    }
     if !quiet {
         if let Some(&i) = r.unpassed.first() {
             let first = format!("point {i} ({})", grid.point_label(sweep, i));
             errln!("chainsweep: {}", unpassed_text(r.unpassed.len(), &first));
         }
         errln!(
-            "chainsweep: {} runs: {} ok, {} failed, {} pending → {}",
+            "chainsweep: {} runs: {}, {} pending → {}",
             r.points,
-            r.counts.ok,
-            r.counts.failed,
+            r.counts.finished_text(),
             r.counts.pending,
             output.display()
         );
     }
+}
+
+/// How many runs did not settle, which (the first [`crate::engine::run::LISTED_FAILURES`] by `label`), and what to
+/// do: one line, then one per point.
+fn unsettled_lines(points: &[usize], label: impl Fn(usize) -> String) -> Vec<String> {
+    let mut lines = vec![format!(
+        "{} run(s) did not settle (`status` = 3, unsettled): their steady state still changed over the window by more than record.steady_state.settled_tolerance (`steady_settledness`), so their amplitudes and phases are not the steady state's; lengthen record.steady_state.settle_periods (runs with the new value are new runs; the others stay)",
+        points.len()
+    )];
+    for &i in points.iter().take(crate::engine::run::LISTED_FAILURES) {
+        lines.push(format!("  unsettled: point {i} ({})", label(i)));
+    }
+    if points.len() > crate::engine::run::LISTED_FAILURES {
+        lines.push(format!(
+            "  … and {} more (the `status` dataset)",
+            points.len() - crate::engine::run::LISTED_FAILURES
+        ));
+    }
+    lines
 }
 
 /// How many succeeded runs left a leading peak NaN, and why, with the first of them (at `first`).
@@ -492,14 +515,13 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             s.counts.failed,
         ),
         None => outln!(
-            "{}: {} runs (grid {}, shard {}): {} done ({} ok, {} failed), {} pending",
+            "{}: {} runs (grid {}, shard {}): {} done ({}), {} pending",
             file.display(),
             s.total,
             shape_text(&s.shape),
             s.shard,
-            s.counts.ok + s.counts.failed,
-            s.counts.ok,
-            s.counts.failed,
+            s.counts.done(),
+            s.counts.finished_text(),
             s.counts.pending
         ),
     }
@@ -533,6 +555,18 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             .collect();
         let first = format!("point {i} [{}]", mi.join(", "));
         outln!("  {}", unpassed_text(s.unpassed.len(), &first));
+    }
+    if !s.unsettled.is_empty() {
+        let label = |i: usize| {
+            let mi: Vec<String> = multi_index(&s.shape, i)
+                .iter()
+                .map(|x| x.to_string())
+                .collect();
+            format!("[{}]", mi.join(", "))
+        };
+        for line in unsettled_lines(&s.unsettled, label) {
+            outln!("  {line}");
+        }
     }
     if let Some(lines) = &s.searches {
         search_lines(lines);
@@ -590,13 +624,12 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
         );
     } else {
         outln!(
-            "{} → {}: {} runs: {} done ({} ok, {} failed), {} pending",
+            "{} → {}: {} runs: {} done ({}), {} pending",
             file.display(),
             s.output.display(),
             s.points,
-            counts.ok + counts.failed,
-            counts.ok,
-            counts.failed,
+            counts.done(),
+            counts.finished_text(),
             counts.pending
         );
     }
@@ -618,6 +651,11 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
         let first = format!("point {i} ({})", grid.point_label(sweep, i));
         outln!("  {}", unpassed_text(s.unpassed.len(), &first));
     }
+    if !s.unsettled.is_empty() {
+        for line in unsettled_lines(&s.unsettled, |i| grid.point_label(sweep, i)) {
+            outln!("  {line}");
+        }
+    }
     if let Some(lines) = &s.searches {
         search_lines(lines);
     }
@@ -628,11 +666,10 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
 /// re-submits only them, when the output's SLURM job `scripts` (array, merge) exist).
 pub fn merged(r: &MergeReport, output: &Path, scripts: Option<(&Path, &Path)>) {
     errln!(
-        "chainsweep: merged {} shard file(s): {} runs: {} ok, {} failed, {} pending → {}",
+        "chainsweep: merged {} shard file(s): {} runs: {}, {} pending → {}",
         r.shards,
         r.points,
-        r.counts.ok,
-        r.counts.failed,
+        r.counts.finished_text(),
         r.counts.pending,
         output.display()
     );
@@ -695,10 +732,9 @@ pub fn shard_set_status(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
     for e in &set.shards {
         let mut detail = match (&e.counts, &e.file) {
             (Some(c), Some(f)) => format!(
-                "{} runs: {} ok, {} failed, {} pending ({})",
-                c.ok + c.failed + c.pending,
-                c.ok,
-                c.failed,
+                "{} runs: {}, {} pending ({})",
+                c.done() + c.pending,
+                c.finished_text(),
                 c.pending,
                 f.display()
             ),
@@ -735,10 +771,9 @@ pub fn shard_set_status(set: &ShardSetStatus, scripts: Option<(&Path, &Path)>) {
 /// `run` stopped by a signal: what the output holds and how to go on.
 pub fn stopped(signal: &str, r: &RunReport, output: &Path) {
     errln!(
-        "chainsweep: stopped by {signal}: {} holds every finished run ({} ok, {} failed), {} pending; run the same command to resume",
+        "chainsweep: stopped by {signal}: {} holds every finished run ({}), {} pending; run the same command to resume",
         output.display(),
-        r.counts.ok,
-        r.counts.failed,
+        r.counts.finished_text(),
         r.counts.pending
     );
 }

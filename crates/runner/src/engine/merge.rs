@@ -82,8 +82,8 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
             points: searches.len(),
             counts: Counts {
                 ok: ended,
-                failed: 0,
                 pending: searches.len() - ended,
+                ..Counts::default()
             },
             absent,
             shard_set: None,

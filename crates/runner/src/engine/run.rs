@@ -202,8 +202,12 @@ pub struct RunReport {
     /// What was found damaged in the output file when the sweep started.
     pub damage: DamageReport,
     /// Grid points of this run whose run succeeded but left a probe's leading peak NaN (the
-    /// leading pulse had not passed it by the end of the run), from the output file.
+    /// leading pulse had not passed it by the end of the run), from the output file; none for a
+    /// driven sweep, where no one asks for a leading pulse.
     pub unpassed: Vec<usize>,
+    /// Grid points of this run whose run finished but whose steady state did not settle, from
+    /// the output file.
+    pub unsettled: Vec<usize>,
     /// The output file already held every run of the sweep and nothing was to be done: it was
     /// left as it was (a shard run into a complete output, a complete sweep run again).
     pub nothing_to_do: bool,
@@ -229,6 +233,7 @@ impl RunReport {
         }
         RunReport {
             unpassed: Vec::new(),
+            unsettled: Vec::new(),
             points: r.searches.len(),
             counts,
             failed: counts.failed,
@@ -315,18 +320,20 @@ pub fn run_points(
             work.compact_after_publish(grid)?;
         }
         let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
+        let (unpassed, unsettled) = work
+            .published_file()
+            .and_then(|p| p.file().map(|f| flagged(f.table(), &plan.points, grid)))
+            .unwrap_or_default();
         let counts = Counts {
-            ok: plan.points.len() - failed,
+            ok: plan.points.len() - failed - unsettled.len(),
             failed,
             pending: 0,
+            unsettled: unsettled.len(),
         };
-        let unpassed = work
-            .published_file()
-            .and_then(|p| p.file().map(|f| unpassed(f.table(), &plan.points)))
-            .unwrap_or_default();
         return Ok(RunReport {
             points: plan.points.len(),
             unpassed,
+            unsettled,
             counts,
             failed,
             failures,
@@ -374,9 +381,11 @@ pub fn run_points(
         work.compact_after_publish(grid)?;
     }
     let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
+    let (unpassed, unsettled) = flagged(&written.table, &plan.points, grid);
     Ok(RunReport {
         points: plan.points.len(),
-        unpassed: unpassed(&written.table, &plan.points),
+        unpassed,
+        unsettled,
         counts,
         failed,
         failures,
@@ -551,17 +560,30 @@ fn failures(
 /// Which of `points` hold a succeeded run whose leading peak is NaN at some probe, of a file's
 /// `table` ([`crate::record::columns::Table::unpassed_points`]).
 pub(super) fn unpassed(table: &Table, points: &[usize]) -> Vec<usize> {
-    let mut wanted = vec![false; table.n];
+    among(table.unpassed_points(), points, table.n)
+}
+
+/// The points of `points` (of `grid`) that `table` flags: those whose leading peak is NaN
+/// ([`unpassed`]; none where the grid does not ask for leading pulses,
+/// [`Grid::asks_leading_pulses`]) and those whose steady state did not settle.
+pub(super) fn flagged(table: &Table, points: &[usize], grid: &Grid) -> (Vec<usize>, Vec<usize>) {
+    let unpassed = if grid.asks_leading_pulses() {
+        unpassed(table, points)
+    } else {
+        Vec::new()
+    };
+    (unpassed, among(table.unsettled_points(), points, table.n))
+}
+
+/// Those of `found` (points of a table of `n`) that are among `points`.
+fn among(found: Vec<usize>, points: &[usize], n: usize) -> Vec<usize> {
+    let mut wanted = vec![false; n];
     for &i in points {
         if let Some(w) = wanted.get_mut(i) {
             *w = true;
         }
     }
-    table
-        .unpassed_points()
-        .into_iter()
-        .filter(|&i| wanted[i])
-        .collect()
+    found.into_iter().filter(|&i| wanted[i]).collect()
 }
 
 /// What the verification runs of `plan` found.

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::grid::{Grid, Shard};
 use crate::identity::RunHash;
-use crate::record::{STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use crate::record::{STATUS_FAILED, STATUS_OK, STATUS_PENDING, STATUS_UNSETTLED};
 use crate::store::hdf5::{Counts, FileRecords};
 use crate::store::published::{Check, PublishedFile};
 use crate::store::{scan_segments, work_dir_of, writer_of, Stored};
@@ -39,8 +39,10 @@ pub struct FileStatus {
     /// Every failed point with its reason, in grid order.
     pub failures: Vec<(usize, String)>,
     /// Points of the shard whose run succeeded but left a probe's leading peak NaN (the leading
-    /// pulse had not passed it by the end of the run).
+    /// pulse had not passed it by the end of the run; none for a driven sweep).
     pub unpassed: Vec<usize>,
+    /// Points of the shard whose run finished but whose steady state did not settle.
+    pub unsettled: Vec<usize>,
     /// What was found damaged in the file and its snapshot.
     pub damage: DamageReport,
     /// A search's output: each search by its outer axis values, how it ended, its runs, why.
@@ -117,10 +119,12 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         total += usize::from(in_shard);
         match held.get(&grid.hashes[i]) {
             Some(&(_, ok)) if in_shard => {
-                if ok {
-                    counts.ok += 1;
-                } else {
+                if !ok {
                     counts.failed += 1;
+                } else if p.unsettled(&grid.hashes[i]) {
+                    counts.unsettled += 1;
+                } else {
+                    counts.ok += 1;
                 }
             }
             Some(_) => other_shards += 1,
@@ -178,19 +182,20 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
             damage.header = Some(coords.join("; "));
         }
     }
-    let unpassed = p
-        .file()
-        .map(|f| f.table().unpassed_points())
-        .unwrap_or_default()
-        .into_iter()
-        .filter(|&i| assignment.contains(shard, i))
+    let in_shard: Vec<usize> = (0..grid.len())
+        .filter(|&i| is_run(i) && assignment.contains(shard, i))
         .collect();
+    let (unpassed, unsettled) = p
+        .file()
+        .map(|f| super::run::flagged(f.table(), &in_shard, grid))
+        .unwrap_or_default();
     Ok(FileStatus {
         total,
         shape: sweep.shape(),
         shard: shard_text,
         counts,
         unpassed,
+        unsettled,
         other_shards,
         newer,
         failures,
@@ -312,6 +317,8 @@ pub struct SweepStatus {
     /// Points of this run whose run succeeded but left a probe's leading peak NaN (the leading
     /// pulse had not passed it by the end of the run), as the output file holds them.
     pub unpassed: Vec<usize>,
+    /// Points of this run whose run finished but whose steady state did not settle.
+    pub unsettled: Vec<usize>,
     /// What was found damaged in the output file and its snapshot.
     pub damage: DamageReport,
     /// A sweep with a search: each search of this output, replayed through the stored runs.
@@ -336,6 +343,7 @@ pub fn of_sweep(
         failures: Vec::new(),
         ignored: Vec::new(),
         unpassed: Vec::new(),
+        unsettled: Vec::new(),
         damage: DamageReport::default(),
         searches: None,
     };
@@ -395,19 +403,36 @@ pub fn of_sweep(
         .and_then(|p| p.file())
         .is_some_and(|f| !f.checked());
     let state = |i: usize| stored.get(&grid.hashes[i]);
-    let ok = points.iter().filter(|&&i| state(i) == Some(true)).count();
+    let done = points.iter().filter(|&&i| state(i) == Some(true)).count();
     let failed = points.iter().filter(|&&i| state(i) == Some(false)).count();
+    // A finished run's steady state: from the published file where it holds the run, else from
+    // the run's record (runs finished since the file was written).
+    let mut unsettled = Vec::new();
+    if grid.steady_harmonics > 0 {
+        for &i in points.iter().filter(|&&i| state(i) == Some(true)) {
+            let h = &grid.hashes[i];
+            let flag = match stored.published().filter(|p| p.holds(h)) {
+                Some(p) => p.unsettled(h),
+                None => stored.read(h)?.is_some_and(|r| r.unsettled()),
+            };
+            if flag {
+                unsettled.push(i);
+            }
+        }
+    }
     status.ignored = stored.ignored().to_vec();
     status.counts = Some(Counts {
-        ok,
+        ok: done - unsettled.len(),
         failed,
-        pending: points.len() - ok - failed,
+        pending: points.len() - done - failed,
+        unsettled: unsettled.len(),
     });
     status.unpassed = stored
         .published()
         .and_then(|p| p.file())
-        .map(|f| super::run::unpassed(f.table(), &points))
+        .map(|f| super::run::flagged(f.table(), &points, &grid).0)
         .unwrap_or_default();
+    status.unsettled = unsettled;
     for &point in points
         .iter()
         .filter(|&&i| state(i) == Some(false))
@@ -582,6 +607,10 @@ pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
             pending: points
                 .iter()
                 .filter(|&&i| status(i) == STATUS_PENDING)
+                .count(),
+            unsettled: points
+                .iter()
+                .filter(|&&i| status(i) == STATUS_UNSETTLED)
                 .count(),
         };
         let writer = writer_of(path);

@@ -15,7 +15,10 @@ use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};
 use chainsweep_solver::observe::steady::{SteadyProbe, SteadyState};
 use sha2::{Digest, Sha256};
 
-use super::{RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use super::{
+    holds_values, RunRecord, VerifyInfo, INT_FILL, STATUS_FAILED, STATUS_OK, STATUS_PENDING,
+    STATUS_UNSETTLED,
+};
 use super::{LEADING_NOT_PASSED, LEADING_NO_RUN, LEADING_PASSED};
 use super::{MOVING_PART_ONLY, MOVING_PART_UNKNOWN, MOVING_PART_WHOLE_CHAIN};
 use super::{STEADY_NOT_SETTLED, STEADY_NO_RUN, STEADY_SETTLED};
@@ -377,7 +380,7 @@ impl Column {
     }
 }
 
-const STATUS_FLAGS: &[u8] = &[STATUS_PENDING, STATUS_OK, STATUS_FAILED];
+const STATUS_FLAGS: &[u8] = &[STATUS_PENDING, STATUS_OK, STATUS_FAILED, STATUS_UNSETTLED];
 const VERIFY_ERROR_NOTE: &str =
     "NaN where not verified or where neither run has the value, inf where only one has it";
 const VERIFY_FLAGS: &[u8] = &[VERIFY_NONE, VERIFY_OK, VERIFY_FAILED];
@@ -720,10 +723,10 @@ pub const COLUMNS: &[Column] = &[
         per_probe: false,
         per_harmonic: false,
         units: Units::None,
-        description: "state of the point's run: 0 pending, 1 ok, 2 failed",
+        description: "state of the point's run: 0 pending, 1 ok, 2 failed, 3 unsettled",
         long_name: true,
-        flags: Some((STATUS_FLAGS, "pending ok failed")),
-        note: "",
+        flags: Some((STATUS_FLAGS, "pending ok failed unsettled")),
+        note: "unsettled: the run finished and its values are stored, but its steady state (`record.steady_state`) had not settled at some probe (`steady_settled` = 2): lengthen `settle_periods`",
         required: true,
         written: Written::Always,
         fill: Fill::Status,
@@ -1384,11 +1387,7 @@ impl Column {
                 }
             }
             (Fill::Status, ColumnData::U8(d)) => {
-                d[i] = match o.record {
-                    None => STATUS_PENDING,
-                    Some(r) if r.ok => STATUS_OK,
-                    Some(_) => STATUS_FAILED,
-                };
+                d[i] = o.record.map_or(STATUS_PENDING, RunRecord::status);
             }
             // A pending point holds no run, so it names none: its run hash is empty, the fill.
             (Fill::RunHash, ColumnData::Str(d)) => {
@@ -1575,11 +1574,19 @@ impl Table {
         };
         (0..self.n)
             .filter(|&i| {
-                self.status(i) == STATUS_OK
+                holds_values(self.status(i))
                     && peaks[i * self.np..(i + 1) * self.np]
                         .iter()
                         .any(|v| v.is_nan())
             })
+            .collect()
+    }
+
+    /// The points whose run finished without its steady state settling
+    /// ([`STATUS_UNSETTLED`]).
+    pub fn unsettled_points(&self) -> Vec<usize> {
+        (0..self.n)
+            .filter(|&i| self.status(i) == STATUS_UNSETTLED)
             .collect()
     }
 

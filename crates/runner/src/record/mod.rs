@@ -19,6 +19,15 @@ pub const STATUS_PENDING: u8 = 0;
 pub const STATUS_OK: u8 = 1;
 /// Status code of a failed run.
 pub const STATUS_FAILED: u8 = 2;
+/// Status code of a run that finished but whose steady state did not settle
+/// (`record.steady_state`: some probe's `steady_settled` is 2): its values are stored, but they
+/// are not the steady state asked for.
+pub const STATUS_UNSETTLED: u8 = 3;
+
+/// Whether a point of status `st` holds a finished run's values (ok or unsettled).
+pub fn holds_values(st: u8) -> bool {
+    st == STATUS_OK || st == STATUS_UNSETTLED
+}
 
 /// Fill value of the integer summaries (steps, …) where a run failed or is pending.
 pub const INT_FILL: i64 = -1;
@@ -121,6 +130,26 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
+    /// Whether the run finished but its steady state did not settle at some probe.
+    pub fn unsettled(&self) -> bool {
+        self.ok
+            && self
+                .steady_state
+                .as_ref()
+                .is_some_and(|s| s.probes.iter().any(|p| !p.settled))
+    }
+
+    /// Its status code: [`STATUS_OK`], [`STATUS_UNSETTLED`] or [`STATUS_FAILED`].
+    pub fn status(&self) -> u8 {
+        if !self.ok {
+            STATUS_FAILED
+        } else if self.unsettled() {
+            STATUS_UNSETTLED
+        } else {
+            STATUS_OK
+        }
+    }
+
     /// The `moving_part` flag of this record: [`MOVING_PART_UNKNOWN`], [`MOVING_PART_WHOLE_CHAIN`]
     /// or [`MOVING_PART_ONLY`].
     pub fn moving_part_flag(&self) -> u8 {

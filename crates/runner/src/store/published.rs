@@ -15,7 +15,7 @@ use super::snapshot::{self, Snapshot, SNAPSHOT_FILE};
 use super::work_dir_of;
 use crate::grid::Grid;
 use crate::identity::{from_hex, RunHash};
-use crate::record::{RunRecord, STATUS_OK, STATUS_PENDING};
+use crate::record::{holds_values, RunRecord, STATUS_PENDING};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
@@ -354,7 +354,7 @@ impl PublishedFile {
                         }
                         None if check == Check::Everything
                             && groups
-                            && recs.status(i) == STATUS_OK =>
+                            && holds_values(recs.status(i)) =>
                         {
                             match recs.record(i, grid.hashes[i], grid) {
                                 PointRead::Damaged(why) => Some(why),
@@ -368,7 +368,7 @@ impl PublishedFile {
                         None => {
                             points.insert(
                                 grid.hashes[i],
-                                (i, recs.status(i) == STATUS_OK, Source::File),
+                                (i, holds_values(recs.status(i)), Source::File),
                             );
                         }
                     }
@@ -414,6 +414,19 @@ impl PublishedFile {
     /// Whether the run `hash` the file gives back succeeded (`None`: it gives back no such run).
     pub fn ok(&self, hash: &RunHash) -> Option<bool> {
         self.points.get(hash).map(|&(_, ok, _)| ok)
+    }
+
+    /// Whether the run `hash` the file gives back finished without its steady state settling
+    /// ([`crate::record::STATUS_UNSETTLED`]).
+    pub fn unsettled(&self, hash: &RunHash) -> bool {
+        let Some(&(i, _, source)) = self.points.get(hash) else {
+            return false;
+        };
+        let status = match source {
+            Source::File => self.recs.as_ref().map(|r| r.status(i)),
+            Source::Snapshot => self.snapshot.as_ref().and_then(|s| s.status(hash)),
+        };
+        status == Some(crate::record::STATUS_UNSETTLED)
     }
 
     /// Runs the file gives back.

@@ -526,7 +526,12 @@ impl Snapshot {
     /// Whether point `j` of the snapshot succeeded (`None`: not in the snapshot).
     pub fn ok(&self, hash: &RunHash) -> Option<bool> {
         self.find(hash)
-            .map(|j| self.contents().table.status(j) == crate::record::STATUS_OK)
+            .map(|j| crate::record::holds_values(self.contents().table.status(j)))
+    }
+
+    /// The status code of the run `hash`, if the snapshot holds it.
+    pub fn status(&self, hash: &RunHash) -> Option<u8> {
+        self.find(hash).map(|j| self.contents().table.status(j))
     }
 
     /// The verification outcome of the run `hash`, if the snapshot holds it.

@@ -891,20 +891,41 @@ pub fn utc_now() -> String {
 /// Counts of a file's grid points.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Counts {
-    /// Successful runs.
+    /// Successful runs (settled, where a steady state is recorded).
     pub ok: usize,
     /// Failed runs.
     pub failed: usize,
     /// Points not run (or not in this shard).
     pub pending: usize,
+    /// Runs that finished but whose steady state did not settle
+    /// ([`crate::record::STATUS_UNSETTLED`]).
+    pub unsettled: usize,
 }
 
 impl Counts {
+    /// Finished runs: ok, unsettled or failed.
+    pub fn done(&self) -> usize {
+        self.ok + self.unsettled + self.failed
+    }
+
+    /// `N ok, [M unsettled, ]K failed`: the finished runs as every report words them (the
+    /// unsettled ones only where there are some).
+    pub fn finished_text(&self) -> String {
+        if self.unsettled > 0 {
+            format!(
+                "{} ok, {} unsettled, {} failed",
+                self.ok, self.unsettled, self.failed
+            )
+        } else {
+            format!("{} ok, {} failed", self.ok, self.failed)
+        }
+    }
+
     /// The exit code of a sweep whose points stand so: 0 when every one succeeded, 3
     /// ([`crate::EXIT_PARTIAL`]) when some failed or are pending. The one mapping of the command
     /// line and of Python.
     pub fn exit_code(&self) -> i32 {
-        if self.failed > 0 || self.pending > 0 {
+        if self.failed > 0 || self.pending > 0 || self.unsettled > 0 {
             crate::EXIT_PARTIAL
         } else {
             crate::EXIT_OK

@@ -28,7 +28,9 @@ use crate::record::columns::{
     distinct_units, history_checksum, split_name, Column, ColumnData, Dtype, Table, Units, COLUMNS,
     HARMONIC,
 };
-use crate::record::{RunArrays, RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING};
+use crate::record::{
+    RunArrays, RunRecord, VerifyInfo, STATUS_FAILED, STATUS_OK, STATUS_PENDING, STATUS_UNSETTLED,
+};
 use crate::sweep::Sweep;
 
 /// The first layout whose files carry checksums.
@@ -307,9 +309,10 @@ impl FileRecords {
             (self.layout_version >= UNNAMED_PENDING_LAYOUT).then(|| self.table.pending_checksum());
         for i in 0..self.table.n {
             let st = self.table.status(i);
-            let why = if ![STATUS_PENDING, STATUS_OK, STATUS_FAILED].contains(&st) {
+            let why = if ![STATUS_PENDING, STATUS_OK, STATUS_FAILED, STATUS_UNSETTLED].contains(&st)
+            {
                 Some(format!(
-                    "its status code {st} is none of 0 (pending), 1 (ok), 2 (failed)"
+                    "its status code {st} is none of 0 (pending), 1 (ok), 2 (failed), 3 (unsettled)"
                 ))
             } else if sums && !self.table.checks_out(i, pending) {
                 Some(if unreadable.is_empty() {

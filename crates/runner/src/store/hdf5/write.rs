@@ -239,7 +239,11 @@ fn fill_columns(
         n_verified += verify.as_ref().is_some_and(|v| v.status == VERIFY_OK) as usize;
         match &record {
             Some(rec) if rec.ok => {
-                counts.ok += usize::from(in_run);
+                if rec.unsettled() {
+                    counts.unsettled += usize::from(in_run);
+                } else {
+                    counts.ok += usize::from(in_run);
+                }
                 arrays.write(i, rec)?;
             }
             Some(_) => counts.failed += usize::from(in_run),
@@ -264,6 +268,7 @@ fn write_outcome_attrs(
     attr_scalar(file, "n_ok", table.counts.ok as i64)?;
     attr_scalar(file, "n_failed", table.counts.failed as i64)?;
     attr_scalar(file, "n_pending", table.counts.pending as i64)?;
+    attr_scalar(file, "n_unsettled", table.counts.unsettled as i64)?;
     attr_scalar(file, "verify_fraction", verify_fraction)?;
     attr_str(file, "verify_tightening", TIGHTENING)?;
     attr_scalar(file, "n_verified", table.n_verified as i64)?;
