@@ -483,3 +483,39 @@ def test_searches_shard_by_outer_point_and_merge_to_the_single_file(tmp_path):
     r = run("merge", "-o", merged, *reversed(parts))
     assert r.returncode == 0, r.stdout + r.stderr
     assert_files_equal(single, merged, skip_attrs={"created_utc", "command_line", "header_checksum", "shard"})
+
+
+def test_status_gives_each_search_s_answer_and_a_round_under_way(tmp_path):
+    """`status` of a finished search (its file, and the sweep file with -o; text and --json)
+    gives every answer with its uncertainty, as `run` printed it; of a search interrupted in
+    its first scan, the runs that round has finished (they count once it is whole)."""
+    spec = example("dimer-minimum")
+    out = tmp_path / "m.h5"
+    run_ok(spec, out)
+    for args in (["status", out], ["status", write_sweep(tmp_path / "m.json", spec), "-o", out]):
+        r = run(*args)
+        assert r.returncode == 0, r.stderr
+        answers = [l for l in r.stdout.splitlines() if l.strip().startswith("minimum cylinder_mass_kg = ")]
+        assert len(answers) == 2 and all(" ± " in l and "converged" in l for l in answers), r.stdout
+        j = json.loads(run(*args, "--json").stdout)
+        for s in j["searches"]:
+            (a,) = s["answers"]
+            f = a["fields"]["cylinder_mass_kg"]
+            assert a["item"] == "minimum" and a["status"] == "converged"
+            assert 0.000834 < f["value"] < 0.001668 and 0 < f["uncertainty"] < 1e-6
+    # Interrupted while its first scan runs: what that round has is said.
+    slow = slow_search()
+    path = write_sweep(tmp_path / "slow.json", slow)
+    out = tmp_path / "slow.h5"
+    proc = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", "1", "--quiet"],
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while segment_count(out) < 2:
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    proc.communicate(timeout=120)
+    r = run("status", path, "-o", out)
+    assert "its next round of" in r.stdout and "finished (they count once the round is whole)" in r.stdout, r.stdout
+    r = run("status", out)
+    assert "more runs have finished since the file was written" in r.stdout, r.stdout

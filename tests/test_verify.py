@@ -1,6 +1,8 @@
 """`chainsweep run --verify FRACTION`: a deterministic sample of grid points re-run at a tighter
 setting, the observed relative errors stored per point, resumable, and identical through shards."""
 
+import json
+
 import h5py
 import numpy as np
 
@@ -26,6 +28,15 @@ def test_sample_is_deterministic_and_errors_are_stored(tmp_path, binary):
         r = run("run", path, "-o", out, "--verify", "0.5", "--jobs", "2")
         assert r.returncode == 0, r.stderr
         assert "verified at a tighter setting" in r.stderr
+        # The health line ends the run, and status gives it too (text and --json).
+        # (Two runs end before their far probe's pulse has passed: a NaN leading peak each.)
+        assert "health: 2 with a NaN leading peak; 3 verified at a tighter setting, largest error bound" in r.stderr, r.stderr
+        st = run("status", out)
+        assert "health: 2 with a NaN leading peak; 3 verified" in st.stdout, st.stdout
+        health = json.loads(run("status", out, "--json").stdout)["health"]
+        assert health["verified"] == 3 and health["failed"] == 0 and health["unsettled"] == 0
+        assert health["nan_leading_peak"] == 2
+        assert 0 < health["largest_verified_error"]["bound"] < 1e-6
         outs.append(out)
     with h5py.File(outs[0], "r") as f, h5py.File(outs[1], "r") as g:
         v = f["verified"][...]

@@ -34,6 +34,12 @@ def _flag_attrs(name: str) -> dict:
 STATUS_PENDING, STATUS_OK, STATUS_FAILED, STATUS_UNSETTLED = COLUMNS["status"]["flag_values"]
 STATUS_ATTRS = {"long_name": COLUMNS["status"]["description"], **_flag_attrs("status")}
 
+# The energy ledger's terms (`record.energy_ledger`), at the start and at the end: name → (units,
+# long_name), from the engine's table.
+LEDGER_COLUMNS: dict[str, tuple[str, str]] = {
+    n: (c["units"], c["description"]) for n, c in COLUMNS.items() if c["kind"] == "ledger"
+}
+
 #: Per-run float summaries: name -> (units, long_name) (the linear spectrum's apart).
 RUN_FLOATS: dict[str, tuple[str, str]] = {
     n: _label(c)
@@ -146,6 +152,8 @@ ORDER: list[str] = [
     "verify_rel_error_max_overlap",
     "verify_rel_error_energy_flow",
     "run_hash",
+    *[f"ledger_{t}{s}" for s in ("_start_j", "_j") for t in
+      ("kinetic", "elastic", "gravitational", "dissipated", "plastic", "external", "mount")],
     "history",
     "min_overlap_m",
     *ENERGY_FLOW,

@@ -54,6 +54,9 @@ def _arrays(raw: dict[str, Any]) -> dict[str, Any]:
         if name in col:
             dtype = np.uint8 if c["kind"] == "steady_flag" else np.float64
             out[name] = np.array(col[name], dtype=dtype)
+    for name in L.LEDGER_COLUMNS:  # where the scene records the energy ledger
+        if name in col:
+            out[name] = np.float64(col[name])
     # Counts: None where the file stores its fill (-1; a failed run counted nothing that is
     # kept): NaN, as chainsweep.open masks it.
     def count(name: str):
@@ -129,7 +132,7 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
         data[name] = ("probe", a[name], {"long_name": long_name, **flag_attrs})
     for name, (unit, long_name) in {**L.RUN_FLOATS, **L.RUN_COUNTERS}.items():
         data[name] = ((), a[name], {"units": unit, "long_name": long_name})
-    for name, (unit, long_name) in L.SPECTRUM_COLUMNS.items():
+    for name, (unit, long_name) in {**L.SPECTRUM_COLUMNS, **L.LEDGER_COLUMNS}.items():
         if name in a:
             data[name] = ((), a[name], {"units": unit, "long_name": long_name})
     for name, c in L.STEADY_COLUMNS.items():

@@ -123,6 +123,7 @@ fn columns<'py>(
             .steady_state
             .as_ref()
             .map_or(0, |s| s.harmonics as usize),
+        energy_ledger: run.scene.record.energy_ledger,
     };
     let outcome = PointOutcome {
         hash_hex: &run.hash,

@@ -126,6 +126,9 @@ pub fn execute_stoppable(
     let limit = (limits.max_run_seconds, SWEEP_LIMIT);
     let deadline = start + Duration::from_secs_f64(limit.0);
     let result = guarded(|| {
+        if injected_panic(0) {
+            panic!("injected panic for grid point 0 ({INJECT_PANIC_ENV})");
+        }
         chainsweep_solver::scene::solve::run_stoppable(scene, Some(deadline), Some(stop))
     });
     let wall = start.elapsed().as_secs_f64();
@@ -266,6 +269,12 @@ fn record_of(
         energy_flow: out.energy_flow,
         spectrum: out.spectrum,
         steady_state: out.steady_state,
+        energy_ledger: scene.record.energy_ledger.then(|| {
+            [
+                crate::record::ledger_terms(&out.initial_energy),
+                crate::record::ledger_terms(&out.final_energy),
+            ]
+        }),
     }
 }
 

@@ -32,6 +32,8 @@ pub struct Grid {
     pub spectrum: bool,
     /// Whether the points are driven (`excitation.drive`, as the first point is).
     pub driven: bool,
+    /// Whether points record the energy ledger's terms (`record.energy_ledger`).
+    pub energy_ledger: bool,
     /// Harmonics of the steady state every point records (`record.steady_state.harmonics`; 0
     /// without it).
     pub steady_harmonics: usize,
@@ -174,6 +176,7 @@ struct Record<'a> {
     spectrum: bool,
     fields: &'a Option<FieldSpec>,
     steady_harmonics: usize,
+    energy_ledger: bool,
 }
 
 /// The steady state's harmonics a record block asks for (0 without `steady_state`).
@@ -259,6 +262,7 @@ impl Grid {
             energy_flow: false,
             spectrum: false,
             driven: false,
+            energy_ledger: false,
             steady_harmonics: 0,
             max_history_samples: 0,
             history_interval_s: None,
@@ -287,6 +291,7 @@ impl Grid {
             Some(chainsweep_solver::scene::Excitation::Drive(_))
         );
         grid.fields = first.record.fields.clone();
+        grid.energy_ledger = first.record.energy_ledger;
         grid.steady_harmonics = steady_harmonics(&first.record);
         let fields = grid.fields.clone();
         let record = Record {
@@ -297,6 +302,7 @@ impl Grid {
             spectrum: grid.spectrum,
             fields: &fields,
             steady_harmonics: grid.steady_harmonics,
+            energy_ledger: grid.energy_ledger,
         };
         let shape = &grid.shape;
         let done = AtomicUsize::new(0);
@@ -461,6 +467,7 @@ impl Grid {
             spectrum: reference.spectrum.is_some(),
             fields: &reference.fields,
             steady_harmonics: steady_harmonics(&reference),
+            energy_ledger: reference.energy_ledger,
         };
         // A base field's error is the same at many points, told apart only by the point named
         // at its end: listed once, with the number of points it holds at.
@@ -557,6 +564,7 @@ impl Grid {
             || scene.record.spectrum.is_some() != record.spectrum
             || scene.record.fields != *record.fields
             || steady_harmonics(&scene.record) != record.steady_harmonics
+            || scene.record.energy_ledger != record.energy_ledger
         {
             return Err(locate(
                 sweep,

@@ -43,6 +43,17 @@ fn path_text(p: &Path) -> Value {
     json!(p.display().to_string())
 }
 
+fn health(h: &crate::engine::run::Health) -> Value {
+    json!({
+        "failed": h.failed,
+        "over_limit": h.over_limit,
+        "unsettled": h.unsettled,
+        "nan_leading_peak": h.nan_leading,
+        "verified": h.verified,
+        "largest_verified_error": h.worst_verified.map(|(e, i)| json!({"bound": e, "point": i})),
+    })
+}
+
 fn counts(c: &Counts) -> Value {
     json!({"ok": c.ok, "unsettled": c.unsettled, "failed": c.failed, "pending": c.pending})
 }
@@ -150,7 +161,21 @@ fn searches(lines: &Option<Vec<SearchLine>>) -> Value {
         Some(lines) => Value::Array(
             lines
                 .iter()
-                .map(|l| json!({"at": l.label, "status": l.status, "runs": l.runs, "note": l.note}))
+                .map(|l| {
+                    let answers: Vec<Value> = l
+                        .answers
+                        .iter()
+                        .map(|a| {
+                            let fields: Map<String, Value> = a
+                                .fields
+                                .iter()
+                                .map(|(n, x, u)| (n.clone(), json!({"value": x, "uncertainty": u})))
+                                .collect();
+                            json!({"item": a.item, "fields": fields, "objective": a.objective, "status": a.status})
+                        })
+                        .collect();
+                    json!({"at": l.label, "status": l.status, "runs": l.runs, "note": l.note, "answers": answers})
+                })
                 .collect(),
         ),
     }
@@ -202,6 +227,7 @@ pub fn file_status(file: &Path, s: &FileStatus, exit_code: i32) -> Value {
         "unsettled".into(),
         json!({"runs": s.unsettled.len(), "points": s.unsettled}),
     );
+    m.insert("health".into(), health(&s.health));
     m.insert("searches".into(), searches(&s.searches));
     m.insert("damage".into(), damage(&s.damage));
     m.insert("exit_code".into(), json!(exit_code));
@@ -256,6 +282,7 @@ pub fn sweep_status(
         "unsettled".into(),
         json!({"runs": s.unsettled.len(), "points": s.unsettled}),
     );
+    m.insert("health".into(), health(&s.health));
     m.insert(
         "ignored".into(),
         Value::Array(s.ignored.iter().map(|p| path_text(p)).collect()),

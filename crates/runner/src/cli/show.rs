@@ -377,7 +377,46 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
             r.counts.pending,
             output.display()
         );
+        errln!(
+            "chainsweep: {}",
+            health_text(&r.health, |i| grid.point_label(sweep, i))
+        );
     }
+}
+
+/// The health line: what is not right, then how well the rest was verified (`label` names a
+/// point).
+fn health_text(h: &crate::engine::run::Health, label: impl Fn(usize) -> String) -> String {
+    let mut wrong = Vec::new();
+    if h.failed > 0 {
+        wrong.push(if h.over_limit > 0 {
+            format!("{} failed ({} over a limit)", h.failed, h.over_limit)
+        } else {
+            format!("{} failed", h.failed)
+        });
+    }
+    if h.unsettled > 0 {
+        wrong.push(format!("{} unsettled", h.unsettled));
+    }
+    if h.nan_leading > 0 {
+        wrong.push(format!("{} with a NaN leading peak", h.nan_leading));
+    }
+    let first = if wrong.is_empty() {
+        "every finished run ok".to_string()
+    } else {
+        wrong.join(", ")
+    };
+    let verified = match (h.verified, h.worst_verified) {
+        (0, _) => {
+            "none verified (`run --verify FRACTION` bounds the errors of a sample)".to_string()
+        }
+        (n, Some((e, i))) => format!(
+            "{n} verified at a tighter setting, largest error bound {e:.2e} at point {i} ({})",
+            label(i)
+        ),
+        (n, None) => format!("{n} verified at a tighter setting"),
+    };
+    format!("health: {first}; {verified}")
 }
 
 /// How many runs did not settle, which (the first [`crate::engine::run::LISTED_FAILURES`] by `label`), and what to
@@ -570,6 +609,15 @@ pub fn file_status(file: &Path, s: &FileStatus) {
     }
     if let Some(lines) = &s.searches {
         search_lines(lines);
+    } else {
+        let label = |i: usize| {
+            let mi: Vec<String> = multi_index(&s.shape, i)
+                .iter()
+                .map(|x| x.to_string())
+                .collect();
+            format!("[{}]", mi.join(", "))
+        };
+        outln!("  {}", health_text(&s.health, label));
     }
     damage_status(&s.damage);
 }
@@ -586,6 +634,9 @@ fn search_lines(lines: &[crate::engine::status::SearchLine]) {
             outln!("  {at}: {} after {} run(s)", l.status, l.runs);
         } else {
             outln!("  {at}: {} after {} run(s); {}", l.status, l.runs, l.note);
+        }
+        for a in &l.answers {
+            outln!("    {} {}", a.item, a.text);
         }
     }
 }
@@ -658,6 +709,11 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
     }
     if let Some(lines) = &s.searches {
         search_lines(lines);
+    } else if s.counts.is_some() {
+        outln!(
+            "  {}",
+            health_text(&s.health, |i| grid.point_label(sweep, i))
+        );
     }
     damage_status(&s.damage);
 }

@@ -164,6 +164,31 @@ pub struct Failure {
     pub reason: Option<String>,
 }
 
+/// A sweep's health at a glance, as `run` ends and `status` reports it: what is not right, and
+/// how well what is right was verified.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Health {
+    /// Failed runs.
+    pub failed: usize,
+    /// Of them, those stopped by one of the sweep's `limits` (the energy drift, the run time, …).
+    pub over_limit: usize,
+    /// Runs whose steady state did not settle.
+    pub unsettled: usize,
+    /// Successful runs with a NaN leading peak (where the sweep asks for leading pulses).
+    pub nan_leading: usize,
+    /// Points verified at a tighter setting, and the largest bound on an error with its point.
+    pub verified: usize,
+    /// (See `verified`.)
+    pub worst_verified: Option<(f64, usize)>,
+}
+
+impl Health {
+    /// Whether a failure's `reason` is a limit's.
+    pub fn is_limit(reason: &str) -> bool {
+        reason.contains("limits.")
+    }
+}
+
 /// What `--verify` found.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct VerificationReport {
@@ -208,6 +233,8 @@ pub struct RunReport {
     /// Grid points of this run whose run finished but whose steady state did not settle, from
     /// the output file.
     pub unsettled: Vec<usize>,
+    /// The sweep's health at a glance.
+    pub health: Health,
     /// The output file already held every run of the sweep and nothing was to be done: it was
     /// left as it was (a shard run into a complete output, a complete sweep run again).
     pub nothing_to_do: bool,
@@ -232,6 +259,12 @@ impl RunReport {
             }
         }
         RunReport {
+            health: Health {
+                failed: counts.failed,
+                verified: r.verified.0,
+                worst_verified: r.verified.1.map(|e| (e, 0)),
+                ..Health::default()
+            },
             unpassed: Vec::new(),
             unsettled: Vec::new(),
             points: r.searches.len(),
@@ -319,7 +352,7 @@ pub fn run_points(
         if work.store_files() > 0 {
             work.compact_after_publish(grid)?;
         }
-        let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
+        let (failed, failures, over_limit) = failures(work, grid, &plan.points, &plan.done);
         let (unpassed, unsettled) = work
             .published_file()
             .and_then(|p| p.file().map(|f| flagged(f.table(), &plan.points, grid)))
@@ -330,14 +363,16 @@ pub fn run_points(
             pending: 0,
             unsettled: unsettled.len(),
         };
+        let verification = verification_report(work, grid, &plan)?;
         return Ok(RunReport {
             points: plan.points.len(),
+            health: health(failed, over_limit, &unsettled, &unpassed, &verification),
             unpassed,
             unsettled,
             counts,
             failed,
             failures,
-            verification: verification_report(work, grid, &plan)?,
+            verification,
             stopped: false,
             ran: 0,
             damage,
@@ -380,16 +415,18 @@ pub fn run_points(
         // The file holds every run of the sweep: the logs beside it shrink to what it lacks.
         work.compact_after_publish(grid)?;
     }
-    let (failed, failures) = failures(work, grid, &plan.points, &plan.done);
+    let (failed, failures, over_limit) = failures(work, grid, &plan.points, &plan.done);
     let (unpassed, unsettled) = flagged(&written.table, &plan.points, grid);
+    let verification = verification_report(work, grid, plan)?;
     Ok(RunReport {
         points: plan.points.len(),
+        health: health(failed, over_limit, &unsettled, &unpassed, &verification),
         unpassed,
         unsettled,
         counts,
         failed,
         failures,
-        verification: verification_report(work, grid, plan)?,
+        verification,
         stopped: stop.load(Ordering::Relaxed) && counts.pending > 0,
         ran: run.ran,
         damage,
@@ -529,32 +566,57 @@ impl Coordinator for Running<'_> {
     }
 }
 
-/// The failed grid points among `points` (counted once per point) and the first
-/// [`LISTED_FAILURES`] with their reasons.
+/// The health of a run's points from what the report holds.
+fn health(
+    failed: usize,
+    over_limit: usize,
+    unsettled: &[usize],
+    unpassed: &[usize],
+    v: &VerificationReport,
+) -> Health {
+    Health {
+        failed,
+        over_limit,
+        unsettled: unsettled.len(),
+        nan_leading: unpassed.len(),
+        verified: v.verified,
+        worst_verified: v.worst,
+    }
+}
+
+/// The failed grid points among `points` (counted once per point), how many of them a limit
+/// stopped, and the first [`LISTED_FAILURES`] with their reasons.
 fn failures(
     store: &dyn RunStore,
     grid: &Grid,
     points: &[usize],
     done: &HashMap<RunHash, bool>,
-) -> (usize, Vec<Failure>) {
+) -> (usize, Vec<Failure>, usize) {
     let failed_points: Vec<usize> = points
         .iter()
         .copied()
         .filter(|&i| done.get(&grid.hashes[i]) == Some(&false))
         .collect();
+    let reason = |point: usize| {
+        store
+            .read(&grid.hashes[point])
+            .ok()
+            .flatten()
+            .map(|r| r.reason)
+    };
     let listed = failed_points
         .iter()
         .take(LISTED_FAILURES)
         .map(|&point| Failure {
             point,
-            reason: store
-                .read(&grid.hashes[point])
-                .ok()
-                .flatten()
-                .map(|r| r.reason),
+            reason: reason(point),
         })
         .collect();
-    (failed_points.len(), listed)
+    let over_limit = failed_points
+        .iter()
+        .filter(|&&i| reason(i).is_some_and(|r| Health::is_limit(&r)))
+        .count();
+    (failed_points.len(), listed, over_limit)
 }
 
 /// Which of `points` hold a succeeded run whose leading peak is NaN at some probe, of a file's

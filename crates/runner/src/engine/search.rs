@@ -142,6 +142,20 @@ pub struct Search {
 }
 
 impl Search {
+    /// The runs of the round it waits for (a round cut short, or under way): how many of them
+    /// `store` holds, and how many there are.
+    pub fn round_in_flight(&self, store: &dyn RunStore) -> Result<(usize, usize)> {
+        let mut stored = 0;
+        let mut total = 0;
+        for (_, _, hashes) in &self.waiting {
+            for h in hashes.iter().flatten() {
+                total += 1;
+                stored += store.read(h)?.is_some() as usize;
+            }
+        }
+        Ok((stored, total))
+    }
+
     fn new(outer: usize) -> Search {
         Search {
             outer,

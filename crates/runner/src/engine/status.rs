@@ -43,6 +43,8 @@ pub struct FileStatus {
     pub unpassed: Vec<usize>,
     /// Points of the shard whose run finished but whose steady state did not settle.
     pub unsettled: Vec<usize>,
+    /// Its health at a glance.
+    pub health: super::run::Health,
     /// What was found damaged in the file and its snapshot.
     pub damage: DamageReport,
     /// A search's output: each search by its outer axis values, how it ended, its runs, why.
@@ -60,6 +62,41 @@ pub struct SearchLine {
     pub runs: i64,
     /// Where it stands or why it ended.
     pub note: String,
+    /// What it found (minima, maxima, roots), each with its uncertainty: its answer.
+    pub answers: Vec<Answer>,
+}
+
+/// An item a search found, as `status` gives it.
+#[derive(Debug, Clone)]
+pub struct Answer {
+    /// What it is (`minimum`, `maximum`, `root`).
+    pub item: &'static str,
+    /// Each searched field: its name, its value there and how far the true one may be.
+    pub fields: Vec<(String, f64, f64)>,
+    /// The objective there (`None`: no number).
+    pub objective: Option<f64>,
+    /// How it stands (`converged`, `at_bound`, …).
+    pub status: &'static str,
+    /// The whole in words, as `run` prints it.
+    pub text: String,
+}
+
+impl Answer {
+    /// The answer of item `it` of the search `spec`.
+    fn of(spec: &crate::sweep::search::SearchSpec, it: &crate::search::Item) -> Answer {
+        Answer {
+            item: spec.goal.item(),
+            fields: spec
+                .fields
+                .iter()
+                .zip(it.x.iter().zip(&it.uncertainty))
+                .map(|(f, (&x, &u))| (f.name.clone(), x, u))
+                .collect(),
+            objective: it.value,
+            status: it.status.name(),
+            text: super::search::describe_item(spec, it),
+        }
+    }
 }
 
 /// The status of the output file `file`, every value checked (a damaged file's state from what
@@ -141,13 +178,18 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
             failures.push((i, reason));
         }
     }
-    // Runs finished since the file was last assembled (it is refreshed by `run`).
+    // Runs finished since the file was last assembled (it is refreshed by `run`). A search's file
+    // has slots only for the evaluations it had made: every stored run it does not hold is newer.
     let segs = scan_segments(&work_dir_of(file))?;
-    let newer = (0..grid.len())
-        .filter(|&i| is_run(i) && assignment.contains(shard, i))
-        .filter(|&i| !held.contains_key(&grid.hashes[i]))
-        .filter(|&i| segs.contains_key(&grid.hashes[i]))
-        .count();
+    let newer = if sweep.search.is_some() {
+        segs.keys().filter(|h| !held.contains_key(h)).count()
+    } else {
+        (0..grid.len())
+            .filter(|&i| is_run(i) && assignment.contains(shard, i))
+            .filter(|&i| !held.contains_key(&grid.hashes[i]))
+            .filter(|&i| segs.contains_key(&grid.hashes[i]))
+            .count()
+    };
     let searches = match &sweep.search {
         None => None,
         Some(spec) => {
@@ -155,10 +197,33 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
             let outcomes = crate::store::hdf5::search::read_outcomes(file).map_err(|e| {
                 Error::Other(format!("{name}: its search's outcome cannot be read: {e}"))
             })?;
+            let names: Vec<&str> = spec.fields.iter().map(|f| f.name.as_str()).collect();
+            let found = crate::store::hdf5::search::read_items(file, spec.goal.item(), &names)
+                .map_err(|e| {
+                    Error::Other(format!("{name}: its search's answers cannot be read: {e}"))
+                })?
+                .unwrap_or_default();
+            let answers = |k: usize| -> Vec<Answer> {
+                found.get(k).map_or_else(Vec::new, |items| {
+                    items
+                        .iter()
+                        .filter_map(|(x, u, objective, code)| {
+                            let it = crate::search::Item {
+                                x: x.clone(),
+                                uncertainty: u.clone(),
+                                value: (!objective.is_nan()).then_some(*objective),
+                                status: crate::search::ItemStatus::from_code(*code)?,
+                            };
+                            Some(Answer::of(spec, &it))
+                        })
+                        .collect()
+                })
+            };
             outcomes.map(|o| {
                 o.into_iter()
                     .enumerate()
                     .map(|(k, (status, runs, note))| SearchLine {
+                        answers: answers(k),
                         label: search::outer_label(&sweep, &layout, k),
                         status: SEARCH_FLAGS
                             .1
@@ -189,11 +254,27 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         .file()
         .map(|f| super::run::flagged(f.table(), &in_shard, grid))
         .unwrap_or_default();
+    let (verified, worst_verified) = p
+        .file()
+        .map(|f| f.table().verification(&in_shard))
+        .unwrap_or_default();
+    let health = super::run::Health {
+        failed: counts.failed,
+        over_limit: failures
+            .iter()
+            .filter(|(i, r)| assignment.contains(shard, *i) && super::run::Health::is_limit(r))
+            .count(),
+        unsettled: unsettled.len(),
+        nan_leading: unpassed.len(),
+        verified,
+        worst_verified,
+    };
     Ok(FileStatus {
         total,
         shape: sweep.shape(),
         shard: shard_text,
         counts,
+        health,
         unpassed,
         unsettled,
         other_shards,
@@ -319,6 +400,8 @@ pub struct SweepStatus {
     pub unpassed: Vec<usize>,
     /// Points of this run whose run finished but whose steady state did not settle.
     pub unsettled: Vec<usize>,
+    /// Its health at a glance (the runs counted so far; verification from the output file).
+    pub health: super::run::Health,
     /// What was found damaged in the output file and its snapshot.
     pub damage: DamageReport,
     /// A sweep with a search: each search of this output, replayed through the stored runs.
@@ -344,6 +427,7 @@ pub fn of_sweep(
         ignored: Vec::new(),
         unpassed: Vec::new(),
         unsettled: Vec::new(),
+        health: super::run::Health::default(),
         damage: DamageReport::default(),
         searches: None,
     };
@@ -373,13 +457,22 @@ pub fn of_sweep(
                 _ => counts.ok += 1,
             }
             let rel = s.outcome.relative_uncertainty(driver.spec);
-            let note = if s.finished {
+            let (in_round, round) = s.round_in_flight(&stored)?;
+            let mut note = if s.finished {
                 s.outcome.note.clone()
             } else if rel.is_finite() {
                 format!("largest uncertainty {rel:.3} × its tolerance so far")
             } else {
                 String::new()
             };
+            if !s.finished && in_round > 0 {
+                if !note.is_empty() {
+                    note.push_str("; ");
+                }
+                note.push_str(&format!(
+                    "its next round of {round} run(s) has {in_round} finished (they count once the round is whole)"
+                ));
+            }
             lines.push(SearchLine {
                 label: search::outer_label(&sweep, &driver.layout, s.outer),
                 status: if started || s.finished {
@@ -389,6 +482,12 @@ pub fn of_sweep(
                 },
                 runs: s.runs() as i64,
                 note,
+                answers: s
+                    .outcome
+                    .items
+                    .iter()
+                    .map(|it| Answer::of(driver.spec, it))
+                    .collect(),
             });
         }
         status.points = outer.len();
@@ -433,20 +532,37 @@ pub fn of_sweep(
         .map(|f| super::run::flagged(f.table(), &points, &grid).0)
         .unwrap_or_default();
     status.unsettled = unsettled;
-    for &point in points
+    let mut over_limit = 0;
+    for (k, &point) in points
         .iter()
         .filter(|&&i| state(i) == Some(false))
-        .take(LISTED_FAILURES)
+        .enumerate()
     {
         let reason = stored
             .read(&grid.hashes[point])?
             .map(|r| r.reason)
             .unwrap_or_default();
-        status.failures.push(Failure {
-            point,
-            reason: Some(reason),
-        });
+        over_limit += super::run::Health::is_limit(&reason) as usize;
+        if k < LISTED_FAILURES {
+            status.failures.push(Failure {
+                point,
+                reason: Some(reason),
+            });
+        }
     }
+    let (verified, worst_verified) = stored
+        .published()
+        .and_then(|p| p.file())
+        .map(|f| f.table().verification(&points))
+        .unwrap_or_default();
+    status.health = super::run::Health {
+        failed,
+        over_limit,
+        unsettled: status.unsettled.len(),
+        nan_leading: status.unpassed.len(),
+        verified,
+        worst_verified,
+    };
     Ok((status, sweep, grid))
 }
 

@@ -225,6 +225,14 @@ pub enum Fill {
     VerifyProbe(usize),
     /// Verification error `k` of [`VerifyInfo::run_errors`] of a verified point; NaN elsewhere.
     VerifyRun(usize),
+    /// Term `term` of the energy ledger of a successful run ([`super::LEDGER_TERMS`]), at its
+    /// end or its start; NaN elsewhere.
+    Ledger {
+        /// Which term.
+        term: usize,
+        /// At the end (else at the start).
+        end: bool,
+    },
 }
 
 impl Fill {
@@ -252,6 +260,7 @@ impl Fill {
             Fill::SummaryChecksum => "summary_checksum",
             Fill::VerifyProbe(_) => "verify_probe",
             Fill::VerifyRun(_) => "verify_run",
+            Fill::Ledger { .. } => "ledger",
         }
     }
 }
@@ -265,6 +274,7 @@ impl Written {
             Written::WithRunGroups => "with_run_groups",
             Written::WithSpectrum => "with_spectrum",
             Written::WithSteadyState => "with_steady_state",
+            Written::WithEnergyLedger => "with_energy_ledger",
         }
     }
 }
@@ -286,6 +296,8 @@ pub enum Written {
     WithSpectrum,
     /// Files of grids that record the steady state (`record.steady_state`).
     WithSteadyState,
+    /// Files of grids that record the energy ledger (`record.energy_ledger`).
+    WithEnergyLedger,
 }
 
 /// What decides which columns a file has: its grid's probes and recorded arrays.
@@ -302,6 +314,8 @@ pub struct Presence {
     pub spectrum: bool,
     /// Harmonics of the steady state the grid records (0: none recorded).
     pub harmonics: usize,
+    /// Whether the grid records the energy ledger.
+    pub energy_ledger: bool,
 }
 
 /// One stored column.
@@ -356,6 +370,7 @@ impl Column {
                 Written::WithRunGroups => presence.run_groups,
                 Written::WithSpectrum => presence.spectrum,
                 Written::WithSteadyState => presence.harmonics > 0,
+                Written::WithEnergyLedger => presence.energy_ledger,
             }
     }
 
@@ -1113,6 +1128,202 @@ pub const COLUMNS: &[Column] = &[
         fill: Fill::VerifyRun(1),
     },
     Column {
+        name: "ledger_kinetic_start_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the start of the run: kinetic energy of the particles",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 0, end: false },
+    },
+    Column {
+        name: "ledger_elastic_start_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the start of the run: elastic energy of the contacts (the recoverable part, for plastic ones)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 1, end: false },
+    },
+    Column {
+        name: "ledger_gravitational_start_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the start of the run: gravitational potential -g Σ m x (x positive downwards)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 2, end: false },
+    },
+    Column {
+        name: "ledger_dissipated_start_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the start of the run: work dissipated by the contacts' dissipation so far",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 3, end: false },
+    },
+    Column {
+        name: "ledger_plastic_start_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the start of the run: plastic work of Thornton's contacts so far",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 4, end: false },
+    },
+    Column {
+        name: "ledger_external_start_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the start of the run: minus the external forces' work: the precompression's potential -F_p x, less the work of a force pulse or drive so far",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 5, end: false },
+    },
+    Column {
+        name: "ledger_mount_start_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the start of the run: a mounted wall's kinetic energy and its spring's energy over its loaded state",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 6, end: false },
+    },
+    Column {
+        name: "ledger_kinetic_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the end of the run: kinetic energy of the particles",
+        long_name: true,
+        flags: None,
+        note: "the terms sum to a constant along an exact solution: their sum at the end less at the start is the ledger's drift (energy_drift_max, relative)",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 0, end: true },
+    },
+    Column {
+        name: "ledger_elastic_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the end of the run: elastic energy of the contacts (the recoverable part, for plastic ones)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 1, end: true },
+    },
+    Column {
+        name: "ledger_gravitational_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the end of the run: gravitational potential -g Σ m x (x positive downwards)",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 2, end: true },
+    },
+    Column {
+        name: "ledger_dissipated_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the end of the run: work dissipated by the contacts' dissipation so far",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 3, end: true },
+    },
+    Column {
+        name: "ledger_plastic_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the end of the run: plastic work of Thornton's contacts so far",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 4, end: true },
+    },
+    Column {
+        name: "ledger_external_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the end of the run: minus the external forces' work: the precompression's potential -F_p x, less the work of a force pulse or drive so far",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 5, end: true },
+    },
+    Column {
+        name: "ledger_mount_j",
+        dtype: Dtype::F64,
+        per_probe: false,
+        per_harmonic: false,
+        units: Units::Fixed("J"),
+        description: "energy ledger at the end of the run: a mounted wall's kinetic energy and its spring's energy over its loaded state",
+        long_name: true,
+        flags: None,
+        note: "",
+        required: false,
+        written: Written::WithEnergyLedger,
+        fill: Fill::Ledger { term: 6, end: true },
+    },
+    Column {
         name: "history_checksum",
         dtype: Dtype::U64,
         per_probe: false,
@@ -1417,6 +1628,11 @@ impl Column {
                     d[i] = v.run_errors[k];
                 }
             }
+            (Fill::Ledger { term, end }, ColumnData::F64(d)) => {
+                if let Some(terms) = ok.and_then(|r| r.energy_ledger.as_ref()) {
+                    d[i] = terms[end as usize][term];
+                }
+            }
             (Fill::HistoryChecksum, ColumnData::U64(d)) => {
                 if let Some(r) = ok {
                     d[i] = history_checksum(
@@ -1478,6 +1694,9 @@ impl Column {
                         *set(s) = d[at..at + nh].to_vec();
                     }
                 }
+            }
+            (Fill::Ledger { term, end }, ColumnData::F64(d)) if rec.ok => {
+                rec.energy_ledger.get_or_insert([[f64::NAN; 7]; 2])[end as usize][term] = d[i];
             }
             _ => {}
         }
@@ -1605,6 +1824,28 @@ impl Table {
             Some(ColumnData::U8(s)) => s[i],
             _ => STATUS_PENDING,
         }
+    }
+
+    /// What `--verify` found among `points`: how many were verified, and the largest bound on
+    /// the error with its point (`verify_rel_error_max`), if any.
+    pub fn verification(&self, points: &[usize]) -> (usize, Option<(f64, usize)>) {
+        let (Some(ColumnData::U8(flags)), Some(ColumnData::F64(errors))) =
+            (self.get("verified"), self.get("verify_rel_error_max"))
+        else {
+            return (0, None);
+        };
+        let mut verified = 0;
+        let mut worst: Option<(f64, usize)> = None;
+        for &i in points.iter().filter(|&&i| i < self.n) {
+            if flags[i] == super::VERIFY_OK {
+                verified += 1;
+                let e = errors[i];
+                if !e.is_nan() && worst.map_or(true, |(w, _)| e > w) {
+                    worst = Some((e, i));
+                }
+            }
+        }
+        (verified, worst)
     }
 
     /// The text of string column `name` at point `i` (empty where the table has no such column).
@@ -1849,6 +2090,8 @@ pub fn markdown_table() -> String {
             }
             Written::WithSteadyState => content
                 .push_str("; only in files that record the steady state (`record.steady_state`)"),
+            Written::WithEnergyLedger => content
+                .push_str("; only in files that record the energy ledger (`record.energy_ledger`)"),
         }
         let content = content.replace('|', "\\|");
         let dtype = match c.dtype {
@@ -1893,7 +2136,8 @@ mod tests {
                 | Fill::SteadyHarmonic { .. }
                 | Fill::VerifyMax
                 | Fill::VerifyProbe(_)
-                | Fill::VerifyRun(_) => Dtype::F64,
+                | Fill::VerifyRun(_)
+                | Fill::Ledger { .. } => Dtype::F64,
                 Fill::OkCount { .. } | Fill::OkOptCount { .. } => Dtype::I64,
                 Fill::OkText { .. } | Fill::Reason | Fill::RunHash => Dtype::Str,
                 Fill::Status
@@ -1969,6 +2213,7 @@ mod tests {
             run_groups: false,
             spectrum: false,
             harmonics: 0,
+            energy_ledger: false,
         };
         let mut t = Table::empty(3, presence);
         let hash = [7u8; 32];

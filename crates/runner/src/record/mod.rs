@@ -127,6 +127,46 @@ pub struct RunRecord {
     pub spectrum: Option<SpectrumSummary>,
     /// Steady-state observables of every probe, when recorded (`record.steady_state`).
     pub steady_state: Option<SteadyState>,
+    /// The energy ledger's terms at the start and at the end, when recorded
+    /// (`record.energy_ledger`), in the order of [`LEDGER_TERMS`].
+    pub energy_ledger: Option<[LedgerTerms; 2]>,
+}
+
+/// The energy ledger's terms of one instant, J, in the order of [`LEDGER_TERMS`].
+pub type LedgerTerms = [f64; 7];
+
+/// The energy ledger's terms: the name each column takes, and what it holds. Their sum is
+/// constant along an exact solution.
+pub const LEDGER_TERMS: [(&str, &str); 7] = [
+    ("kinetic", "kinetic energy of the particles"),
+    (
+        "elastic",
+        "elastic energy of the contacts (the recoverable part, for plastic ones)",
+    ),
+    ("gravitational", "gravitational potential -g Σ m x (x positive downwards)"),
+    ("dissipated", "work dissipated by the contacts' dissipation so far"),
+    ("plastic", "plastic work of Thornton's contacts so far"),
+    (
+        "external",
+        "minus the external forces' work: the precompression's potential -F_p x, less the work of a force pulse or drive so far",
+    ),
+    (
+        "mount",
+        "a mounted wall's kinetic energy and its spring's energy over its loaded state",
+    ),
+];
+
+/// The ledger's terms of `e` in the order of [`LEDGER_TERMS`].
+pub fn ledger_terms(e: &chainsweep_solver::motion::system::EnergyTerms) -> LedgerTerms {
+    [
+        e.kinetic,
+        e.elastic,
+        e.gravitational,
+        e.dissipated,
+        e.plastic,
+        e.external,
+        e.mount,
+    ]
 }
 
 impl RunRecord {
@@ -196,6 +236,7 @@ impl RunRecord {
             energy_flow: None,
             spectrum: None,
             steady_state: None,
+            energy_ledger: None,
         }
     }
 

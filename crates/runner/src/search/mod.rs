@@ -100,6 +100,19 @@ pub enum ItemStatus {
 }
 
 impl ItemStatus {
+    /// The status of a code in the output file ([`ItemStatus::code`]).
+    pub fn from_code(code: u8) -> Option<ItemStatus> {
+        [
+            ItemStatus::Converged,
+            ItemStatus::Open,
+            ItemStatus::AtBound,
+            ItemStatus::Stalled,
+            ItemStatus::Failed,
+        ]
+        .into_iter()
+        .find(|s| s.code() == code)
+    }
+
     /// Its code in the output file.
     pub fn code(self) -> u8 {
         match self {

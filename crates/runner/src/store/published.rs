@@ -524,6 +524,7 @@ pub fn snapshot_of(
         run_groups: grid.has_run_arrays(),
         spectrum: grid.spectrum,
         harmonics: grid.steady_harmonics,
+        energy_ledger: grid.energy_ledger,
         sweep: sweep.text.clone(),
         auto: sweep
             .auto_choice

@@ -24,6 +24,8 @@
 //! [energy flow, only for a run that recorded it: 3 (u8) | n_contacts (u32) |
 //!   energy_passed_max_j f64 ×n_contacts | energy_passed_final_j f64 ×n_contacts |
 //!   n_particles (u32) | max_kinetic_energy_j f64 ×n_particles]
+//! [energy ledger, only for a run that recorded it: 4 (u8) | the ledger's 7 terms at the start,
+//!   then at the end (f64 ×14)]
 //! checksum (32)
 //! ```
 //!
@@ -190,6 +192,10 @@ pub fn encode(rec: &RunRecord) -> Vec<u8> {
             .iter()
             .for_each(|&x| put_f64(&mut b, x));
     }
+    if let Some(terms) = &rec.energy_ledger {
+        b.push(LEDGER_TAG);
+        terms.iter().flatten().for_each(|&x| put_f64(&mut b, x));
+    }
     let sum: [u8; CHECKSUM_BYTES] = Sha256::digest(&b).into();
     b.extend_from_slice(&sum);
     b
@@ -201,6 +207,8 @@ const FIELDS_TAG: u8 = 1;
 const STEADY_TAG: u8 = 2;
 /// First byte of the energy flow's trailing part.
 const FLOW_TAG: u8 = 3;
+/// First byte of the energy ledger's trailing part.
+const LEDGER_TAG: u8 = 4;
 
 /// Decodes segment bytes; `None` if they are truncated, corrupt or not a segment.
 pub fn decode(bytes: &[u8]) -> Option<RunRecord> {
@@ -325,10 +333,8 @@ fn parse(body: &[u8]) -> Option<RunRecord> {
     } else {
         None
     };
-    let energy_flow = if magic == MAGIC && r.at < body.len() {
-        if r.take(1)?[0] != FLOW_TAG {
-            return None;
-        }
+    let energy_flow = if magic == MAGIC && r.at < body.len() && body[r.at] == FLOW_TAG {
+        r.take(1)?;
         let n = r.u32()? as usize;
         let energy_passed_max_j = r.f64s(n)?;
         let energy_passed_final_j = r.f64s(n)?;
@@ -338,6 +344,19 @@ fn parse(body: &[u8]) -> Option<RunRecord> {
             energy_passed_final_j,
             max_kinetic_energy_j: r.f64s(n)?,
         })
+    } else {
+        None
+    };
+    let energy_ledger = if magic == MAGIC && r.at < body.len() {
+        if r.take(1)?[0] != LEDGER_TAG {
+            return None;
+        }
+        let v = r.f64s(14)?;
+        let mut terms = [[0.0; 7]; 2];
+        for (t, x) in terms.iter_mut().flatten().zip(v) {
+            *t = x;
+        }
+        Some(terms)
     } else {
         None
     };
@@ -369,6 +388,7 @@ fn parse(body: &[u8]) -> Option<RunRecord> {
         energy_flow,
         spectrum,
         steady_state,
+        energy_ledger,
     })
 }
 
@@ -584,16 +604,30 @@ mod tests {
                 energy_passed_final_j: vec![9e-4, -1e-6, 0.0],
                 max_kinetic_energy_j: vec![1e-3, 2e-4],
             }),
+            energy_ledger: Some([
+                [1e-3, 0.0, -1e-9, 0.0, 0.0, 0.0, 0.0],
+                [2e-4, 3e-4, -2e-9, 4e-4, 1e-4, -0.0, f64::NAN],
+            ]),
         };
         let bytes = encode(&rec);
         let back = decode(&bytes).unwrap();
         assert_eq!(back.energy_flow, rec.energy_flow);
-        // The energy flow alone, and the steady state alone, read back.
-        for (steady, flow) in [(true, false), (false, true)] {
+        assert_eq!(
+            back.energy_ledger.map(|t| t.map(|r| r.map(f64::to_bits))),
+            rec.energy_ledger.map(|t| t.map(|r| r.map(f64::to_bits)))
+        );
+        // The energy flow alone, the steady state alone and the ledger alone read back.
+        for (steady, flow, ledger) in [
+            (true, false, false),
+            (false, true, false),
+            (false, false, true),
+            (true, false, true),
+        ] {
             let part = RunRecord {
                 fields: None,
                 steady_state: rec.steady_state.clone().filter(|_| steady),
                 energy_flow: rec.energy_flow.clone().filter(|_| flow),
+                energy_ledger: rec.energy_ledger.filter(|_| ledger),
                 ..rec.clone()
             };
             let b = encode(&part);
@@ -606,6 +640,7 @@ mod tests {
         let mut alone = rec.clone();
         alone.fields = None;
         alone.energy_flow = None;
+        alone.energy_ledger = None;
         let alone_bytes = encode(&alone);
         assert_eq!(encode(&decode(&alone_bytes).unwrap()), alone_bytes);
         // A record cut inside its steady state is damaged, never read short.
@@ -629,12 +664,14 @@ mod tests {
         let bytes = encode(&RunRecord {
             steady_state: None,
             energy_flow: None,
+            energy_ledger: None,
             ..rec.clone()
         });
         let without = encode(&RunRecord {
             fields: None,
             steady_state: None,
             energy_flow: None,
+            energy_ledger: None,
             ..rec.clone()
         });
         assert_eq!(bytes.len() - without.len(), 1 + 8 + 16 + 4 + 18 + 80);

@@ -50,8 +50,16 @@ const MAGIC: &[u8; 8] = b"CSWSNAP\0";
 /// Version 2 added the spectrum columns (`lowest_frequency_hz` …) to the columns a snapshot
 /// may hold (positional, as the header's presence says: only where `spectrum` is set); a
 /// snapshot of version 1 holds none, and is read as one without them. Version 3 stores the
-/// columns of [`PREDICTED`] as their XOR with their predictors.
-const VERSION: u32 = 3;
+/// columns of [`PREDICTED`] as their XOR with their predictors. Version 4 holds the columns of
+/// [`SINCE_4`] too (a snapshot of an earlier version is read without them: fills).
+const VERSION: u32 = 4;
+/// The columns first held by version 4: the wider verification and the energy ledger.
+const SINCE_4: &[&str] = &[
+    "verify_rel_error_record_max_time",
+    "verify_rel_error_steady",
+    "verify_rel_error_max_overlap",
+    "verify_rel_error_energy_flow",
+];
 /// The first version that stores the columns of [`PREDICTED`] as their XOR with their predictors.
 const FIRST_PREDICTED: u32 = 3;
 /// The earliest version read.
@@ -83,6 +91,9 @@ pub struct Header {
     /// of the header, so that the snapshot of every other grid reads as before).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub harmonics: usize,
+    /// Whether the grid records the energy ledger (its columns; left out of the header without).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub energy_ledger: bool,
     /// The sweep file's text.
     pub sweep: String,
     /// What `integrator: auto` chose (JSON; empty without).
@@ -104,6 +115,7 @@ impl Header {
             run_groups: self.run_groups,
             spectrum: self.spectrum,
             harmonics: self.harmonics,
+            energy_ledger: self.energy_ledger,
         }
     }
 }
@@ -121,6 +133,11 @@ fn prefix(hash: &RunHash) -> u64 {
 /// the point checksum (recomputed from the values when a file is written again).
 fn kept(fill: Fill) -> bool {
     !matches!(fill, Fill::RunHash | Fill::SummaryChecksum)
+}
+
+/// Whether a snapshot of `version` holds column `c` (where the header's presence has it).
+fn stored_in(c: &crate::record::columns::Column, version: u32) -> bool {
+    kept(c.fill) && (version >= 4 || !(SINCE_4.contains(&c.name) || c.name.starts_with("ledger_")))
 }
 
 /// Number columns stored as the XOR of their bits with those of an earlier column of the same
@@ -203,7 +220,7 @@ fn encode_version(header: &Header, table: &Table, hashes: &[RunHash], version: u
             raw.extend_from_slice(&p.to_le_bytes());
         }
         for (at, (c, data)) in COLUMNS.iter().zip(&table.columns).enumerate() {
-            let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
+            let Some(d) = data.as_ref().filter(|_| stored_in(c, version)) else {
                 continue;
             };
             let k = c.width(table.np, table.nh);
@@ -423,7 +440,7 @@ impl Snapshot {
         // Decoded into new columns first: a block malformed halfway changes nothing.
         let mut decoded: Vec<(usize, ColumnData)> = Vec::new();
         for (at, (c, data)) in COLUMNS.iter().zip(&table.columns).enumerate() {
-            let Some(d) = data.as_ref().filter(|_| kept(c.fill)) else {
+            let Some(d) = data.as_ref().filter(|_| stored_in(c, version)) else {
                 continue;
             };
             let n = count * c.width(np, nh);
@@ -563,6 +580,7 @@ mod tests {
             run_groups: false,
             spectrum: false,
             harmonics: 0,
+            energy_ledger: false,
             sweep: "{}".into(),
             auto: String::new(),
             shard: "1/1".into(),
@@ -579,6 +597,7 @@ mod tests {
             run_groups: false,
             spectrum: false,
             harmonics: 0,
+            energy_ledger: false,
         };
         let mut t = Table::empty(n, presence);
         let hashes: Vec<RunHash> = (0..n)

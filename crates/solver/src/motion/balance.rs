@@ -17,7 +17,9 @@
 //! its relative rounding is that of `r`), `u_m` a mounted wall's displacement, `D` and `P` the
 //! dissipated and plastic work, `W` the external forces' work and, for a wall a drive moves by
 //! `u_w`, `F_s,w σ_w u_w` the static part of that work (`σ_w = ±1`, the sign of `∂δ_w/∂u_w`), which
-//! cancels against the drive's. Every term is then of the size of the motion.
+//! cancels against the drive's. Every term is then of the size of the motion. A particle the
+//! static state does not hold (a striker, which gravity pulls and no contact carries) keeps the
+//! first-order term of its unbalanced static force `r_i`: `− r_i (x_i − x_s,i)`.
 
 use crate::chain::drive::DrivePoint;
 use crate::chain::model::{Chain, ContactMap};
@@ -44,6 +46,9 @@ pub struct StaticBalance {
     moving_wall: Option<(usize, f64)>,
     /// A mounted wall: its displacement's index, mass and stiffness.
     mount: Option<(usize, f64, f64)>,
+    /// The particles whose static forces do not balance (a striker under gravity): index,
+    /// unbalanced force (towards the wall), static position.
+    unbalanced: Vec<(usize, f64, f64)>,
 }
 
 /// The balance's terms in a state, J.
@@ -61,7 +66,7 @@ pub struct BalanceTerms {
 impl StaticBalance {
     /// The balance of `chain` about its static state.
     pub fn new(chain: &Chain) -> Self {
-        let laws = (0..chain.n_contacts())
+        let laws: Vec<(f64, f64, f64, f64, f64)> = (0..chain.n_contacts())
             .map(|c| {
                 let (a, n, d) = (
                     chain.stiffness[c],
@@ -93,7 +98,28 @@ impl StaticBalance {
             };
             (index, force * sign)
         });
+        // Each particle's static forcing less what its contacts' static forces give it.
+        let n = chain.n_particles();
+        let mut residual: Vec<f64> = chain.mass.iter().map(|m| m * chain.gravity_m_s2).collect();
+        residual[chain.first_chain_particle()] += chain.top_force_n();
+        for (c, &(_, _, ds, fs, _)) in laws.iter().enumerate() {
+            if ds <= 0.0 {
+                continue;
+            }
+            let e = chain.contact_ends(c);
+            if let Some(a) = e.above {
+                residual[a] -= fs;
+            }
+            if let Some(b) = e.below {
+                residual[b] += fs;
+            }
+        }
+        let unbalanced = (0..n)
+            .filter(|&i| residual[i] != 0.0)
+            .map(|i| (i, residual[i], chain.equilibrium_position[i]))
+            .collect();
         StaticBalance {
+            unbalanced,
             mass: chain.mass.clone(),
             contacts: ContactMap::of(chain),
             laws,
@@ -150,8 +176,12 @@ impl StaticBalance {
             work -= static_part * y[i];
         }
         let dissipated = self.work.map_or(0.0, |i| y[i]);
+        let mut unbalanced = 0.0;
+        for &(i, r, xs) in self.unbalanced.iter().filter(|u| u.0 < k) {
+            unbalanced -= r * (y[i] - xs);
+        }
         BalanceTerms {
-            total: motion + dissipated + plastic_work - work,
+            total: motion + dissipated + plastic_work - work + unbalanced,
             motion,
             work,
         }
@@ -193,6 +223,91 @@ fn second_order_potential(a: f64, n: f64, ds: f64, fs: f64, us: f64, overlap: f6
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::chain::drive::{DriveSpec, Harmonic, Waveform};
+    use crate::chain::model::PhysicsSpec;
+    use crate::chain::mount::WallMount;
+    use crate::motion::system::Ledger;
+    use crate::problems::monodisperse;
+    use crate::ChainSpec;
+
+    /// The balance is the ledger's total less its value at rest: for states moved well away
+    /// from rest (so that the absolute totals resolve the change), the two changes agree, on
+    /// chains with a striker under gravity, a precompression, a wall at the top, a load cell and
+    /// every drive.
+    #[test]
+    fn the_balance_changes_as_the_ledger_s_total() {
+        let harmonic = Waveform::Harmonic(Harmonic {
+            amplitude: 1e-7,
+            frequency_hz: 1e3,
+            phase_rad: 0.3,
+            ramp_periods: 0.0,
+        });
+        for (striker, top_wall, mount, force, gravity, drive) in [
+            (true, false, false, 2.0, true, None),
+            (true, false, true, 0.0, true, None),
+            (
+                false,
+                true,
+                false,
+                3.0,
+                true,
+                Some(DriveSpec::ActuatorM(harmonic.clone())),
+            ),
+            (
+                false,
+                false,
+                false,
+                3.0,
+                false,
+                Some(DriveSpec::BaseM(harmonic.clone())),
+            ),
+            (
+                false,
+                false,
+                true,
+                1.0,
+                true,
+                Some(DriveSpec::ForceN(harmonic.clone())),
+            ),
+        ] {
+            let mut spec = monodisperse(5, None, striker);
+            if top_wall {
+                spec.top_wall_material = Some(spec.wall_material);
+            }
+            if mount {
+                spec.wall_mount = Some(WallMount {
+                    mass_kg: 0.03,
+                    stiffness_n_m: 3e7,
+                    damping_kg_s: 5.0,
+                });
+            }
+            let physics = PhysicsSpec {
+                gravity,
+                wall: true,
+                damping_kg_s: 2.0,
+                precompression_force_n: force,
+                ..PhysicsSpec::default()
+            };
+            let mut chain = Chain::build(&ChainSpec::Sequence(spec), &physics).unwrap();
+            if let Some(d) = drive {
+                chain = chain.with_drive(d.validate(1e-2).unwrap()).unwrap();
+            }
+            let (ledger, balance) = (Ledger::new(&chain), StaticBalance::new(&chain));
+            let y0 = chain.initial_state(0.0);
+            let mut y = y0.clone();
+            let n = chain.n_particles();
+            for (i, v) in y.iter_mut().enumerate() {
+                // A tenth of a micrometre and centimetres per second; quadratures a microjoule.
+                *v += 1e-7 * ((i as f64 * 0.7).sin() + 0.2) * if i < n { 1.0 } else { 1e5 };
+            }
+            let by_ledger = ledger.energy(&y).total() - ledger.energy(&y0).total();
+            let by_balance = balance.terms(&y, n).total - balance.terms(&y0, n).total;
+            assert!(
+                (by_balance - by_ledger).abs() <= 1e-9 * by_ledger.abs().max(1e-9),
+                "striker {striker}, top wall {top_wall}, mount {mount}: {by_balance:e} against {by_ledger:e}"
+            );
+        }
+    }
 
     #[test]
     fn the_series_is_the_direct_difference() {

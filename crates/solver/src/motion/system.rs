@@ -270,6 +270,9 @@ pub struct EnergyTerms {
     /// Minus the work of the external forces so far: `−F_p x_top` for the precompression (its
     /// potential) minus the work the force pulse or the drive has done. Zero without them.
     pub external: f64,
+    /// A mounted wall's kinetic energy and its spring's energy over its loaded state (see
+    /// [`crate::chain::mount`]). Zero without a mount.
+    pub mount: f64,
     /// Largest contact overlap in the state, m (not an energy; computed in the same pass).
     pub max_overlap: f64,
 }
@@ -283,6 +286,7 @@ impl EnergyTerms {
             + self.dissipated
             + self.external
             + self.plastic
+            + self.mount
     }
 }
 
@@ -366,13 +370,13 @@ impl Ledger {
         if !self.plastic.is_empty() {
             (elastic, plastic) = self.plastic_potential(y, k);
         }
-        let mut kinetic = 0.5 * sum(twice_kinetic);
+        let kinetic = 0.5 * sum(twice_kinetic);
+        let mut mount = 0.0;
         if let Some((i, mass, stiffness, static_force)) = self.mount {
             // The mounted wall: its kinetic energy, and its spring's energy over its loaded state
             // (the work against the static force included), `F_s u + k u²/2`.
             let (u, w) = (y[i], y[i + 1]);
-            kinetic += 0.5 * mass * w * w;
-            elastic += u * (static_force + 0.5 * stiffness * u);
+            mount = 0.5 * mass * w * w + u * (static_force + 0.5 * stiffness * u);
         }
         let gravitational = -self.gravity * sum(weight_moment);
         let dissipated = self.work_index.map_or(0.0, |w| y[w]);
@@ -393,6 +397,7 @@ impl Ledger {
             dissipated,
             plastic,
             external,
+            mount,
             max_overlap,
         }
     }

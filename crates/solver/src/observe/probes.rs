@@ -377,6 +377,14 @@ pub struct RecordSpec {
         serde(default, skip_serializing_if = "std::ops::Not::not")
     )]
     pub energy_flow: bool,
+    /// Store the energy ledger's terms (kinetic, elastic, gravitational, dissipated, plastic,
+    /// external, a mounted wall's) at the start and at the end of the run, so that where the
+    /// energy went can be read term by term.
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "std::ops::Not::not")
+    )]
+    pub energy_ledger: bool,
 }
 
 #[cfg(feature = "serde")]
@@ -403,6 +411,7 @@ impl Default for RecordSpec {
             fields: None,
             steady_state: None,
             energy_flow: false,
+            energy_ledger: false,
         }
     }
 }
@@ -1040,6 +1049,8 @@ pub(crate) struct RunObserver {
     steps_since_clock: u32,
     /// The state at the end of the last accepted step, kept when the run has several legs.
     pub state: Option<Vec<f64>>,
+    /// The ledger's terms at the start.
+    pub first_energy: Option<EnergyTerms>,
     probes: ProbeSet,
     ledger: Ledger,
     opts: ObserverOptions,
@@ -1415,6 +1426,7 @@ impl RunObserver {
             probe_state,
             started: false,
             stopped: false,
+            first_energy: None,
             deadline: None,
             deadline_reached: false,
             stop_flag: None,
@@ -1600,6 +1612,7 @@ impl StepObserver for RunObserver {
         }
         let e0 = self.ledger.energy(y0);
         self.e0 = e0.total();
+        self.first_energy = Some(e0);
         if let Some((balance, start)) = &mut self.balance {
             *start = balance.terms(y0, self.n).total;
         }

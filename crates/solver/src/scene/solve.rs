@@ -106,6 +106,9 @@ pub struct RunOutput {
     /// Energy terms at the end, J.
     #[cfg_attr(feature = "serde", serde(skip))]
     pub final_energy: EnergyTerms,
+    /// Energy terms at the start, J.
+    #[cfg_attr(feature = "serde", serde(skip))]
+    pub initial_energy: EnergyTerms,
     /// Energy scale of the excitation, J: the striker's (or the impulse's) kinetic energy, or for
     /// a force pulse the estimate of [`ImpactScales::force_pulse`].
     pub impact_energy_j: f64,
@@ -327,6 +330,8 @@ pub fn run_stoppable(
             // The state the run starts from (the striker or impulse moving), as at t = 0.
             final_energy: crate::motion::system::Ledger::new(&chain)
                 .energy(&scene.initial_state(&chain)),
+            initial_energy: crate::motion::system::Ledger::new(&chain)
+                .energy(&scene.initial_state(&chain)),
             impact_energy_j: scales.energy_j,
             max_overlap_m: chain.static_overlap.iter().fold(0.0, |m: f64, &d| m.max(d)),
             active_particles: None,
@@ -441,6 +446,9 @@ pub fn run_stoppable(
         momentum_residual_max: observer.momentum_residual_max,
         final_energy: observer
             .last_energy
+            .expect("observer saw the initial state"),
+        initial_energy: observer
+            .first_energy
             .expect("observer saw the initial state"),
         impact_energy_j: scales.energy_j,
         min_overlap_m: observer.min_overlap.take(),

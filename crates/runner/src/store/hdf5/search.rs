@@ -267,3 +267,55 @@ pub fn read_outcomes(path: &std::path::Path) -> Result<Option<Vec<(u8, i64, Stri
             .collect(),
     ))
 }
+
+/// What a search file holds of the items found (minima, maxima, roots) at each outer point:
+/// per item, the searched fields' values and uncertainties (in `field_names`' order), the
+/// objective (NaN: none) and the status code; `None` where the file holds no such items.
+pub type FoundItems = Vec<Vec<(Vec<f64>, Vec<f64>, f64, u8)>>;
+
+/// The items a search file holds (see [`FoundItems`]), `item` their name (`minimum`, …),
+/// `field_names` the searched fields' names. (Checked by HDF5's Fletcher-32 as every search
+/// table is.)
+pub fn read_items(
+    path: &std::path::Path,
+    item: &str,
+    field_names: &[&str],
+) -> Result<Option<FoundItems>> {
+    let f = File::open(path)?;
+    if !f.link_exists(&format!("{item}_status")) {
+        return Ok(None);
+    }
+    let status_ds = f.dataset(&format!("{item}_status"))?;
+    let shape = status_ds.shape();
+    let per_outer = shape.last().copied().unwrap_or(0).max(1);
+    let status: Vec<u8> = status_ds.read_raw()?;
+    let objective: Vec<f64> = f.dataset(&format!("{item}_objective"))?.read_raw()?;
+    let mut x = Vec::new();
+    let mut u = Vec::new();
+    for name in field_names {
+        x.push(f.dataset(&format!("{item}_{name}"))?.read_raw::<f64>()?);
+        u.push(
+            f.dataset(&format!("{item}_{name}_uncertainty"))?
+                .read_raw::<f64>()?,
+        );
+    }
+    let outer = status.len() / per_outer;
+    Ok(Some(
+        (0..outer)
+            .map(|k| {
+                (0..per_outer)
+                    .map(|j| k * per_outer + j)
+                    .filter(|&at| x.iter().all(|v| !v[at].is_nan()))
+                    .map(|at| {
+                        (
+                            x.iter().map(|v| v[at]).collect(),
+                            u.iter().map(|v| v[at]).collect(),
+                            objective[at],
+                            status[at],
+                        )
+                    })
+                    .collect()
+            })
+            .collect(),
+    ))
+}

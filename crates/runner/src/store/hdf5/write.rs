@@ -45,6 +45,7 @@ pub fn presence(grid: &Grid) -> Presence {
         run_groups: grid.has_run_arrays(),
         spectrum: grid.spectrum,
         harmonics: grid.steady_harmonics,
+        energy_ledger: grid.energy_ledger,
     }
 }
 
