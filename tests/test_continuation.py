@@ -170,3 +170,71 @@ def test_bad_continuation_exits_2_naming_the_field(binary, tmp_path):
         assert r.returncode == 2, (block, r.stderr)
         assert field in r.stderr, (field, r.stderr)
         assert not out.exists()
+
+
+def long_line(points):
+    """A line of `points` runs of a few microseconds each: two spheres on a wall under 1 N,
+    shaken by a tiny force, the frequency stepped along the line."""
+    return {
+        "description": f"a continuation line of {points} points",
+        "base": {
+            "chain": {"particles": {"ball": BALL}, "sequence": [{"repeat": 2, "of": ["ball"]}]},
+            "physics": {"gravity": False, "damping_kg_s": 5.0, "wall": True,
+                        "precompression_force_n": 1.0},
+            "excitation": {"drive": {"force_n": {"harmonic": {"amplitude": 1e-3, "frequency_hz": 1e3}}}},
+            "duration_s": 2e-6,
+            "integrator": {"method": "dop853", "rtol": 1e-6},
+        },
+        "record": {"probes": [{"kind": "wall_force"}]},
+        "axes": [{"field": "excitation.drive.force_n.harmonic.frequency_hz", "name": "frequency_hz",
+                  "range": {"start": 1e3, "stop": 2e3, "num": points}}],
+        "continuation": {"axis": "frequency_hz", "direction": "up"},
+    }
+
+
+def test_a_line_of_a_hundred_thousand_points_runs_and_resumes(binary, tmp_path):
+    """No recursion along a line: 10^5 points run (a worker's stack once overflowed near 700),
+    and a line killed part way resumes to the same file, every point after the cut recomputed
+    from its predecessor's state, itself recomputed."""
+    import signal
+    import subprocess
+    import time
+
+    from conftest import segment_count
+
+    path = write(tmp_path, "long", long_line(100_000))
+    whole = tmp_path / "whole.h5"
+    r = run("run", path, "-o", whole, "--quiet", "--jobs", "2", timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    out = tmp_path / "cut.h5"
+    proc = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--quiet"],
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 600
+    while segment_count(out) < 30_000:
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    r = run("run", path, "-o", out, "--quiet", timeout=900)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert_files_equal(whole, out)
+
+
+def test_a_failure_reason_does_not_grow_with_the_line(binary, tmp_path):
+    """The first point fails (an injected panic): every later point fails naming the line's
+    first failure, in a reason of the same few words whatever its place (each once quoted its
+    predecessor's whole reason: a 1 GB reason array for 3 000 points)."""
+    import subprocess
+
+    path = write(tmp_path, "line", long_line(3000))
+    out = tmp_path / "line.h5"
+    env = dict(os.environ, CHAINSWEEP_INJECT_PANIC="0")
+    p = subprocess.run([str(BIN), "run", str(path), "-o", str(out), "--quiet"], env=env,
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 3, p.stderr[-2000:]
+    with xr.open_dataset(out) as ds:
+        reasons = [str(x) for x in ds["reason"].values]
+    assert "injected panic" in reasons[0]
+    assert all("the line's first failure: point 0" in r and "injected panic" in r for r in reasons[1:])
+    assert max(map(len, reasons)) < 500, max(map(len, reasons))
+    assert out.stat().st_size < 5e6, out.stat().st_size

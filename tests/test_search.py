@@ -342,6 +342,14 @@ BAD_SEARCHES = [
         goal="root", fields=s["search"]["fields"] * 2), "search.fields", "1 to 1"),
     ("refine without objective_tolerance", lambda s: s["search"].update(goal="refine"),
      "search.objective_tolerance", ""),
+    # An interval reaching values the scene refuses: refused before it runs (it once passed, its
+    # refused points became failed runs, and the valid point beside them was reported converged).
+    ("an end the scene refuses", lambda s: s["search"]["fields"][0].update(min=-0.001),
+     "search.fields[0].min", "must be a finite number > 0"),
+    *[(f"the reserved name {n}", (lambda n: lambda s: s["search"]["fields"][0].update(name=n))(n),
+       "search.fields[0].name", "reserved")
+      for n in ("status", "probe", "t_end_s", "run_hash", "objective", "evaluation",
+                "search_status", "evaluation_round")],
 ]
 
 

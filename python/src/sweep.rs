@@ -119,7 +119,7 @@ fn run_request(req: &RunRequest, stop: &AtomicBool, counts: &Arc<Counts>) -> Res
     };
     let report = run::run_sweep(&mut sweep, &mut grid, &opts, &mut sink, stop)?;
     let c = &report.counts;
-    let code = c.exit_code();
+    let code = report.exit_code();
     let v = &report.verification;
     let end = match counts.now() {
         // A search ends below its budgets: what it did is the whole of it.

@@ -511,7 +511,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
             show::stopped(name, &report, &opts.output);
             Ok(code)
         }
-        _ => Ok(exit_for(&report.counts)),
+        _ => Ok(report.exit_code()),
     }
 }
 

@@ -210,6 +210,7 @@ pub fn load_showing(
     let sweep = Sweep::load(&name)?;
     let n = sweep.n_points();
     let grid = Grid::expand(&sweep, &|done| progress(done, n)).map_err(|e| e.in_file(&name))?;
+    search::check_intervals(&sweep, &grid).map_err(|e| e.in_file(&name))?;
     Ok((sweep, grid))
 }
 

@@ -245,6 +245,16 @@ pub struct RunReport {
 }
 
 impl RunReport {
+    /// The exit code of the run: as its points stand ([`Counts::exit_code`]), and partial where
+    /// some run failed, even one a search went on without (`status` counts it so too).
+    pub fn exit_code(&self) -> i32 {
+        if self.health.failed > 0 {
+            crate::EXIT_PARTIAL
+        } else {
+            self.counts.exit_code()
+        }
+    }
+
     /// The report of a search sweep: its searches counted as the points.
     fn of_search(r: super::search::SearchReport) -> RunReport {
         use crate::search::SearchStatus;
@@ -260,7 +270,8 @@ impl RunReport {
         }
         RunReport {
             health: Health {
-                failed: counts.failed,
+                // The runs that failed, whether or not a search ended on them.
+                failed: r.counts.failed,
                 verified: r.verified.0,
                 worst_verified: r.verified.1.map(|e| (e, 0)),
                 ..Health::default()

@@ -98,40 +98,56 @@ impl<'a> SolverExecutor<'a> {
     }
 
     /// The final state of point `p` of a continuation axis, running it (and, first, the points
-    /// before it on its line that have not run in this process) when it has not run yet; its
-    /// record is then kept for its own task.
+    /// before it on its line that have not run in this process, in order: a loop, not a
+    /// recursion, so a line of any length runs and resumes) when it has not run yet; each record
+    /// is kept for its own task. Where there is none, the line's first failure, named: the same
+    /// few words for every point after it, whatever the line's length.
     fn final_state(&self, p: usize) -> std::result::Result<Vec<f64>, String> {
         let states = self.continued.as_ref().expect("a continuation axis");
-        let cell = Arc::clone(
-            states
-                .states
-                .lock()
-                .expect("no panic holds the lock")
-                .entry(p)
-                .or_default(),
-        );
-        cell.get_or_init(|| {
-            let (record, state) = self.run_continued(p, self.grid.hashes[p], false);
-            let outcome = state.ok_or_else(|| record.reason.clone());
-            states
-                .ahead
-                .lock()
-                .expect("no panic holds the lock")
-                .insert(p, record);
-            outcome
-        })
-        .clone()
+        let c = self.sweep.continuation.expect("a continuation axis");
+        let cell = |q: usize| {
+            Arc::clone(
+                states
+                    .states
+                    .lock()
+                    .expect("no panic holds the lock")
+                    .entry(q)
+                    .or_default(),
+            )
+        };
+        // The points of the line back from `p` to the last one whose state is known.
+        let mut todo = vec![p];
+        while let Some(q) = c.predecessor(&self.grid.shape, *todo.last().expect("one")) {
+            if cell(q).get().is_some() {
+                break;
+            }
+            todo.push(q);
+        }
+        for &q in todo.iter().rev() {
+            cell(q).get_or_init(|| {
+                let (record, state) = self.run_continued(q, self.grid.hashes[q], false);
+                states
+                    .ahead
+                    .lock()
+                    .expect("no panic holds the lock")
+                    .insert(q, record);
+                state
+            });
+        }
+        cell(p).get().expect("just run").clone()
     }
 
     /// Runs point `p` of a continuation axis (its verification run when `verification`) from
-    /// the final state of the point before it on its line: its record under `hash` and its final
-    /// state. A point whose predecessor failed fails, naming it.
+    /// the final state of the point before it on its line: its record under `hash`, and its
+    /// final state or the line's first failure (this point's own, or the one that left its
+    /// predecessor without a state). A point whose predecessor has no state fails, naming the
+    /// line's first failure.
     fn run_continued(
         &self,
         p: usize,
         hash: RunHash,
         verification: bool,
-    ) -> (RunRecord, Option<Vec<f64>>) {
+    ) -> (RunRecord, std::result::Result<Vec<f64>, String>) {
         let (sweep, grid) = (self.sweep, self.grid);
         let c = sweep.continuation.expect("a continuation axis");
         let mut scene = if verification {
@@ -139,27 +155,46 @@ impl<'a> SolverExecutor<'a> {
         } else {
             grid.build(sweep, p).expect("every point was validated")
         };
+        let failed_here = |reason: String| {
+            let first = format!(
+                "point {p} ({}) failed: {reason}",
+                grid.point_label(sweep, p)
+            );
+            (RunRecord::failed(hash, reason, 0.0), Err(first))
+        };
         let start = match c.predecessor(&grid.shape, p) {
             None => None,
             Some(q) => match self.final_state(q) {
-                Err(why) => {
+                Err(first) => {
                     let reason = format!(
-                        "the point before it on the continuation axis ({}) failed, so this one has no state to start from: {why}",
+                        "the point before it on the continuation axis ({}) has no state to start from; the line's first failure: {first}",
                         grid.point_label(sweep, q)
                     );
-                    return (RunRecord::failed(hash, reason, 0.0), None);
+                    return (RunRecord::failed(hash, reason, 0.0), Err(first));
                 }
                 Ok(previous) => {
                     let chain = scene.validate().expect("every point was validated");
                     match scene.continued_state(&chain, &previous) {
                         Ok(y) => Some(y),
-                        Err(e) => return (RunRecord::failed(hash, e.to_string(), 0.0), None),
+                        Err(e) => return failed_here(e.to_string()),
                     }
                 }
             },
         };
         scene.continuation = Some(Continuation { start_state: start });
-        exec::execute_continued(&scene, hash, &sweep.limits, (!verification).then_some(p))
+        let (record, state) =
+            exec::execute_continued(&scene, hash, &sweep.limits, (!verification).then_some(p));
+        match state {
+            Some(y) => (record, Ok(y)),
+            None => {
+                let first = format!(
+                    "point {p} ({}) failed: {}",
+                    grid.point_label(sweep, p),
+                    record.reason
+                );
+                (record, Err(first))
+            }
+        }
     }
 }
 

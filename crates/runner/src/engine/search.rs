@@ -970,3 +970,40 @@ pub fn describe_item(spec: &SearchSpec, it: &Item) -> String {
     });
     format!("{} ({value}, {})", at.join(", "), it.status.name())
 }
+
+/// Every searched interval is one the scene takes at both ends, at every point of the sweep's
+/// grid (each field at each of its ends, the others in the middle of theirs): an end the scene
+/// refuses (a negative mass) is an input error naming it, caught before anything runs rather than
+/// as failed runs that a search might take for an answer. (Nothing to check without a search.)
+pub fn check_intervals(sweep: &Sweep, grid: &Grid) -> Result<()> {
+    let Some(spec) = &sweep.search else {
+        return Ok(());
+    };
+    let driver = Driver::new(sweep, grid);
+    let middle: Vec<f64> = spec.fields.iter().map(|f| 0.5 * (f.min + f.max)).collect();
+    for own in 0..grid.len() {
+        for (k, f) in spec.fields.iter().enumerate() {
+            for (x, end) in [(f.min, "min"), (f.max, "max")] {
+                let mut at = middle.clone();
+                at[k] = x;
+                if let (_, Err(why)) = driver.scene(own, &at) {
+                    let label = grid.point_label(sweep, own);
+                    let place = if label.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" at {label}")
+                    };
+                    return Err(Error::input(
+                        format!("search.fields[{k}].{end}"),
+                        format!(
+                            "the scene refuses {} = {x}{place} ({}): a searched interval must hold only values the scene takes",
+                            f.name,
+                            why.trim_start_matches("the scene of this search point is invalid: ")
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1445,6 +1445,7 @@ pub const ARRAY_NAMES: &[&str] = &[
 pub const SEARCH_LAYOUT_NAMES: &[&str] = &[
     "evaluation",
     "objective",
+    "evaluation_round",
     "search_status",
     "search_runs",
     "search_reason",

@@ -1180,7 +1180,7 @@ fn check_names_and_fields(dims: &[Dim]) -> Result<()> {
 
 /// `name` (of the axis at `origin`, or of a zipped dimension when `origin` is empty) is usable,
 /// not reserved, and not among `taken`.
-fn check_name(name: &str, origin: &str, taken: &[(&str, &str)]) -> Result<()> {
+pub(crate) fn check_name(name: &str, origin: &str, taken: &[(&str, &str)]) -> Result<()> {
     let at = if origin.is_empty() {
         "axes".to_string()
     } else {

@@ -671,6 +671,9 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         let name = ff
             .name
             .unwrap_or_else(|| split_path(&ff.field).last().cloned().unwrap_or_default());
+        // A searched field is a coordinate of the output file, as an axis is: its name must be
+        // usable there (not `status`, `objective`, …), checked here, not when the file is written.
+        super::check_name(&name, &at, &[])?;
         let field_segs = split_path(&ff.field);
         for d in dims {
             for a in &d.axes {
