@@ -238,3 +238,17 @@ def test_a_failure_reason_does_not_grow_with_the_line(binary, tmp_path):
     assert all("the line's first failure: point 0" in r and "injected panic" in r for r in reasons[1:])
     assert max(map(len, reasons)) < 500, max(map(len, reasons))
     assert out.stat().st_size < 5e6, out.stat().st_size
+
+
+def test_a_line_in_damping_from_zero_carries_the_bodies_over(binary, tmp_path):
+    """Along a damping axis from 0 the state's quadratures change (no dissipated work without
+    damping): the bodies carry over and every point runs (each once failed: "that state has 19
+    components, this chain's 20")."""
+    s = long_line(4)
+    s["axes"] = [{"field": "physics.damping_kg_s", "name": "damping_kg_s", "values": [0.0, 1.0, 2.0, 4.0]}]
+    s["continuation"] = {"axis": "damping_kg_s", "direction": "up"}
+    out = tmp_path / "damping.h5"
+    r = run("run", write(tmp_path, "damping", s), "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    with xr.open_dataset(out) as ds:
+        assert (ds["status"].values == 1).all(), ds["reason"].values

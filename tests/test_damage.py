@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from conftest import BIN, assert_files_equal, base_sweep, log_records, run, texts, write_sweep
+from conftest import BIN, REPO, assert_files_equal, base_sweep, log_records, run, texts, write_sweep
 
 chainsweep = pytest.importorskip("chainsweep")
 
@@ -583,38 +583,79 @@ def test_a_large_grid_shows_its_expansion_and_a_larger_one_is_refused_early(tmp_
     assert "expanding" not in r.stderr
 
 
-# The randomised damage test: 240 single-byte flips over a complete small result.
+# The randomised damage test: single-byte flips over complete small results of every kind.
 
-FLIPS = 240
+FLIPS = 120  # per kind of file
 
 
 def served(out, histories=True):
-    """What chainsweep.open serves of `out`: a dict of every variable's and coordinate's bits and
-    the attributes, or the exception it raised."""
+    """What chainsweep.open serves of `out` (`histories`: False, True or "lazy", the lazy arrays
+    computed): a dict of every variable's and coordinate's bits and the attributes, or the
+    exception it raised."""
     try:
         ds = chainsweep.open(out, histories=histories)
+        return {
+            "vars": {k: np.asarray(v.values).tobytes() if v.dtype != object else list(v.values.ravel())
+                     for k, v in ds.variables.items() if k not in ("wall_time_s", "summary_checksum")},
+            "attrs": {k: str(v) for k, v in ds.attrs.items()
+                      if k not in ("created_utc", "command_line", "header_checksum")},
+        }
     except (chainsweep.Error, OSError, ValueError, KeyError) as e:
         return e
-    return {
-        "vars": {k: np.asarray(v.values).tobytes() if v.dtype != object else list(v.values.ravel())
-                 for k, v in ds.variables.items() if k not in ("wall_time_s", "summary_checksum")},
-        "attrs": {k: str(v) for k, v in ds.attrs.items()
-                  if k not in ("created_utc", "command_line", "header_checksum")},
-    }
 
 
-def test_random_single_byte_flips_are_reported_or_harmless_never_served(tmp_path, binary):
-    s = base_sweep(history=True, probes=(2, 8))
-    s["record"]["min_overlap"] = True
-    s["axes"] = [
+BALL = {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085,
+                   "material": {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.28}}}
+
+
+def damage_sweeps():
+    """The kinds of result the flips go over: a grid recording histories, minimum overlaps and the
+    energy flow (some runs failing), a search, and a continuation line with histories."""
+    grid = base_sweep(history=True, probes=(2, 8))
+    grid["record"]["min_overlap"] = True
+    grid["record"]["energy_flow"] = True
+    grid["axes"] = [
         {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "values": [0.3, 0.55, 1.0]},
         {"field": "max_steps", "values": [1000000, 5]},  # the 5-step runs fail
     ]
-    path, pristine = complete(tmp_path, s, "pristine")
-    truth = served(pristine)
-    assert isinstance(truth, dict)
+    search = json.loads((REPO / "sweeps" / "examples" / "dimer-minimum.json").read_text())
+    search["base"]["chain"]["sequence"][0]["repeat"] = 12
+    search["record"]["probes"][1]["particle"] = 22
+    search["search"]["objective"]["ratio"][0]["probe"] = "particle_force_p22"
+    search["search"]["budget"] = 40
+    line = {
+        "description": "a short continuation line",
+        "base": {
+            "chain": {"particles": {"ball": BALL}, "sequence": [{"repeat": 3, "of": ["ball"]}]},
+            "physics": {"gravity": False, "damping_kg_s": 5.0, "wall": True,
+                        "precompression_force_n": 1.0},
+            "excitation": {"drive": {"force_n": {"harmonic": {"amplitude": 1e-2, "frequency_hz": 5e3}}}},
+            "duration_s": 4e-4,
+            "integrator": {"method": "dop853", "rtol": 1e-8},
+        },
+        "record": {"probes": [{"kind": "wall_force"}], "history": True, "history_interval_s": 2e-5,
+                   "min_overlap": True},
+        "axes": [{"field": "excitation.drive.force_n.harmonic.frequency_hz", "name": "frequency_hz",
+                  "range": {"start": 5e3, "stop": 6e3, "num": 5}}],
+        "continuation": {"axis": "frequency_hz", "direction": "up"},
+    }
+    return {"grid": grid, "search": search, "continuation": line}
+
+
+MODES = (False, True, "lazy")
+
+
+@pytest.mark.parametrize("kind", ["grid", "search", "continuation"])
+def test_random_single_byte_flips_are_reported_or_harmless_never_served(tmp_path, binary, kind):
+    """For every flip: `status` and `chainsweep.open` (every `histories` mode) refuse, naming
+    the damage, or serve exactly what the pristine file serves (never a changed value, never NaN
+    for a number); the same `run` command then gives the pristine file back bitwise."""
+    path, pristine = complete(tmp_path, damage_sweeps()[kind], "pristine")
+    truth = {mode: served(pristine, mode) for mode in MODES}
+    assert all(isinstance(t, dict) for t in truth.values()), truth
+    pristine_status = run("status", pristine).returncode
     size = pristine.stat().st_size
-    rng = random.Random(22)
+    rng = random.Random({"grid": 22, "search": 23, "continuation": 24}[kind])
     counts = collections.Counter()
     for n in range(FLIPS):
         work = tmp_path / f"flip{n % 4}"
@@ -623,37 +664,54 @@ def test_random_single_byte_flips_are_reported_or_harmless_never_served(tmp_path
         out = copy_output(pristine, work / "pristine.h5")
         offset = rng.randrange(size)
         flip(out, offset, 1 << rng.randrange(8))
-        # Served: either refused, or exactly what the pristine file serves.
-        got = served(out)
-        if isinstance(got, Exception):
-            counts["open: refused (damage reported)"] += 1
-        else:
-            assert got == truth, f"flip at byte {offset}: chainsweep.open served changed values"
-            counts["open: served unchanged"] += 1
+        refused = False
+        for mode in MODES:
+            got = served(out, mode)
+            if isinstance(got, Exception):
+                refused = True
+                counts[f"open (histories={mode}): refused, naming the damage"] += 1
+            else:
+                assert got == truth[mode], (
+                    f"flip at byte {offset}: chainsweep.open(histories={mode}) served changed values")
+                counts[f"open (histories={mode}): served unchanged"] += 1
         st = run("status", out)
-        assert st.returncode in (1, 2, 3), st.stderr  # (3: the grid has failed runs)
         assert "panicked" not in st.stderr
         said = st.stdout + st.stderr
         if "damaged" in said or "cannot be read" in said:
             counts["status: damage reported"] += 1
-        elif isinstance(got, Exception):
-            raise AssertionError(f"flip at byte {offset}: open refused, status said nothing: {said}")
+            assert st.returncode in (1, 2, 3), said
+        else:
+            assert not refused, f"flip at byte {offset}: open refused, status said nothing: {said}"
+            assert st.returncode == pristine_status, said
         # Re-published: the same command repairs the file; its values are the pristine ones.
         r = run("run", path, "-o", out)
-        assert r.returncode == 3, f"flip at byte {offset}: {r.stderr}"
-        m = re.search(r"resuming .*: (\d+) of 6 runs already done", r.stderr)
-        recomputed = 6 - int(m.group(1)) if m else 0
-        assert "nothing to do" not in r.stderr  # its bytes are not those published
+        assert r.returncode in (0, 3), f"flip at byte {offset}: {r.stderr}"
         if "restored from its snapshot" in r.stderr:
-            counts["run: damaged runs restored from the snapshot (flips)"] += 1
-        if recomputed:
-            counts["run: flips that cost runs computed again"] += 1
-            counts["run: runs computed again (in all)"] += recomputed
+            counts["run: damaged runs restored from the snapshot"] += 1
         if "damaged" not in r.stderr and "cannot be read" not in r.stderr:
             counts["run: no damage found, the file written again (unchanged in meaning)"] += 1
         assert_files_equal(pristine, out)
-        assert served(out) == truth
+        assert served(out, False) == truth[False]
     report = "\n".join(f"  {k}: {v}" for k, v in sorted(counts.items()))
-    print(f"\n{FLIPS} single-byte flips over a {size}-byte result:\n{report}")
-    (tmp_path.parent / "damage_counts.txt").write_text(report)
-    assert counts["open: refused (damage reported)"] + counts["open: served unchanged"] == FLIPS
+    print(f"\n{FLIPS} single-byte flips over a {size}-byte {kind} result:\n{report}")
+    (tmp_path.parent / f"damage_counts_{kind}.txt").write_text(report)
+
+
+def test_an_output_moved_without_its_work_directory_is_said_to_keep_its_runs(tmp_path, binary):
+    """An output moved without its work directory is named as chainsweep's, and `--overwrite`
+    is said, truly, to keep every run it holds: nothing is computed again (the message once said
+    the file was not chainsweep's and invited replacing it)."""
+    path, out = complete(tmp_path, sweep_2x3(), "x")
+    moved = tmp_path / "moved"
+    moved.mkdir()
+    shutil.copyfile(out, moved / "x.h5")
+    r = run("run", path, "-o", moved / "x.h5")
+    assert r.returncode == 2, r.stderr
+    assert "is a chainsweep output without its work directory" in r.stderr, r.stderr
+    assert "every run it holds is kept" in r.stderr and "not made by" not in r.stderr, r.stderr
+    r = run("run", path, "-o", moved / "x.h5", "--overwrite")
+    assert r.returncode == 0, r.stderr
+    # (A run computed again would have another wall time.)
+    with h5py.File(out, "r") as a, h5py.File(moved / "x.h5", "r") as b:
+        for name in ("leading_peak", "status", "run_hash", "wall_time_s"):
+            assert a[name][()].tobytes() == b[name][()].tobytes(), name

@@ -30,6 +30,7 @@ functions marked LAYOUT, so that a change of layout is followed there:
 from __future__ import annotations
 
 import json
+import itertools
 import os
 import threading
 from collections.abc import Iterator
@@ -41,7 +42,7 @@ import xarray as xr
 
 from . import _chainsweep as _native
 from . import _layout as L
-from .errors import DamagedFileError, InputError
+from .errors import DamagedFileError, Error, InputError
 
 # How many damaged points a DamagedFileError's message lists (`.damaged` holds them all).
 _LISTED_DAMAGE = 10
@@ -176,6 +177,15 @@ class _Grid:
             self.coords["harmonic"] = ("harmonic", values, attrs)
             self.harmonics = len(values)
 
+    def label(self, i: int) -> str:
+        """Point `i` (flat, row-major) by its coordinates' values, `name=value` each."""
+        at = np.unravel_index(i, self.shape) if self.shape else ()
+        parts = []
+        for d, k in zip(self.dims, at):
+            for name in self.coord_order.get(d, []):
+                parts.append(f"{name}={_value(self.coords[name][1][k])}")
+        return " ".join(parts)
+
     def dims_of(self, ds: h5py.Dataset) -> tuple[str, ...] | None:
         """The dimensions of a dataset, its text's characters left out: the names of the
         dimension scales attached to it (a search's tables span some of the grid's dimensions),
@@ -243,9 +253,31 @@ def _history_parts(grid: "_Grid") -> list[tuple[str, list[int]]]:
     ]
 
 
+class _ChunkDamage:
+    """The grid points whose values lie in a chunk HDF5 could not read (its Fletcher-32 check
+    failed) while `chainsweep.open` read the file: damage, whatever the engine's check covered,
+    reported or masked like the points the check found, never served as NaN."""
+
+    def __init__(self, shape: tuple[int, ...]):
+        self.shape = tuple(shape)
+        self.points: dict[int, str] = {}
+
+    def note(self, name: str, chunk: tuple) -> None:
+        nd = len(self.shape)
+        ranges = [range(*c.indices(n)) for c, n in zip(chunk[:nd], self.shape)]
+        for at in itertools.product(*ranges):
+            i = int(np.ravel_multi_index(at, self.shape)) if nd else 0
+            self.points.setdefault(i, f"a chunk of `{name}` fails its HDF5 checksum (Fletcher-32)")
+
+
+# The damage noted while `chainsweep.open` reads a file (this thread's; None elsewhere).
+_READING = threading.local()
+
+
 def _read_masked(ds: h5py.Dataset, sel: tuple = ()) -> np.ndarray:
-    """`ds[sel]` as float64, a chunk whose Fletcher-32 check fails read as NaN (its runs are
-    damaged: reported by the check, masked by open's damaged="mask")."""
+    """`ds[sel]` as float64, a chunk whose Fletcher-32 check fails read as NaN and its points
+    noted as damaged (reported or masked by open, as `damaged` says; a lazy block's points were
+    found by the check before)."""
     sel = tuple(sel) + (slice(None),) * (ds.ndim - len(sel))
     try:
         return np.asarray(ds[sel], dtype=np.float64)
@@ -253,10 +285,13 @@ def _read_masked(ds: h5py.Dataset, sel: tuple = ()) -> np.ndarray:
         pass
     box = [s.indices(n) for s, n in zip(sel, ds.shape)]
     out = np.full([len(range(*b)) for b in box], np.nan)
+    sink = getattr(_READING, "damage", None)
     for chunk in ds.iter_chunks(tuple(slice(*b) for b in box)):
         try:
             part = ds[chunk]
         except OSError:
+            if sink is not None:
+                sink.note(ds.name.lstrip("/"), chunk)
             continue
         out[tuple(slice(c.start - b[0], c.stop - b[0]) for c, b in zip(chunk, box))] = part
     return out
@@ -819,6 +854,24 @@ def _join_units(data: dict[str, Any], grid: "_Grid") -> None:
 def open(  # noqa: A001 (chainsweep.open)
     path: PathLike, histories: bool | str = False, damaged: str = "raise"
 ) -> xr.Dataset:
+    try:
+        return _open_file(path, histories, damaged)
+    except Error:
+        raise
+    except (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError) as e:
+        # What the engine's check found whole but HDF5 then cannot read (a damaged object
+        # header, attribute heap or chunk index): damage, said as such, never a bare error.
+        fspath = os.fspath(path)
+        raise DamagedFileError(
+            fspath, f"{fspath} cannot be read back: {e}. " + _REPAIR.format(path=fspath), []
+        ) from e
+    finally:
+        _READING.damage = None
+
+
+def _open_file(
+    path: PathLike, histories: bool | str = False, damaged: str = "raise"
+) -> xr.Dataset:
     """Opens a sweep's result file (made by :func:`chainsweep.sweep` or ``chainsweep run``).
 
     Returns an ``xarray.Dataset`` read into memory (the file is closed again) whose dimensions are
@@ -886,12 +939,14 @@ def open(  # noqa: A001 (chainsweep.open)
     small_arrays = bool(names & {"min_overlap_m", *L.ENERGY_FLOW}) and not names & heavy
     points, unreadable = _check(fspath, bool(histories) or small_arrays, damaged)
     unchecked = fspath if points else None
+    _READING.damage = None
     with h5py.File(path, "r") as f:
         if "dimensions" not in f.attrs or "grid_shape" not in f.attrs:
             raise InputError(
                 "path", f"{os.fspath(path)} is not a chainsweep result file (no grid attributes)"
             )
         grid = _Grid(f)
+        _READING.damage = _ChunkDamage(grid.shape)
         data: dict[str, Any] = {}
         # Coordinates that are no dimension's scale (a search's fields over its evaluations).
         auxiliary: set[str] = set()
@@ -946,6 +1001,20 @@ def open(  # noqa: A001 (chainsweep.open)
             dims, shape = (*dims, "harmonic"), (*shape, grid.harmonics)
         data[name] = (dims, np.full(shape, np.nan), {"long_name": f"unreadable: {why}"})
     _join_units(data, grid)
+    noted, _READING.damage = _READING.damage, None
+    known = {i for i, _, _ in points}
+    found = [(i, grid.label(i), why) for i, why in sorted(noted.points.items()) if i not in known]
+    if found:
+        if damaged == "raise":
+            listed = "; ".join(f"point {i} ({label}): {why}" for i, label, why in found[:_LISTED_DAMAGE])
+            more = f" and {len(found) - _LISTED_DAMAGE} more" if len(found) > _LISTED_DAMAGE else ""
+            raise DamagedFileError(
+                fspath,
+                f"{fspath}: {len(found)} point(s) hold values that cannot be read back: {listed}{more}. "
+                + _REPAIR.format(path=fspath),
+                found,
+            )
+        points = [*points, *found]
     if points:
         _mask(data, grid, points)
     data = {name: data[name] for name in L.ordered(data)}
@@ -957,3 +1026,6 @@ def open(  # noqa: A001 (chainsweep.open)
             if name not in ds.indexes:
                 ds = ds.set_xindex(name)
     return ds
+
+
+open.__doc__ = _open_file.__doc__

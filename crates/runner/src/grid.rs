@@ -417,6 +417,43 @@ impl Grid {
         }
         grid.max_particles = grid.particles.iter().max().map_or(0, |&p| p as usize);
         if let Some(c) = sweep.continuation {
+            // A point continues from its predecessor's bodies: every point of a line has the same
+            // particles, plastic contacts, walls and mount (an axis that changes them, a chain's
+            // length, a wall on or off, Thornton's law to Hertz's, is refused here, not point by
+            // point as the runs fail).
+            let bodies = (0..n)
+                .map(|i| {
+                    let chain = grid
+                        .build(sweep, i)
+                        .and_then(|s| s.validate().map_err(|e| Error::input(e.field, e.message)))?;
+                    Ok((
+                        chain.n_particles(),
+                        chain.wall,
+                        chain.top_wall_m.is_some(),
+                        chain.ring,
+                        chain
+                            .plastic_contacts()
+                            .iter()
+                            .map(|p| p.0)
+                            .collect::<Vec<_>>(),
+                        chain.wall_mount.is_some(),
+                    ))
+                })
+                .collect::<Result<Vec<_>>>()?;
+            for p in 0..n {
+                if let Some(q) = c.predecessor(&grid.shape, p) {
+                    if bodies[p] != bodies[q] {
+                        return Err(Error::input(
+                            "continuation.axis",
+                            format!(
+                                "a point continues from the final state of the point before it on its line, so every point of a line must have the same bodies (particles, walls, plastic contacts, a mounted wall): point {p} ({}) differs from point {q} ({})",
+                                grid.point_label(sweep, p),
+                                grid.point_label(sweep, q)
+                            ),
+                        ));
+                    }
+                }
+            }
             // Each point's identity takes in its predecessor's, already continued: points are
             // visited in the line's own order, so the predecessor always comes first.
             let order: Vec<usize> = if c.downwards {

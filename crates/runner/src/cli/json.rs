@@ -208,6 +208,7 @@ pub fn file_status(file: &Path, s: &FileStatus, exit_code: i32) -> Value {
     m.insert("counts".into(), counts(&s.counts));
     m.insert("finished_since_written".into(), json!(s.newer));
     m.insert("other_shards_runs".into(), json!(s.other_shards));
+    m.insert("other_engine_runs".into(), json!(s.other_engine));
     m.insert(
         "failures".into(),
         Value::Array(

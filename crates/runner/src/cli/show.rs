@@ -576,6 +576,13 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             s.other_shards
         );
     }
+    if s.other_engine > 0 {
+        outln!(
+            "  {} of its pending points hold runs made by another version of the engine or of its numerics (this one's numerics version is {}): `chainsweep run` computes them again",
+            s.other_engine,
+            crate::NUMERICS_VERSION
+        );
+    }
     for (shown, (i, reason)) in s.failures.iter().enumerate() {
         if shown == LISTED_IN_STATUS {
             outln!("  …");
@@ -721,14 +728,27 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
 /// The end of `merge`: the counts, and the shards to run again (with the command that
 /// re-submits only them, when the output's SLURM job `scripts` (array, merge) exist).
 pub fn merged(r: &MergeReport, output: &Path, scripts: Option<(&Path, &Path)>) {
-    errln!(
-        "chainsweep: merged {} shard file(s): {} runs: {}, {} pending → {}",
-        r.shards,
-        r.points,
-        r.counts.finished_text(),
-        r.counts.pending,
-        output.display()
-    );
+    if r.searches {
+        // (The counts of a search sweep are of its searches, as `status` gives them.)
+        errln!(
+            "chainsweep: merged {} shard file(s): {} search(es): {} ended, {} failed, {} unfinished → {}",
+            r.shards,
+            r.points,
+            r.counts.ok,
+            r.counts.failed,
+            r.counts.pending,
+            output.display()
+        );
+    } else {
+        errln!(
+            "chainsweep: merged {} shard file(s): {} runs: {}, {} pending → {}",
+            r.shards,
+            r.points,
+            r.counts.finished_text(),
+            r.counts.pending,
+            output.display()
+        );
+    }
     for a in &r.absent {
         errln!("chainsweep: shard file not found: {}", a.display());
     }

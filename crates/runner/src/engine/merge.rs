@@ -31,6 +31,9 @@ pub struct MergeReport {
     pub counts: Counts,
     /// Shard files given that do not exist.
     pub absent: Vec<PathBuf>,
+    /// Whether the sweep is a search's: `points` and `counts` are then its searches (ended,
+    /// failed, unfinished), not runs.
+    pub searches: bool,
     /// The state of every shard, when the files are shards of one shard count `N` (to name the
     /// missing and incomplete ones).
     pub shard_set: Option<ShardSetStatus>,
@@ -78,6 +81,7 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
         // The searches are the points: ended, or not (a shard missing or stopped early).
         let ended = searches.iter().filter(|s| s.finished).count();
         return Ok(MergeReport {
+            searches: true,
             shards: shards.len(),
             points: searches.len(),
             counts: Counts {
@@ -153,6 +157,7 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
         None
     };
     Ok(MergeReport {
+        searches: false,
         shards: shards.len(),
         points: grid.len(),
         counts,

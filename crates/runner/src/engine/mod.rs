@@ -297,14 +297,25 @@ pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
         }
     }
     if output.exists() && !work_dir_of(output).is_dir() && !overwrite {
-        return Err(Error::input(
-            "--output",
+        // A chainsweep output moved or copied without its work directory still holds its runs:
+        // say so, and that --overwrite continues into it keeping them, rather than invite its
+        // deletion.
+        let ours = crate::store::hdf5::is_hdf5(output)
+            && crate::store::hdf5::FileRecords::open(output).is_ok();
+        let message = if ours {
+            format!(
+                "{} is a chainsweep output without its work directory {} (moved or copied without it?); pass --overwrite to continue into it: every run it holds is kept, read back from it, and only what it lacks is computed",
+                output.display(),
+                work_dir_of(output).display()
+            )
+        } else {
             format!(
                 "{} exists but has no work directory {} (it was not made by `chainsweep run` or `merge`); pass --overwrite to replace it",
                 output.display(),
                 work_dir_of(output).display()
-            ),
-        ));
+            )
+        };
+        return Err(Error::input("--output", message));
     }
     Ok(())
 }

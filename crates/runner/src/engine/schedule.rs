@@ -174,7 +174,12 @@ impl<'a> SolverExecutor<'a> {
                 }
                 Ok(previous) => {
                     let chain = scene.validate().expect("every point was validated");
-                    match scene.continued_state(&chain, &previous) {
+                    let before = grid
+                        .build(sweep, q)
+                        .expect("every point was validated")
+                        .validate()
+                        .expect("every point was validated");
+                    match scene.continued_state(&chain, &previous, &before) {
                         Ok(y) => Some(y),
                         Err(e) => return failed_here(e.to_string()),
                     }

@@ -738,6 +738,11 @@ pub fn run_search(
         )?;
     }
     let counts = publish_searches(&work, &driver, &searches, opts, &vsrc)?;
+    if searches.iter().all(|s| s.finished) && !stopped {
+        // Every search has ended and the file holds its runs: the logs beside it (one per
+        // process that took part, interrupted ones included) shrink to what it lacks.
+        work.compact_after_publish(&file_grid)?;
+    }
     Ok(SearchReport {
         searches,
         ran,

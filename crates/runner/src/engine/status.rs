@@ -33,6 +33,9 @@ pub struct FileStatus {
     pub counts: Counts,
     /// Points of other shards the file holds too (a shard run into an output that held them).
     pub other_shards: usize,
+    /// Points whose run the file holds under another run hash (made by another version of the
+    /// engine or of its numerics): pending here, computed again by `run`.
+    pub other_engine: usize,
     /// Points pending in the file whose run has finished since (a sweep is running, or was
     /// interrupted).
     pub newer: usize,
@@ -250,9 +253,17 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
     let in_shard: Vec<usize> = (0..grid.len())
         .filter(|&i| is_run(i) && assignment.contains(shard, i))
         .collect();
+    // (A damaged point's values say nothing: it is counted as pending, not flagged.)
     let (unpassed, unsettled) = p
         .file()
-        .map(|f| super::run::flagged(f.table(), &in_shard, grid))
+        .map(|f| {
+            let intact: Vec<usize> = in_shard
+                .iter()
+                .copied()
+                .filter(|&i| f.damage(i).is_none())
+                .collect();
+            super::run::flagged(f.table(), &intact, grid)
+        })
         .unwrap_or_default();
     let (verified, worst_verified) = p
         .file()
@@ -269,12 +280,22 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         verified,
         worst_verified,
     };
+    let other_engine = p.file().map_or(0, |f| {
+        (0..grid.len().min(f.len()))
+            .filter(|&i| is_run(i) && assignment.contains(shard, i))
+            .filter(|&i| {
+                let held = f.hash_hex(i);
+                !held.is_empty() && held != crate::identity::hex(&grid.hashes[i])
+            })
+            .count()
+    });
     Ok(FileStatus {
         total,
         shape: sweep.shape(),
         shard: shard_text,
         counts,
         health,
+        other_engine,
         unpassed,
         unsettled,
         other_shards,

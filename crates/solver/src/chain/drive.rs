@@ -98,6 +98,30 @@ impl DriveSpec {
     pub fn validate(&self, duration_s: f64) -> Result<Drive, SpecError> {
         let base = self.field();
         let waveform = self.waveform().compile(&base, duration_s)?;
+        // A drive that moves nothing (a force of zero, a wall held still) gives no excitation
+        // and no scale to measure the motion by: refused here, not as runs that fail.
+        let still = match self.point() {
+            DrivePoint::Force => waveform.peak() == 0.0,
+            DrivePoint::Actuator | DrivePoint::Base => waveform.peak_rate() == 0.0,
+        };
+        if still {
+            let (field, what) = match self.waveform() {
+                Waveform::Harmonic(_) => ("harmonic.amplitude", "its amplitude is 0"),
+                Waveform::Chirp(_) => ("chirp.amplitude", "its amplitude is 0"),
+                Waveform::Sum(_) => ("sum.tones", "every tone's amplitude is 0"),
+                Waveform::Recorded(_) => (
+                    "recorded.values",
+                    match self.point() {
+                        DrivePoint::Force => "every value is 0",
+                        _ => "every value is the same: the wall is held still",
+                    },
+                ),
+            };
+            return Err(spec_err(
+                &format!("{base}.{field}"),
+                format!("moves nothing ({what}): a drive must excite the chain; start a sweep of its amplitude above 0, or leave the drive out"),
+            ));
+        }
         Ok(Drive {
             point: self.point(),
             waveform,

@@ -768,6 +768,26 @@ impl SequenceSpec {
                     }
                     (None, None) => unreachable!("validated: one of the two is given"),
                 };
+                // A yield that the arithmetic cannot represent (an overlap or force of zero or of
+                // infinity) would make the run's state not finite: refused at its rule.
+                let usable = |x: f64| x.is_finite() && x >= f64::MIN_POSITIVE;
+                if !(usable(thornton.yield_overlap) && usable(thornton.yield_force)) {
+                    let k = rule
+                        .and_then(|r| self.contacts.iter().position(|q| std::ptr::eq(q, r)))
+                        .unwrap_or(0);
+                    let key = if yield_pressure_pa.is_some() {
+                        "yield_pressure_pa"
+                    } else {
+                        "yield_velocity_m_s"
+                    };
+                    return Err(spec_err(
+                        &format!("chain.contacts[{k}].law.thornton.{key}"),
+                        format!(
+                            "puts yield at an overlap of {:e} m and a force of {:e} N, which the arithmetic cannot hold: give a yield between those of soft metals and of the hardest steels (a yield pressure of 1e7 to 1e10 Pa)",
+                            thornton.yield_overlap, thornton.yield_force
+                        ),
+                    ));
+                }
                 plasticity.resize(c, None);
                 plasticity.push(Some(thornton));
                 laws.push((thornton.hertz, 1.5));

@@ -521,6 +521,46 @@ impl Scene {
         }
     }
 
+    /// A wall on a mount so stiff or so damped that an explicit method cannot cross the run in
+    /// its step budget (its step is held below its period and below its dashpot's time
+    /// `M/c`): refused naming the field, rather than run until its time limit.
+    fn check_mount_steps(&self, chain: &Chain) -> Result<(), SpecError> {
+        let Some(m) = chain.wall_mount else {
+            return Ok(());
+        };
+        if matches!(self.integrator, IntegratorSpec::Ros34pw2(_)) {
+            return Ok(());
+        }
+        // Explicit methods stay stable for steps up to about 3 / |λ|.
+        let omega = (m.stiffness_n_m / m.mass_kg).sqrt();
+        let rate = m.damping_kg_s / m.mass_kg;
+        let steps = self.duration_s * omega.max(rate) / 3.0;
+        if steps > self.max_steps as f64 {
+            let (field, what) = if omega >= rate {
+                (
+                    "chain.wall_mount.stiffness_n_m",
+                    format!(
+                        "its natural frequency is {:.3e} Hz",
+                        omega / std::f64::consts::TAU
+                    ),
+                )
+            } else {
+                (
+                    "chain.wall_mount.damping_kg_s",
+                    format!("its dashpot's rate c/M is {rate:.3e} /s"),
+                )
+            };
+            return Err(spec_err(
+                field,
+                format!(
+                    "the wall on its mount cannot be integrated: {what}, so a run of {} s takes at least {steps:.3e} steps, more than max_steps ({}); lower it, raise max_steps, or use ros34pw2",
+                    self.duration_s, self.max_steps
+                ),
+            ));
+        }
+        Ok(())
+    }
+
     /// Checks the whole scene before anything runs; the error names the field.
     pub fn validate(&self) -> Result<Chain, SpecError> {
         let mut chain = Chain::build(&self.chain, &self.physics)?;
@@ -591,6 +631,7 @@ impl Scene {
             return Err(spec_err("max_steps", "must be at least 1"));
         }
         self.integrator.validate()?;
+        self.check_mount_steps(&chain)?;
         self.record.validate(&chain)?;
         self.check_sample_counts()?;
         if let Some(fields) = &self.record.fields {
@@ -744,32 +785,47 @@ impl Scene {
     /// quadratures (dissipated work, the walls' impulse, the drive's work) start again from zero,
     /// and a moving wall from where this scene's waveform puts it at `t = 0`. The error names
     /// `continuation` when the chains differ in size.
-    pub fn continued_state(&self, chain: &Chain, previous: &[f64]) -> Result<Vec<f64>, SpecError> {
+    pub fn continued_state(
+        &self,
+        chain: &Chain,
+        previous: &[f64],
+        previous_chain: &Chain,
+    ) -> Result<Vec<f64>, SpecError> {
         let mut y = Scene {
             continuation: None,
             ..self.clone()
         }
         .initial_state(chain);
-        if previous.len() != y.len() {
+        let (plastic, was_plastic) = (chain.plastic_contacts(), previous_chain.plastic_contacts());
+        let same_bodies = chain.n_particles() == previous_chain.n_particles()
+            && previous.len() == previous_chain.state_len()
+            && plastic
+                .iter()
+                .map(|p| p.0)
+                .eq(was_plastic.iter().map(|p| p.0))
+            && chain.wall_mount.is_some() == previous_chain.wall_mount.is_some();
+        if !same_bodies {
             return Err(spec_err(
                 "continuation",
-                format!(
-                    "a point continues from the final state of the point before it on the axis, which must be the same chain: that state has {} components, this chain's {}",
-                    previous.len(),
-                    y.len()
-                ),
+                "a point continues from the final state of the point before it on the axis, whose bodies must be this point's: the same particles, plastic contacts and mounted wall",
             ));
         }
+        // The bodies carry on as they were; the quadratures (dissipated work, impulses, a
+        // drive's work), which may be laid out otherwise (damping on at one point, off at the
+        // other), start again, and so does a moving wall, from its waveform.
         let n = chain.n_particles();
         y[..2 * n].copy_from_slice(&previous[..2 * n]);
-        for (_, _, h) in chain.plastic_contacts() {
-            y[h] = previous[h];
-            y[h + 1] = previous[h + 1];
+        for ((_, _, h), (_, _, was)) in plastic.iter().zip(&was_plastic) {
+            y[*h] = previous[*was];
+            y[h + 1] = previous[was + 1];
         }
-        if let Some(k) = chain.mount_state_index() {
+        if let (Some(k), Some(was)) = (
+            chain.mount_state_index(),
+            previous_chain.mount_state_index(),
+        ) {
             // A mounted wall is a body of the chain's system: it carries on as it was.
-            y[k] = previous[k];
-            y[k + 1] = previous[k + 1];
+            y[k] = previous[was];
+            y[k + 1] = previous[was + 1];
         }
         Ok(y)
     }

@@ -176,7 +176,15 @@ impl FileRecords {
 
     fn read(path: &Path, as_published: bool) -> Result<FileRecords> {
         let file = File::open(path)?;
-        let has_attr = |name: &str| file.attr_names().is_ok_and(|a| a.iter().any(|x| x == name));
+        // The root's attributes listed once: a list that cannot be read is a damaged file, not
+        // one of an early layout without them (which would have its runs taken as unchecked).
+        let root_attrs = file.attr_names().map_err(|e| {
+            Error::Other(format!(
+                "its attributes cannot be listed ({})",
+                brief(&Error::from(e))
+            ))
+        })?;
+        let has_attr = |name: &str| root_attrs.iter().any(|x| x == name);
         let layout_version = if has_attr("layout_version") {
             file.attr("layout_version")?.read_scalar::<i64>()?
         } else {
@@ -347,6 +355,9 @@ impl FileRecords {
             self.header_damage = self.column_attr_damage();
         }
         if checked && self.header_damage.is_none() {
+            self.header_damage = self.structure_damage();
+        }
+        if checked && self.header_damage.is_none() {
             self.header_damage = self.scales_damage();
         }
     }
@@ -357,6 +368,74 @@ impl FileRecords {
     /// first dimension is as long as that dimension and whose `REFERENCE_LIST` lists it there.
     /// h5py and xarray read these lists to label every variable, so a damaged one is reported
     /// here rather than met there.
+    /// Every object and attribute a reader meets at the root, opened: each dataset's header,
+    /// type and shape and each of its attributes, and the root's attributes, as h5py, xarray and
+    /// netCDF read them; one that HDF5 cannot read (its metadata checksum fails) is damage,
+    /// reported here rather than met there.
+    fn structure_damage(&self) -> Option<String> {
+        let names = match self.file.member_names() {
+            Ok(n) => n,
+            Err(e) => {
+                return Some(format!(
+                    "its members cannot be listed ({})",
+                    brief(&e.into())
+                ))
+            }
+        };
+        let attrs_of = |loc: &hdf5::Location, what: &str| -> Option<String> {
+            let names = match loc.attr_names() {
+                Ok(n) => n,
+                Err(e) => {
+                    return Some(format!(
+                        "the attributes of {what} cannot be listed ({})",
+                        brief(&e.into())
+                    ))
+                }
+            };
+            for a in names {
+                if let Err(e) = loc.attr(&a).and_then(|x| x.dtype().map(|_| x)) {
+                    return Some(format!(
+                        "the attribute `{a}` of {what} cannot be read ({})",
+                        brief(&e.into())
+                    ));
+                }
+            }
+            None
+        };
+        if let Some(why) = attrs_of(&self.file, "the file") {
+            return Some(why);
+        }
+        // (The columns' own datasets are checked where they are read: one that cannot be read
+        // is damage of each of its points, which the intact others are served beside.)
+        let columns: std::collections::HashSet<&str> = self
+            .column_names
+            .iter()
+            .flatten()
+            .map(String::as_str)
+            .chain(COLUMNS.iter().map(|c| c.name))
+            .collect();
+        for name in names {
+            if columns.contains(name.as_str()) || self.file.group(&name).is_ok() {
+                continue; // (and the run groups of early layouts: checked run by run)
+            }
+            let what = format!("`{name}`");
+            let ds = match self.file.dataset(&name) {
+                Ok(d) => d,
+                Err(e) => return Some(format!("{what} cannot be opened ({})", brief(&e.into()))),
+            };
+            if let Err(e) = ds.dtype() {
+                return Some(format!(
+                    "the type of {what} cannot be read ({})",
+                    brief(&e.into())
+                ));
+            }
+            if let Some(why) = attrs_of(&ds, &what) {
+                return Some(why);
+            }
+        }
+        None
+    }
+
     fn scales_damage(&self) -> Option<String> {
         let names = match self.file.member_names() {
             Ok(n) => n,
