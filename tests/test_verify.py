@@ -263,3 +263,31 @@ def test_verify_bounds_the_true_error_of_every_summary_it_lists(tmp_path, binary
             assert "not verified: histories (not recorded by verification runs)" in stderr, stderr
         else:
             assert "not verified" not in stderr, stderr
+
+
+def test_a_search_is_verified_at_its_evaluation_points(tmp_path, binary):
+    """The evaluation points of a search (the sweep's axes and `evaluation`) are verified like
+    grid points: their scenes are the sweep's with the searched values set, including a point
+    whose scene the search could not build (stored failed, not verified)."""
+    sweep = base_sweep()
+    sweep["axes"] = [{"field": "striker_velocity_m_s", "values": [1.0, 1.3]}]
+    sweep["search"] = {
+        "goal": "minimise",
+        "fields": [{"field": "physics.damping_kg_s", "min": 0.0, "max": 10.0, "tolerance": 0.05}],
+        "objective": {"summary": "leading_peak", "probe": "gauge_force_cyl8"},
+        "scan": 4,
+        "budget": 12,
+    }
+    path = write_sweep(tmp_path / "s.json", sweep)
+    out = tmp_path / "s.h5"
+    r = run("run", path, "-o", out, "--verify", "1", "--jobs", "2")
+    assert r.returncode == 0, r.stderr
+    assert "panicked" not in r.stderr
+    with h5py.File(out, "r") as f:
+        v = f["verified"][...]
+        st = f["status"][...]
+        # Every stored evaluation run is verified, and its error is small at rtol 1e-9.
+        assert ((v == 1) == (st == 1)).all(), (v, st)
+        assert (v == 1).sum() >= 8
+        e = f["verify_rel_error_max"][...]
+        assert (e[v == 1] < 1e-6).all() and (e[v == 1] > 0).all()

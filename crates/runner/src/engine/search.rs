@@ -721,13 +721,14 @@ pub fn run_search(
     let stopped = stop.load(Ordering::Relaxed) && searches.iter().any(|s| !s.finished);
     // --verify: a sample of the evaluations' points, run at a tighter setting.
     let file_grid = driver.file_grid(&searches);
-    let file_sweep = driver.file_sweep(&searches);
     let mut vsrc = VerifySource::empty(opts.verify_fraction);
     let mut verified = (0, None);
     if opts.verify_fraction > 0.0 && !stopped {
+        // (The file grid's points name their point of the sweep's own grid: their scenes are
+        // built from the sweep itself, not from the file's, which has `evaluation` beside.)
         verified = verify_searches(
             &work,
-            &file_sweep,
+            driver.sweep,
             &file_grid,
             opts,
             &pool,
@@ -772,6 +773,10 @@ fn verify_searches(
     let mut tasks = Vec::new();
     let mut scenes: HashMap<RunHash, (Scene, usize)> = HashMap::new();
     for i in (0..grid.len()).filter(|&i| sampled[i] && grid.hashes[i] != [0; 32]) {
+        // A failed run (an invalid scene among them: it has no scene to tighten) is not verified.
+        if !work.read(&grid.hashes[i])?.is_some_and(|r| r.ok) {
+            continue;
+        }
         let (tight, vh) = verify::point_verification(sweep, grid, i);
         vsrc.insert(i, &tight, vh);
         if work.read(&vh)?.is_some() {
