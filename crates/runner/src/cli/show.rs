@@ -458,6 +458,18 @@ fn search_report(sweep: &Sweep, grid: &Grid, r: &SearchReport, output: &Path, qu
         } else {
             format!("{label}: ")
         };
+        if spec.goal == crate::sweep::search::Goal::Fit {
+            // A fit's answer, its statistics and each warning on a line of its own.
+            errln!(
+                "  {at}{} after {} run(s):",
+                s.outcome.status.name(),
+                s.runs()
+            );
+            for part in s.outcome.note.split("; ") {
+                errln!("    {part}");
+            }
+            continue;
+        }
         errln!(
             "  {at}{} after {} run(s): {}",
             s.outcome.status.name(),

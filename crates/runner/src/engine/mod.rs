@@ -17,6 +17,7 @@
 
 pub mod assemble;
 pub mod auto;
+pub mod fit;
 pub mod gc;
 pub mod inspect;
 pub mod merge;

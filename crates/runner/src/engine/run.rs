@@ -261,9 +261,10 @@ impl RunReport {
         let mut counts = Counts::default();
         for s in &r.searches {
             match s.outcome.status {
-                SearchStatus::Converged | SearchStatus::NotFound | SearchStatus::Stalled => {
-                    counts.ok += 1
-                }
+                SearchStatus::Converged
+                | SearchStatus::NotFound
+                | SearchStatus::Stalled
+                | SearchStatus::Unidentifiable => counts.ok += 1,
                 SearchStatus::Failed => counts.failed += 1,
                 SearchStatus::Budget | SearchStatus::Running => counts.pending += 1,
             }

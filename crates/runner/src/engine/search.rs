@@ -25,12 +25,14 @@ use crate::grid::{multi_index, Grid, Searched};
 use crate::identity::{invalid_scene_hash, run_hash_with, RunHash};
 use crate::numerics::verify;
 use crate::record::{RunRecord, VERIFY_OK};
+use crate::search::fit::{model, Residuals};
 use crate::search::{self, Item, Outcome, Point, SearchStatus, Value, ITEM_FLAGS, SEARCH_FLAGS};
 use crate::store::hdf5::search::{Dims, FieldTable, SearchTables};
 use crate::store::hdf5::Counts;
 use crate::store::{RunStore, WorkDir};
 use crate::sweep::search::{set_fields, Goal, SearchSpec};
 use crate::sweep::{from_ref_at, Axis, Dim, Sweep};
+use std::sync::Arc;
 
 use super::assemble::{assemble, Assembly, VerifySource};
 use super::run::RunOptions;
@@ -46,8 +48,9 @@ pub struct Layout {
     pub outer_dims: Vec<usize>,
     /// Their shape: one search per point.
     pub outer_shape: Vec<usize>,
-    /// The `across` dimension and its two indices.
-    pub across: Option<(usize, [usize; 2])>,
+    /// The dimension every evaluation runs several points of, and their indices: the `across`
+    /// axis's two, or every frequency of a fit's spectra.
+    pub across: Option<(usize, Vec<usize>)>,
 }
 
 fn flat(shape: &[usize], mi: &[usize]) -> usize {
@@ -58,9 +61,13 @@ impl Layout {
     /// The layout of `sweep`'s search.
     pub fn new(sweep: &Sweep, spec: &SearchSpec) -> Layout {
         let shape = sweep.shape();
-        let across = spec.across.as_ref().map(|a| (a.dim, a.points));
+        let across = match (&spec.across, spec.fit.as_ref().and_then(|f| f.variant_dim)) {
+            (Some(a), _) => Some((a.dim, a.points.to_vec())),
+            (None, Some(d)) => Some((d, (0..shape[d]).collect())),
+            (None, None) => None,
+        };
         let outer_dims: Vec<usize> = (0..shape.len())
-            .filter(|&d| Some(d) != across.map(|a| a.0))
+            .filter(|&d| Some(d) != across.as_ref().map(|a| a.0))
             .collect();
         let outer_shape = outer_dims.iter().map(|&d| shape[d]).collect();
         Layout {
@@ -84,12 +91,12 @@ impl Layout {
         for (k, &d) in self.outer_dims.iter().enumerate() {
             mi[d] = mo[k];
         }
-        match self.across {
+        match &self.across {
             None => vec![flat(&self.shape, &mi)],
             Some((d, points)) => points
                 .iter()
                 .map(|&j| {
-                    mi[d] = j;
+                    mi[*d] = j;
                     flat(&self.shape, &mi)
                 })
                 .collect(),
@@ -102,9 +109,9 @@ impl Layout {
         let mi = multi_index(&self.shape, own);
         let mo: Vec<usize> = self.outer_dims.iter().map(|&d| mi[d]).collect();
         let o = flat(&self.outer_shape, &mo);
-        match self.across {
+        match &self.across {
             None => Some((o, 0)),
-            Some((d, points)) => points.iter().position(|&j| j == mi[d]).map(|k| (o, k)),
+            Some((d, points)) => points.iter().position(|&j| j == mi[*d]).map(|k| (o, k)),
         }
     }
 }
@@ -118,8 +125,10 @@ pub struct Evaluation {
     pub x: Point,
     /// Its runs (one per point of [`Layout::own_points`]).
     pub hashes: Vec<RunHash>,
-    /// The objective (`None`: a run failed or gave no number).
+    /// The objective (`None`: a run failed or gave no number); a fit's χ².
     pub value: Value,
+    /// A fit's residuals (`None` for other goals, or where a run failed).
+    pub residuals: Residuals,
     /// The round that proposed it.
     pub round: usize,
 }
@@ -165,6 +174,7 @@ impl Search {
                 items: Vec::new(),
                 refine_error: f64::NAN,
                 note: String::new(),
+                fit: None,
             },
             finished: false,
             rounds: 0,
@@ -188,6 +198,18 @@ impl Search {
         }
         known
     }
+
+    /// A fit's known residuals, per stream.
+    fn known_fit(&self) -> Vec<Vec<Residuals>> {
+        let mut known: Vec<Vec<Residuals>> = Vec::new();
+        for e in &self.evals {
+            if known.len() <= e.stream {
+                known.resize(e.stream + 1, Vec::new());
+            }
+            known[e.stream].push(e.residuals.clone());
+        }
+        known
+    }
 }
 
 /// What drives the searches of a sweep.
@@ -200,6 +222,8 @@ pub struct Driver<'a> {
     pub spec: &'a SearchSpec,
     /// How the searches map to the grid.
     pub layout: Layout,
+    /// A fit's relative finite-difference step, sized from the runs' tolerance.
+    pub fd_step: f64,
 }
 
 /// A run a round needs: its scene (`Err`: why the scene is invalid; it is then stored as a failed
@@ -215,7 +239,21 @@ impl<'a> Driver<'a> {
             grid,
             spec,
             layout: Layout::new(sweep, spec),
+            fd_step: fd_step(sweep, grid),
         }
+    }
+
+    /// The data set of search `o` (a fit's: its point of the data-set dimension, or the one).
+    pub fn data_set(&self, o: usize) -> usize {
+        let Some(d) = self.spec.fit.as_ref().and_then(|f| f.sets_dim) else {
+            return 0;
+        };
+        let mo = multi_index(&self.layout.outer_shape, o);
+        self.layout
+            .outer_dims
+            .iter()
+            .position(|&k| k == d)
+            .map_or(0, |k| mo[k])
     }
 
     /// The scene of point `own` of the grid with the searched fields at `x`, and its run hash.
@@ -244,8 +282,8 @@ impl<'a> Driver<'a> {
 
     /// The objective of an evaluation from its runs' records (`None` where one is missing,
     /// failed or gives no number).
-    fn value(&self, records: &[Option<RunRecord>]) -> Value {
-        let of = |r: &Option<RunRecord>| r.as_ref().and_then(|r| self.spec.objective.of(r));
+    fn value(&self, records: &[Option<&RunRecord>]) -> Value {
+        let of = |r: &Option<&RunRecord>| r.and_then(|r| self.spec.objective.of(r));
         match &self.spec.across {
             None => of(&records[0]),
             Some(a) => a.combine.apply(of(&records[0]), of(&records[1])),
@@ -267,7 +305,20 @@ impl<'a> Driver<'a> {
         }
         let own = self.layout.own_points(s.outer);
         loop {
-            let (outcome, asked) = search::replay(self.spec, &s.known());
+            let (outcome, asked) = match &self.spec.fit {
+                Some(fit) => {
+                    let set = &fit.sets[self.data_set(s.outer)];
+                    search::fit::replay(
+                        self.spec,
+                        fit,
+                        self.fd_step,
+                        set.len(),
+                        set.nuisances(),
+                        &s.known_fit(),
+                    )
+                }
+                None => search::replay(self.spec, &s.known()),
+            };
             s.outcome = outcome;
             if asked.is_empty() {
                 s.finished = true;
@@ -329,11 +380,26 @@ impl<'a> Driver<'a> {
         s.rounds += 1;
         for (stream, points, hashes) in std::mem::take(&mut s.waiting) {
             for (x, hs) in points.into_iter().zip(hashes) {
-                let recs: Vec<Option<RunRecord>> = hs.iter().map(|h| records[h].clone()).collect();
+                let recs: Vec<Option<&RunRecord>> =
+                    hs.iter().map(|h| records[h].as_ref()).collect();
+                let (value, residuals) = match &self.spec.fit {
+                    Some(fit) => {
+                        let set = &fit.sets[self.data_set(s.outer)];
+                        match model::predict(fit, set, &recs) {
+                            Ok(p) => {
+                                let chi2 = p.eval.residual.iter().map(|r| r * r).sum();
+                                (Some(chi2), Some(Arc::new(p.eval)))
+                            }
+                            Err(_) => (None, None),
+                        }
+                    }
+                    None => (self.value(&recs), None),
+                };
                 s.evals.push(Evaluation {
                     stream,
                     x,
-                    value: self.value(&recs),
+                    value,
+                    residuals,
                     hashes: hs,
                     round,
                 });
@@ -427,8 +493,8 @@ impl<'a> Driver<'a> {
         grid
     }
 
-    /// The search's tables for the output file.
-    pub fn tables(&self, searches: &[Search]) -> SearchTables {
+    /// The search's tables for the output file (a fit's prediction read from `store`).
+    pub fn tables(&self, searches: &[Search], store: &dyn RunStore) -> Result<SearchTables> {
         let e = Self::evaluations(searches);
         let n = self.layout.n_outer();
         let spec = self.spec;
@@ -510,7 +576,8 @@ impl<'a> Driver<'a> {
             Some(a) => a.combine.units(objective_units, objective_units),
             None => objective_units,
         };
-        SearchTables {
+        Ok(SearchTables {
+            fit: super::fit::tables(self, searches, store)?,
             description: spec.describe(),
             goal: spec.goal.name().into(),
             outer,
@@ -528,7 +595,25 @@ impl<'a> Driver<'a> {
             item_value,
             item_status,
             flags: [SEARCH_FLAGS, ITEM_FLAGS],
+        })
+    }
+}
+
+/// A fit's relative finite-difference step: the square root of a hundred times the runs'
+/// relative tolerance, so that the runs' error (about `rtol`) is a hundredth of the difference
+/// at most while the step's own truncation stays near `√rtol` (fixed-step methods, whose error
+/// changes smoothly with the fields: 1e-4).
+fn fd_step(sweep: &Sweep, grid: &Grid) -> f64 {
+    use chainsweep_solver::IntegratorSpec as I;
+    if grid.is_empty() {
+        return 1e-4;
+    }
+    let v = grid.point_value(sweep, 0);
+    match from_ref_at::<Scene>(&v, "").map(|s| s.integrator) {
+        Ok(I::Dop853(o) | I::Ros34pw2(o) | I::Vern6(o)) => {
+            (100.0 * o.rtol).sqrt().clamp(1e-6, 1e-2)
         }
+        _ => 1e-4,
     }
 }
 
@@ -864,7 +949,7 @@ fn publish_as(
 ) -> Result<Counts> {
     let grid = driver.file_grid(searches);
     let sweep = driver.file_sweep(searches);
-    let tables = driver.tables(searches);
+    let tables = driver.tables(searches, work)?;
     let points: Vec<usize> = (0..grid.len())
         .filter(|&i| grid.hashes[i] != [0; 32])
         .collect();
@@ -981,6 +1066,50 @@ pub fn describe_item(spec: &SearchSpec, it: &Item) -> String {
     format!("{} ({value}, {})", at.join(", "), it.status.name())
 }
 
+/// A fit's recorded signals lie within the runs: every data instant, moved by any time shift the
+/// fit may take, is within `[0, duration_s]` of every point's scene (an input error naming the
+/// signal's instants otherwise, before anything runs).
+fn check_data_within_runs(
+    driver: &Driver<'_>,
+    fit: &crate::sweep::fit::FitSpec,
+    middle: &[f64],
+) -> Result<()> {
+    use crate::sweep::fit::Datum;
+    for own in 0..driver.grid.len() {
+        let Some((o, _)) = driver.layout.of_own(own) else {
+            continue;
+        };
+        let k = driver.data_set(o);
+        let (_, Ok(scene)) = driver.scene(own, middle) else {
+            continue;
+        };
+        let set = &fit.sets[k];
+        for (i, d) in set.data.iter().enumerate() {
+            let Datum::Signal(s) = d else { continue };
+            let (smin, smax) = s.shift.map_or((0.0, 0.0), |iv| (iv.min, iv.max));
+            let first = s.time_s[0] + smin;
+            let last = s.time_s[s.time_s.len() - 1] + smax;
+            if first < 0.0 || last > scene.duration_s {
+                let at = match fit.sets_dim {
+                    Some(_) => format!("search.data_sets[{k}][{i}].signal.time_s"),
+                    None => format!("search.data[{i}].signal.time_s"),
+                };
+                let label = driver.grid.point_label(driver.sweep, own);
+                return Err(Error::input(
+                    at,
+                    format!(
+                        "the data instants{} reach {first} to {last} s, beyond the runs (0 to duration_s = {} s{}): lengthen duration_s, or narrow the data or their time_shift_s",
+                        if s.shift.is_some() { ", moved by any time shift allowed," } else { "" },
+                        scene.duration_s,
+                        if label.is_empty() { String::new() } else { format!(" at {label}") }
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Every searched interval is one the scene takes at both ends, at every point of the sweep's
 /// grid (each field at each of its ends, the others in the middle of theirs): an end the scene
 /// refuses (a negative mass) is an input error naming it, caught before anything runs rather than
@@ -991,6 +1120,9 @@ pub fn check_intervals(sweep: &Sweep, grid: &Grid) -> Result<()> {
     };
     let driver = Driver::new(sweep, grid);
     let middle: Vec<f64> = spec.fields.iter().map(|f| 0.5 * (f.min + f.max)).collect();
+    if let Some(fit) = &spec.fit {
+        check_data_within_runs(&driver, fit, &middle)?;
+    }
     for own in 0..grid.len() {
         for (k, f) in spec.fields.iter().enumerate() {
             for (x, end) in [(f.min, "min"), (f.max, "max")] {

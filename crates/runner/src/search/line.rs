@@ -48,6 +48,7 @@ pub fn extrema(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
             items: Vec::new(),
             refine_error: f64::NAN,
             note: "no run of the scan gave a number".into(),
+            fit: None,
         };
     }
     let n = g.len();
@@ -266,6 +267,7 @@ pub fn roots(spec: &SearchSpec, s: &mut Streams) -> Outcome {
                 lo + spec.level,
                 hi + spec.level
             ),
+            fit: None,
         };
     }
     let n = items.len();

@@ -21,6 +21,7 @@
 //! - [`simplex`]: several fields: Nelder–Mead in the box, from the best points of a scan, with
 //!   restarts.
 
+pub mod fit;
 pub mod line;
 pub mod refine;
 pub mod simplex;
@@ -35,15 +36,15 @@ pub type Value = Option<f64>;
 
 /// The evaluations a method sees: per stream, the values of the points it asked for, in order,
 /// as far as they are known; and the batch each stream asks for next.
-pub struct Streams<'a> {
-    known: &'a [Vec<Value>],
+pub struct Streams<'a, T = Value> {
+    known: &'a [Vec<T>],
     cursor: Vec<usize>,
     asked: Vec<(usize, Vec<Point>)>,
 }
 
-impl<'a> Streams<'a> {
+impl<'a, T: Clone> Streams<'a, T> {
     /// Streams whose known values are `known[stream]`.
-    pub fn new(known: &'a [Vec<Value>]) -> Self {
+    pub fn new(known: &'a [Vec<T>]) -> Self {
         Streams {
             known,
             cursor: Vec::new(),
@@ -53,7 +54,7 @@ impl<'a> Streams<'a> {
 
     /// The values at `points` through `stream`, when they are known; `None` when they are not:
     /// the points are then the stream's next batch, and the stream must ask for nothing more.
-    pub fn eval(&mut self, stream: usize, points: &[Point]) -> Option<Vec<Value>> {
+    pub fn eval(&mut self, stream: usize, points: &[Point]) -> Option<Vec<T>> {
         if self.cursor.len() <= stream {
             self.cursor.resize(stream + 1, 0);
         }
@@ -97,6 +98,8 @@ pub enum ItemStatus {
     Stalled,
     /// A run it needed failed (or gave no number) under the rule `failed: stop`.
     Failed,
+    /// A fit whose data do not determine some combination of its fields.
+    Unidentifiable,
 }
 
 impl ItemStatus {
@@ -108,6 +111,7 @@ impl ItemStatus {
             ItemStatus::AtBound,
             ItemStatus::Stalled,
             ItemStatus::Failed,
+            ItemStatus::Unidentifiable,
         ]
         .into_iter()
         .find(|s| s.code() == code)
@@ -121,6 +125,7 @@ impl ItemStatus {
             ItemStatus::AtBound => 3,
             ItemStatus::Stalled => 4,
             ItemStatus::Failed => 5,
+            ItemStatus::Unidentifiable => 6,
         }
     }
 
@@ -132,14 +137,15 @@ impl ItemStatus {
             ItemStatus::AtBound => "at_bound",
             ItemStatus::Stalled => "stalled",
             ItemStatus::Failed => "failed_run",
+            ItemStatus::Unidentifiable => "unidentifiable",
         }
     }
 }
 
 /// The codes and names of [`ItemStatus`] (0: no item), for the file's `flag_values`.
 pub const ITEM_FLAGS: (&[u8], &str) = (
-    &[0, 1, 2, 3, 4, 5],
-    "none converged open at_bound stalled failed_run",
+    &[0, 1, 2, 3, 4, 5, 6],
+    "none converged open at_bound stalled failed_run unidentifiable",
 );
 
 /// A found minimum, maximum or root.
@@ -172,6 +178,9 @@ pub enum SearchStatus {
     /// Finished, but some item or region could not be resolved to the tolerance (noise, a jump
     /// narrower than the field's tolerance).
     Stalled,
+    /// A fit ended at a minimum where the data do not determine some combination of its fields:
+    /// not a confident answer.
+    Unidentifiable,
 }
 
 impl SearchStatus {
@@ -184,6 +193,7 @@ impl SearchStatus {
             SearchStatus::NotFound => 4,
             SearchStatus::Failed => 5,
             SearchStatus::Stalled => 6,
+            SearchStatus::Unidentifiable => 7,
         }
     }
 
@@ -196,14 +206,15 @@ impl SearchStatus {
             SearchStatus::NotFound => "not_found",
             SearchStatus::Failed => "failed_run",
             SearchStatus::Stalled => "stalled",
+            SearchStatus::Unidentifiable => "unidentifiable",
         }
     }
 }
 
 /// The codes and names of [`SearchStatus`] (0: pending), for the file's `flag_values`.
 pub const SEARCH_FLAGS: (&[u8], &str) = (
-    &[0, 1, 2, 3, 4, 5, 6],
-    "pending running converged budget not_found failed_run stalled",
+    &[0, 1, 2, 3, 4, 5, 6, 7],
+    "pending running converged budget not_found failed_run stalled unidentifiable",
 );
 
 /// What a search has found so far, or in the end.
@@ -218,6 +229,8 @@ pub struct Outcome {
     pub refine_error: f64,
     /// Why it ended (or where it stands), in a sentence.
     pub note: String,
+    /// A fit's answer: intervals, covariance, profiles (`None` for the other goals).
+    pub fit: Option<Box<fit::FitOutcome>>,
 }
 
 impl Outcome {
@@ -238,6 +251,7 @@ impl Outcome {
                 "the run at {} failed or gave no number (failed: stop)",
                 place.join(", ")
             ),
+            fit: None,
         }
     }
 
@@ -247,6 +261,7 @@ impl Outcome {
             items,
             refine_error,
             note: String::new(),
+            fit: None,
         }
     }
 
@@ -265,6 +280,7 @@ impl Outcome {
             items,
             refine_error,
             note,
+            fit: None,
         }
     }
 
@@ -295,6 +311,7 @@ pub fn replay(spec: &SearchSpec, known: &[Vec<Value>]) -> (Outcome, Vec<(usize, 
         (Goal::Root, _) => line::roots(spec, &mut s),
         (Goal::Refine, 1) => refine::curve(spec, &mut s),
         (Goal::Refine, _) => refine::surface(spec, &mut s),
+        (Goal::Fit, _) => unreachable!("a fit's evaluations are residuals: see fit::replay"),
     };
     let asked = s.into_asked();
     debug_assert_eq!(outcome.status == SearchStatus::Running, !asked.is_empty());
@@ -355,11 +372,12 @@ pub(crate) mod testing {
             budget: 10_000,
             round: 4,
             on_failure: match goal {
-                Goal::Minimise | Goal::Maximise => OnFailure::Worst,
+                Goal::Minimise | Goal::Maximise | Goal::Fit => OnFailure::Worst,
                 Goal::Root => OnFailure::Stop,
                 Goal::Refine => OnFailure::Gap,
             },
             starts: 2,
+            fit: None,
         }
     }
 

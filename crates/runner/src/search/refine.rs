@@ -54,6 +54,7 @@ fn ended(mut note: String, unresolved: usize, gaps: usize, parts: &str, largest:
         items: Vec::new(),
         refine_error: largest,
         note,
+        fit: None,
     }
 }
 
@@ -155,6 +156,7 @@ pub fn curve(spec: &SearchSpec, s: &mut Streams) -> Outcome {
         items: Vec::new(),
         refine_error: f64::NAN,
         note: "the refinement did not end within its rounds".into(),
+        fit: None,
     }
 }
 
@@ -356,6 +358,7 @@ pub fn surface(spec: &SearchSpec, s: &mut Streams) -> Outcome {
         items: Vec::new(),
         refine_error: f64::NAN,
         note: "the refinement did not end within its rounds".into(),
+        fit: None,
     }
 }
 

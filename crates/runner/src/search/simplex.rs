@@ -94,6 +94,7 @@ pub fn minimise(spec: &SearchSpec, s: &mut Streams, sign: f64) -> Outcome {
             items: Vec::new(),
             refine_error: f64::NAN,
             note: "no run of the scan gave a number".into(),
+            fit: None,
         };
     }
     minima.sort_by(|&a, &b| g[a].total_cmp(&g[b]).then(a.cmp(&b)));

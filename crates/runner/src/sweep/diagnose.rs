@@ -266,7 +266,7 @@ fn check_sections(file: SweepFile, well_formed: bool, errors: &mut Vec<Error>) {
             } else if let (Some(s), true) = (file.search, well_formed) {
                 // (A search whose structure lost a part names fields by their index: only a
                 // whole one is checked further.)
-                if let Err(e) = super::search::parse(s, &base, &dims) {
+                if let Err(e) = super::search::parse(s, &base, &mut dims.clone()) {
                     errors.push(e);
                 }
             }

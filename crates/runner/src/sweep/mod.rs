@@ -27,6 +27,7 @@
 
 pub mod auto;
 pub mod diagnose;
+pub mod fit;
 mod recording;
 pub mod schema;
 pub mod search;
@@ -556,6 +557,10 @@ pub fn check_settable(root: &Value, path: &str) -> std::result::Result<(), Strin
 /// Sets the value at `path` in `root` (checked by [`check_settable`]), creating the objects
 /// missing along it.
 pub fn set_path(root: &mut Value, path: &str, value: Value) {
+    // An axis that sets no field (a fit's data sets, a search's evaluations) sets nothing.
+    if path.is_empty() {
+        return;
+    }
     let mut cur = root;
     for seg in split_path(path) {
         if cur.is_null() {
@@ -1242,10 +1247,12 @@ impl Sweep {
     pub fn parse_in(text: &str, dir: &std::path::Path) -> Result<Sweep> {
         let inlined = recording::inline_text(text, dir)?;
         let text = inlined.as_deref().unwrap_or(text);
+        let with_data = fit::inline_text(text, dir)?;
+        let text = with_data.as_deref().unwrap_or(text);
         let file = read_json(text)?;
         let (base, _, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         let limits = parse_limits(file.limits)?;
-        let dims = parse_dims(
+        let mut dims = parse_dims(
             file.axes,
             &base,
             auto.is_some(),
@@ -1257,7 +1264,7 @@ impl Sweep {
         let continuation = parse_continuation(file.continuation, &dims, file.search.is_some())?;
         let search = file
             .search
-            .map(|s| search::parse(s, &base, &dims))
+            .map(|s| search::parse(s, &base, &mut dims))
             .transpose()?;
         Ok(Sweep {
             continuation,

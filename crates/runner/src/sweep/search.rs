@@ -36,6 +36,8 @@ pub enum Goal {
     Root,
     /// The objective over one or two fields, sampled until its interpolation is accurate.
     Refine,
+    /// The fields that fit measured data best (weighted least squares), with their uncertainty.
+    Fit,
 }
 
 impl Goal {
@@ -46,6 +48,7 @@ impl Goal {
             Goal::Maximise => "maximise",
             Goal::Root => "root",
             Goal::Refine => "refine",
+            Goal::Fit => "fit",
         }
     }
 
@@ -57,6 +60,7 @@ impl Goal {
             Goal::Maximise => "maximum",
             Goal::Root => "root",
             Goal::Refine => "sample",
+            Goal::Fit => "fit",
         }
     }
 }
@@ -182,6 +186,9 @@ pub enum Objective {
     One(Summary),
     /// Two summaries of the same run, combined.
     Two(Combine, Summary, Summary),
+    /// A fit's χ² against its data (computed by the fit from all the runs of an evaluation, not
+    /// from one run).
+    ChiSquare,
 }
 
 impl Objective {
@@ -190,6 +197,7 @@ impl Objective {
         match self {
             Objective::One(s) => s.of(rec),
             Objective::Two(c, a, b) => c.apply(a.of(rec), b.of(rec)),
+            Objective::ChiSquare => None,
         }
     }
 
@@ -198,6 +206,7 @@ impl Objective {
         match self {
             Objective::One(s) => s.units(probes),
             Objective::Two(c, a, b) => c.units(a.units(probes), b.units(probes)),
+            Objective::ChiSquare => Some("1"),
         }
     }
 
@@ -212,6 +221,7 @@ impl Objective {
             Objective::Two(Combine::LogRatio, a, b) => {
                 format!("ln({} / {})", a.describe(), b.describe())
             }
+            Objective::ChiSquare => "chi_square".to_string(),
         }
     }
 }
@@ -275,17 +285,20 @@ pub struct SearchSpec {
     pub round: usize,
     /// What a failed run counts as.
     pub on_failure: OnFailure,
-    /// Starting points of a search over several fields (the best local minima of its scan).
+    /// Starting points of a search over several fields (the best local minima of its scan), or
+    /// of a fit (the best points of its scan).
     pub starts: usize,
+    /// A fit's data.
+    pub fit: Option<super::fit::FitSpec>,
 }
 
 impl SearchSpec {
     /// Runs each evaluation takes: one, or two with `across`.
     pub fn runs_per_evaluation(&self) -> usize {
-        if self.across.is_some() {
-            2
-        } else {
-            1
+        match (&self.across, &self.fit) {
+            (Some(_), _) => 2,
+            (None, Some(f)) => f.variants.len(),
+            (None, None) => 1,
         }
     }
 
@@ -313,6 +326,38 @@ impl SearchSpec {
             ),
             None => self.objective.describe(),
         };
+        if let Some(fit) = &self.fit {
+            let set = &fit.sets[0];
+            let kinds: Vec<String> = set
+                .data
+                .iter()
+                .map(|d| match d {
+                    super::fit::Datum::Scalar(s) => s.name.clone(),
+                    super::fit::Datum::Signal(s) => {
+                        format!("signal {} ({} samples)", s.name, s.time_s.len())
+                    }
+                    super::fit::Datum::Spectrum(s) => {
+                        format!("spectrum {} ({} frequencies)", s.name, s.frequency_hz.len())
+                    }
+                })
+                .collect();
+            return format!(
+                "fit {} to {} datum(s){} ({}), σ {}, at most {} runs",
+                fields.join(" × "),
+                set.len(),
+                if fit.sets.len() > 1 {
+                    format!(" in each of {} data sets", fit.sets.len())
+                } else {
+                    String::new()
+                },
+                kinds.join(", "),
+                match fit.sigma {
+                    super::fit::SigmaRule::Given => "given",
+                    super::fit::SigmaRule::Estimated => "estimated from the residuals",
+                },
+                self.budget
+            );
+        }
         let to = match self.goal {
             Goal::Refine => format!("to ±{} in the objective", num(self.objective_tolerance)),
             _ => {
@@ -350,19 +395,41 @@ pub const DEFAULT_STARTS: usize = 2;
 pub const MAX_BUDGET: usize = 1_000_000;
 /// Most fields of a minimisation (Nelder–Mead is for a few).
 pub const MAX_MINIMISE_FIELDS: usize = 4;
+/// Most fields of a fit.
+pub const MAX_FIT_FIELDS: usize = 6;
 
 /// A search run at every point of the axes.
 #[derive(Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub(super) struct SearchFile {
     /// What to find.
-    #[schemars(extend("enum" = ["minimise", "minimize", "maximise", "maximize", "root", "refine"]))]
+    #[schemars(extend("enum" = ["minimise", "minimize", "maximise", "maximize", "root", "refine", "fit"]))]
     goal: String,
     /// The continuous fields searched, each within [min, max].
     fields: Vec<FieldFile>,
     /// The quantity searched: a summary `{"summary": NAME, "probe": PROBE}`, or two combined
-    /// `{"ratio" | "difference" | "log_ratio": [summary, summary]}`.
-    objective: Value,
+    /// `{"ratio" | "difference" | "log_ratio": [summary, summary]}` (not for a fit: it compares
+    /// its data).
+    #[serde(default)]
+    objective: Option<Value>,
+    /// A fit's measured data: a list of scalars `{"summary": …, "probe": …, "value": …, "sigma":
+    /// …}` (or a ratio, difference, log_ratio of two summaries), recorded signals `{"signal":
+    /// {"probe": …, "time_s": […] | "path": FILE, "value": […], "sigma": …, "time_shift_s":
+    /// {"min": …, "max": …}, "gain": BOOL, "offset": BOOL, "window_s": [t0, t1]}}` and spectra
+    /// `{"spectrum": {"probe": …, "frequency_hz": […] | "path": FILE, "amplitude" |
+    /// "transmission_db": […], "sigma": …, "phase_rad": […], "phase_sigma_rad": …}}`.
+    #[serde(default)]
+    data: Option<Value>,
+    /// Several data sets (a list of such lists): a fit for each, along a dimension of the output.
+    #[serde(default)]
+    data_sets: Option<Value>,
+    /// The name of the data sets' dimension (default `data_set`).
+    #[serde(default)]
+    data_set_name: Option<String>,
+    /// Whether a fit computes each field's profile likelihood (95 % intervals by re-fitting the
+    /// others; default true).
+    #[serde(default)]
+    profile: Option<bool>,
     /// The objective taken across two values of an axis.
     #[serde(default)]
     across: Option<AcrossFile>,
@@ -513,7 +580,12 @@ fn parse_summary(v: &Value, at: &str, probes: &[String]) -> Result<Summary> {
 }
 
 fn parse_objective(v: &Value, probes: &[String]) -> Result<Objective> {
-    let at = "search.objective";
+    parse_objective_at(v, "search.objective", probes)
+}
+
+/// Reads a summary or a combination of two (an objective, a fit's scalar datum) at `at`, against
+/// the record block's probe names.
+pub(super) fn parse_objective_at(v: &Value, at: &str, probes: &[String]) -> Result<Objective> {
     let Value::Object(m) = v else {
         return Err(bad(at, "must be an object: a summary {\"summary\": …, \"probe\": …}, or {\"ratio\" | \"difference\" | \"log_ratio\": [summary, summary]}"));
     };
@@ -599,17 +671,18 @@ fn check_continuous(base: &Value, field: &str, min: f64, max: f64, at: &str) -> 
 }
 
 /// Reads and checks the `search` block against the normalised `base` scene and the sweep's
-/// dimensions `dims`.
-pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchSpec> {
+/// dimensions `dims` (a fit's data sets add theirs).
+pub(super) fn parse(f: SearchFile, base: &Value, dims: &mut Vec<Dim>) -> Result<SearchSpec> {
     let goal = match f.goal.as_str() {
         "minimise" | "minimize" => Goal::Minimise,
         "maximise" | "maximize" => Goal::Maximise,
         "root" => Goal::Root,
         "refine" => Goal::Refine,
+        "fit" => Goal::Fit,
         other => {
             return Err(bad(
                 "search.goal",
-                format!("`{other}` is none of minimise, maximise, root, refine"),
+                format!("`{other}` is none of minimise, maximise, root, refine, fit"),
             ))
         }
     };
@@ -617,7 +690,26 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         Goal::Root => 1,
         Goal::Refine => 2,
         Goal::Minimise | Goal::Maximise => MAX_MINIMISE_FIELDS,
+        Goal::Fit => MAX_FIT_FIELDS,
     };
+    if goal != Goal::Fit {
+        for (key, given) in [
+            ("data", f.data.is_some()),
+            ("data_sets", f.data_sets.is_some()),
+            ("data_set_name", f.data_set_name.is_some()),
+            ("profile", f.profile.is_some()),
+        ] {
+            if given {
+                return Err(bad(
+                    format!("search.{key}"),
+                    format!(
+                        "only a fit has {key} (this search's goal is {})",
+                        goal.name()
+                    ),
+                ));
+            }
+        }
+    }
     if f.fields.is_empty() || f.fields.len() > most {
         return Err(bad(
             "search.fields",
@@ -657,6 +749,9 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
                 ))
             }
             (Goal::Refine, None) => width * 1e-3,
+            // A fit ends when its steps are statistically negligible; a tolerance, when given,
+            // ends it also once every step is below it.
+            (Goal::Fit, None) => 0.0,
             (_, None) => {
                 return Err(bad(
                     format!("{at}.tolerance"),
@@ -675,7 +770,7 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         // usable there (not `status`, `objective`, …), checked here, not when the file is written.
         super::check_name(&name, &at, &[])?;
         let field_segs = split_path(&ff.field);
-        for d in dims {
+        for d in dims.iter() {
             for a in &d.axes {
                 let a_segs = split_path(&a.field);
                 let n = a_segs.len().min(field_segs.len());
@@ -719,9 +814,30 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         });
     }
     let probes = probe_names(base);
-    let objective = parse_objective(&f.objective, &probes)?;
+    let objective = match (goal, &f.objective) {
+        (Goal::Fit, None) => Objective::ChiSquare,
+        (Goal::Fit, Some(_)) => {
+            return Err(bad(
+                "search.objective",
+                "a fit has no objective: it minimises χ² against its data (search.data)",
+            ))
+        }
+        (_, Some(o)) => parse_objective(o, &probes)?,
+        (_, None) => {
+            return Err(bad(
+                "search.objective",
+                "missing: the quantity searched, a summary {\"summary\": NAME, \"probe\": PROBE} or two combined",
+            ))
+        }
+    };
     let across = match f.across {
         None => None,
+        Some(_) if goal == Goal::Fit => {
+            return Err(bad(
+                "search.across",
+                "a fit compares its runs with data: it takes no objective across an axis",
+            ))
+        }
         Some(a) => {
             let dim = dims
                 .iter()
@@ -807,8 +923,22 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         (Goal::Refine, _) => 3,
         _ => 2,
     };
-    let default_scan = if d == 1 { DEFAULT_SCAN as u64 } else { 5 };
+    let default_scan = match goal {
+        // Quasi-random points of the box, from which the fit starts.
+        Goal::Fit => (4 * d + 2) as u64,
+        _ if d == 1 => DEFAULT_SCAN as u64,
+        _ => 5,
+    };
     let scan: Vec<u64> = match f.scan {
+        // A fit's scan is a number of quasi-random points, not a lattice.
+        None if goal == Goal::Fit => vec![default_scan],
+        Some(ScanFile::Every(n)) if goal == Goal::Fit => vec![n],
+        Some(ScanFile::Each(_)) if goal == Goal::Fit => {
+            return Err(bad(
+                "search.scan",
+                "a fit's scan is one number: the quasi-random points of the box its starts are chosen from",
+            ))
+        }
         None => vec![default_scan; d],
         Some(ScanFile::Every(n)) => vec![n; d],
         Some(ScanFile::Each(list)) if list.len() == d => list,
@@ -822,6 +952,7 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
             ))
         }
     };
+    let min_scan = if goal == Goal::Fit { 1 } else { min_scan };
     if let Some(&n) = scan.iter().find(|&&n| n < min_scan || n > 100_000) {
         return Err(bad(
             "search.scan",
@@ -836,25 +967,36 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
         ));
     }
     let starts = f.starts.unwrap_or(DEFAULT_STARTS as u64);
+    if goal == Goal::Fit && starts > scan[0] {
+        return Err(bad(
+            "search.starts",
+            format!(
+                "{starts} starts cannot be chosen from a scan of {} point(s)",
+                scan[0]
+            ),
+        ));
+    }
     if !(1..=100).contains(&starts) {
         return Err(bad(
             "search.starts",
             format!("must be a whole number from 1 to 100, got {starts}"),
         ));
     }
-    if f.starts.is_some() && !(d > 1 && matches!(goal, Goal::Minimise | Goal::Maximise)) {
+    if f.starts.is_some()
+        && !(goal == Goal::Fit || d > 1 && matches!(goal, Goal::Minimise | Goal::Maximise))
+    {
         return Err(bad(
             "search.starts",
-            "only a minimisation or maximisation over several fields has starting points",
+            "only a fit, or a minimisation or maximisation over several fields, has starting points",
         ));
     }
     let on_failure = match (goal, f.failed.as_deref()) {
-        (Goal::Minimise | Goal::Maximise, None | Some("worst")) => OnFailure::Worst,
+        (Goal::Minimise | Goal::Maximise | Goal::Fit, None | Some("worst")) => OnFailure::Worst,
         (Goal::Root, None) | (_, Some("stop")) => OnFailure::Stop,
         (Goal::Refine, None | Some("gap")) => OnFailure::Gap,
         (_, Some(other)) => {
             let allowed = match goal {
-                Goal::Minimise | Goal::Maximise => "worst, stop",
+                Goal::Minimise | Goal::Maximise | Goal::Fit => "worst, stop",
                 Goal::Root => "stop",
                 Goal::Refine => "gap, stop",
             };
@@ -867,7 +1009,20 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &[Dim]) -> Result<SearchS
             ));
         }
     };
+    let fit = match goal {
+        Goal::Fit => Some(super::fit::parse(
+            f.data.as_ref(),
+            f.data_sets.as_ref(),
+            f.data_set_name.as_deref(),
+            f.profile,
+            base,
+            dims,
+            d,
+        )?),
+        _ => None,
+    };
     let mut spec = SearchSpec {
+        fit,
         goal,
         fields,
         objective,

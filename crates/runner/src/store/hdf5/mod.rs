@@ -32,6 +32,7 @@
 //! (`DIMENSION_LABELS`, which netCDF does not write and xarray would show as an attribute).
 
 pub mod arrays;
+pub mod fit;
 pub mod read;
 pub(crate) mod scales;
 pub mod search;

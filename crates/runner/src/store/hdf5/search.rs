@@ -88,6 +88,8 @@ pub struct SearchTables {
     pub item_status: Vec<u8>,
     /// Flags of the statuses: (search codes, meanings), (item codes, meanings).
     pub flags: [(&'static [u8], &'static str); 2],
+    /// A fit's statistics, data and prediction.
+    pub fit: Option<super::fit::FitTables>,
 }
 
 /// The names the search tables give the file, beside the columns (for the `coordinates` of the

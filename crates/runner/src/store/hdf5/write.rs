@@ -107,6 +107,9 @@ pub fn write_file(
                 .map(|(name, _)| Ok((scale(name)?, name.as_str())))
                 .collect::<Result<Vec<_>>>()?;
             search::write(&file, t, &outer, scale("evaluation")?)?;
+            if let Some(f) = &t.fit {
+                super::fit::write(&file, f, &outer, &t.outer.shape())?;
+            }
             extra_coordinates = search::coordinate_names(t);
         }
         let coordinates = coordinate_names(&dims, &extra_coordinates);

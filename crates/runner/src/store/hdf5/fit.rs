@@ -1,0 +1,150 @@
+//! What a fit adds to its output file, beside a search's tables: the answer's statistics over the
+//! outer axes (intervals, covariance and correlation over two field dimensions, χ² and its
+//! p-value, warnings), each field's profile, the nuisance parameters of recorded signals, and
+//! the data with the best fit's prediction and residuals over dimensions of their own (a signal
+//! over its instants, a spectrum over its frequencies, the scalars over `scalar_datum`).
+//!
+//! The tables are a list of variables over the outer axes and further dimensions
+//! ([`FitTables`]); the engine fills them, this module writes them as CF variables.
+
+use hdf5::{Dataset, File};
+
+use super::{
+    attach_scale, attr_str, attr_vec, char_dataset, checked_dataset, filled_checked_dataset,
+    set_scale, Text,
+};
+use crate::error::Result;
+
+/// A dimension of a fit's tables, with its coordinate.
+#[derive(Debug, Clone)]
+pub struct FitDim {
+    /// Its name (and its coordinate's).
+    pub name: String,
+    /// Coordinate values.
+    pub values: Vec<f64>,
+    /// Their unit.
+    pub units: String,
+    /// What they are.
+    pub long_name: String,
+}
+
+/// A variable's values.
+#[derive(Debug, Clone)]
+pub enum FitData {
+    /// Numbers (NaN: none).
+    F64(Vec<f64>),
+    /// Counts (-1: none).
+    I64(Vec<i64>),
+    /// Flags, with their meanings: (values, meanings).
+    Flags(Vec<u8>, &'static [u8], &'static str),
+    /// Texts.
+    Text(Vec<String>),
+}
+
+/// A variable of a fit's tables.
+#[derive(Debug, Clone)]
+pub struct FitVar {
+    /// Its name.
+    pub name: String,
+    /// Whether it spans the outer axes (first).
+    pub outer: bool,
+    /// The further dimensions it spans (indices into [`FitTables::dims`]).
+    pub dims: Vec<usize>,
+    /// Its values, row-major.
+    pub data: FitData,
+    /// Its unit (`None`: it has none, a text or values of several units).
+    pub units: Option<String>,
+    /// What it is.
+    pub long_name: String,
+}
+
+/// Everything a fit adds to its file.
+#[derive(Debug, Clone, Default)]
+pub struct FitTables {
+    /// Its own dimensions.
+    pub dims: Vec<FitDim>,
+    /// Its variables.
+    pub vars: Vec<FitVar>,
+}
+
+impl FitTables {
+    /// Adds a dimension; its index.
+    pub fn dim(&mut self, name: &str, values: Vec<f64>, units: &str, long_name: &str) -> usize {
+        self.dims.push(FitDim {
+            name: name.into(),
+            values,
+            units: units.into(),
+            long_name: long_name.into(),
+        });
+        self.dims.len() - 1
+    }
+
+    /// Adds a variable.
+    pub fn var(
+        &mut self,
+        name: &str,
+        outer: bool,
+        dims: &[usize],
+        data: FitData,
+        units: Option<&str>,
+        long_name: &str,
+    ) {
+        self.vars.push(FitVar {
+            name: name.into(),
+            outer,
+            dims: dims.to_vec(),
+            data,
+            units: units.map(str::to_string),
+            long_name: long_name.into(),
+        });
+    }
+}
+
+/// Writes the tables `t` into `file`, its variables over the outer axes attached to their
+/// scales `outer` (with their shape `outer_shape`).
+pub fn write(
+    file: &File,
+    t: &FitTables,
+    outer: &[(&Dataset, &str)],
+    outer_shape: &[usize],
+) -> Result<()> {
+    let mut scales = Vec::new();
+    for d in &t.dims {
+        let s = checked_dataset(file, &d.name, &[d.values.len()], &d.values)?;
+        set_scale(&s, &d.name)?;
+        attr_str(&s, "units", &d.units)?;
+        attr_str(&s, "long_name", &d.long_name)?;
+        scales.push(s);
+    }
+    for v in &t.vars {
+        let mut shape = if v.outer {
+            outer_shape.to_vec()
+        } else {
+            Vec::new()
+        };
+        let mut attach: Vec<(&Dataset, &str)> = if v.outer { outer.to_vec() } else { Vec::new() };
+        for &k in &v.dims {
+            shape.push(t.dims[k].values.len());
+            attach.push((&scales[k], t.dims[k].name.as_str()));
+        }
+        let d = match &v.data {
+            FitData::F64(x) => filled_checked_dataset(file, &v.name, &shape, x, f64::NAN)?,
+            FitData::I64(x) => filled_checked_dataset(file, &v.name, &shape, x, -1i64)?,
+            FitData::Flags(x, values, meanings) => {
+                let d = checked_dataset(file, &v.name, &shape, x)?;
+                attr_vec(&d, "flag_values", values)?;
+                attr_str(&d, "flag_meanings", meanings)?;
+                d
+            }
+            FitData::Text(x) => char_dataset(file, &v.name, &shape, x, None, Text::Free)?.data,
+        };
+        for (k, (s, name)) in attach.iter().enumerate() {
+            attach_scale(&d, s, k, name)?;
+        }
+        if let Some(u) = &v.units {
+            attr_str(&d, "units", u)?;
+        }
+        attr_str(&d, "long_name", &v.long_name)?;
+    }
+    Ok(())
+}
