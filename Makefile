@@ -213,11 +213,12 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 # Chains beyond the paper's (docs/CHAINS.md): every sweep of sweeps/examples/ into
 # results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
 # attenuation table of the delta-force dimer; the search examples (docs/SEARCHES.md) drawn with
-# their points and the minima and roots they found. About 15 s on two cores.
+# their points and the minima and roots they found; the fits with their data, residuals and
+# profiles. About 30 s on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum \
   plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down \
-  dimer-transmission load-cell-impact
+  dimer-transmission load-cell-impact fit-damping fit-striker-velocity fit-signal fit-spectrum
 
 # The reference renderings the docs show, docs/figures/ (tracked; results/ is not): each of them
 # copied from results/ where `make figures`, `make examples` or `make accuracy` has drawn it.

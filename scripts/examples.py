@@ -504,6 +504,77 @@ def load_cell_impact():
         fig.tight_layout()
         savefig(fig, "examples/load-cell-impact")
 
+def fit_figure(name: str):
+    """A fit: the data with their error bars and the best fit's prediction (per signal, spectrum
+    and the scalars), the normalised residuals beneath, and each field's profile likelihood with
+    its 95 % threshold and intervals."""
+    with open_search(name) as ds:
+        fields = [str(f) for f in ds.fit_field_name.values]
+        blocks = []
+        if "scalar_datum" in ds.dims:
+            labels = [str(n) for n in ds.scalar_datum_name.values]
+            blocks.append(("scalar", np.arange(len(labels)), labels, "datum"))
+        for v in ds.data_vars:
+            if v.endswith("_data") and v != "scalar_data":
+                prefix = v[: -len("_data")]
+                dim = ds[v].dims[-1]
+                x = np.asarray(ds[dim].values, dtype=float)
+                blocks.append((prefix, x, None, dim))
+        cols = len(blocks) + len(fields)
+        fig, axes = plt.subplots(2, cols, figsize=(4.2 * cols, 6), squeeze=False,
+                                 gridspec_kw={"height_ratios": [3, 1]})
+        for k, (prefix, x, labels, dim) in enumerate(blocks):
+            ax, rax = axes[0][k], axes[1][k]
+            d = np.ravel(ds[f"{prefix}_data"].values)
+            s = np.ravel(ds[f"{prefix}_sigma"].values)
+            m = np.ravel(ds[f"{prefix}_model"].values)
+            nr = np.ravel(ds[f"{prefix}_normalised_residual"].values)
+            scale = 1e6 if dim.endswith("_time_s") else (1e-3 if dim.endswith("_frequency_hz") else 1)
+            xs = x * scale
+            if np.isfinite(s).any():
+                ax.errorbar(xs, d, yerr=s, fmt="o", ms=3, capsize=2, label="data ± σ")
+            else:
+                ax.plot(xs, d, "o", ms=3, label="data (σ estimated)")
+            ax.plot(xs, m, "-" if labels is None else "x", color="C3", label="best fit")
+            units = ds[f"{prefix}_data"].attrs.get("units", "")
+            ax.set_ylabel(f"{prefix} ({units})" if units else prefix)
+            ax.set_title(ds[f"{prefix}_data"].attrs.get("long_name", prefix).split(":")[0], fontsize=9)
+            ax.legend(fontsize=7, loc="upper right")
+            rax.axhline(0, color="k", lw=0.5)
+            rax.plot(xs, nr, "o", ms=3)
+            rax.set_ylabel("residual / σ")
+            if labels is not None:
+                rax.set_xticks(xs, labels, rotation=20, fontsize=7)
+                ax.set_xticks(xs, labels, rotation=20, fontsize=7)
+            else:
+                rax.set_xlabel({1e6: "time (µs)", 1e-3: "frequency (kHz)"}.get(scale, dim))
+        chi_min = float(ds.fit_chi_square)
+        for j, f in enumerate(fields):
+            ax = axes[0][len(blocks) + j]
+            axes[1][len(blocks) + j].axis("off")
+            px = np.ravel(ds[f"fit_{f}_profile_value"].values)
+            pc = np.ravel(ds[f"fit_{f}_profile_chi_square"].values)
+            keep = np.isfinite(px) & np.isfinite(pc)
+            x0 = float(np.ravel(ds[f"fit_{f}"].values)[0])
+            se = float(ds[f"fit_{f}_standard_error"])
+            if keep.any():
+                ax.plot(px[keep], pc[keep] - chi_min, "o", label="profile (fits of the others)")
+            grid = np.linspace(x0 - 3 * se, x0 + 3 * se, 101)
+            ax.plot(grid, ((grid - x0) / se) ** 2, "--", color="0.5", label="linearised")
+            ax.axhline(3.84, color="C3", lw=0.8, label="95 % threshold")
+            for end in ("lower", "upper"):
+                ax.axvline(float(ds[f"fit_{f}_profile_{end}"]), color="C2", lw=0.8)
+            ax.set_xlabel(f)
+            ax.set_ylabel("Δχ²")
+            ax.set_ylim(0, 8)
+            ax.set_title(f"{f} = {x0:.4g} ± {se:.2g}", fontsize=9)
+            ax.legend(fontsize=7, loc="upper right")
+        fig.suptitle(f"{name}: χ² = {chi_min:.3g} for {int(ds.fit_dof)} degrees of freedom, "
+                     f"{int(ds.search_runs)} runs", fontsize=10)
+        fig.tight_layout()
+        savefig(fig, f"examples/{name}")
+
+
 PLOTS = {
     "trimer": trimer,
     "tapered": tapered,
@@ -522,6 +593,7 @@ PLOTS = {
     "driven-sweep-up-down": driven_sweep_up_down,
     "dimer-transmission": dimer_transmission,
     "load-cell-impact": load_cell_impact,
+    **{n: (lambda n=n: fit_figure(n)) for n in ("fit-damping", "fit-striker-velocity", "fit-signal", "fit-spectrum")},
 }
 
 

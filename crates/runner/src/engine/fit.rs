@@ -33,16 +33,10 @@ pub fn tables(
     let p = spec.fields.len();
     let by_outer: HashMap<usize, &Search> = searches.iter().map(|s| (s.outer, s)).collect();
     let mut t = FitTables::default();
-    let field_dim = t.dim(
-        "fit_field",
-        (0..p).map(|k| k as f64).collect(),
-        "1",
-        "index of a fitted field (fit_field_name)",
-    );
-    let field_dim2 = t.dim(
+    let field_dim = t.index_dim("fit_field", p, "index of a fitted field (fit_field_name)");
+    let field_dim2 = t.index_dim(
         "fit_field_2",
-        (0..p).map(|k| k as f64).collect(),
-        "1",
+        p,
         "index of a fitted field, the second of a pair (fit_field_name)",
     );
     t.var(
@@ -252,10 +246,9 @@ pub fn tables(
         None,
         "what the fit's answer must be read with: unidentifiable combinations, strong correlations, bounds, other minima, a poor fit",
     );
-    let pdim = t.dim(
+    let pdim = t.index_dim(
         "profile_point",
-        (0..points).map(|k| k as f64).collect(),
-        "1",
+        points,
         "point of a field's profile likelihood, in increasing value of the field",
     );
     for (k, f) in spec.fields.iter().enumerate() {
@@ -424,10 +417,9 @@ pub fn tables(
         );
     };
     if !scalars.is_empty() {
-        let dim = t.dim(
+        let dim = t.index_dim(
             "scalar_datum",
-            (0..scalars.len()).map(|k| k as f64).collect(),
-            "1",
+            scalars.len(),
             "measured scalar (scalar_datum_name)",
         );
         t.var(

@@ -1035,7 +1035,13 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &mut Vec<Dim>) -> Result<
         on_failure,
         starts: starts as usize,
     };
-    let budget = f.budget.unwrap_or(DEFAULT_BUDGET as u64);
+    // A fit's default: room for its scan, its starts' iterations and its profiles, in
+    // evaluations, each of the runs it takes (a spectrum's frequencies).
+    let default_budget = match goal {
+        Goal::Fit => ((60 + 40 * spec.fields.len()) * spec.runs_per_evaluation()).min(MAX_BUDGET),
+        _ => DEFAULT_BUDGET,
+    };
+    let budget = f.budget.unwrap_or(default_budget as u64);
     let first = spec
         .scan_evaluations()
         .saturating_mul(spec.runs_per_evaluation());
@@ -1051,7 +1057,10 @@ pub(super) fn parse(f: SearchFile, base: &Value, dims: &mut Vec<Dim>) -> Result<
             format!(
                 "{budget} runs do not cover the first scan: {} point(s){} take {first} runs (lower `scan` or raise the budget)",
                 spec.scan_evaluations(),
-                if spec.across.is_some() { " of two runs each" } else { "" }
+                match spec.runs_per_evaluation() {
+                    1 => String::new(),
+                    k => format!(" of {k} runs each"),
+                }
             ),
         ));
     }

@@ -486,21 +486,15 @@ pub fn replay(
     (outcome, asked)
 }
 
-/// The best evaluation known so far (any stream): its place, fields and χ².
-fn best_known(cx: &Ctx, known: &[Vec<Residuals>]) -> Option<(usize, usize, f64)> {
-    let mut best: Option<(usize, usize, f64)> = None;
-    for (st, v) in known.iter().enumerate() {
-        for (i, e) in v.iter().enumerate() {
-            if let Some(e) = e {
-                let c = chi_square(&e.residual);
-                if c.is_finite() && best.map_or(true, |b| c < b.2) {
-                    best = Some((st, i, c));
-                }
-            }
-        }
-    }
-    let _ = cx;
-    best
+/// The lowest χ² known so far (any stream).
+fn best_known(known: &[Vec<Residuals>]) -> Option<f64> {
+    known
+        .iter()
+        .flatten()
+        .flatten()
+        .map(|e| chi_square(&e.residual))
+        .filter(|c| c.is_finite())
+        .min_by(f64::total_cmp)
 }
 
 fn outcome(
@@ -521,18 +515,13 @@ fn outcome(
 fn run(cx: &Ctx, fit: &FitSpec, s: &mut Streams<Residuals>, known: &[Vec<Residuals>]) -> Outcome {
     let p = cx.p();
     let spec = cx.spec;
-    let running = |s: &Streams<Residuals>| -> Outcome {
-        let _ = s;
-        let items = match best_known(cx, known) {
-            Some((_, _, c)) => vec![Item {
-                x: Vec::new(),
-                uncertainty: Vec::new(),
-                value: Some(c),
-                status: ItemStatus::Open,
-            }],
-            None => Vec::new(),
+    // (While it runs, the best χ² so far is its note; the item comes with the answer.)
+    let running = |_: &Streams<Residuals>| -> Outcome {
+        let note = match best_known(known) {
+            Some(c) => format!("lowest chi_square so far {}", significant(c, 5)),
+            None => String::new(),
         };
-        outcome(SearchStatus::Running, items, String::new(), None)
+        outcome(SearchStatus::Running, Vec::new(), note, None)
     };
     // 1. The scan.
     let scan = scan_points(spec.scan[0], p);
@@ -815,7 +804,9 @@ fn run(cx: &Ctx, fit: &FitSpec, s: &mut Streams<Residuals>, known: &[Vec<Residua
         answer.join(", "),
         significant(st.chi_square, 5),
         st.dof,
-        if cx.estimated {
+        if st.dof == 0 {
+            " (as many data as fitted parameters: no test of the fit)".to_string()
+        } else if cx.estimated {
             format!(
                 " (sigma estimated from the residuals: {})",
                 significant(st.scale.sqrt(), 4)
@@ -934,8 +925,10 @@ fn profile_side(
         others_from = fitted.u.clone();
         others_theta = theta;
         if (d - target).abs() <= 0.01 * target {
+            // (√Δχ² is nearly linear in θ: the secant from the minimum puts the end on the
+            // threshold itself.)
             return Some(SideEnd {
-                end: theta,
+                end: (x[k] + (theta - x[k]) * target / d).clamp(f.min, f.max),
                 open: false,
                 points,
                 lower_found,

@@ -26,6 +26,8 @@ pub struct FitDim {
     pub units: String,
     /// What they are.
     pub long_name: String,
+    /// Whether the values are indices (written as integers).
+    pub index: bool,
 }
 
 /// A variable's values.
@@ -75,6 +77,19 @@ impl FitTables {
             values,
             units: units.into(),
             long_name: long_name.into(),
+            index: false,
+        });
+        self.dims.len() - 1
+    }
+
+    /// Adds a dimension of `n` indices (0, 1, …); its index.
+    pub fn index_dim(&mut self, name: &str, n: usize, long_name: &str) -> usize {
+        self.dims.push(FitDim {
+            name: name.into(),
+            values: (0..n).map(|k| k as f64).collect(),
+            units: "1".into(),
+            long_name: long_name.into(),
+            index: true,
         });
         self.dims.len() - 1
     }
@@ -110,8 +125,14 @@ pub fn write(
 ) -> Result<()> {
     let mut scales = Vec::new();
     for d in &t.dims {
-        let s = checked_dataset(file, &d.name, &[d.values.len()], &d.values)?;
+        let s = if d.index {
+            let ids: Vec<i64> = (0..d.values.len() as i64).collect();
+            checked_dataset(file, &d.name, &[ids.len()], &ids)?
+        } else {
+            checked_dataset(file, &d.name, &[d.values.len()], &d.values)?
+        };
         set_scale(&s, &d.name)?;
+        attr_str(&s, "dimension", &d.name)?;
         attr_str(&s, "units", &d.units)?;
         attr_str(&s, "long_name", &d.long_name)?;
         scales.push(s);
