@@ -124,7 +124,11 @@ def main() -> int:
     args = ap.parse_args()
 
     sweeps = REPO / "sweeps"
-    replace_tree(PACKAGE / "sweeps", {p.relative_to(sweeps): p for p in sweeps.rglob("*.json")})
+    # (A fit's data files beside its sweep file: the examples read them by relative path.)
+    replace_tree(
+        PACKAGE / "sweeps",
+        {p.relative_to(sweeps): p for p in sweeps.rglob("*") if p.suffix in (".json", ".csv")},
+    )
     docs = {Path(p.name): p for p in sorted((REPO / "docs").iterdir()) if p.suffix in (".md", ".json")}
     docs[Path("README-sweeps.md")] = REPO / "crates" / "runner" / "README-sweeps.md"
     replace_tree(PACKAGE / "docs", docs)

@@ -116,6 +116,9 @@ KINDS = {
     "fields": (fields, [], 0),
     "text-axes": (text_and_boolean_axes, [], 0),
     "search": (None, [], 0),
+    # Fits: their statistics, profiles, data and prediction over dimensions of their own.
+    "fit": (REPO / "sweeps" / "examples" / "fit-damping.json", [], 0),
+    "fit-signal": (REPO / "sweeps" / "examples" / "fit-signal.json", [], 0),
 }
 
 
@@ -126,6 +129,8 @@ def files(tmp_path_factory, binary):
     for name, (make, extra, rc) in KINDS.items():
         if make is None:
             path = REPO / "sweeps" / "examples" / "critical-damping-root.json"
+        elif isinstance(make, Path):
+            path = make
         else:
             path = write_sweep(d / f"{name}.json", make())
         out[name] = d / f"{name}.h5"
@@ -180,7 +185,7 @@ def test_cfchecker_finds_no_error_and_no_warning(files, tables, tmp_path, kind):
     assert not messages(report, "ERROR") and not messages(report, "WARN"), report
     assert r.returncode == 0, report
     infos = messages(report, "INFO")
-    if kind == "search":
+    if kind in ("search", "fit", "fit-signal"):
         assert {v for v, _ in infos} <= SEARCH_OBJECTIVES, report
     else:
         assert not infos, report

@@ -430,3 +430,17 @@ def test_a_fit_killed_four_times_ends_bitwise_and_jobs_do_not_matter(tmp_path):
     # --dry-run states the budget.
     d = run("run", path, "-o", tmp_path / "dry.h5", "--dry-run")
     assert d.returncode == 0 and "fit" in (d.stdout + d.stderr), d.stdout + d.stderr
+
+
+def test_chainsweep_sweep_runs_a_fit_from_the_installed_examples(tmp_path):
+    # The installed example reads its recording beside it, as the command line does.
+    path = chainsweep.example_path("examples/fit-signal")
+    assert (path.parent / "fit-signal-gauge5.csv").exists()
+    res = chainsweep.sweep(path, tmp_path / "fit.h5", jobs=2, progress=False)
+    assert res.exit_code == 0
+    ds = chainsweep.open(res.path)
+    x = float(ds.fit_damping_kg_s.values.ravel()[0])
+    lo, hi = float(ds.fit_damping_kg_s_profile_lower), float(ds.fit_damping_kg_s_profile_upper)
+    # The recordings were made at 6 kg/s.
+    assert lo <= 6.0 <= hi and lo < x < hi
+    assert ds.signal_gauge_force_cyl5_time_s.size == 76

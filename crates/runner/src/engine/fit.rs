@@ -182,13 +182,23 @@ pub fn tables(
             &format!("which ends of the profile interval of {name} are the bounds of its interval (the data do not bound it there)"),
         );
     }
+    // (One unit when the fields share one; else element (i, j) is in field i's unit times
+    // field j's, which no one unit attribute can say.)
+    let shared = spec
+        .fields
+        .iter()
+        .all(|f| f.units == spec.fields[0].units)
+        .then(|| match spec.fields[0].units.as_str() {
+            "1" => "1".to_string(),
+            u => format!("({u})^2"),
+        });
     t.var(
         "fit_covariance",
         true,
         &[field_dim, field_dim2],
         FitData::F64(cov),
-        None,
-        "covariance of the fitted fields (the product of their units; infinite along combinations the data do not determine)",
+        shared.as_deref(),
+        "covariance of the fitted fields (element (i, j) in the unit of field i times that of field j; infinite along combinations the data do not determine)",
     );
     t.var(
         "fit_correlation",
@@ -222,12 +232,22 @@ pub fn tables(
         Some("1"),
         "probability of a chi-square at least as large if the model and sigma are right (NaN when sigma is estimated)",
     );
+    // With σ estimated, every datum shares a unit (checked when the sweep is read): the
+    // estimate's.
+    let sigma_units = match fit.sigma {
+        SigmaRule::Given => "1".to_string(),
+        SigmaRule::Estimated => match &set0.data[0] {
+            Datum::Scalar(s) => s.quantity.units(&driver.grid.probes).unwrap_or("1").to_string(),
+            Datum::Signal(s) => s.units.to_string(),
+            Datum::Spectrum(s) => s.units.to_string(),
+        },
+    };
     t.var(
         "fit_sigma_scale",
         true,
         &[],
         FitData::F64(scale.clone()),
-        None,
+        Some(&sigma_units),
         "sqrt(chi_square/dof) when sigma is estimated: the estimated sigma of every datum, in their unit; 1 when sigma is given",
     );
     t.var(
