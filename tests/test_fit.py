@@ -444,3 +444,26 @@ def test_chainsweep_sweep_runs_a_fit_from_the_installed_examples(tmp_path):
     # The recordings were made at 6 kg/s.
     assert lo <= 6.0 <= hi and lo < x < hi
     assert ds.signal_gauge_force_cyl5_time_s.size == 76
+
+
+def test_fits_of_data_sets_split_into_shards_merge_into_the_single_run(tmp_path):
+    peaks = true_peaks()
+    sigma = 0.02 * peaks
+    sets = [peak_data(peaks + sigma * np.random.default_rng(50 + k).standard_normal(len(peaks)), sigma)
+            for k in range(4)]
+    spec = two_field_fit({"data_sets": sets, "profile": False})
+    path = write_sweep(tmp_path / "sets.json", spec)
+    whole = tmp_path / "whole.h5"
+    assert run("run", path, "-o", whole, "--quiet").returncode == 0
+    parts = [tmp_path / f"part{k}.h5" for k in (1, 2)]
+    for k, p in enumerate(parts, 1):
+        r = run("run", path, "-o", p, "--shard", f"{k}/2", "--quiet")
+        assert r.returncode == 0, r.stderr
+    merged = tmp_path / "merged.h5"
+    r = run("merge", *parts, "-o", merged)
+    assert r.returncode == 0, r.stderr
+    a, b = xr.open_dataset(whole), xr.open_dataset(merged)
+    fit_vars = [v for v in a.data_vars if v.startswith(("fit_", "scalar_", "search_"))]
+    assert len(fit_vars) > 20
+    for v in fit_vars:
+        assert a[v].equals(b[v]), v
