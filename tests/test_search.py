@@ -23,8 +23,8 @@ from conftest import BIN, REPO, assert_files_equal, run, segment_count, write_sw
 EXAMPLES = REPO / "sweeps" / "examples"
 SPHERE_MASS_KG = 0.002085  # the δ-force dimer's sphere: ε = m_cylinder / SPHERE_MASS_KG
 # search_status / item status codes (flag_values of the output file)
-SEARCH_STATUS = "pending running converged budget not_found failed_run stalled".split()
-ITEM_STATUS = "none converged open at_bound stalled failed_run".split()
+SEARCH_STATUS = "pending running converged budget not_found failed_run stalled unidentifiable".split()
+ITEM_STATUS = "none converged open at_bound stalled failed_run unidentifiable".split()
 
 
 def example(name: str) -> dict:
