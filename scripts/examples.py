@@ -537,7 +537,7 @@ def fit_figure(name: str):
                 ax.plot(xs, d, "o", ms=3, label="data (σ estimated)")
             ax.plot(xs, m, "-" if labels is None else "x", color="C3", label="best fit")
             units = ds[f"{prefix}_data"].attrs.get("units", "")
-            ax.set_ylabel(f"{prefix} ({units})" if units else prefix)
+            ax.set_ylabel(units or "value")
             ax.set_title(ds[f"{prefix}_data"].attrs.get("long_name", prefix).split(":")[0], fontsize=9)
             ax.legend(fontsize=7, loc="upper right")
             rax.axhline(0, color="k", lw=0.5)
@@ -569,6 +569,16 @@ def fit_figure(name: str):
             ax.set_ylim(0, 8)
             ax.set_title(f"{f} = {x0:.4g} ± {se:.2g}", fontsize=9)
             ax.legend(fontsize=7, loc="upper right")
+        # One legend for the figure: the data panels' entries, then the profiles'.
+        handles, labels = [], []
+        for ax in axes[0]:
+            for h, lab in zip(*ax.get_legend_handles_labels()):
+                if lab not in labels:
+                    handles.append(h)
+                    labels.append(lab)
+            if ax.get_legend() is not None:
+                ax.get_legend().remove()
+        fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=7, frameon=False)
         fig.suptitle(f"{name}: χ² = {chi_min:.3g} for {int(ds.fit_dof)} degrees of freedom, "
                      f"{int(ds.search_runs)} runs", fontsize=10)
         fig.tight_layout()
