@@ -134,9 +134,14 @@ def test_two_fields_from_four_gauges_are_recovered_within_their_intervals(tmp_pa
     o = chainsweep.open(out)
     assert np.allclose(o.fit_covariance.values, cov, rtol=0, atol=0)
     assert float(o.fit_p_value) == float(ds.fit_p_value)
-    # status gives the answer with its uncertainty.
+    # status gives the answer with its uncertainty and intervals, in words and in JSON.
     st = run("status", out)
     assert "damping_kg_s = " in st.stdout and "±" in st.stdout and "profile" in st.stdout, st.stdout
+    js = json.loads(run("status", out, "--json").stdout)
+    got = js["searches"][0]["answers"][0]["fields"]["damping_kg_s"]
+    assert got["linear_95"] == [float(ds.fit_damping_kg_s_lower), float(ds.fit_damping_kg_s_upper)]
+    assert got["profile_95"] == [float(ds.fit_damping_kg_s_profile_lower), float(ds.fit_damping_kg_s_profile_upper)]
+    assert got["uncertainty"] == float(ds.fit_damping_kg_s_standard_error)
 
 
 def test_linearised_intervals_cover_the_truth_in_88_to_99_percent_of_100_draws(tmp_path):
@@ -217,6 +222,8 @@ def test_a_gauge_signal_with_unknown_shift_and_gain(tmp_path):
     assert np.allclose(ds[f"{name}_time_s"].values, tau, rtol=1e-15)
     assert np.allclose(ds[f"{name}_data"].values, value)
     assert np.allclose(ds[f"{name}_residual"], ds[f"{name}_model"] - ds[f"{name}_data"], atol=1e-9)
+    # The history (50 ns) resolves the 1 us samples: its interpolation error is far below sigma.
+    assert 0 < float(ds[f"{name}_interpolation_error"]) < 0.01 * noise
     # The file keeps the data themselves: the sweep text holds them, not the path.
     assert "gauge5.csv" not in ds.attrs["sweep"]
     assert int(ds.fit_dof) == 50 - 1 - 2

@@ -169,7 +169,17 @@ fn searches(lines: &Option<Vec<SearchLine>>) -> Value {
                             let fields: Map<String, Value> = a
                                 .fields
                                 .iter()
-                                .map(|(n, x, u)| (n.clone(), json!({"value": x, "uncertainty": u})))
+                                .enumerate()
+                                .map(|(k, (n, x, u))| {
+                                    let mut v = json!({"value": x, "uncertainty": u});
+                                    // A fit's intervals (NaN, not computed, as null).
+                                    if let Some([lin, prof]) = a.intervals.get(k) {
+                                        let num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+                                        v["linear_95"] = json!([num(lin[0]), num(lin[1])]);
+                                        v["profile_95"] = json!([num(prof[0]), num(prof[1])]);
+                                    }
+                                    (n.clone(), v)
+                                })
                                 .collect();
                             json!({"item": a.item, "fields": fields, "objective": a.objective, "status": a.status})
                         })

@@ -77,6 +77,12 @@ pub fn tables(
     let mut data = vec![f64::NAN; n * rows];
     let mut sigma = vec![f64::NAN; n * rows];
     let mut predicted = vec![f64::NAN; n * rows];
+    let signals = set0
+        .data
+        .iter()
+        .filter(|d| matches!(d, Datum::Signal(_)))
+        .count();
+    let mut interp = vec![f64::NAN; n * signals];
     for o in 0..n {
         let set = &fit.sets[driver.data_set(o)];
         let (v, s) = model::data_rows(set);
@@ -134,6 +140,45 @@ pub fn tables(
         let refs: Vec<Option<&RunRecord>> = records.iter().map(Option::as_ref).collect();
         if let Ok(pr) = model::predict(fit, set, &refs) {
             predicted[o * rows..(o + 1) * rows].copy_from_slice(&pr.model);
+        }
+        // How well the histories resolve the signals, at the best fit.
+        let (mut shifts, mut gains) = (Vec::new(), Vec::new());
+        let mut at = 0;
+        for d in &set.data {
+            let Datum::Signal(sg) = d else { continue };
+            let names = sg.nuisance_names();
+            let get = |what: &str| {
+                names
+                    .iter()
+                    .position(|n| *n == what)
+                    .map(|i| f.nuisance[at + i].0)
+            };
+            shifts.push(get("time_shift_s").unwrap_or(0.0));
+            gains.push(get("gain").unwrap_or(1.0));
+            at += names.len();
+        }
+        let errors =
+            model::interpolation_errors(set, refs.first().copied().flatten(), &shifts, &gains);
+        let mut k = 0;
+        for d in &set.data {
+            let Datum::Signal(sg) = d else { continue };
+            let e = errors[k];
+            interp[o * signals + k] = e;
+            k += 1;
+            // Beside σ (or the estimated σ), an interpolation error above a tenth of it is told.
+            let sigma = match &sg.sigma {
+                Some(s) => s.iter().copied().fold(f64::INFINITY, f64::min),
+                None => st.scale.sqrt(),
+            };
+            if e > 0.1 * sigma {
+                if !warning[o].is_empty() {
+                    warning[o].push_str("; ");
+                }
+                warning[o].push_str(&format!(
+                    "{}: interpolating the history at the data instants errs by up to {e:.3e} {}, more than a tenth of sigma: lower record.history_interval_s",
+                    sg.name, sg.units
+                ));
+            }
         }
     }
     for (k, f) in spec.fields.iter().enumerate() {
@@ -237,7 +282,11 @@ pub fn tables(
     let sigma_units = match fit.sigma {
         SigmaRule::Given => "1".to_string(),
         SigmaRule::Estimated => match &set0.data[0] {
-            Datum::Scalar(s) => s.quantity.units(&driver.grid.probes).unwrap_or("1").to_string(),
+            Datum::Scalar(s) => s
+                .quantity
+                .units(&driver.grid.probes)
+                .unwrap_or("1")
+                .to_string(),
             Datum::Signal(s) => s.units.to_string(),
             Datum::Spectrum(s) => s.units.to_string(),
         },
@@ -290,10 +339,25 @@ pub fn tables(
             &format!("chi-square of the other fields fitted with {name} held at fit_{name}_profile_value"),
         );
     }
-    // Nuisance parameters.
+    // Nuisance parameters, and the interpolation error of each signal.
     let mut i = 0;
-    for d in &set0.data {
-        let Datum::Signal(sg) = d else { continue };
+    for (k, sg) in set0
+        .data
+        .iter()
+        .filter_map(|d| match d {
+            Datum::Signal(s) => Some(s),
+            _ => None,
+        })
+        .enumerate()
+    {
+        t.var(
+            &format!("{}_interpolation_error", sg.name),
+            true,
+            &[],
+            FitData::F64((0..n).map(|o| interp[o * signals + k]).collect()),
+            Some(sg.units),
+            &format!("{}: estimated error of interpolating the probe's history at the data instants, at the best fit (the spline through every second sample against all, over 15)", sg.name),
+        );
         for kind in sg.nuisance_names() {
             let units = match kind {
                 "time_shift_s" => "s",

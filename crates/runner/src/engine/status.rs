@@ -82,6 +82,9 @@ pub struct Answer {
     pub status: &'static str,
     /// The whole in words, as `run` prints it.
     pub text: String,
+    /// A fit's 95 % intervals per field: linearised and profile-likelihood (`[lower, upper]`
+    /// each; NaN where not computed). Empty for other goals.
+    pub intervals: Vec<[[f64; 2]; 2]>,
 }
 
 impl Answer {
@@ -98,6 +101,19 @@ impl Answer {
             objective: it.value,
             status: it.status.name(),
             text: super::search::describe_item(spec, it),
+            intervals: Vec::new(),
+        }
+    }
+
+    /// The answer of a fit, its intervals with it.
+    fn of_fit(
+        spec: &crate::sweep::search::SearchSpec,
+        it: &crate::search::Item,
+        intervals: Vec<[[f64; 2]; 2]>,
+    ) -> Answer {
+        Answer {
+            intervals,
+            ..Answer::of(spec, it)
         }
     }
 }
@@ -206,6 +222,14 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
                     Error::Other(format!("{name}: its search's answers cannot be read: {e}"))
                 })?
                 .unwrap_or_default();
+            let intervals = match spec.goal {
+                crate::sweep::search::Goal::Fit => {
+                    crate::store::hdf5::search::read_fit_intervals(file, &names).map_err(|e| {
+                        Error::Other(format!("{name}: its fit's intervals cannot be read: {e}"))
+                    })?
+                }
+                _ => Vec::new(),
+            };
             let answers = |k: usize| -> Vec<Answer> {
                 found.get(k).map_or_else(Vec::new, |items| {
                     items
@@ -217,7 +241,10 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
                                 value: (!objective.is_nan()).then_some(*objective),
                                 status: crate::search::ItemStatus::from_code(*code)?,
                             };
-                            Some(Answer::of(spec, &it))
+                            Some(match intervals.get(k) {
+                                Some(iv) => Answer::of_fit(spec, &it, iv.clone()),
+                                None => Answer::of(spec, &it),
+                            })
                         })
                         .collect()
                 })
@@ -507,7 +534,25 @@ pub fn of_sweep(
                     .outcome
                     .items
                     .iter()
-                    .map(|it| Answer::of(driver.spec, it))
+                    .map(|it| match &s.outcome.fit {
+                        Some(f) => Answer::of_fit(
+                            driver.spec,
+                            it,
+                            (0..f.x.len())
+                                .map(|k| {
+                                    let p = f.profile.get(k);
+                                    [
+                                        f.linear[k],
+                                        [
+                                            p.map_or(f64::NAN, |p| p.lower),
+                                            p.map_or(f64::NAN, |p| p.upper),
+                                        ],
+                                    ]
+                                })
+                                .collect(),
+                        ),
+                        None => Answer::of(driver.spec, it),
+                    })
                     .collect(),
             });
         }

@@ -141,6 +141,55 @@ pub fn predict(
     })
 }
 
+/// Per recorded signal of `set` (in order), the estimated error of interpolating the probe's
+/// history at the data instants (shifted by `shifts`, one per signal, and scaled by `gains`):
+/// the spline through every second sample against the spline through all, over 15 (the cubic
+/// spline's error falls 16-fold when its interval halves). NaN where the run has no history.
+pub fn interpolation_errors(
+    set: &DataSet,
+    record: Option<&RunRecord>,
+    shifts: &[f64],
+    gains: &[f64],
+) -> Vec<f64> {
+    let mut out = Vec::new();
+    let mut k = 0;
+    for d in &set.data {
+        let Datum::Signal(x) = d else { continue };
+        let (shift, gain) = (
+            shifts.get(k).copied().unwrap_or(0.0),
+            gains.get(k).copied().unwrap_or(1.0),
+        );
+        k += 1;
+        let Some(h) = record.and_then(|r| r.history.as_ref()) else {
+            out.push(f64::NAN);
+            continue;
+        };
+        let Some(y) = h.values.get(x.probe.0) else {
+            out.push(f64::NAN);
+            continue;
+        };
+        let t = &h.time_s;
+        if t.len() < 5 {
+            out.push(f64::NAN);
+            continue;
+        }
+        let half_t: Vec<f64> = t.iter().step_by(2).copied().collect();
+        let half_y: Vec<f64> = y.iter().step_by(2).copied().collect();
+        let (full, half) = (Spline::new(t, y), Spline::new(&half_t, &half_y));
+        let (t0, t1) = (half_t[0], half_t[half_t.len() - 1]);
+        let e = x
+            .time_s
+            .iter()
+            .map(|&ti| {
+                let at = (ti + shift).clamp(t0, t1);
+                (gain * (full.at(at).0 - half.at(at).0)).abs() / 15.0
+            })
+            .fold(0.0, f64::max);
+        out.push(e);
+    }
+    out
+}
+
 /// An angle wrapped into (−π, π].
 fn wrap(a: f64) -> f64 {
     let t = std::f64::consts::TAU;

@@ -321,3 +321,34 @@ pub fn read_items(
             .collect(),
     ))
 }
+
+/// A fit file's 95 % intervals, per outer point and field (in `field_names`' order): linearised
+/// and profile-likelihood, `[lower, upper]` each (NaN where not computed). (Checked by HDF5's
+/// Fletcher-32 as every search table is.)
+pub fn read_fit_intervals(
+    path: &std::path::Path,
+    field_names: &[&str],
+) -> Result<Vec<Vec<[[f64; 2]; 2]>>> {
+    let f = File::open(path)?;
+    let mut per_field = Vec::new();
+    for name in field_names {
+        let mut four = Vec::new();
+        for end in ["lower", "upper", "profile_lower", "profile_upper"] {
+            let v = format!("fit_{name}_{end}");
+            if !f.link_exists(&v) {
+                return Ok(Vec::new());
+            }
+            four.push(f.dataset(&v)?.read_raw::<f64>()?);
+        }
+        per_field.push(four);
+    }
+    let n = per_field.first().map_or(0, |v| v[0].len());
+    Ok((0..n)
+        .map(|o| {
+            per_field
+                .iter()
+                .map(|v| [[v[0][o], v[1][o]], [v[2][o], v[3][o]]])
+                .collect()
+        })
+        .collect())
+}
