@@ -432,20 +432,7 @@ pub fn tables(
         let r: Vec<f64> = m
             .iter()
             .zip(&d)
-            .map(|(m, d)| {
-                let e = m - d;
-                if angles {
-                    let tau = std::f64::consts::TAU;
-                    let w = e - tau * (e / tau).round();
-                    if w <= -std::f64::consts::PI {
-                        w + tau
-                    } else {
-                        w
-                    }
-                } else {
-                    e
-                }
-            })
+            .map(|(m, d)| if angles { model::wrap(m - d) } else { m - d })
             .collect();
         let nr: Vec<f64> = r
             .iter()

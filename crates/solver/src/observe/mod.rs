@@ -5,6 +5,7 @@
 
 pub mod flow;
 mod peaks;
+pub use peaks::brent_max;
 pub mod probes;
 pub mod steady;
 

@@ -198,8 +198,8 @@ pub(super) fn maximise(a: f64, b: f64, spacing: f64, mut f: impl FnMut(f64) -> f
 }
 
 /// Brent's localmin (Brent 1973, ch. 5) applied to `−f` on `[lo, hi]`, started at `x` with
-/// `f(x) = fx`: the largest value found and its time.
-fn brent_max(
+/// `f(x) = fx`: the largest value found and where (to rounding, in at most 80 evaluations).
+pub fn brent_max(
     mut lo: f64,
     mut hi: f64,
     x: f64,

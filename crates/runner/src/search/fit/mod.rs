@@ -245,12 +245,12 @@ fn levenberg_marquardt(
 ) -> Option<Fitted> {
     let p = cx.p();
     let free: Vec<usize> = (0..p).filter(|&k| !fixed[k]).collect();
-    let mut u = u0;
+    let u = u0;
     let (pts, mut steps) = fd_batch(cx, &u, &free, known0.is_none());
     let vals = s.eval(stream, &pts)?;
     let base = *asked_so_far;
     *asked_so_far += pts.len();
-    let (mut cur, mut index, fd) = match known0 {
+    let (mut cur, index, fd) = match known0 {
         Some((e, i)) => (Some(e), i, &vals[..]),
         None => (vals[0].clone(), base, &vals[1..]),
     };
@@ -270,56 +270,27 @@ fn levenberg_marquardt(
             index,
         }
     };
-    let Some(mut at) = cur.take() else {
+    let Some(at) = cur.take() else {
         return Some(fail(&u, index, "its starting run failed"));
     };
-    let mut chi2 = chi_square(&at.residual);
-    let mut jac = jacobian(cx, &at, fd, &free, &steps);
-    let mut radius = INITIAL_RADIUS;
-    let end = |u: &[f64],
-               at: &Arc<FitEval>,
-               chi2: f64,
-               jac: Option<(Vec<f64>, Vec<f64>)>,
-               index: usize,
-               status: ItemStatus,
-               note: String| {
-        let (ju, jn) = jac.unwrap_or_default();
-        Fitted {
-            u: u.to_vec(),
-            eval: at.clone(),
-            chi2,
-            ju,
-            jn,
-            status,
-            note,
-            index,
-        }
+    let mut here = Here {
+        chi2: chi_square(&at.residual),
+        jac: jacobian(cx, &at, fd, &free, &steps),
+        u,
+        eval: at,
+        index,
     };
+    let mut radius = INITIAL_RADIUS;
     for _ in 0..MAX_ITERATIONS {
-        let Some((ju, _)) = &jac else {
-            return Some(end(
-                &u,
-                &at,
-                chi2,
-                None,
-                index,
-                ItemStatus::Stalled,
-                "a finite-difference run failed".into(),
-            ));
+        let Some((ju, _)) = &here.jac else {
+            return Some(here.end(ItemStatus::Stalled, "a finite-difference run failed"));
         };
         if free.is_empty() {
-            return Some(end(
-                &u,
-                &at,
-                chi2,
-                jac,
-                index,
-                ItemStatus::Converged,
-                String::new(),
-            ));
+            return Some(here.end(ItemStatus::Converged, ""));
         }
+        let (u, r) = (&here.u, &here.eval.residual);
         // Active set: a field on a bound whose descent points out of the box is held.
-        let (_, g_all) = lm::normal_equations(ju, &at.residual, &free);
+        let (_, g_all) = lm::normal_equations(ju, r, &free);
         let act: Vec<usize> = free
             .iter()
             .enumerate()
@@ -328,7 +299,7 @@ fn levenberg_marquardt(
             })
             .map(|(_, &k)| k)
             .collect();
-        let (a, g) = lm::normal_equations(ju, &at.residual, &act);
+        let (a, g) = lm::normal_equations(ju, r, &act);
         let gn = lm::trust_step(&a, &g, f64::INFINITY);
         let gn_decrease = lm::predicted_decrease(&a, &g, &gn);
         let small_step = act.iter().enumerate().all(|(i, &k)| {
@@ -336,16 +307,8 @@ fn levenberg_marquardt(
             let dx = (gn[i] * cx.width(k)).abs();
             (tol > 0.0 && dx <= tol) || gn[i].abs() <= 1e-7
         });
-        if act.is_empty() || gn_decrease <= cx.converged_below(chi2) || small_step {
-            return Some(end(
-                &u,
-                &at,
-                chi2,
-                jac,
-                index,
-                ItemStatus::Converged,
-                String::new(),
-            ));
+        if act.is_empty() || gn_decrease <= cx.converged_below(here.chi2) || small_step {
+            return Some(here.end(ItemStatus::Converged, ""));
         }
         let d = lm::trust_step(&a, &g, radius);
         let mut trial = u.clone();
@@ -356,67 +319,78 @@ fn levenberg_marquardt(
         let step_norm = dp.norm();
         let predicted = lm::predicted_decrease(&a, &g, &dp);
         if step_norm <= 1e-12 || predicted <= 0.0 {
-            return Some(end(
-                &u,
-                &at,
-                chi2,
-                jac,
-                index,
+            return Some(here.end(
                 ItemStatus::Stalled,
-                "no step lowers the linear model within the box".into(),
+                "no step lowers the linear model within the box",
             ));
         }
         let (pts, new_steps) = fd_batch(cx, &trial, &free, true);
         let vals = s.eval(stream, &pts)?;
         let base = *asked_so_far;
         *asked_so_far += pts.len();
+        // The actual decrease against the predicted one: accept, and size the region by it.
+        let rho = vals[0].as_ref().map_or(f64::NEG_INFINITY, |e| {
+            (here.chi2 - chi_square(&e.residual)) / predicted
+        });
+        if rho > 0.75 {
+            radius = radius.max(2.0 * step_norm);
+        } else if rho < 0.25 {
+            radius = 0.25 * step_norm;
+        }
         match &vals[0] {
             None if cx.stop_on_failure => {
                 return Some(fail(&trial, base, "a run failed (failed: stop)"));
             }
-            Some(e)
-                if chi_square(&e.residual) < chi2 && {
-                    let rho = (chi2 - chi_square(&e.residual)) / predicted;
-                    if rho > 0.75 {
-                        radius = radius.max(2.0 * step_norm);
-                    } else if rho < 0.25 {
-                        radius = 0.25 * step_norm;
-                    }
-                    rho > 1e-4
-                } =>
-            {
-                at = e.clone();
-                chi2 = chi_square(&at.residual);
-                u = trial;
-                index = base;
+            Some(e) if rho > 1e-4 => {
                 steps = new_steps;
-                jac = jacobian(cx, &at, &vals[1..], &free, &steps);
+                here = Here {
+                    chi2: chi_square(&e.residual),
+                    jac: jacobian(cx, e, &vals[1..], &free, &steps),
+                    u: trial,
+                    eval: e.clone(),
+                    index: base,
+                };
             }
-            _ => {
-                radius = 0.25 * step_norm;
-                if radius < 1e-9 {
-                    return Some(end(
-                        &u,
-                        &at,
-                        chi2,
-                        jac,
-                        index,
-                        ItemStatus::Stalled,
-                        "the trust region collapsed: χ² does not fall as the linear model predicts (the runs' noise, or a jump)".into(),
-                    ));
-                }
+            _ if radius < 1e-9 => {
+                return Some(here.end(
+                    ItemStatus::Stalled,
+                    "the trust region collapsed: χ² does not fall as the linear model predicts (the runs' noise, or a jump)",
+                ));
             }
+            _ => {}
         }
     }
-    Some(end(
-        &u,
-        &at,
-        chi2,
-        jac,
-        index,
+    Some(here.end(
         ItemStatus::Stalled,
         format!("not converged in {MAX_ITERATIONS} iterations"),
     ))
+}
+
+/// Where a Levenberg–Marquardt fit stands: its point (unit coordinates), the evaluation there,
+/// χ², the Jacobian (`None`: a difference run failed) and the evaluation's index in its stream.
+struct Here {
+    u: Vec<f64>,
+    eval: Arc<FitEval>,
+    chi2: f64,
+    jac: Option<(Vec<f64>, Vec<f64>)>,
+    index: usize,
+}
+
+impl Here {
+    /// The fit ended here.
+    fn end(self, status: ItemStatus, note: impl Into<String>) -> Fitted {
+        let (ju, jn) = self.jac.unwrap_or_default();
+        Fitted {
+            u: self.u,
+            eval: self.eval,
+            chi2: self.chi2,
+            ju,
+            jn,
+            status,
+            note: note.into(),
+            index: self.index,
+        }
+    }
 }
 
 /// `x` to `digits` significant digits, as text (`6.0652`, `1.23e-7`).

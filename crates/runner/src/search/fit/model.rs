@@ -9,6 +9,8 @@
 //!   transmission in dB against the reference probe) and its phase against the reference
 //!   probe's, wrapped into (−π, π].
 
+use chainsweep_solver::observe::brent_max;
+
 use super::FitEval;
 use crate::record::RunRecord;
 use crate::sweep::fit::{DataSet, Datum, FitSpec, SigmaRule, Signal, Spectrum, SpectrumQuantity};
@@ -191,7 +193,7 @@ pub fn interpolation_errors(
 }
 
 /// An angle wrapped into (−π, π].
-fn wrap(a: f64) -> f64 {
+pub fn wrap(a: f64) -> f64 {
     let t = std::f64::consts::TAU;
     let w = a - t * (a / t).round();
     if w <= -std::f64::consts::PI {
@@ -347,7 +349,8 @@ fn signal(x: &Signal, r: &RunRecord) -> Result<SignalFit, String> {
                 .expect("a grid");
             let lo = grid[j.saturating_sub(1)];
             let hi = grid[(j + 1).min(k)];
-            brent_min(|s| fit_at(s).0, lo, hi, 1e-6 * dt)
+            // (The solver's Brent maximiser, of −χ², from the best grid point.)
+            brent_max(lo, hi, grid[j], -vals[j], &mut |s| -fit_at(s).0).1
         }
     };
     let (_, g, o, m) = fit_at(shift);
@@ -389,84 +392,6 @@ fn signal(x: &Signal, r: &RunRecord) -> Result<SignalFit, String> {
         None => vec![f64::INFINITY; q],
     };
     Ok((model, nu, var))
-}
-
-/// The minimum of `f` in `[a, b]` by Brent's method, to `tol`.
-fn brent_min(f: impl Fn(f64) -> f64, a: f64, b: f64, tol: f64) -> f64 {
-    let golden = 0.381_966_011_250_105_1;
-    let (mut a, mut b) = (a, b);
-    let mut x = a + golden * (b - a);
-    let (mut w, mut v) = (x, x);
-    let mut fx = f(x);
-    let (mut fw, mut fv) = (fx, fx);
-    let (mut d, mut e): (f64, f64) = (0.0, 0.0);
-    for _ in 0..100 {
-        let m = 0.5 * (a + b);
-        let tol1 = tol + 1e-12 * x.abs();
-        let tol2 = 2.0 * tol1;
-        if (x - m).abs() <= tol2 - 0.5 * (b - a) {
-            break;
-        }
-        let mut golden_step = true;
-        if e.abs() > tol1 {
-            let r = (x - w) * (fx - fv);
-            let mut q = (x - v) * (fx - fw);
-            let mut p = (x - v) * q - (x - w) * r;
-            q = 2.0 * (q - r);
-            if q > 0.0 {
-                p = -p;
-            }
-            q = q.abs();
-            if p.abs() < (0.5 * q * e).abs() && p > q * (a - x) && p < q * (b - x) {
-                e = d;
-                d = p / q;
-                let u = x + d;
-                if u - a < tol2 || b - u < tol2 {
-                    d = if x < m { tol1 } else { -tol1 };
-                }
-                golden_step = false;
-            }
-        }
-        if golden_step {
-            e = if x < m { b - x } else { a - x };
-            d = golden * e;
-        }
-        let u = if d.abs() >= tol1 {
-            x + d
-        } else {
-            x + tol1.copysign(d)
-        };
-        let fu = f(u);
-        if fu <= fx {
-            if u < x {
-                b = x;
-            } else {
-                a = x;
-            }
-            v = w;
-            fv = fw;
-            w = x;
-            fw = fx;
-            x = u;
-            fx = fu;
-        } else {
-            if u < x {
-                a = u;
-            } else {
-                b = u;
-            }
-            if fu <= fw || w == x {
-                v = w;
-                fv = fw;
-                w = u;
-                fw = fu;
-            } else if fu <= fv || v == x || v == w {
-                v = u;
-                fv = fu;
-            }
-        }
-    }
-    x
 }
 
 /// A spectrum's model: amplitudes (or transmissions) and, when measured, phases.
@@ -526,12 +451,6 @@ mod tests {
             assert!((v - f64::sin(x)).abs() < 2e-5, "{x}: {v}");
             assert!((d - f64::cos(x)).abs() < 1e-3, "{x}: {d}");
         }
-    }
-
-    #[test]
-    fn brent_finds_a_parabolas_vertex() {
-        let x = brent_min(|x| (x - 0.3).powi(2) + 1.0, -1.0, 2.0, 1e-10);
-        assert!((x - 0.3).abs() < 1e-8, "{x}");
     }
 
     #[test]
