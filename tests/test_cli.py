@@ -206,3 +206,40 @@ def test_man_pages_render_and_cover_every_command(binary, tmp_path):
                           capture_output=True, text=True).stdout
     assert "--retry-failed" in text and "Run again the points whose earlier run failed" in text, text
     assert "0.1.0 (revision" in (tmp_path / "man1" / "chainsweep-run.1").read_text()
+
+
+def test_examples_are_listed_and_copied_from_the_command_alone(binary, tmp_path):
+    # Every sweep file of the repository is listed, by its name under sweeps/.
+    r = run("examples", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    listed = {line.split()[0] for line in r.stdout.splitlines() if line.strip()}
+    shipped = {p.relative_to(REPO / "sweeps").with_suffix("").as_posix() for p in (REPO / "sweeps").rglob("*.json")}
+    assert listed == shipped
+    assert all(len(line) < 160 for line in r.stdout.splitlines())
+    # The help's first example works in an empty folder: the sweep it then validates is there.
+    r = run("examples", "copy", "mass-damping", ".", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert run("validate", "mass-damping.json", cwd=tmp_path).returncode == 0
+    # A fit comes with the recordings it reads, and the copy runs as the original does.
+    d = tmp_path / "fits"
+    r = run("examples", "copy", "fit-signal", d)
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in d.iterdir()) == ["fit-signal-gauge21.csv", "fit-signal-gauge5.csv", "fit-signal.json"]
+    for p in d.iterdir():
+        assert p.read_bytes() == (REPO / "sweeps" / "examples" / p.name).read_bytes()
+    assert run("validate", d / "fit-signal.json").returncode == 0
+    # Nothing is overwritten: a second copy is refused, naming the file, and changes nothing.
+    (d / "fit-signal-gauge5.csv").write_text("mine")
+    r = run("examples", "copy", "examples/fit-signal", d)
+    assert r.returncode == 2 and "exists" in r.stderr, r.stderr
+    assert (d / "fit-signal-gauge5.csv").read_text() == "mine"
+    # An unknown name says which there are.
+    r = run("examples", "copy", "no-such-example", tmp_path / "x")
+    assert r.returncode == 2 and "examples/trimer" in r.stderr, r.stderr
+    assert not (tmp_path / "x").exists()
+    # all: every file, in its folder.
+    r = run("examples", "copy", "all", tmp_path / "all")
+    assert r.returncode == 0, r.stderr
+    copied = {p.relative_to(tmp_path / "all").as_posix() for p in (tmp_path / "all").rglob("*") if p.is_file()}
+    assert {f"{n}.json" for n in shipped} <= copied
+    assert "examples/fit-signal-gauge5.csv" in copied

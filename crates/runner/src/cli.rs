@@ -1,6 +1,7 @@
 //! The `chainsweep` command line: parses the arguments, calls the [`crate::engine`], prints.
 //! `validate`, `run`, `status`, `point`, `accuracy`, `merge`, `slurm`.
 
+mod examples;
 mod json;
 mod show;
 
@@ -21,17 +22,18 @@ use crate::{EXIT_OK, EXIT_PARTIAL};
 
 const EXAMPLES: &str = "\
 Examples:
-  chainsweep validate sweeps/mass-damping.json
-  chainsweep run sweeps/mass-damping.json --dry-run
-  chainsweep run sweeps/mass-damping.json -o results/mass-damping.h5 --jobs 8
+  chainsweep examples copy mass-damping .   # an example sweep file, here (`chainsweep examples` lists them)
+  chainsweep validate mass-damping.json
+  chainsweep run mass-damping.json --dry-run
+  chainsweep run mass-damping.json -o results/mass-damping.h5 --jobs 8
   chainsweep status results/mass-damping.h5
   # re-running the same command after an interruption continues where it stopped:
-  chainsweep run sweeps/mass-damping.json -o results/mass-damping.h5 --jobs 8
+  chainsweep run mass-damping.json -o results/mass-damping.h5 --jobs 8
   # on a SLURM cluster: an array job of 16 shards and a merge job after it
-  chainsweep slurm sweeps/mass-damping.json -o results/mass-damping.h5 --shards 16 --time 2:00:00 --submit
+  chainsweep slurm mass-damping.json -o results/mass-damping.h5 --shards 16 --time 2:00:00 --submit
   chainsweep status results/mass-damping.h5.slurm
   # by hand: one shard per machine (K from 1), then merge
-  chainsweep run sweeps/mass-damping.json --shard 3/16 -o shards/part-3.h5
+  chainsweep run mass-damping.json --shard 3/16 -o shards/part-3.h5
   chainsweep merge -o results/mass-damping.h5 shards/part-*.h5
 
 Exit codes: 0 all runs succeeded; 1 other error (I/O, output locked by another process);
@@ -56,11 +58,34 @@ pub struct Cli {
     pub command: Command,
 }
 
+/// What `chainsweep examples` does.
+#[derive(Debug, Subcommand)]
+pub enum ExamplesAction {
+    /// Copy an example (with the data files it reads), or `all` of them, into a folder; an
+    /// existing file is never overwritten.
+    Copy {
+        /// The example's name as `chainsweep examples` lists it (`mass-damping`,
+        /// `examples/trimer` or `trimer`), or `all`.
+        name: String,
+        /// The folder (created if missing; default: the current one).
+        dir: Option<PathBuf>,
+    },
+}
+
 /// Subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// List the example sweep files shipped with chainsweep, or copy one (or all) into a folder.
+    #[command(
+        after_help = "Examples:\n  chainsweep examples\n  chainsweep examples copy mass-damping .     # mass-damping.json, here\n  chainsweep examples copy fit-signal fits   # the fit and the recordings it reads\n  chainsweep examples copy all my-examples"
+    )]
+    Examples {
+        /// What to do (default: list them).
+        #[command(subcommand)]
+        action: Option<ExamplesAction>,
+    },
     /// Check a sweep file (syntax, fields, types, physical ranges of every grid point); run nothing.
-    #[command(after_help = "Example:\n  chainsweep validate sweeps/mass-damping.json")]
+    #[command(after_help = "Example:\n  chainsweep validate mass-damping.json")]
     Validate {
         /// Sweep file (JSON).
         file: PathBuf,
@@ -93,13 +118,13 @@ pub enum Command {
     },
     /// Run a sweep (or continue an interrupted one) into an HDF5 file.
     #[command(
-        after_help = "Examples:\n  chainsweep run sweeps/mass-damping.json --dry-run\n  chainsweep run sweeps/mass-damping.json -o out.h5 --jobs 4\n  chainsweep run sweeps/mass-damping.json --shard 2/8 -o part-2.h5"
+        after_help = "Examples:\n  chainsweep run mass-damping.json --dry-run\n  chainsweep run mass-damping.json -o out.h5 --jobs 4\n  chainsweep run mass-damping.json --shard 2/8 -o part-2.h5"
     )]
     Run(RunArgs),
     /// Say how many runs of a sweep are done, failed and pending; of a shard set, which shards
     /// are done, failed, pending or missing.
     #[command(
-        after_help = "Examples:\n  chainsweep status results/mass-damping.h5\n  chainsweep status sweeps/mass-damping.json -o results/mass-damping.h5\n  chainsweep status results/mass-damping.h5.slurm        # the shards of `chainsweep slurm`\n  chainsweep status shards/part-*.h5"
+        after_help = "Examples:\n  chainsweep status results/mass-damping.h5\n  chainsweep status mass-damping.json -o results/mass-damping.h5\n  chainsweep status results/mass-damping.h5.slurm        # the shards of `chainsweep slurm`\n  chainsweep status shards/part-*.h5"
     )]
     Status {
         /// An output file (`.h5`), a sweep file (then the output is `-o` or its default), several
@@ -120,11 +145,11 @@ pub enum Command {
     /// Write SLURM job scripts for a sweep: an array job of N shards and a merge job after it
     /// (whatever the array's outcome), in `OUT.h5.slurm/`; submit them with `--submit`.
     #[command(
-        after_help = "Examples:\n  chainsweep slurm sweeps/mass-damping.json -o results/mass-damping.h5 --shards 16 \\\n      --time 2:00:00 --cpus-per-task 8 --partition short --sbatch-arg=--mem=4G --submit\n  chainsweep status results/mass-damping.h5.slurm\n\nArray task T (SLURM_ARRAY_TASK_ID, from 0) runs shard T+1 of N (`run --shard slurm/N`) into\nOUT.h5.slurm/shards/; a task stopped by SIGTERM (time limit, scancel) keeps every finished run\nand resumes when submitted again. The merge names the missing shards and the command that\nre-submits only those tasks."
+        after_help = "Examples:\n  chainsweep slurm mass-damping.json -o results/mass-damping.h5 --shards 16 \\\n      --time 2:00:00 --cpus-per-task 8 --partition short --sbatch-arg=--mem=4G --submit\n  chainsweep status results/mass-damping.h5.slurm\n\nArray task T (SLURM_ARRAY_TASK_ID, from 0) runs shard T+1 of N (`run --shard slurm/N`) into\nOUT.h5.slurm/shards/; a task stopped by SIGTERM (time limit, scancel) keeps every finished run\nand resumes when submitted again. The merge names the missing shards and the command that\nre-submits only those tasks."
     )]
     Slurm(SlurmArgs),
     /// Run one grid point in this process and print its scene and results as JSON; writes nothing.
-    #[command(after_help = "Example:\n  chainsweep point sweeps/mass-damping.json 17")]
+    #[command(after_help = "Example:\n  chainsweep point mass-damping.json 17")]
     Point {
         /// Sweep file (JSON).
         file: PathBuf,
@@ -141,7 +166,7 @@ pub enum Command {
     /// Work-precision study of one scene: every integrator over a ladder of settings, errors
     /// against a confirmed reference, median wall time, RHS evaluations; written to HDF5.
     #[command(
-        after_help = "Examples:\n  chainsweep accuracy sweeps/mass-damping.json -o results/work_precision_fig08.h5\n  chainsweep accuracy sweeps/mass-damping.json --point 17 --methods dop853,ros34pw2\n  python scripts/plot_work_precision.py results/work_precision_fig08.h5"
+        after_help = "Examples:\n  chainsweep accuracy mass-damping.json -o results/work_precision_fig08.h5\n  chainsweep accuracy mass-damping.json --point 17 --methods dop853,ros34pw2\n  python scripts/plot_work_precision.py results/work_precision_fig08.h5"
     )]
     Accuracy(AccuracyArgs),
     /// Remove from an output's work directory the runs the sweep file no longer has (after
@@ -149,7 +174,7 @@ pub enum Command {
     /// Lists every run and file it removes. The output file is left as it is. The only command
     /// that removes finished runs: try it with `--dry-run` first.
     #[command(
-        after_help = "Examples:\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5 --dry-run\n  chainsweep gc sweeps/mass-damping.json -o results/mass-damping.h5"
+        after_help = "Examples:\n  chainsweep gc mass-damping.json -o results/mass-damping.h5 --dry-run\n  chainsweep gc mass-damping.json -o results/mass-damping.h5"
     )]
     Gc {
         /// Sweep file (JSON).
@@ -326,6 +351,7 @@ where
 /// Runs a parsed command.
 pub fn dispatch(cli: Cli) -> Result<i32> {
     match cli.command {
+        Command::Examples { action } => cmd_examples(action),
         Command::Validate { file, json } => cmd_validate(&file, json),
         Command::Schema => cmd_schema(),
         Command::Completions { shell } => cmd_completions(shell),
@@ -408,6 +434,25 @@ fn man_pages(dir: &Path, cmd: clap::Command, name: &str) -> Result<Vec<PathBuf>>
         written.extend(man_pages(dir, sub.clone(), &sub_name)?);
     }
     Ok(written)
+}
+
+fn cmd_examples(action: Option<ExamplesAction>) -> Result<i32> {
+    match action {
+        None => {
+            let list = examples::list();
+            let width = list.iter().map(|(n, _)| n.len()).max().unwrap_or(0);
+            for (name, description) in list {
+                outln!("{name:width$}  {description}");
+            }
+        }
+        Some(ExamplesAction::Copy { name, dir }) => {
+            let dir = dir.unwrap_or_else(|| PathBuf::from("."));
+            for p in examples::copy(&name, &dir)? {
+                outln!("{}", p.display());
+            }
+        }
+    }
+    Ok(EXIT_OK)
 }
 
 fn cmd_schema() -> Result<i32> {
