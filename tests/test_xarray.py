@@ -85,6 +85,9 @@ def test_plain_grid_is_labelled(files, engine):
     assert list(ds.probe.values) == ["gauge_force_cyl2", "gauge_force_cyl8"]
     assert ds.probe_units.dims == ("probe",) and list(ds.probe_units.values) == ["N", "N"]
     assert ds.mass_ratio.attrs["units"] == "1" and ds.leading_peak.attrs["units"] == "N"
+    # An axis is labelled in words (a plot's label), its field kept beside.
+    assert ds.mass_ratio.attrs["long_name"] == "mass ratio"
+    assert ds.mass_ratio.attrs["field"] == "chain.cylinder.mass.heavy_cylinders.mass_ratio"
     assert json.loads(ds.attrs["dimensions"]) == ["mass_ratio", "rtol"]
     with h5py.File(files["failed"], "r") as f:
         for name in FLOATS + PROBE_FLOATS:

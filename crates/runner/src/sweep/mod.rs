@@ -429,27 +429,41 @@ fn join_path(prefix: &str, path: &str) -> String {
     }
 }
 
-/// Unit of a field from its name's suffix (`damping_kg_s` → `kg/s`).
+/// The unit suffixes of field names and the unit each says (longest first where one ends
+/// another: `_kg_s` before `_s`).
+const UNIT_SUFFIXES: &[(&str, &str)] = &[
+    ("_kg_m3", "kg/m^3"),
+    ("_m_s2", "m/s^2"),
+    ("_kg_s", "kg/s"),
+    ("_m_s", "m/s"),
+    ("_pa", "Pa"),
+    ("_hz", "Hz"),
+    ("_rad", "rad"),
+    ("_kg", "kg"),
+    ("_s", "s"),
+    ("_m", "m"),
+    ("_n", "N"),
+    ("_j", "J"),
+];
+
+/// Unit of a field from its name's suffix (`damping_kg_s` → `kg/s`, `frequency_hz` → `Hz`).
 pub fn units_of(field: &str) -> String {
     let last = field.rsplit('.').next().unwrap_or(field);
-    const SUFFIXES: &[(&str, &str)] = &[
-        ("_kg_m3", "kg/m^3"),
-        ("_m_s2", "m/s^2"),
-        ("_kg_s", "kg/s"),
-        ("_m_s", "m/s"),
-        ("_pa", "Pa"),
-        ("_kg", "kg"),
-        ("_s", "s"),
-        ("_m", "m"),
-        ("_n", "N"),
-        ("_j", "J"),
-    ];
-    for (suffix, unit) in SUFFIXES {
-        if last.ends_with(suffix) {
-            return unit.to_string();
-        }
-    }
-    "1".to_string()
+    UNIT_SUFFIXES
+        .iter()
+        .find(|(suffix, _)| last.ends_with(suffix))
+        .map_or("1", |(_, unit)| unit)
+        .to_string()
+}
+
+/// A coordinate's name as a plot labels it: its unit suffix left out (the unit is its own
+/// attribute) and words apart (`damping_kg_s` → `damping`, `mass_ratio` → `mass ratio`).
+pub fn human_name(name: &str) -> String {
+    let stem = UNIT_SUFFIXES
+        .iter()
+        .find_map(|(suffix, _)| name.strip_suffix(suffix).filter(|s| !s.is_empty()))
+        .unwrap_or(name);
+    stem.replace('_', " ")
 }
 
 /// Splits a dotted field path into segments; `a.b[2].c` and `a.b.2.c` are the same path.
@@ -1374,6 +1388,24 @@ impl Sweep {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn a_fields_name_says_its_unit_and_its_words() {
+        assert_eq!(
+            units_of("excitation.drive.force_n.harmonic.frequency_hz"),
+            "Hz"
+        );
+        assert_eq!(units_of("physics.damping_kg_s"), "kg/s");
+        assert_eq!(units_of("striker_velocity_m_s"), "m/s");
+        assert_eq!(
+            units_of("chain.cylinder.mass.heavy_cylinders.mass_ratio"),
+            "1"
+        );
+        assert_eq!(human_name("damping_kg_s"), "damping");
+        assert_eq!(human_name("frequency_hz"), "frequency");
+        assert_eq!(human_name("mass_ratio"), "mass ratio");
+        assert_eq!(human_name("seed"), "seed");
+    }
+
     use super::*;
 
     /// The scene `of_scene` hands the grid is the one the grid would read from the normalised

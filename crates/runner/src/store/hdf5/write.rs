@@ -405,14 +405,9 @@ fn write_coordinates(file: &File, sweep: &Sweep) -> Result<(Vec<DimScale>, Vec<T
             attr_str(&d, "units", &axis.units)?;
             attr_str(&d, "field", &axis.field)?;
             attr_str(&d, "dimension", &dim.name)?;
-            // The field a sweep's axis sets (what a plot labels it with), or the axis's name
-            // where it sets none (a search's evaluations).
-            let long_name = if axis.field.is_empty() {
-                axis.name.as_str()
-            } else {
-                axis.field.as_str()
-            };
-            attr_str(&d, "long_name", long_name)?;
+            // What a plot labels it with: its name in words, without the unit (which `units`
+            // gives); the field it sets is the `field` attribute.
+            attr_str(&d, "long_name", &crate::sweep::human_name(&axis.name))?;
             if own {
                 if let Some(strlen) = &strlen {
                     text_scales.push((axis.name.clone(), strlen.clone()));
