@@ -244,3 +244,22 @@ def test_examples_are_listed_and_copied_from_the_command_alone(binary, tmp_path)
     copied = {p.relative_to(tmp_path / "all").as_posix() for p in (tmp_path / "all").rglob("*") if p.is_file()}
     assert {f"{n}.json" for n in shipped} <= copied
     assert "examples/fit-signal-gauge5.csv" in copied
+
+
+def test_status_of_a_job_folder_before_any_task_ran_counts_its_shards_missing(binary, tmp_path):
+    path = write_sweep(tmp_path / "s.json", base_sweep())
+    r = run("slurm", path, "-o", tmp_path / "out.h5", "--shards", "4", "--time", "0:10:00")
+    assert r.returncode == 0, r.stderr
+    job = tmp_path / "out.h5.slurm"
+    r = run("status", job)
+    assert r.returncode == 3, r.stderr
+    assert "4 shards: 0 done, 0 failed, 0 running, 0 pending, 4 missing" in r.stdout, r.stdout
+    assert "sbatch --parsable --array=0,1,2,3" in r.stderr, r.stderr
+    js = json.loads(run("status", job, "--json").stdout)
+    assert [s["state"] for s in js["list"]] == ["missing"] * 4
+    assert [s["array_task"] for s in js["list"]] == [0, 1, 2, 3]
+    # Once a shard is there, the folder is read as before: the others are still missing.
+    first = sorted((job / "shards.txt").read_text().split())[0]
+    assert run("run", path, "--shard", "1/4", "-o", first, "--quiet").returncode == 0
+    r = run("status", job)
+    assert "1 done" in r.stdout and "3 missing" in r.stdout, r.stdout

@@ -735,6 +735,22 @@ fn cmd_shard_set_status(files: &[PathBuf], as_json: bool) -> Result<i32> {
             .filter(|p| p.extension().is_some_and(|x| x == "h5") && p.is_file())
             .collect();
         if found.is_empty() {
+            // A job folder before any task has published: every shard its list names is
+            // missing (or being written).
+            if let Some(expected) = slurm::expected_shards(f).filter(|e| !e.is_empty()) {
+                let set = status::of_unstarted_shards(&expected);
+                let array = f.join("array.sh");
+                let merge = f.join("merge.sh");
+                if as_json {
+                    let tasks: Vec<usize> = set.to_run().iter().map(|k| k - 1).collect();
+                    let resubmit = (!tasks.is_empty())
+                        .then(|| slurm::resubmit_command(&tasks, &array, &merge));
+                    json::print(&json::shard_set(&set, resubmit, EXIT_PARTIAL));
+                } else {
+                    show::shard_set_status(&set, Some((array.as_path(), merge.as_path())));
+                }
+                return Ok(EXIT_PARTIAL);
+            }
             return Err(Error::input(
                 "FILE",
                 format!("{} holds no shard files (*.h5)", dir.display()),

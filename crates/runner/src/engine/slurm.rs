@@ -295,7 +295,31 @@ pub fn write_job(r: &JobRequest) -> Result<JobFiles> {
                 .map_err(Error::io("chmod", path))?;
         }
     }
+    // The shard files the tasks will write, one per line: what `status` of the folder counts
+    // as missing before any task has run.
+    let manifest = f.dir.join(SHARD_LIST);
+    let mut text = String::new();
+    for p in &f.shard_files {
+        text.push_str(&p.to_string_lossy());
+        text.push('\n');
+    }
+    std::fs::write(&manifest, text).map_err(Error::io("write", &manifest))?;
     Ok(f)
+}
+
+/// The file of a job folder listing the shard files its tasks write, one path a line.
+pub const SHARD_LIST: &str = "shards.txt";
+
+/// The shard files a job folder's tasks write (`None`: the folder has no list, as folders
+/// written before it was kept).
+pub fn expected_shards(dir: &Path) -> Option<Vec<PathBuf>> {
+    let text = std::fs::read_to_string(dir.join(SHARD_LIST)).ok()?;
+    Some(
+        text.lines()
+            .filter(|l| !l.is_empty())
+            .map(PathBuf::from)
+            .collect(),
+    )
 }
 
 /// The shell command that re-submits array tasks `tasks` (from 0) of `array_script`, then the

@@ -730,6 +730,32 @@ pub fn shard_files(files: &[PathBuf]) -> Result<Vec<(PathBuf, String, Shard)>> {
     Ok(out)
 }
 
+/// The status of a shard set none of whose `files` (every shard's, in order) has been published
+/// yet: each is being written (its work directory locked by a live process) or missing.
+pub fn of_unstarted_shards(files: &[PathBuf]) -> ShardSetStatus {
+    ShardSetStatus {
+        n: files.len(),
+        shards: files
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let writer = writer_of(p);
+                ShardEntry {
+                    k: i + 1,
+                    file: None,
+                    state: if writer.is_some() {
+                        ShardState::Running
+                    } else {
+                        ShardState::Missing
+                    },
+                    counts: None,
+                    writer,
+                }
+            })
+            .collect(),
+    }
+}
+
 /// The status of a shard set: `files` (those that exist) hold shards of one sweep in `N` shards;
 /// every shard from 1 to `N` is done, failed, pending or missing.
 pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
