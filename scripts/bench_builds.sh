@@ -6,7 +6,7 @@
 #   default    this tree, built as a user builds it (no special flags: run-time CPU dispatch)
 #   portable   the same binary pinned to the no-FMA code path (CHAINSWEEP_CPU=portable)
 #   native     this tree built with RUSTFLAGS="-C target-cpu=native" (target/bench-native)
-#   baseline   optional: another revision (BENCH_BASELINE=REV, e.g. the first round's 1564ed6),
+#   baseline   optional: another revision (BENCH_BASELINE=REV, e.g. the first release's 1564ed6),
 #              exported with `git archive` into target/bench-baseline and built with its own
 #              settings
 # The builds run in alternation, ROUNDS times, each time REPEATS reference runs in one process; a

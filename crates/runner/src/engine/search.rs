@@ -729,7 +729,7 @@ pub fn run_search(
     let outer = outer_points(&driver.layout, opts.shard);
     let mut searches = driver.replay_stored(&outer, &work)?;
     let done_before: usize = searches.iter().map(|s| s.runs()).sum();
-    // (What they wait for is asked again by the first round.)
+    // (What they wait for is asked again by the next round of runs.)
     for s in &mut searches {
         s.waiting.clear();
     }

@@ -738,21 +738,27 @@ pub fn of_unstarted_shards(files: &[PathBuf]) -> ShardSetStatus {
         shards: files
             .iter()
             .enumerate()
-            .map(|(i, p)| {
-                let writer = writer_of(p);
-                ShardEntry {
-                    k: i + 1,
-                    file: None,
-                    state: if writer.is_some() {
-                        ShardState::Running
-                    } else {
-                        ShardState::Missing
-                    },
-                    counts: None,
-                    writer,
-                }
-            })
+            .map(|(i, p)| ShardEntry::unpublished(i + 1, Some(p)))
             .collect(),
+    }
+}
+
+impl ShardEntry {
+    /// Shard `k`, which has no published file: being written when a live process holds the
+    /// work directory of its file `path` (named), else missing.
+    fn unpublished(k: usize, path: Option<&Path>) -> ShardEntry {
+        let writer = path.and_then(writer_of);
+        ShardEntry {
+            k,
+            file: None,
+            state: if writer.is_some() {
+                ShardState::Running
+            } else {
+                ShardState::Missing
+            },
+            counts: None,
+            writer,
+        }
     }
 }
 
@@ -783,18 +789,7 @@ pub fn of_shard_set(files: &[PathBuf]) -> Result<ShardSetStatus> {
     let mut shards = Vec::with_capacity(n);
     for k in 1..=n {
         let Some((path, _, shard)) = found.iter().find(|(_, _, s)| s.k == k) else {
-            let writer = sibling(k).and_then(|p| writer_of(&p));
-            shards.push(ShardEntry {
-                k,
-                file: None,
-                state: if writer.is_some() {
-                    ShardState::Running
-                } else {
-                    ShardState::Missing
-                },
-                counts: None,
-                writer,
-            });
+            shards.push(ShardEntry::unpublished(k, sibling(k).as_deref()));
             continue;
         };
         let recs = FileRecords::open(path)?;
