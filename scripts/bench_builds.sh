@@ -14,7 +14,7 @@
 # machine is shared: alternation spreads its load over every build alike).
 #
 #   scripts/bench_builds.sh                        # default, portable, native
-#   BENCH_BASELINE=1564ed6 scripts/bench_builds.sh # ... and the first round's build
+#   BENCH_BASELINE=1564ed6 scripts/bench_builds.sh # ... and the first release's build
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -75,7 +75,7 @@ def test_a_ladder_run_is_stopped_at_max_run_seconds_and_ends_its_ladder(binary, 
 
 
 def test_a_runaway_scene_ends_its_study_within_the_limits(binary, tmp_path):
-    """The runaway scene of issue 11 (a 1000 m/s striker into a chain damped at 1e9 kg/s): its
+    """The runaway scene (a 1000 m/s striker into a chain damped at 1e9 kg/s): its
     reference (ROS34PW2, damping-dominated) is quick, but DOP853's steps are held near m/μ, so its
     confirmation (DOP853 rtol 1e-12) and its first rung would run for minutes to hours. They stop
     at limits.max_run_seconds and --max-run-seconds, and the study ends."""

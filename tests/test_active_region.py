@@ -1,4 +1,4 @@
-"""Long chains integrated only where they move (the solver's `active_region`, issue 13): a sweep
+"""Long chains integrated only where they move (the solver's `active_region`): a sweep
 file may switch it off, the default leaves run hashes as they were, and `--verify` (the runner's
 re-run at a hundred times tighter tolerance) passes with it on, with errors like the whole chain's."""
 

@@ -1,4 +1,4 @@
-"""`integrator: auto` (issue 5, item 3): the engine picks the cheapest integrator setting that
+"""`integrator: auto`: the engine picks the cheapest integrator setting that
 meets a target relative error from a pilot on a few grid points, records the choice, caches it,
 and the choice is the same for any --jobs and in every shard. `--verify 1` checks the target."""
 

@@ -1,4 +1,4 @@
-"""Bounded inputs, bounded runs and prompt failures (issue 11 items 3-4, issue 14 items 7, 9, 11).
+"""Bounded inputs, bounded runs and prompt failures.
 
 Every test here failed before the change it covers: an unbounded read of `/dev/zero`, a run
 without end, a checkpoint failure reported only when the sweep ended, a read-only output
@@ -100,7 +100,7 @@ def test_sweep_file_at_the_limit_is_read(binary, tmp_path):
 
 
 def runaway_sweep(max_run_seconds):
-    """Two points: a sound run, and the runaway scene of issue 11 (a 1000 m/s striker into a chain
+    """Two points: a sound run, and the runaway scene (a 1000 m/s striker into a chain
     damped at 1e9 kg/s, whose explicit steps are held near m/μ)."""
     s = base_sweep()
     s["axes"] = [

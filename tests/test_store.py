@@ -1,4 +1,4 @@
-"""The store at scale (issue 11) and its hardening (issue 14 items 4-6, 11): append-only,
+"""The store at scale and its hardening: append-only,
 checksummed run logs in the work directory, compacted into the output file once a sweep is
 complete.
 

@@ -1,4 +1,4 @@
-"""Stiff and extreme cases (issue 5, item 4): every scene in `sweeps/stress/` is run with
+"""Stiff and extreme cases: every scene in `sweeps/stress/` is run with
 `--verify 1` and each grid point must be either computed accurately — energy drift at most 1e-6 of
 the impact energy and every summary within 1e-4 of the tighter verification run — or refused or
 flagged with a reason that names the cause. Never a hang (each run has a step budget and the
