@@ -215,7 +215,7 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 # results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
 # attenuation table of the delta-force dimer; the search examples (docs/SEARCHES.md) drawn with
 # their points and the minima and roots they found; the fits with their data, residuals and
-# profiles. About 30 s on two cores.
+# profiles. About a minute on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum \
   plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down \
