@@ -263,3 +263,36 @@ def test_status_of_a_job_folder_before_any_task_ran_counts_its_shards_missing(bi
     assert run("run", path, "--shard", "1/4", "-o", first, "--quiet").returncode == 0
     r = run("status", job)
     assert "1 done" in r.stdout and "3 missing" in r.stdout, r.stdout
+
+
+def test_status_tells_a_running_sweep_from_an_interrupted_one(binary, tmp_path):
+    from conftest import interruptible_sweep, segment_count
+
+    path = write_sweep(tmp_path / "s.json", interruptible_sweep())
+    out = tmp_path / "s.h5"
+    # Checkpoints every 50 ms: the file exists while the sweep runs.
+    p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", "1", "--quiet",
+                          "--checkpoint-interval", "0.05"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while (segment_count(out) < 5 or not out.exists()) and p.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert p.poll() is None, "the sweep ended before status could see it running"
+        running = [run("status", out), run("status", path, "-o", out)]
+        js = [json.loads(run("status", out, "--json").stdout),
+              json.loads(run("status", path, "-o", out, "--json").stdout)]
+    finally:
+        p.kill()
+        p.communicate()
+    assert f"a sweep is writing this file now (process {p.pid})" in running[0].stdout, running[0].stdout
+    assert f"a sweep is running into this output now (process {p.pid})" in running[1].stdout, running[1].stdout
+    assert [j["writer_pid"] for j in js] == [str(p.pid)] * 2
+    # Killed: no process holds it; the runs it finished after its last checkpoint are the
+    # interrupted sweep's, and status says so.
+    r = run("status", out)
+    js = json.loads(run("status", out, "--json").stdout)
+    assert js["writer_pid"] is None
+    assert "writing this file now" not in r.stdout
+    if js["finished_since_written"] > 0:
+        assert "the sweep was interrupted" in r.stdout, r.stdout

@@ -526,4 +526,6 @@ def test_status_gives_each_search_s_answer_and_a_round_under_way(tmp_path):
     r = run("status", path, "-o", out)
     assert "its next round of" in r.stdout and "finished (they count once the round is whole)" in r.stdout, r.stdout
     r = run("status", out)
-    assert "more runs have finished since the file was written" in r.stdout, r.stdout
+    assert "more run(s) have finished since the file was written" in r.stdout, r.stdout
+    # The sweep stopped: no process writes the file, and status says it was interrupted.
+    assert "the sweep was interrupted" in r.stdout, r.stdout

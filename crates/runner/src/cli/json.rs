@@ -217,6 +217,7 @@ pub fn file_status(file: &Path, s: &FileStatus, exit_code: i32) -> Value {
     m.insert("shard".into(), json!(s.shard));
     m.insert("counts".into(), counts(&s.counts));
     m.insert("finished_since_written".into(), json!(s.newer));
+    m.insert("writer_pid".into(), json!(s.writer));
     m.insert("other_shards_runs".into(), json!(s.other_shards));
     m.insert("other_engine_runs".into(), json!(s.other_engine));
     m.insert(
@@ -256,6 +257,7 @@ pub fn sweep_status(
     let mut m = head("status_sweep");
     m.insert("sweep".into(), path_text(file));
     m.insert("output".into(), path_text(&s.output));
+    m.insert("writer_pid".into(), json!(s.writer));
     m.insert("points".into(), json!(s.points));
     m.insert("shape".into(), json!(grid.shape));
     m.insert(

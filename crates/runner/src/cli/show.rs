@@ -576,11 +576,15 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             s.counts.pending
         ),
     }
-    if s.newer > 0 {
-        outln!(
-            "  {} more runs have finished since the file was written (a sweep is running, or was interrupted): re-run the same `chainsweep run` command to bring the file up to date",
-            s.newer
-        );
+    match (&s.writer, s.newer) {
+        (Some(pid), 0) => outln!("  a sweep is writing this file now (process {pid})"),
+        (Some(pid), newer) => outln!(
+            "  a sweep is writing this file now (process {pid}): {newer} more run(s) have finished since it was last written, and appear at its next checkpoint"
+        ),
+        (None, 0) => {}
+        (None, newer) => outln!(
+            "  {newer} more run(s) have finished since the file was written, and no process is writing it: the sweep was interrupted; re-run the same `chainsweep run` command to bring the file up to date"
+        ),
     }
     if s.other_shards > 0 {
         outln!(
@@ -702,6 +706,9 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
             counts.finished_text(),
             counts.pending
         );
+    }
+    if let Some(pid) = &s.writer {
+        outln!("  a sweep is running into this output now (process {pid})");
     }
     for p in &s.ignored {
         outln!(

@@ -39,6 +39,9 @@ pub struct FileStatus {
     /// Points pending in the file whose run has finished since (a sweep is running, or was
     /// interrupted).
     pub newer: usize,
+    /// The process writing the file now, as its work directory's lock names it (`None`: no live
+    /// process holds it: finished runs the file lacks were left by an interrupted sweep).
+    pub writer: Option<String>,
     /// Every failed point with its reason, in grid order.
     pub failures: Vec<(usize, String)>,
     /// Points of the shard whose run succeeded but left a probe's leading peak NaN (the leading
@@ -327,6 +330,7 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         unsettled,
         other_shards,
         newer,
+        writer: writer_of(file),
         failures,
         damage,
         searches,
@@ -454,6 +458,9 @@ pub struct SweepStatus {
     pub damage: DamageReport,
     /// A sweep with a search: each search of this output, replayed through the stored runs.
     pub searches: Option<Vec<SearchLine>>,
+    /// The process running the sweep into this output now, as its work directory's lock names
+    /// it (`None`: none is).
+    pub writer: Option<String>,
 }
 
 /// The status of `sweep`'s output `output` (its work directory), for `shard`.
@@ -466,6 +473,7 @@ pub fn of_sweep(
     let dir = work_dir_of(&output);
     let points = shard::points(&sweep, &grid, shard);
     let mut status = SweepStatus {
+        writer: writer_of(&output),
         output,
         points: points.len(),
         auto: None,
