@@ -99,7 +99,8 @@ def test_kill_and_resume_is_bitwise_identical(reference, tmp_path):
             assert st.returncode == 3
             assert f"{in_file} done ({in_file} ok, 0 failed)" in st.stdout
             if after > in_file:
-                assert f"{after - in_file} more runs have finished" in st.stdout
+                assert f"{after - in_file} more run(s) have finished" in st.stdout
+                assert "the sweep was interrupted" in st.stdout, st.stdout
         kills.append((target, before, after, in_file))
     # Random moments, so that some kills land in the middle of writing the output file.
     for delay in (0.003, 0.011, 0.023, 0.037):
