@@ -216,6 +216,26 @@ def with_axes(sweep, axes):
     return s
 
 
+def kill_at(path, out, goals, jobs=2):
+    """Runs `chainsweep run PATH -o OUT` once per goal and SIGKILLs it once OUT's runs (segments)
+    reach that goal; the number of runs actually killed (those that had not finished)."""
+    import signal
+    import time
+
+    kills = 0
+    for goal in goals:
+        p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", str(jobs), "--quiet"],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 120
+        while segment_count(out) < goal and p.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.002)
+        if p.poll() is None:
+            p.send_signal(signal.SIGKILL)
+            kills += 1
+        p.communicate()
+    return kills
+
+
 def write_sweep(path, sweep):
     path = Path(path)
     path.write_text(json.dumps(sweep, indent=2))

@@ -14,20 +14,15 @@ known sigma, and what the fit recovers, with its intervals' frequency of coverin
 
 from __future__ import annotations
 
-import copy
 import json
-import signal
-import subprocess
-import time
 from pathlib import Path
 
-import h5py
 import numpy as np
 import pytest
 import xarray as xr
 
 import chainsweep
-from conftest import BIN, assert_files_equal, run, segment_count, write_sweep
+from conftest import assert_files_equal, kill_at, run, segment_count, write_sweep
 
 TRUE_DAMPING = 6.0
 TRUE_VELOCITY = 1.06
@@ -419,17 +414,7 @@ def test_a_fit_killed_four_times_ends_bitwise_and_jobs_do_not_matter(tmp_path):
     total = segment_count(ref2)
     assert total > 40
     out = tmp_path / "killed.h5"
-    kills = 0
-    for goal in (1, 8, 20, 35):
-        p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", "2", "--quiet"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        deadline = time.monotonic() + 120
-        while segment_count(out) < goal and p.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.002)
-        if p.poll() is None:
-            p.send_signal(signal.SIGKILL)
-            kills += 1
-        p.communicate()
+    kills = kill_at(path, out, (1, 8, 20, 35))
     assert kills >= 2, "the kills landed after the fit had finished"
     r = run("run", path, "-o", out, "--jobs", "2", "--quiet")
     assert r.returncode == 0, r.stderr

@@ -18,7 +18,7 @@ import pytest
 import xarray as xr
 
 import chainsweep
-from conftest import BIN, REPO, assert_files_equal, run, segment_count, write_sweep
+from conftest import BIN, REPO, assert_files_equal, kill_at, run, segment_count, write_sweep
 
 EXAMPLES = REPO / "sweeps" / "examples"
 SPHERE_MASS_KG = 0.002085  # the δ-force dimer's sphere: ε = m_cylinder / SPHERE_MASS_KG
@@ -296,17 +296,7 @@ def test_search_kill_and_resume_is_bitwise_and_jobs_do_not_matter(tmp_path):
     total = segment_count(ref2)
     assert total > 60
     out = tmp_path / "killed.h5"
-    kills = 0
-    for goal in (1, 10, 40, 90):
-        p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", "2", "--quiet"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        deadline = time.monotonic() + 120
-        while segment_count(out) < goal and p.poll() is None and time.monotonic() < deadline:
-            time.sleep(0.002)
-        if p.poll() is None:
-            p.send_signal(signal.SIGKILL)
-            kills += 1
-        p.communicate()
+    kills = kill_at(path, out, (1, 10, 40, 90))
     assert kills >= 2, "the kills landed after the search had finished"
     r = run("run", path, "-o", out, "--jobs", "2", "--quiet")
     assert r.returncode == r2.returncode, r.stderr

@@ -604,28 +604,14 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             outln!("  …");
             break;
         }
-        let mi: Vec<String> = multi_index(&s.shape, *i)
-            .iter()
-            .map(|x| x.to_string())
-            .collect();
-        outln!("  failed: point {i} [{}]: {reason}", mi.join(", "));
+        outln!("  failed: point {i} {}: {reason}", index_text(&s.shape, *i));
     }
     if let Some(&i) = s.unpassed.first() {
-        let mi: Vec<String> = multi_index(&s.shape, i)
-            .iter()
-            .map(|x| x.to_string())
-            .collect();
-        let first = format!("point {i} [{}]", mi.join(", "));
+        let first = format!("point {i} {}", index_text(&s.shape, i));
         outln!("  {}", unpassed_text(s.unpassed.len(), &first));
     }
     if !s.unsettled.is_empty() {
-        let label = |i: usize| {
-            let mi: Vec<String> = multi_index(&s.shape, i)
-                .iter()
-                .map(|x| x.to_string())
-                .collect();
-            format!("[{}]", mi.join(", "))
-        };
+        let label = |i: usize| index_text(&s.shape, i);
         for line in unsettled_lines(&s.unsettled, label) {
             outln!("  {line}");
         }
@@ -633,16 +619,19 @@ pub fn file_status(file: &Path, s: &FileStatus) {
     if let Some(lines) = &s.searches {
         search_lines(lines);
     } else {
-        let label = |i: usize| {
-            let mi: Vec<String> = multi_index(&s.shape, i)
-                .iter()
-                .map(|x| x.to_string())
-                .collect();
-            format!("[{}]", mi.join(", "))
-        };
+        let label = |i: usize| index_text(&s.shape, i);
         outln!("  {}", health_text(&s.health, label));
     }
     damage_status(&s.damage);
+}
+
+/// Point `i` of a grid of shape `shape` by its indices: `[2, 0]`.
+fn index_text(shape: &[usize], i: usize) -> String {
+    let mi: Vec<String> = multi_index(shape, i)
+        .iter()
+        .map(|x| x.to_string())
+        .collect();
+    format!("[{}]", mi.join(", "))
 }
 
 /// Each search of a sweep with a search, a line each.

@@ -1277,16 +1277,7 @@ fn read_csv_table(
 ) -> Result<Vec<(String, Vec<f64>)>> {
     let mut header: Option<Vec<String>> = None;
     let mut rows: Vec<Vec<f64>> = Vec::new();
-    for (k, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let cells: Vec<&str> = line
-            .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
-            .filter(|c| !c.is_empty())
-            .collect();
-        let numbers: Option<Vec<f64>> = cells.iter().map(|c| c.parse::<f64>().ok()).collect();
+    for (line_no, line, cells, numbers) in super::recording::csv_lines(text) {
         match numbers {
             Some(n) => {
                 if let Some(c) = n.iter().position(|x| !x.is_finite()) {
@@ -1297,8 +1288,7 @@ fn read_csv_table(
                     return Err(bad(
                         field,
                         format!(
-                            "{shown}, line {}: {} in column {}: every datum must be a finite number",
-                            k + 1,
+                            "{shown}, line {line_no}: {} in column {}: every datum must be a finite number",
                             n[c],
                             names.get(c).map_or("?", String::as_str)
                         ),
@@ -1309,8 +1299,7 @@ fn read_csv_table(
                     return Err(bad(
                         field,
                         format!(
-                            "{shown}, line {}: {} numbers where the file's columns are {}",
-                            k + 1,
+                            "{shown}, line {line_no}: {} numbers where the file's columns are {}",
                             n.len(),
                             header
                                 .as_ref()
@@ -1332,8 +1321,7 @@ fn read_csv_table(
                     return Err(bad(
                         field,
                         format!(
-                            "{shown}, line {}: column `{u}` is none of {}",
-                            k + 1,
+                            "{shown}, line {line_no}: column `{u}` is none of {}",
                             columns.join(", ")
                         ),
                     ));
@@ -1343,7 +1331,7 @@ fn read_csv_table(
             None => {
                 return Err(bad(
                     field,
-                    format!("{shown}, line {}: want numbers, got {line:?}", k + 1),
+                    format!("{shown}, line {line_no}: want numbers, got {line:?}"),
                 ))
             }
         }

@@ -138,21 +138,33 @@ fn read(path: &Path, dataset: Option<&str>, field: &str) -> Result<(Vec<f64>, Ve
     }
 }
 
-/// Two columns, time in s and value, separated by a comma (or white space); blank lines and lines
-/// starting with `#` are skipped, and so is one header line before the first numbers.
-fn read_csv(text: &str, field: &str, shown: &str) -> Result<(Vec<f64>, Vec<f64>)> {
-    let (mut times, mut values) = (Vec::new(), Vec::new());
-    let mut header_allowed = true;
-    for (k, line) in text.lines().enumerate() {
+/// The lines of a data file that hold something (blank lines and lines starting with `#`
+/// skipped): the line's number from 1, its text, its cells (split at commas, semicolons or white
+/// space) and their numbers (`None`: a cell is no number, as in a header). Recorded drives and a
+/// fit's data files are read through it.
+pub(super) fn csv_lines(
+    text: &str,
+) -> impl Iterator<Item = (usize, &str, Vec<&str>, Option<Vec<f64>>)> {
+    text.lines().enumerate().filter_map(|(k, line)| {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
-            continue;
+            return None;
         }
         let cells: Vec<&str> = line
             .split(|c: char| c == ',' || c == ';' || c.is_whitespace())
             .filter(|c| !c.is_empty())
             .collect();
-        let numbers: Option<Vec<f64>> = cells.iter().map(|c| c.parse::<f64>().ok()).collect();
+        let numbers = cells.iter().map(|c| c.parse::<f64>().ok()).collect();
+        Some((k + 1, line, cells, numbers))
+    })
+}
+
+/// Two columns, time in s and value, separated by a comma (or white space); blank lines and lines
+/// starting with `#` are skipped, and so is one header line before the first numbers.
+fn read_csv(text: &str, field: &str, shown: &str) -> Result<(Vec<f64>, Vec<f64>)> {
+    let (mut times, mut values) = (Vec::new(), Vec::new());
+    let mut header_allowed = true;
+    for (line_no, line, _, numbers) in csv_lines(text) {
         match numbers {
             Some(n) if n.len() == 2 => {
                 times.push(n[0]);
@@ -160,15 +172,12 @@ fn read_csv(text: &str, field: &str, shown: &str) -> Result<(Vec<f64>, Vec<f64>)
                 header_allowed = false;
             }
             None if header_allowed => header_allowed = false,
-            _ => {
-                return Err(input(
-                    field,
-                    format!(
-                        "{shown}, line {}: want two numbers, time in s and value, got {line:?}",
-                        k + 1
-                    ),
-                ))
-            }
+            _ => return Err(input(
+                field,
+                format!(
+                    "{shown}, line {line_no}: want two numbers, time in s and value, got {line:?}"
+                ),
+            )),
         }
         if times.len() > MAX_RECORDED_SAMPLES {
             return Err(input(
