@@ -172,12 +172,14 @@ fn read_csv(text: &str, field: &str, shown: &str) -> Result<(Vec<f64>, Vec<f64>)
                 header_allowed = false;
             }
             None if header_allowed => header_allowed = false,
-            _ => return Err(input(
-                field,
-                format!(
+            _ => {
+                return Err(input(
+                    field,
+                    format!(
                     "{shown}, line {line_no}: want two numbers, time in s and value, got {line:?}"
                 ),
-            )),
+                ))
+            }
         }
         if times.len() > MAX_RECORDED_SAMPLES {
             return Err(input(
