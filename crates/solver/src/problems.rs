@@ -55,6 +55,7 @@ pub fn chain(
         top_wall_material: None,
         ring: false,
         wall_mount: None,
+        mass_factors: Vec::new(),
     }
 }
 

@@ -719,3 +719,56 @@ fn a_stopped_record_ends_where_the_last_pulse_passed_at_any_tolerance() {
         assert!((c.leading_peak / f.leading_peak - 1.0).abs() < 1e-6);
     }
 }
+
+/// `mass_factors` scale each particle's mass and nothing else: the paper's chain with every
+/// cylinder ×1.5 builds the same masses, laws and static state as the chain whose cylinder type
+/// weighs 1.5 times as much, and a factor list of the wrong length, or a factor that is not a
+/// positive number, is refused naming the field.
+#[test]
+fn mass_factors_scale_each_particle_and_nothing_else() {
+    let physics = PhysicsSpec::default();
+    let plain = ChainSpec::chain_055(6);
+    let n = Chain::build(&plain, &physics).unwrap().n_particles();
+    let ChainSpec::Dimer(mut d) = plain.clone() else {
+        unreachable!()
+    };
+    // Particles 3, 5, … are the cylinders (particle 1 the striker, 2 the first sphere).
+    d.mass_factors = (1..=n)
+        .map(|p| if p % 2 == 1 && p > 1 { 1.5 } else { 1.0 })
+        .collect();
+    let factored = Chain::build(&ChainSpec::Dimer(d.clone()), &physics).unwrap();
+    let ChainSpec::Dimer(mut heavy) = plain.clone() else {
+        unreachable!()
+    };
+    let m_c = heavy.cylinder.mass_kg(heavy.sphere.mass_kg);
+    heavy.cylinder.mass =
+        chainsweep_solver::chain::model::CylinderMass::Explicit { mass_kg: 1.5 * m_c };
+    // The same height: the geometry, hence the Hertz laws, are the type's.
+    heavy.cylinder.height_m = Some(d.cylinder.height(d.sphere.mass_kg));
+    let by_type = Chain::build(&ChainSpec::Dimer(heavy), &physics).unwrap();
+    for p in 0..n {
+        let rel = (factored.mass[p] - by_type.mass[p]).abs() / by_type.mass[p];
+        assert!(
+            rel < 1e-15,
+            "particle {}: {} against {}",
+            p + 1,
+            factored.mass[p],
+            by_type.mass[p]
+        );
+    }
+    assert_eq!(factored.stiffness, by_type.stiffness);
+    for (a, b) in factored.static_overlap.iter().zip(&by_type.static_overlap) {
+        assert!(
+            (a - b).abs() <= 1e-15 * b.abs().max(1e-12),
+            "{a} against {b}"
+        );
+    }
+    let mut short = d.clone();
+    short.mass_factors.pop();
+    let e = Chain::build(&ChainSpec::Dimer(short), &physics).unwrap_err();
+    assert_eq!(e.field, "chain.mass_factors", "{e:?}");
+    let mut negative = d;
+    negative.mass_factors[3] = -1.0;
+    let e = Chain::build(&ChainSpec::Dimer(negative), &physics).unwrap_err();
+    assert_eq!(e.field, "chain.mass_factors[3]", "{e:?}");
+}

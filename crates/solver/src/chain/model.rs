@@ -17,7 +17,7 @@ use crate::chain::drive::{Drive, DrivePoint};
 pub use crate::chain::mount::WallMount;
 pub(crate) use crate::chain::parts::{check_material, Layout, Particle};
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
-use crate::chain::sequence::SequenceSpec;
+use crate::chain::sequence::{SequenceSpec, MAX_SIZE_FACTOR};
 use crate::contact::{overlap_at_force, ContactParams, Damping, DissipationSpec, Thornton};
 pub(crate) use crate::spec::check_positive;
 pub use crate::spec::{spec_err, SpecError};
@@ -157,6 +157,13 @@ pub struct DimerSpec {
     pub striker: SphereSpec,
     /// Material of the rigid flat wall under the last sphere (Eq. 7 uses the sphere–flat law).
     pub wall_material: Material,
+    /// Factors on each particle's mass, from particle 1 (the striker) to the last (empty: none):
+    /// a toleranced chain, every particle's mass its own ([`ChainSpec::mass_factors`]).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Vec::is_empty")
+    )]
+    pub mass_factors: Vec<f64>,
 }
 
 impl DimerSpec {
@@ -168,6 +175,7 @@ impl DimerSpec {
             cylinder: CylinderSpec::SHORT,
             striker: SphereSpec::PAPER,
             wall_material: Material::STEEL_SS304,
+            mass_factors: Vec::new(),
         }
     }
 
@@ -247,8 +255,28 @@ impl ChainSpec {
         }
     }
 
+    /// Factors on each particle's mass (empty: none), particle 1 first: applied last, after the
+    /// mass a type, taper and disorder give, so that a tolerance on every particle is one list.
+    pub fn mass_factors(&self) -> &[f64] {
+        match self {
+            ChainSpec::Dimer(d) => &d.mass_factors,
+            ChainSpec::Sequence(s) => &s.mass_factors,
+        }
+    }
+
     /// Checks every field for physical sense; the error names the field (relative to `chain`).
     pub fn validate(&self) -> Result<(), SpecError> {
+        for (i, &f) in self.mass_factors().iter().enumerate() {
+            if !(f.is_finite() && f >= 1.0 / MAX_SIZE_FACTOR && f <= MAX_SIZE_FACTOR) {
+                return Err(spec_err(
+                    &format!("chain.mass_factors[{i}]"),
+                    format!(
+                        "must be a number in [1e-3, 1e3] (a factor on particle {}'s mass), got {f}",
+                        i + 1
+                    ),
+                ));
+            }
+        }
         match self {
             ChainSpec::Dimer(d) => d.validate(),
             ChainSpec::Sequence(s) => s.validate(),
@@ -297,6 +325,7 @@ mod chain_spec_serde {
         "top_wall_material",
         "ring",
         "wall_mount",
+        "mass_factors",
     ];
     const ALL_FIELDS: &[&str] = &[
         "cylinders",
@@ -312,6 +341,7 @@ mod chain_spec_serde {
         "top_wall_material",
         "ring",
         "wall_mount",
+        "mass_factors",
     ];
 
     /// A striker: a sphere (dimer) or the name of a particle type (sequence).
@@ -355,6 +385,7 @@ mod chain_spec_serde {
         top_wall_material: Option<Option<Material>>,
         ring: Option<bool>,
         wall_mount: Option<Option<crate::chain::mount::WallMount>>,
+        mass_factors: Option<Vec<f64>>,
     }
 
     fn once<T, E: de::Error>(slot: &mut Option<T>, value: T, key: &'static str) -> Result<(), E> {
@@ -397,6 +428,9 @@ mod chain_spec_serde {
                             "ring" => once(&mut f.ring, map.next_value()?, "ring")?,
                             "wall_mount" => {
                                 once(&mut f.wall_mount, map.next_value()?, "wall_mount")?
+                            }
+                            "mass_factors" => {
+                                once(&mut f.mass_factors, map.next_value()?, "mass_factors")?
                             }
                             other => return Err(de::Error::unknown_field(other, ALL_FIELDS)),
                         }
@@ -446,6 +480,7 @@ mod chain_spec_serde {
                             top_wall_material: f.top_wall_material.flatten(),
                             ring: f.ring.unwrap_or(false),
                             wall_mount: f.wall_mount.flatten(),
+                            mass_factors: f.mass_factors.unwrap_or_default(),
                         }))
                     } else {
                         let striker = match f.striker {
@@ -464,6 +499,7 @@ mod chain_spec_serde {
                             wall_material: f
                                 .wall_material
                                 .ok_or_else(|| de::Error::missing_field("wall_material"))?,
+                            mass_factors: f.mass_factors.unwrap_or_default(),
                         }))
                     }
                 }
@@ -807,10 +843,26 @@ impl Chain {
     pub fn build(spec: &ChainSpec, physics: &PhysicsSpec) -> Result<Chain, SpecError> {
         spec.validate()?;
         physics.validate()?;
-        let layout = match spec {
+        let mut layout = match spec {
             ChainSpec::Dimer(d) => d.layout(physics.wall),
             ChainSpec::Sequence(s) => s.layout(physics.wall)?,
         };
+        let factors = spec.mass_factors();
+        if !factors.is_empty() {
+            if factors.len() != layout.particles.len() {
+                return Err(spec_err(
+                    "chain.mass_factors",
+                    format!(
+                        "must give one factor per particle, the striker first: the chain has {} particles, got {} factors",
+                        layout.particles.len(),
+                        factors.len()
+                    ),
+                ));
+            }
+            for (p, f) in layout.particles.iter_mut().zip(factors) {
+                p.mass_kg *= f;
+            }
+        }
         if layout.plasticity.iter().any(Option::is_some) {
             if physics.dissipation.is_some() {
                 return Err(spec_err(

@@ -88,6 +88,11 @@ pub struct SequenceSpec {
     /// than rigid. Absent: a rigid wall.
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub wall_mount: Option<WallMount>,
+    /// Factors on each particle's mass, from particle 1 to the last (empty: none), applied after
+    /// taper and disorder.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Vec::is_empty"))]
+    #[cfg_attr(feature = "schema", schemars(default))]
+    pub mass_factors: Vec<f64>,
 }
 
 /// The wall a sequence chain stands on when it names none (as the paper's).
