@@ -56,6 +56,7 @@ pub mod record;
 pub mod search;
 pub mod store;
 pub mod sweep;
+pub mod uq;
 
 /// Every run finished successfully.
 pub const EXIT_OK: i32 = 0;

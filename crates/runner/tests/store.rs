@@ -51,6 +51,7 @@ fn publish_every_point(
         |i| Ok(Some(records[i].clone())),
         |_, _| Ok(VerifyInfo::none(1)),
         None,
+        None,
     )
     .unwrap();
 }
@@ -103,6 +104,7 @@ fn records_survive_segments_and_hdf5_bitwise() {
                 VerifyInfo::none(1)
             })
         },
+        None,
         None,
     )
     .unwrap();

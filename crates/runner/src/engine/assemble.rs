@@ -98,6 +98,21 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<hdf5::Written> {
     for &i in a.points {
         in_points[i] = true;
     }
+    let read = |i: usize| {
+        let h = a.grid.hashes[i];
+        if a.done.contains_key(&h) || !in_points[i] {
+            work.read(&h)
+        } else {
+            Ok(None)
+        }
+    };
+    let ensemble = match &a.sweep.ensemble {
+        Some(_) => {
+            let (values, pending) = super::ensemble::values(a.sweep, a.grid, read)?;
+            Some(super::ensemble::tables(a.sweep, &values, pending).0)
+        }
+        None => None,
+    };
     let written = hdf5::write_file(
         &tmp,
         a.sweep,
@@ -106,16 +121,10 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<hdf5::Written> {
         a.shard,
         a.provenance,
         a.verify.fraction,
-        |i| {
-            let h = a.grid.hashes[i];
-            if a.done.contains_key(&h) || !in_points[i] {
-                work.read(&h)
-            } else {
-                Ok(None)
-            }
-        },
+        read,
         |i, rec| a.verify.info(work, a.grid, i, rec),
         a.search,
+        ensemble.as_ref(),
     );
     let written = match written {
         Ok(w) => w,

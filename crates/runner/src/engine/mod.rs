@@ -17,6 +17,7 @@
 
 pub mod assemble;
 pub mod auto;
+pub mod ensemble;
 pub mod fit;
 pub mod gc;
 pub mod inspect;

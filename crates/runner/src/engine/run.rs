@@ -314,6 +314,24 @@ pub fn run_sweep(
         let r = super::search::run_search(sweep, grid, opts, sink, stop)?;
         return Ok(RunReport::of_search(r));
     }
+    if sweep.ensemble.as_ref().is_some_and(|e| e.adaptive()) {
+        check_output(&opts.output, opts.overwrite)?;
+        let (report, _) = super::ensemble::run_rounds(sweep, opts, sink, stop, run_grid)?;
+        *grid = Grid::new(sweep)?;
+        return Ok(report);
+    }
+    run_grid(sweep, grid, opts, sink, stop)
+}
+
+/// [`run_sweep`] for a sweep of a grid (no search; an ensemble of a fixed size, or one round of
+/// an adaptive one).
+fn run_grid(
+    sweep: &mut Sweep,
+    grid: &mut Grid,
+    opts: &RunOptions,
+    sink: &mut dyn ProgressSink,
+    stop: &AtomicBool,
+) -> Result<RunReport> {
     check_output(&opts.output, opts.overwrite)?;
     // Never more threads than grid points (a pool of idle threads costs time to start).
     let points = shard::points(sweep, grid, opts.shard);

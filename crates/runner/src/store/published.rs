@@ -98,12 +98,14 @@ fn sweep_of(sweep_text: &str, auto: &str) -> Option<Sweep> {
     Some(sweep)
 }
 
-/// The grid of a file from its sweep text and auto choice (a sweep without a search).
-fn grid_of(sweep_text: &str, auto: &str) -> Option<Grid> {
-    let sweep = sweep_of(sweep_text, auto)?;
+/// The grid of `points` points of a file from its sweep text and auto choice (a sweep without a
+/// search; an adaptive ensemble at the round that has them).
+fn grid_of(sweep_text: &str, auto: &str, points: usize) -> Option<Grid> {
+    let sweep = sweep_of(sweep_text, auto)?.with_points(points)?;
     (sweep.search.is_none())
         .then(|| Grid::new(&sweep).ok())
         .flatten()
+        .filter(|g| g.len() == points)
 }
 
 /// The grid of a search's output file, to read its runs back: the sweep's own grid and the
@@ -239,7 +241,11 @@ impl PublishedFile {
                 if sweep.search.is_some() {
                     return search_grid(&sweep, recs);
                 }
-                if let Some(g) = Grid::new(&sweep).ok().filter(|g| g.len() == n) {
+                if let Some(g) = sweep
+                    .with_points(n)
+                    .and_then(|s| Grid::new(&s).ok())
+                    .filter(|g| g.len() == n)
+                {
                     return Some(g);
                 }
             }
@@ -251,7 +257,7 @@ impl PublishedFile {
                 return Some(g.clone());
             }
         }
-        grid_of(&s.header.sweep, &s.header.auto).filter(|g| g.len() == s.header.points)
+        grid_of(&s.header.sweep, &s.header.auto, s.header.points)
     }
 
     /// Finds every run the file gives back, checked as `check` says; damaged ones restored from

@@ -258,7 +258,7 @@ fn check_sections(file: SweepFile, well_formed: bool, errors: &mut Vec<Error>) {
     let Some((base, _, auto)) = base else {
         return;
     };
-    let has_search = file.search.is_some();
+    let has_search = file.search.is_some() || file.ensemble.is_some();
     match super::parse_dims(file.axes, &base, auto.is_some(), has_search, true) {
         Ok(dims) => {
             if let Err(e) = super::check_names_and_fields(&dims) {
@@ -267,6 +267,10 @@ fn check_sections(file: SweepFile, well_formed: bool, errors: &mut Vec<Error>) {
                 // (A search whose structure lost a part names fields by their index: only a
                 // whole one is checked further.)
                 if let Err(e) = super::search::parse(s, &base, &mut dims.clone()) {
+                    errors.push(e);
+                }
+            } else if let Some(en) = file.ensemble {
+                if let Err(e) = super::ensemble::parse(en, &mut base.clone(), &mut dims.clone()) {
                     errors.push(e);
                 }
             }

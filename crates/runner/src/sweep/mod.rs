@@ -27,6 +27,7 @@
 
 pub mod auto;
 pub mod diagnose;
+pub mod ensemble;
 pub mod fit;
 mod recording;
 pub mod schema;
@@ -196,6 +197,11 @@ pub struct Sweep {
     pub search: Option<SearchSpec>,
     /// Continuation along one dimension, when the sweep asks for it ([`Continuation`]).
     pub continuation: Option<Continuation>,
+    /// The ensemble drawn at every point of the axes, when the sweep has one ([`ensemble`]): its
+    /// samples are the last dimension, `member`.
+    pub ensemble: Option<ensemble::EnsembleSpec>,
+    /// The ensemble's round whose samples `dims` holds (0 until an adaptive ensemble grows).
+    pub ensemble_round: usize,
 }
 
 /// Continuation along a dimension of the grid: each point starts from the final state of the
@@ -317,6 +323,10 @@ struct SweepFile {
     /// A search over continuous fields at every point of the axes.
     #[serde(default)]
     search: Option<search::SearchFile>,
+    /// An ensemble: scene fields drawn from distributions at every point of the axes, and the
+    /// statistics (or sensitivities) of chosen summaries over them.
+    #[serde(default)]
+    ensemble: Option<ensemble::EnsembleFile>,
     /// Continuation along one dimension: each point starts from the final state of the one
     /// before it (hysteresis, bistability).
     #[serde(default)]
@@ -1103,7 +1113,7 @@ fn parse_dims(
     if axes.is_empty() && !search {
         return Err(vec![Error::input(
             "axes",
-            "at least one axis is required (a single run is an axis with one value), unless the sweep has a `search`",
+            "at least one axis is required (a single run is an axis with one value), unless the sweep has a `search` or an `ensemble`",
         )]);
     }
     let mut dims = Vec::new();
@@ -1263,14 +1273,16 @@ impl Sweep {
         let text = inlined.as_deref().unwrap_or(text);
         let with_data = fit::inline_text(text, dir)?;
         let text = with_data.as_deref().unwrap_or(text);
+        let with_fit = ensemble::inline_text(text, dir)?;
+        let text = with_fit.as_deref().unwrap_or(text);
         let file = read_json(text)?;
-        let (base, _, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
+        let (mut base, _, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         let limits = parse_limits(file.limits)?;
         let mut dims = parse_dims(
             file.axes,
             &base,
             auto.is_some(),
-            file.search.is_some(),
+            file.search.is_some() || file.ensemble.is_some(),
             false,
         )
         .map_err(first)?;
@@ -1280,7 +1292,19 @@ impl Sweep {
             .search
             .map(|s| search::parse(s, &base, &mut dims))
             .transpose()?;
+        if file.ensemble.is_some() && search.is_some() {
+            return Err(Error::input(
+                "ensemble",
+                "a sweep has a search or an ensemble, not both: run the search, then an ensemble around its answer",
+            ));
+        }
+        let ensemble = file
+            .ensemble
+            .map(|e| ensemble::parse(e, &mut base, &mut dims))
+            .transpose()?;
         Ok(Sweep {
+            ensemble,
+            ensemble_round: 0,
             continuation,
             text: text.to_string(),
             description: file.description,
@@ -1342,6 +1366,8 @@ impl Sweep {
             auto_choice: None,
             search: None,
             continuation: None,
+            ensemble: None,
+            ensemble_round: 0,
         };
         Ok((sweep, scene))
     }
@@ -1383,6 +1409,31 @@ impl Sweep {
     /// Number of grid points.
     pub fn n_points(&self) -> usize {
         self.shape().iter().product()
+    }
+
+    /// The sweep with its ensemble's samples of round `k` (itself when it has no ensemble).
+    pub fn at_ensemble_round(&self, k: usize) -> Sweep {
+        let mut s = self.clone();
+        if let Some(e) = &self.ensemble {
+            let last = s.dims.len() - 1;
+            s.dims[last] = e.dim(k);
+            s.ensemble_round = k;
+        }
+        s
+    }
+
+    /// The sweep whose grid has `points` points: itself, or its ensemble at the round that has
+    /// them (a published file of an adaptive ensemble holds its last round).
+    pub fn with_points(&self, points: usize) -> Option<Sweep> {
+        if self.n_points() == points {
+            return Some(self.clone());
+        }
+        let e = self.ensemble.as_ref()?;
+        let outer = e.outer_points.max(1);
+        (points % outer == 0)
+            .then(|| e.round_of_samples(points / outer))
+            .flatten()
+            .map(|k| self.at_ensemble_round(k))
     }
 }
 

@@ -267,7 +267,7 @@ impl ChainSpec {
     /// Checks every field for physical sense; the error names the field (relative to `chain`).
     pub fn validate(&self) -> Result<(), SpecError> {
         for (i, &f) in self.mass_factors().iter().enumerate() {
-            if !(f.is_finite() && f >= 1.0 / MAX_SIZE_FACTOR && f <= MAX_SIZE_FACTOR) {
+            if !((1.0 / MAX_SIZE_FACTOR..=MAX_SIZE_FACTOR).contains(&f)) {
                 return Err(spec_err(
                     &format!("chain.mass_factors[{i}]"),
                     format!(

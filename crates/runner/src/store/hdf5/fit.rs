@@ -169,3 +169,38 @@ pub fn write(
     }
     Ok(())
 }
+
+/// What an ensemble adds to its file: its tables over the ordinary axes (every dimension but
+/// `member`) and root attributes (its design, round, size and whether it has ended).
+#[derive(Debug, Clone, Default)]
+pub struct EnsembleTables {
+    /// The statistics, sensitivities and their dimensions.
+    pub tables: FitTables,
+    /// Root attributes (name, value).
+    pub attrs: Vec<(&'static str, String)>,
+}
+
+/// Root attributes `names` of the file at `path`, as text (`None`: a file without them all).
+pub fn read_attrs(path: &std::path::Path, names: &[&str]) -> Option<Vec<String>> {
+    let file = File::open(path).ok()?;
+    names
+        .iter()
+        .map(|n| {
+            file.attr(n)
+                .ok()?
+                .read_scalar::<hdf5::types::VarLenUnicode>()
+                .ok()
+                .map(|s| s.to_string())
+        })
+        .collect()
+}
+
+/// The numbers of dataset `name` of the file at `path`, row-major (`None`: none such).
+pub fn read_f64(path: &std::path::Path, name: &str) -> Option<Vec<f64>> {
+    File::open(path)
+        .ok()?
+        .dataset(name)
+        .ok()?
+        .read_raw::<f64>()
+        .ok()
+}

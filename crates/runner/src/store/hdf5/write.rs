@@ -66,6 +66,7 @@ pub fn write_file(
     get: impl FnMut(usize) -> Result<Option<RunRecord>>,
     get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
     search: Option<&SearchTables>,
+    ensemble: Option<&super::fit::EnsembleTables>,
 ) -> Result<Written> {
     let write = move || -> Result<Written> {
         // HDF5's 1.10 format: the library checksums its own metadata (superblock, object
@@ -111,6 +112,26 @@ pub fn write_file(
                 super::fit::write(&file, f, &outer, &t.outer.shape())?;
             }
             extra_coordinates = search::coordinate_names(t);
+        }
+        if let Some(e) = ensemble {
+            // Over the ordinary axes: every dimension but the last, `member`.
+            let ordinary = &sweep.dims[..sweep.dims.len() - 1];
+            let outer = ordinary
+                .iter()
+                .map(|d| {
+                    dims.iter()
+                        .find(|s| s.name == d.name)
+                        .map(|s| (&s.scale, d.name.as_str()))
+                        .ok_or_else(|| {
+                            Error::Other(format!("no dimension `{}` for the ensemble", d.name))
+                        })
+                })
+                .collect::<Result<Vec<_>>>()?;
+            let shape: Vec<usize> = ordinary.iter().map(|d| d.len()).collect();
+            super::fit::write(&file, &e.tables, &outer, &shape)?;
+            for (name, value) in &e.attrs {
+                attr_str(&file, name, value)?;
+            }
         }
         let coordinates = coordinate_names(&dims, &extra_coordinates);
         let written = write_columns(
