@@ -155,6 +155,47 @@ pub fn invalid(file: &Path, errors: &[Error]) -> Value {
     Value::Object(m)
 }
 
+/// An ensemble's outcome and statistics (NaN as null).
+fn ensemble(e: &Option<crate::engine::status::EnsembleStatus>) -> Value {
+    let Some(e) = e else { return Value::Null };
+    let n = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
+    let est = |x: &crate::uq::stats::Estimate| json!({"value": n(x.value), "lower": n(x.lower), "upper": n(x.upper)});
+    let statistics: Vec<Value> = e
+        .statistics
+        .iter()
+        .map(|st| {
+            let points: Vec<Value> = st
+                .points
+                .iter()
+                .map(|p| {
+                    json!({
+                        "at": p.label,
+                        "samples": p.n,
+                        "mean": est(&p.mean),
+                        "sd": est(&p.sd),
+                        "quantiles": p.quantiles.iter().map(|(q, x)| json!({"probability": q, "estimate": est(x)})).collect::<Vec<_>>(),
+                        "sensitivity": p.sensitivity.iter().map(|(i, a, b)| if e.design == "morris" {
+                            json!({"input": i, "mu_star": est(a), "sigma": n(b.value)})
+                        } else {
+                            json!({"input": i, "first_order": est(a), "total": est(b)})
+                        }).collect::<Vec<_>>(),
+                    })
+                })
+                .collect();
+            json!({"name": st.name, "units": st.units, "points": points})
+        })
+        .collect();
+    json!({
+        "design": e.design,
+        "round": e.outcome.round,
+        "samples": e.outcome.samples,
+        "runs": e.outcome.runs,
+        "stopped_by": e.outcome.stopped_by,
+        "worst_width_over_tolerance": n(e.outcome.worst_ratio),
+        "statistics": statistics,
+    })
+}
+
 fn searches(lines: &Option<Vec<SearchLine>>) -> Value {
     match lines {
         None => Value::Null,
@@ -241,6 +282,7 @@ pub fn file_status(file: &Path, s: &FileStatus, exit_code: i32) -> Value {
     );
     m.insert("health".into(), health(&s.health));
     m.insert("searches".into(), searches(&s.searches));
+    m.insert("ensemble".into(), ensemble(&s.ensemble));
     m.insert("damage".into(), damage(&s.damage));
     m.insert("exit_code".into(), json!(exit_code));
     Value::Object(m)
@@ -301,6 +343,7 @@ pub fn sweep_status(
         Value::Array(s.ignored.iter().map(|p| path_text(p)).collect()),
     );
     m.insert("searches".into(), searches(&s.searches));
+    m.insert("ensemble".into(), ensemble(&s.ensemble));
     m.insert("damage".into(), damage(&s.damage));
     m.insert("exit_code".into(), json!(exit_code));
     Value::Object(m)

@@ -177,13 +177,41 @@ pub fn dry_run(
             } else {
                 text(&a.values).join(", ")
             };
+            // (An index axis sets no field: its name says what it counts.)
             outln!(
                 "  dim {k} `{}`: {} = [{vals}] ({})",
                 dim.name,
-                a.field,
+                if a.field.is_empty() {
+                    &a.name
+                } else {
+                    &a.field
+                },
                 a.units
             );
         }
+    }
+    if let Some(e) = &sweep.ensemble {
+        let size = match e.max_runs {
+            Some(m) => format!(
+                "adaptive: {} runs in its first round ({} samples at each of {} point(s)), doubling until every statistic's interval is within its tolerance or the next round would pass the budget of {m} runs",
+                e.round_runs(0),
+                e.round_samples(0),
+                e.outer_points
+            ),
+            None => format!(
+                "{} runs ({} samples at each of {} point(s))",
+                e.round_runs(0),
+                e.round_samples(0),
+                e.outer_points
+            ),
+        };
+        outln!(
+            "ensemble: {} design, {} input(s) ({} sampled fields), seed {}; {size}",
+            e.design.name(),
+            e.inputs.len(),
+            e.columns.len(),
+            e.seed
+        );
     }
     if let Some(c) = &sweep.auto_choice {
         outln!(
@@ -381,6 +409,12 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
             "chainsweep: {}",
             health_text(&r.health, |i| grid.point_label(sweep, i))
         );
+    }
+    // An ensemble's answer is its statistics: always shown.
+    if let Some(e) = crate::engine::status::ensemble_of(output, sweep) {
+        for line in ensemble_lines(&e) {
+            errln!("chainsweep: {line}");
+        }
     }
 }
 
@@ -622,7 +656,84 @@ pub fn file_status(file: &Path, s: &FileStatus) {
         let label = |i: usize| index_text(&s.shape, i);
         outln!("  {}", health_text(&s.health, label));
     }
+    if let Some(e) = &s.ensemble {
+        for line in ensemble_lines(e) {
+            outln!("  {line}");
+        }
+    }
     damage_status(&s.damage);
+}
+
+/// An ensemble's outcome and statistics, a line each (as `status` and the end of `run` give them).
+pub fn ensemble_lines(e: &crate::engine::status::EnsembleStatus) -> Vec<String> {
+    let o = &e.outcome;
+    let why = match o.stopped_by {
+        "fixed" => "a fixed size".to_string(),
+        "tolerance" => format!(
+            "every interval within its tolerance (widest {:.2} of it)",
+            o.worst_ratio
+        ),
+        "budget" => format!(
+            "the budget: the next round would pass max_runs (widest interval {:.2} × its tolerance)",
+            o.worst_ratio
+        ),
+        "running" => "another round is due (`run` goes on)".to_string(),
+        _ => "runs of this round are missing (`run` goes on)".to_string(),
+    };
+    let mut out = vec![format!(
+        "ensemble ({} design): round {}, {} samples per point, {} runs; ended by {why}",
+        e.design, o.round, o.samples, o.runs
+    )];
+    // Six significant digits, in fixed notation where that reads well.
+    let g = |x: f64| {
+        let a = x.abs();
+        if x == 0.0 || (1e-3..1e6).contains(&a) {
+            let decimals = (5 - a.log10().floor() as i32).clamp(0, 8) as usize;
+            format!("{x:.decimals$}")
+        } else {
+            format!("{x:.5e}")
+        }
+    };
+    let iv = |x: &crate::uq::stats::Estimate| {
+        if x.lower.is_nan() {
+            g(x.value)
+        } else {
+            format!("{} [{}, {}]", g(x.value), g(x.lower), g(x.upper))
+        }
+    };
+    for st in &e.statistics {
+        for p in &st.points {
+            let at = if p.label.is_empty() {
+                String::new()
+            } else {
+                format!(" at {}", p.label)
+            };
+            out.push(format!(
+                "  {}{at} ({} samples; {}; 95 % intervals):",
+                st.name, p.n, st.units
+            ));
+            if e.design != "morris" {
+                out.push(format!("    mean {}", iv(&p.mean)));
+                out.push(format!("    sd   {}", iv(&p.sd)));
+                for (q, x) in &p.quantiles {
+                    out.push(format!("    q{:<4} {}", q * 100.0, iv(x)));
+                }
+            }
+            for (input, a, b) in &p.sensitivity {
+                let (first, second) = if e.design == "morris" {
+                    ("mu*", "sigma")
+                } else {
+                    ("first-order", "total")
+                };
+                out.push(format!(
+                    "    {input}: {first} {}, {second} {}",
+                    iv(a),
+                    iv(b)
+                ));
+            }
+        }
+    }
+    out
 }
 
 /// Point `i` of a grid of shape `shape` by its indices: `[2, 0]`.
@@ -729,6 +840,11 @@ pub fn sweep_status(file: &Path, sweep: &Sweep, grid: &Grid, s: &SweepStatus) {
             "  {}",
             health_text(&s.health, |i| grid.point_label(sweep, i))
         );
+    }
+    if let Some(e) = &s.ensemble {
+        for line in ensemble_lines(e) {
+            outln!("  {line}");
+        }
     }
     damage_status(&s.damage);
 }

@@ -142,96 +142,101 @@ pub fn tables(sweep: &Sweep, values: &[Vec<f64>], pending: usize) -> (EnsembleTa
             })
             .collect();
         let what = name.to_string();
-        t.var(
-            &format!("{name}_n"),
-            true,
-            &[],
-            FitData::I64(sums.iter().map(|x| x.n as i64).collect()),
-            Some("1"),
-            &format!("samples of {what} that are numbers"),
-        );
-        t.var(&format!("{name}_missing"), true, &[], FitData::I64(sums.iter().map(|x| x.missing as i64).collect()), Some("1"), &format!("samples of {what} without a number (failed or pending runs, summaries without a value)"));
-        est_vars(
-            &mut t,
-            &format!("{name}_mean"),
-            &[],
-            &sums.iter().map(|x| x.mean).collect::<Vec<_>>(),
-            u,
-            &format!("mean of {what}"),
-        );
-        est_vars(
-            &mut t,
-            &format!("{name}_sd"),
-            &[],
-            &sums.iter().map(|x| x.sd).collect::<Vec<_>>(),
-            u,
-            &format!("standard deviation of {what}"),
-        );
-        est_vars(
-            &mut t,
-            &format!("{name}_quantile"),
-            &[q_dim],
-            &sums
-                .iter()
-                .flat_map(|x| x.quantiles.clone())
-                .collect::<Vec<_>>(),
-            u,
-            &format!("quantile of {what}"),
-        );
-        if !stat.exceed.is_empty() {
-            let d = t.dim(
-                &format!("{name}_level"),
-                stat.exceed.clone(),
+        // A Morris design's points lie on a grid, not drawn from the distributions: it screens
+        // and has no statistics.
+        let morris_design = matches!(layout, Layout::Morris(_));
+        if !morris_design {
+            t.var(
+                &format!("{name}_n"),
+                true,
+                &[],
+                FitData::I64(sums.iter().map(|x| x.n as i64).collect()),
+                Some("1"),
+                &format!("samples of {what} that are numbers"),
+            );
+            t.var(&format!("{name}_missing"), true, &[], FitData::I64(sums.iter().map(|x| x.missing as i64).collect()), Some("1"), &format!("samples of {what} without a number (failed or pending runs, summaries without a value)"));
+            est_vars(
+                &mut t,
+                &format!("{name}_mean"),
+                &[],
+                &sums.iter().map(|x| x.mean).collect::<Vec<_>>(),
                 u,
-                &format!("level of {what}"),
+                &format!("mean of {what}"),
             );
             est_vars(
                 &mut t,
-                &format!("{name}_exceed"),
-                &[d],
-                &sums
-                    .iter()
-                    .flat_map(|x| x.exceed.clone())
-                    .collect::<Vec<_>>(),
-                "1",
-                &format!("probability that {what} exceeds the level"),
-            );
-        }
-        if bin_edges.len() >= 2 {
-            let centres: Vec<f64> = bin_edges.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
-            let d = t.dim(
-                &format!("{name}_bin"),
-                centres,
+                &format!("{name}_sd"),
+                &[],
+                &sums.iter().map(|x| x.sd).collect::<Vec<_>>(),
                 u,
-                &format!("centre of a histogram bin of {what}"),
-            );
-            t.var(
-                &format!("{name}_bin_lower"),
-                false,
-                &[d],
-                FitData::F64(bin_edges[..bin_edges.len() - 1].to_vec()),
-                Some(u),
-                &format!("lower edge of a histogram bin of {what}"),
-            );
-            t.var(
-                &format!("{name}_bin_upper"),
-                false,
-                &[d],
-                FitData::F64(bin_edges[1..].to_vec()),
-                Some(u),
-                &format!("upper edge of a histogram bin of {what}"),
+                &format!("standard deviation of {what}"),
             );
             est_vars(
                 &mut t,
-                &format!("{name}_histogram"),
-                &[d],
+                &format!("{name}_quantile"),
+                &[q_dim],
                 &sums
                     .iter()
-                    .flat_map(|x| x.histogram.clone())
+                    .flat_map(|x| x.quantiles.clone())
                     .collect::<Vec<_>>(),
-                "1",
-                &format!("fraction of samples of {what} in the bin"),
+                u,
+                &format!("quantile of {what}"),
             );
+            if !stat.exceed.is_empty() {
+                let d = t.dim(
+                    &format!("{name}_level"),
+                    stat.exceed.clone(),
+                    u,
+                    &format!("level of {what}"),
+                );
+                est_vars(
+                    &mut t,
+                    &format!("{name}_exceed"),
+                    &[d],
+                    &sums
+                        .iter()
+                        .flat_map(|x| x.exceed.clone())
+                        .collect::<Vec<_>>(),
+                    "1",
+                    &format!("probability that {what} exceeds the level"),
+                );
+            }
+            if bin_edges.len() >= 2 {
+                let centres: Vec<f64> = bin_edges.windows(2).map(|w| 0.5 * (w[0] + w[1])).collect();
+                let d = t.dim(
+                    &format!("{name}_bin"),
+                    centres,
+                    u,
+                    &format!("centre of a histogram bin of {what}"),
+                );
+                t.var(
+                    &format!("{name}_bin_lower"),
+                    false,
+                    &[d],
+                    FitData::F64(bin_edges[..bin_edges.len() - 1].to_vec()),
+                    Some(u),
+                    &format!("lower edge of a histogram bin of {what}"),
+                );
+                t.var(
+                    &format!("{name}_bin_upper"),
+                    false,
+                    &[d],
+                    FitData::F64(bin_edges[1..].to_vec()),
+                    Some(u),
+                    &format!("upper edge of a histogram bin of {what}"),
+                );
+                est_vars(
+                    &mut t,
+                    &format!("{name}_histogram"),
+                    &[d],
+                    &sums
+                        .iter()
+                        .flat_map(|x| x.histogram.clone())
+                        .collect::<Vec<_>>(),
+                    "1",
+                    &format!("fraction of samples of {what} in the bin"),
+                );
+            }
         }
         // The adaptive rule: every asked width, at every point.
         let tol = stat.tolerance;

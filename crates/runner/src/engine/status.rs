@@ -12,6 +12,7 @@ use crate::store::published::{Check, PublishedFile};
 use crate::store::{scan_segments, work_dir_of, writer_of, Stored};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
+use crate::uq::stats::Estimate;
 
 use super::auto::{apply_cached, CachedChoice};
 use super::run::{Failure, LISTED_FAILURES};
@@ -55,6 +56,160 @@ pub struct FileStatus {
     pub damage: DamageReport,
     /// A search's output: each search by its outer axis values, how it ended, its runs, why.
     pub searches: Option<Vec<SearchLine>>,
+    /// An ensemble's output: how it stands and its statistics.
+    pub ensemble: Option<EnsembleStatus>,
+}
+
+/// An ensemble's output, as `status` gives it.
+#[derive(Debug, Clone)]
+pub struct EnsembleStatus {
+    /// Its design's name.
+    pub design: &'static str,
+    /// Its round, size and whether it has ended.
+    pub outcome: super::ensemble::Outcome,
+    /// Each statistic.
+    pub statistics: Vec<StatisticStatus>,
+}
+
+/// One statistic of an ensemble at the points of its ordinary axes (as many as
+/// [`SHOWN_POINTS`]).
+#[derive(Debug, Clone)]
+pub struct StatisticStatus {
+    /// Its name.
+    pub name: String,
+    /// Its unit.
+    pub units: String,
+    /// Per point: its label (the ordinary axes' values), mean, sd, quantiles (probability,
+    /// estimate) and sensitivities (input, first-order or μ*, total or σ; NaN: none).
+    pub points: Vec<StatisticPoint>,
+}
+
+/// A statistic at one point of the ordinary axes.
+#[derive(Debug, Clone)]
+pub struct StatisticPoint {
+    /// The point's axis values (empty without axes).
+    pub label: String,
+    /// Samples that gave a number.
+    pub n: i64,
+    /// Mean.
+    pub mean: Estimate,
+    /// Standard deviation.
+    pub sd: Estimate,
+    /// Quantiles: (probability, estimate).
+    pub quantiles: Vec<(f64, Estimate)>,
+    /// Sobol' indices (input, first order, total) or Morris (input, μ*, σ as its value).
+    pub sensitivity: Vec<(String, Estimate, Estimate)>,
+}
+
+/// Points of the ordinary axes whose statistics `status` lists.
+pub const SHOWN_POINTS: usize = 12;
+
+/// The ensemble's outcome and statistics as its output file `file` holds them (`None`: `sweep`
+/// has no ensemble, or the file none of its tables).
+pub fn ensemble_of(file: &Path, sweep: &Sweep) -> Option<EnsembleStatus> {
+    ensemble_status(file, sweep)
+}
+
+fn ensemble_status(file: &Path, sweep: &Sweep) -> Option<EnsembleStatus> {
+    use crate::store::hdf5::fit::read_f64;
+    sweep.ensemble.as_ref()?;
+    let outcome = super::ensemble::outcome_of(file)?;
+    let sweep = &sweep.at_ensemble_round(outcome.round);
+    let e = sweep.ensemble.as_ref()?;
+    let ordinary = &sweep.dims[..sweep.dims.len() - 1];
+    let shape: Vec<usize> = ordinary.iter().map(|d| d.len()).collect();
+    let outer = e.outer_points.max(1);
+    let label = |o: usize| -> String {
+        let mi = crate::grid::multi_index(&shape, o);
+        ordinary
+            .iter()
+            .zip(&mi)
+            .map(|(d, &k)| {
+                let a = &d.axes[0];
+                format!("{}={}", a.name, a.values[k])
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let inputs: Vec<String> = e.inputs.iter().map(|i| i.name.clone()).collect();
+    let statistics = e
+        .statistics
+        .iter()
+        .map(|st| {
+            let get = |v: &str| read_f64(file, &format!("{}_{v}", st.name)).unwrap_or_default();
+            let est = |v: &str| -> Vec<Estimate> {
+                let (a, l, u) = (
+                    get(v),
+                    get(&format!("{v}_lower")),
+                    get(&format!("{v}_upper")),
+                );
+                a.iter()
+                    .enumerate()
+                    .map(|(k, &x)| Estimate {
+                        value: x,
+                        lower: l.get(k).copied().unwrap_or(f64::NAN),
+                        upper: u.get(k).copied().unwrap_or(f64::NAN),
+                    })
+                    .collect()
+            };
+            let n = get("n");
+            let (mean, sd, q) = (est("mean"), est("sd"), est("quantile"));
+            let nq = e.quantiles.len();
+            let (first, second) = match e.design {
+                crate::sweep::ensemble::Design::Saltelli => (est("first_order"), est("total")),
+                crate::sweep::ensemble::Design::Morris { .. } => (
+                    est("mu_star"),
+                    get("sigma")
+                        .into_iter()
+                        .map(|x| Estimate {
+                            value: x,
+                            lower: f64::NAN,
+                            upper: f64::NAN,
+                        })
+                        .collect(),
+                ),
+                _ => (Vec::new(), Vec::new()),
+            };
+            let g = inputs.len();
+            let points = (0..outer.min(SHOWN_POINTS))
+                .map(|o| StatisticPoint {
+                    label: label(o),
+                    n: n.get(o).map_or(0, |&x| x as i64),
+                    mean: mean.get(o).copied().unwrap_or(Estimate::NONE),
+                    sd: sd.get(o).copied().unwrap_or(Estimate::NONE),
+                    quantiles: e
+                        .quantiles
+                        .iter()
+                        .enumerate()
+                        .map(|(j, &p)| (p, q.get(o * nq + j).copied().unwrap_or(Estimate::NONE)))
+                        .collect(),
+                    sensitivity: if first.is_empty() {
+                        Vec::new()
+                    } else {
+                        (0..g)
+                            .map(|k| {
+                                (
+                                    inputs[k].clone(),
+                                    first.get(o * g + k).copied().unwrap_or(Estimate::NONE),
+                                    second.get(o * g + k).copied().unwrap_or(Estimate::NONE),
+                                )
+                            })
+                            .collect()
+                    },
+                })
+                .collect();
+            StatisticStatus {
+                name: st.name.clone(),
+                units: st.units.clone(),
+                points,
+            }
+        })
+        .collect();
+    Some(EnsembleStatus {
+        design: e.design.name(),
+        outcome,
+        statistics,
+    })
 }
 
 /// One search of a sweep with a search, as `status` says it.
@@ -160,6 +315,8 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         )));
     };
     let sweep = Sweep::parse(&text).map_err(|e| e.in_file(&name))?;
+    // An adaptive ensemble's file holds its last round.
+    let sweep = sweep.with_points(grid.len()).unwrap_or(sweep);
     let shard = Some(Shard::parse(&shard_text, "--shard")?).filter(|s| s.n > 1);
     let assignment = Assignment::new(&sweep, grid, shard);
     let mut counts = Counts::default();
@@ -334,6 +491,7 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         failures,
         damage,
         searches,
+        ensemble: ensemble_status(file, &sweep),
     })
 }
 
@@ -461,6 +619,8 @@ pub struct SweepStatus {
     /// The process running the sweep into this output now, as its work directory's lock names
     /// it (`None`: none is).
     pub writer: Option<String>,
+    /// An ensemble's output: how it stands and its statistics, from its output file.
+    pub ensemble: Option<EnsembleStatus>,
 }
 
 /// The status of `sweep`'s output `output` (its work directory), for `shard`.
@@ -471,6 +631,17 @@ pub fn of_sweep(
     shard: Option<Shard>,
 ) -> Result<(SweepStatus, Sweep, Grid)> {
     let dir = work_dir_of(&output);
+    // An adaptive ensemble: the round its output holds.
+    if let Some(o) = sweep
+        .ensemble
+        .as_ref()
+        .and(super::ensemble::outcome_of(&output))
+    {
+        if o.round != sweep.ensemble_round {
+            sweep = sweep.at_ensemble_round(o.round);
+            grid = Grid::new(&sweep)?;
+        }
+    }
     let points = shard::points(&sweep, &grid, shard);
     let mut status = SweepStatus {
         writer: writer_of(&output),
@@ -486,6 +657,7 @@ pub fn of_sweep(
         health: super::run::Health::default(),
         damage: DamageReport::default(),
         searches: None,
+        ensemble: None,
     };
     match apply_cached(&mut sweep, &mut grid, &dir)? {
         CachedChoice::NotAuto => {}
@@ -637,6 +809,7 @@ pub fn of_sweep(
         verified,
         worst_verified,
     };
+    status.ensemble = ensemble_status(&status.output, &sweep);
     Ok((status, sweep, grid))
 }
 

@@ -805,29 +805,30 @@ pub(super) fn parse(
     base: &mut Value,
     dims: &mut Vec<Dim>,
 ) -> Result<EnsembleSpec> {
-    let design =
-        match f.design.as_deref().unwrap_or("sobol") {
-            "sobol" => Design::Sample(Kind::Sobol),
-            "latin_hypercube" => Design::Sample(Kind::LatinHypercube),
-            "monte_carlo" => Design::Sample(Kind::MonteCarlo),
-            "saltelli" => Design::Saltelli,
-            "morris" => {
-                let levels = f.levels.unwrap_or(4) as usize;
-                if levels < 2 || levels % 2 != 0 || levels > 1000 {
-                    return Err(bad(
-                        "ensemble.levels",
-                        format!("must be an even number from 2 to 1000, got {levels}"),
-                    ));
-                }
-                Design::Morris { levels }
+    let design = match f.design.as_deref().unwrap_or("sobol") {
+        "sobol" => Design::Sample(Kind::Sobol),
+        "latin_hypercube" => Design::Sample(Kind::LatinHypercube),
+        "monte_carlo" => Design::Sample(Kind::MonteCarlo),
+        "saltelli" => Design::Saltelli,
+        "morris" => {
+            let levels = f.levels.unwrap_or(4) as usize;
+            if levels < 2 || levels % 2 != 0 || levels > 1000 {
+                return Err(bad(
+                    "ensemble.levels",
+                    format!("must be an even number from 2 to 1000, got {levels}"),
+                ));
             }
-            other => return Err(bad(
+            Design::Morris { levels }
+        }
+        other => {
+            return Err(bad(
                 "ensemble.design",
                 format!(
                     "`{other}` is none of sobol, latin_hypercube, monte_carlo, saltelli, morris"
                 ),
-            )),
-        };
+            ))
+        }
+    };
     if f.levels.is_some() && !matches!(design, Design::Morris { .. }) {
         return Err(bad(
             "ensemble.levels",
