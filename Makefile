@@ -166,6 +166,7 @@ bench: venv python $(VENV)/.bench-stamp
 	$(PY) scripts/bench_scipy.py
 	$(PY) scripts/bench_call.py
 	$(PY) scripts/bench_fit.py --whole-runs
+	$(PY) scripts/bench_ensemble.py
 	$(PY) scripts/bench_numba_lsoda.py --base-bin $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/bench-base/release/chainsweep
 
 # The Fig. 8 sweep against numba + numbalsoda LSODA (scripts/bench_numba_lsoda.py): numba and
@@ -215,11 +216,12 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 # results/examples/NAME.h5, then one figure each into results/examples/NAME.png and the
 # attenuation table of the delta-force dimer; the search examples (docs/SEARCHES.md) drawn with
 # their points and the minima and roots they found; the fits with their data, residuals and
-# profiles. About a minute on two cores.
+# profiles; the ensembles' distribution and Sobol' indices. About a minute and a half on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum \
   plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down \
-  dimer-transmission load-cell-impact fit-damping fit-striker-velocity fit-signal fit-spectrum
+  dimer-transmission load-cell-impact fit-damping fit-striker-velocity fit-signal fit-spectrum \
+  ensemble-tolerance ensemble-tolerance-monte-carlo ensemble-sensitivity
 
 # The reference renderings the docs show, docs/figures/ (tracked; results/ is not): each of them
 # copied from results/ where `make figures`, `make examples` or `make accuracy` has drawn it.

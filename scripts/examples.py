@@ -604,7 +604,59 @@ PLOTS = {
     "dimer-transmission": dimer_transmission,
     "load-cell-impact": load_cell_impact,
     **{n: (lambda n=n: fit_figure(n)) for n in ("fit-damping", "fit-striker-velocity", "fit-signal", "fit-spectrum")},
+    # One figure of the three ensemble sweeps.
+    "ensemble-tolerance": lambda: ensemble(),
 }
+
+
+def ensemble():
+    """The toleranced 0.55 chain: the distribution of F21/F4 with its quantiles and their
+    intervals, the runs Sobol' points took against Monte Carlo for the same intervals, and the
+    Sobol' indices of the three uncertainties."""
+    import h5py
+
+    def attrs(name):
+        with h5py.File(EXAMPLES / f"{name}.h5") as f:
+            return {k: f.attrs[k] for k in f.attrs if str(k).startswith("ensemble_")}
+
+    ds = chainsweep.open(EXAMPLES / "ensemble-tolerance.h5")
+    sens = chainsweep.open(EXAMPLES / "ensemble-sensitivity.h5")
+    sobol, mc = attrs("ensemble-tolerance"), attrs("ensemble-tolerance-monte-carlo")
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2), gridspec_kw={"width_ratios": [3, 2]})
+    lo, hi = ds.f21_f4_bin_lower.values, ds.f21_f4_bin_upper.values
+    frac = ds.f21_f4_histogram.values
+    width = hi - lo
+    ax.bar(lo, frac / width, width=width, align="edge", color="C0", alpha=0.6, label="samples (density)")
+    err = np.vstack([frac - ds.f21_f4_histogram_lower.values, ds.f21_f4_histogram_upper.values - frac]) / width
+    ax.errorbar(0.5 * (lo + hi), frac / width, yerr=err, fmt="none", ecolor="C0", lw=0.8)
+    for j, p in enumerate(ds.quantile.values):
+        q = float(ds.f21_f4_quantile[j])
+        ql, qh = float(ds.f21_f4_quantile_lower[j]), float(ds.f21_f4_quantile_upper[j])
+        ax.axvspan(ql, qh, color="C3", alpha=0.2)
+        ax.axvline(q, color="C3", lw=1)
+        ax.annotate(f"{p:.0%}", (q, 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=8)
+    m, ml, mh = (float(ds[f"f21_f4_mean{s}"]) for s in ("", "_lower", "_upper"))
+    ax.set_xlabel("F21 / F4 (leading-pulse amplitudes)")
+    ax.set_ylabel("probability density")
+    ax.set_title(
+        f"mean {m:.4f} [{ml:.4f}, {mh:.4f}]: {sobol['ensemble_runs']} runs of Sobol' points,\n"
+        f"{mc['ensemble_runs']} of Monte Carlo for the same intervals",
+        fontsize=10,
+    )
+    ax.legend(loc="upper left", fontsize=8, frameon=False)
+    names = [str(n) for n in sens.input_name.values]
+    labels = {"mass_factor": "cylinder masses ±1 %", "striker_velocity_m_s": "striker velocity ±2 %", "damping_kg_s": "damping 6.06 ± 0.36"}
+    y = np.arange(len(names))
+    for k, (kind, off) in enumerate((("first_order", -0.18), ("total", 0.18))):
+        v = sens[f"f21_f4_{kind}"].values
+        e = np.vstack([v - sens[f"f21_f4_{kind}_lower"].values, sens[f"f21_f4_{kind}_upper"].values - v])
+        bx.barh(y + off, v, height=0.34, xerr=e, color=f"C{k + 1}", label=kind.replace("_", "-"), capsize=2)
+    bx.set_yticks(y, [labels.get(n, n) for n in names])
+    bx.axvline(0, color="k", lw=0.6)
+    bx.set_xlabel("Sobol' index of F21/F4 (95 % bootstrap intervals)")
+    bx.legend(loc="lower right", fontsize=8, frameon=False)
+    fig.tight_layout()
+    savefig(fig, EXAMPLES / "ensemble.png")
 
 
 def main(names: list[str]):

@@ -110,6 +110,17 @@ fn locate(sweep: &Sweep, shape: &[usize], index: usize, field: &str, message: &s
                     );
                 }
                 let j = mi[d];
+                // An ensemble's values are drawn, not listed: its input's distribution is at
+                // fault.
+                if axis.origin.starts_with("ensemble") {
+                    return Error::input(
+                        axis.origin.clone(),
+                        format!(
+                            "its distribution reaches values the scene refuses (narrow or truncate it): member {j} sets `{}` to {}: `{field}` {message}",
+                            axis.field, axis.values[j]
+                        ),
+                    );
+                }
                 return Error::input(
                     format!("{}.values[{j}]", axis.origin),
                     format!(

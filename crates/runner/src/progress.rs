@@ -282,6 +282,12 @@ impl ProgressSink for Terminal {
         }
     }
 
+    fn ensemble_round(&mut self, round: usize, samples: usize, runs: usize) {
+        if !self.quiet {
+            errln!("chainsweep: ensemble round {round}: {samples} samples per point, {runs} runs");
+        }
+    }
+
     fn auto_resolved(&mut self, resolution: AutoResolution<'_>) {
         match resolution {
             AutoResolution::Cached { choice, cache_file } => errln!(

@@ -422,11 +422,7 @@ pub fn run_rounds(
     loop {
         let mut round = sweep.at_ensemble_round(k);
         let mut grid = Grid::new(&round)?;
-        sink.pilot(&format!(
-            "ensemble round {k}: {} samples per point, {} runs",
-            e.round_samples(k),
-            e.round_runs(k)
-        ));
+        sink.ensemble_round(k, e.round_samples(k), e.round_runs(k));
         let report = run(&mut round, &mut grid, opts, sink, stop)?;
         let outcome = outcome_of(&opts.output).ok_or_else(|| {
             Error::Other(format!(

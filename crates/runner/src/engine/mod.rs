@@ -149,6 +149,8 @@ impl DamageReport {
 pub trait ProgressSink {
     /// A line of `integrator: auto`'s pilot, as it runs.
     fn pilot(&mut self, _line: &str) {}
+    /// An adaptive ensemble starts a round: its number, samples per point and runs in all.
+    fn ensemble_round(&mut self, _round: usize, _samples: usize, _runs: usize) {}
     /// The output file was found damaged when the sweep started: what the snapshot gave back,
     /// and the runs that will be computed again.
     fn damage_found(&mut self, _report: &DamageReport) {}

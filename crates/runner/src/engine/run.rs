@@ -375,7 +375,7 @@ pub fn run_points(
         opts.retry_failed,
         opts.verify_fraction,
     )?;
-    if plan.tasks.is_empty() && !damage.any() && holds_every_run(work, grid, &plan) {
+    if plan.tasks.is_empty() && !damage.any() && holds_every_run(work, sweep, grid, &plan) {
         // Nothing to run, and the file already holds it all (as written by this version, with
         // its snapshot): it is left as it is, whatever shard was asked for. (Logs a process
         // killed after publishing it left beside it are compacted, as that process would have.)
@@ -468,7 +468,7 @@ pub fn run_points(
 /// Whether the published output file is of this grid and holds every run of it (and every
 /// verification run the plan samples, with its outcome), as written by this version (with its
 /// snapshot) and with `--verify` no larger than it was: then running again changes nothing.
-fn holds_every_run(work: &WorkDir, grid: &Grid, plan: &Plan) -> bool {
+fn holds_every_run(work: &WorkDir, sweep: &Sweep, grid: &Grid, plan: &Plan) -> bool {
     let Some(p) = work.published_file() else {
         return false;
     };
@@ -480,7 +480,12 @@ fn holds_every_run(work: &WorkDir, grid: &Grid, plan: &Plan) -> bool {
         .is_some_and(|f| f.verify_fraction >= plan.verify.fraction);
     // The file's grid must be this sweep's (an edited sweep's file is written again).
     let same_grid = p.grid().is_some_and(|g| g.hashes == grid.hashes);
+    // An ensemble's statistics follow from its sweep's text too (statistics, tolerances,
+    // quantiles), not from its runs alone: an edited one is written again from the same runs.
+    let same_tables =
+        sweep.ensemble.is_none() || p.file().is_some_and(|f| f.sweep_text == sweep.text);
     current
+        && same_tables
         && fraction_kept
         && same_grid
         && grid.hashes.iter().all(|h| p.holds(h))

@@ -542,6 +542,8 @@ pub fn check_file(path: &Path, histories: bool) -> FileCheck {
         if let Some(auto) = recs.auto_text() {
             sweep.apply_auto(crate::sweep::auto::AutoChoice::from_json(&auto).ok()?);
         }
+        // (An adaptive ensemble's file holds its last round.)
+        let sweep = sweep.with_points(recs.len()).unwrap_or(sweep);
         let grid = match sweep.search {
             // (A search's points are the file's: its grid from the run hashes it stores.)
             Some(_) => crate::store::published::search_grid(&sweep, &recs)?,

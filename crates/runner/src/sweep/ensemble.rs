@@ -394,7 +394,9 @@ fn parse_dist(kind: &str, p: &Value, at: &str, nominal: Option<f64>) -> Result<D
             "sd", "sigma_ln", "min", "max", "mode", "median", "mean", "weights", "values",
         ]
         .into_iter()
-        .find(|p| e.starts_with(p) || e.contains(&format!(" {p} ")))
+        // A message about one parameter starts with its name; one about several (an empty
+        // interval) names the distribution.
+        .find(|p| e.starts_with(&format!("{p} ")))
         .filter(|p| m.contains_key(*p));
         bad(param.map_or(at.to_string(), |p| format!("{at}.{p}")), e)
     })?;
