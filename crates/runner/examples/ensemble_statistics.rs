@@ -31,7 +31,7 @@ fn main() {
     let sweep = Sweep::parse(text).expect("the sweep parses");
     let n = sweep.n_points();
     let values: Vec<f64> = (0..n)
-        .map(|i| (100.0 * (0.3 * ((i as f64 * 0.618_033_988_75).fract() - 0.5)).exp()))
+        .map(|i| 100.0 * (0.3 * ((i as f64 * 0.618_033_988_75).fract() - 0.5)).exp())
         .collect();
     let values = vec![values];
     let mut times = Vec::new();
