@@ -104,6 +104,26 @@ def text_and_boolean_axes():
     return s
 
 
+def ensemble(design: str):
+    """An ensemble over the damping axis: every cylinder's mass and the striker's velocity drawn,
+    with a statistic's quantiles, exceedance and histogram (and Sobol' indices or Morris's
+    effects over the input dimension)."""
+    s = base_sweep()
+    s["axes"] = [s["axes"][1]]
+    s["ensemble"] = {
+        "inputs": [
+            {"mass_factors": "cylinders", "normal": {"sd": 0.01}},
+            {"field": "striker_velocity_m_s", "normal": {"relative_sd": 0.02}},
+        ],
+        "design": design,
+        "samples": 4,
+        "statistics": [{"of": {"summary": "leading_peak", "probe": "gauge_force_cyl8"}, "exceed": [50.0]}],
+    }
+    if design == "sobol":
+        s["ensemble"]["replicates"] = 2
+    return s
+
+
 KINDS = {
     # name: (sweep, extra arguments, exit code)
     "plain": (base_sweep, [], 0),
@@ -119,6 +139,10 @@ KINDS = {
     # Fits: their statistics, profiles, data and prediction over dimensions of their own.
     "fit": (REPO / "sweeps" / "examples" / "fit-damping.json", [], 0),
     "fit-signal": (REPO / "sweeps" / "examples" / "fit-signal.json", [], 0),
+    # Ensembles: statistics over the axes and their own dimensions, indices over the inputs.
+    "ensemble": (lambda: ensemble("sobol"), [], 0),
+    "ensemble-saltelli": (lambda: ensemble("saltelli"), [], 0),
+    "ensemble-morris": (lambda: ensemble("morris"), [], 0),
 }
 
 
