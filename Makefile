@@ -134,6 +134,19 @@ udunits:
 	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(UDUNITS_PACKAGE); }; }
 test-python: udunits
 
+# Chromium (Debian's chromium): tests/test_report.py loads the pages of `chainsweep report` in it,
+# headless. Installed with apt-get when missing, as ncdump is; a no-op once installed.
+CHROMIUM_PACKAGE := chromium
+.PHONY: chromium
+chromium:
+	@command -v chromium >/dev/null 2>&1 || { \
+	  echo "installing $(CHROMIUM_PACKAGE) with apt-get"; \
+	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  $$sudo apt-get install -y -q $(CHROMIUM_PACKAGE) >/dev/null 2>&1 || \
+	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(CHROMIUM_PACKAGE); }; }
+test-python: chromium
+
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
 # --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
 # tests/python/: the Python package (run, sweep, open against the binary) and the examples, run

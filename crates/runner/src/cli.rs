@@ -142,6 +142,26 @@ pub enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Write one self-contained HTML page of what an output file holds: every summary against
+    /// the axes, failed points with their reasons, searches', fits' and ensembles' answers, run
+    /// times and verified errors, and the sweep file for provenance. Opens offline.
+    #[command(
+        after_help = "Examples:\n  chainsweep report results/mass-damping.h5                 # results/mass-damping.html\n  chainsweep report results/mass-damping.h5 -o morning.html\n  chainsweep report results/mass-damping.h5 --watch         # refreshed while the sweep runs"
+    )]
+    Report {
+        /// An output file (`.h5`).
+        file: PathBuf,
+        /// The page to write (default: FILE with `.html`).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Write the page again every `--interval` seconds while a sweep writes into FILE (its
+        /// lock names a live process), and once more when it has ended.
+        #[arg(long)]
+        watch: bool,
+        /// Seconds between pages with `--watch`.
+        #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
+        interval: f64,
+    },
     /// Write SLURM job scripts for a sweep: an array job of N shards and a merge job after it
     /// (whatever the array's outcome), in `OUT.h5.slurm/`; submit them with `--submit`.
     #[command(
@@ -364,6 +384,12 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
             json,
         } => cmd_status(&files, output, shard.as_deref(), json),
         Command::Slurm(args) => cmd_slurm(&args),
+        Command::Report {
+            file,
+            output,
+            watch,
+            interval,
+        } => cmd_report(&file, output, watch, interval),
         Command::Merge { output, shards } => cmd_merge(&output, &shards),
         Command::Gc {
             file,
@@ -706,6 +732,81 @@ fn looks_like_output(file: &Path) -> bool {
             .extension()
             .and_then(|e| e.to_str())
             .is_some_and(|e| ["h5", "hdf5", "he5", "nc"].contains(&e.to_ascii_lowercase().as_str()))
+}
+
+fn cmd_report(file: &Path, output: Option<PathBuf>, watch: bool, interval: f64) -> Result<i32> {
+    if !(interval.is_finite() && interval > 0.0 && interval <= 86_400.0) {
+        return Err(Error::input(
+            "--interval",
+            format!("must be a number of seconds in (0, 86400], got {interval}"),
+        ));
+    }
+    let out = output.unwrap_or_else(|| file.with_extension("html"));
+    let parent = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !parent.is_dir() {
+        return Err(Error::input(
+            "--output",
+            format!("the directory {} does not exist", parent.display()),
+        ));
+    }
+    if out
+        .canonicalize()
+        .ok()
+        .is_some_and(|o| Some(o) == file.canonicalize().ok())
+        || crate::store::hdf5::is_hdf5(&out)
+    {
+        return Err(Error::input(
+            "--output",
+            format!(
+                "{} is an HDF5 file: the page is written beside it, never over it",
+                out.display()
+            ),
+        ));
+    }
+    let write_page = || -> Result<()> {
+        let s = status::of_file(file)?;
+        let t = std::time::Instant::now();
+        let p = crate::report::write(file, &s, &out)?;
+        errln!(
+            "chainsweep: report: {} figure(s) in {:.2} s, {} → {}{}",
+            p.figures,
+            t.elapsed().as_secs_f64(),
+            human_bytes(p.html.len() as f64),
+            out.display(),
+            if p.thinned.is_empty() {
+                String::new()
+            } else {
+                " (thinned where large; the page says where)".to_string()
+            }
+        );
+        Ok(())
+    };
+    if !watch {
+        write_page()?;
+        return Ok(EXIT_OK);
+    }
+    // Until the sweep writing into FILE has ended: a page every interval, then the last one.
+    loop {
+        let live = crate::store::writer_of(file).is_some();
+        if file.exists() {
+            write_page()?;
+        }
+        if !live && file.exists() {
+            return Ok(EXIT_OK);
+        }
+        std::thread::sleep(std::time::Duration::from_secs_f64(interval));
+    }
+}
+
+fn human_bytes(bytes: f64) -> String {
+    if bytes >= 1e6 {
+        format!("{:.2} MB", bytes / 1e6)
+    } else {
+        format!("{:.0} kB", bytes / 1e3)
+    }
 }
 
 fn cmd_gc(file: &Path, output: Option<PathBuf>, dry_run: bool) -> Result<i32> {

@@ -53,6 +53,7 @@ pub mod identity;
 pub mod numerics;
 pub mod progress;
 pub mod record;
+pub mod report;
 pub mod search;
 pub mod store;
 pub mod sweep;

@@ -1,0 +1,661 @@
+//! `chainsweep report`: what an output file holds, as one self-contained HTML page (its figures
+//! inline as SVG drawn here, [`svg`]): every summary against the axes (a line per curve for one
+//! axis, a heatmap for two, small multiples beyond), failed and unnumbered points marked with
+//! their reasons, the health of the sweep, each search's, fit's and ensemble's answer with its
+//! uncertainty, an ensemble's histograms and Sobol' indices, the run time and verified error per
+//! point, and the sweep file, versions and command for provenance.
+//!
+//! The page is opened offline: no script, no font, no link outside it. A large sweep is thinned
+//! (every k-th point of a long axis, a coarser grid of a large heatmap), and the page says where.
+
+pub mod svg;
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::engine::status::{EnsembleStatus, FileStatus};
+use crate::error::{Error, Result};
+use crate::grid::multi_index;
+use crate::record::columns::{ColumnData, Fill, COLUMNS};
+use crate::record::{STATUS_FAILED, STATUS_PENDING};
+use crate::store::hdf5::FileRecords;
+use crate::sweep::{human_name, Sweep};
+use svg::{esc, Series};
+
+/// The most points a line of the page draws (a longer one is thinned).
+pub const MAX_LINE_POINTS: usize = 2000;
+/// The most cells along each side of a heatmap.
+pub const MAX_HEATMAP_SIDE: usize = 160;
+/// The most panels of small multiples per summary.
+pub const MAX_PANELS: usize = 6;
+/// The most probes drawn per summary.
+pub const MAX_PROBES: usize = 8;
+
+/// Columns about how a run went rather than what it found: drawn under "Runs".
+const RUN_COLUMNS: &[(&str, &str)] = &[
+    ("wall_time_s", "s"),
+    ("verify_rel_error_max", "1"),
+    ("energy_drift_max", "1"),
+    ("momentum_residual_max", "1"),
+    ("t_end_s", "s"),
+];
+
+/// A page and what it holds.
+#[derive(Debug, Clone)]
+pub struct Page {
+    /// The HTML text.
+    pub html: String,
+    /// Figures on it.
+    pub figures: usize,
+    /// Where it thinned the data, in words (empty: nowhere).
+    pub thinned: Vec<String>,
+}
+
+struct Builder {
+    body: String,
+    figures: usize,
+    thinned: Vec<String>,
+}
+
+impl Builder {
+    fn figure(&mut self, svg: String, caption: &str) {
+        self.figures += 1;
+        let _ = write!(
+            self.body,
+            "<figure class=\"plot\" id=\"figure-{}\">{svg}<figcaption>{}</figcaption></figure>",
+            self.figures,
+            esc(caption)
+        );
+    }
+}
+
+fn axis_text(v: &serde_json::Value) -> String {
+    match v {
+        serde_json::Value::String(s) => s.clone(),
+        serde_json::Value::Number(n) => n.to_string(),
+        other => other.to_string(),
+    }
+}
+
+/// Which indices of `0..n` to draw: all, or every k-th (and the last).
+fn thin(n: usize, most: usize) -> (Vec<usize>, usize) {
+    if n <= most {
+        return ((0..n).collect(), 1);
+    }
+    let k = n.div_ceil(most);
+    let mut v: Vec<usize> = (0..n).step_by(k).collect();
+    if v.last() != Some(&(n - 1)) {
+        v.push(n - 1);
+    }
+    (v, k)
+}
+
+/// The page of the output file `path`, with `status` (from [`crate::engine::status::of_file`]).
+pub fn page(path: &Path, status: &FileStatus) -> Result<Page> {
+    let recs = FileRecords::open(path)?;
+    let sweep =
+        Sweep::parse(&recs.sweep_text).map_err(|e| e.in_file(&path.display().to_string()))?;
+    let sweep = sweep.with_points(recs.len()).unwrap_or(sweep);
+    let mut b = Builder {
+        body: String::new(),
+        figures: 0,
+        thinned: Vec::new(),
+    };
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    health_section(&mut b, &sweep, status);
+    if let Some(e) = &status.ensemble {
+        ensemble_section(&mut b, path, &sweep, e);
+    }
+    if sweep.search.is_none() && sweep.ensemble.is_none() {
+        summaries_section(&mut b, &sweep, &recs);
+    }
+    provenance_section(&mut b, path, &recs.sweep_text);
+    let mut html = String::new();
+    let _ = write!(
+        html,
+        r#"<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
+<meta name="generator" content="chainsweep {version}">
+<style>
+body {{ font-family: sans-serif; margin: 1.5em auto; max-width: 1200px; color: #222; }}
+h1 {{ font-size: 1.4em; }} h2 {{ font-size: 1.15em; border-bottom: 1px solid #ccc; margin-top: 1.6em; }}
+.plots {{ display: flex; flex-wrap: wrap; gap: 12px; }}
+figure.plot {{ margin: 0; border: 1px solid #ddd; padding: 4px; }}
+figcaption {{ font-size: 0.85em; color: #555; max-width: 560px; }}
+table {{ border-collapse: collapse; font-size: 0.9em; }} td, th {{ border: 1px solid #ddd; padding: 2px 6px; text-align: left; }}
+pre {{ background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em; }}
+.bad {{ color: #b00; }} .note {{ color: #555; font-size: 0.9em; }}
+</style></head><body>
+<h1>{title}</h1>
+<p class="note">{description}</p>
+"#,
+        title = esc(&format!("chainsweep report: {name}")),
+        version = crate::ENGINE_VERSION,
+        description = esc(&sweep.description),
+    );
+    if !b.thinned.is_empty() {
+        let _ = write!(
+            html,
+            "<p class=\"note\">Thinned for the page (the file holds every point): {}</p>",
+            esc(&b.thinned.join("; "))
+        );
+    }
+    html.push_str(&b.body);
+    html.push_str("</body></html>");
+    Ok(Page {
+        html,
+        figures: b.figures,
+        thinned: b.thinned,
+    })
+}
+
+fn health_section(b: &mut Builder, sweep: &Sweep, s: &FileStatus) {
+    let c = &s.counts;
+    let _ = write!(
+        b.body,
+        "<h2>Health</h2><table><tr><th>points</th><td>{}</td></tr><tr><th>ok</th><td>{}</td></tr><tr><th>failed</th><td class=\"{}\">{}</td></tr><tr><th>unsettled</th><td>{}</td></tr><tr><th>pending</th><td>{}</td></tr><tr><th>shape</th><td>{}</td></tr></table>",
+        s.total,
+        c.ok,
+        if c.failed > 0 { "bad" } else { "" },
+        c.failed,
+        c.unsettled,
+        c.pending,
+        esc(&format!("{:?}", s.shape)),
+    );
+    if !s.failures.is_empty() {
+        b.body.push_str(
+            "<p>Failed runs:</p><table><tr><th>point</th><th>axis values</th><th>reason</th></tr>",
+        );
+        let shape = sweep.shape();
+        for (i, why) in s.failures.iter().take(50) {
+            let mi = multi_index(&shape, *i);
+            let label: Vec<String> = sweep
+                .dims
+                .iter()
+                .zip(&mi)
+                .map(|(d, &k)| format!("{}={}", d.axes[0].name, axis_text(&d.axes[0].values[k])))
+                .collect();
+            let _ = write!(
+                b.body,
+                "<tr><td>{i}</td><td>{}</td><td>{}</td></tr>",
+                esc(&label.join(", ")),
+                esc(why)
+            );
+        }
+        b.body.push_str("</table>");
+        if s.failures.len() > 50 {
+            let _ = write!(b.body, "<p class=\"note\">… and {} more (the file's <code>reason</code> dataset holds every one).</p>", s.failures.len() - 50);
+        }
+    }
+    if let Some(lines) = &s.searches {
+        b.body.push_str("<h2>Searches</h2><ul>");
+        for l in lines {
+            let at = if l.label.is_empty() {
+                "search".to_string()
+            } else {
+                format!("search at {}", l.label)
+            };
+            let _ = write!(
+                b.body,
+                "<li>{}: {} after {} run(s){}",
+                esc(&at),
+                esc(&l.status),
+                l.runs,
+                if l.note.is_empty() {
+                    String::new()
+                } else {
+                    format!("; {}", esc(&l.note))
+                }
+            );
+            if !l.answers.is_empty() {
+                b.body.push_str("<ul>");
+                for a in &l.answers {
+                    let _ = write!(b.body, "<li>{} {}</li>", esc(a.item), esc(&a.text));
+                }
+                b.body.push_str("</ul>");
+            }
+            b.body.push_str("</li>");
+        }
+        b.body.push_str("</ul>");
+    }
+}
+
+fn ensemble_section(b: &mut Builder, path: &Path, sweep: &Sweep, e: &EnsembleStatus) {
+    use crate::store::hdf5::fit::read_f64;
+    let o = &e.outcome;
+    let _ = write!(
+        b.body,
+        "<h2>Ensemble</h2><p>{} design, round {}, {} samples per point, {} runs; ended by: {}.</p>",
+        esc(e.design),
+        o.round,
+        o.samples,
+        o.runs,
+        esc(o.stopped_by)
+    );
+    let Some(spec) = &sweep.ensemble else { return };
+    for st in &e.statistics {
+        b.body.push_str(
+            "<table><tr><th>statistic</th><th>at</th><th>mean [95 %]</th><th>sd [95 %]</th>",
+        );
+        for q in &spec.quantiles {
+            let _ = write!(b.body, "<th>q{} [95 %]</th>", q * 100.0);
+        }
+        b.body.push_str("</tr>");
+        let iv = |x: &crate::uq::stats::Estimate| {
+            format!(
+                "{} [{}, {}]",
+                svg::num(x.value),
+                svg::num(x.lower),
+                svg::num(x.upper)
+            )
+        };
+        for p in &st.points {
+            let _ = write!(
+                b.body,
+                "<tr><td>{} ({})</td><td>{}</td><td>{}</td><td>{}</td>",
+                esc(&st.name),
+                esc(&st.units),
+                esc(&p.label),
+                iv(&p.mean),
+                iv(&p.sd)
+            );
+            for (_, x) in &p.quantiles {
+                let _ = write!(b.body, "<td>{}</td>", iv(x));
+            }
+            b.body.push_str("</tr>");
+        }
+        b.body.push_str("</table>\n<div class=\"plots\">");
+        let get = |v: &str| read_f64(path, &format!("{}_{v}", st.name)).unwrap_or_default();
+        let (lo, hi, frac, fl, fu) = (
+            get("bin_lower"),
+            get("bin_upper"),
+            get("histogram"),
+            get("histogram_lower"),
+            get("histogram_upper"),
+        );
+        let bins = lo.len();
+        if bins > 0 && frac.len() >= bins {
+            let mut edges = lo.clone();
+            edges.push(*hi.last().unwrap_or(&0.0));
+            let bars: Vec<(String, f64, f64, f64)> = (0..bins)
+                .map(|k| {
+                    let w = hi[k] - lo[k];
+                    (
+                        format!("{}–{}", svg::num(lo[k]), svg::num(hi[k])),
+                        frac[k] / w,
+                        fl.get(k).map_or(f64::NAN, |x| x / w),
+                        fu.get(k).map_or(f64::NAN, |x| x / w),
+                    )
+                })
+                .collect();
+            let at = st
+                .points
+                .first()
+                .map(|p| p.label.clone())
+                .unwrap_or_default();
+            let title = if at.is_empty() {
+                format!("{} distribution", st.name)
+            } else {
+                format!("{} distribution at {at}", st.name)
+            };
+            b.figure(
+                svg::bars(&title, &format!("{} [{}]", st.name, st.units), "probability density", &bars, Some(&edges)),
+                "histogram of the ensemble's samples at the first point of the axes, with 95 % intervals of each bin's fraction",
+            );
+        }
+        if let Some(p) = st.points.first() {
+            if !p.sensitivity.is_empty() {
+                let (first, second) = if e.design == "morris" {
+                    ("mu*", "sigma")
+                } else {
+                    ("first-order", "total")
+                };
+                let bars: Vec<(String, f64, f64, f64)> = p
+                    .sensitivity
+                    .iter()
+                    .map(|(i, a, _)| (i.clone(), a.value, a.lower, a.upper))
+                    .collect();
+                b.figure(
+                    svg::bars(
+                        &format!(
+                            "{} of {}: {first}",
+                            if e.design == "morris" {
+                                "Morris"
+                            } else {
+                                "Sobol' indices"
+                            },
+                            st.name
+                        ),
+                        "input",
+                        first,
+                        &bars,
+                        None,
+                    ),
+                    &format!("{first} of each input with 95 % bootstrap intervals"),
+                );
+                let bars: Vec<(String, f64, f64, f64)> = p
+                    .sensitivity
+                    .iter()
+                    .map(|(i, _, t)| (i.clone(), t.value, t.lower, t.upper))
+                    .collect();
+                b.figure(
+                    svg::bars(
+                        &format!("{second} of {}", st.name),
+                        "input",
+                        second,
+                        &bars,
+                        None,
+                    ),
+                    &format!("{second} of each input"),
+                );
+            }
+        }
+        b.body.push_str("</div>");
+    }
+}
+
+/// The values of column `c` at probe `p` over every point (NaN where none).
+fn column_values(table: &crate::record::columns::Table, name: &str, p: usize) -> Option<Vec<f64>> {
+    let c = crate::record::columns::column(name)?;
+    let n = table.n;
+    let data = table.get(name)?;
+    let per = if c.per_probe { table.np.max(1) } else { 1 };
+    let width = if c.per_harmonic {
+        per * table.nh.max(1)
+    } else {
+        per
+    };
+    Some(match data {
+        ColumnData::F64(v) => (0..n)
+            .map(|i| {
+                v.get(i * width + if c.per_probe { p * (width / per) } else { 0 })
+                    .copied()
+                    .unwrap_or(f64::NAN)
+            })
+            .collect(),
+        ColumnData::I64(v) => (0..n).map(|i| v[i * width] as f64).collect(),
+        _ => return None,
+    })
+}
+
+fn summaries_section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords) {
+    let table = recs.table();
+    let probes: Vec<chainsweep_solver::observe::probes::Probe> = sweep
+        .base
+        .get("record")
+        .and_then(|r| r.get("probes"))
+        .and_then(|p| serde_json::from_value(p.clone()).ok())
+        .unwrap_or_default();
+    let shape = sweep.shape();
+    let n = recs.len();
+    let why = |i: usize| -> String {
+        match recs.status(i) {
+            STATUS_FAILED => format!("point {i} failed: {}", recs.reason(i)),
+            STATUS_PENDING => format!("point {i} pending"),
+            _ => format!("point {i}: the run gives no number here"),
+        }
+    };
+    b.body.push_str("<h2>Summaries</h2><div class=\"plots\">");
+    let mut drawn = 0;
+    for c in COLUMNS {
+        let result = matches!(
+            c.fill,
+            Fill::ProbeF64 { .. } | Fill::SteadyF64 { .. } | Fill::OkF64 { .. }
+        );
+        let about_the_run =
+            RUN_COLUMNS.iter().any(|(n, _)| *n == c.name) || c.name == "energy_drift_final";
+        if !result || about_the_run || c.per_harmonic || table.get(c.name).is_none() {
+            continue;
+        }
+        // A column's own unit, or its probe's (a force probe's peaks in N, their times in s).
+        let fixed = match c.units {
+            crate::record::columns::Units::Fixed(u) => Some(u.to_string()),
+            crate::record::columns::Units::OfProbes => None,
+            crate::record::columns::Units::None => Some("1".into()),
+        };
+        let groups: Vec<(usize, String, String)> = if c.per_probe {
+            probes
+                .iter()
+                .enumerate()
+                .take(MAX_PROBES)
+                .map(|(k, p)| {
+                    (
+                        k,
+                        p.name(),
+                        fixed.clone().unwrap_or_else(|| p.unit().to_string()),
+                    )
+                })
+                .collect()
+        } else {
+            vec![(0, String::new(), fixed.unwrap_or_else(|| "1".into()))]
+        };
+        for (p, probe, units) in groups {
+            let Some(v) = column_values(table, c.name, p) else {
+                continue;
+            };
+            if !v.iter().any(|x| x.is_finite()) {
+                continue;
+            }
+            let what = if probe.is_empty() {
+                c.name.to_string()
+            } else {
+                format!("{} at {probe}", c.name)
+            };
+            plot_over_axes(b, sweep, &shape, n, &v, &what, &units, &why);
+            drawn += 1;
+        }
+    }
+    b.body.push_str("</div>");
+    if drawn == 0 {
+        b.body
+            .push_str("<p class=\"note\">No summary holds a number yet.</p>");
+    }
+    b.body.push_str("<h2>Runs</h2><div class=\"plots\">");
+    for &(name, units) in RUN_COLUMNS {
+        if let Some(v) = column_values(table, name, 0).filter(|v| v.iter().any(|x| x.is_finite())) {
+            plot_over_axes(b, sweep, &shape, n, &v, name, units, &why);
+        }
+    }
+    b.body.push_str("</div>");
+}
+
+fn is_numeric(values: &[serde_json::Value]) -> bool {
+    values.iter().all(|v| v.is_number())
+}
+
+/// Draws `v` (one value per point) against the axes: lines for one dimension (or two, the outer
+/// with few values: a line per value), a heatmap for two, small multiples beyond.
+#[allow(clippy::too_many_arguments)]
+fn plot_over_axes(
+    b: &mut Builder,
+    sweep: &Sweep,
+    shape: &[usize],
+    n: usize,
+    v: &[f64],
+    what: &str,
+    units: &str,
+    why: &dyn Fn(usize) -> String,
+) {
+    let d = shape.len();
+    let label_of = |dim: usize| {
+        let a = &sweep.dims[dim].axes[0];
+        format!("{} [{}]", human_name(&a.name), a.units)
+    };
+    let y_label = format!(
+        "{} [{units}]",
+        human_name(what.split(" at ").next().unwrap_or(what))
+    );
+    let line = |b: &mut Builder,
+                dim: usize,
+                series_of: &dyn Fn(usize) -> Vec<(String, Vec<usize>)>,
+                title: &str,
+                outer: usize| {
+        let a = &sweep.dims[dim].axes[0];
+        let numeric = is_numeric(&a.values);
+        let (keep, k) = thin(a.values.len(), MAX_LINE_POINTS);
+        if k > 1 {
+            b.thinned.push(format!(
+                "{title}: every {k}th of {} points along {}",
+                a.values.len(),
+                a.name
+            ));
+        }
+        let x_of = |j: usize| {
+            if numeric {
+                a.values[j].as_f64().unwrap_or(f64::NAN)
+            } else {
+                j as f64
+            }
+        };
+        let series: Vec<Series> = series_of(outer)
+            .into_iter()
+            .map(|(label, points)| Series {
+                label,
+                points: keep.iter().map(|&j| (x_of(j), v[points[j]])).collect(),
+                missing: keep
+                    .iter()
+                    .filter(|&&j| !v[points[j]].is_finite())
+                    .map(|&j| (x_of(j), why(points[j])))
+                    .collect(),
+                band: Vec::new(),
+            })
+            .collect();
+        let texts: Vec<String> = a.values.iter().map(axis_text).collect();
+        let svg = svg::lines(
+            title,
+            &label_of(dim),
+            &y_label,
+            &series,
+            (!numeric).then_some(&texts[..]),
+        );
+        b.figure(
+            svg,
+            &format!(
+                "{what} against {}; red crosses: points without a number (hover for why)",
+                a.name
+            ),
+        );
+    };
+    match d {
+        0 => {}
+        1 => {
+            let all: Vec<usize> = (0..n).collect();
+            line(b, 0, &|_| vec![(what.to_string(), all.clone())], what, 0);
+        }
+        _ => {
+            // The last two dimensions in each panel; the ones before them index the panels.
+            let (dy, dx) = (d - 2, d - 1);
+            let panels: usize = shape[..dy].iter().product();
+            let shown = panels.min(MAX_PANELS);
+            if panels > shown {
+                b.thinned
+                    .push(format!("{what}: the first {shown} of {panels} panels"));
+            }
+            let stride_y = shape[dx];
+            for panel in 0..shown {
+                let base = panel * shape[dy] * shape[dx];
+                let prefix = if d > 2 {
+                    let mi = multi_index(&shape[..dy], panel);
+                    let parts: Vec<String> = (0..dy)
+                        .map(|k| {
+                            format!(
+                                "{}={}",
+                                sweep.dims[k].axes[0].name,
+                                axis_text(&sweep.dims[k].axes[0].values[mi[k]])
+                            )
+                        })
+                        .collect();
+                    format!("{what} at {}", parts.join(", "))
+                } else {
+                    what.to_string()
+                };
+                if shape[dy] <= 10 {
+                    let ya = &sweep.dims[dy].axes[0];
+                    line(
+                        b,
+                        dx,
+                        &|_| {
+                            (0..shape[dy])
+                                .map(|i| {
+                                    (
+                                        format!("{} = {}", ya.name, axis_text(&ya.values[i])),
+                                        (0..shape[dx]).map(|j| base + i * stride_y + j).collect(),
+                                    )
+                                })
+                                .collect()
+                        },
+                        &prefix,
+                        panel,
+                    );
+                } else {
+                    let (rows, ky) = thin(shape[dy], MAX_HEATMAP_SIDE);
+                    let (cols, kx) = thin(shape[dx], MAX_HEATMAP_SIDE);
+                    if ky > 1 || kx > 1 {
+                        b.thinned.push(format!(
+                            "{prefix}: every {ky}th row and {kx}th column of the heatmap"
+                        ));
+                    }
+                    let (xa, ya) = (&sweep.dims[dx].axes[0], &sweep.dims[dy].axes[0]);
+                    let z: Vec<Vec<f64>> = rows
+                        .iter()
+                        .map(|&i| cols.iter().map(|&j| v[base + i * stride_y + j]).collect())
+                        .collect();
+                    let short =
+                        |v: &serde_json::Value| v.as_f64().map_or_else(|| axis_text(v), svg::num);
+                    let xl: Vec<String> = cols.iter().map(|&j| short(&xa.values[j])).collect();
+                    let yl: Vec<String> = rows.iter().map(|&i| short(&ya.values[i])).collect();
+                    let svg = svg::heatmap(
+                        &prefix,
+                        &label_of(dx),
+                        &label_of(dy),
+                        &xl,
+                        &yl,
+                        &z,
+                        &|i, j| Some(why(base + rows[i] * stride_y + cols[j])),
+                        units,
+                    );
+                    b.figure(svg, &format!("{what} over {} and {}; hatched: points without a number (hover for why)", ya.name, xa.name));
+                }
+            }
+        }
+    }
+}
+
+fn provenance_section(b: &mut Builder, path: &Path, sweep_text: &str) {
+    let names = [
+        "engine_version",
+        "solver_version",
+        "git_revision",
+        "created_utc",
+        "command_line",
+        "shard",
+    ];
+    b.body.push_str("<h2>Provenance</h2><table>");
+    let _ = write!(
+        b.body,
+        "<tr><th>file</th><td>{}</td></tr>",
+        esc(&path.display().to_string())
+    );
+    for n in names {
+        if let Some(v) = crate::store::hdf5::fit::read_attrs(path, &[n]) {
+            let _ = write!(b.body, "<tr><th>{n}</th><td>{}</td></tr>", esc(&v[0]));
+        }
+    }
+    let _ = write!(
+        b.body,
+        "</table><details><summary>the sweep file</summary><pre>{}</pre></details>",
+        esc(sweep_text)
+    );
+}
+
+/// Writes the page of `file` to `out` atomically (a temporary file renamed over it).
+pub fn write(file: &Path, status: &FileStatus, out: &Path) -> Result<Page> {
+    let p = page(file, status)?;
+    let tmp = out.with_extension("html.tmp");
+    std::fs::write(&tmp, &p.html).map_err(|e| Error::Other(format!("{}: {e}", tmp.display())))?;
+    std::fs::rename(&tmp, out).map_err(|e| Error::Other(format!("{}: {e}", out.display())))?;
+    Ok(p)
+}

@@ -1,0 +1,194 @@
+"""`chainsweep report`: one self-contained page per output file, loaded in a real headless
+browser (Debian's Chromium, installed by `make test`): no console error, every figure the
+command reports present and drawn, nothing fetched from outside, a screenshot of plausible size;
+failed points marked with their reasons; a 100 000-point sweep's page in seconds and under a few
+MB. The screenshots stay in results/report/ for a look.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import struct
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from conftest import BIN, REPO, base_sweep, run, write_sweep
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+SHOTS = REPO / "results" / "report"
+
+
+def browser(page: Path, *args: str) -> subprocess.CompletedProcess:
+    assert Path(CHROMIUM).exists(), "chromium not found: `make test` installs it (Debian's chromium)"
+    return subprocess.run(
+        [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
+         "--enable-logging=stderr", "--v=0", "--no-first-run", *args, page.resolve().as_uri()],
+        capture_output=True, text=True, timeout=120)
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    head = path.read_bytes()[:24]
+    assert head[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", head[16:24])
+
+
+def check_page(page: Path, figures: int, shot: Path):
+    html = page.read_text()
+    # Self-contained: nothing to fetch (the SVG namespace is a name, not a link).
+    assert not re.search(r"""(src|href)\s*=\s*["'](?!#)""", html), "the page links outside itself"
+    assert "<script" not in html
+    dom = browser(page, "--dump-dom")
+    assert dom.returncode == 0, dom.stderr
+    console = [l for l in dom.stderr.splitlines() if "CONSOLE" in l or "Uncaught" in l]
+    assert not console, console
+    # Every figure the command counted is in the page and drawn (marks, not just a frame).
+    svgs = re.findall(r"<svg.*?</svg>", dom.stdout, flags=re.S)
+    assert len(svgs) == figures > 0, (len(svgs), figures)
+    for s in svgs:
+        marks = len(re.findall(r"<(path|circle|rect)\b", s))
+        assert marks >= 3, s[:300]
+    SHOTS.mkdir(parents=True, exist_ok=True)
+    r = browser(page, f"--screenshot={shot}", "--window-size=1280,2000")
+    assert r.returncode == 0 and shot.exists(), r.stderr
+    w, h = png_size(shot)
+    assert (w, h) == (1280, 2000)
+    assert shot.stat().st_size > 20_000, "the screenshot is nearly blank"
+
+
+def report(out: Path, page: Path) -> int:
+    r = run("report", out, "-o", page)
+    assert r.returncode == 0, r.stderr
+    m = re.search(r"(\d+) figure", r.stderr)
+    assert m, r.stderr
+    return int(m.group(1))
+
+
+def failing():
+    """Three mass ratios at two tolerances: the rtol 1e-5 runs drift by about 1e-4 of the impact
+    energy, over the limit 1e-6, and fail with that reason."""
+    s = base_sweep()
+    s["axes"] = [
+        {"field": "chain.cylinder.mass.heavy_cylinders.mass_ratio", "values": [0.3, 0.55, 1.0]},
+        {"field": "integrator.rtol", "values": [1e-9, 1e-5]},
+    ]
+    s["limits"] = {"energy_drift_max": 1e-6}
+    s["record"]["history"] = False
+    return s
+
+
+@pytest.mark.parametrize("kind", ["lines", "failed", "heatmap", "ensemble"])
+def test_a_report_loads_in_a_browser_with_every_figure_drawn(tmp_path, kind):
+    if kind == "lines":
+        s = base_sweep()
+        s["record"]["history"] = False
+    elif kind == "failed":
+        s = failing()
+    elif kind == "heatmap":
+        s = base_sweep(cylinders=4, duration_s=1e-4, probes=(2, 4))
+        s["record"]["history"] = False
+        s["axes"] = [
+            {"field": "striker_velocity_m_s", "range": {"start": 0.5, "stop": 2.0, "num": 12}},
+            {"field": "physics.damping_kg_s", "range": {"start": 0, "stop": 10, "num": 12}},
+        ]
+    else:
+        s = base_sweep(cylinders=4, duration_s=1e-4)
+        s["record"] = {"probes": [{"kind": "gauge_force", "cylinder": 3}], "stop_after_leading_pulses": True}
+        s.pop("axes")
+        s["ensemble"] = {
+            "inputs": [{"field": "striker_velocity_m_s", "normal": {"relative_sd": 0.05}},
+                       {"field": "physics.damping_kg_s", "uniform": {"min": 0, "max": 4}}],
+            "design": "saltelli", "samples": 16,
+            "statistics": [{"name": "peak", "of": {"summary": "leading_peak", "probe": "gauge_force_cyl3"}}],
+        }
+    path = write_sweep(tmp_path / f"{kind}.json", s)
+    out = tmp_path / f"{kind}.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode in (0, 3), r.stderr
+    page = tmp_path / f"{kind}.html"
+    figures = report(out, page)
+    check_page(page, figures, SHOTS / f"{kind}.png")
+    html = page.read_text()
+    if kind == "failed":
+        # The failed points are listed with their axis values and reason, and marked in the
+        # figures with the reason as a tooltip.
+        assert "Failed runs" in html and "rtol=0.00001" in html and "energy drift" in html
+        assert 'class="missing"' in html
+    if kind == "heatmap":
+        assert html.count("<rect") > 144
+    if kind == "ensemble":
+        assert "Sobol&#x27; indices" in html or "Sobol' indices" in html
+        assert "ended by: fixed" in html
+
+
+def test_a_100000_point_sweep_reports_in_seconds_and_small(tmp_path):
+    law = {"power_law": {"coefficient": 1e6, "exponent": 1.0}}
+    s = {
+        "description": "a linear chain's lowest frequency over 100 000 precompressions",
+        "base": {
+            "chain": {
+                "particles": {"ball": {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002,
+                                                  "material": {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.3}}}},
+                "sequence": [{"repeat": 3, "of": ["ball"]}],
+                "contacts": [{"between": ["ball", "ball"], "law": law}, {"between": ["ball", "wall"], "law": law}],
+            },
+            "physics": {"gravity": False, "damping_kg_s": 0.0, "wall": True, "precompression_force_n": 1.0},
+            "excitation": {"impulse": {"velocity_m_s": 0.01}},
+            "duration_s": 0.001,
+        },
+        "record": {"spectrum": {}},
+        "axes": [{"field": "physics.precompression_force_n", "range": {"start": 1.0, "stop": 100000.0, "num": 100000}}],
+    }
+    path = write_sweep(tmp_path / "big.json", s)
+    out = tmp_path / "big.h5"
+    assert run("run", path, "-o", out, "--quiet", timeout=600).returncode == 0
+    page = tmp_path / "big.html"
+    t = time.perf_counter()
+    figures = report(out, page)
+    elapsed = time.perf_counter() - t
+    size = page.stat().st_size
+    print(f"100 000-point report: {elapsed:.2f} s, {size / 1e6:.2f} MB, {figures} figures")
+    assert elapsed < 20 and size < 3e6
+    html = page.read_text()
+    assert "Thinned for the page" in html and "every 50th of 100000 points" in html
+    check_page(page, figures, SHOTS / "big.png")
+
+
+def test_bad_report_requests_exit_2_and_write_nothing(tmp_path):
+    sweep = write_sweep(tmp_path / "s.json", base_sweep())
+    r = run("report", sweep, "-o", tmp_path / "p.html")
+    assert r.returncode == 2 and "not a chainsweep output file" in r.stderr, r.stderr
+    assert not (tmp_path / "p.html").exists()
+    r = run("report", tmp_path / "missing.h5")
+    assert r.returncode == 2, r.stderr
+    out = tmp_path / "s.h5"
+    assert run("run", sweep, "-o", out, "--quiet").returncode == 0
+    r = run("report", out, "-o", tmp_path / "no-such-dir" / "p.html")
+    assert r.returncode == 2 and "--output" in r.stderr, r.stderr
+    r = run("report", out, "-o", out)
+    assert r.returncode == 2 and "--output" in r.stderr, r.stderr
+    assert run("status", out).returncode == 0  # the output file is untouched
+
+
+def test_watch_refreshes_the_page_until_the_sweep_ends(tmp_path):
+    s = base_sweep(cylinders=40, duration_s=0.1)
+    s["record"]["history"] = False
+    path = write_sweep(tmp_path / "w.json", s)
+    out = tmp_path / "w.h5"
+    page = tmp_path / "w.html"
+    runner = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out),
+                               "--quiet", "--jobs", "1", "--checkpoint-interval", "0.2"])
+    deadline = time.monotonic() + 60
+    while not out.exists() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    watcher = subprocess.Popen([str(BIN), "report", str(out), "-o", str(page),
+                                "--watch", "--interval", "0.3"], stderr=subprocess.PIPE, text=True)
+    assert runner.wait(timeout=300) == 0
+    _, err = watcher.communicate(timeout=60)
+    assert watcher.returncode == 0, err
+    # It wrote the page while the sweep ran, and once more after it had ended: all six ok.
+    assert err.count("figure") >= 2, err
+    assert "<th>ok</th><td>6</td>" in page.read_text()
