@@ -85,7 +85,7 @@ def main():
             "description": "bench: the same runs as a grid",
             "base": base(),
             "record": RECORD,
-            "axes": [{"field": "striker_velocity_m_s", "values": v, "zip": [{"field": "physics.damping_kg_s", "values": d}]}],
+            "axes": [{"zip": [{"field": "striker_velocity_m_s", "values": v}, {"field": "physics.damping_kg_s", "values": d}]}],
         }
         (work / "grid.json").write_text(json.dumps(grid))
         times = {"ensemble": [], "grid": []}
