@@ -244,7 +244,13 @@ pub fn parse_without_limits(text: &str, dir: &std::path::Path) -> Option<Sweep> 
 
 /// The sections of a file read as far as its structure allows (`well_formed`: wholly), each
 /// checked as the parser checks it.
-fn check_sections(file: SweepFile, well_formed: bool, errors: &mut Vec<Error>) {
+fn check_sections(mut file: SweepFile, well_formed: bool, errors: &mut Vec<Error>) {
+    // Derived fields stand in as numbers while the base is checked; one that does not parse is
+    // the base's error.
+    if let Err(e) = super::expr::extract(&mut file.base, &[]) {
+        errors.push(e);
+        return;
+    }
     let base = match super::normalise_base(file.base, file.record, true) {
         Ok(b) => Some(b),
         Err(es) => {

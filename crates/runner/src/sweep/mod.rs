@@ -28,6 +28,7 @@
 pub mod auto;
 pub mod diagnose;
 pub mod ensemble;
+pub mod expr;
 pub mod fit;
 mod recording;
 pub mod schema;
@@ -623,6 +624,15 @@ fn merge(base: &mut Value, over: Value) {
         }
         (b, o) => *b = o,
     }
+}
+
+/// The `axes` list of a sweep file's text as JSON (empty where it has none or does not read).
+fn raw_axes(text: &str) -> Vec<Value> {
+    let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
+    serde_json::from_str::<Value>(stripped)
+        .ok()
+        .and_then(|v| v.get("axes").and_then(Value::as_array).cloned())
+        .unwrap_or_default()
 }
 
 /// Chain presets a sweep's `base.chain.preset` may name.
@@ -1275,7 +1285,8 @@ impl Sweep {
         let text = with_data.as_deref().unwrap_or(text);
         let with_fit = ensemble::inline_text(text, dir)?;
         let text = with_fit.as_deref().unwrap_or(text);
-        let file = read_json(text)?;
+        let mut file = read_json(text)?;
+        let derived = expr::extract(&mut file.base, &raw_axes(text))?;
         let (mut base, _, auto) = normalise_base(file.base, file.record, false).map_err(first)?;
         let limits = parse_limits(file.limits)?;
         let mut dims = parse_dims(
@@ -1286,6 +1297,7 @@ impl Sweep {
             false,
         )
         .map_err(first)?;
+        expr::apply(&derived, &mut base, &mut dims)?;
         check_names_and_fields(&dims)?;
         let continuation = parse_continuation(file.continuation, &dims, file.search.is_some())?;
         let search = file

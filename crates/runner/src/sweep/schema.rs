@@ -38,6 +38,21 @@ impl JsonSchema for BaseScene {
             .get_mut("properties")
             .and_then(Value::as_object_mut)
             .expect("a scene's schema lists its properties");
+        // A scene's top-level numbers may be derived fields, `{"expr": "…"}`.
+        for (_, prop) in properties.iter_mut() {
+            if prop.get("type").and_then(Value::as_str) == Some("number") {
+                let number = prop.clone();
+                *prop = serde_json::json!({
+                    "anyOf": [number, {
+                        "type": "object",
+                        "description": "A derived field: an expression of the point's axis values (by axis name) and the base scene's numbers (by dotted path), e.g. \"settle_s + 200 / frequency_hz\".",
+                        "properties": {"expr": {"type": "string"}},
+                        "required": ["expr"],
+                        "additionalProperties": false
+                    }]
+                });
+            }
+        }
         properties.insert(
             "chain".into(),
             json_schema!({
