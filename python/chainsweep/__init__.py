@@ -32,6 +32,7 @@ from .errors import DamagedFileError, Error, InputError, RunError, SweepError
 
 if TYPE_CHECKING:
     from ._open import open
+    from ._plot import plot
     from ._run import run
     from ._spectrum import spectrum
     from ._surface import refined_surface
@@ -41,6 +42,7 @@ if TYPE_CHECKING:
 # command (chainsweep._cli) needs none of them.
 _LAZY = {
     "open": "._open",
+    "plot": "._plot",
     "run": "._run",
     "refined_surface": "._surface",
     "spectrum": "._spectrum",
@@ -65,6 +67,7 @@ __all__ = [
     "run",
     "sweep",
     "open",
+    "plot",
     "refined_surface",
     "spectrum",
     "example_path",

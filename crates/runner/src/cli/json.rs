@@ -267,7 +267,7 @@ pub fn file_status(file: &Path, s: &FileStatus, exit_code: i32) -> Value {
             s.failures
                 .iter()
                 .map(|(i, reason)| {
-                    json!({"point": i, "index": multi_index(&s.shape, *i), "reason": reason})
+                    json!({"point": i, "index": multi_index(&s.shape, *i), "at": s.labels.get(i), "reason": reason})
                 })
                 .collect(),
         ),

@@ -633,19 +633,25 @@ pub fn file_status(file: &Path, s: &FileStatus) {
             crate::NUMERICS_VERSION
         );
     }
+    // Points by their axis values, as `run` names them (by their indices where none was kept).
+    let label = |i: usize| {
+        s.labels
+            .get(&i)
+            .cloned()
+            .unwrap_or_else(|| index_text(&s.shape, i))
+    };
     for (shown, (i, reason)) in s.failures.iter().enumerate() {
         if shown == LISTED_IN_STATUS {
             outln!("  …");
             break;
         }
-        outln!("  failed: point {i} {}: {reason}", index_text(&s.shape, *i));
+        outln!("  failed: point {i} ({}): {reason}", label(*i));
     }
     if let Some(&i) = s.unpassed.first() {
-        let first = format!("point {i} {}", index_text(&s.shape, i));
+        let first = format!("point {i} ({})", label(i));
         outln!("  {}", unpassed_text(s.unpassed.len(), &first));
     }
     if !s.unsettled.is_empty() {
-        let label = |i: usize| index_text(&s.shape, i);
         for line in unsettled_lines(&s.unsettled, label) {
             outln!("  {line}");
         }
@@ -653,7 +659,6 @@ pub fn file_status(file: &Path, s: &FileStatus) {
     if let Some(lines) = &s.searches {
         search_lines(lines);
     } else {
-        let label = |i: usize| index_text(&s.shape, i);
         outln!("  {}", health_text(&s.health, label));
     }
     if let Some(e) = &s.ensemble {

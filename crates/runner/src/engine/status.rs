@@ -58,7 +58,13 @@ pub struct FileStatus {
     pub searches: Option<Vec<SearchLine>>,
     /// An ensemble's output: how it stands and its statistics.
     pub ensemble: Option<EnsembleStatus>,
+    /// The axis values of the points it lists (failed, unsettled, unpassed, the worst verified),
+    /// as `run` names them (`mass_ratio=0.3 rtol=0.00001`).
+    pub labels: HashMap<usize, String>,
 }
+
+/// The most points of each kind whose axis values `status` gives.
+pub const LABELLED_POINTS: usize = 100;
 
 /// An ensemble's output, as `status` gives it.
 #[derive(Debug, Clone)]
@@ -476,7 +482,23 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
             })
             .count()
     });
+    // A search file's points are its evaluations: labelled by index, as before.
+    let labels: HashMap<usize, String> = if sweep.search.is_none() {
+        failures
+            .iter()
+            .map(|(i, _)| *i)
+            .take(LABELLED_POINTS)
+            .chain(unpassed.iter().copied().take(LABELLED_POINTS))
+            .chain(unsettled.iter().copied().take(LABELLED_POINTS))
+            .chain(health.worst_verified.map(|(_, i)| i))
+            .filter(|&i| i < grid.len())
+            .map(|i| (i, grid.point_label(&sweep, i)))
+            .collect()
+    } else {
+        HashMap::new()
+    };
     Ok(FileStatus {
+        labels,
         total,
         shape: sweep.shape(),
         shard: shard_text,
