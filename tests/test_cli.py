@@ -194,8 +194,8 @@ def test_man_pages_render_and_cover_every_command(binary, tmp_path):
     r = run("man", tmp_path / "man1")
     assert r.returncode == 0, r.stderr
     pages = sorted(p.name for p in (tmp_path / "man1").iterdir())
-    commands = ["accuracy", "completions", "examples", "examples-copy", "gc", "man", "merge", "point", "run",
-                "schema", "slurm", "status", "validate"]
+    commands = ["accuracy", "completions", "examples", "examples-copy", "gc", "man", "merge", "point", "report",
+                "run", "schema", "slurm", "status", "validate"]
     assert pages == sorted(["chainsweep.1"] + [f"chainsweep-{c}.1" for c in commands])
     assert sorted(os.path.basename(x) for x in r.stdout.split()) == pages
     for p in pages:

@@ -75,7 +75,8 @@ def point_index(out, **axes):
 
 
 def damaged_points(stdout):
-    return sorted(int(m) for m in re.findall(r"point (\d+) \(", stdout))
+    """The points `status` lists as damaged: a line each, `  point N (axis values): why`."""
+    return sorted(int(m) for m in re.findall(r"^\s+point (\d+) \(", stdout, flags=re.M))
 
 
 # 1. A shard run into a complete output does nothing; a shard into another shard's output keeps it.
