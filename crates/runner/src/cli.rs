@@ -742,16 +742,7 @@ fn cmd_report(file: &Path, output: Option<PathBuf>, watch: bool, interval: f64) 
         ));
     }
     let out = output.unwrap_or_else(|| file.with_extension("html"));
-    let parent = match out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !parent.is_dir() {
-        return Err(Error::input(
-            "--output",
-            format!("the directory {} does not exist", parent.display()),
-        ));
-    }
+    engine::check_output_folder(&out)?;
     if out
         .canonicalize()
         .ok()

@@ -267,9 +267,8 @@ pub fn default_output(file: &Path, shard: Option<Shard>) -> PathBuf {
     }
 }
 
-/// Checks that `output` can be written without clobbering a file chainsweep did not make
-/// (unless `overwrite`).
-pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
+/// Checks that the folder `output` goes into exists (the error names `--output`).
+pub fn check_output_folder(output: &Path) -> Result<()> {
     let parent = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -280,6 +279,13 @@ pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
             format!("the directory {} does not exist", parent.display()),
         ));
     }
+    Ok(())
+}
+
+/// Checks that `output` can be written without clobbering a file chainsweep did not make
+/// (unless `overwrite`).
+pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
+    check_output_folder(output)?;
     if output.is_dir() {
         return Err(Error::input(
             "--output",
