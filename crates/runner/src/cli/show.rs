@@ -193,7 +193,7 @@ pub fn dry_run(
     if let Some(e) = &sweep.ensemble {
         let size = match e.max_runs {
             Some(m) => format!(
-                "adaptive: {} runs in its first round ({} samples at each of {} point(s)), doubling until every statistic's interval is within its tolerance or the next round would pass the budget of {m} runs",
+                "adaptive: {} runs in round 0 ({} samples at each of {} point(s)), doubling until every statistic's interval is within its tolerance or the next round would pass the budget of {m} runs",
                 e.round_runs(0),
                 e.round_samples(0),
                 e.outer_points

@@ -223,9 +223,9 @@ pub struct EnsembleSpec {
     pub design: Design,
     /// Its seed.
     pub seed: u64,
-    /// Samples per replicate, Saltelli's base rows or Morris trajectories, in the first round.
+    /// Samples per replicate, Saltelli's base rows or Morris trajectories, in round 0 (the start).
     pub samples: usize,
-    /// Replicates in the first round.
+    /// Replicates in round 0 (the start).
     pub replicates: usize,
     /// The budget in runs when adaptive (`None`: a fixed size).
     pub max_runs: Option<usize>,
@@ -801,7 +801,7 @@ impl Reader<'_> {
 
 /// Reads and checks the `ensemble` block against the normalised `base` (which gains one mass
 /// factor per particle when an input draws them) and the ordinary dimensions `dims`; pushes the
-/// `member` dimension of the first round.
+/// `member` dimension of round 0.
 pub(super) fn parse(
     f: EnsembleFile,
     base: &mut Value,
@@ -1215,7 +1215,7 @@ pub(super) fn parse(
             return Err(bad(
                 "ensemble.max_runs",
                 format!(
-                    "is {m} runs, below the first round's {} ({} samples at {outer_points} points)",
+                    "is {m} runs, below round 0's {} ({} samples at {outer_points} points), where every ensemble starts",
                     spec.round_samples(0) * outer_points,
                     spec.round_samples(0)
                 ),
