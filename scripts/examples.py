@@ -629,21 +629,21 @@ def ensemble():
     ax.bar(lo, frac / width, width=width, align="edge", color="C0", alpha=0.6, label="samples (density)")
     err = np.vstack([frac - ds.f21_f4_histogram_lower.values, ds.f21_f4_histogram_upper.values - frac]) / width
     ax.errorbar(0.5 * (lo + hi), frac / width, yerr=err, fmt="none", ecolor="C0", lw=0.8)
-    for j, p in enumerate(ds.quantile.values):
+    for j, p in enumerate(ds["quantile"].values):
         q = float(ds.f21_f4_quantile[j])
         ql, qh = float(ds.f21_f4_quantile_lower[j]), float(ds.f21_f4_quantile_upper[j])
         ax.axvspan(ql, qh, color="C3", alpha=0.2)
         ax.axvline(q, color="C3", lw=1)
-        ax.annotate(f"{p:.0%}", (q, 1.0), xycoords=("data", "axes fraction"), ha="center", va="bottom", fontsize=8)
+        ax.annotate(f"{p:.0%}", (q, 0.98), xycoords=("data", "axes fraction"), ha="center", va="top", fontsize=8)
     m, ml, mh = (float(ds[f"f21_f4_mean{s}"]) for s in ("", "_lower", "_upper"))
     ax.set_xlabel("F21 / F4 (leading-pulse amplitudes)")
     ax.set_ylabel("probability density")
     ax.set_title(
-        f"mean {m:.4f} [{ml:.4f}, {mh:.4f}]: {sobol['ensemble_runs']} runs of Sobol' points,\n"
-        f"{mc['ensemble_runs']} of Monte Carlo for the same intervals",
-        fontsize=10,
+        f"mean {m:.4f} [{ml:.4f}, {mh:.4f}]\n"
+        f"{sobol['ensemble_runs']} Sobol' runs, {mc['ensemble_runs']} Monte Carlo runs, same intervals",
+        fontsize=9,
     )
-    ax.legend(loc="upper left", fontsize=8, frameon=False)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), fontsize=8, frameon=False)
     names = [str(n) for n in sens.input_name.values]
     labels = {"mass_factor": "cylinder masses ±1 %", "striker_velocity_m_s": "striker velocity ±2 %", "damping_kg_s": "damping 6.06 ± 0.36"}
     y = np.arange(len(names))
@@ -653,10 +653,12 @@ def ensemble():
         bx.barh(y + off, v, height=0.34, xerr=e, color=f"C{k + 1}", label=kind.replace("_", "-"), capsize=2)
     bx.set_yticks(y, [labels.get(n, n) for n in names])
     bx.axvline(0, color="k", lw=0.6)
-    bx.set_xlabel("Sobol' index of F21/F4 (95 % bootstrap intervals)")
-    bx.legend(loc="lower right", fontsize=8, frameon=False)
+    bx.set_xlabel("Sobol' index of F21/F4")
+    bx.set_title("95 % bootstrap intervals", fontsize=9)
+    # Below the axes, never over the bars.
+    bx.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize=8, frameon=False)
     fig.tight_layout()
-    savefig(fig, EXAMPLES / "ensemble.png")
+    savefig(fig, "examples/ensemble")
 
 
 def main(names: list[str]):
