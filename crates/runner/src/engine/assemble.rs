@@ -98,20 +98,28 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<hdf5::Written> {
     for &i in a.points {
         in_points[i] = true;
     }
+    // An ensemble's statistics take their values from the records as the columns are filled
+    // (each run read once), and are computed once they all have passed.
+    let values = a
+        .sweep
+        .ensemble
+        .as_ref()
+        .map(|_| std::cell::RefCell::new(super::ensemble::Values::new(a.sweep, a.grid)));
     let read = |i: usize| {
         let h = a.grid.hashes[i];
-        if a.done.contains_key(&h) || !in_points[i] {
+        let rec = if a.done.contains_key(&h) || !in_points[i] {
             work.read(&h)
         } else {
             Ok(None)
+        };
+        if let (Some(v), Ok(r)) = (&values, &rec) {
+            v.borrow_mut().take(a.sweep, i, r.as_ref());
         }
+        rec
     };
-    let ensemble = match &a.sweep.ensemble {
-        Some(_) => {
-            let (values, pending) = super::ensemble::values(a.sweep, a.grid, read)?;
-            Some(super::ensemble::tables(a.sweep, &values, pending).0)
-        }
-        None => None,
+    let tables = || {
+        let v = values.as_ref().expect("an ensemble").borrow();
+        super::ensemble::tables(a.sweep, &v.values, v.pending).0
     };
     let written = hdf5::write_file(
         &tmp,
@@ -124,7 +132,9 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<hdf5::Written> {
         read,
         |i, rec| a.verify.info(work, a.grid, i, rec),
         a.search,
-        ensemble.as_ref(),
+        values
+            .is_some()
+            .then_some(&tables as &dyn Fn() -> hdf5::fit::EnsembleTables),
     );
     let written = match written {
         Ok(w) => w,

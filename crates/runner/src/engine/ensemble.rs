@@ -371,27 +371,37 @@ pub fn tables(sweep: &Sweep, values: &[Vec<f64>], pending: usize) -> (EnsembleTa
     (EnsembleTables { tables: t, attrs }, outcome)
 }
 
-/// The values of every statistic at every point of `grid`, read through `read` (NaN where a
-/// point has no stored run, the run failed or gives no number), and how many points have none.
-pub fn values(
-    sweep: &Sweep,
-    grid: &Grid,
-    mut read: impl FnMut(usize) -> Result<Option<RunRecord>>,
-) -> Result<(Vec<Vec<f64>>, usize)> {
-    let e = sweep.ensemble.as_ref().expect("an ensemble");
-    let mut out = vec![vec![f64::NAN; grid.len()]; e.statistics.len()];
-    let mut pending = 0;
-    for i in 0..grid.len() {
-        match read(i)? {
-            None => pending += 1,
+/// The values of every statistic at every point of a grid (NaN where a point has no stored run,
+/// the run failed or gives no number), gathered run by run, and how many points have none.
+pub struct Values {
+    /// `values[s][point]`.
+    pub values: Vec<Vec<f64>>,
+    /// Points without a run.
+    pub pending: usize,
+}
+
+impl Values {
+    /// Every value missing, over `grid`'s points.
+    pub fn new(sweep: &Sweep, grid: &Grid) -> Values {
+        let e = sweep.ensemble.as_ref().expect("an ensemble");
+        Values {
+            values: vec![vec![f64::NAN; grid.len()]; e.statistics.len()],
+            pending: 0,
+        }
+    }
+
+    /// Takes point `i`'s run (`None`: it has none).
+    pub fn take(&mut self, sweep: &Sweep, i: usize, rec: Option<&RunRecord>) {
+        let e = sweep.ensemble.as_ref().expect("an ensemble");
+        match rec {
+            None => self.pending += 1,
             Some(rec) => {
-                for (column, st) in out.iter_mut().zip(&e.statistics) {
-                    column[i] = st.of.of(&rec).unwrap_or(f64::NAN);
+                for (column, st) in self.values.iter_mut().zip(&e.statistics) {
+                    column[i] = st.of.of(rec).unwrap_or(f64::NAN);
                 }
             }
         }
     }
-    Ok((out, pending))
 }
 
 /// Runs an adaptive ensemble round by round: each round is `sweep` at that round, run (or

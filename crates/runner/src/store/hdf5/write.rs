@@ -66,7 +66,7 @@ pub fn write_file(
     get: impl FnMut(usize) -> Result<Option<RunRecord>>,
     get_verify: impl FnMut(usize, &RunRecord) -> Result<VerifyInfo>,
     search: Option<&SearchTables>,
-    ensemble: Option<&super::fit::EnsembleTables>,
+    ensemble: Option<&dyn Fn() -> super::fit::EnsembleTables>,
 ) -> Result<Written> {
     let write = move || -> Result<Written> {
         // HDF5's 1.10 format: the library checksums its own metadata (superblock, object
@@ -113,7 +113,9 @@ pub fn write_file(
             }
             extra_coordinates = search::coordinate_names(t);
         }
-        if let Some(e) = ensemble {
+        if let Some(tables) = ensemble {
+            // Computed now that every record has passed through `get`.
+            let e = tables();
             // Over the ordinary axes: every dimension but the last, `member`.
             let ordinary = &sweep.dims[..sweep.dims.len() - 1];
             let outer = ordinary
