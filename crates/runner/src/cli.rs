@@ -765,7 +765,7 @@ fn cmd_report(file: &Path, output: Option<PathBuf>, watch: bool, interval: f64) 
             "chainsweep: report: {} figure(s) in {:.2} s, {} → {}{}",
             p.figures,
             t.elapsed().as_secs_f64(),
-            human_bytes(p.html.len() as f64),
+            show::human(p.html.len() as f64),
             out.display(),
             if p.thinned.is_empty() {
                 String::new()
@@ -789,14 +789,6 @@ fn cmd_report(file: &Path, output: Option<PathBuf>, watch: bool, interval: f64) 
             return Ok(EXIT_OK);
         }
         std::thread::sleep(std::time::Duration::from_secs_f64(interval));
-    }
-}
-
-fn human_bytes(bytes: f64) -> String {
-    if bytes >= 1e6 {
-        format!("{:.2} MB", bytes / 1e6)
-    } else {
-        format!("{:.0} kB", bytes / 1e3)
     }
 }
 

@@ -34,7 +34,7 @@ fn shape_text(shape: &[usize]) -> String {
 }
 
 /// `1.5 MiB`.
-fn human(bytes: f64) -> String {
+pub fn human(bytes: f64) -> String {
     let units = ["B", "KiB", "MiB", "GiB", "TiB"];
     let mut b = bytes;
     let mut u = 0;

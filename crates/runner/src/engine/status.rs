@@ -113,10 +113,6 @@ pub const SHOWN_POINTS: usize = 12;
 /// The ensemble's outcome and statistics as its output file `file` holds them (`None`: `sweep`
 /// has no ensemble, or the file none of its tables).
 pub fn ensemble_of(file: &Path, sweep: &Sweep) -> Option<EnsembleStatus> {
-    ensemble_status(file, sweep)
-}
-
-fn ensemble_status(file: &Path, sweep: &Sweep) -> Option<EnsembleStatus> {
     use crate::store::hdf5::fit::read_f64;
     sweep.ensemble.as_ref()?;
     let outcome = super::ensemble::outcome_of(file)?;
@@ -513,7 +509,7 @@ pub fn of_file(file: &Path) -> Result<FileStatus> {
         failures,
         damage,
         searches,
-        ensemble: ensemble_status(file, &sweep),
+        ensemble: ensemble_of(file, &sweep),
     })
 }
 
@@ -833,7 +829,7 @@ pub fn of_sweep(
         verified,
         worst_verified,
     };
-    status.ensemble = ensemble_status(&status.output, &sweep);
+    status.ensemble = ensemble_of(&status.output, &sweep);
     Ok((status, sweep, grid))
 }
 

@@ -105,7 +105,7 @@ pub fn page(path: &Path, status: &FileStatus) -> Result<Page> {
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    health_section(&mut b, &sweep, status);
+    health_section(&mut b, status);
     if let Some(e) = &status.ensemble {
         ensemble_section(&mut b, path, &sweep, e);
     }
@@ -152,7 +152,7 @@ pre {{ background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em;
     })
 }
 
-fn health_section(b: &mut Builder, sweep: &Sweep, s: &FileStatus) {
+fn health_section(b: &mut Builder, s: &FileStatus) {
     let c = &s.counts;
     let _ = write!(
         b.body,
@@ -169,19 +169,13 @@ fn health_section(b: &mut Builder, sweep: &Sweep, s: &FileStatus) {
         b.body.push_str(
             "<p>Failed runs:</p><table><tr><th>point</th><th>axis values</th><th>reason</th></tr>",
         );
-        let shape = sweep.shape();
         for (i, why) in s.failures.iter().take(50) {
-            let mi = multi_index(&shape, *i);
-            let label: Vec<String> = sweep
-                .dims
-                .iter()
-                .zip(&mi)
-                .map(|(d, &k)| format!("{}={}", d.axes[0].name, axis_text(&d.axes[0].values[k])))
-                .collect();
+            // The axis values `status` named the point by.
+            let label = s.labels.get(i).map_or("", String::as_str);
             let _ = write!(
                 b.body,
                 "<tr><td>{i}</td><td>{}</td><td>{}</td></tr>",
-                esc(&label.join(", ")),
+                esc(label),
                 esc(why)
             );
         }

@@ -467,21 +467,6 @@ fn check_number_field(base: &Value, field: &str, value: f64, at: &str) -> Result
     Ok(())
 }
 
-fn default_name(field: &str) -> String {
-    super::split_path(field)
-        .into_iter()
-        .rev()
-        .find(|s| s.parse::<usize>().is_err())
-        .unwrap_or_default()
-}
-
-fn probes_of(base: &Value) -> Vec<Probe> {
-    base.get("record")
-        .and_then(|r| r.get("probes"))
-        .and_then(|p| serde_json::from_value::<Vec<Probe>>(p.clone()).ok())
-        .unwrap_or_default()
-}
-
 struct Reader<'a> {
     base: &'a mut Value,
     inputs: Vec<Input>,
@@ -535,7 +520,7 @@ impl Reader<'_> {
         let name = match m.get("name") {
             Some(Value::String(s)) => s.clone(),
             Some(_) => return Err(bad(format!("{at}.name"), "must be a string")),
-            None => default_name(&fields[0]),
+            None => super::field_name(&fields[0]),
         };
         let columns = fields
             .iter()
@@ -769,7 +754,7 @@ impl Reader<'_> {
                     format!("must be a list of {k} names"),
                 ))
             }
-            None => fields.iter().map(|f| default_name(f)).collect(),
+            None => fields.iter().map(|f| super::field_name(f)).collect(),
         };
         for (i, f) in fields.iter().enumerate() {
             let sd = chol[i * k..i * k + i + 1]
@@ -1063,7 +1048,7 @@ pub(super) fn parse(
             },
         ));
     }
-    let probes = probes_of(r.base);
+    let probes = super::search::probes_of(r.base);
     let names: Vec<String> = probes.iter().map(Probe::name).collect();
     if f.statistics.is_empty() {
         return Err(bad(
@@ -1468,7 +1453,7 @@ fn read_fit(path: &std::path::Path, shown: &str, at: &str) -> Result<Value> {
                         .get("name")
                         .and_then(Value::as_str)
                         .map(str::to_string)
-                        .unwrap_or_else(|| default_name(&field));
+                        .unwrap_or_else(|| super::field_name(&field));
                     Some((field, name))
                 })
                 .collect()

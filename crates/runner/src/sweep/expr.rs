@@ -468,11 +468,7 @@ pub fn apply(derived: &[Derived], base: &mut Value, dims: &mut [super::Dim]) -> 
                 let values = (0..dims[dm].len())
                     .map(|k| value_at(Some(k)).map(Value::from))
                     .collect::<Result<Vec<_>>>()?;
-                let name = super::split_path(&d.field)
-                    .into_iter()
-                    .rev()
-                    .find(|s| s.parse::<usize>().is_err())
-                    .unwrap_or_default();
+                let name = super::field_name(&d.field);
                 dims[dm].axes.push(super::Axis {
                     units: super::units_of(&d.field),
                     name,

@@ -261,13 +261,6 @@ fn bad(field: impl Into<String>, message: impl Into<String>) -> Error {
 }
 
 /// The probes of the normalised base scene's record block.
-fn probes_of(base: &Value) -> Vec<Probe> {
-    base.get("record")
-        .and_then(|r| r.get("probes"))
-        .and_then(|p| serde_json::from_value::<Vec<Probe>>(p.clone()).ok())
-        .unwrap_or_default()
-}
-
 fn probe_at(v: Option<&Value>, at: &str, probes: &[Probe]) -> Result<(usize, String)> {
     let names: Vec<String> = probes.iter().map(|p| p.name()).collect();
     let Some(v) = v else {
@@ -865,7 +858,7 @@ pub(super) fn parse(
 ) -> Result<FitSpec> {
     let mut cx = Context {
         base,
-        probes: probes_of(base),
+        probes: super::search::probes_of(base),
         sigma_given: None,
     };
     let (mut sets, sets_dim) = match (data, data_sets) {

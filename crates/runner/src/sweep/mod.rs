@@ -477,6 +477,16 @@ pub fn human_name(name: &str) -> String {
     stem.replace('_', " ")
 }
 
+/// The name a field goes by where none is given: its path's last part that is not an index
+/// (`chain.mass_factors.3` → `mass_factors`).
+pub fn field_name(field: &str) -> String {
+    split_path(field)
+        .into_iter()
+        .rev()
+        .find(|s| s.parse::<usize>().is_err())
+        .unwrap_or_default()
+}
+
 /// Splits a dotted field path into segments; `a.b[2].c` and `a.b.2.c` are the same path.
 pub fn split_path(path: &str) -> Vec<String> {
     let mut out = Vec::new();

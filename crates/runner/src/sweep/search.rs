@@ -486,13 +486,17 @@ fn bad(field: impl Into<String>, message: impl Into<String>) -> Error {
     Error::input(field, message)
 }
 
-/// The probe names of the base scene's record block.
-fn probe_names(base: &Value) -> Vec<String> {
+/// The probes of the base scene's record block (none where it has none).
+pub(super) fn probes_of(base: &Value) -> Vec<Probe> {
     base.get("record")
         .and_then(|r| r.get("probes"))
         .and_then(|p| serde_json::from_value::<Vec<Probe>>(p.clone()).ok())
-        .map(|ps| ps.iter().map(|p| p.name()).collect())
         .unwrap_or_default()
+}
+
+/// The probe names of the base scene's record block.
+fn probe_names(base: &Value) -> Vec<String> {
+    probes_of(base).iter().map(|p| p.name()).collect()
 }
 
 fn parse_summary(v: &Value, at: &str, probes: &[String]) -> Result<Summary> {
