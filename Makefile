@@ -111,14 +111,17 @@ wheel: venv $(VENV)/.wheel-stamp
 
 # ncdump (Debian's netcdf-bin): tests/test_xarray.py checks the result files with `ncdump -h`.
 # Installed with apt-get when missing (as root, else through sudo); a no-op once installed.
+# Installs Debian package $(1) with apt-get, as root or through sudo (updating the package lists
+# only when the install fails without it): the one recipe of every system tool the tests need.
+apt_install = echo "installing $(1) with apt-get"; \
+  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
+  export DEBIAN_FRONTEND=noninteractive; \
+  $$sudo apt-get install -y -q $(1) >/dev/null 2>&1 || \
+  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(1); }
+
 NCDUMP_PACKAGE := netcdf-bin
 ncdump:
-	@command -v ncdump >/dev/null 2>&1 || { \
-	  echo "installing $(NCDUMP_PACKAGE) (ncdump) with apt-get"; \
-	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
-	  export DEBIAN_FRONTEND=noninteractive; \
-	  $$sudo apt-get install -y -q $(NCDUMP_PACKAGE) >/dev/null 2>&1 || \
-	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(NCDUMP_PACKAGE); }; }
+	@command -v ncdump >/dev/null 2>&1 || { $(call apt_install,$(NCDUMP_PACKAGE)); }
 
 # UDUNITS-2 (Debian's libudunits2-0, with its units database): cfunits, with which cfchecker
 # (requirements.txt) checks the units of the result files in tests/test_cf.py, loads the C library.
@@ -126,12 +129,7 @@ ncdump:
 UDUNITS_PACKAGE := libudunits2-0
 .PHONY: udunits
 udunits:
-	@/sbin/ldconfig -p | grep -q 'libudunits2\.so' || { \
-	  echo "installing $(UDUNITS_PACKAGE) (UDUNITS-2) with apt-get"; \
-	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
-	  export DEBIAN_FRONTEND=noninteractive; \
-	  $$sudo apt-get install -y -q $(UDUNITS_PACKAGE) >/dev/null 2>&1 || \
-	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(UDUNITS_PACKAGE); }; }
+	@/sbin/ldconfig -p | grep -q 'libudunits2\.so' || { $(call apt_install,$(UDUNITS_PACKAGE)); }
 test-python: udunits
 
 # Chromium (Debian's chromium): tests/test_report.py loads the pages of `chainsweep report` in it,
@@ -139,12 +137,7 @@ test-python: udunits
 CHROMIUM_PACKAGE := chromium
 .PHONY: chromium
 chromium:
-	@command -v chromium >/dev/null 2>&1 || { \
-	  echo "installing $(CHROMIUM_PACKAGE) with apt-get"; \
-	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
-	  export DEBIAN_FRONTEND=noninteractive; \
-	  $$sudo apt-get install -y -q $(CHROMIUM_PACKAGE) >/dev/null 2>&1 || \
-	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(CHROMIUM_PACKAGE); }; }
+	@command -v chromium >/dev/null 2>&1 || { $(call apt_install,$(CHROMIUM_PACKAGE)); }
 test-python: chromium
 
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
@@ -188,12 +181,7 @@ bench: venv python $(VENV)/.bench-stamp
 GFORTRAN_PACKAGE := gfortran
 .PHONY: gfortran
 gfortran:
-	@command -v gfortran >/dev/null 2>&1 || { \
-	  echo "installing $(GFORTRAN_PACKAGE) with apt-get"; \
-	  sudo=$$([ "$$(id -u)" -eq 0 ] || echo sudo); \
-	  export DEBIAN_FRONTEND=noninteractive; \
-	  $$sudo apt-get install -y -q $(GFORTRAN_PACKAGE) >/dev/null 2>&1 || \
-	  { $$sudo apt-get update -q && $$sudo apt-get install -y -q $(GFORTRAN_PACKAGE); }; }
+	@command -v gfortran >/dev/null 2>&1 || { $(call apt_install,$(GFORTRAN_PACKAGE)); }
 
 $(VENV)/.bench-stamp: requirements-bench.txt $(VENV)/.stamp | gfortran
 	$(VENV)/bin/pip install --quiet -r requirements-bench.txt
