@@ -130,7 +130,6 @@ def main() -> int:
         {p.relative_to(sweeps): p for p in sweeps.rglob("*") if p.suffix in (".json", ".csv")},
     )
     docs = {Path(p.name): p for p in sorted((REPO / "docs").iterdir()) if p.suffix in (".md", ".json")}
-    docs[Path("README-sweeps.md")] = REPO / "crates" / "runner" / "README-sweeps.md"
     replace_tree(PACKAGE / "docs", docs)
 
     meta = metadata(args.cargo)

@@ -1,5 +1,5 @@
 """`--json` of `validate`, `status` and `run --dry-run`: one JSON object on stdout, of the shape
-README-sweeps.md documents, saying what the text output says (same counts, same exit codes)."""
+docs/REFERENCE.md documents, saying what the text output says (same counts, same exit codes)."""
 
 import json
 

@@ -18,8 +18,7 @@ import pytest
 from conftest import BIN, REPO
 
 README = REPO / "README.md"
-USER_DOCS = [README, *sorted((REPO / "docs").glob("*.md")), REPO / "crates" / "runner" / "README-sweeps.md",
-             REPO / "python" / "README.md"]
+USER_DOCS = [README, *sorted((REPO / "docs").glob("*.md")), REPO / "python" / "README.md"]
 
 
 def blocks(text: str) -> list[tuple[str, str]]:

@@ -156,7 +156,6 @@ def test_the_wheel_carries_the_command_licences_examples_and_guides(wheel):
         # The example sweeps and the guides, as in the repository, and nothing stale beside them.
         sweeps = {f"chainsweep/sweeps/{p.relative_to(REPO / 'sweeps').as_posix()}": p for p in (REPO / "sweeps").rglob("*.json")}
         docs = {f"chainsweep/docs/{p.name}": p for p in (REPO / "docs").glob("*.md")}
-        docs["chainsweep/docs/README-sweeps.md"] = REPO / "crates" / "runner" / "README-sweeps.md"
         assert "chainsweep/sweeps/mass-damping.json" in sweeps and "chainsweep/docs/PYTHON.md" in docs
         for name, src in {**sweeps, **docs}.items():
             assert name in names, name
@@ -267,7 +266,7 @@ def test_the_examples_and_guides_are_installed_and_every_example_validates(venv)
         print(json.dumps({"names": names, "bad": bad,
                           "mass": str(chainsweep.example_path("mass-damping")),
                           "trimer": str(chainsweep.example_path("examples/trimer.json")),
-                          "guide": str(chainsweep.docs_path("README-sweeps")),
+                          "guide": str(chainsweep.docs_path("REFERENCE")),
                           "python": chainsweep.docs_path("PYTHON").read_text()[:200]}))
         """)
     assert r.returncode == 0, r.stderr[-3000:]
@@ -277,7 +276,7 @@ def test_the_examples_and_guides_are_installed_and_every_example_validates(venv)
     assert got["bad"] == [], got["bad"]
     assert Path(got["mass"]).read_bytes() == (REPO / "sweeps" / "mass-damping.json").read_bytes()
     assert Path(got["trimer"]).read_bytes() == (REPO / "sweeps" / "examples" / "trimer.json").read_bytes()
-    assert Path(got["guide"]).read_bytes() == (REPO / "crates" / "runner" / "README-sweeps.md").read_bytes()
+    assert Path(got["guide"]).read_bytes() == (REPO / "docs" / "REFERENCE.md").read_bytes()
     assert got["python"] == (REPO / "docs" / "PYTHON.md").read_text()[:200]
     r = in_venv(venv, venv / "bin" / "python", "-c", "import chainsweep; chainsweep.example_path('no-such-sweep')")
     assert r.returncode == 1 and "FileNotFoundError" in r.stderr and "mass-damping" in r.stderr, r.stderr

@@ -11,7 +11,7 @@ as labelled xarray Datasets.
   the search estimated its error;
 - :func:`example_path`, :func:`examples`, :func:`docs_path` — the example sweep files and the
   user guides installed with the package (``example_path("mass-damping")``,
-  ``docs_path("README-sweeps")``: every field of a sweep file).
+  ``docs_path("REFERENCE")``: every field of a sweep file).
 
 Installing the package also installs the ``chainsweep`` command (``chainsweep --help``), the
 native binary's command line run by the same engine.

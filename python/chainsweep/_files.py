@@ -2,7 +2,7 @@
 
 A wheel built with ``make wheel`` carries the repository's ``sweeps/`` (every example sweep file,
 the paper's figures and the chains beyond them in ``examples/``) as ``chainsweep/sweeps/`` and the
-guides (``docs/*.md`` and the sweep file reference, ``README-sweeps.md``) as ``chainsweep/docs/``.
+guides (``docs/*.md``, the sweep file reference ``REFERENCE.md`` among them) as ``chainsweep/docs/``.
 """
 
 from __future__ import annotations
@@ -51,12 +51,14 @@ def example_path(name: str) -> Path:
 def docs_path(name: str | None = None) -> Path:
     """The folder of the user guides installed with the package, or one guide by name:
     ``"PYTHON"`` (the Python interface), ``"SWEEPS"`` (sweeps, resuming, clusters),
-    ``"README-sweeps"`` (every field of a sweep file), ``"CLUSTER"``, ``"CHAINS"``, ``"MODEL"``,
+    ``"REFERENCE"`` (every field of a sweep file), ``"CLUSTER"``, ``"CHAINS"``, ``"MODEL"``,
     …; ``.md`` may be given. Raises :class:`FileNotFoundError` naming the guides when there is
     none of that name."""
     root = _folder(DOCS, "user guides")
     if name is None:
         return root
+    # The sweep reference's name before it moved into docs/ still finds it.
+    name = {"README-sweeps": "REFERENCE", "README-sweeps.md": "REFERENCE.md"}.get(name, name)
     file = name if "." in name else f"{name}.md"
     path = (root / file).resolve()
     if root not in path.parents or not path.is_file():

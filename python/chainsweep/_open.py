@@ -1,6 +1,6 @@
 """chainsweep.open: a sweep's HDF5 file as a labelled Dataset, read with h5py.
 
-What this module knows of the file's layout (crates/runner/README-sweeps.md) is kept in the
+What this module knows of the file's layout (docs/REFERENCE.md) is kept in the
 functions marked LAYOUT, so that a change of layout is followed there:
 
 - the grid: root attributes ``dimensions`` (JSON list of names) and ``grid_shape``;

@@ -225,7 +225,7 @@ def sweep(
     """Runs a sweep into an HDF5 file, in this process, exactly as ``chainsweep run`` does.
 
     ``spec`` is a sweep file's path or its JSON as a dict (base, record, axes, limits; every
-    field in ``chainsweep.docs_path("README-sweeps")``; examples installed with the package:
+    field in ``chainsweep.docs_path("REFERENCE")``; examples installed with the package:
     ``chainsweep.example_path(name)``). ``output`` is the HDF5 file; its work directory
     ``OUTPUT.d/`` holds every finished run, so calling ``sweep`` again with the same arguments
     resumes an interrupted sweep and runs nothing once it is complete; editing the sweep reruns

@@ -13,17 +13,17 @@ const END: &str = "<!-- /columns -->";
 
 #[test]
 fn the_docs_table_is_the_column_table() {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/README-sweeps.md");
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/REFERENCE.md");
     let doc = std::fs::read_to_string(path).unwrap();
     let start = doc
         .find(BEGIN)
-        .expect("README-sweeps.md has the columns marker")
+        .expect("docs/REFERENCE.md has the columns marker")
         + BEGIN.len();
     let end = doc[start..].find(END).expect("and its end marker") + start;
     let want = markdown_table();
     assert!(
         doc[start..end] == want,
-        "README-sweeps.md's column table differs from record::columns::COLUMNS; put this between the markers:\n{want}"
+        "docs/REFERENCE.md's column table differs from record::columns::COLUMNS; put this between the markers:\n{want}"
     );
 }
 

@@ -1,5 +1,5 @@
 //! `--json`: what `validate`, `status` and `run --dry-run` print, as one JSON object on stdout
-//! for scripts (the shapes are documented in README-sweeps.md, "Machine-readable output").
+//! for scripts (the shapes are documented in docs/REFERENCE.md, "Machine-readable output").
 //!
 //! Every object carries `"chainsweep": JSON_VERSION` (the version of these shapes: a field is
 //! only ever added under the same version) and `"kind"`. Counts are numbers, points are flat

@@ -1,7 +1,7 @@
 //! The one table of stored summary columns: every dataset the output file holds per grid point,
 //! with its name, dtype, shape, units, description, and how it is filled from a point's run and
 //! verification (and read back into a run record). The HDF5 writer and reader, the store's
-//! snapshot, the check that no axis takes a stored name, and the table in `README-sweeps.md` all
+//! snapshot, the check that no axis takes a stored name, and the table in `docs/REFERENCE.md` all
 //! come from [`COLUMNS`].
 //!
 //! Every stored value of a point is covered by its checksum ([`Table::point_checksum`]): the
@@ -2053,7 +2053,7 @@ impl Table {
     }
 }
 
-/// The table of columns as `README-sweeps.md` shows it (a Markdown table).
+/// The table of columns as `docs/REFERENCE.md` shows it (a Markdown table).
 pub fn markdown_table() -> String {
     let mut out =
         String::from("| dataset | shape | dtype | units | content |\n|---|---|---|---|---|\n");

@@ -2,7 +2,7 @@
 //! and `status` ([`read`]); both column by column as [`crate::record::columns::COLUMNS`] defines
 //! them.
 //!
-//! Layout (see `README-sweeps.md`): root attributes describing the sweep; one coordinate dataset
+//! Layout (see `docs/REFERENCE.md`): root attributes describing the sweep; one coordinate dataset
 //! per axis; per-run summaries as arrays shaped like the grid (plus a `probe` dimension where
 //! there is one value per probe); the runs' histories and minimum overlaps as one chunked,
 //! compressed dataset per quantity over the grid ([`arrays`]; run groups under `runs/` in
