@@ -124,6 +124,89 @@ def test_a_report_loads_in_a_browser_with_every_figure_drawn(tmp_path, kind):
         assert "ended by: fixed" in html
 
 
+@pytest.mark.parametrize("example", ["fit-signal", "fit-spectrum", "dimer-minimum"])
+def test_searches_and_fits_are_drawn_with_their_data(tmp_path, example):
+    """A search's every evaluation against its field, with the answers; a fit's data (±σ) against
+    its best fit, the residuals over σ, and each field's profile χ²."""
+    shutil.copytree(REPO / "sweeps" / "examples", tmp_path / "examples")
+    out = tmp_path / f"{example}.h5"
+    r = run("run", tmp_path / "examples" / f"{example}.json", "-o", out, "--quiet", timeout=600)
+    assert r.returncode == 0, r.stderr
+    page = tmp_path / f"{example}.html"
+    figures = report(out, page)
+    check_page(page, figures, SHOTS / f"{example}.png")
+    html = page.read_text()
+    assert "<h2>Evaluations</h2>" in html and "every point the search evaluated" in html
+    if example == "dimer-minimum":
+        # One curve per search (a point of the damping axis), each answer in the caption.
+        assert "damping_kg_s=0" in html and "damping_kg_s=5" in html
+        assert html.count("found: minimum") == 1 and html.count("minimum 0.001") == 2
+        return
+    assert "<h2>Fit: data and best fit</h2>" in html
+    assert "measured ± σ" in html and "best fit" in html and "residuals" in html
+    assert "profile of damping_kg_s" in html and "95 % profile interval" in html
+    if example == "fit-signal":
+        for signal in ("signal_gauge_force_cyl5", "signal_gauge_force_cyl21"):
+            assert f"{signal} (gauge_force_" in html
+        # The fit records histories: the first ok evaluation's are drawn.
+        assert "<h2>Histories</h2>" in html and "history at point 0" in html
+    else:
+        assert "phase" in html
+
+
+def test_histories_of_chosen_points(tmp_path):
+    path = write_sweep(tmp_path / "h.json", base_sweep(history=True))
+    out = tmp_path / "h.h5"
+    assert run("run", path, "-o", out, "--quiet").returncode == 0
+    page = tmp_path / "h.html"
+    r = run("report", out, "-o", page, "--point", "1", "--point", "4")
+    assert r.returncode == 0, r.stderr
+    html = page.read_text()
+    assert "history at point 1" in html and "history at point 4" in html
+    assert "history at point 0" not in html
+    figures = int(re.search(r"(\d+) figure", r.stderr).group(1))
+    check_page(page, figures, SHOTS / "histories.png")
+    # A point the file does not have is refused naming the option, and nothing is written.
+    page.unlink()
+    r = run("report", out, "-o", page, "--point", "6")
+    assert r.returncode == 2 and "--point" in r.stderr and "0 to 5" in r.stderr, r.stderr
+    assert not page.exists()
+
+
+def test_figures_alone_as_svg_files(tmp_path):
+    """--format svg: each figure of the page alone, a well-formed SVG document, with its caption;
+    a folder holding anything else is refused naming --output, and nothing is written."""
+    import xml.etree.ElementTree as ET
+    path = write_sweep(tmp_path / "s.json", base_sweep(history=True))
+    out = tmp_path / "s.h5"
+    assert run("run", path, "-o", out, "--quiet").returncode == 0
+    page = tmp_path / "s.html"
+    figures = report(out, page)
+    r = run("report", out, "--format", "svg")
+    assert r.returncode == 0, r.stderr
+    folder = tmp_path / "s-figures"
+    svgs = sorted(folder.glob("*.svg"))
+    assert len(svgs) == figures
+    captions = (folder / "captions.txt").read_text().splitlines()
+    assert [c.split("\t")[0] for c in captions] == [p.name for p in svgs]
+    html = page.read_text()
+    for p in svgs:
+        root = ET.parse(p).getroot()
+        assert root.tag == "{http://www.w3.org/2000/svg}svg"
+        assert len(list(root.iter())) > 20
+        assert ET.tostring(root, encoding="unicode").count("<") > 20
+    assert all(c.split("\t")[1] in html for c in captions)
+    # Again: the figures replaced, nothing left over; a folder with other files refused.
+    assert run("report", out, "--format", "svg").returncode == 0
+    assert sorted(folder.glob("*.svg")) == svgs
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    r = run("report", out, "--format", "svg", "-o", other)
+    assert r.returncode == 2 and "--output" in r.stderr, r.stderr
+    assert [p.name for p in other.iterdir()] == ["notes.txt"]
+
+
 def test_a_100000_point_sweep_reports_in_seconds_and_small(tmp_path):
     law = {"power_law": {"coefficient": 1e6, "exponent": 1.0}}
     s = {

@@ -161,6 +161,15 @@ pub enum Command {
         /// Seconds between pages with `--watch`.
         #[arg(long, default_value_t = 10.0, value_name = "SECONDS")]
         interval: f64,
+        /// Draw the histories of point N (its flat index, as `chainsweep point` takes it;
+        /// repeatable). Default: the first point whose run is ok, when the sweep records
+        /// histories.
+        #[arg(long = "point", value_name = "N")]
+        points: Vec<usize>,
+        /// `html`: one page; `svg`: each figure alone as an SVG file in a folder (default: FILE
+        /// without `.h5`, with `-figures`), with `captions.txt`, for a paper or a slide.
+        #[arg(long, value_enum, default_value_t = ReportFormat::Html)]
+        format: ReportFormat,
     },
     /// Write SLURM job scripts for a sweep: an array job of N shards and a merge job after it
     /// (whatever the array's outcome), in `OUT.h5.slurm/`; submit them with `--submit`.
@@ -389,7 +398,9 @@ pub fn dispatch(cli: Cli) -> Result<i32> {
             output,
             watch,
             interval,
-        } => cmd_report(&file, output, watch, interval),
+            points,
+            format,
+        } => cmd_report(&file, output, watch, interval, &points, format),
         Command::Merge { output, shards } => cmd_merge(&output, &shards),
         Command::Gc {
             file,
@@ -734,14 +745,36 @@ fn looks_like_output(file: &Path) -> bool {
             .is_some_and(|e| ["h5", "hdf5", "he5", "nc"].contains(&e.to_ascii_lowercase().as_str()))
 }
 
-fn cmd_report(file: &Path, output: Option<PathBuf>, watch: bool, interval: f64) -> Result<i32> {
+/// What `chainsweep report` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReportFormat {
+    /// One self-contained HTML page.
+    Html,
+    /// Each figure alone, as SVG files in a folder.
+    Svg,
+}
+
+fn cmd_report(
+    file: &Path,
+    output: Option<PathBuf>,
+    watch: bool,
+    interval: f64,
+    points: &[usize],
+    format: ReportFormat,
+) -> Result<i32> {
     if !(interval.is_finite() && interval > 0.0 && interval <= 86_400.0) {
         return Err(Error::input(
             "--interval",
             format!("must be a number of seconds in (0, 86400], got {interval}"),
         ));
     }
-    let out = output.unwrap_or_else(|| file.with_extension("html"));
+    let out = output.unwrap_or_else(|| match format {
+        ReportFormat::Html => file.with_extension("html"),
+        ReportFormat::Svg => {
+            let stem = file.file_stem().unwrap_or_default().to_string_lossy();
+            file.with_file_name(format!("{stem}-figures"))
+        }
+    });
     engine::check_output_folder(&out)?;
     if out
         .canonicalize()
@@ -759,18 +792,38 @@ fn cmd_report(file: &Path, output: Option<PathBuf>, watch: bool, interval: f64) 
     }
     let write_page = || -> Result<()> {
         let s = status::of_file(file)?;
+        if let Some(&n) = points.iter().find(|&&n| n >= s.total) {
+            return Err(Error::input(
+                "--point",
+                format!(
+                    "point {n} is not in the file: its points are 0 to {}",
+                    s.total.saturating_sub(1)
+                ),
+            ));
+        }
         let t = std::time::Instant::now();
-        let p = crate::report::write(file, &s, &out)?;
+        let p = match format {
+            ReportFormat::Html => crate::report::write(file, &s, points, &out)?,
+            ReportFormat::Svg => crate::report::write_figures(file, &s, points, &out)?,
+        };
+        let size = match format {
+            ReportFormat::Html => p.html.len(),
+            ReportFormat::Svg => p.svgs.iter().map(|(_, s)| s.len()).sum(),
+        };
         errln!(
             "chainsweep: report: {} figure(s) in {:.2} s, {} → {}{}",
             p.figures,
             t.elapsed().as_secs_f64(),
-            show::human(p.html.len() as f64),
+            show::human(size as f64),
             out.display(),
             if p.thinned.is_empty() {
                 String::new()
             } else {
-                " (thinned where large; the page says where)".to_string()
+                match format {
+                    ReportFormat::Html => " (thinned where large; the page says where)",
+                    ReportFormat::Svg => " (thinned where large; captions.txt says where)",
+                }
+                .to_string()
             }
         );
         Ok(())

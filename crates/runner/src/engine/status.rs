@@ -555,20 +555,10 @@ pub fn check_file(path: &Path, histories: bool) -> FileCheck {
         })
         .collect();
     // The file's own sweep and grid (from its checked header) label its points.
-    let labelled = c.header.is_none().then(|| {
-        let mut sweep = Sweep::parse(&recs.sweep_text).ok()?;
-        if let Some(auto) = recs.auto_text() {
-            sweep.apply_auto(crate::sweep::auto::AutoChoice::from_json(&auto).ok()?);
-        }
-        // (An adaptive ensemble's file holds its last round.)
-        let sweep = sweep.with_points(recs.len()).unwrap_or(sweep);
-        let grid = match sweep.search {
-            // (A search's points are the file's: its grid from the run hashes it stores.)
-            Some(_) => crate::store::published::search_grid(&sweep, &recs)?,
-            None => Grid::new(&sweep).ok()?,
-        };
-        (grid.len() == recs.len()).then_some((sweep, grid))
-    });
+    let labelled = c
+        .header
+        .is_none()
+        .then(|| crate::store::published::own_sweep_and_grid(&recs));
     let labelled = labelled.flatten();
     if let Some((sweep, grid)) = &labelled {
         let coords = recs.coordinate_damage(sweep, grid);

@@ -2,12 +2,15 @@
 //! inline as SVG drawn here, [`svg`]): every summary against the axes (a line per curve for one
 //! axis, a heatmap for two, small multiples beyond), failed and unnumbered points marked with
 //! their reasons, the health of the sweep, each search's, fit's and ensemble's answer with its
-//! uncertainty, an ensemble's histograms and Sobol' indices, the run time and verified error per
-//! point, and the sweep file, versions and command for provenance.
+//! uncertainty, a search's evaluations and a fit's data against its best fit ([`searches`]), an
+//! ensemble's histograms and Sobol' indices, the run time and verified error per point, histories
+//! of chosen points ([`histories`]), and the sweep file, versions and command for provenance.
 //!
 //! The page is opened offline: no script, no font, no link outside it. A large sweep is thinned
 //! (every k-th point of a long axis, a coarser grid of a large heatmap), and the page says where.
 
+mod histories;
+mod searches;
 pub mod svg;
 
 use std::fmt::Write as _;
@@ -49,16 +52,20 @@ pub struct Page {
     pub figures: usize,
     /// Where it thinned the data, in words (empty: nowhere).
     pub thinned: Vec<String>,
+    /// Each figure alone: its caption and its SVG text, in the page's order.
+    pub svgs: Vec<(String, String)>,
 }
 
 struct Builder {
     body: String,
     figures: usize,
     thinned: Vec<String>,
+    svgs: Vec<(String, String)>,
 }
 
 impl Builder {
     fn figure(&mut self, svg: String, caption: &str) {
+        self.svgs.push((caption.to_string(), svg.clone()));
         self.figures += 1;
         let _ = write!(
             self.body,
@@ -90,8 +97,9 @@ fn thin(n: usize, most: usize) -> (Vec<usize>, usize) {
     (v, k)
 }
 
-/// The page of the output file `path`, with `status` (from [`crate::engine::status::of_file`]).
-pub fn page(path: &Path, status: &FileStatus) -> Result<Page> {
+/// The page of the output file `path`, with `status` (from [`crate::engine::status::of_file`]);
+/// `points`: the flat indices of the points whose histories it draws (empty: the first ok one).
+pub fn page(path: &Path, status: &FileStatus, points: &[usize]) -> Result<Page> {
     let recs = FileRecords::open(path)?;
     let sweep =
         Sweep::parse(&recs.sweep_text).map_err(|e| e.in_file(&path.display().to_string()))?;
@@ -100,6 +108,7 @@ pub fn page(path: &Path, status: &FileStatus) -> Result<Page> {
         body: String::new(),
         figures: 0,
         thinned: Vec::new(),
+        svgs: Vec::new(),
     };
     let name = path.file_name().map_or_else(
         || path.display().to_string(),
@@ -109,9 +118,11 @@ pub fn page(path: &Path, status: &FileStatus) -> Result<Page> {
     if let Some(e) = &status.ensemble {
         ensemble_section(&mut b, path, &sweep, e);
     }
+    searches::section(&mut b, path, &sweep, status);
     if sweep.search.is_none() && sweep.ensemble.is_none() {
         summaries_section(&mut b, &sweep, &recs);
     }
+    histories::section(&mut b, &sweep, &recs, points);
     provenance_section(&mut b, path, &recs.sweep_text);
     let mut html = String::new();
     let _ = write!(
@@ -149,6 +160,7 @@ pre {{ background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em;
         html,
         figures: b.figures,
         thinned: b.thinned,
+        svgs: b.svgs,
     })
 }
 
@@ -645,9 +657,68 @@ fn provenance_section(b: &mut Builder, path: &Path, sweep_text: &str) {
     );
 }
 
+/// Writes each figure of `file`'s page alone into the folder `dir` (made if missing; it must not
+/// hold anything else than such figures): `NN-words-of-its-caption.svg`, numbered in the page's
+/// order, and `captions.txt` with each file's caption. Figures of an earlier report in `dir`
+/// are replaced.
+pub fn write_figures(
+    file: &Path,
+    status: &FileStatus,
+    points: &[usize],
+    dir: &Path,
+) -> Result<Page> {
+    let p = page(file, status, points)?;
+    let io = |e: std::io::Error| Error::Other(format!("{}: {e}", dir.display()));
+    std::fs::create_dir_all(dir).map_err(io)?;
+    for entry in std::fs::read_dir(dir).map_err(io)? {
+        let path = entry.map_err(io)?.path();
+        let ours = path.extension().is_some_and(|e| e == "svg") || path.ends_with("captions.txt");
+        if !ours {
+            return Err(Error::input(
+                "--output",
+                format!(
+                    "{} holds {}, which is not a figure of a report: give an empty folder or one of figures",
+                    dir.display(),
+                    path.display()
+                ),
+            ));
+        }
+    }
+    for entry in std::fs::read_dir(dir).map_err(io)? {
+        std::fs::remove_file(entry.map_err(io)?.path()).map_err(io)?;
+    }
+    let mut captions = String::new();
+    for (k, (caption, svg)) in p.svgs.iter().enumerate() {
+        let words: String = caption
+            .chars()
+            .map(|c| {
+                if c.is_ascii_alphanumeric() {
+                    c.to_ascii_lowercase()
+                } else {
+                    '-'
+                }
+            })
+            .collect::<String>()
+            .split('-')
+            .filter(|w| !w.is_empty())
+            .take(8)
+            .collect::<Vec<_>>()
+            .join("-");
+        let name = format!("{:02}-{words}.svg", k + 1);
+        let text = format!("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{svg}\n");
+        std::fs::write(dir.join(&name), text).map_err(io)?;
+        let _ = writeln!(captions, "{name}\t{caption}");
+    }
+    for note in &p.thinned {
+        let _ = writeln!(captions, "# thinned (the file holds every point): {note}");
+    }
+    std::fs::write(dir.join("captions.txt"), captions).map_err(io)?;
+    Ok(p)
+}
+
 /// Writes the page of `file` to `out` atomically (a temporary file renamed over it).
-pub fn write(file: &Path, status: &FileStatus, out: &Path) -> Result<Page> {
-    let p = page(file, status)?;
+pub fn write(file: &Path, status: &FileStatus, points: &[usize], out: &Path) -> Result<Page> {
+    let p = page(file, status, points)?;
     let tmp = out.with_extension("html.tmp");
     std::fs::write(&tmp, &p.html).map_err(|e| Error::Other(format!("{}: {e}", tmp.display())))?;
     std::fs::rename(&tmp, out).map_err(|e| Error::Other(format!("{}: {e}", out.display())))?;

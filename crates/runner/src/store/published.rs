@@ -108,6 +108,24 @@ fn grid_of(sweep_text: &str, auto: &str, points: usize) -> Option<Grid> {
         .filter(|g| g.len() == points)
 }
 
+/// The sweep and grid an output file's points were run from (from its own header: the sweep
+/// text, what `integrator: auto` chose, an adaptive ensemble's last round, a search's points);
+/// `None` when they cannot be had or do not match the file's points.
+pub fn own_sweep_and_grid(recs: &FileRecords) -> Option<(Sweep, Grid)> {
+    let mut sweep = Sweep::parse(&recs.sweep_text).ok()?;
+    if let Some(auto) = recs.auto_text() {
+        sweep.apply_auto(AutoChoice::from_json(&auto).ok()?);
+    }
+    // (An adaptive ensemble's file holds its last round.)
+    let sweep = sweep.with_points(recs.len()).unwrap_or(sweep);
+    let grid = match sweep.search {
+        // (A search's points are the file's: its grid from the run hashes it stores.)
+        Some(_) => search_grid(&sweep, recs)?,
+        None => Grid::new(&sweep).ok()?,
+    };
+    (grid.len() == recs.len()).then_some((sweep, grid))
+}
+
 /// The grid of a search's output file, to read its runs back: the sweep's own grid and the
 /// `evaluation` dimension, each point's run hash the one the file stores (the points a search
 /// made are the file's, not a function of the sweep alone).
