@@ -70,23 +70,7 @@ pub const EXIT_PARTIAL: i32 = 3;
 
 /// Version of the runner's numerics: bump it whenever a change in the runner or the solver changes
 /// the numbers a scene produces (or what a run records), so that resumed sweeps recompute every run.
-/// Version 2: runs record `events`, `max_overlap_m` and `warnings` (segment format 2).
-/// Version 3: vectorised sums in the solver (right-hand side, DOP853 error norm, ledger) and FMA
-/// stage sums change results in the last digits (≤ 1e-6 relative on peaks).
-/// Version 4: with event location, a step that lands on a contact holds it on its side before the
-/// crossing for its last stage, and a run that starts on a closing contact takes its first
-/// derivative on the compressed side: runs with dissipation take other steps.
-/// Version 5: with `predict_switches`, a crossing predicted a tiny fraction of the step ahead is
-/// crossed by a Taylor step (a sliver) instead of an attempt of the method.
-/// Version 6: with `predict_switches`, the step after a contact opens goes on with the whole step
-/// before it (after a contact closes, still half of it).
-/// Version 7: a run stopped after its leading pulses ends its record (summaries, histories,
-/// fields) at the summary instant at which the last of them passed, not at the end of the step.
-/// Version 8: a chain between two walls starts in static equilibrium when the walls differ (the
-/// wall under the chain at its own static overlap, not the top wall's); peaks and the largest
-/// overlap are located on the dense output; the energy drift of a chain loaded by a
-/// precompression, a drive or a load cell is measured from its static state (a driven one against
-/// the energy its motion exchanges).
+/// Its history: CHANGELOG.md, "Numerics versions".
 pub const NUMERICS_VERSION: u32 = 8;
 
 /// Version of this crate.

@@ -50,35 +50,8 @@ use hdf5::{Dataset, File, Group, H5Type, Location};
 use crate::error::{Error, Result};
 use crate::sweep::auto::AutoChoice;
 
-/// Version of the file layout, the `layout_version` root attribute. Version 6: a pending point
-/// names no run: its `run_hash` is empty and its `summary_checksum` 0, so that, like every other
-/// value of a pending point, they are the fill value and a block of pending points is not written
-/// ([`crate::record::columns::Table::fill_point`]); a reader checks that a pending point holds
-/// nothing but fill values. Every reader reads either. Version 5: the runs'
-/// histories and minimum overlaps as one chunked dataset per quantity over the grid
-/// ([`arrays`]: `history` over (grid…, probe, time_s) with the time axis stored once where every
-/// run samples at the same interval, `history_samples`, `min_overlap_m` over (grid…, contact))
-/// rather than a group per run under `runs/`; the values and their checksums are those of
-/// version 4, and every reader reads either. Version 4: CF (the
-/// `Conventions` root attribute, [`CONVENTIONS`]): text as netCDF `char` arrays ([`char_dataset`])
-/// rather than variable-length strings; a per-probe summary in the probes' unit stored once per
-/// unit where the probes' units differ (`leading_peak_N`, `leading_peak_m_per_s`, …:
-/// [`crate::record::columns::split_name`]) rather than once with `units = "see probe_units"`;
-/// a `long_name` on every variable and a `units` on every number but a flag; dimension scales
-/// attached without labels, and numbered for netCDF (`_Netcdf4Dimid`). The values are those of
-/// version 3, and every reader reads either (the text's type and the split columns are told by
-/// what the file holds). Version 3: every value is
-/// checked. Per point, `summary_checksum` covers every stored value and `history_checksum` the
-/// run's group ([`crate::record::columns::Table::point_checksum`]); the root attribute
-/// `header_checksum` covers the attributes that say what the file is ([`header_checksum`]);
-/// numeric datasets are chunked with HDF5's Fletcher-32 filter, so that any reader (h5py, xarray)
-/// raises rather than returns a damaged chunk; and the file is written in HDF5's 1.10 format,
-/// whose metadata (superblock, object headers, chunk indexes) HDF5 checksums itself. Version 2: run groups named
-/// `runs/run_<flat index>` (valid netCDF names, the same whatever the grid's size), one dimension
-/// scale per dimension named like it (zipped axes: coordinates on it), `_FillValue` on every
-/// numeric summary, a `contact` scale for minimum overlaps. Files without the attribute are
-/// version 1: run groups `runs/<flat index>` zero-padded to the width of the largest index. The
-/// runs stored are the same in both (this is no numerics version): `merge` reads either.
+/// Version of the file layout, the `layout_version` root attribute. Its history: CHANGELOG.md,
+/// "Results-file layout versions".
 pub const LAYOUT_VERSION: i64 = 6;
 
 /// The first layout whose pending points name no run (an empty `run_hash`, `summary_checksum` 0).
