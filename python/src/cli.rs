@@ -1,5 +1,5 @@
 //! The `chainsweep` command of the Python package: the console script `chainsweep`
-//! (`chainsweep._cli:main`) runs the runner's own command line, [`chainsweep::cli::main_from`],
+//! (`chainsweep._cli:main`) runs the runner's own command line, [`chainsweep_cli::cli::main_from`],
 //! so that a wheel installs the same command as the native binary, with nothing else to build.
 
 use pyo3::prelude::*;
@@ -19,7 +19,7 @@ use std::io::Write;
 #[pyo3(signature = (argv))]
 pub fn cli_main(py: Python<'_>, argv: Vec<OsString>) -> i32 {
     py.detach(move || {
-        let code = chainsweep::cli::main_from(argv);
+        let code = chainsweep_cli::cli::main_from(argv);
         // The native binary's stdout is flushed as its process exits; this one's process goes on
         // (into Python), so its last lines are flushed here.
         let _ = std::io::stdout().flush();

@@ -20,7 +20,7 @@ use pyo3::prelude::*;
 use chainsweep::engine::run::RunRequest;
 use chainsweep::engine::{self, run, AutoResolution, DamageReport, ProgressSink, Start};
 use chainsweep::error::{Error, Result};
-use chainsweep::progress::Terminal;
+use chainsweep_cli::progress::Terminal;
 
 /// Counts of a sweep's runs (grid points and verification runs, or a search's runs against its
 /// budgets), as the engine reports them to [`Counting`].

@@ -21,37 +21,20 @@
 //! - [`numerics`]: `run --verify`, `integrator: auto` and work-precision studies;
 //! - [`engine`]: planning, scheduling with checkpoints, assembling, merging, status: what the
 //!   commands do, as a library that prints nothing;
-//! - [`progress`]: the command line's progress display (a [`engine::ProgressSink`]);
-//! - [`cli`]: the `chainsweep` command line.
+//! - [`report`]: an output file as one self-contained HTML page.
+//!
+//! The `chainsweep` command line and its progress display are the `chainsweep-cli` crate, a thin
+//! front end over this one.
 //!
 //! Exit codes: [`EXIT_OK`], [`EXIT_ERROR`], [`EXIT_BAD_INPUT`], [`EXIT_PARTIAL`].
 #![warn(missing_docs)]
 
-/// `println!` that ignores write errors: a reader that went away (`| head`) must never end a
-/// command, least of all a sweep (output to a closed pipe is dropped).
-macro_rules! outln {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stdout(), $($arg)*);
-    }};
-}
-
-/// `eprintln!` that ignores write errors (progress and reports on stderr; see [`outln`]).
-macro_rules! errln {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
-}
-
-pub mod cli;
 pub mod engine;
 pub mod error;
 pub mod exec;
 pub mod grid;
 pub mod identity;
 pub mod numerics;
-pub mod progress;
 pub mod record;
 pub mod report;
 pub mod search;
@@ -79,5 +62,17 @@ pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");
 /// Version of the solver crate this runner is built against (part of every run's identity).
 pub const SOLVER_VERSION: &str = env!("CHAINSWEEP_SOLVER_VERSION");
 
-/// Git revision the binary was built from (`unknown` outside a git checkout).
-pub const GIT_REVISION: &str = env!("CHAINSWEEP_GIT_REVISION");
+/// The git revision of the program running this library, as its front end (the command line, the
+/// Python package) was built from it and set it with [`set_git_revision`]; `unknown` until set.
+/// A value the front end gives rather than a constant of this crate: a new commit then rebuilds
+/// the thin front end only, not this crate and everything above it.
+pub fn git_revision() -> &'static str {
+    GIT_REVISION.get().copied().unwrap_or("unknown")
+}
+
+/// Sets [`git_revision`] (once; later calls are ignored).
+pub fn set_git_revision(revision: &'static str) {
+    let _ = GIT_REVISION.set(revision);
+}
+
+static GIT_REVISION: std::sync::OnceLock<&'static str> = std::sync::OnceLock::new();

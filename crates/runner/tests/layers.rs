@@ -119,11 +119,52 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-/// `code` without its test module (`#[cfg(test)] mod …` to the end of the file, where this
-/// codebase keeps it).
+/// Where each test module of `code` starts: `#[cfg(test)]`, then any attributes and comments,
+/// then `mod NAME` (with any visibility); with its name and whether it is a declaration of a file
+/// (`mod NAME;`) rather than an inline module.
+fn test_modules(code: &str) -> Vec<(usize, String, bool)> {
+    let mut out = Vec::new();
+    for (at, _) in code.match_indices("#[cfg(test)]") {
+        let mut rest = code[at + "#[cfg(test)]".len()..].trim_start();
+        // Attributes and comments between the cfg and the module.
+        loop {
+            if rest.starts_with("#[") {
+                let Some(end) = rest.find(']') else { break };
+                rest = rest[end + 1..].trim_start();
+            } else if rest.starts_with("//") {
+                let end = rest.find('\n').unwrap_or(rest.len());
+                rest = rest[end..].trim_start();
+            } else {
+                break;
+            }
+        }
+        for vis in ["pub(crate) ", "pub(super) ", "pub "] {
+            if let Some(r) = rest.strip_prefix(vis) {
+                rest = r;
+                break;
+            }
+        }
+        let Some(after) = rest.strip_prefix("mod ") else {
+            continue;
+        };
+        let name: String = after
+            .chars()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect();
+        let declared = after[name.len()..].trim_start().starts_with(';');
+        out.push((at, name, declared));
+    }
+    out
+}
+
+/// `code` without its inline test module (from its `#[cfg(test)]` to the end of the file, where
+/// this codebase keeps it).
 fn without_tests(code: &str) -> &str {
-    match code.find("#[cfg(test)]\nmod ") {
-        Some(i) => &code[..i],
+    match test_modules(code)
+        .into_iter()
+        .find(|(_, _, declared)| !declared)
+    {
+        Some((at, _, _)) => &code[..at],
         None => code,
     }
 }
@@ -137,12 +178,8 @@ fn actual_imports(src: &Path, skip_tests: bool) -> BTreeMap<String, BTreeSet<Str
     let mut test_files = BTreeSet::new();
     for f in &files {
         let text = std::fs::read_to_string(f).unwrap();
-        for decl in text.split("#[cfg(test)]\nmod ").skip(1) {
-            let name: String = decl
-                .chars()
-                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
-                .collect();
-            if decl[name.len()..].starts_with(';') {
+        for (_, name, declared) in test_modules(&text) {
+            if declared {
                 test_files.insert(f.with_file_name(format!("{name}.rs")));
             }
         }
@@ -252,6 +289,43 @@ fn the_solvers_modules_import_only_what_its_listing_says_and_only_from_below() {
         "crates/solver/ARCHITECTURE.md and crates/solver/src/ disagree:\n  {}",
         bad.join("\n  ")
     );
+}
+
+#[test]
+fn the_command_lines_modules_import_only_what_its_listing_says_and_only_from_below() {
+    let cli = Path::new(CRATE).join("../cli");
+    let doc = std::fs::read_to_string(cli.join("ARCHITECTURE.md")).unwrap();
+    let listing = listing(&doc);
+    assert!(listing.len() >= 2, "listing too short: {listing:?}");
+    let actual = actual_imports(&cli.join("src"), true);
+    let bad = violations(&listing, &actual);
+    assert!(
+        bad.is_empty(),
+        "crates/cli/ARCHITECTURE.md and crates/cli/src/ disagree:\n  {}",
+        bad.join("\n  ")
+    );
+}
+
+#[test]
+fn test_modules_are_left_out_whatever_precedes_them() {
+    let code = "use crate::error::Result;\n\
+                #[cfg(test)]\n\
+                // Dense matrices are indexed by row and column.\n\
+                #[allow(clippy::needless_range_loop)]\n\
+                pub(crate) mod tests {\n    use crate::engine::x;\n}\n";
+    let kept = without_tests(code);
+    assert_eq!(kept, "use crate::error::Result;\n");
+    assert_eq!(
+        crate_imports(&code_only(kept)),
+        BTreeSet::from(["error".to_string()])
+    );
+    // A test module in a file of its own is named, whatever precedes its declaration.
+    let decl = "#[cfg(test)]\n#[path = \"t.rs\"]\nmod method_tests;\nfn f() {}\n";
+    assert_eq!(
+        test_modules(decl),
+        vec![(0, "method_tests".to_string(), true)]
+    );
+    assert_eq!(without_tests(decl), decl);
 }
 
 #[test]

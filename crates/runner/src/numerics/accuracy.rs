@@ -375,7 +375,7 @@ fn write_study_file(path: &Path, st: &Study, probe_names: &[String], source: &st
     let f = File::create(path)?;
     attr_str(&f, "engine", "chainsweep accuracy")?;
     attr_str(&f, "engine_version", crate::ENGINE_VERSION)?;
-    attr_str(&f, "git_revision", crate::GIT_REVISION)?;
+    attr_str(&f, "git_revision", crate::git_revision())?;
     attr_str(&f, "source", source)?;
     attr_str(
         &f,

@@ -190,7 +190,7 @@ fn write_sweep_attrs(
     attr_scalar(file, "layout_version", LAYOUT_VERSION)?;
     attr_str(file, "solver_version", crate::SOLVER_VERSION)?;
     attr_scalar(file, "numerics_version", crate::NUMERICS_VERSION as i64)?;
-    attr_str(file, "git_revision", crate::GIT_REVISION)?;
+    attr_str(file, "git_revision", crate::git_revision())?;
     attr_str(file, "created_utc", &prov.created_utc)?;
     attr_str(file, "command_line", &prov.command_line)?;
     let shard = shard.unwrap_or(Shard { k: 1, n: 1 });

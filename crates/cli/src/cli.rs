@@ -1,4 +1,4 @@
-//! The `chainsweep` command line: parses the arguments, calls the [`crate::engine`], prints.
+//! The `chainsweep` command line: parses the arguments, calls the [`chainsweep::engine`], prints.
 //! `validate`, `run`, `status`, `point`, `accuracy`, `merge`, `slurm`.
 
 mod examples;
@@ -12,13 +12,13 @@ use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::engine::{self, inspect, merge, run, shard, slurm, status};
-use crate::error::{Error, Result};
-use crate::grid::Shard;
-use crate::numerics::accuracy::StudyOptions;
 use crate::progress::Terminal;
-use crate::store::hdf5::{is_hdf5, Counts, Provenance};
-use crate::{EXIT_OK, EXIT_PARTIAL};
+use chainsweep::engine::{self, inspect, merge, run, shard, slurm, status};
+use chainsweep::error::{Error, Result};
+use chainsweep::grid::Shard;
+use chainsweep::numerics::accuracy::StudyOptions;
+use chainsweep::store::hdf5::{is_hdf5, Counts, Provenance};
+use chainsweep::{EXIT_OK, EXIT_PARTIAL};
 
 const EXAMPLES: &str = "\
 Examples:
@@ -350,11 +350,12 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
+    chainsweep::set_git_revision(crate::GIT_REVISION);
     let cli = match Cli::try_parse_from(args) {
         Ok(c) => c,
         Err(e) => {
             let code = if e.use_stderr() {
-                crate::EXIT_BAD_INPUT
+                chainsweep::EXIT_BAD_INPUT
             } else {
                 EXIT_OK
             };
@@ -366,7 +367,7 @@ where
     // work, never an illegal instruction or a panic inside a run.
     if let Err(e) = chainsweep_solver::cpu::level_from_env() {
         eprintln!("chainsweep: error: {e}");
-        return crate::EXIT_BAD_INPUT;
+        return chainsweep::EXIT_BAD_INPUT;
     }
     match dispatch(cli) {
         Ok(code) => code,
@@ -430,7 +431,7 @@ fn parse_shard(s: Option<&str>) -> Result<Option<Shard>> {
 const MAX_PROGRESS_INTERVAL_S: f64 = 24.0 * 3600.0;
 
 /// [`engine::load`], showing the progress of a large grid's expansion on stderr.
-fn load(file: &Path, quiet: bool) -> Result<(crate::sweep::Sweep, crate::grid::Grid)> {
+fn load(file: &Path, quiet: bool) -> Result<(chainsweep::sweep::Sweep, chainsweep::grid::Grid)> {
     let shown = crate::progress::GridProgress::new(quiet);
     engine::load_showing(file, &|done, total| shown.show(done, total))
 }
@@ -493,7 +494,7 @@ fn cmd_examples(action: Option<ExamplesAction>) -> Result<i32> {
 }
 
 fn cmd_schema() -> Result<i32> {
-    let schema = crate::sweep::schema::sweep_file_schema();
+    let schema = chainsweep::sweep::schema::sweep_file_schema();
     outln!(
         "{}",
         serde_json::to_string_pretty(&schema).expect("a schema serialises")
@@ -508,7 +509,7 @@ fn cmd_validate(file: &Path, as_json: bool) -> Result<i32> {
             let errors = engine::input_errors(file, first);
             if as_json {
                 json::print(&json::invalid(file, &errors));
-                return Ok(crate::EXIT_BAD_INPUT);
+                return Ok(chainsweep::EXIT_BAD_INPUT);
             }
             for e in &errors {
                 errln!("chainsweep: error: {e}");
@@ -518,21 +519,21 @@ fn cmd_validate(file: &Path, as_json: bool) -> Result<i32> {
                     "chainsweep: {} errors in {}{}; nothing was run",
                     errors.len(),
                     file.display(),
-                    if errors.len() >= crate::sweep::diagnose::MOST_ERRORS {
+                    if errors.len() >= chainsweep::sweep::diagnose::MOST_ERRORS {
                         " (the first ones)"
                     } else {
                         ""
                     }
                 );
             }
-            return Ok(crate::EXIT_BAD_INPUT);
+            return Ok(chainsweep::EXIT_BAD_INPUT);
         }
         Err(other) => return Err(other),
     };
     if as_json {
         let pilots = sweep
             .auto
-            .map(|spec| crate::numerics::auto::pilot_points(&sweep, &grid, spec.pilot_points))
+            .map(|spec| chainsweep::numerics::auto::pilot_points(&sweep, &grid, spec.pilot_points))
             .transpose()?;
         json::print(&json::validated(file, &sweep, &grid, pilots));
     } else {
@@ -565,7 +566,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
     let mut sink = Terminal::new(args.quiet, Duration::from_secs_f64(args.progress_interval));
     if args.dry_run {
         let pool = engine::thread_pool(opts.jobs)?;
-        let work_dir = crate::store::work_dir_of(output);
+        let work_dir = chainsweep::store::work_dir_of(output);
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
         if sweep.search.is_some() {
             let d = inspect::dry_run_search(&sweep, &grid, shard, output)?;
@@ -738,7 +739,7 @@ fn cmd_status(
 /// has a work directory beside it (a damaged output) or an HDF5 file's extension. `status` then
 /// says what is wrong with it rather than reading it as a sweep file.
 fn looks_like_output(file: &Path) -> bool {
-    crate::store::work_dir_of(file).is_dir()
+    chainsweep::store::work_dir_of(file).is_dir()
         || file
             .extension()
             .and_then(|e| e.to_str())
@@ -780,7 +781,7 @@ fn cmd_report(
         .canonicalize()
         .ok()
         .is_some_and(|o| Some(o) == file.canonicalize().ok())
-        || crate::store::hdf5::is_hdf5(&out)
+        || chainsweep::store::hdf5::is_hdf5(&out)
     {
         return Err(Error::input(
             "--output",
@@ -803,8 +804,8 @@ fn cmd_report(
         }
         let t = std::time::Instant::now();
         let p = match format {
-            ReportFormat::Html => crate::report::write(file, &s, points, &out)?,
-            ReportFormat::Svg => crate::report::write_figures(file, &s, points, &out)?,
+            ReportFormat::Html => chainsweep::report::write(file, &s, points, &out)?,
+            ReportFormat::Svg => chainsweep::report::write_figures(file, &s, points, &out)?,
         };
         let size = match format {
             ReportFormat::Html => p.html.len(),
@@ -834,7 +835,7 @@ fn cmd_report(
     }
     // Until the sweep writing into FILE has ended: a page every interval, then the last one.
     loop {
-        let live = crate::store::writer_of(file).is_some();
+        let live = chainsweep::store::writer_of(file).is_some();
         if file.exists() {
             write_page()?;
         }

@@ -10,5 +10,5 @@
 static ALLOCATOR: tikv_jemallocator::Jemalloc = tikv_jemallocator::Jemalloc;
 
 fn main() {
-    std::process::exit(chainsweep::cli::main());
+    std::process::exit(chainsweep_cli::cli::main());
 }

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::error::{Error, Result};
+use chainsweep::error::{Error, Result};
 
 include!(concat!(env!("OUT_DIR"), "/examples.rs"));
 

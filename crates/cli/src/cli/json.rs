@@ -9,14 +9,14 @@ use std::path::Path;
 
 use serde_json::{json, Map, Value};
 
-use crate::engine::inspect::{DryRun, SearchDryRun};
-use crate::engine::status::{FileStatus, SearchLine, ShardSetStatus, SweepStatus};
-use crate::engine::DamageReport;
-use crate::error::Error;
-use crate::grid::{multi_index, Grid};
-use crate::identity::hex;
-use crate::store::hdf5::Counts;
-use crate::sweep::Sweep;
+use chainsweep::engine::inspect::{DryRun, SearchDryRun};
+use chainsweep::engine::status::{FileStatus, SearchLine, ShardSetStatus, SweepStatus};
+use chainsweep::engine::DamageReport;
+use chainsweep::error::Error;
+use chainsweep::grid::{multi_index, Grid};
+use chainsweep::identity::hex;
+use chainsweep::store::hdf5::Counts;
+use chainsweep::sweep::Sweep;
 
 /// The version of the shapes printed by `--json`.
 pub const JSON_VERSION: u32 = 1;
@@ -43,7 +43,7 @@ fn path_text(p: &Path) -> Value {
     json!(p.display().to_string())
 }
 
-fn health(h: &crate::engine::run::Health) -> Value {
+fn health(h: &chainsweep::engine::run::Health) -> Value {
     json!({
         "failed": h.failed,
         "over_limit": h.over_limit,
@@ -156,10 +156,10 @@ pub fn invalid(file: &Path, errors: &[Error]) -> Value {
 }
 
 /// An ensemble's outcome and statistics (NaN as null).
-fn ensemble(e: &Option<crate::engine::status::EnsembleStatus>) -> Value {
+fn ensemble(e: &Option<chainsweep::engine::status::EnsembleStatus>) -> Value {
     let Some(e) = e else { return Value::Null };
     let n = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
-    let est = |x: &crate::uq::stats::Estimate| json!({"value": n(x.value), "lower": n(x.lower), "upper": n(x.upper)});
+    let est = |x: &chainsweep::uq::stats::Estimate| json!({"value": n(x.value), "lower": n(x.lower), "upper": n(x.upper)});
     let statistics: Vec<Value> = e
         .statistics
         .iter()
@@ -233,7 +233,7 @@ fn searches(lines: &Option<Vec<SearchLine>>) -> Value {
 }
 
 fn damage(d: &DamageReport) -> Value {
-    let lost = |runs: &[crate::engine::LostRun]| -> Vec<Value> {
+    let lost = |runs: &[chainsweep::engine::LostRun]| -> Vec<Value> {
         runs.iter()
             .map(|r| json!({"point": r.point, "at": r.label, "why": r.why}))
             .collect()
@@ -391,7 +391,7 @@ pub fn dry_run(
     grid: &Grid,
     points: &[usize],
     output: &Path,
-    shard: Option<crate::grid::Shard>,
+    shard: Option<chainsweep::grid::Shard>,
     d: &DryRun,
 ) -> Value {
     let mut m = head("dry_run");
@@ -450,7 +450,7 @@ pub fn dry_run(
     Value::Object(m)
 }
 
-fn cost(c: Option<&crate::engine::inspect::CostEstimate>) -> Value {
+fn cost(c: Option<&chainsweep::engine::inspect::CostEstimate>) -> Value {
     c.map_or(Value::Null, |c| {
         json!({
             "cpu_seconds": c.cpu_seconds,

@@ -7,8 +7,8 @@ use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 
-use crate::engine::{AutoResolution, DamageReport, ProgressSink, Start};
-use crate::sweep::auto::describe;
+use chainsweep::engine::{AutoResolution, DamageReport, ProgressSink, Start};
+use chainsweep::sweep::auto::describe;
 
 enum Mode {
     Quiet,
@@ -261,8 +261,8 @@ pub fn damage_lines(r: &DamageReport) -> Vec<String> {
     if r.file.is_some() {
         lines.push(format!(
             "{out}: the damaged file is kept in {} when the new one replaces it",
-            crate::store::work_dir_of(&r.output)
-                .join(crate::store::DAMAGED_DIR)
+            chainsweep::store::work_dir_of(&r.output)
+                .join(chainsweep::store::DAMAGED_DIR)
                 .display()
         ));
     }

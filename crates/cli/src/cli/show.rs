@@ -2,21 +2,21 @@
 
 use std::path::Path;
 
-use crate::engine::gc::GcReport;
-use crate::engine::inspect::{DryRun, Point, SearchDryRun};
-use crate::engine::merge::MergeReport;
-use crate::engine::run::{Failure, RunReport};
-use crate::engine::search::{self, SearchReport};
-use crate::engine::slurm::{self, JobFiles, JobRequest};
-use crate::engine::status::{FileStatus, ShardSetStatus, ShardState, SweepStatus};
-use crate::engine::DamageReport;
-use crate::grid::{multi_index, Grid, Shard};
-use crate::identity::hex;
-use crate::numerics::accuracy::{cost_of, Study};
-use crate::numerics::auto::{pilot_points, SAFETY_FACTOR};
 use crate::progress::damage_lines;
-use crate::sweep::auto::describe;
-use crate::sweep::Sweep;
+use chainsweep::engine::gc::GcReport;
+use chainsweep::engine::inspect::{DryRun, Point, SearchDryRun};
+use chainsweep::engine::merge::MergeReport;
+use chainsweep::engine::run::{Failure, RunReport};
+use chainsweep::engine::search::{self, SearchReport};
+use chainsweep::engine::slurm::{self, JobFiles, JobRequest};
+use chainsweep::engine::status::{FileStatus, ShardSetStatus, ShardState, SweepStatus};
+use chainsweep::engine::DamageReport;
+use chainsweep::grid::{multi_index, Grid, Shard};
+use chainsweep::identity::hex;
+use chainsweep::numerics::accuracy::{cost_of, Study};
+use chainsweep::numerics::auto::{pilot_points, SAFETY_FACTOR};
+use chainsweep::sweep::auto::describe;
+use chainsweep::sweep::Sweep;
 
 /// How many values at each end of a long axis a dry run lists.
 const LISTED_AXIS_VALUES: usize = 5;
@@ -69,7 +69,7 @@ fn plausibility(sweep: &Sweep, grid: &Grid) {
     }
 }
 
-pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> crate::error::Result<()> {
+pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> chainsweep::error::Result<()> {
     outln!(
         "{}: valid — {} grid points (shape {}), {} probes, {}",
         file.display(),
@@ -278,7 +278,7 @@ pub fn dry_run(
             format!(
                 "{} of them stopped after {} s and extrapolated from the simulated time they reached, so an order of magnitude at best",
                 c.extrapolated,
-                crate::engine::inspect::PILOT_SECONDS_PER_RUN
+                chainsweep::engine::inspect::PILOT_SECONDS_PER_RUN
             )
         } else {
             "run in full".to_string()
@@ -411,7 +411,7 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
         );
     }
     // An ensemble's answer is its statistics: always shown.
-    if let Some(e) = crate::engine::status::ensemble_of(output, sweep) {
+    if let Some(e) = chainsweep::engine::status::ensemble_of(output, sweep) {
         for line in ensemble_lines(&e) {
             errln!("chainsweep: {line}");
         }
@@ -420,7 +420,7 @@ pub fn run_report(sweep: &Sweep, grid: &Grid, r: &RunReport, output: &Path, quie
 
 /// The health line: what is not right, then how well the rest was verified (`label` names a
 /// point).
-fn health_text(h: &crate::engine::run::Health, label: impl Fn(usize) -> String) -> String {
+fn health_text(h: &chainsweep::engine::run::Health, label: impl Fn(usize) -> String) -> String {
     let mut wrong = Vec::new();
     if h.failed > 0 {
         wrong.push(if h.over_limit > 0 {
@@ -453,20 +453,20 @@ fn health_text(h: &crate::engine::run::Health, label: impl Fn(usize) -> String) 
     format!("health: {first}; {verified}")
 }
 
-/// How many runs did not settle, which (the first [`crate::engine::run::LISTED_FAILURES`] by `label`), and what to
+/// How many runs did not settle, which (the first [`chainsweep::engine::run::LISTED_FAILURES`] by `label`), and what to
 /// do: one line, then one per point.
 fn unsettled_lines(points: &[usize], label: impl Fn(usize) -> String) -> Vec<String> {
     let mut lines = vec![format!(
         "{} run(s) did not settle (`status` = 3, unsettled): their steady state still changed over the window by more than record.steady_state.settled_tolerance (`steady_settledness`), so their amplitudes and phases are not the steady state's; lengthen record.steady_state.settle_periods (runs with the new value are new runs; the others stay)",
         points.len()
     )];
-    for &i in points.iter().take(crate::engine::run::LISTED_FAILURES) {
+    for &i in points.iter().take(chainsweep::engine::run::LISTED_FAILURES) {
         lines.push(format!("  unsettled: point {i} ({})", label(i)));
     }
-    if points.len() > crate::engine::run::LISTED_FAILURES {
+    if points.len() > chainsweep::engine::run::LISTED_FAILURES {
         lines.push(format!(
             "  … and {} more (the `status` dataset)",
-            points.len() - crate::engine::run::LISTED_FAILURES
+            points.len() - chainsweep::engine::run::LISTED_FAILURES
         ));
     }
     lines
@@ -492,7 +492,7 @@ fn search_report(sweep: &Sweep, grid: &Grid, r: &SearchReport, output: &Path, qu
         } else {
             format!("{label}: ")
         };
-        if spec.goal == crate::sweep::search::Goal::Fit {
+        if spec.goal == chainsweep::sweep::search::Goal::Fit {
             // A fit's answer, its statistics and each warning on a line of its own.
             errln!(
                 "  {at}{} after {} run(s):",
@@ -517,7 +517,8 @@ fn search_report(sweep: &Sweep, grid: &Grid, r: &SearchReport, output: &Path, qu
                 search::describe_item(spec, it)
             );
         }
-        if spec.goal == crate::sweep::search::Goal::Refine && !s.outcome.refine_error.is_nan() {
+        if spec.goal == chainsweep::sweep::search::Goal::Refine && !s.outcome.refine_error.is_nan()
+        {
             errln!(
                 "    largest estimated interpolation error {:.3e} (tolerance {:e})",
                 s.outcome.refine_error,
@@ -566,7 +567,7 @@ pub fn gc(output: &Path, r: &GcReport) {
     }
     outln!(
         "{}: {verb} {} run(s) the sweep no longer has and {} damaged file(s); kept {} run(s) beside the output file{}",
-        crate::store::work_dir_of(output).display(),
+        chainsweep::store::work_dir_of(output).display(),
         c.removed,
         r.damaged_files.len(),
         c.kept,
@@ -630,7 +631,7 @@ pub fn file_status(file: &Path, s: &FileStatus) {
         outln!(
             "  {} of its pending points hold runs made by another version of the engine or of its numerics (this one's numerics version is {}): `chainsweep run` computes them again",
             s.other_engine,
-            crate::NUMERICS_VERSION
+            chainsweep::NUMERICS_VERSION
         );
     }
     // Points by their axis values, as `run` names them (by their indices where none was kept).
@@ -670,7 +671,7 @@ pub fn file_status(file: &Path, s: &FileStatus) {
 }
 
 /// An ensemble's outcome and statistics, a line each (as `status` and the end of `run` give them).
-pub fn ensemble_lines(e: &crate::engine::status::EnsembleStatus) -> Vec<String> {
+pub fn ensemble_lines(e: &chainsweep::engine::status::EnsembleStatus) -> Vec<String> {
     let o = &e.outcome;
     let why = match o.stopped_by {
         "fixed" => "a fixed size".to_string(),
@@ -699,7 +700,7 @@ pub fn ensemble_lines(e: &crate::engine::status::EnsembleStatus) -> Vec<String> 
             format!("{x:.5e}")
         }
     };
-    let iv = |x: &crate::uq::stats::Estimate| {
+    let iv = |x: &chainsweep::uq::stats::Estimate| {
         if x.lower.is_nan() {
             g(x.value)
         } else {
@@ -751,7 +752,7 @@ fn index_text(shape: &[usize], i: usize) -> String {
 }
 
 /// Each search of a sweep with a search, a line each.
-fn search_lines(lines: &[crate::engine::status::SearchLine]) {
+fn search_lines(lines: &[chainsweep::engine::status::SearchLine]) {
     for l in lines {
         let at = if l.label.is_empty() {
             "search".to_string()
