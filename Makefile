@@ -32,7 +32,7 @@ export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 # every cargo command here and in maturin's: without it, each would rebuild pyo3 after the other.
 export PYO3_CONFIG_FILE := $(CURDIR)/python/pyo3-config.txt
 
-.PHONY: all build bin test test-rust test-python python wheel ncdump bench figures examples fmt lint venv clean
+.PHONY: all build bin test test-system test-rust test-python python wheel ncdump bench figures examples fmt lint lint-all venv clean
 
 all: build
 
@@ -64,9 +64,14 @@ fmt:
 
 # Every cargo step uses the release profile: the HDF5 C library is then compiled once (minutes on
 # two cores), not once per profile, and the physics tests run at full speed.
-# --all-features: the solver's benches need its `bench` feature (criterion) to be checked at all.
+# `make lint` checks the units the tests build (the libraries, their tests, the binary);
+# `make lint-all` (in `make test-system`) everything else too: the examples, and the benches with
+# the solver's `bench` feature (criterion), which `make test` never compiles.
 lint: venv
 	$(CARGO) fmt --all -- --check
+	$(CARGO) clippy --release --workspace --tests --bins -- -D warnings
+
+lint-all: venv
 	$(CARGO) clippy --release --workspace --all-targets --all-features -- -D warnings
 
 # The unit tests, the integration tests (one binary per crate, see crates/*/tests/suite.rs) and the
@@ -141,21 +146,29 @@ chromium:
 test-python: chromium
 
 # Python tests (tests/): h5py round trips of the sweep runner's HDF5 files, kill-and-resume,
-# --jobs and shard/merge bitwise identity, the malformed-sweep corpus. They run the release binary.
-# tests/python/: the Python package (run, sweep, open against the binary) and the examples, run
-# against the wheel of `make wheel` installed into .venv, the package as users install it (and the
-# extension is then built once, for the wheel, not a second time natively as `make python` would).
-# tests/test_wheel.py: that wheel in a clean venv without Rust.
+# --jobs and shard/merge bitwise identity, the malformed-sweep corpus, the docs' snippets. They run
+# the release binary. tests/python/: the Python package (run, sweep, open against the binary) and
+# the examples, against `make python`'s build installed into .venv (compiled in the workspace's
+# target directory: the engine and HDF5 once, for the binary and the package).
 # One pytest process per core (pytest-xdist), each test file whole in one of them (--dist loadfile:
 # a file's module fixtures are made once, and the SLURM tests' cluster is started once).
 PYTEST_WORKERS ?= auto
 CHAINSWEEP_BIN ?= $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/release/chainsweep
+PYTEST = CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) CHAINSWEEP_WHEEL_DIR=$(CURDIR)/$(WHEEL_DIR) \
+  $(PY) -m pytest -q -n $(PYTEST_WORKERS) --dist loadfile
 
-test-python: bin ncdump wheel
-	$(PY) -m pip install --quiet --no-deps --force-reinstall $(WHEEL_DIR)/chainsweep-*.whl
-	CHAINSWEEP_BIN=$(CHAINSWEEP_BIN) CHAINSWEEP_WHEEL_DIR=$(CURDIR)/$(WHEEL_DIR) $(PY) -m pytest -q -n $(PYTEST_WORKERS) --dist loadfile tests
+test-python: bin python ncdump
+	$(PYTEST) -m "not system" tests
 
+# The everyday tier: what a change needs (formatting, clippy over the tests' units, the Rust
+# tests, the Python tests, the docs' snippets), a few minutes on two cores.
 test: lint test-rust test-python
+
+# The system tier: the wheel built (zig, manylinux) and installed into a clean venv, a real SLURM
+# cluster, a full disk (a tmpfs: root), files of hundreds of MB, the random byte-flip campaign,
+# and clippy over every target. .ci/run runs both tiers.
+test-system: lint-all bin python ncdump wheel
+	$(PYTEST) -m system tests
 
 # The solver's bench at BENCH_BASE (built in a temporary git worktree) and at the working tree, run
 # alternately BENCH_ROUNDS times; medians side by side (scripts/bench_compare.py). After a merge,

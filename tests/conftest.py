@@ -396,3 +396,11 @@ def to_layout_4(path):
             if name in f:
                 del f[name]
         f.attrs["layout_version"] = np.int64(4)
+
+
+def pytest_configure(config):
+    # Two tiers: `make test` runs what a change needs (-m "not system"), `make test-system` the
+    # tests that build the wheel, start a cluster, mount a disk or write large files (-m system).
+    # .ci/run runs both, so no test is left out of CI.
+    config.addinivalue_line(
+        "markers", "system: the system tier (make test-system): wheel, SLURM, tmpfs, large files")

@@ -10,6 +10,7 @@ import json
 import os
 
 import numpy as np
+import pytest
 import xarray as xr
 
 from conftest import BIN, assert_files_equal, run
@@ -192,6 +193,8 @@ def long_line(points):
     }
 
 
+# The system tier (`make test-system`): a line of 100 000 points.
+@pytest.mark.system
 def test_a_line_of_a_hundred_thousand_points_runs_and_resumes(binary, tmp_path):
     """No recursion along a line: 10^5 points run (a worker's stack once overflowed near 700),
     and a line killed part way resumes to the same file, every point after the cut recomputed

@@ -646,6 +646,8 @@ def damage_sweeps():
 MODES = (False, True, "lazy")
 
 
+# The system tier (`make test-system`): hundreds of single-byte flips, each file checked.
+@pytest.mark.system
 @pytest.mark.parametrize("kind", ["grid", "search", "continuation"])
 def test_random_single_byte_flips_are_reported_or_harmless_never_served(tmp_path, binary, kind):
     """For every flip: `status` and `chainsweep.open` (every `histories` mode) refuse, naming

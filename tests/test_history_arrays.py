@@ -155,6 +155,8 @@ print(json.dumps({"over_imports_mib": over, "peak": peak.tolist()}))
 """
 
 
+# The system tier (`make test-system`): a 290 MB file read in a fresh process.
+@pytest.mark.system
 def test_a_reduction_over_every_history_of_a_large_file_holds_chunks_not_the_file(tmp_path, binary):
     s = base_sweep(history=True, duration_s=1e-4, probes=(1, 2, 3, 4))
     s["record"]["history_interval_s"] = 1e-9  # 100 001 samples of 4 probes: 3.2 MB a run

@@ -124,7 +124,7 @@ def test_a_report_loads_in_a_browser_with_every_figure_drawn(tmp_path, kind):
         assert "ended by: fixed" in html
 
 
-@pytest.mark.parametrize("example", ["fit-signal", "fit-spectrum", "dimer-minimum"])
+@pytest.mark.parametrize("example", ["fit-signal", "fit-damping", "dimer-minimum"])
 def test_searches_and_fits_are_drawn_with_their_data(tmp_path, example):
     """A search's every evaluation against its field, with the answers; a fit's data (±σ) against
     its best fit, the residuals over σ, and each field's profile χ²."""
@@ -151,7 +151,10 @@ def test_searches_and_fits_are_drawn_with_their_data(tmp_path, example):
         # The fit records histories: the first ok evaluation's are drawn.
         assert "<h2>Histories</h2>" in html and "history at point 0" in html
     else:
-        assert "phase" in html
+        # The three measured ratios, each named on the axis.
+        assert "measured scalars" in html
+        for name in ("A5_over_A4", "A15_over_A4", "A21_over_A4"):
+            assert name in html
 
 
 def test_histories_of_chosen_points(tmp_path):

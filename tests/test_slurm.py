@@ -25,6 +25,9 @@ from conftest import REPO, assert_files_equal, base_sweep, run, segment_count, w
 sys.path.insert(0, str(REPO / "scripts"))
 import slurm_local  # noqa: E402
 
+# The system tier (`make test-system`): a real SLURM cluster started on this machine.
+pytestmark = pytest.mark.system
+
 
 @pytest.fixture(scope="module")
 def slurm():

@@ -228,6 +228,8 @@ def test_a_partial_output_costs_what_it_holds(tmp_path, binary):
     assert out.stat().st_size == complete
 
 
+# The system tier (`make test-system`): a tmpfs mounted as root.
+@pytest.mark.system
 def test_full_disk_is_a_clear_error_and_resumes(references, tmp_path):
     disk = tmp_path / "disk"
     disk.mkdir()

@@ -35,6 +35,9 @@ from conftest import (
     write_sweep,
 )
 
+# The system tier (`make test-system`): the wheel built by zig and installed in a clean venv.
+pytestmark = pytest.mark.system
+
 WHEEL_DIR = Path(os.environ.get("CHAINSWEEP_WHEEL_DIR", REPO / "dist"))
 # Newest glibc a wheel for the clusters may ask for (RHEL/Rocky 8, Debian 10, Ubuntu 18.10).
 NEWEST_GLIBC = (2, 28)
