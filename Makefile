@@ -174,7 +174,7 @@ test-system: lint-all bin python ncdump wheel
 # alternately BENCH_ROUNDS times; medians side by side (scripts/bench_compare.py). After a merge,
 # give the commit before it: make bench BENCH_BASE=<commit>. Then the default, no-FMA (portable)
 # and target-cpu=native builds side by side (scripts/bench_builds.sh); BENCH_BASELINE=REV adds a
-# build of revision REV to that table (e.g. 1564ed6, the first release's build).
+# build of revision REV to that table (e.g. the tag first-release, the first release's build).
 BENCH_BASE ?= main
 BENCH_ROUNDS ?= 5
 BENCH_BASELINE ?=

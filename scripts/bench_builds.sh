@@ -6,7 +6,7 @@
 #   default    this tree, built as a user builds it (no special flags: run-time CPU dispatch)
 #   portable   the same binary pinned to the no-FMA code path (CHAINSWEEP_CPU=portable)
 #   native     this tree built with RUSTFLAGS="-C target-cpu=native" (target/bench-native)
-#   baseline   optional: another revision (BENCH_BASELINE=REV, e.g. the first release's 1564ed6),
+#   baseline   optional: another revision (BENCH_BASELINE=REV, e.g. the tag first-release),
 #              exported with `git archive` into target/bench-baseline and built with its own
 #              settings
 # The builds run in alternation, ROUNDS times, each time REPEATS reference runs in one process; a
@@ -14,7 +14,7 @@
 # machine is shared: alternation spreads its load over every build alike).
 #
 #   scripts/bench_builds.sh                        # default, portable, native
-#   BENCH_BASELINE=1564ed6 scripts/bench_builds.sh # ... and the first release's build
+#   BENCH_BASELINE=first-release scripts/bench_builds.sh # ... and the first release's build
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -3,8 +3,8 @@ reference scene (0.55 chain, mu = 6 kg/s, 1.3 m/s, 1 ms, DOP853 rtol 1e-9) with 
 5 000 cylinders (the run's own wall time, `wall_time_s`), and the wall time of the Fig. 8 sweep
 (`run sweeps/fig08.json --jobs 2`); medians. No build needed: give two built binaries. Each side
 runs its own Fig. 8 sweep file: AFTER the working tree's, BEFORE the file at the git revision
-BEFORE_REV it was built from (default b2d0522, the build before switch prediction and the moving
-part), which its binary understands.
+BEFORE_REV it was built from (default the tag before-switch-prediction, the build before switch
+prediction and the moving part), which its binary understands.
 
     [BEFORE_REV=REV] python scripts/bench_scaling.py BEFORE_BIN AFTER_BIN [ROUNDS] [nofig8]
 """
@@ -14,7 +14,7 @@ REPO = Path(__file__).resolve().parent.parent
 BIN = {"before": sys.argv[1], "after": sys.argv[2]}
 ROUNDS = int(sys.argv[3]) if len(sys.argv) > 3 else 5
 here = Path(tempfile.mkdtemp(prefix="chainsweep-scaling-"))
-BEFORE_REV = os.environ.get("BEFORE_REV", "b2d0522")
+BEFORE_REV = os.environ.get("BEFORE_REV", "before-switch-prediction")
 FIG8 = {"before": here / "fig08-before.json", "after": REPO / "sweeps" / "fig08.json"}
 FIG8["before"].write_bytes(subprocess.run(["git", "show", f"{BEFORE_REV}:sweeps/fig08.json"], cwd=REPO,
                                            check=True, capture_output=True).stdout)

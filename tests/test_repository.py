@@ -57,3 +57,43 @@ def test_what_the_main_jobs_draw_is_not_tracked():
     for md in (REPO / "docs").glob("*.md"):
         for target in re.findall(r"\]\((figures/[^)]+)\)", md.read_text()):
             assert (REPO / "docs" / target).is_file(), (md.name, target)
+
+
+# An internal issue number or a commit hash (7 to 12 or 40 hex digits, with a
+# letter and a digit; a float's 16-digit bit pattern is neither) means nothing to a reader of the
+# code: name what was asked, or a tag (`git tag`), instead.
+ISSUE = re.compile(r"\bissues? \d+\b|\bissue-\d+\b", re.I)
+HASH = re.compile(r"(?<![\w.#-])(?:[0-9a-f]{7,12}|[0-9a-f]{40})(?![\w.-])")
+
+
+def residue(text: str) -> list[str]:
+    found = [m.group() for m in ISSUE.finditer(text)]
+    found += [w for w in HASH.findall(text) if re.search(r"[a-f]", w) and re.search(r"\d", w)]
+    return found
+
+
+def test_code_tests_scripts_and_makefile_name_no_internal_issues_or_commits():
+    hits = []
+    for f in committed_files():
+        rel = f.relative_to(REPO).as_posix()
+        code = rel == "Makefile" or rel.startswith((".ci/", "scripts/", "tests/", "crates/", "python/"))
+        if not code or not f.is_file() or f.suffix in (".json", ".csv", ".h5", ".lock", ".txt", ".png"):
+            continue
+        try:
+            text = f.read_text()
+        except UnicodeDecodeError:
+            continue
+        for n, line in enumerate(text.splitlines(), 1):
+            if f.name == "test_repository.py" and "residue(" in line:
+                continue  # this file's own examples
+            if residue(line):
+                hits.append(f"{rel}:{n}: {line.strip()[:100]}")
+    assert hits == []
+
+
+def test_the_residue_check_finds_issues_and_hashes_not_floats():
+    assert residue("# Issue 14 item 4: a damaged record")
+    assert residue("BEFORE_REV (default b2d0522)")
+    assert residue("built at 1564ed6f2a3b")
+    assert not residue('chain_098: mass 6dd27ce51d9316f5 stiffness')
+    assert not residue("the tag first-release; 1200 runs; colour #1f77b4")

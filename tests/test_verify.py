@@ -126,7 +126,7 @@ def test_bad_fraction_is_refused(tmp_path, binary):
 
 
 def test_a_corrupt_verification_record_is_recomputed(tmp_path, binary):
-    """Issue 14 item 4: a verification record whose bytes were damaged is not counted as done;
+    """A verification record whose bytes were damaged is not counted as done;
     the next run computes it again and the point stays verified."""
     path = write_sweep(tmp_path / "c.json", base_sweep())
     out = tmp_path / "c.h5"
