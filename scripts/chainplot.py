@@ -280,15 +280,142 @@ def _wrap(text: str, width_in: float, size_pt: float) -> str:
 
     import re
 
-    per_line = max(12, int(width_in * 72 / (0.6 * size_pt)))
+    per_line = max(10, int(width_in * 72 / (0.6 * size_pt)))
     out = []
     for line in text.split("\n"):
         # (Math without spaces, such as v$_0$, is one word: wrapping keeps it whole.)
         if any(" " in m for m in re.findall(r"\$[^$]*\$", line)) or len(line) <= per_line:
             out.append(line)
         else:
-            out.extend(textwrap.wrap(line, per_line, break_long_words=False))
+            lines = textwrap.wrap(line, per_line, break_long_words=False)
+            # Never a word alone on the last line: the line before gives it a companion.
+            if len(lines) > 1 and len(lines[-1].split()) == 1 and len(lines[-2].split()) > 1:
+                head, last = lines[-2].rsplit(" ", 1)
+                lines[-2:] = [head, f"{last} {lines[-1]}"]
+            out.extend(lines)
     return "\n".join(out)
+
+
+def _covered(ax, box) -> int:
+    """How many points of `ax`'s data (its lines, densified along their segments, and its
+    scatters' points), in display coordinates, lie inside the display box `box`."""
+    import matplotlib.collections
+
+    panel = ax.get_window_extent()
+
+    def inside(d):
+        # (A point the panel clips away is drawn nowhere: it cannot be covered.)
+        shown = (d[:, 0] >= panel.x0) & (d[:, 0] <= panel.x1) & (d[:, 1] >= panel.y0) & (d[:, 1] <= panel.y1)
+        return int((shown & (d[:, 0] >= box.x0) & (d[:, 0] <= box.x1) & (d[:, 1] >= box.y0)
+                    & (d[:, 1] <= box.y1)).sum())
+
+    n = 0
+    for line in ax.get_lines():
+        if not line.get_visible():
+            continue
+        xy = np.column_stack(line.get_data(orig=False)).astype(float)
+        xy = xy[np.isfinite(xy).all(axis=1)]
+        if len(xy) == 0:
+            continue
+        if len(xy) > 1 and line.get_linestyle() not in ("None", "", " "):
+            # Eight points along each segment: a line through the box covers it.
+            s = np.linspace(0, 1, 8, endpoint=False)[:, None, None]
+            xy = np.vstack([(xy[:-1] + s * (xy[1:] - xy[:-1])).reshape(-1, 2), xy[-1:]])
+        n += inside(ax.transData.transform(xy))
+    for c in ax.collections:
+        if isinstance(c, matplotlib.collections.PathCollection) and c.get_visible():
+            offsets = np.asarray(c.get_offsets(), dtype=float).reshape(-1, 2)
+            n += inside(c.get_offset_transform().transform(offsets))
+    return n
+
+
+LEGEND_PLACES = ("upper right", "upper left", "lower left", "lower right", "center right",
+                 "center left", "upper center", "lower center", "center")
+
+
+def place_legends(fig) -> list[str]:
+    """Moves each panel's legend where it covers no data: where it stands if it covers none, else
+    the first of LEGEND_PLACES that covers none, else out of the panel (under the figure when it
+    is the figure's only legend, else right of its panel). Returns what it moved, in words."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    moved = []
+    for ax in fig.axes:
+        legend = ax.get_legend()
+        if legend is None or not legend.get_visible():
+            continue
+        anchor = legend.get_bbox_to_anchor().transformed(fig.transFigure.inverted())
+        if not (anchor.x0 >= -1e-9 and anchor.x1 <= 1 + 1e-9):
+            continue  # placed outside by its script
+        if _covered(ax, legend.get_window_extent(renderer)) == 0:
+            continue
+        for place in LEGEND_PLACES:
+            legend.set_loc(place)
+            if _covered(ax, legend.get_window_extent(renderer)) == 0:
+                moved.append(f"{ax.get_title() or 'a panel'}: legend to {place}")
+                break
+        else:
+            handles, labels = ax.get_legend_handles_labels()
+            size = legend.get_texts()[0].get_fontsize() if legend.get_texts() else MIN_PT
+            legend.remove()
+            if sum(a.get_legend() is not None for a in fig.axes) == 0 and not fig.legends:
+                # The figure's one legend: under the figure, where the layout makes room.
+                # As many columns as fit the figure's width.
+                for ncols in range(min(len(labels), 4), 0, -1):
+                    fl = fig.legend(handles, labels, loc="outside lower center", ncols=ncols,
+                                    fontsize=size, frameon=False)
+                    if ncols == 1 or fl.get_window_extent(renderer).width <= 0.95 * fig.bbox.width:
+                        break
+                    fl.remove()
+                moved.append(f"{ax.get_title() or 'a panel'}: legend under the figure")
+            else:
+                ax.legend(handles, labels, loc="center left", bbox_to_anchor=(1.02, 0.5), fontsize=size,
+                          frameon=False)
+                moved.append(f"{ax.get_title() or 'a panel'}: legend right of the panel")
+    return moved
+
+
+def texts_outside(fig) -> list[str]:
+    """What of `fig` reaches past its edges (clipped when it is saved): each title, axis label,
+    legend text or annotation that does, and "tick labels" when the drawn ticks do."""
+    import matplotlib.text
+
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    box = fig.bbox
+
+    def outside(e) -> bool:
+        return e.x0 < box.x0 - 1 or e.y0 < box.y0 - 1 or e.x1 > box.x1 + 1 or e.y1 > box.y1 + 1
+
+    ticks = {id(t) for a in fig.axes for axis in (a.xaxis, a.yaxis)
+             for t in axis.get_ticklabels(minor=False) + axis.get_ticklabels(minor=True)}
+    out = [t.get_text() for t in fig.findobj(matplotlib.text.Text)
+           if t.get_visible() and t.get_text().strip() and id(t) not in ticks
+           and outside(t.get_window_extent(renderer))]
+    # The ticks drawn (matplotlib's tight box holds what is drawn, in inches).
+    tight = fig.get_tightbbox(renderer).transformed(fig.dpi_scale_trans)
+    if not out and outside(tight):
+        out.append("tick labels")
+    return out
+
+
+def fit_long_labels(fig) -> None:
+    """Wraps an axis label longer than its side of the figure onto lines that fit it."""
+    w, h = fig.get_size_inches()
+    for ax in fig.axes:
+        for label, room in ((ax.yaxis.label, 0.9 * h), (ax.xaxis.label, 0.9 * w)):
+            text = label.get_text()
+            if text and "\n" not in text:
+                label.set_text(_wrap(text, room, label.get_fontsize()))
+
+
+def legends_covering_data(fig) -> list[str]:
+    """The panels whose legend covers a data point (none, once place_legends has run)."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    return [ax.get_title() or f"panel {k}" for k, ax in enumerate(fig.axes)
+            if ax.get_legend() is not None and ax.get_legend().get_visible()
+            and _covered(ax, ax.get_legend().get_window_extent(renderer)) > 0]
 
 
 def journal_layout(fig) -> float:
@@ -399,18 +526,31 @@ def journal_layout(fig) -> float:
 
 def savefig(fig, name: str, dpi: int = PNG_DPI):
     """Writes `fig` as results/NAME.pdf (vector, fonts embedded) and results/NAME.png, both at a
-    journal width (journal_layout), with no date or other volatile metadata: the same figure
-    gives the same bytes."""
+    journal width (journal_layout), labels longer than the figure wrapped, every panel's legend
+    where it covers no data (place_legends, checked), cropped to what is drawn, with no date or
+    other volatile metadata: the same figure gives the same bytes."""
     import matplotlib
     import matplotlib.pyplot as plt
 
     journal_layout(fig)
+    fit_long_labels(fig)
+    place_legends(fig)
+    covering = legends_covering_data(fig)
+    assert not covering, f"{name}: a legend covers data in {covering}"
+    # A figure laid out once by tight_layout (one with a colorbar) is laid out again.
+    engine = fig.get_layout_engine()
+    if engine is None or type(engine).__name__ == "TightLayoutEngine":
+        fig.tight_layout(pad=0.3)
     out = RESULTS / f"{name}.png"
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=dpi, metadata={"Software": None})
+    # Cropped to what is drawn (with a small margin): a label the layout left a hair past the
+    # edge is never cut.
+    tight = {"bbox_inches": "tight", "pad_inches": 0.02}
+    fig.savefig(out, dpi=dpi, metadata={"Software": None}, **tight)
     # TrueType (Type 42) fonts, which journals' systems take, rather than Type 3.
     with matplotlib.rc_context({"pdf.fonttype": 42}):
-        fig.savefig(out.with_suffix(".pdf"), metadata={"Creator": None, "Producer": None, "CreationDate": None})
+        fig.savefig(out.with_suffix(".pdf"), metadata={"Creator": None, "Producer": None, "CreationDate": None},
+                    **tight)
     plt.close(fig)
     for p in (out.with_suffix(".pdf"), out):
         print(f"wrote {p.relative_to(REPO) if p.is_relative_to(REPO) else p}")
