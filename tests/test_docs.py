@@ -236,3 +236,86 @@ def test_the_output_check_can_fail():
     assert not matches("x = 6.06518", "x = 6.06528")
     assert matches("took … s", "took 0.31 s")
     assert not matches("ended by budget", "ended by tolerance")
+
+
+# ------------------------------------------------------------------------------------------------
+# Python snippets, run verbatim where a comment says what makes the files they read:
+#
+#     <!-- checked: after chainsweep run sweeps/examples/colliding-waves.json -o colliding-waves.h5 -->
+#
+# (commands joined by ` && `, run in a folder holding a copy of sweeps/ and an empty results/).
+# Every figure a snippet leaves open or saves is drawn and its labels checked: no dotted field
+# path, no file bookkeeping (`probe_units`, `…_strlen`) and no text past the figure's edges.
+
+AFTER = re.compile(r"<!-- checked: after (?P<commands>.+) -->")
+HARNESS = r'''
+import json, re, sys
+import matplotlib
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import matplotlib.text
+
+snippet = open(sys.argv[1]).read()
+saved = []
+original = matplotlib.figure.Figure.savefig
+def savefig(self, *args, **kwargs):
+    saved.append(self)
+    return original(self, *args, **kwargs)
+matplotlib.figure.Figure.savefig = savefig
+exec(compile(snippet, "snippet", "exec"), {"__name__": "__main__"})
+figures = {id(f): f for f in saved}
+figures.update({id(plt.figure(n)): plt.figure(n) for n in plt.get_fignums()})
+problems = []
+for fig in figures.values():
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    box = fig.bbox
+    for ax in fig.axes:
+        for what, text in (("x label", ax.xaxis.label), ("y label", ax.yaxis.label), ("title", ax.title)):
+            s = text.get_text()
+            if re.search(r"[a-z_]+\.[a-z_]+\.[a-z_]", s) or "probe_units" in s or "_strlen" in s:
+                problems.append(f"{what} {s!r} names the file's bookkeeping or a dotted path")
+            e = text.get_window_extent(renderer)
+            if s.strip() and (e.x0 < box.x0 - 1 or e.y0 < box.y0 - 1 or e.x1 > box.x1 + 1 or e.y1 > box.y1 + 1):
+                problems.append(f"{what} {s!r} reaches past the figure's edge")
+print(json.dumps({"figures": len(figures), "problems": problems}))
+'''
+
+
+def python_snippets():
+    out = []
+    for doc in DOCS:
+        for lang, body, line, before in fenced(doc.read_text()):
+            m = AFTER.match(before.strip())
+            if lang == "python" and m:
+                out.append(pytest.param(m.group("commands"), body, id=f"{doc.relative_to(REPO)}:{line}"))
+    return out
+
+
+@pytest.mark.parametrize("commands,snippet", python_snippets())
+def test_python_snippet_runs_and_its_figures_are_labelled(commands, snippet, tmp_path):
+    import json as _json
+    import os
+    import sys
+    shutil.copytree(REPO / "sweeps", tmp_path / "sweeps")
+    (tmp_path / "results" / "examples").mkdir(parents=True)
+    for command in commands.split(" && "):
+        argv = shlex.split(command.strip().strip("`"))
+        assert argv[0] == "chainsweep", command
+        r = subprocess.run([str(BIN), *argv[1:]], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, (command, r.stderr)
+    (tmp_path / "snippet.py").write_text(snippet)
+    (tmp_path / "harness.py").write_text(HARNESS)
+    env = dict(os.environ, MPLBACKEND="Agg")
+    r = subprocess.run([sys.executable, "harness.py", "snippet.py"], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=600, env=env)
+    assert r.returncode == 0, r.stderr[-3000:]
+    report = _json.loads(r.stdout.strip().splitlines()[-1])
+    assert report["problems"] == [], report
+
+
+def test_the_plotting_snippets_are_checked():
+    """The guides' plots are among the snippets run (a lost comment would drop them silently)."""
+    checked = " ".join(p.values[1] for p in python_snippets())
+    for call in ("m.plot(", "energy_passed_max_j", "plot.line(", "chainsweep.plot("):
+        assert call in checked, call

@@ -101,33 +101,39 @@ RUN_STRINGS: dict[str, str] = {
 #: Histories and minimum overlaps (per-run groups in the files).
 HISTORY_LONG_NAME = "history of each probe, sampled every record.history_interval_s"
 MIN_OVERLAP_LONG_NAME = "minimum overlap of each contact over the run"
-CONTACT_LONG_NAME = "contact j, between particles j and j+1 (the last one: the wall)"
+CONTACT_LONG_NAME = "contact"
+CONTACT_COMMENT = "contact j, between particles j and j+1 (the last one: the wall)"
 
-#: Space–time fields (record.fields): variable -> (units, long_name), as the files store them.
-PARTICLE_LONG_NAME = "particle i (1: the striker, when there is one)"
+PARTICLE_LONG_NAME = "particle"
+PARTICLE_COMMENT = "particle i (1: the striker, when there is one)"
 # The energy flow (record.energy_flow): each variable, the dimension it is over and its long name.
 ENERGY_FLOW = {
-    "energy_passed_max_j": (
-        "contact",
-        "largest energy that had passed into the contact from the side of the struck end "
-        "(contact N: the energy that reached the wall)",
-    ),
-    "energy_passed_final_j": (
-        "contact",
-        "energy that had passed into the contact from the side of the struck end by the end "
-        "of the run",
-    ),
-    "max_kinetic_energy_j": ("particle", "largest kinetic energy of the particle over the run"),
+    "energy_passed_max_j": ("contact", "largest energy passed"),
+    "energy_passed_final_j": ("contact", "energy passed at the end"),
+    "max_kinetic_energy_j": ("particle", "largest kinetic energy"),
 }
-FIELD_TIME_LONG_NAME = "time of the field samples"
-FIELDS: dict[str, tuple[str, str]] = {
+#: What each energy-flow variable is (its ``comment``).
+ENERGY_FLOW_COMMENTS = {
+    "energy_passed_max_j": "largest energy that had passed into the contact from the side of the struck "
+    "end (contact N: the energy that reached the wall)",
+    "energy_passed_final_j": "energy that had passed into the contact from the side of the struck end by "
+    "the end of the run",
+    "max_kinetic_energy_j": "largest kinetic energy of the particle over the run",
+}
+FIELD_TIME_LONG_NAME = "time"
+FIELD_TIME_COMMENT = "time of the field samples, every record.fields.interval_s"
+#: variable -> (units, long_name, comment), as the files store them.
+FIELDS: dict[str, tuple[str, str, str]] = {
     "field_contact_force": (
-        "N", "total force of every contact, sampled every record.fields.interval_s"
+        "N", "contact force", "total force of every contact, sampled every record.fields.interval_s"
     ),
     "field_displacement": (
-        "m", "dynamic displacement of every particle, sampled every record.fields.interval_s"
+        "m", "displacement",
+        "dynamic displacement of every particle, sampled every record.fields.interval_s"
     ),
-    "field_velocity": ("m/s", "velocity of every particle, sampled every record.fields.interval_s"),
+    "field_velocity": (
+        "m/s", "velocity", "velocity of every particle, sampled every record.fields.interval_s"
+    ),
 }
 
 #: The order in which datasets list their variables (others follow, by name).

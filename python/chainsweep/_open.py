@@ -620,7 +620,7 @@ def _stack_min_overlaps(
         if "min_overlap_m" not in f:
             return None
         d = f["min_overlap_m"]
-        coords = {"contact": ("contact", f["contact"][()], {"long_name": L.CONTACT_LONG_NAME})}
+        coords = {"contact": ("contact", f["contact"][()], {"long_name": L.CONTACT_LONG_NAME, "comment": L.CONTACT_COMMENT})}
         attrs = {"units": "m", "long_name": L.MIN_OVERLAP_LONG_NAME}
         return {"min_overlap_m": ((*grid.dims, "contact"), _read_masked(d), attrs)}, coords
     runs = {i: m for i, g in _run_groups(f) if (m := _min_overlap_of(g)) is not None}
@@ -635,7 +635,7 @@ def _stack_min_overlaps(
         "contact": (
             "contact",
             np.arange(1, width + 1, dtype=np.int64),
-            {"long_name": L.CONTACT_LONG_NAME},
+            {"long_name": L.CONTACT_LONG_NAME, "comment": L.CONTACT_COMMENT},
         )
     }
     attrs = {"units": "m", "long_name": L.MIN_OVERLAP_LONG_NAME}
@@ -655,9 +655,11 @@ def _stack_energy_flow(
     coords: dict[str, Any] = {}
     for name in names:
         dim, long_name = L.ENERGY_FLOW[name]
-        long_coord = L.CONTACT_LONG_NAME if dim == "contact" else L.PARTICLE_LONG_NAME
-        coords[dim] = (dim, f[dim][()], {"long_name": long_coord})
-        data[name] = ((*grid.dims, dim), _read_masked(f[name]), {"units": "J", "long_name": long_name})
+        long_coord = {"long_name": L.CONTACT_LONG_NAME, "comment": L.CONTACT_COMMENT} if dim == "contact" else {
+            "long_name": L.PARTICLE_LONG_NAME, "comment": L.PARTICLE_COMMENT}
+        coords[dim] = (dim, f[dim][()], long_coord)
+        data[name] = ((*grid.dims, dim), _read_masked(f[name]),
+                      {"units": "J", "long_name": long_name, "comment": L.ENERGY_FLOW_COMMENTS[name]})
     return data, coords
 
 

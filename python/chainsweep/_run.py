@@ -171,7 +171,7 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
             L.probe_attrs(units, L.HISTORY_LONG_NAME),
         )
     if "min_overlap_m" in a:
-        coords["contact"] = ("contact", a["contact"], {"long_name": L.CONTACT_LONG_NAME})
+        coords["contact"] = ("contact", a["contact"], {"long_name": L.CONTACT_LONG_NAME, "comment": L.CONTACT_COMMENT})
         data["min_overlap_m"] = (
             "contact",
             a["min_overlap_m"],
@@ -180,16 +180,18 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
     for name, (dim, long_name) in L.ENERGY_FLOW.items():
         if name not in a:
             continue
-        long_coord = L.CONTACT_LONG_NAME if dim == "contact" else L.PARTICLE_LONG_NAME
+        long_coord = {"long_name": L.CONTACT_LONG_NAME, "comment": L.CONTACT_COMMENT} if dim == "contact" else {
+            "long_name": L.PARTICLE_LONG_NAME, "comment": L.PARTICLE_COMMENT}
         width = len(a[name])
         if dim not in coords:
-            coords[dim] = (dim, np.arange(1, width + 1, dtype=np.int64), {"long_name": long_coord})
-        data[name] = (dim, a[name], {"units": "J", "long_name": long_name})
+            coords[dim] = (dim, np.arange(1, width + 1, dtype=np.int64), long_coord)
+        data[name] = (dim, a[name], {"units": "J", "long_name": long_name, "comment": L.ENERGY_FLOW_COMMENTS[name]})
     if "field_time_s" in a:
         coords["field_time_s"] = (
-            "field_time_s", a["field_time_s"], {"units": "s", "long_name": L.FIELD_TIME_LONG_NAME}
+            "field_time_s", a["field_time_s"],
+            {"units": "s", "long_name": L.FIELD_TIME_LONG_NAME, "comment": L.FIELD_TIME_COMMENT}
         )
-        for name, (unit, long_name) in L.FIELDS.items():
+        for name, (unit, long_name, comment) in L.FIELDS.items():
             if name not in a:
                 continue
             last = "contact" if name == "field_contact_force" else "particle"
@@ -198,14 +200,15 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
                 coords.setdefault(
                     "contact",
                     ("contact", np.arange(1, width + 1, dtype=np.int64),
-                     {"long_name": L.CONTACT_LONG_NAME}),
+                     {"long_name": L.CONTACT_LONG_NAME, "comment": L.CONTACT_COMMENT}),
                 )
             else:
                 coords["particle"] = (
                     "particle", np.arange(1, width + 1, dtype=np.int64),
-                    {"long_name": L.PARTICLE_LONG_NAME},
+                    {"long_name": L.PARTICLE_LONG_NAME, "comment": L.PARTICLE_COMMENT},
                 )
-            data[name] = (("field_time_s", last), a[name], {"units": unit, "long_name": long_name})
+            data[name] = (("field_time_s", last), a[name],
+                          {"units": unit, "long_name": long_name, "comment": comment})
     return xr.Dataset(data, coords=coords, attrs=a["attrs"])
 
 

@@ -1384,21 +1384,16 @@ pub const MIN_OVERLAP: &str = "min_overlap_m";
 /// The energy flow (`record.energy_flow`): each variable's name, whether it is over the contacts
 /// (else the particles) and its long name, in the order of the [`EnergyFlow`] fields.
 pub const ENERGY_FLOW: [(&str, bool, &str); 3] = [
-    (
-        "energy_passed_max_j",
-        true,
-        "largest energy that had passed into the contact from the side of the struck end (contact N: the energy that reached the wall)",
-    ),
-    (
-        "energy_passed_final_j",
-        true,
-        "energy that had passed into the contact from the side of the struck end by the end of the run",
-    ),
-    (
-        "max_kinetic_energy_j",
-        false,
-        "largest kinetic energy of the particle over the run",
-    ),
+    ("energy_passed_max_j", true, "largest energy passed"),
+    ("energy_passed_final_j", true, "energy passed at the end"),
+    ("max_kinetic_energy_j", false, "largest kinetic energy"),
+];
+/// What each of [`ENERGY_FLOW`]'s variables is (its `comment`; the long name is short, a plot's
+/// label), in the same order.
+pub const ENERGY_FLOW_COMMENTS: [&str; 3] = [
+    "largest energy that had passed into the contact from the side of the struck end (contact N: the energy that reached the wall)",
+    "energy that had passed into the contact from the side of the struck end by the end of the run",
+    "largest kinetic energy of the particle over the run",
 ];
 /// The contacts' coordinate.
 pub const CONTACT: &str = "contact";

@@ -45,8 +45,8 @@ use super::{
 use crate::error::{Error, Result};
 use crate::grid::{multi_index, Grid};
 use crate::record::columns::{
-    distinct_units, field_name, split_name, CONTACT, ENERGY_FLOW, FIELD_SAMPLES, FIELD_TIME,
-    HISTORY, HISTORY_SAMPLES, MIN_OVERLAP, PARTICLE, SAMPLE, TIME,
+    distinct_units, field_name, split_name, CONTACT, ENERGY_FLOW, ENERGY_FLOW_COMMENTS,
+    FIELD_SAMPLES, FIELD_TIME, HISTORY, HISTORY_SAMPLES, MIN_OVERLAP, PARTICLE, SAMPLE, TIME,
 };
 use crate::record::{RunArrays, RunRecord, INT_FILL};
 use chainsweep_solver::observe::flow::EnergyFlow;
@@ -58,16 +58,30 @@ pub const HISTORY_LONG_NAME: &str =
     "history of each probe, sampled every record.history_interval_s";
 /// Long name of the minimum overlaps.
 pub const MIN_OVERLAP_LONG_NAME: &str = "minimum overlap of each contact over the run";
-/// Long name of the contact coordinate.
-pub const CONTACT_LONG_NAME: &str =
-    "contact j, between particles j and j+1 (the last one: the wall)";
+/// Long name of the contact coordinate: short, as a plot's axis label (a plot adds the unit).
+pub const CONTACT_LONG_NAME: &str = "contact";
+/// What the contact coordinate counts (its `comment`).
+pub const CONTACT_COMMENT: &str = "contact j, between particles j and j+1 (the last one: the wall)";
 /// Long name of the particle coordinate.
-pub const PARTICLE_LONG_NAME: &str = "particle i (1: the striker, when there is one)";
+pub const PARTICLE_LONG_NAME: &str = "particle";
+/// What the particle coordinate counts (its `comment`).
+pub const PARTICLE_COMMENT: &str = "particle i (1: the striker, when there is one)";
 /// Long name of the fields' time coordinate.
-pub const FIELD_TIME_LONG_NAME: &str = "time of the field samples";
+pub const FIELD_TIME_LONG_NAME: &str = "time";
+/// What the fields' time coordinate is (its `comment`).
+pub const FIELD_TIME_COMMENT: &str = "time of the field samples, every record.fields.interval_s";
 
-/// Long name of the field of `quantity`.
+/// Long name of the field of `quantity`: short, as a plot's label (a plot adds the unit).
 pub fn field_long_name(quantity: FieldQuantity) -> &'static str {
+    match quantity {
+        FieldQuantity::ContactForce => "contact force",
+        FieldQuantity::Displacement => "displacement",
+        FieldQuantity::Velocity => "velocity",
+    }
+}
+
+/// What the field of `quantity` holds (its `comment`).
+pub fn field_comment(quantity: FieldQuantity) -> &'static str {
     match quantity {
         FieldQuantity::ContactForce => {
             "total force of every contact, sampled every record.fields.interval_s"
@@ -663,48 +677,59 @@ impl ArrayWriter {
             flow_width(true),
         );
         let particle_width = widest(width_of(false), flow_width(false));
-        let coordinate = |name: &str, width: usize, long_name: &str| -> Result<Dataset> {
-            let k: Vec<i64> = (1..=width as i64).collect();
-            let c = checked_dataset(file, name, &[width], &k)?;
-            attr_str(&c, "units", "1")?;
-            attr_str(&c, "long_name", long_name)?;
-            set_scale(&c, name)?;
-            Ok(c)
-        };
+        let coordinate =
+            |name: &str, width: usize, long_name: &str, comment: &str| -> Result<Dataset> {
+                let k: Vec<i64> = (1..=width as i64).collect();
+                let c = checked_dataset(file, name, &[width], &k)?;
+                attr_str(&c, "units", "1")?;
+                attr_str(&c, "long_name", long_name)?;
+                attr_str(&c, "comment", comment)?;
+                set_scale(&c, name)?;
+                Ok(c)
+            };
         let contact = contact_width
-            .map(|w| coordinate(CONTACT, w, CONTACT_LONG_NAME))
+            .map(|w| coordinate(CONTACT, w, CONTACT_LONG_NAME, CONTACT_COMMENT))
             .transpose()?;
         let particle = particle_width
-            .map(|w| coordinate(PARTICLE, w, PARTICLE_LONG_NAME))
+            .map(|w| coordinate(PARTICLE, w, PARTICLE_LONG_NAME, PARTICLE_COMMENT))
             .transpose()?;
         // A variable with one value per contact or particle: as wide as its coordinate, on it.
-        let per_element =
-            |w: &PerElementWriter, per_contact: bool, units: &str, long_name: &str| -> Result<()> {
-                let (scale, dim, width) = if per_contact {
-                    (contact.as_ref(), CONTACT, contact_width)
-                } else {
-                    (particle.as_ref(), PARTICLE, particle_width)
-                };
-                let (scale, width) = (scale.expect("made above"), width.expect("made above"));
-                if width > w.width {
-                    let mut s = self.shape.clone();
-                    s.push(width);
-                    w.data.resize(s)?;
-                }
-                attach_grid(&w.data)?;
-                attach_scale(&w.data, scale, g, dim)?;
-                attr_str(&w.data, "units", units)?;
-                attr_str(&w.data, "long_name", long_name)?;
-                if !coordinates.is_empty() {
-                    attr_str(&w.data, "coordinates", &listed(&[]))?;
-                }
-                Ok(())
+        let per_element = |w: &PerElementWriter,
+                           per_contact: bool,
+                           units: &str,
+                           long_name: &str,
+                           comment: Option<&str>|
+         -> Result<()> {
+            let (scale, dim, width) = if per_contact {
+                (contact.as_ref(), CONTACT, contact_width)
+            } else {
+                (particle.as_ref(), PARTICLE, particle_width)
             };
+            let (scale, width) = (scale.expect("made above"), width.expect("made above"));
+            if width > w.width {
+                let mut s = self.shape.clone();
+                s.push(width);
+                w.data.resize(s)?;
+            }
+            attach_grid(&w.data)?;
+            attach_scale(&w.data, scale, g, dim)?;
+            attr_str(&w.data, "units", units)?;
+            attr_str(&w.data, "long_name", long_name)?;
+            if let Some(comment) = comment {
+                attr_str(&w.data, "comment", comment)?;
+            }
+            if !coordinates.is_empty() {
+                attr_str(&w.data, "coordinates", &listed(&[]))?;
+            }
+            Ok(())
+        };
         if let Some(w) = &self.min_overlap {
-            per_element(w, true, "m", MIN_OVERLAP_LONG_NAME)?;
+            per_element(w, true, "m", MIN_OVERLAP_LONG_NAME, None)?;
         }
-        for ((_, per_contact, long_name), w) in ENERGY_FLOW.iter().zip(&self.flow) {
-            per_element(w, *per_contact, "J", long_name)?;
+        for (((_, per_contact, long_name), comment), w) in
+            ENERGY_FLOW.iter().zip(ENERGY_FLOW_COMMENTS).zip(&self.flow)
+        {
+            per_element(w, *per_contact, "J", long_name, Some(comment))?;
         }
         if let Some(w) = self.fields {
             let t: Vec<f64> = (0..w.length)
@@ -713,6 +738,7 @@ impl ArrayWriter {
             let time = checked_dataset(file, FIELD_TIME, &[w.length], &t)?;
             attr_str(&time, "units", "s")?;
             attr_str(&time, "long_name", FIELD_TIME_LONG_NAME)?;
+            attr_str(&time, "comment", FIELD_TIME_COMMENT)?;
             set_scale(&time, FIELD_TIME)?;
             for p in &w.parts {
                 let (scale, name, width) = if p.quantity.per_contact() {
@@ -731,6 +757,7 @@ impl ArrayWriter {
                 attach_scale(&p.data, scale, g + 1, name)?;
                 attr_str(&p.data, "units", p.quantity.unit())?;
                 attr_str(&p.data, "long_name", field_long_name(p.quantity))?;
+                attr_str(&p.data, "comment", field_comment(p.quantity))?;
                 if !coordinates.is_empty() {
                     attr_str(&p.data, "coordinates", &listed(&[]))?;
                 }

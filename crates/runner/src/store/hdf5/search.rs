@@ -126,17 +126,20 @@ pub fn write(
         attach(&d, &eval_scales)?;
         attr_str(&d, "units", &f.units)?;
         attr_str(&d, "field", &f.field)?;
+        // A short name a plot can use as its axis label; what the values are, in `comment`.
+        attr_str(&d, "long_name", &crate::sweep::human_name(&f.name))?;
         attr_str(
             &d,
-            "long_name",
+            "comment",
             &format!("{} of each evaluation of the search", f.name),
         )?;
     }
     let d = filled_checked_dataset(file, "objective", &eval_shape, &t.objective, f64::NAN)?;
     attach(&d, &eval_scales)?;
+    attr_str(&d, "long_name", "objective")?;
     attr_str(
         &d,
-        "long_name",
+        "comment",
         &format!("objective of the search: {}", t.objective_name),
     )?;
     if let Some(u) = t.objective_units {
