@@ -55,7 +55,7 @@ RUN_FLOATS: dict[str, tuple[str, str]] = {
 STEADY_COLUMNS: dict[str, dict] = {
     n: c for n, c in COLUMNS.items() if c["written"] == "with_steady_state"
 }
-HARMONIC_LONG_NAME = "harmonic k of the steady state (frequency k times steady_frequency_hz)"
+HARMONIC_LONG_NAME = _native.ARRAYS["harmonic"]["long_name"]
 
 #: The linear spectrum's columns (record.spectrum): name -> (units, long_name). The files have
 #: them only where the sweep records the spectrum, :func:`chainsweep.run` only for such a scene.
@@ -98,42 +98,30 @@ RUN_STRINGS: dict[str, str] = {
     n: c["description"] for n, c in COLUMNS.items() if c["dtype"] == "str" and not c["per_probe"]
 }
 
-#: Histories and minimum overlaps (per-run groups in the files).
-HISTORY_LONG_NAME = "history of each probe, sampled every record.history_interval_s"
-MIN_OVERLAP_LONG_NAME = "minimum overlap of each contact over the run"
-CONTACT_LONG_NAME = "contact"
-CONTACT_COMMENT = "contact j, between particles j and j+1 (the last one: the wall)"
+#: The runs' arrays (histories, minimum overlaps, fields, energy flow) and their coordinates, as
+#: the store writes them: name -> {long_name, comment, units, over}, exported by the native module
+#: (the store's one definition of their labels).
+ARRAYS: dict[str, dict] = dict(_native.ARRAYS)
 
-PARTICLE_LONG_NAME = "particle"
-PARTICLE_COMMENT = "particle i (1: the striker, when there is one)"
-# The energy flow (record.energy_flow): each variable, the dimension it is over and its long name.
+HISTORY_LONG_NAME = ARRAYS["history"]["long_name"]
+MIN_OVERLAP_LONG_NAME = ARRAYS["min_overlap_m"]["long_name"]
+CONTACT_LONG_NAME = ARRAYS["contact"]["long_name"]
+CONTACT_COMMENT = ARRAYS["contact"]["comment"]
+PARTICLE_LONG_NAME = ARRAYS["particle"]["long_name"]
+PARTICLE_COMMENT = ARRAYS["particle"]["comment"]
+#: The energy flow (record.energy_flow): variable -> (the coordinate it is over, long name).
 ENERGY_FLOW = {
-    "energy_passed_max_j": ("contact", "largest energy passed"),
-    "energy_passed_final_j": ("contact", "energy passed at the end"),
-    "max_kinetic_energy_j": ("particle", "largest kinetic energy"),
+    n: (ARRAYS[n]["over"], ARRAYS[n]["long_name"])
+    for n in ("energy_passed_max_j", "energy_passed_final_j", "max_kinetic_energy_j")
 }
 #: What each energy-flow variable is (its ``comment``).
-ENERGY_FLOW_COMMENTS = {
-    "energy_passed_max_j": "largest energy that had passed into the contact from the side of the struck "
-    "end (contact N: the energy that reached the wall)",
-    "energy_passed_final_j": "energy that had passed into the contact from the side of the struck end by "
-    "the end of the run",
-    "max_kinetic_energy_j": "largest kinetic energy of the particle over the run",
-}
-FIELD_TIME_LONG_NAME = "time"
-FIELD_TIME_COMMENT = "time of the field samples, every record.fields.interval_s"
-#: variable -> (units, long_name, comment), as the files store them.
+ENERGY_FLOW_COMMENTS = {n: ARRAYS[n]["comment"] for n in ENERGY_FLOW}
+FIELD_TIME_LONG_NAME = ARRAYS["field_time_s"]["long_name"]
+FIELD_TIME_COMMENT = ARRAYS["field_time_s"]["comment"]
+#: Space-time fields (record.fields): variable -> (units, long_name, comment).
 FIELDS: dict[str, tuple[str, str, str]] = {
-    "field_contact_force": (
-        "N", "contact force", "total force of every contact, sampled every record.fields.interval_s"
-    ),
-    "field_displacement": (
-        "m", "displacement",
-        "dynamic displacement of every particle, sampled every record.fields.interval_s"
-    ),
-    "field_velocity": (
-        "m/s", "velocity", "velocity of every particle, sampled every record.fields.interval_s"
-    ),
+    n: (ARRAYS[n]["units"], ARRAYS[n]["long_name"], ARRAYS[n]["comment"])
+    for n in ("field_contact_force", "field_displacement", "field_velocity")
 }
 
 #: The order in which datasets list their variables (others follow, by name).

@@ -78,6 +78,79 @@ fn column_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyList>> {
 }
 
 /// The extension module.
+/// The runs' arrays as the store writes them (variables and coordinates beside the summary
+/// columns): name → {long_name, comment, units, over} (over: the coordinate a per-element variable
+/// is over). `chainsweep.open` and `chainsweep.run` label their Datasets with these, so the labels
+/// have one definition, the store's.
+fn array_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyDict>> {
+    use chainsweep::record::columns::{
+        field_name, CONTACT, ENERGY_FLOW, ENERGY_FLOW_COMMENTS, FIELD_TIME, HISTORY, MIN_OVERLAP,
+        PARTICLE,
+    };
+    use chainsweep::store::hdf5::arrays as a;
+    use chainsweep_solver::observe::probes::FieldQuantity;
+    let out = pyo3::types::PyDict::new(py);
+    let entry = |name: &str,
+                 long_name: &str,
+                 comment: Option<&str>,
+                 units: Option<&str>,
+                 over: Option<&str>|
+     -> PyResult<()> {
+        let d = pyo3::types::PyDict::new(py);
+        d.set_item("long_name", long_name)?;
+        d.set_item("comment", comment)?;
+        d.set_item("units", units)?;
+        d.set_item("over", over)?;
+        out.set_item(name, d)
+    };
+    entry(HISTORY, a::HISTORY_LONG_NAME, None, None, None)?;
+    entry(
+        MIN_OVERLAP,
+        a::MIN_OVERLAP_LONG_NAME,
+        None,
+        Some("m"),
+        Some(CONTACT),
+    )?;
+    entry(
+        CONTACT,
+        a::CONTACT_LONG_NAME,
+        Some(a::CONTACT_COMMENT),
+        Some("1"),
+        None,
+    )?;
+    entry(
+        PARTICLE,
+        a::PARTICLE_LONG_NAME,
+        Some(a::PARTICLE_COMMENT),
+        Some("1"),
+        None,
+    )?;
+    entry(
+        FIELD_TIME,
+        a::FIELD_TIME_LONG_NAME,
+        Some(a::FIELD_TIME_COMMENT),
+        Some("s"),
+        None,
+    )?;
+    let harmonic = chainsweep::store::hdf5::write::HARMONIC_LONG_NAME;
+    entry("harmonic", harmonic, None, Some("1"), None)?;
+    for q in FieldQuantity::ALL {
+        let over = if q.per_contact() { CONTACT } else { PARTICLE };
+        entry(
+            field_name(q),
+            a::field_long_name(q),
+            Some(a::field_comment(q)),
+            Some(q.unit()),
+            Some(over),
+        )?;
+    }
+    for ((name, per_contact, long_name), comment) in ENERGY_FLOW.iter().zip(ENERGY_FLOW_COMMENTS) {
+        let over = if *per_contact { CONTACT } else { PARTICLE };
+        entry(name, long_name, Some(comment), Some("J"), Some(over))?;
+    }
+    Ok(out)
+}
+
 #[pymodule]
 fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(point::run_scene, m)?)?;
@@ -92,6 +165,7 @@ fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     chainsweep::set_git_revision(chainsweep_cli::GIT_REVISION);
     m.add("GIT_REVISION", chainsweep::git_revision())?;
     m.add("COLUMNS", column_table(m.py())?)?;
+    m.add("ARRAYS", array_table(m.py())?)?;
     m.add(
         "DEFAULT_CHECKPOINT_INTERVAL_S",
         chainsweep::engine::run::DEFAULT_CHECKPOINT_INTERVAL_S,

@@ -28,6 +28,9 @@ use crate::record::{RunRecord, VerifyInfo, VERIFY_OK};
 use crate::sweep::auto::AutoChoice;
 use crate::sweep::Sweep;
 
+/// Long name of the steady state's `harmonic` coordinate.
+pub const HARMONIC_LONG_NAME: &str =
+    "harmonic k of the steady state (frequency k times steady_frequency_hz)";
 /// What a written file holds: the counts of its points, and its summary columns (every point's
 /// values and checksums, as a reader reads them back).
 pub struct Written {
@@ -533,11 +536,7 @@ fn write_columns(
             let k: Vec<i64> = (1..=nh as i64).collect();
             let h = checked_dataset(file, HARMONIC, &[nh], &k)?;
             attr_str(&h, "units", "1")?;
-            attr_str(
-                &h,
-                "long_name",
-                "harmonic k of the steady state (frequency k times steady_frequency_hz)",
-            )?;
+            attr_str(&h, "long_name", HARMONIC_LONG_NAME)?;
             set_scale(&h, HARMONIC)?;
             Some(h)
         }
