@@ -16,7 +16,7 @@ The peer, in detail (every choice here is one in its favour, or the one a user w
 - Each scene (masses, Hertz coefficients, damping, gravity, wall, striker velocity, probes, leading-
   pulse fractions, sampling interval) is read from `chainsweep point SWEEP I --scene-only`, and the
   script refuses a scene with physics it does not implement.
-- The observable is chainsweep's (crates/solver/src/observe/probes.rs, ported line by line): the
+- The observable is chainsweep's (crates/solver/src/observe/probes/, ported line by line): the
   gauge force in cylinder k (the mean of its two contacts' elastic + viscous forces, the static
   preload included) sampled every `summary_interval_s` (0.2 µs) on LSODA's own interpolant (its
   Nordsieck history: LSODA steps past each output time and interpolates back), the leading pulse's
