@@ -9,6 +9,9 @@ use crate::observe::grid_instant;
 use crate::observe::peaks::{hermite_max, maximise};
 
 use super::{RunObserver, MAX_SETTLE_WAIT};
+// Named only by the docs.
+#[cfg(doc)]
+use crate::observe::{peaks::PeakTracker, probes::ProbeSet};
 
 impl RunObserver {
     /// Marks the probes whose summary samples in this step (those up to `until`) provably change
@@ -18,9 +21,6 @@ impl RunObserver {
     /// ([`PeakTracker::settled_below`]). Collects the components of the others in
     /// `live_components`; returns whether any probe is settled. Only a step of at least three
     /// samples is looked at (below that nothing is saved).
-    ///
-    /// [`ProbeSet::upper_bound`]: crate::observe::probes::ProbeSet::upper_bound
-    /// [`PeakTracker::settled_below`]: crate::observe::peaks::PeakTracker::settled_below
     pub(super) fn settle(&mut self, step: &dyn DenseStep, until: f64) -> bool {
         self.settled.fill(false);
         #[cfg(test)]
