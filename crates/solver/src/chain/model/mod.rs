@@ -610,3 +610,6 @@ pub(crate) fn longitudinal_speed(m: &Material, rho: f64) -> f64 {
     let (e, nu) = (m.youngs_modulus_pa, m.poisson_ratio);
     (e * (1.0 - nu) / (rho * (1.0 + nu) * (1.0 - 2.0 * nu))).sqrt()
 }
+
+#[cfg(test)]
+mod tests;
