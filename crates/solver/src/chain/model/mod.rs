@@ -491,7 +491,7 @@ impl Chain {
             + 2 * self.wall_mount.is_some() as usize
     }
 
-    /// Contact `c`'s elastic law and dissipation, as the general laws of `contact.rs` take them.
+    /// Contact `c`'s elastic law and dissipation, as the general laws of `contact/` take them.
     pub(crate) fn contact_params(&self, c: usize) -> ContactParams {
         ContactParams {
             a: self.stiffness[c],
