@@ -440,6 +440,10 @@ const TABLEAU: Tableau = Tableau {
     fsal: 12,
     fsal_in_attempt: false,
     buffers: &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 1, 2, 3],
+    // Hairer's combined 5th/3rd-order norm and `CONTD8` are DOP853's own (below), with an
+    // operation order the standard ones do not have.
+    error: &[],
+    interpolant: &[],
 };
 
 impl ExplicitMethod for Dop853Method {

@@ -3,6 +3,13 @@
 //! from the stages, and its continuous extension); the stage loop, the batched dense output with
 //! its cached per-component coefficients, FSAL and the [`Stepper`] are written here once.
 //!
+//! A method whose error estimate is the standard embedded one (the RMS norm of `h Σ e_m k_m`) and
+//! whose continuous extension is the standard `y + h Σ_j b_j(θ) k_j` is data alone: its tableau
+//! gives the error weights ([`Tableau::error`]) and the interpolant's polynomials
+//! ([`Tableau::interpolant`]), and the trait's default methods do the arithmetic, here once, as
+//! every such method's published code does it. A method with another norm or another extension
+//! (DOP853's combined 5th/3rd-order norm and `CONTD8`) overrides them.
+//!
 //! Stage `j` of a step of size `h` from `(t, y)` is `k_j = f(t + c_j h, y + h Σ_m a_jm k_m)`,
 //! the sum over the non-zero entries of its row in ascending `m`, each term one fused
 //! multiply-add where the CPU has it ([`combine`]). Stage 0 is `f(t, y)`, the last stage of the
@@ -47,6 +54,16 @@ pub struct Tableau {
     pub fsal_in_attempt: bool,
     /// The buffer each stage's values are kept in: stages never read together may share one.
     pub buffers: &'static [usize],
+    /// The error weights `e` of the standard embedded estimate `h Σ_m e_m k_m` (the embedded
+    /// solution's weights less the propagated ones; non-zero entries, ascending in `m`), which
+    /// the default [`ExplicitMethod::solution_and_error`] reads; empty for a method that forms
+    /// its own error norm.
+    pub error: &'static [(usize, f64)],
+    /// The standard continuous extension `y(t + θh) = y + h Σ_j b_j(θ) k_j`: for each stage `j`
+    /// that enters it (ascending), the coefficients of `θ, θ², …` in `b_j(θ)`, every stage with
+    /// as many; the default [`ExplicitMethod::dense_coefficients`] and
+    /// [`ExplicitMethod::interpolate`] read it. Empty for a method with its own extension.
+    pub interpolant: &'static [(usize, &'static [f64])],
 }
 
 impl Tableau {
@@ -75,6 +92,30 @@ impl Tableau {
     pub const fn rhs_per_acceptance(&self) -> u64 {
         (self.stages.len() - 1 - self.attempt - self.fsal_in_attempt as usize) as u64
     }
+
+    /// Degree in `θ` of the standard continuous extension ([`Tableau::interpolant`]), checked
+    /// when the tableau is compiled: every stage's polynomial has as many coefficients, and the
+    /// coefficients of the extension fit in [`MAX_DENSE_COEFFICIENTS`].
+    pub const fn interpolant_degree(&self) -> usize {
+        assert!(
+            !self.interpolant.is_empty(),
+            "the tableau has no standard continuous extension: the method brings its own"
+        );
+        let degree = self.interpolant[0].1.len();
+        assert!(
+            degree >= 1 && degree < MAX_DENSE_COEFFICIENTS && self.interpolant.len() <= MAX_STAGES,
+            "the interpolant's coefficients do not fit"
+        );
+        let mut q = 1;
+        while q < self.interpolant.len() {
+            assert!(
+                self.interpolant[q].1.len() == degree,
+                "every stage's polynomial has the same degree"
+            );
+            q += 1;
+        }
+        degree
+    }
 }
 
 /// Largest number of stages a tableau may have (stage 0 and fifteen more).
@@ -96,6 +137,10 @@ pub trait ExplicitMethod: Copy + Default + std::fmt::Debug + 'static {
     /// `w.y_new`, stage `fsal` when [`Tableau::fsal_in_attempt`], and the error norm. Returns
     /// `(err, the solution and every stage it evaluated are finite)`. Must be
     /// `#[inline(always)]`.
+    ///
+    /// By default the standard embedded estimate ([`embedded_error_norm`]): the propagated
+    /// solution (fused, as the stages) and the RMS norm of `h Σ e_m k_m` ([`Tableau::error`]).
+    #[inline(always)]
     fn solution_and_error<F: MulAdd>(
         w: &mut Work<Self>,
         rhs: &mut Rhs,
@@ -103,20 +148,33 @@ pub trait ExplicitMethod: Copy + Default + std::fmt::Debug + 'static {
         t_new: f64,
         rtol: f64,
         atol: &[f64],
-    ) -> (f64, bool);
+    ) -> (f64, bool) {
+        embedded_error_norm::<Self, F>(w, rhs, h, t_new, rtol, atol)
+    }
 
     /// The continuous extension's coefficients of one component, from its value `y` at the
     /// step's start, `y_new` at its end, and its stage values `k(j)` (every stage, by number).
     /// Linear in `(y, y_new, k)`.
+    ///
+    /// By default those of the standard extension ([`Tableau::interpolant`]): `y`, then the
+    /// coefficient of each power `θ^p`, `h Σ_j b_jp k_j`.
+    #[inline(always)]
     fn dense_coefficients(
         h: f64,
         y: f64,
-        y_new: f64,
+        _y_new: f64,
         k: impl Fn(usize) -> f64,
-    ) -> [f64; MAX_DENSE_COEFFICIENTS];
+    ) -> [f64; MAX_DENSE_COEFFICIENTS] {
+        standard_dense_coefficients::<Self>(h, y, k)
+    }
 
     /// The interpolant at `s = (t − t0)/h` from a component's coefficients `c(r)`.
-    fn interpolate(c: impl Fn(usize) -> f64, s: f64) -> f64;
+    ///
+    /// By default the standard extension's polynomial in `s` by Horner's scheme.
+    #[inline(always)]
+    fn interpolate(c: impl Fn(usize) -> f64, s: f64) -> f64 {
+        horner(const { Self::TABLEAU.interpolant_degree() }, c, s)
+    }
 
     /// A bound on how far the interpolant strays from `c[0]` for `s` in `[0, 1]`, exact
     /// arithmetic (`|y(s) − c[0]|`), from a component's coefficients; `None` where the method
@@ -204,6 +262,125 @@ pub fn combine_row<F: MulAdd>(
         };
     }
     by_length!(1 2 3 4 5 6 7 8 9 10 11 12)
+}
+
+/// The standard embedded error estimate of an attempt, the default of
+/// [`ExplicitMethod::solution_and_error`]: the propagated solution `y + h Σ b_m k_m` (fused, as the
+/// stages) into `w.y_new`, stage `fsal` at `(t_new, y_new)` when the attempt makes it, and the RMS
+/// norm of the embedded estimate `h Σ e_m k_m` ([`Tableau::error`]), each component scaled by
+/// `atol + rtol max(|y|, |y_new|)`: the scaled components in one vectorised pass, their sum in a
+/// second over eight partial sums (a running sum would serialise the first loop).
+#[inline(always)]
+pub fn embedded_error_norm<M: ExplicitMethod, F: MulAdd>(
+    w: &mut Work<M>,
+    rhs: &mut Rhs,
+    h: f64,
+    t_new: f64,
+    rtol: f64,
+    atol: &[f64],
+) -> (f64, bool) {
+    let tableau = &M::TABLEAU;
+    const {
+        assert!(
+            !M::TABLEAU.error.is_empty(),
+            "the tableau has no error weights: the method brings its own error norm"
+        )
+    };
+    let n = w.y.len();
+    let Work {
+        y,
+        y_new,
+        k,
+        err_sq: [e_sq, _],
+        ..
+    } = w;
+    let buffers = tableau.buffers;
+    combine_row::<F>(&mut y_new[..n], y, h, tableau.weights(), k, buffers);
+    let mut finite = all_finite(y_new);
+    if tableau.fsal_in_attempt {
+        let fsal = buffers[tableau.fsal];
+        rhs.eval(t_new, y_new, &mut k[fsal]);
+        finite = finite && all_finite(&k[fsal]);
+    }
+    let scaled = (&y[..n], &y_new[..n], &atol[..n], rtol);
+    macro_rules! by_length {
+        ($($s:literal)*) => {
+            match tableau.error.len() {
+                $($s => {
+                    let (e, ke) = gather::<$s>(tableau.error, k, buffers);
+                    scaled_error_squares(&mut e_sq[..n], scaled, e, ke)
+                })*
+                len => unreachable!("error weights of {len} entries"),
+            }
+        };
+    }
+    by_length!(1 2 3 4 5 6 7 8 9 10 11 12 13 14 15);
+    let err = h.abs() * (lane_sum(&e_sq[..n]) / n as f64).sqrt();
+    (err, finite)
+}
+
+/// `e_sq[i] = (Σ_m e[m] k[m][i] / (atol[i] + rtol max(|y[i]|, |y_new[i]|)))²`, the weighted sum
+/// plain from the first entry on ([`weighted_sum`]); a component with no tolerance scale (exactly
+/// zero, atol 0) is left out (zero).
+#[inline(always)]
+fn scaled_error_squares<const S: usize>(
+    e_sq: &mut [f64],
+    (y, y_new, atol, rtol): (&[f64], &[f64], &[f64], f64),
+    e: [f64; S],
+    ke: [&[f64]; S],
+) {
+    let n = e_sq.len();
+    let ke = ke.map(|s| &s[..n]);
+    let (y, y_new, atol) = (&y[..n], &y_new[..n], &atol[..n]);
+    for i in 0..n {
+        let sk = atol[i] + rtol * y[i].abs().max(y_new[i].abs());
+        let inv = if sk > 0.0 { 1.0 / sk } else { 0.0 };
+        let e = weighted_sum(e, ke, i) * inv;
+        e_sq[i] = e * e;
+    }
+}
+
+/// The standard continuous extension's coefficients of one component (the default of
+/// [`ExplicitMethod::dense_coefficients`]): `y`, then for each power `θ^p` of
+/// [`Tableau::interpolant`] `h Σ_j b_jp k_j`, a plain sum over the stages whose coefficient is not
+/// zero, from the first on.
+#[inline(always)]
+pub fn standard_dense_coefficients<M: ExplicitMethod>(
+    h: f64,
+    y: f64,
+    k: impl Fn(usize) -> f64,
+) -> [f64; MAX_DENSE_COEFFICIENTS] {
+    let degree = const { M::TABLEAU.interpolant_degree() };
+    let interpolant = M::TABLEAU.interpolant;
+    // Each stage's value read once.
+    let mut kv = [0.0; MAX_STAGES];
+    for (v, &(j, _)) in kv.iter_mut().zip(interpolant) {
+        *v = k(j);
+    }
+    let mut c = [0.0; MAX_DENSE_COEFFICIENTS];
+    c[0] = y;
+    for p in 0..degree {
+        let mut sum: Option<f64> = None;
+        for (q, (_, b)) in interpolant.iter().enumerate() {
+            if b[p] != 0.0 {
+                let term = b[p] * kv[q];
+                sum = Some(sum.map_or(term, |s| s + term));
+            }
+        }
+        c[p + 1] = h * sum.unwrap_or(0.0);
+    }
+    c
+}
+
+/// `c(0) + s (c(1) + s (c(2) + … + s c(degree)))`, the polynomial of degree `degree` in `s` by
+/// Horner's scheme (the default of [`ExplicitMethod::interpolate`]).
+#[inline(always)]
+pub fn horner(degree: usize, c: impl Fn(usize) -> f64, s: f64) -> f64 {
+    let mut acc = c(degree);
+    for r in (1..degree).rev() {
+        acc = c(r) + s * acc;
+    }
+    c(0) + s * acc
 }
 
 /// Sum of a slice in eight interleaved partial sums, which vectorises.

@@ -15,18 +15,15 @@
 //! tests check the order conditions of every rooted tree (of the 6th-order weights up to order 6,
 //! of the 5th-order weights up to order 5, of the interpolant up to order 6 at several points) on
 //! these values.
+//!
+//! The method is data alone: its error norm (the RMS norm of the 5th-order estimate) and its
+//! interpolant are the explicit core's standard ones ([`super::explicit`]).
 
 // Most coefficients are given with the 17 significant digits of the nearest f64.
 #![allow(clippy::excessive_precision)]
-#![allow(clippy::needless_range_loop)]
 
-use chainsweep_cpu::MulAdd;
-
-use super::adaptive::{Adaptive, Controller, Method, RejectionForm, Rhs};
-use super::all_finite;
-use super::explicit::{
-    combine_row, gather, lane_sum, weighted_sum, ExplicitMethod, Stage, Tableau, Work,
-};
+use super::adaptive::{Adaptive, Controller, Method, RejectionForm};
+use super::explicit::{ExplicitMethod, Stage, Tableau, Work};
 
 /// Adaptive Verner 6(5) integrator with 6th-order dense output.
 ///
@@ -215,9 +212,6 @@ const R12: [f64; 6] = [
     -63.493786459452856,
 ];
 
-/// Degree of the interpolant in θ.
-const SIX: usize = 6;
-
 /// The stages (0 is `f(t, y)`; 8 is `f(t + h, y_new)`, the next step's first; 9–11 are the
 /// interpolant's).
 const STAGES: &[Stage] = &[
@@ -314,99 +308,34 @@ const ERROR: &[(usize, f64)] = &[
 ];
 
 /// The interpolant's weights: `(j, R_j)`, the polynomial in θ of stage j.
-const INTERPOLANT: &[(usize, [f64; SIX])] = &[
-    (0, R1),
-    (3, R4),
-    (4, R5),
-    (5, R6),
-    (6, R7),
-    (7, R8),
-    (8, R9),
-    (9, R10),
-    (10, R11),
-    (11, R12),
+const INTERPOLANT: &[(usize, &[f64])] = &[
+    (0, &R1),
+    (3, &R4),
+    (4, &R5),
+    (5, &R6),
+    (6, &R7),
+    (7, &R8),
+    (8, &R9),
+    (9, &R10),
+    (10, &R11),
+    (11, &R12),
 ];
 
 /// Verner's pair as data: eight stages per attempt, the ninth (FSAL) among them because the
-/// error estimate uses it, three more for the interpolant.
+/// error estimate uses it, three more for the interpolant. Its error norm (the RMS norm of the
+/// 5th-order estimate) and its interpolant are the standard ones of the explicit core.
 const TABLEAU: Tableau = Tableau {
     stages: STAGES,
     attempt: 7,
     fsal: 8,
     fsal_in_attempt: true,
     buffers: &[0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11],
+    error: ERROR,
+    interpolant: INTERPOLANT,
 };
 
 impl ExplicitMethod for Vern6Method {
     const TABLEAU: Tableau = TABLEAU;
-
-    /// The 6th-order solution (fused, as the stages), stage 9 at `(t_new, y_new)`, and the RMS
-    /// norm of the 5th-order error estimate: its scaled components in one vectorised pass, their
-    /// sum in a second over eight partial sums (a running sum would serialise the first loop).
-    #[inline(always)]
-    fn solution_and_error<F: MulAdd>(
-        w: &mut Work<Self>,
-        rhs: &mut Rhs,
-        h: f64,
-        t_new: f64,
-        rtol: f64,
-        atol: &[f64],
-    ) -> (f64, bool) {
-        let n = w.y.len();
-        let Work {
-            y,
-            y_new,
-            k,
-            err_sq: [e_sq, _],
-            ..
-        } = w;
-        let buffers = TABLEAU.buffers;
-        combine_row::<F>(&mut y_new[..n], y, h, WEIGHTS, k, buffers);
-        let finite = all_finite(y_new);
-        let fsal = buffers[TABLEAU.fsal];
-        rhs.eval(t_new, y_new, &mut k[fsal]);
-        let finite = finite && all_finite(&k[fsal]);
-
-        let (e, ke) = gather::<7>(ERROR, k, buffers);
-        let ke = ke.map(|s| &s[..n]);
-        let (y, y_new, atol, e_sq) = (&y[..n], &y_new[..n], &atol[..n], &mut e_sq[..n]);
-        for i in 0..n {
-            let sk = atol[i] + rtol * y[i].abs().max(y_new[i].abs());
-            // A component with no tolerance scale (exactly zero, atol 0) is left out.
-            let inv = if sk > 0.0 { 1.0 / sk } else { 0.0 };
-            let e = weighted_sum(e, ke, i) * inv;
-            e_sq[i] = e * e;
-        }
-        let err = h.abs() * (lane_sum(e_sq) / n as f64).sqrt();
-        (err, finite)
-    }
-
-    /// `y` and the coefficients of θ, …, θ⁶: `h Σ_j R_j[m] k_j`.
-    #[inline(always)]
-    fn dense_coefficients(h: f64, y: f64, _y_new: f64, k: impl Fn(usize) -> f64) -> [f64; 8] {
-        // Each stage's value read once.
-        let mut kv = [0.0; INTERPOLANT.len()];
-        for (v, &(j, _)) in kv.iter_mut().zip(INTERPOLANT) {
-            *v = k(j);
-        }
-        let mut c = [y, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-        // θ¹ involves only the first stage (R_j[0] = 0 for j > 1).
-        c[1] = h * kv[0];
-        for m in 1..SIX {
-            let mut s = INTERPOLANT[0].1[m] * kv[0];
-            for q in 1..INTERPOLANT.len() {
-                s += INTERPOLANT[q].1[m] * kv[q];
-            }
-            c[m + 1] = h * s;
-        }
-        c
-    }
-
-    /// Horner's scheme in θ.
-    #[inline(always)]
-    fn interpolate(c: impl Fn(usize) -> f64, s: f64) -> f64 {
-        c(0) + s * (c(1) + s * (c(2) + s * (c(3) + s * (c(4) + s * (c(5) + s * c(6))))))
-    }
 }
 
 #[cfg(test)]
