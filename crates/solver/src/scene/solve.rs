@@ -11,17 +11,17 @@ use serde::Serialize;
 
 use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::{
-    Adaptive, AdaptiveMethod, AdaptiveOptions, Dop853Method, IntegrateError, IntegrationStats,
-    Integrator, OdeSystemDyn, Rk4, Ros34pw2Method, VelocityVerlet, Vern6Method,
+    Adaptive, AdaptiveMethod, AdaptiveOptions, IntegrateError, IntegrationStats, Integrator,
+    OdeSystemDyn,
 };
 use crate::motion::system::EnergyTerms;
 use crate::observe::probes::{
     Fields, History, ObserverOptions, ProbeSet, ProbeSummary, RunObserver,
 };
 use crate::observe::steady::SteadyState;
+use crate::scene::integrator::MethodVisitor;
 use crate::scene::{
-    Excitation, ImpactScales, IntegratorSpec, Scene, MAX_HERTZ_OVERLAP_RATIO,
-    MIN_PULSE_TO_TRANSIT_RATIO,
+    Excitation, ImpactScales, Scene, MAX_HERTZ_OVERLAP_RATIO, MIN_PULSE_TO_TRANSIT_RATIO,
 };
 use crate::spectrum::SpectrumSummary;
 
@@ -170,6 +170,28 @@ fn validity_warnings(
         ));
     }
     warnings
+}
+
+/// The integrator a scene's spec names ([`crate::scene::IntegratorSpec::visit`]) for `chain`
+/// (whose scales the adaptive methods' tolerances are relative to), starting with step `h0` when
+/// given.
+struct Build<'a> {
+    chain: &'a Chain,
+    scales: &'a ImpactScales,
+    h0: Option<f64>,
+}
+
+impl MethodVisitor for Build<'_> {
+    type Output = Box<dyn Integrator>;
+    fn fixed<S: Integrator + 'static>(self, scheme: S) -> Box<dyn Integrator> {
+        Box::new(scheme)
+    }
+    fn adaptive<M: AdaptiveMethod + 'static>(
+        self,
+        options: AdaptiveOptions,
+    ) -> Box<dyn Integrator> {
+        adaptive::<M>(options, self.chain, self.scales, self.h0)
+    }
 }
 
 /// Adaptive method `M` with `options` for `chain`, its absolute tolerances scaled by
@@ -369,15 +391,11 @@ pub fn run_stoppable(
     // The integrator for `c` (the chain, or the moving part of it), starting with step `h0` when
     // given (a grown moving part goes on at the step size it had reached) or choosing its own.
     let build = |c: &Chain, h0: Option<f64>| -> Box<dyn Integrator> {
-        match scene.integrator {
-            IntegratorSpec::Verlet { dt_s } => Box::new(VelocityVerlet { dt: dt_s }),
-            IntegratorSpec::Rk4 { dt_s } => Box::new(Rk4 { dt: dt_s }),
-            IntegratorSpec::Dop853(options) => adaptive::<Dop853Method>(options, c, &scales, h0),
-            IntegratorSpec::Ros34pw2(options) => {
-                adaptive::<Ros34pw2Method>(options, c, &scales, h0)
-            }
-            IntegratorSpec::Vern6(options) => adaptive::<Vern6Method>(options, c, &scales, h0),
-        }
+        scene.integrator.visit(Build {
+            chain: c,
+            scales: &scales,
+            h0,
+        })
     };
     let integrator = build(&chain, None);
     let (stats, active_particles) = match crate::scene::active::plan(scene, &chain, &scales, &y0) {
