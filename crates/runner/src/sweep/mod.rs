@@ -24,25 +24,41 @@
 //!
 //! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
+//!
+//! Its parts: the sweep file's model as written and the reading of its JSON (`file`), the axes
+//! and their expansion into the grid's dimensions (`axes`), and dotted field paths into the base
+//! scene (`paths`).
 
 pub mod auto;
+mod axes;
 pub mod diagnose;
 pub mod ensemble;
 pub mod expr;
+mod file;
 pub mod fit;
+mod paths;
 mod recording;
 pub mod schema;
 pub mod search;
 
-use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use chainsweep_solver::{ChainSpec, Scene};
 
 use crate::error::{Error, Result};
-use crate::record::columns::reserved_names;
 use auto::{AutoChoice, AutoSpec};
 use search::SearchSpec;
+
+pub(crate) use axes::check_name;
+use axes::{check_field, check_names_and_fields, parse_dims, raw_axes};
+use file::{
+    parse_without_duplicate_keys, read_json, ContinuationFile, Direction, LimitsFile, SweepFile,
+};
+use paths::join_path;
+pub use paths::{
+    check_settable, field_name, from_ref_at, from_value_at, human_name, lookup, set_path,
+    split_path, units_of,
+};
 
 /// Largest number of grid points a sweep may have.
 pub const MAX_GRID_POINTS: usize = 10_000_000;
@@ -231,29 +247,6 @@ impl Continuation {
     }
 }
 
-/// `continuation` as written.
-#[derive(Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-struct ContinuationFile {
-    /// The name of the dimension along which each point starts from the final state of the one
-    /// before it.
-    axis: String,
-    /// `up` (from the dimension's first value to its last, the default) or `down`.
-    #[serde(default)]
-    direction: Direction,
-}
-
-/// The direction of a continuation.
-#[derive(Deserialize, schemars::JsonSchema, Default, Clone, Copy, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-enum Direction {
-    /// From the dimension's first value to its last.
-    #[default]
-    Up,
-    /// From the dimension's last value to its first.
-    Down,
-}
-
 /// Checks `continuation` against the dimensions; errors name `continuation.…`.
 fn parse_continuation(
     c: Option<ContinuationFile>,
@@ -295,322 +288,12 @@ fn parse_continuation(
     }))
 }
 
-/// A chainsweep sweep file: a base scene, what to record, the axes of its grid, failure limits
-/// and an optional search.
-#[derive(Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-#[schemars(title = "chainsweep sweep file")]
-struct SweepFile {
-    /// The JSON Schema the file follows (for editors); not read otherwise.
-    #[serde(default, rename = "$schema")]
-    #[allow(dead_code)]
-    schema: Option<String>,
-    /// What the sweep is for.
-    #[serde(default)]
-    description: String,
-    /// The scene every grid point starts from.
-    #[schemars(with = "schema::BaseScene")]
-    base: Map<String, Value>,
-    /// What is recorded, the same for every run.
-    #[serde(default)]
-    #[schemars(with = "Option<chainsweep_solver::RecordSpec>")]
-    record: Option<Map<String, Value>>,
-    /// The grid's dimensions.
-    #[serde(default)]
-    axes: Vec<AxisFile>,
-    /// When a run counts as failed.
-    #[serde(default)]
-    limits: Option<LimitsFile>,
-    /// A search over continuous fields at every point of the axes.
-    #[serde(default)]
-    search: Option<search::SearchFile>,
-    /// An ensemble: scene fields drawn from distributions at every point of the axes, and the
-    /// statistics (or sensitivities) of chosen summaries over them.
-    #[serde(default)]
-    ensemble: Option<ensemble::EnsembleFile>,
-    /// Continuation along one dimension: each point starts from the final state of the one
-    /// before it (hysteresis, bistability).
-    #[serde(default)]
-    continuation: Option<ContinuationFile>,
-}
-
-/// When a run counts as failed.
-#[derive(Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-struct LimitsFile {
-    /// The largest relative energy drift of a run (null: no limit).
-    #[serde(default = "default_drift")]
-    energy_drift_max: Option<f64>,
-    /// The wall time, s, after which a run is given up and recorded as failed.
-    #[serde(default = "default_max_run_seconds")]
-    max_run_seconds: Option<f64>,
-}
-
-fn default_max_run_seconds() -> Option<f64> {
-    Some(DEFAULT_MAX_RUN_SECONDS)
-}
-
-fn default_drift() -> Option<f64> {
-    Some(DEFAULT_ENERGY_DRIFT_MAX)
-}
-
-/// A grid dimension: an axis `{field, values | range, name?}` or a group of axes that advance
-/// together, `{zip: [axis, …]}`.
-#[derive(Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-#[schemars(extend("oneOf" = [
-    {"required": ["field", "values"], "not": {"anyOf": [{"required": ["range"]}, {"required": ["zip"]}]}},
-    {"required": ["field", "range"], "not": {"anyOf": [{"required": ["values"]}, {"required": ["zip"]}]}},
-    {"required": ["zip"], "not": {"anyOf": [{"required": ["field"]}, {"required": ["values"]}, {"required": ["range"]}]}}
-]))]
-struct AxisFile {
-    /// The axis's name in the output (default: the field's last part).
-    #[serde(default)]
-    name: Option<String>,
-    /// The scene field the axis sets, as a dotted path (`physics.damping_kg_s`).
-    #[serde(default)]
-    field: Option<String>,
-    /// The values the field takes.
-    #[serde(default)]
-    #[schemars(length(min = 1))]
-    values: Option<Vec<Value>>,
-    /// Evenly spaced values.
-    #[serde(default)]
-    range: Option<RangeFile>,
-    /// Axes that advance together (all of one length).
-    #[serde(default)]
-    #[schemars(length(min = 1))]
-    zip: Option<Vec<AxisFile>>,
-}
-
-/// Evenly spaced values: `step` (stop included when reached) or `num` (both ends included).
-#[derive(Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-#[schemars(extend("oneOf" = [{"required": ["step"]}, {"required": ["num"]}]))]
-struct RangeFile {
-    /// The first value.
-    start: serde_json::Number,
-    /// The last value (reached by `num`; by `step` when it divides the span).
-    stop: serde_json::Number,
-    /// The spacing, with the sign of stop − start.
-    #[serde(default)]
-    step: Option<serde_json::Number>,
-    /// The number of values.
-    #[serde(default)]
-    #[schemars(range(min = 1))]
-    num: Option<u64>,
-}
-
 /// The first of a non-empty list of errors.
 fn first(errors: Vec<Error>) -> Error {
     errors
         .into_iter()
         .next()
         .expect("a failed check names at least one error")
-}
-
-/// Deserialises `value` as `T`, naming the failing field (prefixed by `prefix`) on error
-/// ([`from_ref_at`] of it).
-pub fn from_value_at<T: serde::de::DeserializeOwned>(value: Value, prefix: &str) -> Result<T> {
-    from_ref_at(&value, prefix)
-}
-
-/// [`from_value_at`] reading a borrowed value (no copy of it is made). Read plainly first, and
-/// again tracking the path only when that fails (tracking it costs a third of a grid's expansion).
-pub fn from_ref_at<'de, T: serde::de::Deserialize<'de>>(
-    value: &'de Value,
-    prefix: &str,
-) -> Result<T> {
-    if let Ok(t) = T::deserialize(value) {
-        return Ok(t);
-    }
-    serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
-        let path = e.path().to_string();
-        let field = join_path(prefix, if path == "." { "" } else { &path });
-        Error::input(field, e.into_inner().to_string())
-    })
-}
-
-fn join_path(prefix: &str, path: &str) -> String {
-    match (prefix.is_empty(), path.is_empty()) {
-        (true, _) => path.to_string(),
-        (false, true) => prefix.to_string(),
-        (false, false) if path.starts_with('[') => format!("{prefix}{path}"),
-        (false, false) => format!("{prefix}.{path}"),
-    }
-}
-
-/// The unit suffixes of field names and the unit each says (longest first where one ends
-/// another: `_kg_s` before `_s`).
-const UNIT_SUFFIXES: &[(&str, &str)] = &[
-    ("_kg_m3", "kg/m^3"),
-    ("_m_s2", "m/s^2"),
-    ("_kg_s", "kg/s"),
-    ("_m_s", "m/s"),
-    ("_pa", "Pa"),
-    ("_hz", "Hz"),
-    ("_rad", "rad"),
-    ("_kg", "kg"),
-    ("_s", "s"),
-    ("_m", "m"),
-    ("_n", "N"),
-    ("_j", "J"),
-];
-
-/// Unit of a field from its name's suffix (`damping_kg_s` → `kg/s`, `frequency_hz` → `Hz`).
-pub fn units_of(field: &str) -> String {
-    let last = field.rsplit('.').next().unwrap_or(field);
-    UNIT_SUFFIXES
-        .iter()
-        .find(|(suffix, _)| last.ends_with(suffix))
-        .map_or("1", |(_, unit)| unit)
-        .to_string()
-}
-
-/// A coordinate's name as a plot labels it: its unit suffix left out (the unit is its own
-/// attribute) and words apart (`damping_kg_s` → `damping`, `mass_ratio` → `mass ratio`).
-pub fn human_name(name: &str) -> String {
-    let stem = UNIT_SUFFIXES
-        .iter()
-        .find_map(|(suffix, _)| name.strip_suffix(suffix).filter(|s| !s.is_empty()))
-        .unwrap_or(name);
-    stem.replace('_', " ")
-}
-
-/// The name a field goes by where none is given: its path's last part that is not an index
-/// (`chain.mass_factors.3` → `mass_factors`).
-pub fn field_name(field: &str) -> String {
-    split_path(field)
-        .into_iter()
-        .rev()
-        .find(|s| s.parse::<usize>().is_err())
-        .unwrap_or_default()
-}
-
-/// Splits a dotted field path into segments; `a.b[2].c` and `a.b.2.c` are the same path.
-pub fn split_path(path: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    for part in path.split('.') {
-        let mut rest = part;
-        if let Some(i) = rest.find('[') {
-            out.push(rest[..i].to_string());
-            rest = &rest[i..];
-            while let Some(stripped) = rest.strip_prefix('[') {
-                match stripped.find(']') {
-                    Some(j) => {
-                        out.push(stripped[..j].to_string());
-                        rest = &stripped[j + 1..];
-                    }
-                    None => {
-                        out.push(stripped.to_string());
-                        rest = "";
-                    }
-                }
-            }
-            if !rest.is_empty() {
-                out.push(rest.to_string());
-            }
-        } else {
-            out.push(rest.to_string());
-        }
-    }
-    out
-}
-
-fn describe_keys(v: &Value) -> String {
-    match v {
-        Value::Object(m) => {
-            let keys: Vec<&str> = m.keys().map(|k| k.as_str()).collect();
-            format!("the fields there are: {}", keys.join(", "))
-        }
-        Value::Array(a) => format!(
-            "it is a list of {} entries (indices 0..{})",
-            a.len(),
-            a.len()
-        ),
-        _ => "it is a plain value with no fields".to_string(),
-    }
-}
-
-/// Finds the value at `path` in `root`, or explains where the path stops existing.
-pub fn lookup<'a>(root: &'a Value, path: &str) -> std::result::Result<&'a Value, String> {
-    let mut cur = root;
-    let mut walked = String::new();
-    for seg in split_path(path) {
-        let next = match cur {
-            Value::Object(m) => m.get(&seg),
-            Value::Array(a) => seg.parse::<usize>().ok().and_then(|i| a.get(i)),
-            _ => None,
-        };
-        match next {
-            Some(n) => {
-                cur = n;
-                if !walked.is_empty() {
-                    walked.push('.');
-                }
-                walked.push_str(&seg);
-            }
-            None => {
-                let at = if walked.is_empty() {
-                    "the scene".to_string()
-                } else {
-                    format!("`{walked}`")
-                };
-                return Err(format!(
-                    "`{path}` is not a field of the base scene: `{seg}` does not exist in {at}; {}",
-                    describe_keys(cur)
-                ));
-            }
-        }
-    }
-    Ok(cur)
-}
-
-/// Checks that an axis can set `path` in `root`: along it every existing value is an object (a
-/// missing key is created when values are applied: the normalised base leaves out fields that hold
-/// their defaults) or a list that has the index. Whether the field exists in the scene is then
-/// decided at every grid point, which names the axis and the allowed fields.
-pub fn check_settable(root: &Value, path: &str) -> std::result::Result<(), String> {
-    let mut cur = root;
-    for seg in split_path(path) {
-        cur = match cur {
-            Value::Object(m) => match m.get(&seg) {
-                Some(next) => next,
-                None => return Ok(()),
-            },
-            Value::Null => return Ok(()),
-            Value::Array(a) => match seg.parse::<usize>().ok().and_then(|i| a.get(i)) {
-                Some(next) => next,
-                None => return lookup(root, path).map(|_| ()),
-            },
-            _ => return lookup(root, path).map(|_| ()),
-        };
-    }
-    Ok(())
-}
-
-/// Sets the value at `path` in `root` (checked by [`check_settable`]), creating the objects
-/// missing along it.
-pub fn set_path(root: &mut Value, path: &str, value: Value) {
-    // An axis that sets no field (a fit's data sets, a search's evaluations) sets nothing.
-    if path.is_empty() {
-        return;
-    }
-    let mut cur = root;
-    for seg in split_path(path) {
-        if cur.is_null() {
-            *cur = Value::Object(Map::new());
-        }
-        cur = match cur {
-            Value::Object(m) => m.entry(seg).or_insert(Value::Null),
-            Value::Array(a) => {
-                let i: usize = seg.parse().expect("path checked at parse time");
-                &mut a[i]
-            }
-            _ => unreachable!("path checked at parse time"),
-        };
-    }
-    *cur = value;
 }
 
 /// Overlays `over` onto `base`: objects merge key by key, anything else replaces. An object with a
@@ -634,15 +317,6 @@ fn merge(base: &mut Value, over: Value) {
         }
         (b, o) => *b = o,
     }
-}
-
-/// The `axes` list of a sweep file's text as JSON (empty where it has none or does not read).
-fn raw_axes(text: &str) -> Vec<Value> {
-    let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
-    serde_json::from_str::<Value>(stripped)
-        .ok()
-        .and_then(|v| v.get("axes").and_then(Value::as_array).cloned())
-        .unwrap_or_default()
 }
 
 /// Chain presets a sweep's `base.chain.preset` may name.
@@ -681,307 +355,6 @@ fn expand_chain_preset(chain: &mut Value) -> Result<()> {
     merge(&mut expanded, Value::Object(std::mem::take(m)));
     *chain = expanded;
     Ok(())
-}
-
-/// A range value: integers stay integers; floats are rounded to 15 significant digits, so that
-/// `0.1 + 2 × 0.1` is 0.3 and not 0.30000000000000004.
-fn num_to_value(x: f64, as_int: bool) -> Value {
-    if as_int {
-        Value::from(x.round() as i64)
-    } else {
-        let rounded: f64 = format!("{x:.14e}").parse().unwrap_or(x);
-        Value::from(rounded)
-    }
-}
-
-fn expand_range(r: &RangeFile, origin: &str) -> Result<Vec<Value>> {
-    let start = r.start.as_f64().unwrap_or(f64::NAN);
-    let stop = r.stop.as_f64().unwrap_or(f64::NAN);
-    for (name, v) in [("start", start), ("stop", stop)] {
-        if !v.is_finite() {
-            return Err(Error::input(
-                format!("{origin}.range.{name}"),
-                "must be a finite number",
-            ));
-        }
-    }
-    let ints = r.start.is_i64() && r.stop.is_i64();
-    match (&r.step, r.num) {
-        (Some(_), Some(_)) | (None, None) => Err(Error::input(
-            format!("{origin}.range"),
-            "give exactly one of `step` (spacing, stop included when reached) or `num` (number of evenly spaced values, both ends included)",
-        )),
-        (Some(step_n), None) => {
-            let step = step_n.as_f64().unwrap_or(f64::NAN);
-            if !(step.is_finite() && step != 0.0) || (stop - start) * step < 0.0 {
-                return Err(Error::input(
-                    format!("{origin}.range.step"),
-                    format!("must be a finite non-zero number with the sign of stop - start, got {step_n}"),
-                ));
-            }
-            let ints = ints && step_n.is_i64();
-            let span = (stop - start) / step;
-            // Counted in floating point and checked before it becomes an integer: a tiny step
-            // gives a count far beyond any integer (a cast would saturate, and + 1 wrap to 0).
-            let count = (span + 1e-9 * span.abs().max(1.0)).floor() + 1.0;
-            if count.is_nan() || count > MAX_GRID_POINTS as f64 {
-                return Err(Error::input(
-                    format!("{origin}.range.step"),
-                    format!(
-                        "gives {} values from {} to {} in steps of {step_n}; a range may give at most {MAX_GRID_POINTS} (make the step larger)",
-                        crate::error::number_text(span.abs().floor() + 1.0),
-                        crate::error::number_text(start),
-                        crate::error::number_text(stop)
-                    ),
-                ));
-            }
-            let n = count as u64;
-            Ok((0..n).map(|i| num_to_value(start + i as f64 * step, ints)).collect())
-        }
-        (None, Some(num)) => {
-            if num == 0 || num > MAX_GRID_POINTS as u64 {
-                return Err(Error::input(
-                    format!("{origin}.range.num"),
-                    format!("must be a whole number from 1 to {MAX_GRID_POINTS}, got {num}"),
-                ));
-            }
-            if num == 1 {
-                return Ok(vec![num_to_value(start, ints)]);
-            }
-            let ints = ints && (r.stop.as_i64().unwrap_or(0) - r.start.as_i64().unwrap_or(0)) % (num as i64 - 1) == 0;
-            let last = (num - 1) as f64;
-            Ok((0..num)
-                .map(|i| {
-                    let x = if i == num - 1 {
-                        stop
-                    } else {
-                        start + (stop - start) * (i as f64 / last)
-                    };
-                    num_to_value(x, ints)
-                })
-                .collect())
-        }
-    }
-}
-
-fn parse_axis(a: AxisFile, origin: &str, base: &Value, auto: bool) -> Result<Axis> {
-    if a.zip.is_some() {
-        return Err(Error::input(
-            format!("{origin}.zip"),
-            "zipped groups cannot be nested",
-        ));
-    }
-    let field = a.field.ok_or_else(|| {
-        Error::input(
-            format!("{origin}.field"),
-            "missing: an axis needs `field` (the dotted path of a scene field, e.g. physics.damping_kg_s)",
-        )
-    })?;
-    if auto && split_path(&field)[0] == "integrator" {
-        return Err(Error::input(
-            format!("{origin}.field"),
-            format!("`{field}`: the base integrator is `auto`, which chooses one setting for the whole grid; an axis may not set integrator fields (give a fixed integrator in `base` to sweep over integrator settings)"),
-        ));
-    }
-    check_settable(base, &field).map_err(|m| Error::input(format!("{origin}.field"), m))?;
-    let values = match (a.values, a.range) {
-        (Some(v), None) => {
-            if v.is_empty() {
-                return Err(Error::input(format!("{origin}.values"), "must hold at least one value"));
-            }
-            v
-        }
-        (None, Some(r)) => expand_range(&r, origin)?,
-        _ => {
-            return Err(Error::input(
-                origin.to_string(),
-                "give exactly one of `values` (a list) or `range` ({start, stop, step} or {start, stop, num})",
-            ))
-        }
-    };
-    let name = a
-        .name
-        .unwrap_or_else(|| split_path(&field).last().cloned().unwrap_or_default());
-    Ok(Axis {
-        units: units_of(&field),
-        name,
-        field,
-        values,
-        origin: origin.to_string(),
-    })
-}
-
-/// The key of the innermost `"key": value` pair that starts before line `line`, column `column`
-/// (1-based): names the field where a syntax error sits.
-fn field_near(text: &str, offset: usize) -> Option<String> {
-    let mut prefix = &text[..offset];
-    while let Some(colon) = prefix.rfind(':') {
-        let before = prefix[..colon].trim_end();
-        if let Some(body) = before.strip_suffix('"') {
-            if let Some(start) = body.rfind('"') {
-                return Some(body[start + 1..].to_string());
-            }
-        }
-        prefix = &prefix[..colon];
-    }
-    None
-}
-
-/// The byte offset in `text` of serde_json's (1-based line, byte column) position, moved back to
-/// the start of the character it falls in: a column may point inside a multi-byte character
-/// (typographic quotes, `µ`), and slicing there would panic.
-fn error_offset(text: &str, line: usize, column: usize) -> usize {
-    let mut offset = 0;
-    for (i, l) in text.split_inclusive('\n').enumerate() {
-        if i + 1 == line {
-            offset += column.min(l.len());
-            break;
-        }
-        offset += l.len();
-    }
-    let mut offset = offset.min(text.len());
-    while !text.is_char_boundary(offset) {
-        offset -= 1;
-    }
-    offset
-}
-
-/// What to add to serde_json's message so that the user sees the cause.
-fn syntax_hint(text: &str, offset: usize, error: &serde_json::Error) -> Option<String> {
-    if error.classify() == serde_json::error::Category::Eof {
-        return Some("the file ends before its JSON is complete: is it truncated?".into());
-    }
-    // The offending token starts at or shortly before the reported position.
-    let start = text[..offset]
-        .char_indices()
-        .rev()
-        .take(12)
-        .last()
-        .map_or(offset, |(i, _)| i);
-    let mut end = (offset + 16).min(text.len());
-    while !text.is_char_boundary(end) {
-        end -= 1;
-    }
-    let near = &text[start..end];
-    let out_of_range = error.to_string().starts_with("number out of range");
-    if out_of_range
-        || ["NaN", "Infinity", "inf", "nan"]
-            .iter()
-            .any(|w| near.contains(w))
-    {
-        return Some("numbers must be finite: NaN and infinities are not JSON".into());
-    }
-    let bad = text[offset..].chars().next()?;
-    if matches!(bad, '\u{201c}' | '\u{201d}' | '\u{2018}' | '\u{2019}') {
-        return Some(format!(
-            "`{bad}` is a typographic quote: JSON strings take plain double quotes (\")"
-        ));
-    }
-    if !bad.is_ascii() {
-        return Some(format!(
-            "`{bad}` (U+{:04X}) cannot stand there: outside strings JSON is plain ASCII (units belong in field names, not after numbers)",
-            bad as u32
-        ));
-    }
-    None
-}
-
-fn valid_name(name: &str) -> bool {
-    !name.is_empty()
-        && name.len() <= 64
-        && name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-        && !name.starts_with(|c: char| c.is_ascii_digit())
-}
-
-/// JSON text as a [`Value`], refusing an object that repeats a key: serde_json keeps the last
-/// one silently, so `"gravity": true, "gravity": false` would run without gravity unnoticed.
-fn parse_without_duplicate_keys(text: &str) -> serde_json::Result<Value> {
-    use serde::de::{DeserializeSeed, Deserializer, Error as _, MapAccess, SeqAccess, Visitor};
-
-    struct Strict;
-
-    impl<'de> DeserializeSeed<'de> for Strict {
-        type Value = Value;
-        fn deserialize<D: Deserializer<'de>>(self, d: D) -> std::result::Result<Value, D::Error> {
-            d.deserialize_any(self)
-        }
-    }
-
-    impl<'de> Visitor<'de> for Strict {
-        type Value = Value;
-        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-            f.write_str("a JSON value")
-        }
-        fn visit_bool<E>(self, b: bool) -> std::result::Result<Value, E> {
-            Ok(Value::Bool(b))
-        }
-        fn visit_i64<E>(self, n: i64) -> std::result::Result<Value, E> {
-            Ok(Value::from(n))
-        }
-        fn visit_u64<E>(self, n: u64) -> std::result::Result<Value, E> {
-            Ok(Value::from(n))
-        }
-        fn visit_f64<E: serde::de::Error>(self, x: f64) -> std::result::Result<Value, E> {
-            serde_json::Number::from_f64(x)
-                .map(Value::Number)
-                .ok_or_else(|| E::custom("numbers must be finite"))
-        }
-        fn visit_str<E>(self, s: &str) -> std::result::Result<Value, E> {
-            Ok(Value::String(s.to_owned()))
-        }
-        fn visit_string<E>(self, s: String) -> std::result::Result<Value, E> {
-            Ok(Value::String(s))
-        }
-        fn visit_unit<E>(self) -> std::result::Result<Value, E> {
-            Ok(Value::Null)
-        }
-        fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> std::result::Result<Value, A::Error> {
-            let mut items = Vec::new();
-            while let Some(v) = seq.next_element_seed(Strict)? {
-                items.push(v);
-            }
-            Ok(Value::Array(items))
-        }
-        fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> std::result::Result<Value, A::Error> {
-            let mut object = Map::new();
-            while let Some(key) = map.next_key::<String>()? {
-                if object.contains_key(&key) {
-                    return Err(A::Error::custom(format!(
-                        "duplicate key `{key}` (each key may appear once in an object)"
-                    )));
-                }
-                let value = map.next_value_seed(Strict)?;
-                object.insert(key, value);
-            }
-            Ok(Value::Object(object))
-        }
-    }
-
-    let mut de = serde_json::Deserializer::from_str(text);
-    let value = Strict.deserialize(&mut de)?;
-    de.end()?;
-    Ok(value)
-}
-
-/// The sweep file's JSON, refusing unknown fields; a syntax error names the field near it.
-fn read_json(text: &str) -> Result<SweepFile> {
-    // Editors on Windows may start a UTF-8 file with a byte-order mark, which JSON does not allow.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let raw: Value = parse_without_duplicate_keys(text).map_err(|e| {
-        let offset = error_offset(text, e.line(), e.column());
-        let field = match e.classify() {
-            serde_json::error::Category::Eof => String::new(),
-            _ => field_near(text, offset).unwrap_or_default(),
-        };
-        let message = match syntax_hint(text, offset, &e) {
-            Some(hint) => format!("not valid JSON: {e} ({hint})"),
-            None => format!("not valid JSON: {e}"),
-        };
-        Error::input(field, message)
-    })?;
-    from_value_at(raw, "")
 }
 
 /// The base scene normalised: chain presets expanded, `integrator: auto` replaced by its
@@ -1118,165 +491,6 @@ fn parse_limits(limits: Option<LimitsFile>) -> Result<Limits> {
         energy_drift_max: l.energy_drift_max,
         max_run_seconds,
     })
-}
-
-/// The grid's dimensions from the `axes` list: one per axis or zipped group.
-/// The grid's dimensions; `every`: the errors are those of every axis (each read on its own),
-/// else the first alone.
-fn parse_dims(
-    axes: Vec<AxisFile>,
-    base: &Value,
-    auto: bool,
-    search: bool,
-    every: bool,
-) -> std::result::Result<Vec<Dim>, Vec<Error>> {
-    if axes.is_empty() && !search {
-        return Err(vec![Error::input(
-            "axes",
-            "at least one axis is required (a single run is an axis with one value), unless the sweep has a `search` or an `ensemble`",
-        )]);
-    }
-    let mut dims = Vec::new();
-    let mut errors = Vec::new();
-    for (i, mut a) in axes.into_iter().enumerate() {
-        let origin = format!("axes[{i}]");
-        let dim = match a.zip.take() {
-            Some(zip) => parse_zip(a, zip, &origin, base, auto),
-            None => parse_axis(a, &origin, base, auto).map(|axis| Dim {
-                name: axis.name.clone(),
-                axes: vec![axis],
-            }),
-        };
-        match dim {
-            Ok(d) => dims.push(d),
-            Err(e) if every => errors.push(e),
-            Err(e) => return Err(vec![e]),
-        }
-    }
-    if errors.is_empty() {
-        Ok(dims)
-    } else {
-        Err(errors)
-    }
-}
-
-/// A zipped group `group` (its `zip` list taken out as `zip`) at `origin`: axes of equal length.
-fn parse_zip(
-    group: AxisFile,
-    zip: Vec<AxisFile>,
-    origin: &str,
-    base: &Value,
-    auto: bool,
-) -> Result<Dim> {
-    if group.field.is_some() || group.values.is_some() || group.range.is_some() {
-        return Err(Error::input(
-            origin,
-            "a zipped group holds only `zip` (a list of axes) and an optional `name`",
-        ));
-    }
-    if zip.is_empty() {
-        return Err(Error::input(
-            format!("{origin}.zip"),
-            "must hold at least one axis",
-        ));
-    }
-    let mut axes = Vec::new();
-    for (j, z) in zip.into_iter().enumerate() {
-        axes.push(parse_axis(z, &format!("{origin}.zip[{j}]"), base, auto)?);
-    }
-    let n = axes[0].values.len();
-    for ax in &axes[1..] {
-        if ax.values.len() != n {
-            return Err(Error::input(
-                format!("{}.values", ax.origin),
-                format!(
-                    "zipped axes advance together and need equal lengths: this one has {}, `{}` has {n}",
-                    ax.values.len(),
-                    axes[0].name
-                ),
-            ));
-        }
-    }
-    let name = group.name.unwrap_or_else(|| axes[0].name.clone());
-    Ok(Dim { name, axes })
-}
-
-/// Names and fields must be distinct, names usable as dataset names and not reserved; checked
-/// dimension by dimension.
-fn check_names_and_fields(dims: &[Dim]) -> Result<()> {
-    let mut names: Vec<(&str, &str)> = Vec::new();
-    let mut fields: Vec<(&str, &str)> = Vec::new();
-    for d in dims {
-        let mut all: Vec<(&str, &str)> = d
-            .axes
-            .iter()
-            .map(|a| (a.name.as_str(), a.origin.as_str()))
-            .collect();
-        if d.axes.len() > 1 && !d.axes.iter().any(|a| a.name == d.name) {
-            all.push((d.name.as_str(), ""));
-        }
-        for (name, origin) in all {
-            check_name(name, origin, &names)?;
-            names.push((name, origin));
-        }
-        for a in &d.axes {
-            check_field(a, &fields)?;
-            fields.push((a.field.as_str(), a.origin.as_str()));
-        }
-    }
-    Ok(())
-}
-
-/// `name` (of the axis at `origin`, or of a zipped dimension when `origin` is empty) is usable,
-/// not reserved, and not among `taken`.
-pub(crate) fn check_name(name: &str, origin: &str, taken: &[(&str, &str)]) -> Result<()> {
-    let at = if origin.is_empty() {
-        "axes".to_string()
-    } else {
-        format!("{origin}.name")
-    };
-    if !valid_name(name) {
-        return Err(Error::input(
-            at,
-            format!("`{name}` is not a usable name: letters, digits, `_` and `-`, not starting with a digit, at most 64 characters"),
-        ));
-    }
-    let reserved = reserved_names();
-    if reserved.contains(&name) {
-        return Err(Error::input(
-            at,
-            format!(
-                "`{name}` is a reserved dataset name; reserved: {}",
-                reserved.join(", ")
-            ),
-        ));
-    }
-    if let Some((_, other)) = taken.iter().find(|(n, _)| *n == name) {
-        return Err(Error::input(
-            at,
-            format!("name `{name}` is already used by {other}"),
-        ));
-    }
-    Ok(())
-}
-
-/// The field of axis `a` overlaps none of the fields `taken` (a field, or one inside it).
-fn check_field(a: &Axis, taken: &[(&str, &str)]) -> Result<()> {
-    let segs = split_path(&a.field);
-    for (f, other) in taken {
-        let o = split_path(f);
-        let overlap = segs.len().min(o.len());
-        if segs[..overlap] == o[..overlap] {
-            return Err(Error::input(
-                format!("{}.field", a.origin),
-                format!(
-                    "`{}` overlaps `{f}` set by {other}; each field may be set by one axis only",
-                    a.field
-                ),
-            ));
-        }
-    }
-    Ok(())
 }
 
 impl Sweep {
@@ -1468,24 +682,6 @@ impl Sweep {
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn a_fields_name_says_its_unit_and_its_words() {
-        assert_eq!(
-            units_of("excitation.drive.force_n.harmonic.frequency_hz"),
-            "Hz"
-        );
-        assert_eq!(units_of("physics.damping_kg_s"), "kg/s");
-        assert_eq!(units_of("striker_velocity_m_s"), "m/s");
-        assert_eq!(
-            units_of("chain.cylinder.mass.heavy_cylinders.mass_ratio"),
-            "1"
-        );
-        assert_eq!(human_name("damping_kg_s"), "damping");
-        assert_eq!(human_name("frequency_hz"), "frequency");
-        assert_eq!(human_name("mass_ratio"), "mass ratio");
-        assert_eq!(human_name("seed"), "seed");
-    }
-
     use super::*;
 
     /// The scene `of_scene` hands the grid is the one the grid would read from the normalised
@@ -1526,46 +722,5 @@ mod tests {
             checked += 1;
         }
         assert!(checked >= 40, "only {checked} sweep files checked");
-    }
-
-    #[test]
-    fn units_follow_suffixes() {
-        assert_eq!(units_of("physics.damping_kg_s"), "kg/s");
-        assert_eq!(units_of("striker_velocity_m_s"), "m/s");
-        assert_eq!(units_of("duration_s"), "s");
-        assert_eq!(units_of("chain.cylinders"), "1");
-        assert_eq!(units_of("chain.cylinder.density_kg_m3"), "kg/m^3");
-    }
-
-    #[test]
-    fn paths_split_on_dots_and_brackets() {
-        assert_eq!(
-            split_path("record.probes[1].cylinder"),
-            vec!["record", "probes", "1", "cylinder"]
-        );
-        assert_eq!(split_path("a.b"), vec!["a", "b"]);
-    }
-
-    #[test]
-    fn ranges_include_their_ends() {
-        let r = RangeFile {
-            start: 0.into(),
-            stop: 100.into(),
-            step: Some(10.into()),
-            num: None,
-        };
-        let v = expand_range(&r, "axes[0]").unwrap();
-        assert_eq!(v.len(), 11);
-        assert_eq!(v[10], Value::from(100));
-        let r = RangeFile {
-            start: serde_json::Number::from_f64(0.1).unwrap(),
-            stop: serde_json::Number::from_f64(1.0).unwrap(),
-            step: None,
-            num: Some(10),
-        };
-        let v = expand_range(&r, "axes[0]").unwrap();
-        assert_eq!(v.len(), 10);
-        assert_eq!(v[9].as_f64(), Some(1.0));
-        assert_eq!(v[0].as_f64(), Some(0.1));
     }
 }
