@@ -29,6 +29,8 @@
 //! quasi-Newton correction of the Hessian pays off for large residuals, and needs more
 //! evaluations to build. The trust region, solved exactly by eigen-decomposition for six fields
 //! at most, makes every step safe against a poor linear model.
+//!
+//! One Levenberg–Marquardt fit is `iterate`'s, one side of a profile `profile`'s.
 
 pub mod lm;
 pub mod model;
@@ -36,12 +38,16 @@ pub mod stats;
 
 use std::sync::Arc;
 
-use nalgebra::DVector;
-
 use super::{Item, ItemStatus, Outcome, Point, SearchStatus, Streams};
 use crate::sweep::fit::{FitSpec, SigmaRule};
 use crate::sweep::search::{OnFailure, SearchSpec};
 use stats::FitStats;
+
+mod iterate;
+mod profile;
+
+use iterate::{levenberg_marquardt, Fitted};
+use profile::profile_side;
 
 /// What one evaluation of a fit gives: its residuals (weighted by 1/σ when σ is given) and the
 /// nuisance parameters fitted with them, with their variances at fixed fields (in units of s²).
@@ -57,13 +63,6 @@ pub struct FitEval {
 
 /// An evaluation's residuals (`None`: a run failed or a datum has no number there).
 pub type Residuals = Option<Arc<FitEval>>;
-
-/// Iterations of one Levenberg–Marquardt fit at most.
-const MAX_ITERATIONS: usize = 40;
-/// Points of one side of a profile at most.
-const MAX_PROFILE_POINTS: usize = 8;
-/// Initial trust radius, in the box's unit coordinates.
-const INITIAL_RADIUS: f64 = 0.25;
 
 fn chi_square(r: &[f64]) -> f64 {
     r.iter().map(|x| x * x).sum()
@@ -170,226 +169,6 @@ impl Ctx<'_> {
             1.0
         };
         1e-4 * s2
-    }
-}
-
-/// One Levenberg–Marquardt fit's end.
-#[derive(Debug, Clone)]
-struct Fitted {
-    u: Vec<f64>,
-    eval: Arc<FitEval>,
-    chi2: f64,
-    /// Jacobian of the residuals in unit coordinates, column-major n × p (fixed fields' columns
-    /// zero).
-    ju: Vec<f64>,
-    /// The nuisances' derivatives, column-major (nuisances × p), unit coordinates.
-    jn: Vec<f64>,
-    status: ItemStatus,
-    note: String,
-    /// Its evaluation: index in its stream.
-    index: usize,
-}
-
-/// The points of a batch: the trial point and a forward-difference point per free field.
-fn fd_batch(cx: &Ctx, u: &[f64], free: &[usize], with_point: bool) -> (Vec<Point>, Vec<f64>) {
-    let mut pts = Vec::new();
-    if with_point {
-        pts.push(cx.to_fields(u));
-    }
-    let mut steps = Vec::new();
-    for &k in free {
-        let h = cx.fd_step(k, u[k]);
-        let mut v = u.to_vec();
-        v[k] += h;
-        pts.push(cx.to_fields(&v));
-        steps.push(h);
-    }
-    (pts, steps)
-}
-
-/// The Jacobian (and the nuisances' derivatives) from the difference evaluations around `at`.
-fn jacobian(
-    cx: &Ctx,
-    at: &FitEval,
-    fd: &[Option<Arc<FitEval>>],
-    free: &[usize],
-    steps: &[f64],
-) -> Option<(Vec<f64>, Vec<f64>)> {
-    let n = at.residual.len();
-    let q = at.nuisance.len();
-    let p = cx.p();
-    let mut ju = vec![0.0; n * p];
-    let mut jn = vec![0.0; q * p];
-    for ((&k, e), &h) in free.iter().zip(fd).zip(steps) {
-        let e = e.as_ref()?;
-        for i in 0..n {
-            ju[k * n + i] = (e.residual[i] - at.residual[i]) / h;
-        }
-        for i in 0..q {
-            jn[k * q + i] = (e.nuisance[i] - at.nuisance[i]) / h;
-        }
-    }
-    Some((ju, jn))
-}
-
-/// Levenberg–Marquardt from `u0` on `stream`, fields with `fixed` held; `known0` the evaluation
-/// at `u0` when the stream need not ask for it (a scan point). `None`: it asked for a batch.
-fn levenberg_marquardt(
-    cx: &Ctx,
-    s: &mut Streams<Residuals>,
-    stream: usize,
-    u0: Vec<f64>,
-    known0: Option<(Arc<FitEval>, usize)>,
-    fixed: &[bool],
-    asked_so_far: &mut usize,
-) -> Option<Fitted> {
-    let p = cx.p();
-    let free: Vec<usize> = (0..p).filter(|&k| !fixed[k]).collect();
-    let u = u0;
-    let (pts, mut steps) = fd_batch(cx, &u, &free, known0.is_none());
-    let vals = s.eval(stream, &pts)?;
-    let base = *asked_so_far;
-    *asked_so_far += pts.len();
-    let (mut cur, index, fd) = match known0 {
-        Some((e, i)) => (Some(e), i, &vals[..]),
-        None => (vals[0].clone(), base, &vals[1..]),
-    };
-    let fail = |u: &[f64], index: usize, why: &str| -> Fitted {
-        Fitted {
-            u: u.to_vec(),
-            eval: Arc::new(FitEval {
-                residual: Vec::new(),
-                nuisance: Vec::new(),
-                nuisance_variance: Vec::new(),
-            }),
-            chi2: f64::INFINITY,
-            ju: Vec::new(),
-            jn: Vec::new(),
-            status: ItemStatus::Failed,
-            note: why.to_string(),
-            index,
-        }
-    };
-    let Some(at) = cur.take() else {
-        return Some(fail(&u, index, "its starting run failed"));
-    };
-    let mut here = Here {
-        chi2: chi_square(&at.residual),
-        jac: jacobian(cx, &at, fd, &free, &steps),
-        u,
-        eval: at,
-        index,
-    };
-    let mut radius = INITIAL_RADIUS;
-    for _ in 0..MAX_ITERATIONS {
-        let Some((ju, _)) = &here.jac else {
-            return Some(here.end(ItemStatus::Stalled, "a finite-difference run failed"));
-        };
-        if free.is_empty() {
-            return Some(here.end(ItemStatus::Converged, ""));
-        }
-        let (u, r) = (&here.u, &here.eval.residual);
-        // Active set: a field on a bound whose descent points out of the box is held.
-        let (_, g_all) = lm::normal_equations(ju, r, &free);
-        let act: Vec<usize> = free
-            .iter()
-            .enumerate()
-            .filter(|&(i, &k)| {
-                !((u[k] <= 0.0 && g_all[i] > 0.0) || (u[k] >= 1.0 && g_all[i] < 0.0))
-            })
-            .map(|(_, &k)| k)
-            .collect();
-        let (a, g) = lm::normal_equations(ju, r, &act);
-        let gn = lm::trust_step(&a, &g, f64::INFINITY);
-        let gn_decrease = lm::predicted_decrease(&a, &g, &gn);
-        let small_step = act.iter().enumerate().all(|(i, &k)| {
-            let tol = cx.spec.fields[k].tolerance;
-            let dx = (gn[i] * cx.width(k)).abs();
-            (tol > 0.0 && dx <= tol) || gn[i].abs() <= 1e-7
-        });
-        if act.is_empty() || gn_decrease <= cx.converged_below(here.chi2) || small_step {
-            return Some(here.end(ItemStatus::Converged, ""));
-        }
-        let d = lm::trust_step(&a, &g, radius);
-        let mut trial = u.clone();
-        for (i, &k) in act.iter().enumerate() {
-            trial[k] = (u[k] + d[i]).clamp(0.0, 1.0);
-        }
-        let dp = DVector::from_iterator(act.len(), act.iter().map(|&k| trial[k] - u[k]));
-        let step_norm = dp.norm();
-        let predicted = lm::predicted_decrease(&a, &g, &dp);
-        if step_norm <= 1e-12 || predicted <= 0.0 {
-            return Some(here.end(
-                ItemStatus::Stalled,
-                "no step lowers the linear model within the box",
-            ));
-        }
-        let (pts, new_steps) = fd_batch(cx, &trial, &free, true);
-        let vals = s.eval(stream, &pts)?;
-        let base = *asked_so_far;
-        *asked_so_far += pts.len();
-        // The actual decrease against the predicted one: accept, and size the region by it.
-        let rho = vals[0].as_ref().map_or(f64::NEG_INFINITY, |e| {
-            (here.chi2 - chi_square(&e.residual)) / predicted
-        });
-        if rho > 0.75 {
-            radius = radius.max(2.0 * step_norm);
-        } else if rho < 0.25 {
-            radius = 0.25 * step_norm;
-        }
-        match &vals[0] {
-            None if cx.stop_on_failure => {
-                return Some(fail(&trial, base, "a run failed (failed: stop)"));
-            }
-            Some(e) if rho > 1e-4 => {
-                steps = new_steps;
-                here = Here {
-                    chi2: chi_square(&e.residual),
-                    jac: jacobian(cx, e, &vals[1..], &free, &steps),
-                    u: trial,
-                    eval: e.clone(),
-                    index: base,
-                };
-            }
-            _ if radius < 1e-9 => {
-                return Some(here.end(
-                    ItemStatus::Stalled,
-                    "the trust region collapsed: χ² does not fall as the linear model predicts (the runs' noise, or a jump)",
-                ));
-            }
-            _ => {}
-        }
-    }
-    Some(here.end(
-        ItemStatus::Stalled,
-        format!("not converged in {MAX_ITERATIONS} iterations"),
-    ))
-}
-
-/// Where a Levenberg–Marquardt fit stands: its point (unit coordinates), the evaluation there,
-/// χ², the Jacobian (`None`: a difference run failed) and the evaluation's index in its stream.
-struct Here {
-    u: Vec<f64>,
-    eval: Arc<FitEval>,
-    chi2: f64,
-    jac: Option<(Vec<f64>, Vec<f64>)>,
-    index: usize,
-}
-
-impl Here {
-    /// The fit ended here.
-    fn end(self, status: ItemStatus, note: impl Into<String>) -> Fitted {
-        let (ju, jn) = self.jac.unwrap_or_default();
-        Fitted {
-            u: self.u,
-            eval: self.eval,
-            chi2: self.chi2,
-            ju,
-            jn,
-            status,
-            note: note.into(),
-            index: self.index,
-        }
     }
 }
 
@@ -816,155 +595,6 @@ fn run(cx: &Ctx, fit: &FitSpec, s: &mut Streams<Residuals>, known: &[Vec<Residua
         status
     };
     outcome(status, items, note, Some(fo))
-}
-
-/// One side's end of a profile.
-struct SideEnd {
-    end: f64,
-    open: bool,
-    points: Vec<(f64, f64)>,
-    lower_found: Option<String>,
-}
-
-/// One side (`side` −1 or +1) of field `k`'s profile on `stream` (`None`: it asked for a batch).
-#[allow(clippy::too_many_arguments)]
-fn profile_side(
-    cx: &Ctx,
-    s: &mut Streams<Residuals>,
-    stream: usize,
-    best: &Fitted,
-    x: &[f64],
-    st: &FitStats,
-    k: usize,
-    side: f64,
-) -> Option<SideEnd> {
-    let p = cx.p();
-    let f = &cx.spec.fields[k];
-    let bound = if side < 0.0 { f.min } else { f.max };
-    let threshold = st.profile_threshold;
-    let target = threshold.sqrt();
-    let mut points = Vec::new();
-    let mut lower_found = None;
-    if x[k] == bound {
-        return Some(SideEnd {
-            end: bound,
-            open: true,
-            points,
-            lower_found,
-        });
-    }
-    let se = st.standard_error[k];
-    let mut theta = (x[k] + side * st.quantile * se).clamp(f.min, f.max);
-    // (θ, D = √(χ² − χ²_min)) of the points so far, the minimum first.
-    let mut ds: Vec<(f64, f64)> = vec![(x[k], 0.0)];
-    let mut asked = 0usize;
-    let mut fixed = vec![false; p];
-    fixed[k] = true;
-    let mut others_from: Vec<f64> = best.u.clone();
-    let mut others_theta = x[k];
-    for _ in 0..MAX_PROFILE_POINTS {
-        // The other fields start at their conditional optimum (linear in θ from the last
-        // profile point).
-        let mut u0 = others_from.clone();
-        for j in 0..p {
-            if j != k {
-                let c = st.covariance[j * p + k] / st.covariance[k * p + k];
-                let xj = cx.to_fields(&others_from)[j] + c * (theta - others_theta);
-                u0[j] = cx.to_unit(&{
-                    let mut v = x.to_vec();
-                    v[j] = xj;
-                    v
-                })[j];
-            }
-        }
-        u0[k] = cx.to_unit(&{
-            let mut v = x.to_vec();
-            v[k] = theta;
-            v
-        })[k];
-        let fitted = levenberg_marquardt(cx, s, stream, u0, None, &fixed, &mut asked)?;
-        if !fitted.chi2.is_finite() {
-            // A failed profile point: the side ends where it is known.
-            break;
-        }
-        points.push((theta, fitted.chi2));
-        if fitted.chi2 < best.chi2 - 1e-6 * best.chi2.max(1.0) && lower_found.is_none() {
-            lower_found = Some(format!(
-                "the profile of {} found a lower chi_square ({:.4e} < {:.4e}) at {} = {theta}: the minimum reported is not the global one (more starts, a larger scan)",
-                f.name, fitted.chi2, best.chi2, f.name
-            ));
-        }
-        let d = (fitted.chi2 - best.chi2).max(0.0).sqrt();
-        ds.push((theta, d));
-        others_from = fitted.u.clone();
-        others_theta = theta;
-        if (d - target).abs() <= 0.01 * target {
-            // (√Δχ² is nearly linear in θ: the secant from the minimum puts the end on the
-            // threshold itself.)
-            return Some(SideEnd {
-                end: (x[k] + (theta - x[k]) * target / d).clamp(f.min, f.max),
-                open: false,
-                points,
-                lower_found,
-            });
-        }
-        if d < target && theta == bound {
-            return Some(SideEnd {
-                end: bound,
-                open: true,
-                points,
-                lower_found,
-            });
-        }
-        // The next θ: inside the bracket by the secant of D, or beyond the last point.
-        let below = ds
-            .iter()
-            .filter(|q| q.1 < target)
-            .max_by(|a, b| ((a.0 - x[k]) * side).total_cmp(&((b.0 - x[k]) * side)))
-            .copied()
-            .expect("the minimum is below");
-        let above = ds
-            .iter()
-            .filter(|q| q.1 >= target)
-            .min_by(|a, b| ((a.0 - x[k]) * side).total_cmp(&((b.0 - x[k]) * side)))
-            .copied();
-        theta = match above {
-            Some(a) => below.0 + (a.0 - below.0) * (target - below.1) / (a.1 - below.1),
-            None => {
-                let (t, dd) = (theta, d);
-                let reach = if dd > 1e-12 * target {
-                    x[k] + (t - x[k]) * target / dd
-                } else {
-                    x[k] + 4.0 * (t - x[k])
-                };
-                let limited =
-                    x[k] + (reach - x[k]).clamp(-4.0 * (t - x[k]).abs(), 4.0 * (t - x[k]).abs());
-                limited.clamp(f.min, f.max)
-            }
-        };
-    }
-    // Out of points: the end where the secant of the bracket puts it (or the last point).
-    let below = ds
-        .iter()
-        .filter(|q| q.1 < target)
-        .max_by(|a, b| ((a.0 - x[k]) * side).total_cmp(&((b.0 - x[k]) * side)))
-        .copied()
-        .unwrap_or((x[k], 0.0));
-    let above = ds
-        .iter()
-        .filter(|q| q.1 >= target)
-        .min_by(|a, b| ((a.0 - x[k]) * side).total_cmp(&((b.0 - x[k]) * side)))
-        .copied();
-    let end = match above {
-        Some(a) => below.0 + (a.0 - below.0) * (target - below.1) / (a.1 - below.1),
-        None => f64::NAN,
-    };
-    Some(SideEnd {
-        end,
-        open: false,
-        points,
-        lower_found,
-    })
 }
 
 #[cfg(test)]
