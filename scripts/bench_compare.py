@@ -70,7 +70,9 @@ def with_scaling_bench(root: Path) -> None:
 def runner_executable(root: Path, target_dir: Path) -> Path:
     """Builds the `chainsweep` binary at `root` into `target_dir` and returns its path."""
     env = dict(os.environ, CARGO_TARGET_DIR=str(target_dir))
-    subprocess.run(["cargo", "build", "--release", "-p", "chainsweep", "--bin", "chainsweep"], cwd=root, env=env,
+    # The binary is the command line's crate's (crates/cli), or in earlier trees the engine's.
+    package = "chainsweep-cli" if (root / "crates" / "cli" / "Cargo.toml").exists() else "chainsweep"
+    subprocess.run(["cargo", "build", "--release", "-p", package, "--bin", "chainsweep"], cwd=root, env=env,
                    check=True)
     return target_dir / "release" / "chainsweep"
 
