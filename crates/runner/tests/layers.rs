@@ -262,48 +262,35 @@ fn violations(
     bad
 }
 
-#[test]
-fn modules_import_only_what_the_listing_says_and_only_from_below() {
-    let doc = std::fs::read_to_string(Path::new(CRATE).join("ARCHITECTURE.md")).unwrap();
+/// Checks the crate at `dir` (relative to this one) against its ARCHITECTURE.md listing, which
+/// must name at least `least` modules; `skip_tests`: leave its test modules out.
+fn check_crate(dir: &str, skip_tests: bool, least: usize) {
+    let root = Path::new(CRATE).join(dir);
+    let doc = std::fs::read_to_string(root.join("ARCHITECTURE.md")).unwrap();
     let listing = listing(&doc);
-    assert!(listing.len() >= 8, "listing too short: {listing:?}");
-    let actual = actual_imports(&Path::new(CRATE).join("src"), false);
+    assert!(listing.len() >= least, "listing too short: {listing:?}");
+    let actual = actual_imports(&root.join("src"), skip_tests);
     let bad = violations(&listing, &actual);
     assert!(
         bad.is_empty(),
-        "ARCHITECTURE.md and src/ disagree:\n  {}",
+        "{dir}/ARCHITECTURE.md and {dir}/src/ disagree:\n  {}",
         bad.join("\n  ")
     );
+}
+
+#[test]
+fn modules_import_only_what_the_listing_says_and_only_from_below() {
+    check_crate(".", false, 8);
 }
 
 #[test]
 fn the_solvers_modules_import_only_what_its_listing_says_and_only_from_below() {
-    let solver = Path::new(CRATE).join("../solver");
-    let doc = std::fs::read_to_string(solver.join("ARCHITECTURE.md")).unwrap();
-    let listing = listing(&doc);
-    assert!(listing.len() >= 8, "listing too short: {listing:?}");
-    let actual = actual_imports(&solver.join("src"), true);
-    let bad = violations(&listing, &actual);
-    assert!(
-        bad.is_empty(),
-        "crates/solver/ARCHITECTURE.md and crates/solver/src/ disagree:\n  {}",
-        bad.join("\n  ")
-    );
+    check_crate("../solver", true, 8);
 }
 
 #[test]
 fn the_command_lines_modules_import_only_what_its_listing_says_and_only_from_below() {
-    let cli = Path::new(CRATE).join("../cli");
-    let doc = std::fs::read_to_string(cli.join("ARCHITECTURE.md")).unwrap();
-    let listing = listing(&doc);
-    assert!(listing.len() >= 2, "listing too short: {listing:?}");
-    let actual = actual_imports(&cli.join("src"), true);
-    let bad = violations(&listing, &actual);
-    assert!(
-        bad.is_empty(),
-        "crates/cli/ARCHITECTURE.md and crates/cli/src/ disagree:\n  {}",
-        bad.join("\n  ")
-    );
+    check_crate("../cli", true, 2);
 }
 
 #[test]
