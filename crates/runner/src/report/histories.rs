@@ -95,15 +95,11 @@ pub(super) fn section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords, points
                 .take(MAX_PROBES)
                 .filter_map(|(k, p)| {
                     let v = history.values.get(k)?;
-                    Some(Series {
-                        label: p.name(),
-                        points: keep
-                            .iter()
-                            .filter_map(|&j| Some((*history.time_s.get(j)?, *v.get(j)?)))
-                            .collect(),
-                        missing: Vec::new(),
-                        band: Vec::new(),
-                    })
+                    let points = keep
+                        .iter()
+                        .filter_map(|&j| Some((*history.time_s.get(j)?, *v.get(j)?)))
+                        .collect();
+                    Some(Series::line(p.name(), points))
                 })
                 .collect();
             if series.iter().all(|s| s.points.is_empty()) {

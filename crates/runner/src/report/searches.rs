@@ -63,12 +63,7 @@ fn evaluations(
                     .map(|l| l.label.clone())
                     .filter(|l| !l.is_empty())
                     .unwrap_or_else(|| "search".into());
-                Series {
-                    label,
-                    points,
-                    missing: Vec::new(),
-                    band: Vec::new(),
-                }
+                Series::line(label, points)
             })
             .filter(|s| !s.points.is_empty())
             .collect();
@@ -165,22 +160,19 @@ fn data_and_model(
         }
         _ => Vec::new(),
     };
+    let label = if band.is_empty() {
+        "measured"
+    } else {
+        "measured ± σ"
+    };
     let measured = Series {
-        label: if band.is_empty() {
-            "measured".into()
-        } else {
-            "measured ± σ".into()
-        },
-        points: x.iter().copied().zip(data.iter().copied()).collect(),
-        missing: Vec::new(),
         band,
+        ..Series::line(label, x.iter().copied().zip(data.iter().copied()).collect())
     };
-    let best = Series {
-        label: "best fit".into(),
-        points: x.iter().copied().zip(model.iter().copied()).collect(),
-        missing: Vec::new(),
-        band: Vec::new(),
-    };
+    let best = Series::line(
+        "best fit",
+        x.iter().copied().zip(model.iter().copied()).collect(),
+    );
     let of = if fits > 1 {
         format!(" (the first of {fits} fits)")
     } else {
@@ -197,12 +189,7 @@ fn data_and_model(
         &format!("{what}: measured and the best fit's prediction{of}"),
     );
     if let Some((r, _)) = first_fit(path, &format!("{prefix}_normalised_residual"), n) {
-        let residual = Series {
-            label: "residual / σ".into(),
-            points: x.iter().copied().zip(r).collect(),
-            missing: Vec::new(),
-            band: Vec::new(),
-        };
+        let residual = Series::line("residual / σ", x.iter().copied().zip(r).collect());
         b.figure(
             svg::lines(
                 &format!("{what}: residuals"),
@@ -315,12 +302,7 @@ fn fit_figures(
             ),
             _ => String::new(),
         };
-        let profile = Series {
-            label: "χ² profile".into(),
-            points,
-            missing: Vec::new(),
-            band: Vec::new(),
-        };
+        let profile = Series::line("χ² profile", points);
         b.figure(
             svg::lines(
                 &format!("profile of {}", f.name),

@@ -26,6 +26,18 @@ pub struct Series {
     pub band: Vec<(f64, f64)>,
 }
 
+impl Series {
+    /// A plain line: `points`, nothing missing, no interval.
+    pub fn line(label: impl Into<String>, points: Vec<(f64, f64)>) -> Series {
+        Series {
+            label: label.into(),
+            points,
+            missing: Vec::new(),
+            band: Vec::new(),
+        }
+    }
+}
+
 /// Escapes text for XML.
 pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
