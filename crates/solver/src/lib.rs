@@ -42,6 +42,7 @@ pub mod contact;
 pub mod integrate;
 pub mod motion;
 pub mod observe;
+pub mod periodic;
 pub mod problems;
 pub mod scene;
 pub mod spec;

@@ -23,6 +23,7 @@ mod max_overlap;
 mod mount;
 mod paper_bitwise;
 mod peaks;
+mod periodic;
 mod serialisation;
 mod single;
 mod spectrum;

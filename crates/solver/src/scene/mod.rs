@@ -19,6 +19,7 @@ use crate::chain::model::{spec_err, Chain, ChainSpec, PhysicsSpec, SpecError};
 use crate::observe::probes::RecordSpec;
 
 pub use excitation::{Excitation, InitialState, ParticleStart, RandomVelocity};
+pub(crate) use integrator::MethodVisitor;
 pub use integrator::{IntegratorSpec, Method};
 pub use scales::ImpactScales;
 

@@ -26,6 +26,8 @@ pub mod bloch;
 mod damped;
 pub mod tridiagonal;
 
+pub(crate) use damped::real_eigenvalues;
+
 use crate::chain::model::Chain;
 use crate::contact::{general_derivatives, POWER};
 use crate::spec::{spec_err, SpecError};
