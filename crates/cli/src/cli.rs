@@ -568,6 +568,15 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         let pool = engine::thread_pool(opts.jobs)?;
         let work_dir = chainsweep::store::work_dir_of(output);
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
+        if sweep.periodic.is_some() {
+            let d = engine::periodic::dry_run(&sweep, &grid, output)?;
+            if args.json {
+                json::print(&json::dry_run_periodic(&sweep, output, &d));
+            } else {
+                show::dry_run_periodic(&sweep, output, &d);
+            }
+            return Ok(EXIT_OK);
+        }
         if sweep.search.is_some() {
             let d = inspect::dry_run_search(&sweep, &grid, shard, output)?;
             if args.json {
@@ -695,6 +704,11 @@ fn cmd_status(
         return cmd_shard_set_status(files, as_json);
     }
     let file = &files[0];
+    if is_hdf5(file) {
+        if let Some(s) = engine::periodic::status_of_file(file)? {
+            return Ok(periodic_status(file, &s, as_json));
+        }
+    }
     if is_hdf5(file) || looks_like_output(file) {
         let s = status::of_file(file)?;
         // A search sweep is partial while a search is unfinished (stopped by its budget, or
@@ -722,6 +736,30 @@ fn cmd_status(
     let (sweep, grid) = load(file, as_json)?;
     let shard = parse_shard(shard)?;
     let output = output.unwrap_or_else(|| engine::default_output(file, shard));
+    if sweep.periodic.is_some() {
+        return match is_hdf5(&output)
+            .then(|| engine::periodic::status_of_file(&output))
+            .transpose()?
+            .flatten()
+        {
+            Some(s) => Ok(periodic_status(&output, &s, as_json)),
+            None => {
+                if as_json {
+                    json::print(
+                        &serde_json::json!({"kind": "status_periodic", "file": output.display().to_string(), "started": false, "exit_code": EXIT_PARTIAL}),
+                    );
+                } else {
+                    outln!(
+                        "{}: not run yet ({} branch(es) to compute; `chainsweep run {}` computes them)",
+                        output.display(),
+                        grid.len(),
+                        file.display()
+                    );
+                }
+                Ok(EXIT_PARTIAL)
+            }
+        };
+    }
     let (s, sweep, grid) = status::of_sweep(sweep, grid, output, shard)?;
     let code = match &s.counts {
         Some(c) if !s.damage.any() => exit_for(c),
@@ -733,6 +771,22 @@ fn cmd_status(
         show::sweep_status(file, &sweep, &grid, &s);
     }
     Ok(code)
+}
+
+/// Prints the status of a periodic sweep's output file; its exit code: 0 when every branch
+/// ended and nothing is damaged, else partial.
+fn periodic_status(file: &Path, s: &engine::periodic::PeriodicStatus, as_json: bool) -> i32 {
+    let code = if s.damage.is_some() || s.counts.failed > 0 || s.counts.pending > 0 {
+        EXIT_PARTIAL
+    } else {
+        EXIT_OK
+    };
+    if as_json {
+        json::print(&json::periodic_status(file, s, code));
+    } else {
+        show::periodic_status(file, s);
+    }
+    code
 }
 
 /// Whether `file`, which does not start with the HDF5 signature, is meant as an output file: it

@@ -10,6 +10,7 @@ use std::path::Path;
 use serde_json::{json, Map, Value};
 
 use chainsweep::engine::inspect::{DryRun, SearchDryRun};
+use chainsweep::engine::periodic::{PeriodicDryRun, PeriodicStatus};
 use chainsweep::engine::status::{FileStatus, SearchLine, ShardSetStatus, SweepStatus};
 use chainsweep::engine::DamageReport;
 use chainsweep::error::Error;
@@ -464,6 +465,55 @@ fn cost(c: Option<&chainsweep::engine::inspect::CostEstimate>) -> Value {
 }
 
 /// `run --dry-run --json` of a sweep with a search.
+/// `run --dry-run --json` of a sweep with a `periodic` block.
+pub fn dry_run_periodic(sweep: &Sweep, output: &Path, d: &PeriodicDryRun) -> Value {
+    let mut m = head("dry_run_periodic");
+    m.insert("output".into(), path_text(output));
+    m.insert(
+        "periodic".into(),
+        json!(sweep.periodic.as_ref().map(|p| p.describe())),
+    );
+    m.insert("dims".into(), dims(sweep));
+    m.insert("branches".into(), json!(d.branches));
+    m.insert("branches_ended".into(), json!(d.ended));
+    m.insert("max_points".into(), json!(d.max_points));
+    m.insert(
+        "pilot".into(),
+        json!({
+            "from": d.from,
+            "monodromy": d.monodromy,
+            "settle_seconds": d.settle_seconds,
+            "map_seconds_with_monodromy": d.seconds_per_map.0,
+            "map_seconds": d.seconds_per_map.1,
+        }),
+    );
+    m.insert("most_cpu_seconds".into(), json!(d.most_cpu_seconds));
+    Value::Object(m)
+}
+
+/// `status --json` of a periodic sweep's output file.
+pub fn periodic_status(file: &Path, s: &PeriodicStatus, exit_code: i32) -> Value {
+    let mut m = head("status_periodic");
+    m.insert("file".into(), path_text(file));
+    m.insert("counts".into(), counts(&s.counts));
+    let branches: Vec<Value> = s
+        .branches
+        .iter()
+        .map(|b| {
+            json!({
+                "state": b.state,
+                "points": b.points,
+                "special": b.special.iter().map(|(k, at)| json!({"kind": k, "at": at})).collect::<Vec<_>>(),
+                "end": b.end,
+            })
+        })
+        .collect();
+    m.insert("branches".into(), json!(branches));
+    m.insert("damage".into(), json!(s.damage));
+    m.insert("exit_code".into(), json!(exit_code));
+    Value::Object(m)
+}
+
 pub fn dry_run_search(sweep: &Sweep, grid: &Grid, output: &Path, d: &SearchDryRun) -> Value {
     let mut m = head("dry_run_search");
     m.insert("output".into(), path_text(output));

@@ -22,6 +22,7 @@ pub mod fit;
 pub mod gc;
 pub mod inspect;
 pub mod merge;
+pub mod periodic;
 pub mod plan;
 pub mod run;
 pub mod schedule;

@@ -310,6 +310,9 @@ pub fn run_sweep(
     sink: &mut dyn ProgressSink,
     stop: &AtomicBool,
 ) -> Result<RunReport> {
+    if sweep.periodic.is_some() {
+        return super::periodic::run_periodic(sweep, grid, opts, sink, stop);
+    }
     if sweep.search.is_some() {
         let r = super::search::run_search(sweep, grid, opts, sink, stop)?;
         return Ok(RunReport::of_search(r));

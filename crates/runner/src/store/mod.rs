@@ -63,6 +63,17 @@ pub use lock_file::writer_of;
 pub use stored::Stored;
 pub use work_dir::{Compaction, PublishedGuard, WorkDir};
 
+/// Creates (if needed) the work directory of `output` with its folder `sub`, and locks it for this
+/// process, without reading what it holds: for outputs that keep their own journals there (a
+/// periodic sweep's branches), not runs. The lock lasts as long as the returned file.
+pub fn lock_work_dir(output: &Path, sub: &str) -> Result<(File, PathBuf)> {
+    let dir = work_dir_of(output);
+    let folder = no_link(&dir.join(sub))?;
+    fs::create_dir_all(&folder).map_err(Error::io("create", &dir))?;
+    let lock = lock_file::take_lock(&dir, output)?;
+    Ok((lock, no_link(&folder)?))
+}
+
 /// Path of the work directory of an output file: `X.h5` → `X.h5.d`.
 pub fn work_dir_of(output: &Path) -> PathBuf {
     let mut s = output.as_os_str().to_owned();

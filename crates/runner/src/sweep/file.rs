@@ -6,7 +6,9 @@ use serde::Deserialize;
 use serde_json::{Map, Value};
 
 use super::paths::from_value_at;
-use super::{ensemble, schema, search, DEFAULT_ENERGY_DRIFT_MAX, DEFAULT_MAX_RUN_SECONDS};
+use super::{
+    ensemble, periodic, schema, search, DEFAULT_ENERGY_DRIFT_MAX, DEFAULT_MAX_RUN_SECONDS,
+};
 use crate::error::{Error, Result};
 
 /// `continuation` as written.
@@ -69,6 +71,10 @@ pub(super) struct SweepFile {
     /// before it (hysteresis, bistability).
     #[serde(default)]
     pub(super) continuation: Option<ContinuationFile>,
+    /// At every point of the axes, the branch of periodic orbits of the driven scene continued in
+    /// one scene field, with its stability and bifurcations.
+    #[serde(default)]
+    pub(super) periodic: Option<periodic::PeriodicFile>,
 }
 
 /// When a run counts as failed.

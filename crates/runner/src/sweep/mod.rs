@@ -21,6 +21,8 @@
 //!   may then be empty), see [`search`].
 //! - `continuation` (optional): `{"axis": NAME, "direction": "up" | "down"}`, each point of that
 //!   dimension starting from the final state of the point before it ([`Continuation`]).
+//! - `periodic` (optional): the branch of periodic orbits of the driven scene continued in one
+//!   field at every point of the axes, see [`periodic`].
 //!
 //! Every grid point is built into a solver [`Scene`] and validated before anything runs; errors name
 //! the field (`base.…` or `axes[i].values[j]`) and what is allowed.
@@ -37,6 +39,7 @@ pub mod expr;
 mod file;
 pub mod fit;
 mod paths;
+pub mod periodic;
 mod recording;
 pub mod schema;
 pub mod search;
@@ -219,6 +222,9 @@ pub struct Sweep {
     pub ensemble: Option<ensemble::EnsembleSpec>,
     /// The ensemble's round whose samples `dims` holds (0 until an adaptive ensemble grows).
     pub ensemble_round: usize,
+    /// The branch of periodic orbits continued at every point of the axes, when the sweep has
+    /// one ([`periodic`]).
+    pub periodic: Option<periodic::PeriodicSpec>,
 }
 
 /// Continuation along a dimension of the grid: each point starts from the final state of the
@@ -534,11 +540,22 @@ impl Sweep {
                 "a sweep has a search or an ensemble, not both: run the search, then an ensemble around its answer",
             ));
         }
+        let other_goal = if search.is_some() {
+            Some("search")
+        } else if file.ensemble.is_some() {
+            Some("ensemble")
+        } else if continuation.is_some() {
+            Some("continuation")
+        } else {
+            None
+        };
+        let periodic = periodic::parse(file.periodic, &base, &dims, other_goal)?;
         let ensemble = file
             .ensemble
             .map(|e| ensemble::parse(e, &mut base, &mut dims))
             .transpose()?;
         Ok(Sweep {
+            periodic,
             ensemble,
             ensemble_round: 0,
             continuation,
@@ -611,6 +628,7 @@ impl Sweep {
             continuation: None,
             ensemble: None,
             ensemble_round: 0,
+            periodic: None,
         };
         Ok((sweep, scene))
     }

@@ -89,6 +89,8 @@ impl BranchOptions {
 
 /// What a point of a branch is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "snake_case"))]
 pub enum PointKind {
     /// The first orbit, at the start.
     Start,
@@ -152,7 +154,8 @@ impl PointKind {
 }
 
 /// One orbit of a branch.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct BranchPoint {
     /// The parameter.
     pub parameter: f64,

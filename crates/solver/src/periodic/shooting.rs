@@ -60,11 +60,14 @@ pub struct MapOutput {
 }
 
 /// A periodic orbit found by shooting.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct Orbit {
     /// The orbit's components at `t = 0` (and `t = T`).
     pub state: Vec<f64>,
-    /// The monodromy matrix at the orbit, row-major.
+    /// The monodromy matrix at the orbit, row-major (left out of its serialisation: what is
+    /// kept of an orbit is its multipliers).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub monodromy: Vec<f64>,
     /// Its eigenvalues, the Floquet multipliers, largest modulus first.
     pub multipliers: Vec<Multiplier>,

@@ -20,8 +20,8 @@ mod validate;
 pub use inspect::{point, study};
 pub use run::{run_report, stopped};
 pub use shards::{merged, shard_set_status, slurm_job, submitted};
-pub use status::{file_status, sweep_status};
-pub use validate::{dry_run, dry_run_search, validated};
+pub use status::{file_status, periodic_status, sweep_status};
+pub use validate::{dry_run, dry_run_periodic, dry_run_search, validated};
 
 /// `3 × 2`.
 fn shape_text(shape: &[usize]) -> String {

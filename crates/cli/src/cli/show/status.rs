@@ -6,6 +6,7 @@ use super::{
     damage_status, ensemble_lines, health_text, search_lines, shape_text, unpassed_text,
     unsettled_lines,
 };
+use chainsweep::engine::periodic::PeriodicStatus;
 use chainsweep::engine::status::{FileStatus, SweepStatus};
 use chainsweep::grid::{multi_index, Grid};
 use chainsweep::sweep::auto::describe;
@@ -13,6 +14,40 @@ use chainsweep::sweep::Sweep;
 
 /// How many failed points `status` of an output file lists.
 const LISTED_IN_STATUS: usize = 20;
+
+/// `status` of a periodic sweep's output file: its branches, each with its special points.
+pub fn periodic_status(file: &Path, s: &PeriodicStatus) {
+    use chainsweep::error::number_text as num;
+    outln!(
+        "{}: {} branch(es) of periodic orbits: {} ended, {} failed, {} pending",
+        file.display(),
+        s.branches.len(),
+        s.counts.ok,
+        s.counts.failed,
+        s.counts.pending
+    );
+    for (i, b) in s.branches.iter().enumerate() {
+        let special: Vec<String> = b
+            .special
+            .iter()
+            .map(|(kind, at)| format!("{kind} at {}", num(*at)))
+            .collect();
+        outln!(
+            "  branch {i}: {}, {} point(s){}: {}",
+            b.state,
+            b.points.max(0),
+            if special.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", special.join(", "))
+            },
+            b.end
+        );
+    }
+    if let Some(d) = &s.damage {
+        outln!("  damaged: {d}; re-run the same `chainsweep run` command to write it again from its journals");
+    }
+}
 
 /// `status` of an output file.
 pub fn file_status(file: &Path, s: &FileStatus) {

@@ -3,6 +3,8 @@
 
 use std::path::Path;
 
+use chainsweep::engine::periodic::PeriodicDryRun;
+
 use super::{human, shape_text};
 use chainsweep::engine::inspect::{DryRun, SearchDryRun};
 use chainsweep::engine::search;
@@ -59,6 +61,9 @@ pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> chainsweep::error::
             .collect();
         outln!("  {} × {}", d.len(), names.join(" zipped with "));
     }
+    if let Some(p) = &sweep.periodic {
+        outln!("  periodic: {}", p.describe());
+    }
     plausibility(sweep, grid);
     if let Some(spec) = sweep.auto {
         let pilots = pilot_points(sweep, grid, spec.pilot_points)?;
@@ -69,6 +74,37 @@ pub fn validated(file: &Path, sweep: &Sweep, grid: &Grid) -> chainsweep::error::
         );
     }
     Ok(())
+}
+
+/// `run --dry-run` of a sweep with a `periodic` block: its branches, what has ended, the cost.
+pub fn dry_run_periodic(sweep: &Sweep, output: &Path, d: &PeriodicDryRun) {
+    use chainsweep::error::number_text as num;
+    let spec = sweep.periodic.as_ref().expect("a periodic sweep");
+    outln!("periodic: {}", spec.describe());
+    outln!(
+        "branches: {} (one per grid point), {} ended already → {}",
+        d.branches,
+        d.ended,
+        output.display()
+    );
+    outln!(
+        "pilot at {} = {} {}: settling the first guess {:.3e} s, a period map {:.3e} s with its monodromy ({}), {:.3e} s without",
+        spec.name,
+        num(d.from),
+        spec.units,
+        d.settle_seconds,
+        d.seconds_per_map.0,
+        d.monodromy,
+        d.seconds_per_map.1
+    );
+    outln!(
+        "estimated cost: at most {:.3e} CPU-seconds for the {} branch(es) left, were each to take its {} points (a branch usually ends sooner, at {} {})",
+        d.most_cpu_seconds,
+        d.branches - d.ended,
+        d.max_points,
+        num(d.to),
+        spec.units
+    );
 }
 
 /// `run --dry-run` of a sweep with a search: the search, its budget, what is stored, the cost.

@@ -33,6 +33,7 @@
 
 pub mod arrays;
 pub mod fit;
+pub mod periodic;
 pub mod read;
 pub(crate) mod scales;
 pub mod search;

@@ -173,7 +173,7 @@ pub fn write_file(
 }
 
 /// Root attributes describing the sweep and the engine.
-fn write_sweep_attrs(
+pub(super) fn write_sweep_attrs(
     file: &File,
     sweep: &Sweep,
     grid: &Grid,
@@ -414,7 +414,10 @@ fn write_axis(
 /// variable. The zipped group's other axes get the scale attached, which makes them coordinates
 /// on the dimension. Also the text coordinates that are a dimension's scale, with the dimensions
 /// of their characters (for [`number_dimensions`]).
-fn write_coordinates(file: &File, sweep: &Sweep) -> Result<(Vec<DimScale>, Vec<TextScale>)> {
+pub(super) fn write_coordinates(
+    file: &File,
+    sweep: &Sweep,
+) -> Result<(Vec<DimScale>, Vec<TextScale>)> {
     let mut dims = Vec::new();
     let mut text_scales = Vec::new();
     for dim in &sweep.dims {
@@ -470,13 +473,13 @@ type TextScale = (String, String);
 /// probes' units, and the dimension of its characters.
 pub(super) struct ProbeScale {
     pub(super) scale: Dataset,
-    units: Vec<String>,
-    strlen: String,
+    pub(super) units: Vec<String>,
+    pub(super) strlen: String,
 }
 
 /// The `probe` coordinate (a dimension scale) and `probe_units`, when there are probes; with
 /// the probes' units.
-fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<ProbeScale>> {
+pub(super) fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<ProbeScale>> {
     let np = grid.probes.len();
     if np == 0 {
         return Ok(None);
@@ -505,7 +508,7 @@ fn write_probe_scale(file: &File, grid: &Grid) -> Result<Option<ProbeScale>> {
 /// What a variable over the grid lists in its `coordinates`: the coordinates on the grid's
 /// dimensions that are no dimension scale (a zipped group's other axes, a search's fields), and
 /// the text coordinates (labels to CF).
-fn coordinate_names<'a>(dims: &'a [DimScale], extra: &'a [String]) -> Vec<&'a str> {
+pub(super) fn coordinate_names<'a>(dims: &'a [DimScale], extra: &'a [String]) -> Vec<&'a str> {
     dims.iter()
         .flat_map(|d| d.others.iter().map(String::as_str))
         .chain(extra.iter().map(String::as_str))

@@ -1,0 +1,655 @@
+//! A sweep with a `periodic` block: at every point of its axes, the branch of periodic orbits of
+//! the driven scene continued in one field ([`chainsweep_solver::periodic::continue_branch`]),
+//! the branches in parallel.
+//!
+//! Each branch keeps a journal in the work directory, `periodic/<point>.log`: a line naming what
+//! it is the branch of (the sweep's text, the point's scene and the engine's versions, hashed),
+//! then a line per accepted orbit as the continuation finds it (the orbit, its Floquet
+//! multipliers, the run of two orbit periods that gives each probe's amplitudes), then a line for
+//! how it ended; every line carries the first 16 hex digits of its SHA-256. A line whose checksum
+//! fails, a torn last line or a journal of another sweep is never read as a point: the branch is
+//! computed again from its start (the continuation is a function of the scene and the options
+//! only, so the points it gives again are bitwise those it gave). A branch whose journal ends is
+//! read back and not computed again: the same command after `kill -9` computes only the branches
+//! that had not ended. The output file is written from the journals when every branch has ended
+//! (or the run was stopped), to a temporary file renamed over the output.
+
+use std::fs::{self, File, OpenOptions};
+use std::io::{BufRead, BufReader, Write};
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+use chainsweep_solver::observe::steady::SteadyProbe;
+use chainsweep_solver::periodic::{continue_branch, BranchPoint, Monodromy, PeriodMap};
+
+use super::run::{Failure, Health, RunOptions, RunReport, VerificationReport};
+use super::{check_output, thread_pool, DamageReport, ProgressSink, Start};
+use crate::error::{Error, Result};
+use crate::grid::Grid;
+use crate::store::hdf5::periodic::{
+    read_summary, write_file, PeriodicTables, StoredBranch, StoredPoint, BRANCH_FAILED, BRANCH_OK,
+    BRANCH_PENDING,
+};
+use crate::store::hdf5::{Counts, Provenance};
+use crate::store::lock_work_dir;
+use crate::sweep::periodic::PeriodicSpec;
+use crate::sweep::Sweep;
+
+/// One line of a branch's journal.
+#[derive(Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum Entry {
+    /// What the journal is the branch of.
+    Identity { hash: String },
+    /// An accepted orbit, with the run of two orbit periods from it (`None`: that run failed,
+    /// with why).
+    Point {
+        point: Box<BranchPoint>,
+        probes: Option<Vec<SteadyProbe>>,
+        max: Option<Vec<f64>>,
+        run_error: Option<String>,
+    },
+    /// How the branch ended.
+    End {
+        end: String,
+        warnings: Vec<String>,
+        maps: u64,
+    },
+    /// No first orbit: why.
+    Failed { reason: String },
+}
+
+/// A branch as its journal holds it.
+#[derive(Default)]
+struct Journal {
+    points: Vec<Entry>,
+    end: Option<Entry>,
+}
+
+fn line_of(entry: &Entry) -> String {
+    let json = serde_json::to_string(entry).expect("a journal entry serialises");
+    format!("{} {json}\n", checksum(&json))
+}
+
+fn checksum(text: &str) -> String {
+    let sum = Sha256::digest(text.as_bytes());
+    sum[..8].iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The journal at `path` if it is this branch's (`identity`) and every line reads back; else
+/// `None` (absent, another sweep's, damaged or torn: computed again).
+fn read_journal(path: &Path, identity: &str) -> Option<Journal> {
+    let file = File::open(path).ok()?;
+    let mut journal = Journal::default();
+    let mut first = true;
+    for line in BufReader::new(file).lines() {
+        let line = line.ok()?;
+        let (sum, json) = line.split_once(' ')?;
+        if checksum(json) != sum {
+            return None;
+        }
+        let entry: Entry = serde_json::from_str(json).ok()?;
+        match entry {
+            Entry::Identity { hash } => {
+                if !first || hash != identity {
+                    return None;
+                }
+            }
+            _ if first => return None,
+            Entry::Point { .. } => journal.points.push(entry),
+            Entry::End { .. } | Entry::Failed { .. } => {
+                journal.end = Some(entry);
+                break;
+            }
+        }
+        first = false;
+    }
+    Some(journal)
+}
+
+/// What identifies branch `index`: the sweep's text, the point's scene and the engine's versions.
+fn identity(sweep: &Sweep, grid: &Grid, index: usize) -> String {
+    let mut h = Sha256::new();
+    for part in [
+        sweep.text.as_str(),
+        &grid.point_value(sweep, index).to_string(),
+        crate::ENGINE_VERSION,
+        crate::SOLVER_VERSION,
+        &crate::NUMERICS_VERSION.to_string(),
+    ] {
+        h.update(part.as_bytes());
+        h.update([0]);
+    }
+    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
+}
+
+/// The journals' folder in the work directory.
+const JOURNALS: &str = "periodic";
+
+/// Computes branch `index` into its journal at `path` (replacing what was there), returning the
+/// journal.
+fn compute(
+    sweep: &Sweep,
+    grid: &Grid,
+    spec: &PeriodicSpec,
+    index: usize,
+    path: &Path,
+    identity: &str,
+) -> Result<Journal> {
+    let io = |e: std::io::Error| Error::Other(format!("{}: {e}", path.display()));
+    let mut file = OpenOptions::new()
+        .create(true)
+        .write(true)
+        .truncate(true)
+        .open(path)
+        .map_err(io)?;
+    let mut write = |entry: &Entry| -> Result<()> {
+        file.write_all(line_of(entry).as_bytes()).map_err(io)?;
+        file.sync_data().map_err(io)
+    };
+    write(&Entry::Identity {
+        hash: identity.to_string(),
+    })?;
+    let point = grid.point_value(sweep, index);
+    let from = spec.start(&point)?;
+    let scene_at = |p: f64| {
+        spec.scene_at(&point, p).map_err(|e| match e {
+            Error::Input { field, message, .. } => {
+                chainsweep_solver::spec::spec_err(&field, message)
+            }
+            other => chainsweep_solver::spec::spec_err("periodic", other.to_string()),
+        })
+    };
+    let mut journal = Journal::default();
+    let mut failure: Option<Error> = None;
+    let outcome = continue_branch(&scene_at, from, &spec.orbit, &spec.branch, &mut |p| {
+        if failure.is_some() {
+            return;
+        }
+        let entry = orbit_entry(spec, &point, p);
+        if let Err(e) = write(&entry) {
+            failure = Some(e);
+        }
+        journal.points.push(entry);
+    });
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    let end = match outcome {
+        Ok(branch) => Entry::End {
+            end: branch.end,
+            warnings: branch.warnings,
+            maps: branch.maps,
+        },
+        Err(e) => Entry::Failed {
+            reason: e.to_string(),
+        },
+    };
+    write(&end)?;
+    journal.end = Some(end);
+    Ok(journal)
+}
+
+/// The journal entry of an accepted orbit: the point and the run of two orbit periods from it.
+fn orbit_entry(spec: &PeriodicSpec, point: &serde_json::Value, p: &BranchPoint) -> Entry {
+    let run = spec
+        .scene_at(point, p.parameter)
+        .map_err(|e| e.to_string())
+        .and_then(|scene| {
+            let map = PeriodMap::new(&scene, &spec.orbit).map_err(|e| e.to_string())?;
+            map.orbit_run(&scene, &p.orbit.state)
+                .map_err(|e| e.to_string())
+        });
+    match run {
+        Ok(out) => Entry::Point {
+            point: Box::new(p.clone()),
+            probes: out.steady_state.map(|s| s.probes),
+            max: Some(out.probes.iter().map(|s| s.record_max).collect()),
+            run_error: None,
+        },
+        Err(e) => Entry::Point {
+            point: Box::new(p.clone()),
+            probes: None,
+            max: None,
+            run_error: Some(e),
+        },
+    }
+}
+
+/// Runs (or resumes) `sweep`'s branches into `opts.output`.
+pub fn run_periodic(
+    sweep: &Sweep,
+    grid: &Grid,
+    opts: &RunOptions,
+    sink: &mut dyn ProgressSink,
+    stop: &AtomicBool,
+) -> Result<RunReport> {
+    let spec = sweep.periodic.as_ref().expect("a periodic sweep");
+    check_output(&opts.output, opts.overwrite)?;
+    if opts.shard.is_some() {
+        return Err(Error::input(
+            "--shard",
+            "a sweep with a `periodic` block runs its branches on one machine (each is sequential); leave out --shard",
+        ));
+    }
+    let (_lock, dir) = lock_work_dir(&opts.output, JOURNALS)?;
+    let n = grid.len();
+    let identities: Vec<String> = (0..n).map(|i| identity(sweep, grid, i)).collect();
+    let path = |i: usize| dir.join(format!("{i}.log"));
+    let mut journals: Vec<Option<Journal>> = (0..n)
+        .map(|i| read_journal(&path(i), &identities[i]).filter(|j| j.end.is_some()))
+        .collect();
+    let done = journals.iter().filter(|j| j.is_some()).count();
+    let failed_before = journals
+        .iter()
+        .filter(|j| {
+            matches!(
+                j,
+                Some(Journal {
+                    end: Some(Entry::Failed { .. }),
+                    ..
+                })
+            )
+        })
+        .count();
+    sink.started(&Start {
+        total: n,
+        done,
+        failed: failed_before,
+        points: n,
+        resumed_points: done,
+        output: &opts.output,
+    });
+    let todo: Vec<usize> = (0..n).filter(|&i| journals[i].is_none()).collect();
+    let pool = thread_pool(opts.jobs.min(todo.len()).max(1))?;
+    // The branches run on the pool; their progress comes back here, to the sink.
+    let (tx, rx) = std::sync::mpsc::channel::<bool>();
+    let (todo_ref, pool_ref, path_ref, ids) = (&todo, &pool, &path, &identities);
+    let computed: Vec<(usize, Result<Journal>)> = std::thread::scope(|scope| {
+        let worker = scope.spawn(move || {
+            let (todo, pool, path, identities) = (todo_ref, pool_ref, path_ref, ids);
+            pool.install(|| {
+                todo.par_iter()
+                    .filter_map(|&i| {
+                        if stop.load(Ordering::Relaxed) {
+                            return None;
+                        }
+                        let r = compute(sweep, grid, spec, i, &path(i), &identities[i]);
+                        let ended = matches!(
+                            &r,
+                            Ok(Journal {
+                                end: Some(Entry::End { .. }),
+                                ..
+                            })
+                        );
+                        let _ = tx.send(!ended);
+                        Some((i, r))
+                    })
+                    .collect()
+            })
+        });
+        for failed in rx {
+            sink.run_finished(failed);
+        }
+        worker.join().expect("the branches' thread")
+    });
+    let ran = computed.len();
+    for (i, r) in computed {
+        journals[i] = Some(r?);
+    }
+    sink.runs_ended();
+    let stopped = journals.iter().any(Option::is_none);
+    let harmonics = sweep_harmonics(sweep);
+    let branches: Vec<StoredBranch> = journals
+        .iter()
+        .map(|j| stored_branch(j.as_ref(), grid.probes.len(), harmonics))
+        .collect();
+    let particles = branches
+        .iter()
+        .flat_map(|b| b.points.first())
+        .map(|p| p.position_m.len())
+        .max()
+        .unwrap_or(0);
+    let multipliers = branches
+        .iter()
+        .flat_map(|b| b.points.first())
+        .map(|p| p.multipliers.len())
+        .max()
+        .unwrap_or(0);
+    let description = spec.describe();
+    let tables = PeriodicTables {
+        name: &spec.name,
+        field: &spec.field,
+        units: &spec.units,
+        description,
+        particles: particles.max(1),
+        multipliers,
+        harmonics,
+        branches: &branches,
+    };
+    // Left as it is when nothing was computed and it reads back as this sweep's; else written
+    // whole, to a temporary file renamed over it.
+    let intact = ran == 0
+        && read_summary(&opts.output).is_ok_and(|s| s.is_some_and(|s| s.len() == n))
+        && crate::store::hdf5::periodic::check_every_dataset(&opts.output).is_ok()
+        && crate::store::hdf5::read_sweep_text(&opts.output).is_ok_and(|t| t == sweep.text);
+    if !intact {
+        let tmp = dir.join("output.h5.tmp");
+        let _ = fs::remove_file(&tmp);
+        write_file(&tmp, sweep, grid, &Provenance::of_this_process(), &tables)?;
+        fs::rename(&tmp, &opts.output)
+            .map_err(|e| Error::Other(format!("{}: {e}", opts.output.display())))?;
+    }
+
+    let mut counts = Counts::default();
+    let mut failures = Vec::new();
+    for (i, b) in branches.iter().enumerate() {
+        match b.status {
+            BRANCH_OK => counts.ok += 1,
+            BRANCH_FAILED => {
+                counts.failed += 1;
+                failures.push(Failure {
+                    point: i,
+                    reason: Some(b.end.clone()),
+                });
+            }
+            _ => counts.pending += 1,
+        }
+    }
+    Ok(RunReport {
+        points: n,
+        counts,
+        failed: counts.failed,
+        failures,
+        verification: VerificationReport::default(),
+        stopped,
+        ran,
+        damage: DamageReport {
+            output: opts.output.clone(),
+            ..DamageReport::default()
+        },
+        unpassed: Vec::new(),
+        unsettled: Vec::new(),
+        health: Health {
+            failed: counts.failed,
+            ..Health::default()
+        },
+        nothing_to_do: intact,
+        search: None,
+    })
+}
+
+/// Harmonics analysed per probe: the record block's `steady_state.harmonics`, else its default.
+fn sweep_harmonics(sweep: &Sweep) -> usize {
+    sweep
+        .base
+        .pointer("/record/steady_state/harmonics")
+        .and_then(serde_json::Value::as_u64)
+        .unwrap_or(3) as usize
+}
+
+/// A journal as stored (`None`: pending).
+fn stored_branch(j: Option<&Journal>, probes: usize, harmonics: usize) -> StoredBranch {
+    let Some(j) = j else {
+        return StoredBranch {
+            status: BRANCH_PENDING,
+            end: "not computed yet (the run was stopped)".to_string(),
+            maps: -1,
+            points: Vec::new(),
+        };
+    };
+    let points = j
+        .points
+        .iter()
+        .filter_map(|e| match e {
+            Entry::Point {
+                point,
+                probes: steady,
+                max,
+                ..
+            } => Some(stored_point(
+                point,
+                steady.as_deref(),
+                max.as_deref(),
+                probes,
+                harmonics,
+            )),
+            _ => None,
+        })
+        .collect();
+    let (status, end, maps) = match &j.end {
+        Some(Entry::End {
+            end,
+            warnings,
+            maps,
+        }) => {
+            let end = if warnings.is_empty() {
+                end.clone()
+            } else {
+                format!("{end} ({})", warnings.join("; "))
+            };
+            (BRANCH_OK, end, *maps as i64)
+        }
+        Some(Entry::Failed { reason }) => (BRANCH_FAILED, reason.clone(), -1),
+        _ => (BRANCH_PENDING, String::new(), -1),
+    };
+    StoredBranch {
+        status,
+        end,
+        maps,
+        points,
+    }
+}
+
+fn stored_point(
+    p: &BranchPoint,
+    steady: Option<&[SteadyProbe]>,
+    max: Option<&[f64]>,
+    probes: usize,
+    harmonics: usize,
+) -> StoredPoint {
+    let o = &p.orbit;
+    let n = o.state.len() / 2;
+    let mut s = StoredPoint {
+        parameter: p.parameter,
+        kind: 1 + p.kind.code(),
+        stability: if o.stable() { 1 } else { 2 },
+        largest_multiplier: o.largest_multiplier(),
+        multipliers: o.multipliers.clone(),
+        position_m: o.state[..n].to_vec(),
+        velocity_m_s: o.state[n..2 * n].to_vec(),
+        arclength: p.arclength,
+        iterations: i64::from(o.iterations),
+        maps: i64::from(o.maps),
+        method: match o.method {
+            Monodromy::FiniteDifference => 2,
+            _ => 1,
+        },
+        residual: o.residual,
+        amplitude: vec![f64::NAN; probes * harmonics],
+        phase_rad: vec![f64::NAN; probes * harmonics],
+        mean: vec![f64::NAN; probes],
+        rms: vec![f64::NAN; probes],
+        max: max.map_or(vec![f64::NAN; probes], <[f64]>::to_vec),
+        settledness: vec![f64::NAN; probes],
+    };
+    if let Some(steady) = steady {
+        for (i, q) in steady.iter().enumerate().take(probes) {
+            for k in 0..harmonics.min(q.amplitude.len()) {
+                s.amplitude[i * harmonics + k] = q.amplitude[k];
+                s.phase_rad[i * harmonics + k] = q.phase_rad[k];
+            }
+            s.mean[i] = q.mean;
+            s.rms[i] = q.rms;
+            s.settledness[i] = q.settledness;
+        }
+    }
+    s
+}
+
+/// What `run --dry-run` says of a periodic sweep before anything runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeriodicDryRun {
+    /// Branches in all (grid points).
+    pub branches: usize,
+    /// Of them, those whose journal has ended (not computed again).
+    pub ended: usize,
+    /// Most points of a branch.
+    pub max_points: u32,
+    /// The first branch's start and the end of every branch.
+    pub from: f64,
+    /// The end of the range.
+    pub to: f64,
+    /// How the first orbit's monodromy was computed.
+    pub monodromy: &'static str,
+    /// CPU seconds of one period map with its monodromy and of one without, at the first
+    /// branch's start (a pilot).
+    pub seconds_per_map: (f64, f64),
+    /// CPU seconds of settling the first guess (`settle_periods` drive periods).
+    pub settle_seconds: f64,
+    /// At most this many CPU seconds for the branches still to compute, were each to reach
+    /// `max_points` (a branch usually ends with far fewer: at the end of its range).
+    pub most_cpu_seconds: f64,
+}
+
+/// Period maps a point of a branch costs with its monodromy and without: two Newton iterations
+/// (each a map with the monodromy and one at the shifted parameter) and the two orbit periods
+/// of its run.
+const MAPS_PER_POINT: (f64, f64) = (2.0, 4.0);
+
+/// The budget of `sweep`'s branches into `output`, from a pilot at the first branch's start.
+pub fn dry_run(sweep: &Sweep, grid: &Grid, output: &Path) -> Result<PeriodicDryRun> {
+    let spec = sweep.periodic.as_ref().expect("a periodic sweep");
+    let n = grid.len();
+    let dir = crate::store::work_dir_of(output).join(JOURNALS);
+    let ended = (0..n)
+        .filter(|&i| {
+            read_journal(&dir.join(format!("{i}.log")), &identity(sweep, grid, i))
+                .is_some_and(|j| j.end.is_some())
+        })
+        .count();
+    let point = grid.point_value(sweep, 0);
+    let from = spec.start(&point)?;
+    let scene = spec.scene_at(&point, from)?;
+    let map = PeriodMap::new(&scene, &spec.orbit).map_err(|e| Error::input(e.field, e.message))?;
+    let started = std::time::Instant::now();
+    let settled =
+        PeriodMap::settle(&scene, map.drive_hz(), spec.orbit.settle_periods).map_err(|e| {
+            Error::input(
+                "periodic",
+                format!("settling the first orbit at {from}: {e}"),
+            )
+        })?;
+    let settle_seconds = started.elapsed().as_secs_f64();
+    let started = std::time::Instant::now();
+    let with = map
+        .map(&settled, true)
+        .map_err(|e| Error::input("periodic", format!("the first period map at {from}: {e}")))?;
+    let mono = started.elapsed().as_secs_f64();
+    let started = std::time::Instant::now();
+    map.map(&settled, false)
+        .map_err(|e| Error::input("periodic", format!("the first period map at {from}: {e}")))?;
+    let plain = started.elapsed().as_secs_f64();
+    let per_point = MAPS_PER_POINT.0 * mono + MAPS_PER_POINT.1 * plain;
+    let most =
+        (n - ended) as f64 * (settle_seconds + f64::from(spec.branch.max_points) * per_point);
+    Ok(PeriodicDryRun {
+        branches: n,
+        ended,
+        max_points: spec.branch.max_points,
+        from,
+        to: spec.branch.to,
+        monodromy: with.method.name(),
+        seconds_per_map: (mono, plain),
+        settle_seconds,
+        most_cpu_seconds: most,
+    })
+}
+
+/// What `status` says of a periodic sweep's output file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeriodicStatus {
+    /// Per branch (grid point): its state (`pending`, `ended`, `failed`), its points, its special
+    /// points `(kind, value of the continued field)`, and why it ended.
+    pub branches: Vec<BranchLine>,
+    /// Ended, failed and pending branches.
+    pub counts: Counts,
+    /// What is damaged in the file, if anything (a dataset failing its checksum).
+    pub damage: Option<String>,
+}
+
+/// One branch as `status` lists it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BranchLine {
+    /// `pending`, `ended` or `failed`.
+    pub state: &'static str,
+    /// Points of the branch.
+    pub points: i64,
+    /// Its special points: `(kind, value of the continued field)`.
+    pub special: Vec<(&'static str, f64)>,
+    /// Why it ended.
+    pub end: String,
+}
+
+/// The status of the periodic sweep's output file `path`; `None` for a file of another kind.
+pub fn status_of_file(path: &Path) -> Result<Option<PeriodicStatus>> {
+    let Some(summary) = read_summary(path)? else {
+        return Ok(None);
+    };
+    let damage = crate::store::hdf5::periodic::check_every_dataset(path)
+        .err()
+        .map(|e| e.to_string());
+    let values = crate::store::hdf5::periodic::read_parameter(path).unwrap_or_default();
+    let mut counts = Counts::default();
+    let per = if summary.is_empty() {
+        0
+    } else {
+        values.len() / summary.len()
+    };
+    let branches = summary
+        .into_iter()
+        .enumerate()
+        .map(|(b, (status, points, kinds, end))| {
+            let state = match status {
+                BRANCH_OK => {
+                    counts.ok += 1;
+                    "ended"
+                }
+                BRANCH_FAILED => {
+                    counts.failed += 1;
+                    "failed"
+                }
+                _ => {
+                    counts.pending += 1;
+                    "pending"
+                }
+            };
+            let special = kinds
+                .iter()
+                .enumerate()
+                .filter(|(_, &k)| k >= 4)
+                .map(|(k, &flag)| {
+                    (
+                        crate::store::hdf5::periodic::kind_name(flag),
+                        values.get(b * per + k).copied().unwrap_or(f64::NAN),
+                    )
+                })
+                .collect();
+            BranchLine {
+                state,
+                points,
+                special,
+                end,
+            }
+        })
+        .collect();
+    Ok(Some(PeriodicStatus {
+        branches,
+        counts,
+        damage,
+    }))
+}
