@@ -186,6 +186,7 @@ bench: venv python $(VENV)/.bench-stamp
 	$(PY) scripts/bench_call.py
 	$(PY) scripts/bench_fit.py --whole-runs
 	$(PY) scripts/bench_ensemble.py
+	$(PY) scripts/bench_periodic.py
 	$(PY) scripts/bench_numba_lsoda.py --base-bin $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/bench-base/release/chainsweep
 
 # The Fig. 8 sweep against numba + numbalsoda LSODA (scripts/bench_numba_lsoda.py): numba and
@@ -233,7 +234,7 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 # profiles; the ensembles' distribution and Sobol' indices. About a minute and a half on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum \
-  plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down \
+  plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down driven-branches \
   dimer-transmission load-cell-impact fit-damping fit-striker-velocity fit-signal fit-spectrum \
   ensemble-tolerance ensemble-tolerance-monte-carlo ensemble-sensitivity
 

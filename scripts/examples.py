@@ -427,6 +427,56 @@ def driven_sweep_up_down():
         savefig(fig, "examples/driven-sweep-up-down")
 
 
+def driven_branches():
+    """The frequency response of the chain of driven-sweep-up-down as branches of periodic
+    orbits (the largest wall force over an orbit, per unit stroke): stable orbits solid, unstable
+    dashed, folds marked, with the slow chirps' envelopes upwards and downwards beneath (thin),
+    one panel per stroke."""
+    ds = chainsweep.open(EXAMPLES / "driven-branches.h5")
+    chirps = EXAMPLES / "driven-sweep-up-down.h5"
+    up_down = chainsweep.open(chirps, histories=True) if chirps.exists() else None
+    strokes = ds["amplitude_m"].values
+    fig, axes = plt.subplots(1, len(strokes), figsize=(4.2 * len(strokes), 4.2), sharey=True)
+    for ax, stroke in zip(np.atleast_1d(axes), strokes):
+        b = ds.sel(amplitude_m=stroke)
+        n = int(b["branch_points"])
+        f = b["frequency_hz"].values[:n] / 1e3
+        force = b["orbit_max"].values[:n, 0] / stroke / 1e6
+        stable = b["stability"].values[:n] == 1
+        if up_down is not None:
+            t = up_down["time_s"].values
+            duration = float(t[-1])
+            for start, colour in zip(up_down["start_hz"].values, ("0.55", "0.75")):
+                end = float(up_down["end_hz"].sel(start_hz=start))
+                chirp = up_down["history"].sel(amplitude_m=stroke, start_hz=start).values[0]
+                w = 60
+                k = len(chirp) // w
+                envelope = np.abs(chirp[: k * w]).reshape(k, w).max(axis=1)
+                centre = (start + (end - start) * t / duration)[: k * w].reshape(k, w).mean(axis=1)
+                label = "slow chirp " + ("upwards" if end > start else "downwards")
+                ax.plot(centre / 1e3, envelope / stroke / 1e6, color=colour, lw=0.8, label=label)
+        # Runs of equal stability, each drawn solid (stable) or dashed (unstable), joined.
+        edges = np.flatnonzero(np.diff(stable.astype(int))) + 1
+        for lo, hi in zip(np.r_[0, edges], np.r_[edges, n]):
+            seg = slice(lo, min(hi + 1, n))
+            ax.plot(f[seg], force[seg], color="C0", lw=1.6, ls="-" if stable[lo] else "--",
+                    label=None)
+        ax.plot([], [], color="C0", lw=1.6, label="stable orbits")
+        ax.plot([], [], color="C0", lw=1.6, ls="--", label="unstable orbits")
+        folds = b["point_kind"].values[:n] == 4
+        if folds.any():
+            ax.plot(f[folds], force[folds], "o", color="C3", ms=4, label="folds")
+        ax.set_xlabel("drive frequency (kHz)")
+        ax.set_title(f"stroke {stroke * 1e9:g} nm", fontsize=9)
+        ax.grid(alpha=0.3)
+    np.atleast_1d(axes)[0].set_ylabel("largest wall force / stroke (N/µm)")
+    np.atleast_1d(axes)[-1].legend(fontsize=7)
+    fig.suptitle("8 spheres between two walls under 2 N, shaken harmonically from the top",
+                 fontsize=10)
+    fig.tight_layout()
+    savefig(fig, "examples/driven-branches")
+
+
 def dimer_transmission():
     """The transmission through a precompressed sphere–cylinder dimer from its steady state, against
     the drive frequency, one panel per precompression, with the band gap record.spectrum gives
@@ -601,6 +651,7 @@ PLOTS = {
     "colliding-waves": colliding_waves,
     "between-walls": between_walls,
     "driven-sweep-up-down": driven_sweep_up_down,
+    "driven-branches": driven_branches,
     "dimer-transmission": dimer_transmission,
     "load-cell-impact": load_cell_impact,
     **{n: (lambda n=n: fit_figure(n)) for n in ("fit-damping", "fit-striker-velocity", "fit-signal", "fit-spectrum")},

@@ -692,6 +692,32 @@ def _join_units(data: dict[str, Any], grid: "_Grid") -> None:
             data[name] = (dims, values, L.probe_attrs(grid.probe_units, long_name, name))
 
 
+def _is_periodic(path: str) -> bool:
+    """LAYOUT: whether the file is a periodic sweep's (its root attribute ``periodic``)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return "periodic" in f.attrs
+    except Exception:  # noqa: BLE001 (unreadable: the engine's check says what is wrong)
+        return False
+
+
+def _open_periodic(path: str) -> xr.Dataset:
+    """A periodic sweep's file, every dataset read with HDF5's checks on, then by xarray."""
+    with h5py.File(path, "r") as f:
+        for name, obj in f.items():
+            if isinstance(obj, h5py.Dataset) and obj.size and not _dimension_only(obj):
+                try:
+                    obj[()]
+                except OSError as e:
+                    raise DamagedFileError(
+                        path,
+                        f"{path}: {name} fails its checksum ({e}). " + _REPAIR.format(path=path),
+                        [],
+                    ) from e
+    with xr.open_dataset(path, engine="h5netcdf") as ds:
+        return ds.load()
+
+
 def open(  # noqa: A001 (chainsweep.open)
     path: PathLike, histories: bool | str = False, damaged: str = "raise"
 ) -> xr.Dataset:
@@ -757,6 +783,16 @@ def _open_file(
     layout 4 and earlier, a group per run: do not compute it while iterating an h5py group, ``for
     g in f["runs"].values()``, whose lock the threads that read the blocks wait for.)
 
+    The file of a sweep with a ``periodic`` block (branches of periodic orbits) is read as it is
+    stored: over the axes and ``branch_point``, the continued field (a coordinate named as the
+    block names it), ``point_kind``, ``stability``, ``largest_multiplier``, the multipliers (over
+    ``multiplier``), the orbit's state (over ``particle``) and each probe's ``orbit_amplitude``,
+    ``orbit_phase_rad`` (over ``harmonic``), ``orbit_mean``, ``orbit_rms``, ``orbit_max``,
+    ``orbit_settledness``; over the axes ``branch_status``, ``branch_points``, ``branch_end``
+    (docs/PERIODIC.md). Every chunk is checked (Fletcher-32) as it is read: a damaged one raises
+    :class:`DamagedFileError` whatever ``damaged`` says (``chainsweep run`` writes the file again
+    from its journals).
+
     Every value is first checked against the checksums the file stores (histories too with
     ``histories=True``; the minimum overlaps and the energy flow, which share the histories'
     checksum, always where the file holds no histories or fields). A damaged point raises :class:`DamagedFileError`, naming each damaged
@@ -768,6 +804,8 @@ def _open_file(
     fspath = os.fspath(path)
     if histories not in (True, False, "lazy"):
         raise InputError("histories", f'must be True, False or "lazy", got {histories!r}')
+    if _is_periodic(fspath):
+        return _open_periodic(fspath)
     # The minimum overlaps and the energy flow, read whatever `histories` says, share the runs'
     # arrays' checksum: it is checked for them too where that reads no histories or fields (a
     # few numbers per run; checking them beside histories would read every history).

@@ -168,7 +168,7 @@ pub(super) fn parse_dims(
     if axes.is_empty() && !search {
         return Err(vec![Error::input(
             "axes",
-            "at least one axis is required (a single run is an axis with one value), unless the sweep has a `search` or an `ensemble`",
+            "at least one axis is required (a single run is an axis with one value), unless the sweep has a `search`, an `ensemble` or a `periodic` block",
         )]);
     }
     let mut dims = Vec::new();

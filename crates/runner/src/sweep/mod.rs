@@ -523,7 +523,7 @@ impl Sweep {
             file.axes,
             &base,
             auto.is_some(),
-            file.search.is_some() || file.ensemble.is_some(),
+            file.search.is_some() || file.ensemble.is_some() || file.periodic.is_some(),
             false,
         )
         .map_err(first)?;

@@ -5,7 +5,7 @@
 use serde::Deserialize;
 use serde_json::Value;
 
-use chainsweep_solver::periodic::{BranchOptions, Monodromy, PeriodicOptions};
+use chainsweep_solver::periodic::{BranchOptions, Monodromy, PeriodMap, PeriodicOptions};
 use chainsweep_solver::Scene;
 
 use super::paths::{check_settable, field_name, from_value_at, lookup, set_path, units_of};
@@ -179,5 +179,16 @@ pub(super) fn parse(
     spec.branch
         .validate(from)
         .map_err(|e| Error::input(e.field, e.message))?;
+    // The drive a periodic orbit needs (harmonic), elastic contacts: refused before anything
+    // runs, naming the field.
+    let scene = spec.scene_at(base, from)?;
+    PeriodMap::new(&scene, &orbit).map_err(|e| {
+        let field = if e.field.starts_with("periodic") {
+            e.field
+        } else {
+            format!("base.{}", e.field)
+        };
+        Error::input(field, e.message)
+    })?;
     Ok(Some(spec))
 }

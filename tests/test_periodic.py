@@ -1,0 +1,215 @@
+"""A sweep file's `periodic` block: at every point of the axes a branch of periodic orbits of the
+driven chain, continued in the drive's frequency. The branch of a tiny stroke is the linear
+resonance (its peak at the linear spectrum's first frequency); a large stroke folds twice, the
+orbits between the folds unstable, each orbit periodic (its two periods agree); the file reads
+in xarray and `chainsweep.open` exactly as labelled; a killed run resumes bitwise, a damaged
+journal is computed again and a damaged output is written again, never served; `status` and
+`run --dry-run` say where it stands; bad blocks exit 2 naming the field."""
+
+import copy
+import json
+import signal
+import subprocess
+import time
+
+import h5py
+import numpy as np
+import pytest
+import xarray as xr
+
+import chainsweep
+from conftest import BIN, REPO, assert_files_equal, run
+
+EXAMPLE = REPO / "sweeps" / "examples" / "driven-branches.json"
+
+
+def example(strokes=(1e-10, 6e-8)):
+    s = json.loads(EXAMPLE.read_text())
+    s["axes"][0]["values"] = list(strokes)
+    return s
+
+
+def write(path, sweep):
+    path.write_text(json.dumps(sweep, indent=2))
+    return path
+
+
+@pytest.fixture(scope="module")
+def branches(tmp_path_factory):
+    d = tmp_path_factory.mktemp("periodic")
+    path = write(d / "branches.json", example())
+    out = d / "branches.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    return path, out
+
+
+def test_the_file_reads_in_xarray_as_labelled(branches):
+    _, out = branches
+    ds = xr.open_dataset(out, engine="h5netcdf")
+    assert ds["frequency_hz"].dims == ("amplitude_m", "branch_point")
+    assert ds["frequency_hz"].attrs["units"] == "Hz"
+    assert ds["frequency_hz"].attrs["field"] == "excitation.drive.actuator_m.harmonic.frequency_hz"
+    assert ds["orbit_amplitude"].dims == ("amplitude_m", "branch_point", "probe", "harmonic")
+    assert ds["orbit_amplitude"].attrs["units"] == "N"
+    assert list(ds["harmonic"].values) == [1, 2, 3]
+    assert ds["multiplier_real"].sizes["multiplier"] == 16  # 8 particles: positions, velocities
+    assert ds["point_kind"].attrs["flag_meanings"].split()[4] == "fold"
+    assert ds["stability"].attrs["flag_meanings"] == "none stable unstable"
+    assert [str(x) for x in ds["probe"].values] == ["wall_force"]
+    opened = chainsweep.open(out)
+    for name in ds.data_vars:
+        np.testing.assert_array_equal(opened[name].values, ds[name].values)
+
+
+def test_a_tiny_stroke_s_branch_peaks_at_the_linear_first_frequency(branches):
+    path, out = branches
+    ds = chainsweep.open(out).sel(amplitude_m=1e-10)
+    n = int(ds["branch_points"])
+    f = ds["frequency_hz"].values[:n]
+    amplitude = ds["orbit_amplitude"].values[:n, 0, 0]
+    # The continuation moves the frequency forwards only: no fold in a linear response.
+    assert np.all(np.diff(f) > 0)
+    assert f[0] == 2900.0 and f[-1] == 3500.0
+    assert not np.any(ds["point_kind"].values[:n] >= 4)
+    assert np.all(ds["stability"].values[:n] == 1)
+    base = json.loads(path.read_text())["base"]
+    linear = chainsweep.spectrum(base)["frequency_hz"][0]
+    # The peak of the discrete curve lies within a step of the damped resonance, which the light
+    # damping (3 kg/s) puts within 0.1 % of the undamped first frequency.
+    peak = f[np.argmax(amplitude)]
+    steps = np.diff(f)[max(np.argmax(amplitude) - 1, 0):np.argmax(amplitude) + 1].max()
+    assert abs(peak - linear) <= steps + 1e-3 * linear, (peak, linear, steps)
+
+
+def test_a_large_stroke_folds_twice_unstable_between_and_every_orbit_is_periodic(branches):
+    _, out = branches
+    ds = chainsweep.open(out).sel(amplitude_m=6e-8)
+    n = int(ds["branch_points"])
+    kind = ds["point_kind"].values[:n]
+    f = ds["frequency_hz"].values[:n]
+    folds = np.flatnonzero(kind == 4)
+    assert len(folds) == 2, kind
+    upper, lower = f[folds]
+    # A stiffening resonance: the branch turns back at the upper fold and forward at the lower.
+    assert upper > lower
+    assert np.all(np.diff(f[: folds[0] + 1]) > 0) and np.all(np.diff(f[folds[0]: folds[1] + 1]) < 0)
+    stable = ds["stability"].values[:n]
+    regular = (kind == 1)
+    between = np.zeros(n, bool)
+    between[folds[0] + 1: folds[1]] = True
+    assert np.all(stable[regular & between] == 2)
+    assert np.all(stable[regular & ~between] == 1)
+    # At a fold a multiplier is 1.
+    assert np.allclose(ds["largest_multiplier"].values[:n][folds], 1.0, atol=1e-2)
+    # The two periods of each orbit's run agree: periodic to the tolerance.
+    assert np.nanmax(ds["orbit_settledness"].values[:n]) < 1e-6
+    assert (ds["branch_end"].values == "reached the end of the range at 3500").all()
+
+
+def test_status_and_dry_run_say_where_it_stands(branches, tmp_path):
+    path, out = branches
+    r = run("status", out)
+    assert r.returncode == 0, r.stderr
+    assert "2 branch(es) of periodic orbits: 2 ended, 0 failed, 0 pending" in r.stdout
+    assert "fold at 3357.08" in r.stdout
+    r = run("status", out, "--json")
+    s = json.loads(r.stdout)
+    assert s["kind"] == "status_periodic" and s["counts"]["ok"] == 2
+    assert [k["kind"] for k in s["branches"][1]["special"]] == ["fold", "fold"]
+    r = run("run", path, "-o", tmp_path / "new.h5", "--dry-run")
+    assert r.returncode == 0, r.stderr
+    assert "branches: 2 (one per grid point), 0 ended already" in r.stdout
+    assert "with its monodromy (variational)" in r.stdout
+    assert not (tmp_path / "new.h5").exists()
+    r = run("status", path, "-o", tmp_path / "new.h5")
+    assert r.returncode == 3 and "not run yet" in r.stdout
+
+
+def test_a_killed_run_resumes_bitwise_and_a_damaged_journal_is_computed_again(branches, tmp_path):
+    path, reference = branches
+    out = tmp_path / "killed.h5"
+    journals = tmp_path / "killed.h5.d" / "periodic"
+    p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", "1", "--quiet"])
+    deadline = time.monotonic() + 60
+    # Killed once the first branch's journal holds a few orbits, before the end.
+    while time.monotonic() < deadline and p.poll() is None:
+        logs = list(journals.glob("*.log")) if journals.exists() else []
+        if any(len(f.read_bytes().splitlines()) > 5 for f in logs):
+            break
+        time.sleep(0.002)
+    assert p.poll() is None, "the run ended before it could be killed"
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    assert not out.exists()
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(reference, out)
+    # A flipped byte in the middle of an ended journal: that branch is computed again, the
+    # output the same bits.
+    log = journals / "1.log"
+    data = bytearray(log.read_bytes())
+    data[len(data) // 2] ^= 0x20
+    log.write_bytes(bytes(data))
+    r = run("run", path, "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert "1 of 2 runs already done" in r.stderr
+    assert_files_equal(reference, out)
+
+
+def test_a_damaged_output_is_reported_never_served_and_written_again(branches, tmp_path):
+    path, reference = branches
+    out = tmp_path / "damaged.h5"
+    assert run("run", path, "-o", out, "--quiet").returncode == 0
+    with h5py.File(out, "r") as f:
+        offset = f["largest_multiplier"].id.get_offset()
+        assert offset is None or offset > 0
+        chunk = f["largest_multiplier"].id.get_chunk_info(0)
+    data = bytearray(out.read_bytes())
+    data[chunk.byte_offset + 5] ^= 0x01
+    out.write_bytes(bytes(data))
+    with pytest.raises(chainsweep.DamagedFileError, match="largest_multiplier"):
+        chainsweep.open(out)
+    r = run("status", out)
+    assert r.returncode == 3 and "damaged" in r.stdout, r.stdout
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(reference, out)
+
+
+def chirp(s):
+    """The drive a chirp (no single period), its start frequency continued."""
+    s["base"]["excitation"]["drive"]["actuator_m"] = {
+        "chirp": {"amplitude": 1e-9, "start_hz": 2900.0, "end_hz": 3000.0, "duration_s": 0.02}
+    }
+    s["periodic"]["field"] = "excitation.drive.actuator_m.chirp.start_hz"
+
+
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        (lambda s: s["periodic"].update(to=2900.0), "periodic.to"),
+        (lambda s: s["periodic"].update(periods=0), "periodic.periods"),
+        (lambda s: s["periodic"].update(field="physics.no_such_field"), "periodic.field"),
+        (lambda s: s["periodic"].update(bogus=1), "periodic"),
+        (lambda s: s["axes"].append({"field": s["periodic"]["field"], "values": [3000.0]}),
+         "periodic.field"),
+        (lambda s: s.update(continuation={"axis": "amplitude_m"}), "periodic"),
+        (lambda s: chirp(s), "base.excitation.drive.actuator_m"),
+    ],
+)
+def test_bad_periodic_blocks_exit_2_naming_the_field(tmp_path, change, field):
+    s = copy.deepcopy(example())
+    change(s)
+    path = write(tmp_path / "bad.json", s)
+    r = run("validate", path)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"`{field}" in r.stderr, r.stderr
+    r = run("run", path, "-o", tmp_path / "bad.h5", "--quiet")
+    assert r.returncode == 2 and not (tmp_path / "bad.h5").exists()
+
+
+def test_shards_are_refused(tmp_path):
+    path = write(tmp_path / "s.json", example())
+    r = run("run", path, "-o", tmp_path / "s.h5", "--shard", "1/2", "--quiet")
+    assert r.returncode == 2 and "--shard" in r.stderr, r.stderr
