@@ -10,7 +10,8 @@ use chainsweep_solver::chain::drive::{DriveSpec, Harmonic, Waveform};
 use chainsweep_solver::chain::model::{Chain, PhysicsSpec};
 use chainsweep_solver::chain::sequence::SequenceSpec;
 use chainsweep_solver::periodic::{
-    continue_branch, BranchOptions, Monodromy, PeriodMap, PeriodicOptions, PointKind,
+    continue_branch, continue_period_doubled, period_doubling_vector, BranchOptions, Monodromy,
+    PeriodMap, PeriodicOptions, PointKind,
 };
 use chainsweep_solver::problems::complex::solve;
 use chainsweep_solver::problems::{monodisperse, power_law};
@@ -349,4 +350,181 @@ fn bad_periodic_options_and_scenes_name_the_field() {
     .unwrap_err();
     assert_eq!(e.field, "periodic.to");
     let _ = Chain::build;
+}
+
+/// One 8 mm steel sphere pressed on a steel wall by a static force, damped, driven by a harmonic
+/// force of `amplitude_n` at `frequency_hz`.
+fn bouncer(amplitude_n: f64, frequency_hz: f64) -> Scene {
+    let mut spec: SequenceSpec = monodisperse(1, None, false);
+    spec.wall_material = chainsweep_solver::problems::STEEL;
+    let mut s = Scene::excited(
+        ChainSpec::Sequence(spec),
+        Excitation::Drive(DriveSpec::ForceN(harmonic(amplitude_n, frequency_hz))),
+        1.0,
+    );
+    s.physics = PhysicsSpec {
+        gravity: false,
+        wall: true,
+        damping_kg_s: BOUNCER_DAMPING,
+        precompression_force_n: 10.0,
+        ..PhysicsSpec::default()
+    };
+    s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-11));
+    s
+}
+const BOUNCER_DAMPING: f64 = 0.5;
+
+/// A sphere pressed on a wall (`F₀` = 10 N), lightly damped, shaken by a force of 6 N near twice
+/// its natural frequency `f₀`: the quadratic term of the Hertz force makes the stiffness pump at
+/// the drive's frequency, a parametric resonance whose tongue the branch of single-period orbits
+/// crosses, losing stability at one period doubling and regaining it at another. Continued down
+/// in frequency, the first doubling is supercritical (the Hertz contact softens): the doubled
+/// branch bends into the tongue, stable, its split `x(T) − x(0)` growing as the square root of
+/// the distance from the doubling; time integration inside the tongue settles on it.
+#[test]
+fn a_shaken_sphere_period_doubles_onto_the_doubled_branch_that_time_integration_finds() {
+    let probe = bouncer(6.0, 1.0);
+    let chain = probe.validate().unwrap();
+    let f0 = LinearChain::of(&chain)
+        .unwrap()
+        .spectrum(false)
+        .angular_frequency_rad_s[0]
+        / std::f64::consts::TAU;
+    let scene_at = move |f: f64| Ok(bouncer(6.0, f));
+    let options = PeriodicOptions {
+        settle_periods: 200,
+        tolerance: 1e-9,
+        ..PeriodicOptions::default()
+    };
+    let branch = continue_branch(
+        &scene_at,
+        2.2 * f0,
+        &options,
+        &BranchOptions::new(1.8 * f0),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert!(branch.end.contains("end of the range"), "{}", branch.end);
+    let doublings: Vec<_> = branch
+        .points
+        .iter()
+        .filter(|p| p.kind == PointKind::PeriodDoubling)
+        .collect();
+    assert_eq!(doublings.len(), 2, "{:?}", branch.warnings);
+    let (upper, lower) = (doublings[0], doublings[1]);
+    assert!(upper.parameter > lower.parameter);
+    // The tongue lies about twice f₀ (1.96 f₀ to 2.03 f₀ here, the contact's softening and the
+    // damping shifting it).
+    assert!(upper.parameter < 2.1 * f0 && lower.parameter > 1.9 * f0);
+    let nearest = |p: &chainsweep_solver::periodic::BranchPoint| {
+        p.orbit
+            .multipliers
+            .iter()
+            .map(|m| (m.0 + 1.0).hypot(m.1))
+            .fold(f64::INFINITY, f64::min)
+    };
+    for d in &doublings {
+        assert!(nearest(d) < 1e-6, "{:?}", d.orbit.multipliers);
+    }
+    // Stable outside the tongue, unstable inside (a real multiplier below −1).
+    for p in branch.points.iter().filter(|p| !p.kind.is_special()) {
+        let inside = p.parameter < upper.parameter && p.parameter > lower.parameter;
+        assert_eq!(!p.orbit.stable(), inside, "{} f0", p.parameter / f0);
+    }
+
+    // The eigenvector of the multiplier −1: M v = −v.
+    let scales = &upper.scales()[..2];
+    let v = period_doubling_vector(&upper.orbit, scales).unwrap();
+    let m = &upper.orbit.monodromy;
+    for i in 0..2 {
+        let mv = m[2 * i] * v[0] + m[2 * i + 1] * v[1];
+        assert!((mv + v[i]).abs() < 1e-6 * scales[i], "{mv} {}", v[i]);
+    }
+
+    let mut doubled = Vec::new();
+    let to = upper.parameter - 0.05 * f0;
+    let b = continue_period_doubled(
+        &scene_at,
+        upper,
+        &options,
+        &BranchOptions::new(to),
+        &mut |p| doubled.push(p.clone()),
+    )
+    .unwrap();
+    assert!(b.end.contains("end of the range"), "{}", b.end);
+    // Supercritical: into the tongue, stable, of twice the period (the split x(T) − x(0) not
+    // zero, from T = 1/f: the period-1 map's distance).
+    let single = |f: f64| PeriodMap::new(&bouncer(6.0, f), &options).unwrap();
+    let split = |p: &chainsweep_solver::periodic::BranchPoint| {
+        let map = single(p.parameter);
+        map.scaled_distance(&map.map(&p.orbit.state, false).unwrap().end, &p.orbit.state)
+    };
+    let mut law = Vec::new();
+    for p in &doubled {
+        assert!(p.parameter < upper.parameter, "{} f0", p.parameter / f0);
+        assert!(p.orbit.stable(), "{:?}", p.orbit.multipliers);
+        let s = split(p);
+        assert!(s > 1e-3, "{} f0: split {s}", p.parameter / f0);
+        let distance = (upper.parameter - p.parameter) / f0;
+        if distance > 1e-5 && distance < 3e-3 {
+            law.push((distance.ln(), s.ln()));
+        }
+    }
+    // split ∝ √(p_PD − p): the slope of log split against log distance, by least squares.
+    assert!(law.len() >= 4, "{law:?}");
+    let k = law.len() as f64;
+    let (mx, my) = (
+        law.iter().map(|l| l.0).sum::<f64>() / k,
+        law.iter().map(|l| l.1).sum::<f64>() / k,
+    );
+    let slope = law.iter().map(|l| (l.0 - mx) * (l.1 - my)).sum::<f64>()
+        / law.iter().map(|l| (l.0 - mx).powi(2)).sum::<f64>();
+    println!("slope {slope} over {} points", law.len());
+    assert!((slope - 0.5).abs() < 0.01, "slope {slope}");
+
+    // The other doubling, where the branch leaves the tongue, is subcritical: its doubled
+    // branch bends out of the tongue, unstable (a multiplier above +1).
+    let sub = continue_period_doubled(
+        &scene_at,
+        lower,
+        &options,
+        &BranchOptions::new(lower.parameter - 0.03 * f0),
+        &mut |_| {},
+    )
+    .unwrap();
+    for p in &sub.points {
+        assert!(p.parameter < lower.parameter, "{} f0", p.parameter / f0);
+        assert!(
+            p.orbit.largest_multiplier() > 1.0,
+            "{:?}",
+            p.orbit.multipliers
+        );
+    }
+
+    // Time integration inside the tongue, from rest through the drive's ramp (which leaves the
+    // unstable single-period orbit perturbed), over 8000 periods: it settles on an orbit of
+    // twice the period, the doubled branch's at that frequency (either of its two phases).
+    let target = doubled
+        .iter()
+        .min_by(|a, b| {
+            (a.parameter - 2.01 * f0)
+                .abs()
+                .total_cmp(&(b.parameter - 2.01 * f0).abs())
+        })
+        .unwrap();
+    let f = target.parameter;
+    let map = single(f);
+    let y = PeriodMap::settle(&bouncer(6.0, f), f, 8000).unwrap();
+    let y1 = map.map(&y, false).unwrap().end;
+    let y2 = map.map(&y1, false).unwrap().end;
+    let (d1, d2) = (map.scaled_distance(&y1, &y), map.scaled_distance(&y2, &y));
+    let x = &target.orbit.state;
+    let px = map.map(x, false).unwrap().end;
+    let off = map.scaled_distance(&y, x).min(map.scaled_distance(&y, &px));
+    println!(
+        "at {} f0: x(T) − x(0) {d1:e}, x(2T) − x(0) {d2:e}, off the branch {off:e}",
+        f / f0
+    );
+    assert!(d1 > 1e-2 && d2 < 1e-9, "{d1:e} {d2:e}");
+    assert!(off < 1e-8, "{off:e}");
 }

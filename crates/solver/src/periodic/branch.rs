@@ -167,11 +167,20 @@ pub struct BranchPoint {
     pub tangent_parameter: f64,
     /// Scaled arclength from the start.
     pub arclength: f64,
-    tangent: Vec<f64>,
-    determinant: f64,
+    /// The unit tangent in the scaled unknowns `(x/s, p/s_p)`.
+    pub(super) tangent: Vec<f64>,
+    pub(super) determinant: f64,
+    /// The scales `s` of the orbit components and, last, `s_p` of the parameter.
+    pub(super) scales: Vec<f64>,
 }
 
 impl BranchPoint {
+    /// The scales the continuation weighs the orbit components by (one each) and, last, the
+    /// parameter's: the arclength is measured in `(x/s, p/s_p)`.
+    pub fn scales(&self) -> &[f64] {
+        &self.scales
+    }
+
     /// The test function whose sign change marks a special point of `kind`; `outside` is the
     /// number of multipliers of the kind outside the unit circle on the stable side of the
     /// crossing (see [`dense::crossing_test`]).
@@ -224,34 +233,34 @@ pub struct Branch {
 }
 
 /// A corrected point: the orbit, the scaled unknowns, the scaled `∂P/∂p` column.
-struct Corrected {
-    u: Vec<f64>,
-    orbit: Orbit,
-    column: Vec<f64>,
+pub(super) struct Corrected {
+    pub(super) u: Vec<f64>,
+    pub(super) orbit: Orbit,
+    pub(super) column: Vec<f64>,
 }
 
 /// The state of a continuation.
-struct Continuer<'a> {
-    scene_at: &'a dyn Fn(f64) -> Result<Scene, SpecError>,
-    options: &'a PeriodicOptions,
+pub(super) struct Continuer<'a> {
+    pub(super) scene_at: &'a dyn Fn(f64) -> Result<Scene, SpecError>,
+    pub(super) options: &'a PeriodicOptions,
     /// Scales of the orbit components and of the parameter.
-    scales: Vec<f64>,
-    parameter_scale: f64,
-    maps: u64,
-    stats: IntegrationStats,
+    pub(super) scales: Vec<f64>,
+    pub(super) parameter_scale: f64,
+    pub(super) maps: u64,
+    pub(super) stats: IntegrationStats,
 }
 
 impl Continuer<'_> {
-    fn dim(&self) -> usize {
+    pub(super) fn dim(&self) -> usize {
         self.scales.len()
     }
 
-    fn map_at(&self, p: f64) -> Result<PeriodMap, String> {
+    pub(super) fn map_at(&self, p: f64) -> Result<PeriodMap, String> {
         let scene = (self.scene_at)(p).map_err(|e| format!("at {p}: {e}"))?;
         PeriodMap::new(&scene, self.options).map_err(|e| format!("at {p}: {e}"))
     }
 
-    fn unscale(&self, u: &[f64]) -> (Vec<f64>, f64) {
+    pub(super) fn unscale(&self, u: &[f64]) -> (Vec<f64>, f64) {
         let m = self.dim();
         (
             u[..m]
@@ -263,19 +272,24 @@ impl Continuer<'_> {
         )
     }
 
-    fn scale(&self, x: &[f64], p: f64) -> Vec<f64> {
+    pub(super) fn scale(&self, x: &[f64], p: f64) -> Vec<f64> {
         let mut u: Vec<f64> = x.iter().zip(&self.scales).map(|(x, s)| x / s).collect();
         u.push(p / self.parameter_scale);
         u
     }
 
-    fn count(&mut self, maps: u32, stats: &IntegrationStats) {
+    pub(super) fn count(&mut self, maps: u32, stats: &IntegrationStats) {
         self.maps += u64::from(maps);
         self.stats.add(stats);
     }
 
     /// `∂P/∂p̃ / s`, scaled, by a forward difference from `end = P(x, p)`.
-    fn parameter_column(&mut self, p: f64, x: &[f64], end: &[f64]) -> Result<Vec<f64>, String> {
+    pub(super) fn parameter_column(
+        &mut self,
+        p: f64,
+        x: &[f64],
+        end: &[f64],
+    ) -> Result<Vec<f64>, String> {
         let h = 1e-6 * p.abs().max(self.parameter_scale);
         let out = self
             .map_at(p + h)?
@@ -308,7 +322,7 @@ impl Continuer<'_> {
     }
 
     /// Newton's method on `[P(x, p) − x; τ·(u − u_pred)] = 0` from the predictor `u_pred`.
-    fn correct(&mut self, u_pred: &[f64], tangent: &[f64]) -> Result<Corrected, String> {
+    pub(super) fn correct(&mut self, u_pred: &[f64], tangent: &[f64]) -> Result<Corrected, String> {
         let m = self.dim();
         let tolerance = self.options.tolerance;
         let mut u = u_pred.to_vec();
@@ -383,7 +397,7 @@ impl Continuer<'_> {
         Ok((t, det))
     }
 
-    fn point(
+    pub(super) fn point(
         &self,
         c: Corrected,
         previous: &[f64],
@@ -392,8 +406,11 @@ impl Continuer<'_> {
     ) -> Result<BranchPoint, String> {
         let (tangent, determinant) = self.tangent(&c, previous)?;
         let m = self.dim();
+        let mut scales = self.scales.clone();
+        scales.push(self.parameter_scale);
         Ok(BranchPoint {
             parameter: c.u[m] * self.parameter_scale,
+            scales,
             tangent_parameter: tangent[m],
             orbit: c.orbit,
             kind,
@@ -488,6 +505,41 @@ pub fn continue_branch(
     options.validate(from)?;
     let scene = scene_at(from)?;
     let map = PeriodMap::new(&scene, periodic)?;
+    let first_guess =
+        PeriodMap::settle(&scene, map.drive_hz(), periodic.settle_periods).map_err(|e| {
+            spec_err(
+                "periodic",
+                format!("settling the first orbit at {from}: {e}"),
+            )
+        })?;
+    continue_branch_from(scene_at, from, &first_guess, periodic, options, on_point)
+}
+
+/// [`continue_branch`] from a given first guess of the orbit at `from` (its components, as
+/// [`PeriodMap::rest_state`] lays them out) instead of one settled by time integration: an orbit
+/// found before, a point of another branch, or a state that time integration cannot reach (an
+/// unstable orbit).
+pub fn continue_branch_from(
+    scene_at: &dyn Fn(f64) -> Result<Scene, SpecError>,
+    from: f64,
+    first_guess: &[f64],
+    periodic: &PeriodicOptions,
+    options: &BranchOptions,
+    on_point: &mut dyn FnMut(&BranchPoint),
+) -> Result<Branch, SpecError> {
+    periodic.validate()?;
+    options.validate(from)?;
+    let map = PeriodMap::new(&scene_at(from)?, periodic)?;
+    if first_guess.len() != map.dim() {
+        return Err(spec_err(
+            "periodic",
+            format!(
+                "the first guess has {} components, the orbit {}",
+                first_guess.len(),
+                map.dim()
+            ),
+        ));
+    }
     let range = (options.to - from).abs();
     let direction = (options.to - from).signum();
     let mut c = Continuer {
@@ -499,15 +551,8 @@ pub fn continue_branch(
         stats: IntegrationStats::default(),
     };
     let m = c.dim();
-    let first_guess =
-        PeriodMap::settle(&scene, map.drive_hz(), periodic.settle_periods).map_err(|e| {
-            spec_err(
-                "periodic",
-                format!("settling the first orbit at {from}: {e}"),
-            )
-        })?;
     let orbit = map
-        .shoot(&first_guess, periodic.tolerance, periodic.max_iterations)
+        .shoot(first_guess, periodic.tolerance, periodic.max_iterations)
         .map_err(|e| spec_err("periodic", format!("the first orbit at {from}: {e}")))?;
     c.count(orbit.maps, &orbit.stats);
     c.scales = orbit_scales(&map, &orbit.state);
@@ -524,119 +569,138 @@ pub fn continue_branch(
     let start = c
         .point(start, &seed, PointKind::Start, 0.0)
         .map_err(|e| spec_err("periodic", format!("at {from}: {e}")))?;
-    on_point(&start);
+    let bounds = (from.min(options.to), from.max(options.to));
+    Ok(c.follow(start, options, bounds, on_point))
+}
 
-    let step = options.step.unwrap_or(range / 50.0) / range;
-    let min_step = options.min_step.unwrap_or(step * range * 1e-4) / range;
-    let max_step = options.max_step.unwrap_or(range / 20.0) / range;
-    let (lo, hi) = (from.min(options.to), from.max(options.to));
-    let mut ds = step;
-    let mut points = vec![start];
-    let mut warnings = Vec::new();
-    let end = loop {
-        if points.len() >= options.max_points as usize {
-            break format!("reached max_points ({})", options.max_points);
-        }
-        let a = points.last().expect("a start").clone();
-        let b = match c.along(&a, ds, PointKind::Regular) {
-            Ok(b) => b,
-            Err(reason) => {
-                ds *= 0.5;
-                if ds < min_step {
-                    break format!("the step fell below min_step: {reason}");
-                }
-                continue;
+impl Continuer<'_> {
+    /// Pseudo-arclength steps from `start` (already corrected, with its tangent) until the
+    /// parameter leaves `bounds` (the last point then solved at the bound it crossed), the step
+    /// falls below `min_step`, or `max_points` are reached; special points located between steps.
+    /// Steps are in units of `self.parameter_scale`.
+    pub(super) fn follow(
+        &mut self,
+        start: BranchPoint,
+        options: &BranchOptions,
+        bounds: (f64, f64),
+        on_point: &mut dyn FnMut(&BranchPoint),
+    ) -> Branch {
+        let c = self;
+        let periodic = c.options;
+        let range = c.parameter_scale;
+        on_point(&start);
+        let step = options.step.unwrap_or(range / 50.0) / range;
+        let min_step = options.min_step.unwrap_or(step * range * 1e-4) / range;
+        let max_step = options.max_step.unwrap_or(range / 20.0) / range;
+        let (lo, hi) = bounds;
+        let mut ds = step;
+        let mut points = vec![start];
+        let mut warnings = Vec::new();
+        let end = loop {
+            if points.len() >= options.max_points as usize {
+                break format!("reached max_points ({})", options.max_points);
             }
-        };
-        let turn: f64 = a.tangent.iter().zip(&b.tangent).map(|(x, y)| x * y).sum();
-        if turn < MIN_TURN_COSINE && ds > min_step {
-            ds = (0.5 * ds).max(min_step);
-            continue;
-        }
-        let mut special = Vec::new();
-        for kind in [
-            PointKind::Fold,
-            PointKind::BranchPoint,
-            PointKind::PeriodDoubling,
-            PointKind::NeimarkSacker,
-        ] {
-            let Some(outside) = a.crosses(&b, kind) else {
-                continue;
-            };
-            match c.locate(&a, &b, ds, kind, outside, options.locate_tolerance) {
-                Ok(p) => special.push(p),
-                Err(e) => warnings.push(format!(
-                    "a {} between {} and {} was not located: {e}",
-                    kind.name(),
-                    a.parameter,
-                    b.parameter
-                )),
-            }
-        }
-        // Special points lie between a and b: the branch stays in arclength order.
-        special.sort_by(|x, y| x.arclength.total_cmp(&y.arclength));
-        for p in special {
-            on_point(&p);
-            points.push(p);
-        }
-        let iterations = b.orbit.iterations;
-        if b.parameter < lo || b.parameter > hi {
-            let edge = if b.parameter > hi { hi } else { lo };
-            let t = (edge - a.parameter) / (b.parameter - a.parameter);
-            let guess: Vec<f64> = a
-                .orbit
-                .state
-                .iter()
-                .zip(&b.orbit.state)
-                .map(|(x, y)| x + t * (y - x))
-                .collect();
-            let last = c.map_at(edge).and_then(|map| {
-                map.shoot(&guess, periodic.tolerance, periodic.max_iterations)
-                    .map_err(|e| format!("at {edge}: {e}"))
-            });
-            match last {
-                Ok(orbit) => {
-                    c.count(orbit.maps, &orbit.stats);
-                    let column = c.parameter_column(edge, &orbit.state, &orbit.state);
-                    let end = column.and_then(|column| {
-                        let corrected = Corrected {
-                            u: c.scale(&orbit.state, edge),
-                            orbit,
-                            column,
-                        };
-                        c.point(corrected, &b.tangent, PointKind::End, a.arclength + t * ds)
-                    });
-                    match end {
-                        Ok(p) => {
-                            on_point(&p);
-                            points.push(p);
-                        }
-                        Err(e) => warnings.push(format!("the end point at {edge}: {e}")),
+            let a = points.last().expect("a start").clone();
+            let b = match c.along(&a, ds, PointKind::Regular) {
+                Ok(b) => b,
+                Err(reason) => {
+                    ds *= 0.5;
+                    if ds < min_step {
+                        break format!("the step fell below min_step: {reason}");
                     }
+                    continue;
                 }
-                Err(e) => warnings.push(format!("the end point: {e}")),
+            };
+            let turn: f64 = a.tangent.iter().zip(&b.tangent).map(|(x, y)| x * y).sum();
+            if turn < MIN_TURN_COSINE && ds > min_step {
+                ds = (0.5 * ds).max(min_step);
+                continue;
             }
-            break format!("reached the end of the range at {edge}");
+            let mut special = Vec::new();
+            for kind in [
+                PointKind::Fold,
+                PointKind::BranchPoint,
+                PointKind::PeriodDoubling,
+                PointKind::NeimarkSacker,
+            ] {
+                let Some(outside) = a.crosses(&b, kind) else {
+                    continue;
+                };
+                match c.locate(&a, &b, ds, kind, outside, options.locate_tolerance) {
+                    Ok(p) => special.push(p),
+                    Err(e) => warnings.push(format!(
+                        "a {} between {} and {} was not located: {e}",
+                        kind.name(),
+                        a.parameter,
+                        b.parameter
+                    )),
+                }
+            }
+            // Special points lie between a and b: the branch stays in arclength order.
+            special.sort_by(|x, y| x.arclength.total_cmp(&y.arclength));
+            for p in special {
+                on_point(&p);
+                points.push(p);
+            }
+            let iterations = b.orbit.iterations;
+            if b.parameter < lo || b.parameter > hi {
+                let edge = if b.parameter > hi { hi } else { lo };
+                let t = (edge - a.parameter) / (b.parameter - a.parameter);
+                let guess: Vec<f64> = a
+                    .orbit
+                    .state
+                    .iter()
+                    .zip(&b.orbit.state)
+                    .map(|(x, y)| x + t * (y - x))
+                    .collect();
+                let last = c.map_at(edge).and_then(|map| {
+                    map.shoot(&guess, periodic.tolerance, periodic.max_iterations)
+                        .map_err(|e| format!("at {edge}: {e}"))
+                });
+                match last {
+                    Ok(orbit) => {
+                        c.count(orbit.maps, &orbit.stats);
+                        let column = c.parameter_column(edge, &orbit.state, &orbit.state);
+                        let end = column.and_then(|column| {
+                            let corrected = Corrected {
+                                u: c.scale(&orbit.state, edge),
+                                orbit,
+                                column,
+                            };
+                            c.point(corrected, &b.tangent, PointKind::End, a.arclength + t * ds)
+                        });
+                        match end {
+                            Ok(p) => {
+                                on_point(&p);
+                                points.push(p);
+                            }
+                            Err(e) => warnings.push(format!("the end point at {edge}: {e}")),
+                        }
+                    }
+                    Err(e) => warnings.push(format!("the end point: {e}")),
+                }
+                break format!("reached the end of the range at {edge}");
+            }
+            // The largest step moves the parameter by at most max_step along the new tangent;
+            // where the branch rises steeply (a resonance) the turn of the tangent limits it.
+            let cap = max_step / b.tangent_parameter.abs().max(f64::MIN_POSITIVE);
+            on_point(&b);
+            points.push(b);
+            if iterations <= 2 {
+                ds *= 1.5;
+            } else if iterations >= 5 {
+                ds = (0.7 * ds).max(min_step);
+            }
+            ds = ds.min(cap);
+        };
+        Branch {
+            points,
+            end,
+            warnings,
+            maps: c.maps,
+            stats: c.stats,
         }
-        // The largest step moves the parameter by at most max_step along the new tangent; where
-        // the branch rises steeply (a resonance) the turn of the tangent limits it instead.
-        let cap = max_step / b.tangent_parameter.abs().max(f64::MIN_POSITIVE);
-        on_point(&b);
-        points.push(b);
-        if iterations <= 2 {
-            ds *= 1.5;
-        } else if iterations >= 5 {
-            ds = (0.7 * ds).max(min_step);
-        }
-        ds = ds.min(cap);
-    };
-    Ok(Branch {
-        points,
-        end,
-        warnings,
-        maps: c.maps,
-        stats: c.stats,
-    })
+    }
 }
 
 /// Scales of the orbit components for the arclength: the first orbit's largest displacement

@@ -4,49 +4,150 @@
 
 use crate::spectrum::real_eigenvalues;
 
-/// Solves `A x = b` in place (`a` row-major `n × n`, overwritten by its LU factors; `b` becomes
-/// `x`) by Gaussian elimination with partial pivoting. Returns `det A`, or `None` when a pivot is
-/// exactly zero (a singular matrix).
+/// An LU factorisation with partial pivoting of an `n × n` matrix, `P A = L U`, to solve with
+/// several right-hand sides (inverse iteration) and to give the determinant.
+#[derive(Debug, Clone)]
+pub struct Lu {
+    n: usize,
+    /// `L` (unit diagonal, below) and `U` (on and above), row-major.
+    lu: Vec<f64>,
+    /// Step `k` of the elimination exchanged rows `k` and `pivots[k]`.
+    pivots: Vec<usize>,
+    det: f64,
+}
+
+impl Lu {
+    /// Factors `a` (row-major `n × n`). `None` when a pivot is exactly zero (a singular matrix).
+    pub fn factor(mut a: Vec<f64>, n: usize) -> Option<Lu> {
+        debug_assert_eq!(a.len(), n * n);
+        let mut det = 1.0;
+        let mut pivots = Vec::with_capacity(n);
+        for k in 0..n {
+            let p = (k..n)
+                .max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))
+                .expect("a row");
+            if a[p * n + k] == 0.0 {
+                return None;
+            }
+            if p != k {
+                for j in 0..n {
+                    a.swap(k * n + j, p * n + j);
+                }
+                det = -det;
+            }
+            pivots.push(p);
+            let pivot = a[k * n + k];
+            det *= pivot;
+            for i in k + 1..n {
+                let f = a[i * n + k] / pivot;
+                a[i * n + k] = f;
+                if f == 0.0 {
+                    continue;
+                }
+                for j in k + 1..n {
+                    a[i * n + j] -= f * a[k * n + j];
+                }
+            }
+        }
+        Some(Lu {
+            n,
+            lu: a,
+            pivots,
+            det,
+        })
+    }
+
+    /// `det A`.
+    pub fn det(&self) -> f64 {
+        self.det
+    }
+
+    /// Overwrites `b` with the solution `x` of `A x = b`.
+    pub fn solve(&self, b: &mut [f64]) {
+        let (n, a) = (self.n, &self.lu);
+        debug_assert_eq!(b.len(), n);
+        for (k, &p) in self.pivots.iter().enumerate() {
+            b.swap(k, p);
+        }
+        for i in 0..n {
+            let s: f64 = (0..i).map(|j| a[i * n + j] * b[j]).sum();
+            b[i] -= s;
+        }
+        for i in (0..n).rev() {
+            let s: f64 = (i + 1..n).map(|j| a[i * n + j] * b[j]).sum();
+            b[i] = (b[i] - s) / a[i * n + i];
+        }
+    }
+}
+
+/// Solves `A x = b` in place (`a` row-major `n × n`, overwritten; `b` becomes `x`) by Gaussian
+/// elimination with partial pivoting. Returns `det A`, or `None` when a pivot is exactly zero (a
+/// singular matrix).
 pub fn solve(a: &mut [f64], n: usize, b: &mut [f64]) -> Option<f64> {
-    debug_assert_eq!(a.len(), n * n);
     debug_assert_eq!(b.len(), n);
-    let mut det = 1.0;
-    for k in 0..n {
-        let p = (k..n)
-            .max_by(|&i, &j| a[i * n + k].abs().total_cmp(&a[j * n + k].abs()))
-            .expect("a row");
-        if a[p * n + k] == 0.0 {
+    let lu = Lu::factor(a.to_vec(), n)?;
+    lu.solve(b);
+    a.copy_from_slice(&lu.lu);
+    Some(lu.det)
+}
+
+/// The eigenvector of the real eigenvalue `mu` of `m` (row-major `n × n`), by inverse iteration
+/// with the LU factors of `m − mu I` (its shift moved by `1e-10 (1 + |mu|)` where it is exactly
+/// singular), normalised to unit Euclidean norm with its largest component positive: the
+/// eigenvector of the eigenvalue nearest `mu`. `None` when the iteration does not settle in 20
+/// steps on a vector that `m` maps to a multiple of itself (the nearest eigenvalues a complex
+/// pair, or two at the same distance).
+pub fn eigenvector(m: &[f64], n: usize, mu: f64) -> Option<Vec<f64>> {
+    let shifted = |shift: f64| {
+        let mut a = m.to_vec();
+        for i in 0..n {
+            a[i * n + i] -= shift;
+        }
+        Lu::factor(a, n)
+    };
+    let lu = shifted(mu).or_else(|| shifted(mu + 1e-10 * (1.0 + mu.abs())))?;
+    let normalise = |v: &mut Vec<f64>| {
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let big = v
+            .iter()
+            .copied()
+            .fold(0.0, |a: f64, x| if x.abs() > a.abs() { x } else { a });
+        let s = big.signum() / norm;
+        v.iter_mut().for_each(|x| *x *= s);
+        norm.is_finite() && norm > 0.0
+    };
+    // A start with every component, so that no eigenvector is orthogonal to it.
+    let mut v: Vec<f64> = (0..n).map(|i| 1.0 + 0.1 * (i as f64).sin()).collect();
+    normalise(&mut v);
+    for _ in 0..20 {
+        let mut w = v.clone();
+        lu.solve(&mut w);
+        if !normalise(&mut w) {
             return None;
         }
-        if p != k {
-            for j in 0..n {
-                a.swap(k * n + j, p * n + j);
-            }
-            b.swap(k, p);
-            det = -det;
-        }
-        let pivot = a[k * n + k];
-        det *= pivot;
-        for i in k + 1..n {
-            let f = a[i * n + k] / pivot;
-            if f == 0.0 {
-                continue;
-            }
-            a[i * n + k] = f;
-            for j in k + 1..n {
-                a[i * n + j] -= f * a[k * n + j];
-            }
-            b[i] -= f * b[k];
+        let change = v
+            .iter()
+            .zip(&w)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        v = w;
+        if change < 1e-12 {
+            // The residual of the eigenvalue equation at the Rayleigh quotient, relative to the
+            // matrix's size.
+            let mv: Vec<f64> = (0..n)
+                .map(|i| (0..n).map(|j| m[i * n + j] * v[j]).sum())
+                .collect();
+            let lambda: f64 = mv.iter().zip(&v).map(|(a, b)| a * b).sum();
+            let scale = m.iter().map(|x| x.abs()).fold(0.0, f64::max).max(mu.abs());
+            let residual = mv
+                .iter()
+                .zip(&v)
+                .map(|(a, b)| (a - lambda * b).abs())
+                .fold(0.0, f64::max);
+            return (residual <= 1e-6 * scale.max(1.0)).then_some(v);
         }
     }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for j in i + 1..n {
-            s -= a[i * n + j] * b[j];
-        }
-        b[i] = s / a[i * n + i];
-    }
-    Some(det)
+    None
 }
 
 /// A Floquet multiplier `μ = re + i im`.
@@ -161,5 +262,45 @@ mod tests {
         assert_eq!(crossing_test(&w, true, 1), -1.0);
         assert!((crossing_test(&w, false, 0) - 0.2).abs() < 1e-14);
         assert_eq!(crossing_test(&w, false, 2), -1.0);
+    }
+
+    #[test]
+    fn inverse_iteration_finds_the_eigenvector_of_minus_one() {
+        // A = S diag(−1, 0.5, 2) S⁻¹ with S's columns the eigenvectors.
+        #[rustfmt::skip]
+        let s = [
+            1.0, 1.0, 0.0,
+            2.0, 0.0, 1.0,
+            0.0, 1.0, 1.0,
+        ];
+        // S⁻¹ = adj(S) / det S, det S = −3.
+        #[rustfmt::skip]
+        let inv = [
+            1.0 / 3.0, 1.0 / 3.0, -1.0 / 3.0,
+            2.0 / 3.0, -1.0 / 3.0, 1.0 / 3.0,
+            -2.0 / 3.0, 1.0 / 3.0, 2.0 / 3.0,
+        ];
+        let d = [-1.0, 0.5, 2.0];
+        let mut a = [0.0; 9];
+        for i in 0..3 {
+            for j in 0..3 {
+                a[i * 3 + j] = (0..3).map(|k| s[i * 3 + k] * d[k] * inv[k * 3 + j]).sum();
+            }
+        }
+        let v = eigenvector(&a, 3, -1.0).unwrap();
+        // The first column (1, 2, 0), normalised, largest component positive.
+        let n = 5f64.sqrt();
+        for (x, want) in v.iter().zip([1.0 / n, 2.0 / n, 0.0]) {
+            assert!((x - want).abs() < 1e-12, "{v:?}");
+        }
+        // A shift near, not at, the eigenvalue converges to the same vector.
+        let w = eigenvector(&a, 3, -0.999).unwrap();
+        assert!(
+            v.iter().zip(&w).all(|(x, y)| (x - y).abs() < 1e-10),
+            "{w:?}"
+        );
+        // det A = (−1)(0.5)(2).
+        let lu = Lu::factor(a.to_vec(), 3).unwrap();
+        assert!((lu.det() + 1.0).abs() < 1e-13, "{}", lu.det());
     }
 }

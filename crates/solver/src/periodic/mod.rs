@@ -32,6 +32,7 @@
 
 pub mod branch;
 pub mod dense;
+pub mod doubling;
 pub mod shooting;
 
 #[cfg(feature = "serde")]
@@ -39,7 +40,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::spec::{spec_err, SpecError};
 
-pub use branch::{continue_branch, Branch, BranchOptions, BranchPoint, PointKind};
+pub use branch::{
+    continue_branch, continue_branch_from, Branch, BranchOptions, BranchPoint, PointKind,
+};
+pub use doubling::{continue_period_doubled, period_doubling_vector};
 pub use shooting::{MapOutput, Orbit, PeriodMap, ShootingError};
 
 /// How the monodromy matrix is computed.
