@@ -4,14 +4,19 @@
 //! equals central differences of the period map; a precompressed Hertzian chain between walls,
 //! driven hard, bends its resonance into two folds, located where the tangent turns, the branch
 //! between them unstable, and time-integration sweeps up and down jump within a sweep step of
-//! them; bad options name the field.
+//! them; a sphere on a wall shaken near twice its frequency period-doubles, supercritically
+//! where its branch enters the parametric tongue (the doubled branch's split growing as the square
+//! root of the distance, time integration settling on the doubled orbit to 1e-8) and
+//! subcritically where it leaves; a precompressed dimer's breather in the gap, centred on a light
+//! sphere, has tails that fall by the linear chain's evanescent factor `exp(−Im q)` to 1e-3; bad
+//! options name the field.
 
 use chainsweep_solver::chain::drive::{DriveSpec, Harmonic, Waveform};
 use chainsweep_solver::chain::model::{Chain, PhysicsSpec};
 use chainsweep_solver::chain::sequence::SequenceSpec;
 use chainsweep_solver::periodic::{
-    continue_branch, continue_period_doubled, period_doubling_vector, BranchOptions, Monodromy,
-    PeriodMap, PeriodicOptions, PointKind,
+    continue_autonomous, continue_branch, continue_period_doubled, period_doubling_vector,
+    AutonomousMap, BranchOptions, Monodromy, PeriodMap, PeriodicOptions, PointKind,
 };
 use chainsweep_solver::problems::complex::solve;
 use chainsweep_solver::problems::{monodisperse, power_law};
@@ -349,6 +354,14 @@ fn bad_periodic_options_and_scenes_name_the_field() {
     )
     .unwrap_err();
     assert_eq!(e.field, "periodic.to");
+    // Autonomous orbits: a driven scene, a damped chain.
+    assert_eq!(AutonomousMap::new(&scene).unwrap_err().field, "excitation");
+    let mut damped = dimer(3, &[(2, 1e-8)]);
+    damped.physics.damping_kg_s = 1.0;
+    assert_eq!(
+        AutonomousMap::new(&damped).unwrap_err().field,
+        "physics.damping_kg_s"
+    );
     let _ = Chain::build;
 }
 
@@ -527,4 +540,169 @@ fn a_shaken_sphere_period_doubles_onto_the_doubled_branch_that_time_integration_
     );
     assert!(d1 > 1e-2 && d2 < 1e-9, "{d1:e} {d2:e}");
     assert!(off < 1e-8, "{off:e}");
+}
+
+/// A dimer of `cells` × [heavy 8 mm sphere, light 5 mm sphere] on a steel wall (the last, light,
+/// on it), every contact the same Hertz law, pressed by 10 N, no gravity, no damping, set off
+/// from its static state by `displacements` (particle, metres).
+fn dimer(cells: usize, displacements: &[(usize, f64)]) -> Scene {
+    use chainsweep_solver::chain::sequence::{RepeatBlock, SequenceItem};
+    use chainsweep_solver::problems::{chain, rule, sphere, STEEL};
+    use chainsweep_solver::scene::{InitialState, ParticleStart};
+    let law = Some(power_law(DIMER_A, 1.5));
+    let mut spec = chain(
+        &[
+            ("heavy", sphere(STEEL, 8e-3, 2.085e-3)),
+            ("light", sphere(STEEL, 5e-3, 0.5e-3)),
+        ],
+        vec![SequenceItem::Repeat(RepeatBlock {
+            repeat: cells,
+            of: vec![
+                SequenceItem::Type("heavy".into()),
+                SequenceItem::Type("light".into()),
+            ],
+        })],
+        None,
+        vec![
+            rule("heavy", "light", law, None),
+            rule("light", "wall", law, None),
+        ],
+    );
+    spec.wall_material = STEEL;
+    let state = InitialState {
+        particles: displacements
+            .iter()
+            .map(|&(particle, d)| ParticleStart {
+                particle,
+                velocity_m_s: 0.0,
+                displacement_m: d,
+            })
+            .collect(),
+        random_velocity: None,
+    };
+    let mut s = Scene::excited(
+        ChainSpec::Sequence(spec),
+        Excitation::InitialState(state),
+        1.0,
+    );
+    s.physics = PhysicsSpec {
+        gravity: false,
+        wall: true,
+        damping_kg_s: 0.0,
+        precompression_force_n: DIMER_FORCE,
+        ..PhysicsSpec::default()
+    };
+    s.integrator = IntegratorSpec::Dop853(AdaptiveOptions::new(1e-11));
+    s
+}
+const DIMER_A: f64 = 8e9;
+const DIMER_FORCE: f64 = 10.0;
+
+/// A breather of a precompressed dimer (60 cells of an 8 mm and a 5 mm steel sphere on a wall,
+/// no damping): found at 0.99 of the optical band's lower edge from a guess (the middle light
+/// sphere displaced by 0.7 δ₀, the light spheres of the cells beside it back by 0.6 of that, the
+/// next ones forward by 0.36) by shooting on time-reversal symmetry, continued in frequency up
+/// towards the edge and down into the gap between the acoustic and optical bands. Centred on the
+/// light sphere (its profile symmetric about it) and localised; its amplitude falls towards the
+/// edge (breathers bifurcate from the optical band's lower edge into the gap, as Theocharis et
+/// al., Phys. Rev. E 82, 056604, 2010, found); far from its centre its tails fall from cell to
+/// cell, in antiphase, by the linear chain's evanescent factor `exp(−Im q)` at its frequency,
+/// from the cell's transfer matrix, to 1e-3.
+#[test]
+fn a_dimer_s_breather_in_the_gap_decays_as_the_linear_chain_s_evanescent_wave() {
+    let cells = 60;
+    // The light sphere of cell 31 (1-based particle 62).
+    let centre = 2 * (cells / 2) + 2;
+    let delta0 = (DIMER_FORCE / DIMER_A).powf(2.0 / 3.0);
+    let (a, e) = (0.6 * delta0, 0.61);
+    let guess = [
+        (centre, a),
+        (centre - 2, -e * a),
+        (centre + 2, -e * a),
+        (centre - 4, e * e * a),
+        (centre + 4, e * e * a),
+    ];
+    let map = AutonomousMap::new(&dimer(cells, &guess)).unwrap();
+    let cell = LinearChain::of(map.chain())
+        .unwrap()
+        .unit_cell(2, "cell")
+        .unwrap();
+    let bands = cell.bands();
+    let (acoustic_top, optical_bottom) = (bands[0].upper_rad_s, bands[1].lower_rad_s);
+    // The gap of a dimer of equal contacts: √(2K/M) to √(2K/m).
+    let k = 1.5 * DIMER_A.powf(2.0 / 3.0) * DIMER_FORCE.powf(1.0 / 3.0);
+    assert!((acoustic_top / (2.0 * k / 2.085e-3).sqrt() - 1.0).abs() < 1e-9);
+    assert!((optical_bottom / (2.0 * k / 0.5e-3).sqrt() - 1.0).abs() < 1e-9);
+    let edge_hz = optical_bottom / std::f64::consts::TAU;
+    let at = |ratios: &[f64]| -> Vec<f64> { ratios.iter().map(|r| r * edge_hz).collect() };
+    let (towards_edge, stop) = continue_autonomous(
+        &map,
+        map.first_guess(),
+        &at(&[0.99, 0.9915, 0.993, 0.9945]),
+        1e-10,
+        30,
+        &mut |_| {},
+    );
+    assert!(stop.is_none(), "{stop:?}");
+    let (into_gap, stop) = continue_autonomous(
+        &map,
+        &towards_edge[0].positions,
+        &at(&[0.99, 0.985, 0.98, 0.97, 0.96]),
+        1e-10,
+        30,
+        &mut |_| {},
+    );
+    assert!(stop.is_none(), "{stop:?}");
+    let family: Vec<_> = towards_edge.iter().rev().chain(&into_gap[1..]).collect();
+    let c = centre - 1;
+    let mut amplitudes = Vec::new();
+    for o in &family {
+        let omega = std::f64::consts::TAU * o.frequency_hz();
+        assert!(omega > acoustic_top && omega < optical_bottom);
+        let odd = o.odd_part();
+        let peak = odd[c].abs();
+        // Not the static state, which is an orbit of every period: a breather on the light
+        // sphere, symmetric about it, the largest motion there, below a thousandth of it
+        // twenty-five cells away.
+        assert!(peak > 0.1 * delta0, "{peak:e}");
+        assert!(odd.iter().all(|x| x.abs() <= peak), "{odd:?}");
+        for d in 1..10 {
+            let (l, r) = (odd[c - 2 * d], odd[c + 2 * d]);
+            assert!((l / r - 1.0).abs() < 1e-4, "{d}: {l:e} {r:e}");
+        }
+        assert!(odd[c + 50].abs() < 1e-3 * peak && odd[c - 50].abs() < 1e-3 * peak);
+        // Far from the centre the tails are linear: the ratio of successive cells' light
+        // spheres is −exp(−Im q), measured where the nonlinear part of the tail, falling by
+        // exp(−2 Im q) a cell relative to it, has fallen below 1e-4.
+        let (re_q, im_q) = cell.bloch_wavenumber(omega);
+        assert_eq!(re_q, std::f64::consts::PI);
+        let decay = (-im_q).exp();
+        let d = (1e-4f64.ln() / (2.0 * decay.ln())).ceil() as usize;
+        let ratio = odd[c + 2 * (d + 1)] / odd[c + 2 * d];
+        println!(
+            "{:.4} of the edge: centre {:.4} δ0, cells {d} to {}: ratio {ratio:.6}, exp(−Im q) {decay:.6} (relative error {:.1e}); multipliers: the pair at +1 off by {:.1e}, largest other {:.6}",
+            omega / optical_bottom,
+            peak / delta0,
+            d + 1,
+            -ratio / decay - 1.0,
+            o.trivial_pair_error(),
+            o.largest_nontrivial_multiplier()
+        );
+        assert!(ratio < 0.0, "{ratio}");
+        assert!(
+            (-ratio / decay - 1.0).abs() < 1e-3,
+            "{ratio} against {decay}"
+        );
+        // The monodromy's pair at +1 (shift along the orbit, change of energy), a Jordan block
+        // whose computed eigenvalues split by about the square root of the monodromy's error.
+        assert!(o.trivial_pair_error() < 1e-3, "{:?}", o.multipliers);
+        amplitudes.push((omega, peak));
+    }
+    // The amplitude grows from the edge into the gap.
+    assert!(
+        amplitudes
+            .windows(2)
+            .all(|w| w[1].0 < w[0].0 && w[1].1 > w[0].1),
+        "{amplitudes:?}"
+    );
 }

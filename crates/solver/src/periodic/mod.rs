@@ -30,6 +30,7 @@
 //! period doublings (`det(M + I)`) and Neimark–Sacker points (`Π(|μ|² − 1)` over complex pairs)
 //! are detected between consecutive points and located by the Illinois method on the arclength.
 
+pub mod autonomous;
 pub mod branch;
 pub mod dense;
 pub mod doubling;
@@ -40,6 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::spec::{spec_err, SpecError};
 
+pub use autonomous::{continue_autonomous, AutonomousMap, AutonomousOrbit};
 pub use branch::{
     continue_branch, continue_branch_from, Branch, BranchOptions, BranchPoint, PointKind,
 };

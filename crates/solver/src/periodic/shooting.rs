@@ -405,10 +405,7 @@ impl PeriodMap {
     }
 
     fn has_jacobian(&self, y0: &[f64]) -> bool {
-        let (mut kx, mut kv) = (Tridiagonal::default(), Tridiagonal::default());
-        crate::dispatch_chain_system!(&self.chain, |sys| jacobian_at(
-            &mut sys, y0, &mut kx, &mut kv
-        ))
+        has_jacobian(&self.chain, y0)
     }
 
     /// One period from the whole state `y0`: the whole state at its end, whether a switch
@@ -437,46 +434,68 @@ impl PeriodMap {
         y0: &[f64],
     ) -> Result<(Vec<f64>, Vec<f64>, bool, IntegrationStats), RunError> {
         let m = 2 * self.chain.n_particles();
-        let base = y0.len();
-        let mut y = y0.to_vec();
-        y.resize(base + m * m, 0.0);
-        for j in 0..m {
-            y[base + j * m + j] = 1.0;
-        }
-        // Entry i of column j is ∂x_i/∂x_j: its scale is scale_i / scale_j.
-        let mut scales = state_scales(&self.chain, &self.scene.impact_scales(&self.chain));
-        for j in 0..m {
-            for i in 0..m {
-                scales.push(self.scales[i] / self.scales[j]);
-            }
-        }
-        let (integrator, _) = build(&self.scene, &self.chain, Some(scales));
-        let switches = self.switches();
-        let mut obs = EndObserver::new(&switches);
-        let stats = crate::dispatch_chain_system!(&self.chain, |sys| {
-            let mut v = Variational::new(&mut sys, m / 2, base);
-            integrator.integrate(
-                &mut v,
-                0.0,
-                &y,
-                self.period_s,
-                self.scene.max_steps,
-                &mut obs,
-            )
-        })?;
-        let mut phi = vec![0.0; m * m];
-        for j in 0..m {
-            for i in 0..m {
-                phi[i * m + j] = obs.y[base + j * m + i];
-            }
-        }
-        obs.y.truncate(base);
-        Ok((obs.y, phi, obs.crossed, stats))
+        integrate_variational(
+            &self.scene,
+            &self.chain,
+            y0,
+            &self.scales[..m],
+            self.period_s,
+        )
     }
 
     fn switches(&self) -> Vec<Switch> {
         crate::dispatch_chain_system!(&self.chain, |sys| switches_of(&mut sys))
     }
+}
+
+/// Whether `chain` gives its acceleration Jacobian (at `y0`, `t = 0`).
+pub(super) fn has_jacobian(chain: &Chain, y0: &[f64]) -> bool {
+    let (mut kx, mut kv) = (Tridiagonal::default(), Tridiagonal::default());
+    crate::dispatch_chain_system!(chain, |sys| jacobian_at(&mut sys, y0, &mut kx, &mut kv))
+}
+
+/// The state of `chain` (in `scene`) and its variational equations from the whole state `y0` at
+/// `t = 0` to `t_end`: the whole state at the end, `Φ = ∂x(t_end)/∂x(0)` over positions and
+/// velocities (row-major, `2N × 2N`), whether a switch crossed, the statistics. `scales` are the
+/// natural scales of positions and velocities (`2N`), which set the error tolerance of `Φ`'s
+/// entries (entry `(i, j)` on `scales_i / scales_j`).
+#[allow(clippy::type_complexity)]
+pub(super) fn integrate_variational(
+    scene: &Scene,
+    chain: &Chain,
+    y0: &[f64],
+    scales: &[f64],
+    t_end: f64,
+) -> Result<(Vec<f64>, Vec<f64>, bool, IntegrationStats), RunError> {
+    let m = 2 * chain.n_particles();
+    let base = y0.len();
+    let mut y = y0.to_vec();
+    y.resize(base + m * m, 0.0);
+    for j in 0..m {
+        y[base + j * m + j] = 1.0;
+    }
+    // Entry i of column j is ∂x_i/∂x_j: its scale is scale_i / scale_j.
+    let mut all = state_scales(chain, &scene.impact_scales(chain));
+    for j in 0..m {
+        for i in 0..m {
+            all.push(scales[i] / scales[j]);
+        }
+    }
+    let (integrator, _) = build(scene, chain, Some(all));
+    let switches = crate::dispatch_chain_system!(chain, |sys| switches_of(&mut sys));
+    let mut obs = EndObserver::new(&switches);
+    let stats = crate::dispatch_chain_system!(chain, |sys| {
+        let mut v = Variational::new(&mut sys, m / 2, base);
+        integrator.integrate(&mut v, 0.0, &y, t_end, scene.max_steps, &mut obs)
+    })?;
+    let mut phi = vec![0.0; m * m];
+    for j in 0..m {
+        for i in 0..m {
+            phi[i * m + j] = obs.y[base + j * m + i];
+        }
+    }
+    obs.y.truncate(base);
+    Ok((obs.y, phi, obs.crossed, stats))
 }
 
 /// Whether `sys` gives its acceleration Jacobian (at `y0`, `t = 0`).

@@ -163,6 +163,51 @@ impl UnitCell {
     }
 }
 
+impl UnitCell {
+    /// The transfer matrix of the cell at angular frequency `omega` (rad/s), row-major `2 × 2`:
+    /// it takes `(u_0, u_{−1})` (the cell's first particle and the previous cell's last) to
+    /// `(u_p, u_{p−1})` (the next cell's first and this cell's last) for a motion `u e^{−iωt}` of
+    /// the linearised chain, the product of each particle's step
+    /// `u_{i+1} = ((k_{i−1} + k_i − m_i ω²) u_i − k_{i−1} u_{i−1}) / k_i`. Its determinant is 1
+    /// and its trace `2 cos q`, `q` the Bloch wavenumber.
+    pub fn transfer_matrix(&self, omega: f64) -> [f64; 4] {
+        let p = self.len();
+        let mut t = [1.0, 0.0, 0.0, 1.0];
+        for i in 0..p {
+            let (k_prev, k) = (self.stiffness[(i + p - 1) % p], self.stiffness[i]);
+            let step = [
+                (k_prev + k - self.mass[i] * omega * omega) / k,
+                -k_prev / k,
+                1.0,
+                0.0,
+            ];
+            t = [
+                step[0] * t[0] + step[1] * t[2],
+                step[0] * t[1] + step[1] * t[3],
+                step[2] * t[0] + step[3] * t[2],
+                step[2] * t[1] + step[3] * t[3],
+            ];
+        }
+        t
+    }
+
+    /// The complex Bloch wavenumber `q = re + i im` (per cell, `re ∈ [0, π]`, `im ≥ 0`) at angular
+    /// frequency `omega`, from the transfer matrix's trace `2 cos q`: in a band `im = 0`; in a
+    /// gap the waves are evanescent, `re` is `0` or `π` (`π`: successive cells in antiphase) and
+    /// the decaying one falls by `exp(−im)` a cell, `im = acosh(|tr| / 2)`.
+    pub fn bloch_wavenumber(&self, omega: f64) -> (f64, f64) {
+        let t = self.transfer_matrix(omega);
+        let half = 0.5 * (t[0] + t[3]);
+        if half.abs() <= 1.0 {
+            (half.acos(), 0.0)
+        } else if half < 0.0 {
+            (std::f64::consts::PI, (-half).acosh())
+        } else {
+            (0.0, half.acosh())
+        }
+    }
+}
+
 /// The eigenvalues of the real symmetric `n × n` matrix `a` (row-major, destroyed) by the cyclic
 /// Jacobi method, to a few units in the last place of its norm.
 pub(crate) fn jacobi_eigenvalues(a: &mut [f64], n: usize) -> Vec<f64> {
@@ -231,5 +276,36 @@ mod tests {
             }
         }
         assert_eq!(cell.gaps().len(), 2);
+    }
+
+    #[test]
+    fn transfer_matrix_gives_the_band_s_wavenumber_and_the_gap_s_decay() {
+        let (m, big, k) = (0.5, 2.085, 3.0);
+        let cell = UnitCell::new(vec![big, m], vec![k, k], "cell").unwrap();
+        // In the bands, the wavenumber whose frequencies these are.
+        for q in [0.3, 1.2, 2.9] {
+            for w in cell.frequencies_at(q) {
+                let t = cell.transfer_matrix(w);
+                assert!((t[0] * t[3] - t[1] * t[2] - 1.0).abs() < 1e-12);
+                let (re, im) = cell.bloch_wavenumber(w);
+                assert!((re - q).abs() < 1e-6 && im == 0.0, "{q}: {re} {im}");
+            }
+        }
+        // In the gap of the diatomic chain, cos q = 1 − m M λ(2s − λ)/2 with λ = ω²/k and
+        // s = 1/m + 1/M (the dispersion ω² = k s ± k √(s² − 4 sin²(q/2)/(m M)) solved for q):
+        // q = π + iκ, cosh κ = m M λ(2s − λ)/2 − 1.
+        let (lo, hi) = cell.gaps()[0];
+        let s = 1.0 / m + 1.0 / big;
+        for f in [0.1, 0.5, 0.9] {
+            let w = lo + f * (hi - lo);
+            let l = w * w / k;
+            let kappa = (m * big * l * (2.0 * s - l) / 2.0 - 1.0).acosh();
+            let (re, im) = cell.bloch_wavenumber(w);
+            assert_eq!(re, std::f64::consts::PI);
+            assert!((im - kappa).abs() < 1e-12 * kappa.max(1.0), "{im} {kappa}");
+        }
+        // Above the top band the waves decay too, in antiphase.
+        let top = cell.bands()[1].upper_rad_s;
+        assert!(cell.bloch_wavenumber(1.1 * top).1 > 0.0);
     }
 }
