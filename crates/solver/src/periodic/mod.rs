@@ -1,6 +1,7 @@
-//! Periodic responses of harmonically driven chains: orbits by shooting, their Floquet
-//! multipliers, and branches of them continued in one scene field through folds, with their
-//! bifurcations located.
+//! Periodic orbits of chains: the responses of harmonically driven chains by shooting, their
+//! Floquet multipliers, and branches of them continued in one scene field through folds, with
+//! their bifurcations located and the branch of twice the period followed from a period
+//! doubling; and the free orbits of chains left to themselves (breathers, backbone curves).
 //!
 //! **Shooting** ([`shooting`]). A chain driven at frequency `f` with period `T = periods/f` (one
 //! drive period, or several for a sub-harmonic response) has a periodic orbit where the period map
@@ -29,6 +30,43 @@
 //! component changes sign), branch points (the bordered Jacobian's determinant changes sign),
 //! period doublings (`det(M + I)`) and Neimark–Sacker points (`Π(|μ|² − 1)` over complex pairs)
 //! are detected between consecutive points and located by the Illinois method on the arclength.
+//! [`continue_branch`] starts from an orbit settled by time integration,
+//! [`continue_branch_from`] from a given one (an unstable orbit, a point of another branch).
+//!
+//! **Period doubling** ([`doubling`]). At a located period doubling a real multiplier is `−1`;
+//! its eigenvector `v` (`M v = −v`, by inverse iteration with the LU factors of `M − μ I`, `μ`
+//! the computed multiplier) is the direction in which the orbits of twice the period leave the
+//! single-period orbit: to the period map over `2T`, whose multiplier there is `+1`, the
+//! doubling is a pitchfork, and the doubled branch leaves it orthogonally to the single-period
+//! branch. [`continue_period_doubled`] corrects its first orbit from the doubling's orbit moved by
+//! one step along `v` (made orthogonal to the parent branch's tangent), on the hyperplane
+//! orthogonal to that step, which leaves the parameter free; where the correction falls back
+//! onto the single-period orbit (its split `|P_T(x) − x|` under a tenth of the step) it tries
+//! `−v`. The branch then goes on as any other, in `2 × periods` drive periods, to either side
+//! of the doubling: into the range where the single-period orbit is unstable when the doubling is
+//! supercritical (its split growing as the square root of the distance to it, the doubled
+//! orbits stable), into the other when it is subcritical (the doubled orbits unstable).
+//!
+//! **Free orbits** ([`autonomous`]). A chain without drive or dissipation has families of
+//! periodic orbits (a breather in a gap of a periodic chain's spectrum, the free oscillation of
+//! a precompressed contact along its backbone curve) that no forcing period fixes: each period
+//! `T` has its own. Its equations are reversible (unchanged by `t → −t`, `v → −v`), so a motion
+//! that stops at `t = 0` and again at `T/2` (every velocity zero: turning points) retraces itself
+//! backwards and is periodic with period `T`. [`AutonomousMap::shoot`] solves the `N` conditions
+//! `v(T/2) = 0` in the `N` unknowns `x(0)` by Newton's method, with `∂v(T/2)/∂x(0)` from the
+//! variational equations over half the period (the approach of Flach & Willis, Phys. Rep. 295,
+//! 181, 1998, and Marin & Aubry, Nonlinearity 9, 1501, 1996): the turning point fixes the phase,
+//! the period the member of the family. The static state is such an orbit at every period, so
+//! the first guess must lie nearer the orbit sought (for a breather: the particle it is centred
+//! on displaced, its neighbours a little). [`continue_autonomous`] follows a family through a
+//! list of frequencies by natural-parameter continuation (each orbit from a guess extrapolated
+//! linearly from the two before it), which needs steps small enough that the guess stays in the
+//! orbit's basin: near a band edge, where the breathers widen and their families lie close
+//! together, smaller ones. The multipliers come from the monodromy over the whole period: two are
+//! `+1` (a shift along the orbit and a change of its energy, of its frequency, persist), computed
+//! as a pair split by about the square root of the monodromy's error (a Jordan block), and are
+//! left out of the stability, for which every other multiplier must lie on the unit circle
+//! (they come in pairs `μ`, `1/μ̄`) to a tolerance.
 
 pub mod autonomous;
 pub mod branch;
