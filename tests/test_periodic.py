@@ -2,8 +2,10 @@
 driven chain, continued in the drive's frequency. The branch of a tiny stroke is the linear
 resonance (its peak at the linear spectrum's first frequency); a large stroke folds twice, the
 orbits between the folds unstable, each orbit periodic (its two periods agree); the file reads
-in xarray and `chainsweep.open` exactly as labelled; a killed run resumes bitwise, a damaged
-journal is computed again and a damaged output is written again, never served; `status` and
+in xarray and `chainsweep.open` exactly as labelled; a killed run resumes bitwise from its last
+orbit, a damaged
+journal line is never read (the branch goes on from the orbit before it) and a damaged output
+is written again, never served; `status` and
 `run --dry-run` say where it stands; bad blocks exit 2 naming the field."""
 
 import copy
@@ -126,7 +128,9 @@ def test_status_and_dry_run_say_where_it_stands(branches, tmp_path):
     assert r.returncode == 3 and "not run yet" in r.stdout
 
 
-def test_a_killed_run_resumes_bitwise_and_a_damaged_journal_is_computed_again(branches, tmp_path):
+def test_a_killed_run_resumes_bitwise_from_its_last_orbit_and_past_a_damaged_journal_line(
+    branches, tmp_path
+):
     path, reference = branches
     out = tmp_path / "killed.h5"
     journals = tmp_path / "killed.h5.d" / "periodic"
@@ -142,11 +146,15 @@ def test_a_killed_run_resumes_bitwise_and_a_damaged_journal_is_computed_again(br
     p.send_signal(signal.SIGKILL)
     p.wait()
     assert not out.exists()
+    killed = {f.name: f.read_bytes().splitlines()[:5] for f in journals.glob("*.log")}
     r = run("run", path, "-o", out, "--quiet")
     assert r.returncode == 0, r.stderr
     assert_files_equal(reference, out)
-    # A flipped byte in the middle of an ended journal: that branch is computed again, the
-    # output the same bits.
+    # It went on from the orbits the journals held, which it kept as they were.
+    for name, lines in killed.items():
+        assert (journals / name).read_bytes().splitlines()[: len(lines)] == lines
+    # A flipped byte in the middle of an ended journal: that branch goes on from the last orbit
+    # before the damaged line, the output the same bits.
     log = journals / "1.log"
     data = bytearray(log.read_bytes())
     data[len(data) // 2] ^= 0x20

@@ -805,3 +805,96 @@ fn a_pressed_sphere_s_backbone_follows_the_normal_form_to_its_order() {
         "{c:?}"
     );
 }
+
+/// A continuation stopped by its flag after some points, then resumed from its last accepted
+/// point, gives bitwise the points, the kinds and the period-map counts of one that ran through;
+/// a resumption from a located special point is refused.
+#[test]
+fn a_stopped_branch_resumes_from_its_last_point_bitwise() {
+    use chainsweep_solver::periodic::{continue_branch_stoppable, resume_branch};
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let stroke = 6e-8;
+    let scene_at = move |f: f64| Ok(hertz_chain(stroke, f));
+    let options = PeriodicOptions {
+        settle_periods: 100,
+        ..PeriodicOptions::default()
+    };
+    let branch_options = BranchOptions {
+        step: Some(10.0),
+        ..BranchOptions::new(3500.0)
+    };
+    let mut whole = Vec::new();
+    let full = continue_branch(&scene_at, 2900.0, &options, &branch_options, &mut |p| {
+        whole.push(p.clone())
+    })
+    .unwrap();
+    assert!(whole.iter().any(|p| p.kind == PointKind::Fold));
+    // Stopped once the first fold has been given: past it, the last accepted point is the one
+    // stepped to after the fold.
+    let stop = AtomicBool::new(false);
+    let mut given = Vec::new();
+    let first = continue_branch_stoppable(
+        &scene_at,
+        2900.0,
+        &options,
+        &branch_options,
+        Some(&stop),
+        &mut |p| {
+            given.push(p.clone());
+            if p.kind == PointKind::Fold {
+                stop.store(true, Ordering::Relaxed);
+            }
+        },
+    )
+    .unwrap();
+    assert!(
+        first.stopped && first.end.contains("stopped"),
+        "{}",
+        first.end
+    );
+    let last = given
+        .iter()
+        .rev()
+        .find(|p| !p.kind.is_special())
+        .unwrap()
+        .clone();
+    // What a journal keeps: the points up to the last accepted one.
+    given.truncate(given.iter().rposition(|p| !p.kind.is_special()).unwrap() + 1);
+    let rest = resume_branch(
+        &scene_at,
+        2900.0,
+        &options,
+        &branch_options,
+        &last,
+        None,
+        &mut |p| given.push(p.clone()),
+    )
+    .unwrap();
+    assert!(!rest.stopped);
+    assert_eq!(rest.end, full.end);
+    assert_eq!(rest.maps, full.maps);
+    assert_eq!(given.len(), whole.len());
+    for (a, b) in given.iter().zip(&whole) {
+        assert_eq!(a.kind, b.kind);
+        assert_eq!(a.parameter.to_bits(), b.parameter.to_bits());
+        assert_eq!(a.progress, b.progress);
+        assert!(a
+            .orbit
+            .state
+            .iter()
+            .zip(&b.orbit.state)
+            .all(|(x, y)| x.to_bits() == y.to_bits()));
+    }
+    let fold = whole.iter().find(|p| p.kind == PointKind::Fold).unwrap();
+    let err = resume_branch(
+        &scene_at,
+        2900.0,
+        &options,
+        &branch_options,
+        fold,
+        None,
+        &mut |_| {},
+    )
+    .unwrap_err();
+    assert_eq!(err.field, "periodic");
+}

@@ -4,15 +4,15 @@
 //!
 //! Each branch keeps a journal in the work directory, `periodic/<point>.log`: a line naming what
 //! it is the branch of (the sweep's text, the point's scene and the engine's versions, hashed),
-//! then a line per accepted orbit as the continuation finds it (the orbit, its Floquet
-//! multipliers, the run of two orbit periods that gives each probe's amplitudes), then a line for
-//! how it ended; every line carries the first 16 hex digits of its SHA-256. A line whose checksum
-//! fails, a torn last line or a journal of another sweep is never read as a point: the branch is
-//! computed again from its start (the continuation is a function of the scene and the options
-//! only, so the points it gives again are bitwise those it gave). A branch whose journal ends is
-//! read back and not computed again: the same command after `kill -9` computes only the branches
-//! that had not ended. The output file is written from the journals when every branch has ended
-//! (or the run was stopped), to a temporary file renamed over the output.
+//! then a line per orbit as the continuation accepts it (the orbit, its Floquet multipliers, where
+//! the continuation stood, the run of two orbit periods that gives each probe's amplitudes), then a
+//! line for how it ended; every line carries the first 16 hex digits of its SHA-256. A line whose
+//! checksum fails or a torn last line is never read, nor anything after it; a journal of another
+//! sweep is set aside. A branch whose journal has not ended goes on from the last orbit the
+//! continuation stepped to that the journal holds ([`resume_branch`]): the continuation from an
+//! orbit is a function of that orbit and the options alone, so the points it gives are bitwise
+//! those an uninterrupted run gives. The stop flag stops each branch after the orbit it is
+//! computing. The output file is written from the journals, to a temporary file renamed over it.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{BufRead, BufReader, Write};
@@ -24,7 +24,9 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
 use chainsweep_solver::observe::steady::SteadyProbe;
-use chainsweep_solver::periodic::{continue_branch, BranchPoint, Monodromy, PeriodMap};
+use chainsweep_solver::periodic::{
+    continue_branch_stoppable, resume_branch, BranchPoint, Monodromy, PeriodMap,
+};
 
 use super::run::{Failure, Health, RunOptions, RunReport, VerificationReport};
 use super::{check_output, thread_pool, DamageReport, ProgressSink, Start};
@@ -80,19 +82,22 @@ fn checksum(text: &str) -> String {
     sum[..8].iter().map(|b| format!("{b:02x}")).collect()
 }
 
-/// The journal at `path` if it is this branch's (`identity`) and every line reads back; else
-/// `None` (absent, another sweep's, damaged or torn: computed again).
+/// The journal at `path` if it is this branch's (`identity`): its lines up to the first that
+/// does not read back (a torn tail, a damaged line: what follows it is never read); `None` when
+/// absent or another sweep's.
 fn read_journal(path: &Path, identity: &str) -> Option<Journal> {
     let file = File::open(path).ok()?;
     let mut journal = Journal::default();
     let mut first = true;
     for line in BufReader::new(file).lines() {
-        let line = line.ok()?;
-        let (sum, json) = line.split_once(' ')?;
-        if checksum(json) != sum {
-            return None;
-        }
-        let entry: Entry = serde_json::from_str(json).ok()?;
+        let Some(entry) = line.ok().and_then(|line| {
+            let (sum, json) = line.split_once(' ')?;
+            (checksum(json) == sum)
+                .then(|| serde_json::from_str::<Entry>(json).ok())
+                .flatten()
+        }) else {
+            break;
+        };
         match entry {
             Entry::Identity { hash } => {
                 if !first || hash != identity {
@@ -108,7 +113,7 @@ fn read_journal(path: &Path, identity: &str) -> Option<Journal> {
         }
         first = false;
     }
-    Some(journal)
+    (!first).then_some(journal)
 }
 
 /// What identifies branch `index`: the sweep's text, the point's scene and the engine's versions.
@@ -130,8 +135,10 @@ fn identity(sweep: &Sweep, grid: &Grid, index: usize) -> String {
 /// The journals' folder in the work directory.
 const JOURNALS: &str = "periodic";
 
-/// Computes branch `index` into its journal at `path` (replacing what was there), returning the
-/// journal.
+/// Computes branch `index` into its journal at `path`, going on from the last orbit the
+/// continuation accepted that the journal holds (`journal`, read back; its lines after that
+/// orbit dropped) or from the start; returns the journal, without an end when `stop` stopped it.
+#[allow(clippy::too_many_arguments)]
 fn compute(
     sweep: &Sweep,
     grid: &Grid,
@@ -139,21 +146,41 @@ fn compute(
     index: usize,
     path: &Path,
     identity: &str,
+    journal: Option<Journal>,
+    stop: &AtomicBool,
 ) -> Result<Journal> {
     let io = |e: std::io::Error| Error::Other(format!("{}: {e}", path.display()));
+    // What is kept: the points up to the last one the continuation stepped to (a special point
+    // located after it is located again, the same).
+    let mut journal = journal.unwrap_or_default();
+    let keep = journal
+        .points
+        .iter()
+        .rposition(|e| matches!(e, Entry::Point { point, .. } if !point.kind.is_special()))
+        .map_or(0, |k| k + 1);
+    journal.points.truncate(keep);
+    journal.end = None;
+    // Written afresh (identity and the points kept) beside the journal, then renamed over it.
+    let fresh = path.with_extension("log.tmp");
     let mut file = OpenOptions::new()
         .create(true)
         .write(true)
         .truncate(true)
-        .open(path)
+        .open(&fresh)
         .map_err(io)?;
+    let mut text = line_of(&Entry::Identity {
+        hash: identity.to_string(),
+    });
+    for e in &journal.points {
+        text.push_str(&line_of(e));
+    }
+    file.write_all(text.as_bytes()).map_err(io)?;
+    file.sync_data().map_err(io)?;
+    fs::rename(&fresh, path).map_err(io)?;
     let mut write = |entry: &Entry| -> Result<()> {
         file.write_all(line_of(entry).as_bytes()).map_err(io)?;
         file.sync_data().map_err(io)
     };
-    write(&Entry::Identity {
-        hash: identity.to_string(),
-    })?;
     let point = grid.point_value(sweep, index);
     let from = spec.start(&point)?;
     let scene_at = |p: f64| {
@@ -164,9 +191,12 @@ fn compute(
             other => chainsweep_solver::spec::spec_err("periodic", other.to_string()),
         })
     };
-    let mut journal = Journal::default();
+    let last = journal.points.last().and_then(|e| match e {
+        Entry::Point { point, .. } => Some(point.as_ref().clone()),
+        _ => None,
+    });
     let mut failure: Option<Error> = None;
-    let outcome = continue_branch(&scene_at, from, &spec.orbit, &spec.branch, &mut |p| {
+    let mut on_point = |p: &BranchPoint| {
         if failure.is_some() {
             return;
         }
@@ -175,14 +205,43 @@ fn compute(
             failure = Some(e);
         }
         journal.points.push(entry);
-    });
+    };
+    let outcome = match &last {
+        Some(last) => resume_branch(
+            &scene_at,
+            from,
+            &spec.orbit,
+            &spec.branch,
+            last,
+            Some(stop),
+            &mut on_point,
+        ),
+        None => continue_branch_stoppable(
+            &scene_at,
+            from,
+            &spec.orbit,
+            &spec.branch,
+            Some(stop),
+            &mut on_point,
+        ),
+    };
     if let Some(e) = failure {
         return Err(e);
     }
     let end = match outcome {
+        Ok(branch) if branch.stopped => return Ok(journal),
         Ok(branch) => Entry::End {
             end: branch.end,
-            warnings: branch.warnings,
+            // Every warning of the branch, from its points (the same whether or not it was
+            // resumed).
+            warnings: journal
+                .points
+                .iter()
+                .flat_map(|e| match e {
+                    Entry::Point { point, .. } => point.progress.warnings.clone(),
+                    _ => Vec::new(),
+                })
+                .collect(),
             maps: branch.maps,
         },
         Err(e) => Entry::Failed {
@@ -241,9 +300,10 @@ pub fn run_periodic(
     let identities: Vec<String> = (0..n).map(|i| identity(sweep, grid, i)).collect();
     let path = |i: usize| dir.join(format!("{i}.log"));
     let mut journals: Vec<Option<Journal>> = (0..n)
-        .map(|i| read_journal(&path(i), &identities[i]).filter(|j| j.end.is_some()))
+        .map(|i| read_journal(&path(i), &identities[i]))
         .collect();
-    let done = journals.iter().filter(|j| j.is_some()).count();
+    let ended = |j: &Option<Journal>| j.as_ref().is_some_and(|j| j.end.is_some());
+    let done = journals.iter().filter(|j| ended(j)).count();
     let failed_before = journals
         .iter()
         .filter(|j| {
@@ -264,29 +324,45 @@ pub fn run_periodic(
         resumed_points: done,
         output: &opts.output,
     });
-    let todo: Vec<usize> = (0..n).filter(|&i| journals[i].is_none()).collect();
+    let open: Vec<usize> = (0..n).filter(|&i| !ended(&journals[i])).collect();
+    let todo: Vec<(usize, Option<Journal>)> =
+        open.iter().map(|&i| (i, journals[i].take())).collect();
     let pool = thread_pool(opts.jobs.min(todo.len()).max(1))?;
     // The branches run on the pool; their progress comes back here, to the sink.
     let (tx, rx) = std::sync::mpsc::channel::<bool>();
-    let (todo_ref, pool_ref, path_ref, ids) = (&todo, &pool, &path, &identities);
+    let (pool_ref, path_ref, ids) = (&pool, &path, &identities);
     let computed: Vec<(usize, Result<Journal>)> = std::thread::scope(|scope| {
         let worker = scope.spawn(move || {
-            let (todo, pool, path, identities) = (todo_ref, pool_ref, path_ref, ids);
+            let (pool, path, identities) = (pool_ref, path_ref, ids);
             pool.install(|| {
-                todo.par_iter()
-                    .filter_map(|&i| {
+                todo.into_par_iter()
+                    .filter_map(|(i, journal)| {
                         if stop.load(Ordering::Relaxed) {
                             return None;
                         }
-                        let r = compute(sweep, grid, spec, i, &path(i), &identities[i]);
-                        let ended = matches!(
-                            &r,
+                        let r = compute(
+                            sweep,
+                            grid,
+                            spec,
+                            i,
+                            &path(i),
+                            &identities[i],
+                            journal,
+                            stop,
+                        );
+                        // A branch the stop flag stopped is neither: it goes on next time.
+                        match &r {
+                            Ok(Journal { end: None, .. }) => {}
                             Ok(Journal {
                                 end: Some(Entry::End { .. }),
                                 ..
-                            })
-                        );
-                        let _ = tx.send(!ended);
+                            }) => {
+                                let _ = tx.send(false);
+                            }
+                            _ => {
+                                let _ = tx.send(true);
+                            }
+                        }
                         Some((i, r))
                     })
                     .collect()
@@ -302,7 +378,7 @@ pub fn run_periodic(
         journals[i] = Some(r?);
     }
     sink.runs_ended();
-    let stopped = journals.iter().any(Option::is_none);
+    let stopped = journals.iter().any(|j| !ended(j));
     let harmonics = sweep_harmonics(sweep);
     let branches: Vec<StoredBranch> = journals
         .iter()
@@ -435,7 +511,11 @@ fn stored_branch(j: Option<&Journal>, probes: usize, harmonics: usize) -> Stored
             (BRANCH_OK, end, *maps as i64)
         }
         Some(Entry::Failed { reason }) => (BRANCH_FAILED, reason.clone(), -1),
-        _ => (BRANCH_PENDING, String::new(), -1),
+        _ => (
+            BRANCH_PENDING,
+            "stopped: the same command goes on from its last orbit".to_string(),
+            -1,
+        ),
     };
     StoredBranch {
         status,

@@ -8,6 +8,7 @@ use crate::periodic::shooting::{Orbit, PeriodMap, ShootingError};
 use crate::periodic::PeriodicOptions;
 use crate::scene::Scene;
 use crate::spec::{spec_err, SpecError};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Smallest cosine of the angle between consecutive tangents of an accepted step (about 14°): a
 /// sharper turn halves the step, so that a resonance's peak and a fold are drawn in several points.
@@ -167,6 +168,10 @@ pub struct BranchPoint {
     pub tangent_parameter: f64,
     /// Scaled arclength from the start.
     pub arclength: f64,
+    /// Where the continuation stood when it accepted this point (a stepped-to or start point;
+    /// zero for a located special point): what [`resume_branch`] needs to go on from it exactly
+    /// as it would have.
+    pub progress: Progress,
     /// The unit tangent in the scaled unknowns `(x/s, p/s_p)`.
     pub(super) tangent: Vec<f64>,
     pub(super) determinant: f64,
@@ -217,6 +222,20 @@ impl BranchPoint {
     }
 }
 
+/// Where a continuation stood when it accepted a point.
+#[derive(Debug, Clone, Default, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+pub struct Progress {
+    /// The arclength step it takes next (scaled).
+    pub next_step: f64,
+    /// Points of the branch so far, this one included.
+    pub points: usize,
+    /// Period maps integrated so far.
+    pub maps: u64,
+    /// Special points detected since the previous accepted point but not located, with why.
+    pub warnings: Vec<String>,
+}
+
 /// A continued branch.
 #[derive(Debug, Clone)]
 pub struct Branch {
@@ -230,6 +249,9 @@ pub struct Branch {
     pub maps: u64,
     /// Steps and evaluations of all of them.
     pub stats: IntegrationStats,
+    /// Whether it stopped because the stop flag was set (it can be resumed from its last
+    /// accepted point, [`resume_branch`]).
+    pub stopped: bool,
 }
 
 /// A corrected point: the orbit, the scaled unknowns, the scaled `∂P/∂p` column.
@@ -409,6 +431,7 @@ impl Continuer<'_> {
         let mut scales = self.scales.clone();
         scales.push(self.parameter_scale);
         Ok(BranchPoint {
+            progress: Progress::default(),
             parameter: c.u[m] * self.parameter_scale,
             scales,
             tangent_parameter: tangent[m],
@@ -501,6 +524,20 @@ pub fn continue_branch(
     options: &BranchOptions,
     on_point: &mut dyn FnMut(&BranchPoint),
 ) -> Result<Branch, SpecError> {
+    continue_branch_stoppable(scene_at, from, periodic, options, None, on_point)
+}
+
+/// [`continue_branch`], stopping after the point it is computing once `stop` is set (an
+/// interrupt from another thread): the branch then ends with [`Branch::stopped`], and
+/// [`resume_branch`] goes on from its last accepted point.
+pub fn continue_branch_stoppable(
+    scene_at: &dyn Fn(f64) -> Result<Scene, SpecError>,
+    from: f64,
+    periodic: &PeriodicOptions,
+    options: &BranchOptions,
+    stop: Option<&AtomicBool>,
+    on_point: &mut dyn FnMut(&BranchPoint),
+) -> Result<Branch, SpecError> {
     periodic.validate()?;
     options.validate(from)?;
     let scene = scene_at(from)?;
@@ -512,7 +549,47 @@ pub fn continue_branch(
                 format!("settling the first orbit at {from}: {e}"),
             )
         })?;
-    continue_branch_from(scene_at, from, &first_guess, periodic, options, on_point)
+    let (mut c, start) = first_point(scene_at, from, &first_guess, periodic, options)?;
+    let bounds = (from.min(options.to), from.max(options.to));
+    Ok(c.follow_from(start, false, options, bounds, stop, on_point))
+}
+
+/// Goes on with the branch of [`continue_branch`] (the same `scene_at`, `from`, `periodic` and
+/// `options`) from `last`, the last point it accepted (a start or a stepped-to point, as
+/// `on_point` gave it: its [`BranchPoint::progress`] holds the step, the count of points and of
+/// period maps the continuation had reached), exactly as the continuation would have gone on:
+/// the points after it are bitwise those an uninterrupted continuation gives. `last` itself is
+/// not given to `on_point` again, nor counted in the returned branch's points.
+pub fn resume_branch(
+    scene_at: &dyn Fn(f64) -> Result<Scene, SpecError>,
+    from: f64,
+    periodic: &PeriodicOptions,
+    options: &BranchOptions,
+    last: &BranchPoint,
+    stop: Option<&AtomicBool>,
+    on_point: &mut dyn FnMut(&BranchPoint),
+) -> Result<Branch, SpecError> {
+    periodic.validate()?;
+    options.validate(from)?;
+    let m = last.orbit.state.len();
+    if last.kind.is_special() || last.scales.len() != m + 1 || last.tangent.len() != m + 1 {
+        return Err(spec_err(
+            "periodic",
+            "a branch resumes from a start or stepped-to point as the continuation gave it",
+        ));
+    }
+    let mut c = Continuer {
+        scene_at,
+        options: periodic,
+        scales: last.scales[..m].to_vec(),
+        parameter_scale: last.scales[m],
+        maps: last.progress.maps,
+        stats: IntegrationStats::default(),
+    };
+    let bounds = (from.min(options.to), from.max(options.to));
+    let mut branch = c.follow_from(last.clone(), true, options, bounds, stop, on_point);
+    branch.points.remove(0);
+    Ok(branch)
 }
 
 /// [`continue_branch`] from a given first guess of the orbit at `from` (its components, as
@@ -529,6 +606,20 @@ pub fn continue_branch_from(
 ) -> Result<Branch, SpecError> {
     periodic.validate()?;
     options.validate(from)?;
+    let (mut c, start) = first_point(scene_at, from, first_guess, periodic, options)?;
+    let bounds = (from.min(options.to), from.max(options.to));
+    Ok(c.follow(start, options, bounds, on_point))
+}
+
+/// The first orbit of a branch at `from`, shot from `first_guess`, with its tangent towards
+/// `options.to`, and the continuation that starts there.
+fn first_point<'a>(
+    scene_at: &'a dyn Fn(f64) -> Result<Scene, SpecError>,
+    from: f64,
+    first_guess: &[f64],
+    periodic: &'a PeriodicOptions,
+    options: &BranchOptions,
+) -> Result<(Continuer<'a>, BranchPoint), SpecError> {
     let map = PeriodMap::new(&scene_at(from)?, periodic)?;
     if first_guess.len() != map.dim() {
         return Err(spec_err(
@@ -569,8 +660,7 @@ pub fn continue_branch_from(
     let start = c
         .point(start, &seed, PointKind::Start, 0.0)
         .map_err(|e| spec_err("periodic", format!("at {from}: {e}")))?;
-    let bounds = (from.min(options.to), from.max(options.to));
-    Ok(c.follow(start, options, bounds, on_point))
+    Ok((c, start))
 }
 
 impl Continuer<'_> {
@@ -585,21 +675,50 @@ impl Continuer<'_> {
         bounds: (f64, f64),
         on_point: &mut dyn FnMut(&BranchPoint),
     ) -> Branch {
+        self.follow_from(start, false, options, bounds, None, on_point)
+    }
+
+    /// [`Continuer::follow`] from `start`, which was given to `on_point` already when `resumed`
+    /// (its progress then says where the continuation stood), stopping once `stop` is set.
+    pub(super) fn follow_from(
+        &mut self,
+        mut start: BranchPoint,
+        resumed: bool,
+        options: &BranchOptions,
+        bounds: (f64, f64),
+        stop: Option<&AtomicBool>,
+        on_point: &mut dyn FnMut(&BranchPoint),
+    ) -> Branch {
         let c = self;
         let periodic = c.options;
         let range = c.parameter_scale;
-        on_point(&start);
         let step = options.step.unwrap_or(range / 50.0) / range;
         let min_step = options.min_step.unwrap_or(step * range * 1e-4) / range;
         let max_step = options.max_step.unwrap_or(range / 20.0) / range;
         let (lo, hi) = bounds;
-        let mut ds = step;
+        if !resumed {
+            start.progress = Progress {
+                next_step: step,
+                points: 1,
+                maps: c.maps,
+                warnings: Vec::new(),
+            };
+            on_point(&start);
+        }
+        let mut ds = start.progress.next_step;
+        let mut count = start.progress.points;
         let mut points = vec![start];
         let mut warnings = Vec::new();
+        let mut stopped = false;
         let end = loop {
-            if points.len() >= options.max_points as usize {
+            if count >= options.max_points as usize {
                 break format!("reached max_points ({})", options.max_points);
             }
+            if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+                stopped = true;
+                break "stopped (interrupted)".to_string();
+            }
+            let mut step_warnings = Vec::new();
             let a = points.last().expect("a start").clone();
             let b = match c.along(&a, ds, PointKind::Regular) {
                 Ok(b) => b,
@@ -628,7 +747,7 @@ impl Continuer<'_> {
                 };
                 match c.locate(&a, &b, ds, kind, outside, options.locate_tolerance) {
                     Ok(p) => special.push(p),
-                    Err(e) => warnings.push(format!(
+                    Err(e) => step_warnings.push(format!(
                         "a {} between {} and {} was not located: {e}",
                         kind.name(),
                         a.parameter,
@@ -638,7 +757,13 @@ impl Continuer<'_> {
             }
             // Special points lie between a and b: the branch stays in arclength order.
             special.sort_by(|x, y| x.arclength.total_cmp(&y.arclength));
-            for p in special {
+            for mut p in special {
+                count += 1;
+                p.progress = Progress {
+                    points: count,
+                    maps: c.maps,
+                    ..Progress::default()
+                };
                 on_point(&p);
                 points.push(p);
             }
@@ -670,28 +795,45 @@ impl Continuer<'_> {
                             c.point(corrected, &b.tangent, PointKind::End, a.arclength + t * ds)
                         });
                         match end {
-                            Ok(p) => {
+                            Ok(mut p) => {
+                                count += 1;
+                                p.progress = Progress {
+                                    next_step: 0.0,
+                                    points: count,
+                                    maps: c.maps,
+                                    warnings: step_warnings.clone(),
+                                };
                                 on_point(&p);
                                 points.push(p);
                             }
-                            Err(e) => warnings.push(format!("the end point at {edge}: {e}")),
+                            Err(e) => step_warnings.push(format!("the end point at {edge}: {e}")),
                         }
                     }
-                    Err(e) => warnings.push(format!("the end point: {e}")),
+                    Err(e) => step_warnings.push(format!("the end point: {e}")),
                 }
+                warnings.extend(step_warnings);
                 break format!("reached the end of the range at {edge}");
             }
             // The largest step moves the parameter by at most max_step along the new tangent;
             // where the branch rises steeply (a resonance) the turn of the tangent limits it.
             let cap = max_step / b.tangent_parameter.abs().max(f64::MIN_POSITIVE);
-            on_point(&b);
-            points.push(b);
             if iterations <= 2 {
                 ds *= 1.5;
             } else if iterations >= 5 {
                 ds = (0.7 * ds).max(min_step);
             }
             ds = ds.min(cap);
+            count += 1;
+            let mut b = b;
+            b.progress = Progress {
+                next_step: ds,
+                points: count,
+                maps: c.maps,
+                warnings: step_warnings.clone(),
+            };
+            warnings.extend(step_warnings);
+            on_point(&b);
+            points.push(b);
         };
         Branch {
             points,
@@ -699,6 +841,7 @@ impl Continuer<'_> {
             warnings,
             maps: c.maps,
             stats: c.stats,
+            stopped,
         }
     }
 }

@@ -81,7 +81,8 @@ use crate::spec::{spec_err, SpecError};
 
 pub use autonomous::{continue_autonomous, AutonomousMap, AutonomousOrbit};
 pub use branch::{
-    continue_branch, continue_branch_from, Branch, BranchOptions, BranchPoint, PointKind,
+    continue_branch, continue_branch_from, continue_branch_stoppable, resume_branch, Branch,
+    BranchOptions, BranchPoint, PointKind, Progress,
 };
 pub use doubling::{continue_period_doubled, period_doubling_vector};
 pub use shooting::{MapOutput, Orbit, PeriodMap, ShootingError};
