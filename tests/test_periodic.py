@@ -128,6 +128,23 @@ def test_status_and_dry_run_say_where_it_stands(branches, tmp_path):
     assert r.returncode == 3 and "not run yet" in r.stdout
 
 
+def test_report_draws_the_branches_with_their_unstable_parts_dashed(branches, tmp_path):
+    _, out = branches
+    page = tmp_path / "page.html"
+    r = run("report", out, "-o", page)
+    assert r.returncode == 0, r.stderr
+    assert "2 figure(s)" in r.stderr
+    html = page.read_text()
+    assert "2 branch(es) of periodic orbits: 2 ended" in html
+    assert "fold at 3357" in html and "fold at 3354" in html
+    # The unstable orbits between the folds: a dashed part of the 60 nm curve.
+    assert 'stroke-dasharray="5,3"' in html
+    assert "http://" not in html.replace("http://www.w3.org/2000/svg", "")
+    r = run("report", out, "--format", "svg", "-o", tmp_path / "figures")
+    assert r.returncode == 0, r.stderr
+    assert len(list((tmp_path / "figures").glob("*.svg"))) == 2
+
+
 def test_a_killed_run_resumes_bitwise_from_its_last_orbit_and_past_a_damaged_journal_line(
     branches, tmp_path
 ):

@@ -846,20 +846,33 @@ fn cmd_report(
         ));
     }
     let write_page = || -> Result<()> {
-        let s = status::of_file(file)?;
-        if let Some(&n) = points.iter().find(|&&n| n >= s.total) {
-            return Err(Error::input(
-                "--point",
-                format!(
-                    "point {n} is not in the file: its points are 0 to {}",
-                    s.total.saturating_sub(1)
-                ),
-            ));
-        }
         let t = std::time::Instant::now();
-        let p = match format {
-            ReportFormat::Html => chainsweep::report::write(file, &s, points, &out)?,
-            ReportFormat::Svg => chainsweep::report::write_figures(file, &s, points, &out)?,
+        let periodic = chainsweep::store::hdf5::is_hdf5(file)
+            .then(|| engine::periodic::status_of_file(file))
+            .transpose()?
+            .flatten();
+        let p = if let Some(s) = periodic {
+            // A periodic sweep's branches: a page of their curves (no histories to choose).
+            let page = chainsweep::report::periodic::page(file, &s)?;
+            match format {
+                ReportFormat::Html => chainsweep::report::write_page(page, &out)?,
+                ReportFormat::Svg => chainsweep::report::write_figures_of(page, &out)?,
+            }
+        } else {
+            let s = status::of_file(file)?;
+            if let Some(&n) = points.iter().find(|&&n| n >= s.total) {
+                return Err(Error::input(
+                    "--point",
+                    format!(
+                        "point {n} is not in the file: its points are 0 to {}",
+                        s.total.saturating_sub(1)
+                    ),
+                ));
+            }
+            match format {
+                ReportFormat::Html => chainsweep::report::write(file, &s, points, &out)?,
+                ReportFormat::Svg => chainsweep::report::write_figures(file, &s, points, &out)?,
+            }
         };
         let size = match format {
             ReportFormat::Html => p.html.len(),

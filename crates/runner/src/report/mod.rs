@@ -10,6 +10,7 @@
 //! (every k-th point of a long axis, a coarser grid of a large heatmap), and the page says where.
 
 mod histories;
+pub mod periodic;
 mod searches;
 pub mod svg;
 
@@ -56,7 +57,7 @@ pub struct Page {
     pub svgs: Vec<(String, String)>,
 }
 
-struct Builder {
+pub(crate) struct Builder {
     body: String,
     figures: usize,
     thinned: Vec<String>,
@@ -64,7 +65,7 @@ struct Builder {
 }
 
 impl Builder {
-    fn figure(&mut self, svg: String, caption: &str) {
+    pub(crate) fn figure(&mut self, svg: String, caption: &str) {
         self.svgs.push((caption.to_string(), svg.clone()));
         self.figures += 1;
         let _ = write!(
@@ -124,6 +125,12 @@ pub fn page(path: &Path, status: &FileStatus, points: &[usize]) -> Result<Page> 
     }
     histories::section(&mut b, &sweep, &recs, points);
     provenance_section(&mut b, path, &recs.sweep_text);
+    Ok(finish(b, &name, &sweep.description))
+}
+
+/// The page around the sections `b` holds: its head, title (`name`, the file's) and the sweep's
+/// `description`.
+pub(crate) fn finish(b: Builder, name: &str, description: &str) -> Page {
     let mut html = String::new();
     let _ = write!(
         html,
@@ -145,7 +152,7 @@ pre {{ background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em;
 "#,
         title = esc(&format!("chainsweep report: {name}")),
         version = crate::ENGINE_VERSION,
-        description = esc(&sweep.description),
+        description = esc(description),
     );
     if !b.thinned.is_empty() {
         let _ = write!(
@@ -156,12 +163,12 @@ pre {{ background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em;
     }
     html.push_str(&b.body);
     html.push_str("</body></html>");
-    Ok(Page {
+    Page {
         html,
         figures: b.figures,
         thinned: b.thinned,
         svgs: b.svgs,
-    })
+    }
 }
 
 fn health_section(b: &mut Builder, s: &FileStatus) {
@@ -519,14 +526,13 @@ fn plot_over_axes(
         let series: Vec<Series> = series_of(outer)
             .into_iter()
             .map(|(label, points)| Series {
-                label,
                 points: keep.iter().map(|&j| (x_of(j), v[points[j]])).collect(),
                 missing: keep
                     .iter()
                     .filter(|&&j| !v[points[j]].is_finite())
                     .map(|&j| (x_of(j), why(points[j])))
                     .collect(),
-                band: Vec::new(),
+                ..Series::line(label, Vec::new())
             })
             .collect();
         let texts: Vec<String> = a.values.iter().map(axis_text).collect();
@@ -630,7 +636,7 @@ fn plot_over_axes(
     }
 }
 
-fn provenance_section(b: &mut Builder, path: &Path, sweep_text: &str) {
+pub(crate) fn provenance_section(b: &mut Builder, path: &Path, sweep_text: &str) {
     let names = [
         "engine_version",
         "solver_version",
@@ -667,7 +673,11 @@ pub fn write_figures(
     points: &[usize],
     dir: &Path,
 ) -> Result<Page> {
-    let p = page(file, status, points)?;
+    write_figures_of(page(file, status, points)?, dir)
+}
+
+/// [`write_figures`] of a page made already.
+pub fn write_figures_of(p: Page, dir: &Path) -> Result<Page> {
     let io = |e: std::io::Error| Error::Other(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(io)?;
     for entry in std::fs::read_dir(dir).map_err(io)? {
@@ -718,7 +728,11 @@ pub fn write_figures(
 
 /// Writes the page of `file` to `out` atomically (a temporary file renamed over it).
 pub fn write(file: &Path, status: &FileStatus, points: &[usize], out: &Path) -> Result<Page> {
-    let p = page(file, status, points)?;
+    write_page(page(file, status, points)?, out)
+}
+
+/// [`write`] of a page made already.
+pub fn write_page(p: Page, out: &Path) -> Result<Page> {
     let tmp = out.with_extension("html.tmp");
     std::fs::write(&tmp, &p.html).map_err(|e| Error::Other(format!("{}: {e}", tmp.display())))?;
     std::fs::rename(&tmp, out).map_err(|e| Error::Other(format!("{}: {e}", out.display())))?;

@@ -24,6 +24,11 @@ pub struct Series {
     pub missing: Vec<(f64, String)>,
     /// Per point, the lower and upper ends of an interval (empty: none).
     pub band: Vec<(f64, f64)>,
+    /// The colour's index ([`colour`]; `None`: the series' own place), so that two series can
+    /// be parts of one curve.
+    pub colour: Option<usize>,
+    /// Drawn dashed (an unstable part of a curve).
+    pub dashed: bool,
 }
 
 impl Series {
@@ -34,6 +39,8 @@ impl Series {
             points,
             missing: Vec::new(),
             band: Vec::new(),
+            colour: None,
+            dashed: false,
         }
     }
 }
@@ -221,8 +228,13 @@ pub fn lines(
             .chain(s.band.iter().flat_map(|b| [b.0, b.1]))
     });
     let (y0, y1) = range(ys);
-    // A legend stands right of the data, never over it.
-    let legend_w = if series.len() > 1 {
+    // A legend stands right of the data, never over it; it lists the series with a label.
+    let labelled: Vec<(usize, &Series)> = series
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !s.label.is_empty())
+        .collect();
+    let legend_w = if labelled.len() > 1 {
         30.0 + 6.0
             * series
                 .iter()
@@ -260,7 +272,12 @@ pub fn lines(
     let mut out = String::new();
     axes(&mut out, &f, title, x_label, y_label, &x_ticks);
     for (k, s) in series.iter().enumerate() {
-        let c = colour(k);
+        let c = colour(s.colour.unwrap_or(k));
+        let dash = if s.dashed {
+            r#" stroke-dasharray="5,3""#
+        } else {
+            ""
+        };
         if !s.band.is_empty() {
             let mut d = String::new();
             for (i, (p, b)) in s.points.iter().zip(&s.band).enumerate() {
@@ -302,7 +319,7 @@ pub fn lines(
         }
         let _ = write!(
             out,
-            r##"<path d="{d}" fill="none" stroke="{c}" stroke-width="1.5"/>"##
+            r##"<path d="{d}" fill="none" stroke="{c}" stroke-width="1.5"{dash}/>"##
         );
         if s.points.len() <= 200 {
             for p in s.points.iter().filter(|p| p.1.is_finite()) {
@@ -326,28 +343,33 @@ pub fn lines(
         }
     }
     // The legend: a column right of the frame.
-    if series.len() > 1 {
-        let shown = series.len().min(12);
+    if labelled.len() > 1 {
+        let shown = labelled.len().min(12);
         let x = W - legend_w - RIGHT + 10.0;
-        for (k, s) in series.iter().take(shown).enumerate() {
-            let y = TOP + 10.0 + 14.0 * k as f64;
+        for (row, (k, s)) in labelled.iter().take(shown).enumerate() {
+            let y = TOP + 10.0 + 14.0 * row as f64;
             let label: String = s.label.chars().take(24).collect();
+            let dash = if s.dashed {
+                r#" stroke-dasharray="5,3""#
+            } else {
+                ""
+            };
             let _ = write!(
                 out,
-                r##"<line x1="{x:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{}" stroke-width="2"/><text x="{:.1}" y="{:.1}" font-size="10">{}</text>"##,
+                r##"<line x1="{x:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="{}" stroke-width="2"{dash}/><text x="{:.1}" y="{:.1}" font-size="10">{}</text>"##,
                 x + 14.0,
-                colour(k),
+                colour(s.colour.unwrap_or(*k)),
                 x + 18.0,
                 y + 4.0,
                 esc(&label)
             );
         }
-        if series.len() > shown {
+        if labelled.len() > shown {
             let _ = write!(
                 out,
                 r##"<text x="{x:.1}" y="{:.1}" font-size="10">… {} more</text>"##,
                 TOP + 14.0 + 14.0 * shown as f64,
-                series.len() - shown
+                labelled.len() - shown
             );
         }
     }

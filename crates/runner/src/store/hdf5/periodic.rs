@@ -647,3 +647,111 @@ pub fn kind_name(flag: u8) -> &'static str {
         .nth(flag as usize)
         .unwrap_or("unknown")
 }
+
+/// What a report draws of a periodic sweep's file, read with the checks on.
+#[derive(Debug, Clone)]
+pub struct BranchTables {
+    /// The sweep file's text.
+    pub sweep_text: String,
+    /// The continued field's name (its coordinate) and unit.
+    pub name: String,
+    /// Its unit.
+    pub units: String,
+    /// Branches (grid points) and points per branch (the `branch_point` dimension).
+    pub branches: usize,
+    /// Points per branch in the file.
+    pub per_branch: usize,
+    /// The continued field, `point_kind`, `stability` and `largest_multiplier` over (branch,
+    /// point).
+    pub parameter: Vec<f64>,
+    /// As `parameter`.
+    pub kind: Vec<u8>,
+    /// As `parameter`.
+    pub stability: Vec<u8>,
+    /// As `parameter`.
+    pub largest_multiplier: Vec<f64>,
+    /// Probe names and units.
+    pub probes: Vec<(String, String)>,
+    /// Each probe's fundamental amplitude over (branch, point, probe), in its own unit.
+    pub amplitude: Vec<f64>,
+}
+
+/// The tables of the periodic sweep's file `path` a report draws.
+pub fn read_tables(path: &Path) -> Result<BranchTables> {
+    let file = File::open(path)?;
+    let sweep_text = super::read_attr_str(&file, "sweep")?;
+    let field = super::read_attr_str(&file, "periodic_field")?;
+    let status: Vec<u8> = file.dataset("branch_status")?.read_raw()?;
+    let branches = status.len();
+    let kind: Vec<u8> = file.dataset("point_kind")?.read_raw()?;
+    let per_branch = kind.len() / branches.max(1);
+    let parameter = read_parameter(path)?;
+    let stability: Vec<u8> = file.dataset("stability")?.read_raw()?;
+    let largest_multiplier: Vec<f64> = file.dataset("largest_multiplier")?.read_raw()?;
+    let name = file
+        .member_names()?
+        .into_iter()
+        .find(|m| {
+            file.dataset(m).ok().is_some_and(|d| {
+                d.attr("field")
+                    .ok()
+                    .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>().ok())
+                    .is_some_and(|f| f.as_str() == field)
+                    && d.size() == kind.len()
+            })
+        })
+        .unwrap_or_else(|| field.clone());
+    let units = file
+        .dataset(&name)
+        .ok()
+        .and_then(|d| d.attr("units").ok())
+        .and_then(|a| a.read_scalar::<hdf5::types::VarLenUnicode>().ok())
+        .map(|u| u.as_str().to_string())
+        .unwrap_or_default();
+    let (mut probes, mut amplitude) = (Vec::new(), Vec::new());
+    if let Ok(d) = file.dataset("probe") {
+        let names = read_text(&d)?;
+        let units = read_text(&file.dataset("probe_units")?)?;
+        let np = names.len();
+        amplitude = vec![f64::NAN; branches * per_branch * np];
+        let mut distinct: Vec<&String> = Vec::new();
+        for u in &units {
+            if !distinct.contains(&u) {
+                distinct.push(u);
+            }
+        }
+        let datasets: Vec<String> = if distinct.len() > 1 {
+            distinct
+                .iter()
+                .map(|u| format!("orbit_amplitude_{}", unit_suffix(u)))
+                .collect()
+        } else {
+            vec!["orbit_amplitude".to_string()]
+        };
+        for name in datasets {
+            let d = file.dataset(&name)?;
+            let values: Vec<f64> = d.read_raw()?;
+            let harmonics = values.len() / (branches * per_branch * np).max(1);
+            for (i, a) in amplitude.iter_mut().enumerate() {
+                let v = values[i * harmonics];
+                if v.is_finite() {
+                    *a = v;
+                }
+            }
+        }
+        probes = names.into_iter().zip(units).collect();
+    }
+    Ok(BranchTables {
+        sweep_text,
+        name,
+        units,
+        branches,
+        per_branch,
+        parameter,
+        kind,
+        stability,
+        largest_multiplier,
+        probes,
+        amplitude,
+    })
+}
