@@ -677,8 +677,17 @@ pub struct BranchLine {
 
 /// The status of the periodic sweep's output file `path`; `None` for a file of another kind.
 pub fn status_of_file(path: &Path) -> Result<Option<PeriodicStatus>> {
-    let Some(summary) = read_summary(path)? else {
-        return Ok(None);
+    let summary = match read_summary(path) {
+        Ok(Some(summary)) => summary,
+        Ok(None) => return Ok(None),
+        // Its tables cannot be read back: damaged, said so.
+        Err(e) => {
+            return Ok(Some(PeriodicStatus {
+                branches: Vec::new(),
+                counts: Counts::default(),
+                damage: Some(e.to_string()),
+            }))
+        }
     };
     let damage = crate::store::hdf5::periodic::check_every_dataset(path)
         .err()

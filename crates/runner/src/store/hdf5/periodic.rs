@@ -563,6 +563,11 @@ pub fn write_file(
     write().map_err(|e| e.hdf5_context(|| format!("writing {}", path.display())))
 }
 
+/// Whether the file at `path` opens and is a periodic sweep's (its root attribute `periodic`).
+pub fn is_periodic(path: &Path) -> bool {
+    File::open(path).is_ok_and(|f| f.attr("periodic").is_ok())
+}
+
 /// One branch as `status` reads it: its `branch_status`, its points, the `point_kind` of each
 /// (padded with 0) and why it ended.
 pub type BranchSummary = (u8, i64, Vec<u8>, String);
@@ -570,10 +575,10 @@ pub type BranchSummary = (u8, i64, Vec<u8>, String);
 /// What `status` shows of a periodic sweep's file: per branch, its status, points, special
 /// points by kind and why it ended; `None` for a file of another kind.
 pub fn read_summary(path: &Path) -> Result<Option<Vec<BranchSummary>>> {
-    let file = File::open(path)?;
-    if file.attr("periodic").is_err() {
+    if !is_periodic(path) {
         return Ok(None);
     }
+    let file = File::open(path)?;
     let status: Vec<u8> = file.dataset("branch_status")?.read_raw()?;
     let points: Vec<i64> = file.dataset("branch_points")?.read_raw()?;
     let kinds: Vec<u8> = file.dataset("point_kind")?.read_raw()?;
