@@ -234,6 +234,14 @@ def test_bad_periodic_blocks_exit_2_naming_the_field(tmp_path, change, field):
     assert r.returncode == 2 and not (tmp_path / "bad.h5").exists()
 
 
+def test_the_python_package_runs_a_periodic_sweep_and_counts_its_branches(tmp_path):
+    r = chainsweep.sweep(example(strokes=(6e-8,)), tmp_path / "py.h5", progress=False)
+    assert (r.exit_code, r.n_runs, r.n_ok, r.n_failed, r.n_pending) == (0, 1, 1, 0, 0)
+    assert r.complete and r.failures == []
+    ds = r.open()
+    assert int((ds["point_kind"] == 4).sum()) == 2
+
+
 def test_shards_are_refused(tmp_path):
     path = write(tmp_path / "s.json", example())
     r = run("run", path, "-o", tmp_path / "s.h5", "--shard", "1/2", "--quiet")

@@ -185,9 +185,13 @@ def _summary(path: Path, exit_code: int, ran: int) -> SweepResult:
     """LAYOUT (root attributes n_runs/n_ok/n_failed/n_pending, status, reason)."""
     with h5py.File(path, "r") as f:
         grid = _Grid(f)
-        status = f["status"][()].ravel()
+        # LAYOUT: a periodic sweep's branches are its runs (branch_status: 0 pending, 1 ended,
+        # 2 failed; branch_end: why).
+        periodic = "periodic" in f.attrs
+        status = f["branch_status" if periodic else "status"][()].ravel()
         failed = np.flatnonzero(status == L.STATUS_FAILED)
-        reasons = _read(f["reason"])[0].ravel() if failed.size else []
+        reason = "branch_end" if periodic else "reason"
+        reasons = _read(f[reason])[0].ravel() if failed.size else []
         failures = []
         for i in failed:
             mi = np.unravel_index(int(i), grid.shape)

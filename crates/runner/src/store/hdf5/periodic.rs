@@ -165,6 +165,12 @@ pub fn write_file(
         write_sweep_attrs(&file, sweep, grid, None, prov)?;
         attr_str(&file, "periodic", &t.description)?;
         attr_str(&file, "periodic_field", t.field)?;
+        // The branches counted as a sweep's runs are: ended ok, failed, pending.
+        let count = |status: u8| t.branches.iter().filter(|b| b.status == status).count() as i64;
+        super::attr_scalar(&file, "n_runs", t.branches.len() as i64)?;
+        super::attr_scalar(&file, "n_ok", count(BRANCH_OK))?;
+        super::attr_scalar(&file, "n_failed", count(BRANCH_FAILED))?;
+        super::attr_scalar(&file, "n_pending", count(BRANCH_PENDING))?;
         let (dims, mut text_scales) = write_coordinates(&file, sweep)?;
         let probe_scale = write_probe_scale(&file, grid)?;
         if let Some(p) = &probe_scale {
