@@ -1,5 +1,6 @@
 //! The report's histories: each probe's recorded signal over time at chosen points (by default
-//! the first point whose run is ok), read checked from the file as `status` and `open` read them.
+//! the evaluation of a search with the best objective, else the first point whose run is ok),
+//! read checked from the file as `status` and `open` read them.
 
 use super::svg::{self, Series};
 use super::{thin, Builder, MAX_LINE_POINTS, MAX_PROBES};
@@ -20,9 +21,48 @@ pub(super) fn recorded(sweep: &Sweep) -> bool {
         .unwrap_or(false)
 }
 
-/// The histories of `points` (flat indices; empty: the first ok point), a figure per point and
-/// unit of its probes.
-pub(super) fn section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords, points: &[usize]) {
+/// The point a search's page draws by default: the evaluation whose run is ok with the best
+/// objective (the smallest for a fit or a minimum, the largest for a maximum, the nearest to the
+/// level for a root), where the file holds one run per evaluation (no `across` axis); `None`
+/// otherwise.
+pub(super) fn best_of_search(
+    path: &std::path::Path,
+    sweep: &Sweep,
+    recs: &FileRecords,
+) -> Option<usize> {
+    use crate::sweep::search::Goal;
+    let spec = sweep.search.as_ref()?;
+    let objective = crate::store::hdf5::fit::read_f64(path, "objective")?;
+    if spec.across.is_some() || objective.len() != recs.len() {
+        return None;
+    }
+    // A refinement samples a curve: no evaluation is better than another.
+    if matches!(spec.goal, Goal::Refine) {
+        return None;
+    }
+    let score = |i: usize| -> Option<f64> {
+        let v = objective[i];
+        (v.is_finite() && recs.status(i) == STATUS_OK).then(|| match spec.goal {
+            Goal::Maximise => -v,
+            Goal::Root => (v - spec.level).abs(),
+            _ => v,
+        })
+    };
+    (0..recs.len())
+        .filter_map(|i| score(i).map(|s| (i, s)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i)
+}
+
+/// The histories of `points` (flat indices; empty: `default`, else the first ok point), a figure
+/// per point and unit of its probes.
+pub(super) fn section(
+    b: &mut Builder,
+    sweep: &Sweep,
+    recs: &FileRecords,
+    points: &[usize],
+    default: Option<usize>,
+) {
     if !recorded(sweep) {
         return;
     }
@@ -31,8 +71,8 @@ pub(super) fn section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords, points
     };
     let sweep = &sweep;
     let chosen: Vec<usize> = if points.is_empty() {
-        (0..recs.len())
-            .find(|&i| recs.status(i) == STATUS_OK)
+        default
+            .or_else(|| (0..recs.len()).find(|&i| recs.status(i) == STATUS_OK))
             .into_iter()
             .collect()
     } else {
@@ -43,7 +83,15 @@ pub(super) fn section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords, points
     }
     b.body.push_str("<h2>Histories</h2>");
     if points.is_empty() {
-        b.body.push_str("<p class=\"note\">The first point whose run is ok; <code>chainsweep report FILE --point N</code> (repeatable) draws others.</p>");
+        let which = if default.is_some() {
+            "The evaluation with the best objective"
+        } else {
+            "The first point whose run is ok"
+        };
+        let _ = std::fmt::Write::write_fmt(
+            &mut b.body,
+            format_args!("<p class=\"note\">{which}; <code>chainsweep report FILE --point N</code> (repeatable) draws others.</p>"),
+        );
     }
     b.body.push_str("<div class=\"plots\">");
     for &i in chosen.iter().take(MAX_HISTORY_POINTS) {

@@ -123,7 +123,8 @@ pub fn page(path: &Path, status: &FileStatus, points: &[usize]) -> Result<Page> 
     if sweep.search.is_none() && sweep.ensemble.is_none() {
         summaries_section(&mut b, &sweep, &recs);
     }
-    histories::section(&mut b, &sweep, &recs, points);
+    let best = histories::best_of_search(path, &sweep, &recs);
+    histories::section(&mut b, &sweep, &recs, points, best);
     provenance_section(&mut b, path, &recs.sweep_text);
     Ok(finish(b, &name, &sweep.description))
 }
