@@ -53,14 +53,18 @@ pub const NOT_VERIFIED: [(&str, &str); 4] = [
 ];
 
 /// The integrator one notch tighter (see the module docs).
-pub fn tighten(spec: IntegratorSpec) -> IntegratorSpec {
-    match spec {
-        IntegratorSpec::Verlet { dt_s } => IntegratorSpec::Verlet { dt_s: dt_s / 4.0 },
-        IntegratorSpec::Rk4 { dt_s } => IntegratorSpec::Rk4 { dt_s: dt_s / 4.0 },
-        IntegratorSpec::Dop853(o) => IntegratorSpec::Dop853(tighten_adaptive(o)),
-        IntegratorSpec::Ros34pw2(o) => IntegratorSpec::Ros34pw2(tighten_adaptive(o)),
-        IntegratorSpec::Vern6(o) => IntegratorSpec::Vern6(tighten_adaptive(o)),
+pub fn tighten(mut spec: IntegratorSpec) -> IntegratorSpec {
+    if let Some(dt_s) = spec.fixed_step_s() {
+        return spec
+            .method()
+            .fixed(dt_s / 4.0)
+            .expect("a method with a fixed step");
     }
+    let o = spec
+        .adaptive_options_mut()
+        .expect("a method is adaptive or has a fixed step");
+    *o = tighten_adaptive(*o);
+    spec
 }
 
 /// An adaptive method's options a hundred times tighter (within the ranges a scene allows).
@@ -140,22 +144,16 @@ pub struct Allowance {
 impl Allowance {
     /// The allowance of a verification run under `tight`, the tightened integrator.
     pub fn of(tight: &IntegratorSpec) -> Allowance {
-        match *tight {
-            // Orders 2 and 4 at a quarter of the step.
-            IntegratorSpec::Verlet { .. } => Allowance {
-                share: 1.0 / 16.0,
+        match tight.adaptive_options() {
+            Some(o) => Allowance {
+                share: TIGHTER_ERROR_SHARE,
+                floor: TIGHTER_ERROR_FACTOR * o.rtol,
+            },
+            // A fixed step of order p at a quarter of the step: 4^-p of the error.
+            None => Allowance {
+                share: 0.25f64.powi(tight.method().order()),
                 floor: 0.0,
             },
-            IntegratorSpec::Rk4 { .. } => Allowance {
-                share: 1.0 / 256.0,
-                floor: 0.0,
-            },
-            IntegratorSpec::Dop853(o) | IntegratorSpec::Ros34pw2(o) | IntegratorSpec::Vern6(o) => {
-                Allowance {
-                    share: TIGHTER_ERROR_SHARE,
-                    floor: TIGHTER_ERROR_FACTOR * o.rtol,
-                }
-            }
         }
     }
 

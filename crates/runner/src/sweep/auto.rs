@@ -10,7 +10,7 @@
 //!
 //! (`pilot_points` is optional, default [`DEFAULT_PILOT_POINTS`].)
 
-use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, Method};
+use chainsweep_solver::{IntegratorSpec, Method};
 use serde::{Deserialize, Serialize};
 use serde_json::Value;
 
@@ -114,11 +114,9 @@ pub fn adaptive(method: Method, rtol: f64) -> IntegratorSpec {
 
 /// The setting of an integrator as a number (rtol or dt_s) and its name.
 pub fn setting_of(spec: &IntegratorSpec) -> (f64, &'static str) {
-    match *spec {
-        IntegratorSpec::Dop853(AdaptiveOptions { rtol, .. })
-        | IntegratorSpec::Ros34pw2(AdaptiveOptions { rtol, .. })
-        | IntegratorSpec::Vern6(AdaptiveOptions { rtol, .. }) => (rtol, "rtol"),
-        IntegratorSpec::Rk4 { dt_s } | IntegratorSpec::Verlet { dt_s } => (dt_s, "dt_s"),
+    match (spec.adaptive_options(), spec.fixed_step_s()) {
+        (Some(o), _) => (o.rtol, "rtol"),
+        (None, dt_s) => (dt_s.expect("a method with a fixed step"), "dt_s"),
     }
 }
 

@@ -16,6 +16,8 @@ impl Rk4 {
     pub const NAME: &'static str = "rk4";
     /// Right-hand-side evaluations per step.
     pub const RHS_PER_STEP: u64 = 4;
+    /// Order of accuracy.
+    pub const ORDER: i32 = 4;
 }
 
 impl Integrator for Rk4 {

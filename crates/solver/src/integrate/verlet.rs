@@ -21,6 +21,8 @@ impl VelocityVerlet {
     pub const NAME: &'static str = "verlet";
     /// Right-hand-side evaluations per step.
     pub const RHS_PER_STEP: u64 = 1;
+    /// Order of accuracy.
+    pub const ORDER: i32 = 2;
 }
 
 impl Integrator for VelocityVerlet {

@@ -82,6 +82,14 @@ macro_rules! integrators {
                 }
             }
 
+            /// Its order of accuracy (an adaptive method's: that of the solution it steps with).
+            pub fn order(self) -> i32 {
+                match self {
+                    $(Method::$fixed => $scheme::ORDER,)*
+                    $(Method::$adaptive => <$method as AdaptiveMethod>::ORDER,)*
+                }
+            }
+
             /// Right-hand-side evaluations per step of a fixed-step method (`None` for an
             /// adaptive one).
             pub fn rhs_per_fixed_step(self) -> Option<f64> {
@@ -122,6 +130,22 @@ macro_rules! integrators {
                 match self {
                     $(IntegratorSpec::$fixed { .. } => None,)*
                     $(IntegratorSpec::$adaptive(o) => Some(o),)*
+                }
+            }
+
+            /// The options of an adaptive method, to change (`None` for the fixed-step ones).
+            pub fn adaptive_options_mut(&mut self) -> Option<&mut AdaptiveOptions> {
+                match self {
+                    $(IntegratorSpec::$fixed { .. } => None,)*
+                    $(IntegratorSpec::$adaptive(o) => Some(o),)*
+                }
+            }
+
+            /// The step of a fixed-step method, s (`None` for the adaptive ones).
+            pub fn fixed_step_s(&self) -> Option<f64> {
+                match *self {
+                    $(IntegratorSpec::$fixed { dt_s } => Some(dt_s),)*
+                    $(IntegratorSpec::$adaptive(_) => None,)*
                 }
             }
 

@@ -413,16 +413,16 @@ impl<'a> Driver<'a> {
 /// at most while the step's own truncation stays near `√rtol` (fixed-step methods, whose error
 /// changes smoothly with the fields: 1e-4).
 fn fd_step(sweep: &Sweep, grid: &Grid) -> f64 {
-    use chainsweep_solver::IntegratorSpec as I;
     if grid.is_empty() {
         return 1e-4;
     }
     let v = grid.point_value(sweep, 0);
-    match from_ref_at::<Scene>(&v, "").map(|s| s.integrator) {
-        Ok(I::Dop853(o) | I::Ros34pw2(o) | I::Vern6(o)) => {
-            (100.0 * o.rtol).sqrt().clamp(1e-6, 1e-2)
-        }
-        _ => 1e-4,
+    match from_ref_at::<Scene>(&v, "")
+        .ok()
+        .and_then(|s| s.integrator.adaptive_options().copied())
+    {
+        Some(o) => (100.0 * o.rtol).sqrt().clamp(1e-6, 1e-2),
+        None => 1e-4,
     }
 }
 
