@@ -355,6 +355,14 @@ fn bad_periodic_options_and_scenes_name_the_field() {
     )
     .unwrap_err();
     assert_eq!(e.field, "periodic.to");
+    // A chain longer than the dense monodromy allows is refused, naming the chain.
+    let mut long = hertz_chain(1e-8, 3000.0);
+    if let ChainSpec::Sequence(spec) = &mut long.chain {
+        spec.sequence = monodisperse(401, None, false).sequence;
+    }
+    let e = PeriodMap::new(&long, &PeriodicOptions::default()).unwrap_err();
+    assert_eq!(e.field, "chain");
+    assert!(e.message.contains("at most 400 particles"), "{}", e.message);
     // Autonomous orbits: a driven scene, a damped chain.
     assert_eq!(AutonomousMap::new(&scene).unwrap_err().field, "excitation");
     let mut damped = dimer(3, &[(2, 1e-8)]);

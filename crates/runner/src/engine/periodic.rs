@@ -255,6 +255,12 @@ fn compute(
 
 /// The journal entry of an accepted orbit: the point and the run of two orbit periods from it.
 fn orbit_entry(spec: &PeriodicSpec, point: &serde_json::Value, p: &BranchPoint) -> Entry {
+    // What is journaled of an orbit: not its monodromy matrix ((2N)² numbers).
+    let kept = || {
+        let mut kept = p.clone();
+        kept.orbit.monodromy = Vec::new();
+        Box::new(kept)
+    };
     let run = spec
         .scene_at(point, p.parameter)
         .map_err(|e| e.to_string())
@@ -265,13 +271,13 @@ fn orbit_entry(spec: &PeriodicSpec, point: &serde_json::Value, p: &BranchPoint) 
         });
     match run {
         Ok(out) => Entry::Point {
-            point: Box::new(p.clone()),
+            point: kept(),
             probes: out.steady_state.map(|s| s.probes),
             max: Some(out.probes.iter().map(|s| s.record_max).collect()),
             run_error: None,
         },
         Err(e) => Entry::Point {
-            point: Box::new(p.clone()),
+            point: kept(),
             probes: None,
             max: None,
             run_error: Some(e),

@@ -72,10 +72,10 @@ impl BranchOptions {
                 }
             }
         }
-        if !(2..=100_000).contains(&self.max_points) {
+        if !(2..=20_000).contains(&self.max_points) {
             return Err(spec_err(
                 "periodic.max_points",
-                format!("must lie in 2..=100000, got {}", self.max_points),
+                format!("must lie in 2..=20000, got {}", self.max_points),
             ));
         }
         if !(self.locate_tolerance > 0.0 && self.locate_tolerance < 0.1) {
@@ -239,7 +239,8 @@ pub struct Progress {
 /// A continued branch.
 #[derive(Debug, Clone)]
 pub struct Branch {
-    /// Its points in order along the branch, located special points among them.
+    /// Its points in order along the branch, located special points among them; each orbit's
+    /// monodromy matrix is kept for the special points only (`on_point` sees every one whole).
     pub points: Vec<BranchPoint>,
     /// Why it ended.
     pub end: String,
@@ -707,6 +708,7 @@ impl Continuer<'_> {
         }
         let mut ds = start.progress.next_step;
         let mut count = start.progress.points;
+        start.orbit.monodromy = Vec::new();
         let mut points = vec![start];
         let mut warnings = Vec::new();
         let mut stopped = false;
@@ -833,6 +835,8 @@ impl Continuer<'_> {
             };
             warnings.extend(step_warnings);
             on_point(&b);
+            // Kept for special points only: a long chain's is (2N)² numbers an orbit.
+            b.orbit.monodromy = Vec::new();
             points.push(b);
         };
         Branch {

@@ -15,6 +15,10 @@ use crate::scene::solve::{run, state_scales, RunError, RunOutput};
 use crate::scene::MethodVisitor;
 use crate::scene::{Continuation, Excitation, Scene};
 
+/// Most particles of a chain whose periodic orbits are computed: its monodromy matrix (dense,
+/// `(2N)²`, 10 MB at this size) and the variational equations' `(2N)²` components bound it.
+pub const MAX_PARTICLES: usize = 400;
+
 /// The field named by errors about the drive a periodic orbit needs.
 const DRIVE_FIELD: &str = "excitation.drive";
 
@@ -134,6 +138,14 @@ impl PeriodMap {
             ));
         }
         let n = chain.n_particles();
+        if n > MAX_PARTICLES {
+            return Err(spec_err(
+                "chain",
+                format!(
+                    "periodic orbits are computed for chains of at most {MAX_PARTICLES} particles (the monodromy matrix is dense, (2N)² numbers, and its variational equations as many components); the chain has {n}"
+                ),
+            ));
+        }
         let mut indices: Vec<usize> = (0..2 * n).collect();
         if let Some(k) = chain.mount_state_index() {
             indices.extend([k, k + 1]);
