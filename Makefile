@@ -182,6 +182,7 @@ bench: venv python $(VENV)/.bench-stamp
 	$(PY) scripts/bench_compare.py --base $(BENCH_BASE) --rounds $(BENCH_ROUNDS)
 	BENCH_BASELINE=$(BENCH_BASELINE) CARGO=$(CARGO) scripts/bench_builds.sh
 	$(PY) scripts/bench_store.py --base-bin $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/bench-base/release/chainsweep
+	$(PY) scripts/bench_history_filters.py
 	$(PY) scripts/bench_scipy.py
 	$(PY) scripts/bench_call.py
 	$(PY) scripts/bench_fit.py --whole-runs

@@ -83,7 +83,8 @@ def test_h5py_reads_the_layout(swept):
     with h5py.File(out, "r") as f:
         force, vel = f["field_contact_force"], f["field_velocity"]
         assert force.shape == (3, 2, 201, 22) and vel.shape == (3, 2, 201, 22)
-        assert force.compression == "gzip" and force.shuffle and force.fletcher32
+        # Time series, dense: checksummed, not compressed (inflating bounded their reading).
+        assert force.compression is None and not force.shuffle and force.fletcher32
         assert force.attrs["units"] == "N" and vel.attrs["units"] == "m/s"
         assert f["field_displacement"].attrs["units"] == "m"
         assert [force.dims[k][0].name.rsplit("/", 1)[-1] for k in range(4)] == [
@@ -150,7 +151,9 @@ def test_dry_run_sizes_the_fields(swept, tmp_path):
         "quantities": QUANTITIES, "interval_s": 1e-6, "max_samples": 201}
     total = d["size_bytes"]["total_estimate"]
     assert total > 6 * 201 * 66 * 8
-    assert out.stat().st_size < total  # compressed
+    # The fields are stored uncompressed, the histories split by unit compressed (NaN at the
+    # other units' probes): the estimate is the file's size within a tenth.
+    assert 0.9 * total < out.stat().st_size < 1.1 * total, (out.stat().st_size, total)
     text = run("run", path, "--dry-run", "-o", tmp_path / "new.h5")
     assert "fields, uncompressed" in text.stdout + text.stderr
     assert "fields of contact_force, displacement, velocity every 1e-6 s" in text.stdout + text.stderr

@@ -61,6 +61,12 @@ def test_histories_of_different_lengths_end_in_fill(stopped):
         h = f["history"][()]
         t = f["time_s"][()]
         status = f["status"][()]
+        # One unit: the time series are checksummed, not compressed (inflating bounded their
+        # reading), the per-run minimum overlaps compressed.
+        d = f["history"]
+        assert d.fletcher32 and d.compression is None and not d.shuffle
+        m = f["min_overlap_m"]
+        assert m.fletcher32 and m.compression == "gzip" and m.shuffle
     assert (status == 1).all()
     assert len(np.unique(n)) > 1, n  # the runs stopped at different times
     assert t.shape == (h.shape[-1],) and h.shape[-1] >= n.max()

@@ -1,5 +1,5 @@
 //! The runs' arrays (layout 5): every run's histories and minimum overlaps as one chunked,
-//! compressed dataset per quantity over the grid's dimensions, so that h5py reads one run, one
+//! checksummed dataset per quantity over the grid's dimensions, so that h5py reads one run, one
 //! probe across every run or a time window across every run with one slice, and xarray opens
 //! them lazily (`xr.open_dataset(path, chunks={})`):
 //!
@@ -25,8 +25,9 @@
 //! The last dimension of each (time, sample, contact) can grow while the file is written (a run
 //! longer than the grid foresaw, as a searched duration gives). Chunks: every probe, the time
 //! axis whole up to [`ARRAY_CHUNK_BYTES`], and up to [`RUNS_PER_CHUNK`] runs along the grid's
-//! last dimension; shuffle, deflate level [`ARRAY_DEFLATE_LEVEL`] and Fletcher-32, chosen by
-//! measurement (docs/PERFORMANCE.md). A damaged chunk costs the runs it holds, which the
+//! last dimension; the time series checksummed (Fletcher-32) and not compressed, the per-run
+//! arrays also shuffled and deflated ([`ChunkFilters`]), chosen by measurement
+//! (docs/PERFORMANCE.md). A damaged chunk costs the runs it holds, which the
 //! reader reports (never serves) and a resume computes again.
 //!
 //! The writer writes each run's rows as the run comes ([`ArrayWriter::write`]), in grid order,
@@ -103,10 +104,27 @@ pub const ARRAY_CHUNK_BYTES: usize = 256 << 10;
 pub const RUNS_PER_CHUNK: usize = 8;
 /// Time samples in one chunk at least, whatever the probes.
 pub const MIN_TIME_CHUNK: usize = 1024;
-/// Deflate level of the arrays (after the byte shuffle): level 1 gave nearly level 4's size at
-/// a fraction of its time. (With zlib-ng, level 1 is its quick strategy: level 2 was 6 % smaller
-/// but h5py decompressed it 40 % slower, and files are read more often than written.)
+/// Deflate level of the per-run arrays (after the byte shuffle): level 1 gave nearly level 4's
+/// size at a fraction of its time. (With zlib-ng, level 1 is its quick strategy: level 2 was 6 %
+/// smaller but h5py decompressed it 40 % slower, and files are read more often than written.)
 pub const ARRAY_DEFLATE_LEVEL: u8 = 1;
+
+/// How a dataset's chunks are filtered: always checksummed (Fletcher-32, which the reader checks
+/// on every chunk), compressed or not.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ChunkFilters {
+    /// Byte shuffle, deflate [`ARRAY_DEFLATE_LEVEL`], Fletcher-32: the per-run arrays (minimum
+    /// overlaps, energy flow), a few values a run, read whole, and histories split by unit.
+    Compressed,
+    /// Fletcher-32 only: the time series (histories of one unit, their per-run instants,
+    /// fields), the bulk
+    /// of a file and what users read in large slices. Inflating is what bounds their reading:
+    /// stock h5py read the histories of a 2 511-run sweep of the 50-cylinder chain at 366 MB/s
+    /// deflated and 1 845 MB/s checksummed only on a Zen 4 EPYC, and at 125–134 MB/s deflated on
+    /// an older EPYC, for a file about twice the size (docs/PERFORMANCE.md,
+    /// `scripts/bench_history_filters.py`).
+    ChecksumOnly,
+}
 
 /// The chunk of an array over (grid `shape`…, `inner`…) whose inner dimensions are taken whole
 /// (the caller bounds them): up to [`RUNS_PER_CHUNK`] runs along the grid's last dimension,
@@ -142,8 +160,14 @@ pub fn field_chunk(shape: &[usize], samples: usize, width: usize) -> Vec<usize> 
 
 /// A float array over (grid…, …) whose last dimension can grow, chunked `chunk`, shuffled,
 /// deflated and checksummed, NaN where nothing is written (its fill value and `_FillValue`).
-fn growing_dataset(file: &File, name: &str, shape: &[usize], chunk: Vec<usize>) -> Result<Dataset> {
-    growing_dataset_in(file, name, shape, chunk, 1)
+fn growing_dataset(
+    file: &File,
+    name: &str,
+    shape: &[usize],
+    chunk: Vec<usize>,
+    filters: ChunkFilters,
+) -> Result<Dataset> {
+    growing_dataset_in(file, name, shape, chunk, 1, filters)
 }
 
 /// [`growing_dataset`] whose last `growing` dimensions can grow.
@@ -153,6 +177,7 @@ fn growing_dataset_in(
     shape: &[usize],
     chunk: Vec<usize>,
     growing: usize,
+    filters: ChunkFilters,
 ) -> Result<Dataset> {
     let first_growing = shape.len() - growing;
     let extents: Vec<Extent> = shape
@@ -166,11 +191,12 @@ fn growing_dataset_in(
             }
         })
         .collect();
-    let d = file
-        .new_dataset::<f64>()
-        .chunk(chunk)
-        .shuffle()
-        .deflate(ARRAY_DEFLATE_LEVEL)
+    let mut builder = file.new_dataset::<f64>();
+    builder = builder.chunk(chunk);
+    if filters == ChunkFilters::Compressed {
+        builder = builder.shuffle().deflate(ARRAY_DEFLATE_LEVEL);
+    }
+    let d = builder
         .fletcher32()
         .fill_value(f64::NAN)
         .shape(Extents::Simple(extents.into()))
@@ -294,6 +320,7 @@ impl FieldWriter {
                     &full,
                     field_chunk(shape, length, width),
                     2,
+                    ChunkFilters::ChecksumOnly,
                 )?;
                 Ok(FieldPart {
                     quantity,
@@ -409,7 +436,15 @@ impl ArrayWriter {
             let parts = if probes == 0 {
                 Vec::new()
             } else {
-                history_parts(grid)
+                let parts = history_parts(grid);
+                // Split by unit, each part is NaN at the other units' probes: compressed, those
+                // cost next to nothing, and long runs of one value inflate quickly.
+                let filters = if parts.len() > 1 {
+                    ChunkFilters::Compressed
+                } else {
+                    ChunkFilters::ChecksumOnly
+                };
+                parts
                     .into_iter()
                     .map(|(name, unit, holds)| {
                         let data = growing_dataset(
@@ -417,6 +452,7 @@ impl ArrayWriter {
                             &name,
                             &full,
                             history_chunk(&shape, probes, width),
+                            filters,
                         )?;
                         Ok(HistoryPart { data, unit, holds })
                     })
@@ -430,7 +466,13 @@ impl ArrayWriter {
                     // (Chunked as one probe's history: the probes' dimension left out.)
                     let mut chunk = history_chunk(&shape, 1, width);
                     chunk.remove(shape.len());
-                    Some(growing_dataset(file, TIME, &s, chunk)?)
+                    Some(growing_dataset(
+                        file,
+                        TIME,
+                        &s,
+                        chunk,
+                        ChunkFilters::ChecksumOnly,
+                    )?)
                 }
             };
             Some(HistoryWriter {
@@ -449,7 +491,13 @@ impl ArrayWriter {
             let width = grid.max_contacts.max(1);
             let mut full = shape.clone();
             full.push(width);
-            let data = growing_dataset(file, MIN_OVERLAP, &full, run_chunk(&shape, &[width]))?;
+            let data = growing_dataset(
+                file,
+                MIN_OVERLAP,
+                &full,
+                run_chunk(&shape, &[width]),
+                ChunkFilters::Compressed,
+            )?;
             Some(PerElementWriter {
                 data,
                 width,
@@ -469,7 +517,13 @@ impl ArrayWriter {
                 .max(1);
                 let mut full = shape.clone();
                 full.push(width);
-                let data = growing_dataset(file, name, &full, run_chunk(&shape, &[width]))?;
+                let data = growing_dataset(
+                    file,
+                    name,
+                    &full,
+                    run_chunk(&shape, &[width]),
+                    ChunkFilters::Compressed,
+                )?;
                 flow.push(PerElementWriter {
                     data,
                     width,
