@@ -54,7 +54,7 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// Version of the runner's numerics: bump it whenever a change in the runner or the solver changes
 /// the numbers a scene produces (or what a run records), so that resumed sweeps recompute every run.
 /// Its history: CHANGELOG.md, "Numerics versions".
-pub const NUMERICS_VERSION: u32 = 8;
+pub const NUMERICS_VERSION: u32 = 9;
 
 /// Version of this crate.
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

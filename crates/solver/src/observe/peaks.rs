@@ -167,11 +167,16 @@ impl PeakTracker {
 /// Most points of the scan that starts a maximisation over a step.
 const SCAN_POINTS: usize = 64;
 
+/// Where, as a fraction of the step from its end, a maximisation tells whether the signal rises
+/// into an end of the step ([`maximise`]).
+const END_PROBE: f64 = 1e-8;
+
 /// The largest value of `f` over `[a, b]` and where it is, to `f`'s own rounding: a scan of
 /// equally spaced points no further apart than `spacing` (at least 4 intervals, at most
 /// [`SCAN_POINTS`]), then Brent's method (golden sections and parabolic steps, robust to a kink at
 /// the top) on the two intervals around the scan's best point, until the bracket is within a few
-/// ulps of the time. Ends included: a maximum at an end is found there.
+/// ulps of the time. Ends included: a maximum at an end is found there, without Brent where the
+/// signal rises into that end.
 pub(super) fn maximise(a: f64, b: f64, spacing: f64, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
     if b <= a {
         return (f(a), a);
@@ -180,11 +185,41 @@ pub(super) fn maximise(a: f64, b: f64, spacing: f64, mut f: impl FnMut(f64) -> f
     let h = (b - a) / intervals as f64;
     let at = |j: usize| if j == intervals { b } else { a + j as f64 * h };
     let (mut best, mut best_t, mut best_j) = (f64::NEG_INFINITY, a, 0);
+    let mut least = f64::INFINITY;
+    let mut scanned = [0.0; SCAN_POINTS];
     for j in 0..=intervals {
         let t = at(j);
         let v = f(t);
+        scanned[j] = v;
+        least = least.min(v);
         if v > best {
             (best, best_t, best_j) = (v, t, j);
+        }
+    }
+    // Constant over the scan (a probe before its pulse arrives, a contact at rest): Brent would
+    // only walk its bracket down to rounding and find the same value.
+    if least == best {
+        return (best, best_t);
+    }
+    // The scan's best at an end of the step, the scan rising into that end over its last two
+    // intervals and the signal rising, to rounding, over the hundred-millionth of the step next to
+    // the end (two probes, since a method's interpolant need not meet the step's end value that
+    // the end reads exactly): the end is the maximum, where Brent would only shrink its bracket
+    // onto it by golden sections (some fifty evaluations, on every step of a pulse's rise and
+    // fall and of a slow creep). A maximum inside the last interval passes this test only within
+    // a hundred-millionth of the step of the end, or where the signal's slope there is below
+    // rounding: within rounding of the end's value.
+    let inside = END_PROBE * (b - a);
+    if best_j == intervals && scanned[intervals - 2] <= scanned[intervals - 1] {
+        let near = f(b - inside);
+        if near <= best && f(b - 2.0 * inside) <= near {
+            return (best, best_t);
+        }
+    }
+    if best_j == 0 && scanned[2] <= scanned[1] {
+        let near = f(a + inside);
+        if near <= best && f(a + 2.0 * inside) <= near {
+            return (best, best_t);
         }
     }
     let lo = at(best_j.saturating_sub(1));
@@ -334,9 +369,23 @@ mod tests {
             (v - 1.2360).abs() < 1e-13 && (t - 0.6180).abs() < 1e-13,
             "{v} {t}"
         );
-        // Monotone: the end.
-        let (v, t) = maximise(2.0, 3.0, 0.1, |t| t * t);
-        assert_eq!((v, t), (9.0, 3.0));
+        // Monotone: the end, from the scan and two probes inside it, either way round.
+        let mut calls = 0;
+        let (v, t) = maximise(2.0, 3.0, 0.1, |t| {
+            calls += 1;
+            t * t
+        });
+        assert_eq!((v, t, calls), (9.0, 3.0, 13));
+        let (v, t) = maximise(2.0, 3.0, 0.1, |t| 1.0 / t);
+        assert_eq!((v, t), (0.5, 2.0));
+        // A peak just inside an end, falling into it: found inside, not at the end.
+        for (peak, end) in [(0.9999, 1.0), (1e-4, 0.0)] {
+            let (v, t) = maximise(0.0, 1.0, 0.1, |t| 1.0 - (t - peak).powi(2));
+            assert!(
+                v == 1.0 && (t - peak).abs() < 1e-7 && t != end,
+                "{peak}: {v} {t}"
+            );
+        }
         // Two humps in one interval: the higher.
         let (v, t) = maximise(0.0, 1.0, 0.05, |t| {
             (-(t - 0.2f64).powi(2) / 0.002).exp() + 1.1 * (-(t - 0.8f64).powi(2) / 0.002).exp()
