@@ -187,10 +187,10 @@ pub(super) fn maximise(a: f64, b: f64, spacing: f64, mut f: impl FnMut(f64) -> f
     let (mut best, mut best_t, mut best_j) = (f64::NEG_INFINITY, a, 0);
     let mut least = f64::INFINITY;
     let mut scanned = [0.0; SCAN_POINTS];
-    for j in 0..=intervals {
+    for (j, slot) in scanned.iter_mut().enumerate().take(intervals + 1) {
         let t = at(j);
         let v = f(t);
-        scanned[j] = v;
+        *slot = v;
         least = least.min(v);
         if v > best {
             (best, best_t, best_j) = (v, t, j);
