@@ -188,6 +188,7 @@ bench: venv python $(VENV)/.bench-stamp
 	$(PY) scripts/bench_fit.py --whole-runs
 	$(PY) scripts/bench_ensemble.py
 	$(PY) scripts/bench_periodic.py
+	$(PY) scripts/bench_long_runs.py --base-bin $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/bench-base/release/chainsweep
 	$(PY) scripts/bench_numba_lsoda.py --base-bin $(or $(CARGO_TARGET_DIR),$(CURDIR)/target)/bench-base/release/chainsweep
 
 # The Fig. 8 sweep against numba + numbalsoda LSODA (scripts/bench_numba_lsoda.py): numba and
