@@ -178,24 +178,50 @@ const END_PROBE: f64 = 1e-8;
 /// ulps of the time. Ends included: a maximum at an end is found there, without Brent where the
 /// signal rises into that end.
 pub(super) fn maximise(a: f64, b: f64, spacing: f64, mut f: impl FnMut(f64) -> f64) -> (f64, f64) {
+    maximise_batched(a, b, spacing, |times, values| {
+        for (v, &t) in values.iter_mut().zip(times) {
+            *v = f(t);
+        }
+    })
+}
+
+/// [`maximise`] of a signal evaluated by `eval(times, values)` (`values[r]` the signal at
+/// `times[r]`), called once with every point of the scan (a method's interpolant can evaluate
+/// several instants at once, [`crate::integrate::DenseStep::eval_components_at`]) and then with
+/// one instant at a time. The same result as [`maximise`] of the same values.
+pub(super) fn maximise_batched(
+    a: f64,
+    b: f64,
+    spacing: f64,
+    mut eval: impl FnMut(&[f64], &mut [f64]),
+) -> (f64, f64) {
     if b <= a {
-        return (f(a), a);
+        let mut v = [0.0];
+        eval(&[a], &mut v);
+        return (v[0], a);
     }
     let intervals = (((b - a) / spacing).ceil() as usize).clamp(4, SCAN_POINTS - 1);
     let h = (b - a) / intervals as f64;
     let at = |j: usize| if j == intervals { b } else { a + j as f64 * h };
+    let mut times = [0.0; SCAN_POINTS];
+    for (j, t) in times.iter_mut().enumerate().take(intervals + 1) {
+        *t = at(j);
+    }
+    let mut scanned = [0.0; SCAN_POINTS];
+    eval(&times[..=intervals], &mut scanned[..=intervals]);
     let (mut best, mut best_t, mut best_j) = (f64::NEG_INFINITY, a, 0);
     let mut least = f64::INFINITY;
-    let mut scanned = [0.0; SCAN_POINTS];
-    for (j, slot) in scanned.iter_mut().enumerate().take(intervals + 1) {
-        let t = at(j);
-        let v = f(t);
-        *slot = v;
+    for (j, &v) in scanned[..=intervals].iter().enumerate() {
         least = least.min(v);
         if v > best {
-            (best, best_t, best_j) = (v, t, j);
+            (best, best_t, best_j) = (v, times[j], j);
         }
     }
+    let mut f = |t: f64| {
+        let mut v = [0.0];
+        eval(&[t], &mut v);
+        v[0]
+    };
     // Constant over the scan (a probe before its pulse arrives, a contact at rest): Brent would
     // only walk its bracket down to rounding and find the same value.
     if least == best {

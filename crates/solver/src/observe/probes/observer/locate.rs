@@ -6,7 +6,7 @@
 
 use crate::integrate::DenseStep;
 use crate::observe::grid_instant;
-use crate::observe::peaks::{hermite_max, maximise};
+use crate::observe::peaks::{hermite_max, maximise, maximise_batched};
 
 use super::{RunObserver, MAX_SETTLE_WAIT};
 // Named only by the docs.
@@ -141,22 +141,43 @@ impl RunObserver {
             let components = &self.components_of[k];
             let probes = &self.probes;
             let state = &mut self.probe_state;
-            let mut value_at = |t: f64| {
-                for &i in components {
-                    state[i] = step.eval_component(t, i);
+            let batch = &mut self.batch_values;
+            // One instant: each component's interpolant; a scan: the method's batched
+            // interpolant, in rows of the sample batch (the same values either way).
+            let m = components.len();
+            let mut eval = |times: &[f64], values: &mut [f64]| {
+                if times.len() == 1 || m == 0 {
+                    for (v, &t) in values.iter_mut().zip(times) {
+                        for &i in components {
+                            state[i] = step.eval_component(t, i);
+                        }
+                        let state = &*state;
+                        *v = probes.value(k, &|i: usize| state[i]);
+                    }
+                    return;
                 }
-                let state = &*state;
-                probes.value(k, &|i: usize| state[i])
+                let rows = (batch.len() / m).max(1);
+                for (times, values) in times.chunks(rows).zip(values.chunks_mut(rows)) {
+                    let batch = &mut batch[..times.len() * m];
+                    step.eval_components_at(times, components, batch);
+                    for (v, row) in values.iter_mut().zip(batch.chunks_exact(m)) {
+                        for (&i, &x) in components.iter().zip(row) {
+                            state[i] = x;
+                        }
+                        let state = &*state;
+                        *v = probes.value(k, &|i: usize| state[i]);
+                    }
+                }
             };
             let spacing = 0.5 * self.opts.summary_interval;
-            let whole = record.then(|| maximise(a, b, spacing, &mut value_at));
+            let whole = record.then(|| maximise_batched(a, b, spacing, &mut eval));
             if let Some((v, t)) = whole {
                 tracker.record.consider(t, v);
             }
             if let Some((lo, hi)) = leading {
                 let (v, t) = match whole {
                     Some(found) if (lo, hi) == (a, b) => found,
-                    _ => maximise(lo, hi, spacing, &mut value_at),
+                    _ => maximise_batched(lo, hi, spacing, &mut eval),
                 };
                 tracker.leading.consider(t, v);
             }
