@@ -412,6 +412,16 @@ mod tests {
                 "{peak}: {v} {t}"
             );
         }
+        // An end read exactly, above where the interpolant tends there but below a hump just
+        // inside (a method's interpolant need not meet the step's end value): the hump.
+        let (v, t) = maximise(0.0, 1.0, 0.1, |t| {
+            if t == 1.0 {
+                0.999
+            } else {
+                1.0 - 100.0 * (t - 0.995).powi(2)
+            }
+        });
+        assert!(v == 1.0 && (t - 0.995).abs() < 1e-7, "{v} {t}");
         // Two humps in one interval: the higher.
         let (v, t) = maximise(0.0, 1.0, 0.05, |t| {
             (-(t - 0.2f64).powi(2) / 0.002).exp() + 1.1 * (-(t - 0.8f64).powi(2) / 0.002).exp()
