@@ -202,11 +202,11 @@ pub(super) fn maximise_batched(
     }
     let intervals = (((b - a) / spacing).ceil() as usize).clamp(4, SCAN_POINTS - 1);
     let h = (b - a) / intervals as f64;
-    let at = |j: usize| if j == intervals { b } else { a + j as f64 * h };
     let mut times = [0.0; SCAN_POINTS];
-    for (j, t) in times.iter_mut().enumerate().take(intervals + 1) {
-        *t = at(j);
+    for (j, t) in times.iter_mut().enumerate().take(intervals) {
+        *t = a + j as f64 * h;
     }
+    times[intervals] = b;
     let mut scanned = [0.0; SCAN_POINTS];
     eval(&times[..=intervals], &mut scanned[..=intervals]);
     let (mut best, mut best_t, mut best_j) = (f64::NEG_INFINITY, a, 0);
@@ -248,8 +248,8 @@ pub(super) fn maximise_batched(
             return (best, best_t);
         }
     }
-    let lo = at(best_j.saturating_sub(1));
-    let hi = at((best_j + 1).min(intervals));
+    let lo = times[best_j.saturating_sub(1)];
+    let hi = times[(best_j + 1).min(intervals)];
     let (v, t) = brent_max(lo, hi, best_t, best, &mut f);
     if v > best {
         (v, t)

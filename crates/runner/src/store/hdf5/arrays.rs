@@ -121,11 +121,9 @@ pub enum ChunkFilters {
     /// overlaps, energy flow), a few values a run, read whole, and histories split by unit.
     Compressed,
     /// Fletcher-32 only: the time series (histories of one unit, their per-run instants,
-    /// fields), the bulk
-    /// of a file and what users read in large slices. Inflating is what bounds their reading:
-    /// stock h5py read the histories of a 2 511-run sweep of the 50-cylinder chain at 366 MB/s
-    /// deflated and 1 845 MB/s checksummed only on a Zen 4 EPYC, and at 125–134 MB/s deflated on
-    /// an older EPYC, for a file about twice the size (docs/PERFORMANCE.md,
+    /// fields), the bulk of a file and what users read in large slices. Inflating is what bounds
+    /// their reading: stock h5py read a 2 511-run sweep's histories at 364 MB/s deflated and
+    /// 1 740 MB/s checksummed only, for a file about twice the size (docs/PERFORMANCE.md,
     /// `scripts/bench_history_filters.py`).
     ChecksumOnly,
 }
@@ -162,8 +160,8 @@ pub fn field_chunk(shape: &[usize], samples: usize, width: usize) -> Vec<usize> 
     run_chunk(shape, &[time, width])
 }
 
-/// A float array over (grid…, …) whose last dimension can grow, chunked `chunk`, shuffled,
-/// deflated and checksummed, NaN where nothing is written (its fill value and `_FillValue`).
+/// A float array over (grid…, …) whose last dimension can grow, chunked `chunk` and filtered
+/// `filters`, NaN where nothing is written (its fill value and `_FillValue`).
 fn growing_dataset(
     file: &File,
     name: &str,
@@ -172,6 +170,20 @@ fn growing_dataset(
     filters: ChunkFilters,
 ) -> Result<Dataset> {
     growing_dataset_in(file, name, shape, chunk, 1, filters)
+}
+
+/// A per-run array over (grid `shape`…, `width`): a run's minimum overlaps or energy flow,
+/// compressed (a few values a run, read whole).
+fn per_run_dataset(file: &File, name: &str, shape: &[usize], width: usize) -> Result<Dataset> {
+    let mut full = shape.to_vec();
+    full.push(width);
+    growing_dataset(
+        file,
+        name,
+        &full,
+        run_chunk(shape, &[width]),
+        ChunkFilters::Compressed,
+    )
 }
 
 /// [`growing_dataset`] whose last `growing` dimensions can grow.
@@ -195,8 +207,7 @@ fn growing_dataset_in(
             }
         })
         .collect();
-    let mut builder = file.new_dataset::<f64>();
-    builder = builder.chunk(chunk);
+    let mut builder = file.new_dataset::<f64>().chunk(chunk);
     if filters == ChunkFilters::Compressed {
         builder = builder.shuffle().deflate(ARRAY_DEFLATE_LEVEL);
     }
@@ -493,15 +504,7 @@ impl ArrayWriter {
         };
         let min_overlap = if grid.min_overlap {
             let width = grid.max_contacts.max(1);
-            let mut full = shape.clone();
-            full.push(width);
-            let data = growing_dataset(
-                file,
-                MIN_OVERLAP,
-                &full,
-                run_chunk(&shape, &[width]),
-                ChunkFilters::Compressed,
-            )?;
+            let data = per_run_dataset(file, MIN_OVERLAP, &shape, width)?;
             Some(PerElementWriter {
                 data,
                 width,
@@ -519,15 +522,7 @@ impl ArrayWriter {
                     grid.max_particles
                 }
                 .max(1);
-                let mut full = shape.clone();
-                full.push(width);
-                let data = growing_dataset(
-                    file,
-                    name,
-                    &full,
-                    run_chunk(&shape, &[width]),
-                    ChunkFilters::Compressed,
-                )?;
+                let data = per_run_dataset(file, name, &shape, width)?;
                 flow.push(PerElementWriter {
                     data,
                     width,
