@@ -402,6 +402,70 @@ def test_every_cylinders_mass_is_toleranced_in_one_line_and_read_as_labelled(tmp
     assert point["mean"]["lower"] <= point["mean"]["value"] <= point["mean"]["upper"]
 
 
+def test_every_spheres_size_is_toleranced_and_each_run_has_its_scaled_chain(tmp_path):
+    """`size_factors` scale each sphere's diameter, its mass with the cube and its Hertz laws:
+    every sample's lowest frequency is that of the linearised chain of its own scaled spheres,
+    computed here from Hertz's law and the masses alone."""
+    steel = {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.3}
+    wall = {"youngs_modulus_pa": 1.93e11, "poisson_ratio": 0.29}
+    d0, m0, force = 8e-3, 2.085e-3, 10.0
+    sweep = {
+        "description": "three spheres on a wall, each diameter toleranced",
+        "base": {
+            "chain": {
+                "particles": {"ball": {"sphere": {"diameter_m": d0, "mass_kg": m0, "material": steel}}},
+                "sequence": [{"repeat": 3, "of": ["ball"]}],
+                "wall_material": wall,
+            },
+            "physics": {"gravity": False, "damping_kg_s": 0.0, "wall": True, "precompression_force_n": force},
+            "excitation": {"impulse": {"velocity_m_s": 0.01}},
+            "duration_s": 0.001,
+        },
+        "record": {"spectrum": {}},
+        "ensemble": {
+            "inputs": [{"size_factors": "chain", "log_normal": {"median": 1.0, "sigma_ln": 0.05}}],
+            "samples": 16,
+            "replicates": 2,
+            "seed": 9,
+            "statistics": [F1],
+        },
+    }
+    path = write_sweep(tmp_path / "s.json", sweep)
+    out = tmp_path / "s.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    ds = xr.open_dataset(out, engine="h5netcdf")
+    factors = np.stack([ds[f"size_factor_{p}"].values for p in (1, 2, 3)], axis=1)
+    assert ds["size_factor_1"].attrs["units"] == "1" and factors.shape == (32, 3)
+    assert factors.std() > 0.02  # the diameters really vary
+
+    def e_star(a, b):
+        return 1.0 / sum((1 - m["poisson_ratio"] ** 2) / m["youngs_modulus_pa"] for m in (a, b))
+
+    def lowest_hz(f):
+        r = 0.5 * d0 * f
+        coeff = [
+            4 / 3 * e_star(steel, steel) * math.sqrt(r[0] * r[1] / (r[0] + r[1])),
+            4 / 3 * e_star(steel, steel) * math.sqrt(r[1] * r[2] / (r[1] + r[2])),
+            4 / 3 * e_star(steel, wall) * math.sqrt(r[2]),
+        ]
+        # Every contact carries the precompression; F = A δ^{3/2} linearised there.
+        k = [1.5 * a ** (2 / 3) * force ** (1 / 3) for a in coeff]
+        stiffness = np.array([[k[0], -k[0], 0], [-k[0], k[0] + k[1], -k[1]], [0, -k[1], k[1] + k[2]]])
+        m_half = np.diag((m0 * f**3) ** -0.5)
+        return math.sqrt(np.linalg.eigvalsh(m_half @ stiffness @ m_half)[0]) / (2 * math.pi)
+
+    expected = np.array([lowest_hz(f) for f in factors])
+    np.testing.assert_allclose(ds["lowest_frequency_hz"].values, expected, rtol=1e-10)
+    # The statistic is of those runs.
+    np.testing.assert_allclose(float(ds["f1_mean"]), expected.mean(), rtol=1e-12)
+    # A factor that can reach zero is refused naming the input.
+    sweep["ensemble"]["inputs"][0] = {"size_factors": "chain", "normal": {"mean": 1.0, "sd": 0.5}}
+    path = write_sweep(tmp_path / "bad.json", sweep)
+    r = run("validate", path)
+    assert r.returncode == 2 and "ensemble.inputs[0]" in r.stderr and "size factor" in r.stderr, r.stderr
+
+
 def test_an_ensemble_resumes_after_kill_and_runs_the_same_with_any_jobs(tmp_path):
     path = write_sweep(tmp_path / "t.json", tolerance_sweep())
     ref = tmp_path / "ref.h5"

@@ -56,6 +56,7 @@ pub fn chain(
         ring: false,
         wall_mount: None,
         mass_factors: Vec::new(),
+        size_factors: Vec::new(),
     }
 }
 

@@ -92,6 +92,22 @@ pub enum Shape {
 }
 
 impl Shape {
+    /// The shape with every length multiplied by `factor`.
+    pub fn scaled(self, factor: f64) -> Shape {
+        match self {
+            Shape::Sphere { diameter_m } => Shape::Sphere {
+                diameter_m: diameter_m * factor,
+            },
+            Shape::Cylinder {
+                diameter_m,
+                height_m,
+            } => Shape::Cylinder {
+                diameter_m: diameter_m * factor,
+                height_m: height_m * factor,
+            },
+        }
+    }
+
     /// Radius of curvature of the faces that touch the neighbours: `None` for a flat face.
     pub fn contact_radius(&self) -> Option<f64> {
         match *self {
@@ -132,6 +148,30 @@ pub(crate) fn check_material(field: &str, m: &Material) -> Result<(), SpecError>
         ));
     }
     Ok(())
+}
+
+/// Checks that a per-particle factor list (`chain.mass_factors`, `chain.size_factors`) is empty
+/// or gives one factor for each of the chain's `n` particles.
+pub(crate) fn check_factor_count(field: &str, factors: &[f64], n: usize) -> Result<(), SpecError> {
+    if factors.is_empty() || factors.len() == n {
+        return Ok(());
+    }
+    Err(spec_err(
+        field,
+        format!(
+            "must give one factor per particle, the striker first: the chain has {n} particles, got {} factors",
+            factors.len()
+        ),
+    ))
+}
+
+impl Particle {
+    /// Scales every length by `factor`, the mass following at constant density (`factor³`); the
+    /// Hertz laws built from the particle follow its new radius.
+    pub(crate) fn scale_size(&mut self, factor: f64) {
+        self.shape = self.shape.scaled(factor);
+        self.mass_kg *= factor * factor * factor;
+    }
 }
 
 /// Largest number of particles a chain may have.

@@ -27,8 +27,8 @@ use std::collections::BTreeMap;
 
 use crate::chain::mount::WallMount;
 use crate::chain::parts::{
-    check_material, effective_modulus, effective_radius, hertz_coefficient, Layout, Material,
-    Particle, ParticleKind, Shape, MAX_PARTICLES,
+    check_factor_count, check_material, effective_modulus, effective_radius, hertz_coefficient,
+    Layout, Material, Particle, ParticleKind, Shape, MAX_PARTICLES,
 };
 use crate::contact::{DissipationSpec, LawSpec, SplitMix64, Thornton};
 use crate::spec::{check_positive, spec_err, SpecError};
@@ -93,6 +93,12 @@ pub struct SequenceSpec {
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Vec::is_empty"))]
     #[cfg_attr(feature = "schema", schemars(default))]
     pub mass_factors: Vec<f64>,
+    /// Factors on each particle's size, from particle 1 to the last (empty: none), applied after
+    /// taper and disorder: every length scaled, the mass following at constant density and the
+    /// Hertz laws at the new radii.
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Vec::is_empty"))]
+    #[cfg_attr(feature = "schema", schemars(default))]
+    pub size_factors: Vec<f64>,
 }
 
 /// The wall a sequence chain stands on when it names none (as the paper's).
@@ -606,9 +612,9 @@ impl SequenceSpec {
         best.map(|(_, r)| r)
     }
 
-    /// Expands the sequence into particles (taper and disorder applied) and resolves every
-    /// contact's law and dissipation override.
-    pub(crate) fn layout(&self, wall: bool) -> Result<Layout, SpecError> {
+    /// Expands the sequence into particles (taper, disorder and size factors applied) and
+    /// resolves every contact's law and dissipation override.
+    pub(crate) fn layout(&self, wall: bool, size_factors: &[f64]) -> Result<Layout, SpecError> {
         if self.ring && wall {
             return Err(spec_err(
                 "physics.wall",
@@ -621,6 +627,7 @@ impl SequenceSpec {
         }
         let first = names.len();
         expand(&self.sequence, &mut names);
+        check_factor_count("chain.size_factors", size_factors, names.len())?;
 
         let mut rng = self.disorder.map(|d| (d, SplitMix64(d.seed)));
         let mut particles = Vec::with_capacity(names.len());
@@ -650,7 +657,7 @@ impl SequenceSpec {
                         }
                     }
                 }
-                shape = scaled(shape, size);
+                shape = shape.scaled(size);
                 let ok = |x: f64| x.is_normal() && x > 0.0;
                 let in_range = (1.0 / MAX_SIZE_FACTOR..=MAX_SIZE_FACTOR).contains(&size);
                 if !(in_range && ok(shape.length_m()) && ok(mass) && ok(shape.volume_m3())) {
@@ -671,12 +678,16 @@ impl SequenceSpec {
                     ));
                 }
             }
-            particles.push(Particle {
+            let mut particle = Particle {
                 kind,
                 shape,
                 material: t.material(),
                 mass_kg: mass,
-            });
+            };
+            if let Some(&f) = size_factors.get(i) {
+                particle.scale_size(f);
+            }
+            particles.push(particle);
         }
 
         let labels = |i: usize| -> Vec<&str> {
@@ -830,20 +841,4 @@ impl SequenceSpec {
 enum Other {
     Neighbour(usize),
     Wall(Material, &'static str),
-}
-
-/// `shape` with every length multiplied by `factor`.
-fn scaled(shape: Shape, factor: f64) -> Shape {
-    match shape {
-        Shape::Sphere { diameter_m } => Shape::Sphere {
-            diameter_m: diameter_m * factor,
-        },
-        Shape::Cylinder {
-            diameter_m,
-            height_m,
-        } => Shape::Cylinder {
-            diameter_m: diameter_m * factor,
-            height_m: height_m * factor,
-        },
-    }
 }

@@ -1,5 +1,5 @@
 //! The `ensemble` block's inputs, read one by one into the sampled columns: a field (or fields
-//! that take one value), particles' mass factors, a multivariate normal; each checked against the
+//! that take one value), particles' mass or size factors, a multivariate normal; each checked against the
 //! base scene.
 
 use serde_json::{Map, Value};
@@ -12,6 +12,33 @@ use super::dist::{bad, dist_of, numbers, DISTRIBUTIONS};
 use super::{Column, Input, InputKind};
 use crate::error::{Error, Result};
 use crate::uq::dist::cholesky;
+
+/// Which per-particle factor list of the chain an input draws.
+#[derive(Clone, Copy)]
+pub(super) enum ParticleFactors {
+    /// `chain.mass_factors`.
+    Mass,
+    /// `chain.size_factors` (every length; the mass follows at constant density).
+    Size,
+}
+
+impl ParticleFactors {
+    /// The input's key, which is also the chain's field.
+    pub(super) fn key(self) -> &'static str {
+        match self {
+            ParticleFactors::Mass => "mass_factors",
+            ParticleFactors::Size => "size_factors",
+        }
+    }
+
+    /// What the factor scales, in words.
+    fn of(self) -> &'static str {
+        match self {
+            ParticleFactors::Mass => "mass",
+            ParticleFactors::Size => "size",
+        }
+    }
+}
 
 /// The base scene's number at `field`, if it holds one.
 fn nominal(base: &Value, field: &str) -> Option<f64> {
@@ -128,24 +155,37 @@ impl Reader<'_> {
         Ok(())
     }
 
-    pub(super) fn mass_factors(&mut self, m: &Map<String, Value>, at: &str) -> Result<()> {
-        if let Some(k) = m.keys().find(|k| {
-            !["mass_factors", "name"].contains(&k.as_str()) && !DISTRIBUTIONS.contains(&k.as_str())
-        }) {
+    /// `{"mass_factors" | "size_factors": WHICH, DISTRIBUTION: {…}}`: a factor on each chosen
+    /// particle's mass or size, each drawn on its own.
+    pub(super) fn particle_factors(
+        &mut self,
+        list: ParticleFactors,
+        m: &Map<String, Value>,
+        at: &str,
+    ) -> Result<()> {
+        let key = list.key();
+        let of = list.of();
+        if let Some(k) = m
+            .keys()
+            .find(|k| ![key, "name"].contains(&k.as_str()) && !DISTRIBUTIONS.contains(&k.as_str()))
+        {
             return Err(bad(
                 format!("{at}.{k}"),
-                format!("unknown key of a mass-factor input; allowed: mass_factors, name, and one of {}", DISTRIBUTIONS.join(", ")),
+                format!(
+                    "unknown key of a {of}-factor input; allowed: {key}, name, and one of {}",
+                    DISTRIBUTIONS.join(", ")
+                ),
             ));
         }
         let scene: Scene = from_ref_at(self.base, "base")?;
         let chain = Chain::build(&scene.chain, &scene.physics).map_err(|e| {
             bad(
-                format!("{at}.mass_factors"),
+                format!("{at}.{key}"),
                 format!("the base chain does not build ({}: {})", e.field, e.message),
             )
         })?;
         let n = chain.n_particles();
-        let which = &m["mass_factors"];
+        let which = &m[key];
         let chosen: Vec<usize> = match which {
             Value::String(s) => {
                 let keep = |k: ParticleKind| match s.as_str() {
@@ -157,7 +197,7 @@ impl Reader<'_> {
                 };
                 if keep(ParticleKind::Sphere).is_none() {
                     return Err(bad(
-                        format!("{at}.mass_factors"),
+                        format!("{at}.{key}"),
                         format!("`{s}` is none of cylinders, spheres, chain (all but the striker), all, or a list of particle numbers"),
                     ));
                 }
@@ -175,7 +215,7 @@ impl Reader<'_> {
                         .map(|p| p - 1)
                         .ok_or_else(|| {
                             bad(
-                                format!("{at}.mass_factors[{i}]"),
+                                format!("{at}.{key}[{i}]"),
                                 format!("must be a particle number from 1 to {n}, got {v}"),
                             )
                         })
@@ -183,19 +223,19 @@ impl Reader<'_> {
                 .collect::<Result<_>>()?,
             _ => {
                 return Err(bad(
-                    format!("{at}.mass_factors"),
+                    format!("{at}.{key}"),
                     "must be cylinders, spheres, chain, all, or a list of particle numbers",
                 ))
             }
         };
         if chosen.is_empty() {
             return Err(bad(
-                format!("{at}.mass_factors"),
+                format!("{at}.{key}"),
                 format!("chooses no particle of the base chain ({n} particles)"),
             ));
         }
         // The base holds one factor per particle, so that each chosen one is a field of its own.
-        let existing: Vec<f64> = match self.base.pointer("/chain/mass_factors") {
+        let existing: Vec<f64> = match self.base.pointer(&format!("/chain/{key}")) {
             Some(Value::Array(a)) if a.len() == n => {
                 a.iter().map(|x| x.as_f64().unwrap_or(1.0)).collect()
             }
@@ -203,13 +243,13 @@ impl Reader<'_> {
         };
         set_path(
             self.base,
-            "chain.mass_factors",
+            &format!("chain.{key}"),
             Value::from(existing.clone()),
         );
         let stem = match m.get("name") {
             Some(Value::String(s)) => s.clone(),
             Some(_) => return Err(bad(format!("{at}.name"), "must be a string")),
-            None => "mass_factor".to_string(),
+            None => format!("{of}_factor"),
         };
         let mut dists = Vec::new();
         let mut columns = Vec::new();
@@ -220,13 +260,13 @@ impl Reader<'_> {
                 if !(x > 1e-3 && x < 1e3) {
                     return Err(bad(
                         at,
-                        format!("gives particle {}'s mass factor {x} (at probability {u}): a factor must lie in (1e-3, 1e3); a normal tolerance wider than a few tens of per cent can give negative masses, take log_normal or truncated_normal", p + 1),
+                        format!("gives particle {}'s {of} factor {x} (at probability {u}): a factor must lie in (1e-3, 1e3); a normal tolerance wider than a few tens of per cent can give negative {of}s, take log_normal or truncated_normal", p + 1),
                     ));
                 }
             }
             dists.push(d);
             columns.push(Column {
-                field: format!("chain.mass_factors.{p}"),
+                field: format!("chain.{key}.{p}"),
                 name: format!("{stem}_{}", p + 1),
                 units: "1".into(),
             });

@@ -46,7 +46,7 @@ mod rounds;
 
 use dist::{bad, number, numbers};
 pub(crate) use from_fit::inline_text;
-use inputs::Reader;
+use inputs::{ParticleFactors, Reader};
 
 /// The most samples (runs per point of the ordinary axes) one round may have.
 pub const MAX_SAMPLES: usize = 1 << 22;
@@ -61,7 +61,8 @@ pub struct EnsembleFile {
     /// The sampled fields, each with its distribution (independent unless `correlation` ties
     /// them): `{"field": PATH or [PATHS that take one value], DISTRIBUTION: {…}}`, `{"mass_factors": "cylinders" | "spheres" |
     /// "chain" | "all" | [particle numbers], DISTRIBUTION: {…}}` (every chosen particle's mass
-    /// factor drawn independently: a manufacturing tolerance), `{"multivariate_normal": {"fields":
+    /// factor drawn independently: a manufacturing tolerance), the same with `size_factors`
+    /// (every length of the particle, its mass following at constant density), `{"multivariate_normal": {"fields":
     /// […], "mean": […], "covariance": [[…]]}}` or `{"from_fit": "FIT.h5"}` (a fit's best values
     /// and covariance). A distribution is one of `uniform {min, max}`, `log_uniform {min, max}`,
     /// `normal {mean, sd | relative_sd}`, `log_normal {median, sigma_ln}`, `truncated_normal
@@ -322,8 +323,11 @@ pub(super) fn parse(
         let at = format!("ensemble.inputs[{i}]");
         if m.contains_key("field") {
             r.field(m, &at)?;
-        } else if m.contains_key("mass_factors") {
-            r.mass_factors(m, &at)?;
+        } else if let Some(list) = [ParticleFactors::Mass, ParticleFactors::Size]
+            .into_iter()
+            .find(|l| m.contains_key(l.key()))
+        {
+            r.particle_factors(list, m, &at)?;
         } else if let Some(mv) = m.get("multivariate_normal") {
             if m.len() > 1 {
                 return Err(bad(at, "a multivariate_normal input has no other key"));
@@ -337,7 +341,7 @@ pub(super) fn parse(
         } else {
             return Err(bad(
                 at,
-                "must be {\"field\": PATH, DISTRIBUTION: {…}}, {\"mass_factors\": WHICH, DISTRIBUTION: {…}}, {\"multivariate_normal\": {…}} or {\"from_fit\": FILE}",
+                "must be {\"field\": PATH, DISTRIBUTION: {…}}, {\"mass_factors\" or \"size_factors\": WHICH, DISTRIBUTION: {…}}, {\"multivariate_normal\": {…}} or {\"from_fit\": FILE}",
             ));
         }
     }

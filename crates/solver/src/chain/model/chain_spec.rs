@@ -81,17 +81,33 @@ impl ChainSpec {
         }
     }
 
+    /// Factors on each particle's size (empty: none), particle 1 first: every length scaled, the
+    /// mass following at constant density and the Hertz laws at the new radii; applied after
+    /// type, taper and disorder, before the mass factors, so that a tolerance on every diameter
+    /// is one list.
+    pub fn size_factors(&self) -> &[f64] {
+        match self {
+            ChainSpec::Dimer(d) => &d.size_factors,
+            ChainSpec::Sequence(s) => &s.size_factors,
+        }
+    }
+
     /// Checks every field for physical sense; the error names the field (relative to `chain`).
     pub fn validate(&self) -> Result<(), SpecError> {
-        for (i, &f) in self.mass_factors().iter().enumerate() {
-            if !((1.0 / MAX_SIZE_FACTOR..=MAX_SIZE_FACTOR).contains(&f)) {
-                return Err(spec_err(
-                    &format!("chain.mass_factors[{i}]"),
-                    format!(
-                        "must be a number in [1e-3, 1e3] (a factor on particle {}'s mass), got {f}",
-                        i + 1
-                    ),
-                ));
+        for (list, factors, of) in [
+            ("mass_factors", self.mass_factors(), "mass"),
+            ("size_factors", self.size_factors(), "size"),
+        ] {
+            for (i, &f) in factors.iter().enumerate() {
+                if !((1.0 / MAX_SIZE_FACTOR..=MAX_SIZE_FACTOR).contains(&f)) {
+                    return Err(spec_err(
+                        &format!("chain.{list}[{i}]"),
+                        format!(
+                            "must be a number in [1e-3, 1e3] (a factor on particle {}'s {of}), got {f}",
+                            i + 1
+                        ),
+                    ));
+                }
             }
         }
         match self {
@@ -145,6 +161,7 @@ mod chain_spec_serde {
         "ring",
         "wall_mount",
         "mass_factors",
+        "size_factors",
     ];
     const ALL_FIELDS: &[&str] = &[
         "cylinders",
@@ -161,6 +178,7 @@ mod chain_spec_serde {
         "ring",
         "wall_mount",
         "mass_factors",
+        "size_factors",
     ];
 
     /// A striker: a sphere (dimer) or the name of a particle type (sequence).
@@ -205,6 +223,7 @@ mod chain_spec_serde {
         ring: Option<bool>,
         wall_mount: Option<Option<crate::chain::mount::WallMount>>,
         mass_factors: Option<Vec<f64>>,
+        size_factors: Option<Vec<f64>>,
     }
 
     fn once<T, E: de::Error>(slot: &mut Option<T>, value: T, key: &'static str) -> Result<(), E> {
@@ -250,6 +269,9 @@ mod chain_spec_serde {
                             }
                             "mass_factors" => {
                                 once(&mut f.mass_factors, map.next_value()?, "mass_factors")?
+                            }
+                            "size_factors" => {
+                                once(&mut f.size_factors, map.next_value()?, "size_factors")?
                             }
                             other => return Err(de::Error::unknown_field(other, ALL_FIELDS)),
                         }
@@ -300,6 +322,7 @@ mod chain_spec_serde {
                             ring: f.ring.unwrap_or(false),
                             wall_mount: f.wall_mount.flatten(),
                             mass_factors: f.mass_factors.unwrap_or_default(),
+                            size_factors: f.size_factors.unwrap_or_default(),
                         }))
                     } else {
                         let striker = match f.striker {
@@ -319,6 +342,7 @@ mod chain_spec_serde {
                                 .wall_material
                                 .ok_or_else(|| de::Error::missing_field("wall_material"))?,
                             mass_factors: f.mass_factors.unwrap_or_default(),
+                            size_factors: f.size_factors.unwrap_or_default(),
                         }))
                     }
                 }

@@ -8,7 +8,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::chain::parts::{
-    check_material, hertz_coefficient, Layout, Material, Particle, ParticleKind, Shape,
+    check_factor_count, check_material, hertz_coefficient, Layout, Material, Particle,
+    ParticleKind, Shape,
 };
 use crate::spec::{check_positive, spec_err, SpecError};
 
@@ -155,6 +156,14 @@ pub struct DimerSpec {
         serde(default, skip_serializing_if = "Vec::is_empty")
     )]
     pub mass_factors: Vec<f64>,
+    /// Factors on each particle's size, from particle 1 (the striker) to the last (empty: none):
+    /// every length scaled, the mass following at constant density and the Hertz laws at the
+    /// new radii ([`ChainSpec::size_factors`]).
+    #[cfg_attr(
+        feature = "serde",
+        serde(default, skip_serializing_if = "Vec::is_empty")
+    )]
+    pub size_factors: Vec<f64>,
 }
 
 impl DimerSpec {
@@ -167,6 +176,7 @@ impl DimerSpec {
             striker: SphereSpec::PAPER,
             wall_material: Material::STEEL_SS304,
             mass_factors: Vec::new(),
+            size_factors: Vec::new(),
         }
     }
 
@@ -243,8 +253,9 @@ impl DimerSpec {
         Ok(())
     }
 
-    /// The particles and their Hertz contact laws.
-    pub(super) fn layout(&self, wall: bool) -> Layout {
+    /// The particles (each scaled by its size factor, when given) and their Hertz contact laws.
+    pub(super) fn layout(&self, wall: bool, size_factors: &[f64]) -> Result<Layout, SpecError> {
+        check_factor_count("chain.size_factors", size_factors, self.particles())?;
         let n_particles = self.particles();
         let m_s = self.sphere.mass_kg;
         let m_c = self.cylinder.mass_kg(m_s);
@@ -278,9 +289,12 @@ impl DimerSpec {
         for p in 2..=n_particles {
             particles.push(if p % 2 == 0 { sphere } else { cylinder });
         }
+        for (p, &f) in particles.iter_mut().zip(size_factors) {
+            p.scale_size(f);
+        }
         let laws = hertz_laws(&particles, wall.then_some(self.wall_material));
         let n_contacts = laws.len();
-        Layout {
+        Ok(Layout {
             particles,
             striker: true,
             ring: false,
@@ -289,8 +303,11 @@ impl DimerSpec {
             laws,
             dissipation: vec![None; n_contacts],
             plasticity: Vec::new(),
-            cell_length_m: Some(h + self.sphere.diameter_m),
-        }
+            // Scaled particles make the cells unequal.
+            cell_length_m: size_factors
+                .is_empty()
+                .then_some(h + self.sphere.diameter_m),
+        })
     }
 }
 

@@ -22,6 +22,7 @@ mod physics;
 
 use crate::chain::drive::{Drive, DrivePoint};
 pub use crate::chain::mount::WallMount;
+use crate::chain::parts::check_factor_count;
 pub(crate) use crate::chain::parts::Layout;
 pub use crate::chain::parts::{hertz_coefficient, Material, ParticleKind, Shape, MAX_PARTICLES};
 use crate::contact::{overlap_at_force, ContactParams, Damping, Thornton};
@@ -104,25 +105,15 @@ impl Chain {
     pub fn build(spec: &ChainSpec, physics: &PhysicsSpec) -> Result<Chain, SpecError> {
         spec.validate()?;
         physics.validate()?;
+        let sizes = spec.size_factors();
         let mut layout = match spec {
-            ChainSpec::Dimer(d) => d.layout(physics.wall),
-            ChainSpec::Sequence(s) => s.layout(physics.wall)?,
+            ChainSpec::Dimer(d) => d.layout(physics.wall, sizes)?,
+            ChainSpec::Sequence(s) => s.layout(physics.wall, sizes)?,
         };
         let factors = spec.mass_factors();
-        if !factors.is_empty() {
-            if factors.len() != layout.particles.len() {
-                return Err(spec_err(
-                    "chain.mass_factors",
-                    format!(
-                        "must give one factor per particle, the striker first: the chain has {} particles, got {} factors",
-                        layout.particles.len(),
-                        factors.len()
-                    ),
-                ));
-            }
-            for (p, f) in layout.particles.iter_mut().zip(factors) {
-                p.mass_kg *= f;
-            }
+        check_factor_count("chain.mass_factors", factors, layout.particles.len())?;
+        for (p, f) in layout.particles.iter_mut().zip(factors) {
+            p.mass_kg *= f;
         }
         if layout.plasticity.iter().any(Option::is_some) {
             if physics.dissipation.is_some() {
