@@ -219,6 +219,49 @@ def test_figures_alone_as_svg_files(tmp_path):
     assert [p.name for p in other.iterdir()] == ["notes.txt"]
 
 
+def test_figures_alone_as_png_and_pdf(tmp_path):
+    """--format png|pdf: each figure drawn from its SVG with the embedded font: a PNG twice the
+    figure's size with its title's text inked, a one-page PDF of the figure's size with the font
+    embedded; a user's own PDF in the folder is never taken for a figure (refused, kept)."""
+    import xml.etree.ElementTree as ET
+
+    import numpy as np
+    from PIL import Image
+
+    path = write_sweep(tmp_path / "s.json", base_sweep(history=True))
+    out = tmp_path / "s.h5"
+    assert run("run", path, "-o", out, "--quiet").returncode == 0
+    assert run("report", out, "--format", "svg", "-o", tmp_path / "svg").returncode == 0
+    svgs = sorted((tmp_path / "svg").glob("*.svg"))
+    sizes = [tuple(int(ET.parse(p).getroot().get(k)) for k in ("width", "height")) for p in svgs]
+    for fmt in ("png", "pdf"):
+        r = run("report", out, "--format", fmt, "-o", tmp_path / fmt)
+        assert r.returncode == 0, r.stderr
+        files = sorted((tmp_path / fmt).glob(f"*.{fmt}"))
+        assert [p.stem for p in files] == [p.stem for p in svgs]
+        captions = (tmp_path / fmt / "captions.txt").read_text().splitlines()
+        assert [c.split("\t")[0] for c in captions] == [p.name for p in files]
+        for p, (w, h) in zip(files, sizes):
+            if fmt == "png":
+                assert png_size(p) == (2 * w, 2 * h), p
+                ink = np.asarray(Image.open(p).convert("L")) < 100
+                # The title (drawn at y = 18 px, 13 px high) is text, which needs the font.
+                assert ink[2 * 4 : 2 * 24].sum() > 100, f"{p.name}: no title drawn"
+                assert 0.002 < ink.mean() < 0.5, f"{p.name}: {ink.mean():.4f} of the image inked"
+            else:
+                pdf = p.read_bytes()
+                assert pdf.startswith(b"%PDF-") and pdf.count(b"/Type /Page\n") + pdf.count(b"/Type /Page ") + pdf.count(b"/Type /Page/") >= 1
+                box = re.search(rb"/MediaBox \[\s*0 0 ([0-9.]+) ([0-9.]+)\s*\]", pdf)
+                assert box and (float(box[1]), float(box[2])) == (w * 0.75, h * 0.75), (p.name, box)
+                assert b"/FontFile2" in pdf, f"{p.name}: its font is not embedded"
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "paper.pdf").write_bytes(b"%PDF-1.7 mine")
+    r = run("report", out, "--format", "pdf", "-o", mine)
+    assert r.returncode == 2 and "--output" in r.stderr, r.stderr
+    assert (mine / "paper.pdf").read_bytes() == b"%PDF-1.7 mine" and len(list(mine.iterdir())) == 1
+
+
 def test_a_100000_point_sweep_reports_in_seconds_and_small(tmp_path):
     law = {"power_law": {"coefficient": 1e6, "exponent": 1.0}}
     s = {

@@ -485,6 +485,16 @@ fn looks_like_output(file: &Path) -> bool {
             .is_some_and(|e| ["h5", "hdf5", "he5", "nc"].contains(&e.to_ascii_lowercase().as_str()))
 }
 
+/// Bytes of the files in the folder `dir` (a report's figures).
+fn figure_bytes(dir: &Path) -> usize {
+    std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .filter_map(|e| e.ok()?.metadata().ok())
+        .map(|m| m.len() as usize)
+        .sum()
+}
+
 fn cmd_report(
     file: &Path,
     output: Option<PathBuf>,
@@ -501,7 +511,7 @@ fn cmd_report(
     }
     let out = output.unwrap_or_else(|| match format {
         ReportFormat::Html => file.with_extension("html"),
-        ReportFormat::Svg => {
+        ReportFormat::Svg | ReportFormat::Png | ReportFormat::Pdf => {
             let stem = file.file_stem().unwrap_or_default().to_string_lossy();
             file.with_file_name(format!("{stem}-figures"))
         }
@@ -532,7 +542,7 @@ fn cmd_report(
             let page = chainsweep::report::periodic::page(file, &s)?;
             match format {
                 ReportFormat::Html => chainsweep::report::write_page(page, &out)?,
-                ReportFormat::Svg => chainsweep::report::write_figures_of(page, &out)?,
+                figures => chainsweep::report::write_figures_of(page, &out, figures.of_figures())?,
             }
         } else {
             let s = status::of_file(file)?;
@@ -547,12 +557,14 @@ fn cmd_report(
             }
             match format {
                 ReportFormat::Html => chainsweep::report::write(file, &s, points, &out)?,
-                ReportFormat::Svg => chainsweep::report::write_figures(file, &s, points, &out)?,
+                figures => {
+                    chainsweep::report::write_figures(file, &s, points, &out, figures.of_figures())?
+                }
             }
         };
         let size = match format {
             ReportFormat::Html => p.html.len(),
-            ReportFormat::Svg => p.svgs.iter().map(|(_, s)| s.len()).sum(),
+            _ => figure_bytes(&out),
         };
         errln!(
             "chainsweep: report: {} figure(s) in {:.2} s, {} → {}{}",
@@ -565,7 +577,7 @@ fn cmd_report(
             } else {
                 match format {
                     ReportFormat::Html => " (thinned where large; the page says where)",
-                    ReportFormat::Svg => " (thinned where large; captions.txt says where)",
+                    _ => " (thinned where large; captions.txt says where)",
                 }
                 .to_string()
             }

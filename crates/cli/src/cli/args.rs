@@ -133,7 +133,7 @@ pub enum Command {
     /// the axes, failed points with their reasons, searches', fits' and ensembles' answers, run
     /// times and verified errors, and the sweep file for provenance. Opens offline.
     #[command(
-        after_help = "Examples:\n  chainsweep report results/mass-damping.h5                 # results/mass-damping.html\n  chainsweep report results/mass-damping.h5 -o morning.html\n  chainsweep report results/mass-damping.h5 --watch         # refreshed while the sweep runs"
+        after_help = "Examples:\n  chainsweep report results/mass-damping.h5                 # results/mass-damping.html\n  chainsweep report results/mass-damping.h5 -o morning.html\n  chainsweep report results/mass-damping.h5 --watch         # refreshed while the sweep runs\n  chainsweep report results/mass-damping.h5 --format pdf    # results/mass-damping-figures/*.pdf"
     )]
     Report {
         /// An output file (`.h5`).
@@ -153,7 +153,8 @@ pub enum Command {
         /// histories.
         #[arg(long = "point", value_name = "N")]
         points: Vec<usize>,
-        /// `html`: one page; `svg`: each figure alone as an SVG file in a folder (default: FILE
+        /// `html`: one page; `svg`, `pdf` (vector, its font embedded) or `png` (twice the
+        /// figure's size in pixels): each figure alone as a file in a folder (default: FILE
         /// without `.h5`, with `-figures`), with `captions.txt`, for a paper or a slide.
         #[arg(long, value_enum, default_value_t = ReportFormat::Html)]
         format: ReportFormat,
@@ -332,4 +333,21 @@ pub enum ReportFormat {
     Html,
     /// Each figure alone, as SVG files in a folder.
     Svg,
+    /// Each figure alone, as vector PDF files (one page each) in a folder.
+    Pdf,
+    /// Each figure alone, as PNG images in a folder.
+    Png,
+}
+
+impl ReportFormat {
+    /// The format of each figure's file (not for `Html`, which writes one page).
+    pub fn of_figures(self) -> chainsweep::report::FigureFormat {
+        use chainsweep::report::FigureFormat;
+        match self {
+            ReportFormat::Html => unreachable!("an HTML report is one page, not figures"),
+            ReportFormat::Svg => FigureFormat::Svg,
+            ReportFormat::Pdf => FigureFormat::Pdf,
+            ReportFormat::Png => FigureFormat::Png,
+        }
+    }
 }

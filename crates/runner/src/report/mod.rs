@@ -9,6 +9,7 @@
 //! The page is opened offline: no script, no font, no link outside it. A large sweep is thinned
 //! (every k-th point of a long axis, a coarser grid of a large heatmap), and the page says where.
 
+mod export;
 mod histories;
 pub mod periodic;
 mod searches;
@@ -24,6 +25,7 @@ use crate::record::columns::{ColumnData, Fill, COLUMNS};
 use crate::record::{STATUS_FAILED, STATUS_PENDING};
 use crate::store::hdf5::FileRecords;
 use crate::sweep::{human_name, Sweep};
+pub use export::{FigureFormat, PNG_SCALE};
 use svg::{esc, Series};
 
 /// The most points a line of the page draws (a longer one is thinned).
@@ -665,25 +667,32 @@ pub(crate) fn provenance_section(b: &mut Builder, path: &Path, sweep_text: &str)
 }
 
 /// Writes each figure of `file`'s page alone into the folder `dir` (made if missing; it must not
-/// hold anything else than such figures): `NN-words-of-its-caption.svg`, numbered in the page's
-/// order, and `captions.txt` with each file's caption. Figures of an earlier report in `dir`
-/// are replaced.
+/// hold anything else than such figures): `NN-words-of-its-caption.svg` (or `.png`, `.pdf` by
+/// `format`), numbered in the page's order, and `captions.txt` with each file's caption.
+/// Figures of an earlier report in `dir` are replaced.
 pub fn write_figures(
     file: &Path,
     status: &FileStatus,
     points: &[usize],
     dir: &Path,
+    format: FigureFormat,
 ) -> Result<Page> {
-    write_figures_of(page(file, status, points)?, dir)
+    write_figures_of(page(file, status, points)?, dir, format)
 }
 
 /// [`write_figures`] of a page made already.
-pub fn write_figures_of(p: Page, dir: &Path) -> Result<Page> {
+pub fn write_figures_of(p: Page, dir: &Path, format: FigureFormat) -> Result<Page> {
     let io = |e: std::io::Error| Error::Other(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(io)?;
     for entry in std::fs::read_dir(dir).map_err(io)? {
         let path = entry.map_err(io)?.path();
-        let ours = path.extension().is_some_and(|e| e == "svg") || path.ends_with("captions.txt");
+        // A figure's name as written below (`NN-words.svg|png|pdf`), or the captions.
+        let name = path.file_name().unwrap_or_default().to_string_lossy();
+        let figure = name.len() > 3
+            && name.as_bytes()[..2].iter().all(u8::is_ascii_digit)
+            && name.as_bytes()[2] == b'-'
+            && [".svg", ".png", ".pdf"].iter().any(|x| name.ends_with(x));
+        let ours = figure || name == "captions.txt";
         if !ours {
             return Err(Error::input(
                 "--output",
@@ -715,9 +724,8 @@ pub fn write_figures_of(p: Page, dir: &Path) -> Result<Page> {
             .take(8)
             .collect::<Vec<_>>()
             .join("-");
-        let name = format!("{:02}-{words}.svg", k + 1);
-        let text = format!("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n{svg}\n");
-        std::fs::write(dir.join(&name), text).map_err(io)?;
+        let name = format!("{:02}-{words}.{}", k + 1, format.extension());
+        std::fs::write(dir.join(&name), export::encode(svg, format, caption)?).map_err(io)?;
         let _ = writeln!(captions, "{name}\t{caption}");
     }
     for note in &p.thinned {

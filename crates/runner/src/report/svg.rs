@@ -431,6 +431,8 @@ pub fn heatmap(
     let cw = plot_w / nx as f64;
     let ch = (H - TOP - BOTTOM) / ny as f64;
     out.push_str(r##"<defs><pattern id="hatch" width="6" height="6" patternUnits="userSpaceOnUse"><path d="M0,6l6,-6" stroke="#d62728" stroke-width="1"/></pattern></defs>"##);
+    // Cells edge to edge without anti-aliased seams between them, in a browser and drawn as PNG.
+    out.push_str(r##"<g shape-rendering="crispEdges">"##);
     for (i, row) in z.iter().enumerate() {
         for (j, &v) in row.iter().enumerate() {
             let (x, y) = (LEFT + j as f64 * cw, H - BOTTOM - (i + 1) as f64 * ch);
@@ -460,6 +462,7 @@ pub fn heatmap(
             );
         }
     }
+    out.push_str("</g>");
     let every_x = nx.div_ceil(8).max(1);
     for (j, l) in x_labels
         .iter()
@@ -500,6 +503,7 @@ pub fn heatmap(
     );
     // The colour bar.
     let bx = LEFT + plot_w + 16.0;
+    out.push_str(r##"<g shape-rendering="crispEdges">"##);
     for k in 0..50 {
         let t = k as f64 / 49.0;
         let y = H - BOTTOM - (k + 1) as f64 * (H - TOP - BOTTOM) / 50.0;
@@ -510,6 +514,7 @@ pub fn heatmap(
             viridis(t)
         );
     }
+    out.push_str("</g>");
     if lo.is_finite() {
         let _ = write!(
             out,
