@@ -7,7 +7,8 @@ git-ignored):
   (``chainsweep.docs_path``);
 - python/licenses/: the notices of the C libraries linked into the extension, HDF5's
   (COPYING, COPYING_LBNL_HDF5) and zlib's, taken from the sources Cargo builds them from
-  (``cargo metadata``: hdf5-metno-src and libz-sys), so that they follow the versions built; and
+  (``cargo metadata``: hdf5-metno-src and libz-sys), so that they follow the versions built; the
+  licence of the font the report's PDF and PNG figures are drawn with (DejaVu Sans); and
   rust-crates/THIRD-PARTY-LICENSES.txt, the licence of every Rust crate compiled into it.
 
 The project's own licences (LICENSE-MIT, LICENSE-APACHE) reach the wheel through the links
@@ -32,6 +33,9 @@ NOTICES = [
     ("hdf5-metno-src", "ext/hdf5/COPYING", "HDF5/COPYING"),
     ("hdf5-metno-src", "ext/hdf5/COPYING_LBNL_HDF5", "HDF5/COPYING_LBNL_HDF5"),
     ("libz-sys", "src/zlib/LICENSE", "zlib/LICENSE"),
+    # The font carried in the binary for the report's PDF and PNG figures: its own licence
+    # (Bitstream Vera's, with the public-domain changes), beside the crate's.
+    ("dejavu", "assets/dejavu-fonts-ttf-2.37/LICENSE", "DejaVu/LICENSE"),
 ]
 
 

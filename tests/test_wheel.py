@@ -143,6 +143,7 @@ def test_the_wheel_carries_the_command_licences_examples_and_guides(wheel):
             "licenses/HDF5/COPYING": "HDF5 (Hierarchical Data Format 5) Software Library and Utilities",
             "licenses/HDF5/COPYING_LBNL_HDF5": "Lawrence Berkeley National Laboratory",
             "licenses/zlib/LICENSE": "Jean-loup Gailly and Mark Adler",
+            "licenses/DejaVu/LICENSE": "Bitstream Vera",
             "licenses/rust-crates/THIRD-PARTY-LICENSES.txt": "Third-party software compiled into chainsweep",
         }
         for lic, phrase in licences.items():
