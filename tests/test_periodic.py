@@ -246,3 +246,104 @@ def test_shards_are_refused(tmp_path):
     path = write(tmp_path / "s.json", example())
     r = run("run", path, "-o", tmp_path / "s.h5", "--shard", "1/2", "--quiet")
     assert r.returncode == 2 and "--shard" in r.stderr, r.stderr
+
+
+def shaken_sphere(switch: bool, start_f0: float, to_f0: float) -> dict:
+    """A steel sphere pressed on a wall by 10 N, lightly damped, shaken by a 6 N force near twice
+    its natural frequency f0: a parametric resonance whose tongue (about 1.96 to 2.03 f0) the
+    branch of single-period orbits crosses, unstable inside it between two period doublings."""
+    steel = {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.28}
+    base = {
+        "chain": {
+            "particles": {"ball": {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085, "material": steel}}},
+            "sequence": [{"repeat": 1, "of": ["ball"]}],
+            "wall_material": steel,
+        },
+        "physics": {"gravity": False, "damping_kg_s": 0.5, "wall": True, "precompression_force_n": 10.0},
+        "excitation": {"drive": {"force_n": {"harmonic": {"amplitude": 6.0, "frequency_hz": 1.0, "ramp_periods": 5}}}},
+        "duration_s": 1.0,
+        "integrator": {"method": "dop853", "rtol": 1e-11},
+    }
+    f0 = chainsweep.spectrum(base)["frequency_hz"][0]
+    base["excitation"]["drive"]["force_n"]["harmonic"]["frequency_hz"] = start_f0 * f0
+    periodic = {
+        "field": "excitation.drive.force_n.harmonic.frequency_hz",
+        "to": to_f0 * f0,
+        "settle_periods": 200,
+        "tolerance": 1e-9,
+        "max_points": 60,
+    }
+    if switch:
+        periodic["switch"] = "period_doubling"
+    return {
+        "description": "a shaken sphere's period doubling",
+        "base": base,
+        "record": {"probes": [{"kind": "wall_force"}], "preload": "subtract",
+                   "steady_state": {"window_periods": 2, "harmonics": 2}},
+        "periodic": periodic,
+    }, f0
+
+
+def test_switch_at_a_period_doubling_stores_the_doubled_branch_and_resumes_bitwise(tmp_path):
+    """`switch: period_doubling` stores, instead of the point's branch, the branch of twice the
+    period that starts at its first period doubling: it starts where the point's own branch
+    locates the doubling, bends into the tongue where the single-period orbits are unstable, and
+    is stable there (a supercritical doubling); its orbits repeat after two drive periods. A
+    killed run resumes bitwise; a range without a doubling fails the branch naming the switch."""
+    single, f0 = shaken_sphere(False, 2.2, 1.8)
+    out1 = tmp_path / "single.h5"
+    assert run("run", write(tmp_path / "single.json", single), "-o", out1, "--quiet").returncode == 0
+    one = chainsweep.open(out1)
+    n1 = int(one["branch_points"])
+    kind1, f1 = one["point_kind"].values[:n1], one["frequency_hz"].values[:n1]
+    doubling_code = one["point_kind"].attrs["flag_meanings"].split().index("period_doubling")
+    doublings = np.sort(f1[kind1 == doubling_code])[::-1]
+    assert len(doublings) >= 2, kind1
+    upper = doublings[0]
+
+    doubled, _ = shaken_sphere(True, 2.2, 1.8)
+    path = write(tmp_path / "doubled.json", doubled)
+    out = tmp_path / "doubled.h5"
+    r = run("run", path, "-o", out)
+    assert r.returncode == 0, r.stderr
+    ds = chainsweep.open(out)
+    n = int(ds["branch_points"])
+    f = ds["frequency_hz"].values[:n]
+    kind = ds["point_kind"].values[:n]
+    stable = ds["stability"].values[:n]
+    assert n > 10, ds["branch_end"].values
+    assert "2 drive periods per orbit" in ds.attrs["periodic"] and "period doubling" in ds.attrs["periodic"]
+    # It starts at the doubling the single-period branch locates (within its first step), and
+    # goes into the tongue, below the upper doubling, where it is stable.
+    assert abs(f[0] - upper) < 0.36 * f0 / 50 + 1e-6 * f0, (f[0] / f0, upper / f0)
+    inside = (f < upper - 1e-4 * f0) & (kind == 1)
+    assert inside.sum() > 5
+    assert np.all(stable[inside] == 1), stable
+    # The single-period orbits at those frequencies are unstable.
+    regular1 = kind1 == 1
+    tongue1 = regular1 & (f1 < upper) & (f1 > doublings[1])
+    assert np.all(one["stability"].values[:n1][tongue1] == 2)
+    # Its orbits repeat after their two drive periods.
+    assert np.nanmax(ds["orbit_settledness"].values[:n]) < 1e-6
+
+    # Killed during the run, then run again: the same file, bit for bit.
+    killed = tmp_path / "killed.h5"
+    journals = tmp_path / "killed.h5.d" / "periodic"
+    p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(killed), "--jobs", "1", "--quiet"])
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and p.poll() is None:
+        logs = list(journals.glob("*.log")) if journals.exists() else []
+        if any(len(f.read_bytes().splitlines()) > 6 for f in logs):
+            break
+        time.sleep(0.002)
+    assert p.poll() is None, "the run ended before it could be killed"
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+    assert run("run", path, "-o", killed, "--quiet").returncode == 0
+    assert_files_equal(out, killed)
+
+    # Above the tongue there is no doubling to switch at: the branch fails, saying why.
+    none, _ = shaken_sphere(True, 2.5, 2.2)
+    r = run("run", write(tmp_path / "none.json", none), "-o", tmp_path / "none.h5")
+    assert r.returncode == 3, r.stderr
+    assert "no period doubling to switch at" in r.stderr, r.stderr

@@ -25,8 +25,10 @@ use sha2::{Digest, Sha256};
 
 use chainsweep_solver::observe::steady::SteadyProbe;
 use chainsweep_solver::periodic::{
-    continue_branch_stoppable, resume_branch, BranchPoint, Monodromy, PeriodMap,
+    continue_branch_stoppable, continue_period_doubled_stoppable, resume_branch,
+    resume_period_doubled, BranchPoint, Monodromy, PeriodMap, PointKind,
 };
+use chainsweep_solver::spec::SpecError;
 
 use super::run::{Failure, Health, RunOptions, RunReport, VerificationReport};
 use super::{check_output, thread_pool, DamageReport, ProgressSink, Start};
@@ -38,7 +40,7 @@ use crate::store::hdf5::periodic::{
 };
 use crate::store::hdf5::{Counts, Provenance};
 use crate::store::lock_work_dir;
-use crate::sweep::periodic::PeriodicSpec;
+use crate::sweep::periodic::{PeriodicSpec, Switch};
 use crate::sweep::Sweep;
 
 /// One line of a branch's journal.
@@ -63,11 +65,15 @@ enum Entry {
     },
     /// No first orbit: why.
     Failed { reason: String },
+    /// Where the branch switched to starts (`switch: period_doubling`): the field's value at the
+    /// period doubling of the point's branch, located exactly as the continuation locates it.
+    Doubling { parameter: f64 },
 }
 
 /// A branch as its journal holds it.
 #[derive(Default)]
 struct Journal {
+    doubling: Option<f64>,
     points: Vec<Entry>,
     end: Option<Entry>,
 }
@@ -105,6 +111,7 @@ fn read_journal(path: &Path, identity: &str) -> Option<Journal> {
                 }
             }
             _ if first => return None,
+            Entry::Doubling { parameter } => journal.doubling = Some(parameter),
             Entry::Point { .. } => journal.points.push(entry),
             Entry::End { .. } | Entry::Failed { .. } => {
                 journal.end = Some(entry);
@@ -171,6 +178,9 @@ fn compute(
     let mut text = line_of(&Entry::Identity {
         hash: identity.to_string(),
     });
+    if let Some(parameter) = journal.doubling {
+        text.push_str(&line_of(&Entry::Doubling { parameter }));
+    }
     for e in &journal.points {
         text.push_str(&line_of(e));
     }
@@ -195,6 +205,26 @@ fn compute(
         Entry::Point { point, .. } => Some(point.as_ref().clone()),
         _ => None,
     });
+    // The switch's period doubling, located on the point's branch unless the branch resumes
+    // from a journaled point of its own.
+    let mut doubling: Option<std::result::Result<BranchPoint, SpecError>> = None;
+    if spec.switch == Some(Switch::PeriodDoubling) && last.is_none() {
+        match first_doubling(spec, &scene_at, from, stop) {
+            Ok(Some(d)) => {
+                if journal.doubling.is_none() {
+                    write(&Entry::Doubling {
+                        parameter: d.parameter,
+                    })?;
+                    journal.doubling = Some(d.parameter);
+                }
+                doubling = Some(Ok(d));
+            }
+            // Stopped while following the point's branch: nothing of the switched branch yet.
+            Ok(None) => return Ok(journal),
+            Err(e) => doubling = Some(Err(e)),
+        }
+    }
+    let journal_doubling = journal.doubling;
     let mut failure: Option<Error> = None;
     let mut on_point = |p: &BranchPoint| {
         if failure.is_some() {
@@ -206,8 +236,8 @@ fn compute(
         }
         journal.points.push(entry);
     };
-    let outcome = match &last {
-        Some(last) => resume_branch(
+    let outcome = match (spec.switch, &last) {
+        (None, Some(last)) => resume_branch(
             &scene_at,
             from,
             &spec.orbit,
@@ -216,7 +246,7 @@ fn compute(
             Some(stop),
             &mut on_point,
         ),
-        None => continue_branch_stoppable(
+        (None, None) => continue_branch_stoppable(
             &scene_at,
             from,
             &spec.orbit,
@@ -224,6 +254,32 @@ fn compute(
             Some(stop),
             &mut on_point,
         ),
+        (Some(Switch::PeriodDoubling), Some(last)) => match journal_doubling {
+            Some(at) => resume_period_doubled(
+                &scene_at,
+                at,
+                &spec.orbit,
+                &spec.branch,
+                last,
+                Some(stop),
+                &mut on_point,
+            ),
+            None => Err(chainsweep_solver::spec::spec_err(
+                "periodic.switch",
+                "the journal holds orbits of the switched branch but not where it switched",
+            )),
+        },
+        (Some(Switch::PeriodDoubling), None) => match doubling.expect("located above") {
+            Ok(d) => continue_period_doubled_stoppable(
+                &scene_at,
+                &d,
+                &spec.orbit,
+                &spec.branch,
+                Some(stop),
+                &mut on_point,
+            ),
+            Err(e) => Err(e),
+        },
     };
     if let Some(e) = failure {
         return Err(e);
@@ -253,6 +309,47 @@ fn compute(
     Ok(journal)
 }
 
+/// The first period doubling of the branch from `from` towards `to` (with its monodromy and
+/// tangent, as the switch needs them); `Ok(None)` when `stop` stopped the search. The branch's
+/// own points are not kept: they are not the stored branch's.
+fn first_doubling(
+    spec: &PeriodicSpec,
+    scene_at: &dyn Fn(f64) -> std::result::Result<chainsweep_solver::Scene, SpecError>,
+    from: f64,
+    stop: &AtomicBool,
+) -> std::result::Result<Option<BranchPoint>, SpecError> {
+    let found = AtomicBool::new(false);
+    let mut doubling: Option<BranchPoint> = None;
+    let parent = continue_branch_stoppable(
+        scene_at,
+        from,
+        &spec.orbit,
+        &spec.branch,
+        Some(&found),
+        &mut |p| {
+            if p.kind == PointKind::PeriodDoubling && doubling.is_none() {
+                doubling = Some(p.clone());
+            }
+            if doubling.is_some() || stop.load(Ordering::Relaxed) {
+                found.store(true, Ordering::Relaxed);
+            }
+        },
+    )?;
+    match doubling {
+        Some(d) => Ok(Some(d)),
+        None if parent.stopped => Ok(None),
+        None => Err(chainsweep_solver::spec::spec_err(
+            "periodic.switch",
+            format!(
+                "the branch from {from} towards {} has no period doubling to switch at: it ended ({}) after {} points, none with a multiplier through -1",
+                spec.branch.to,
+                parent.end,
+                parent.points.len()
+            ),
+        )),
+    }
+}
+
 /// The journal entry of an accepted orbit: the point and the run of two orbit periods from it.
 fn orbit_entry(spec: &PeriodicSpec, point: &serde_json::Value, p: &BranchPoint) -> Entry {
     // What is journaled of an orbit: not its monodromy matrix ((2N)² numbers).
@@ -265,7 +362,7 @@ fn orbit_entry(spec: &PeriodicSpec, point: &serde_json::Value, p: &BranchPoint) 
         .scene_at(point, p.parameter)
         .map_err(|e| e.to_string())
         .and_then(|scene| {
-            let map = PeriodMap::new(&scene, &spec.orbit).map_err(|e| e.to_string())?;
+            let map = PeriodMap::new(&scene, &spec.stored_orbit()).map_err(|e| e.to_string())?;
             map.orbit_run(&scene, &p.orbit.state)
                 .map_err(|e| e.to_string())
         });
@@ -641,8 +738,14 @@ pub fn dry_run(sweep: &Sweep, grid: &Grid, output: &Path) -> Result<PeriodicDryR
         .map_err(|e| Error::input("periodic", format!("the first period map at {from}: {e}")))?;
     let plain = started.elapsed().as_secs_f64();
     let per_point = MAPS_PER_POINT.0 * mono + MAPS_PER_POINT.1 * plain;
-    let most =
-        (n - ended) as f64 * (settle_seconds + f64::from(spec.branch.max_points) * per_point);
+    // A switched branch: the point's branch up to its doubling, then orbits of twice the period,
+    // each map twice as long.
+    let branches = match spec.switch {
+        None => 1.0,
+        Some(Switch::PeriodDoubling) => 3.0,
+    };
+    let most = (n - ended) as f64
+        * (settle_seconds + branches * f64::from(spec.branch.max_points) * per_point);
     Ok(PeriodicDryRun {
         branches: n,
         ended,

@@ -57,6 +57,20 @@ pub(super) struct PeriodicFile {
     /// `finite_difference`.
     #[serde(default)]
     monodromy: Option<Monodromy>,
+    /// `period_doubling`: the branch stored is not the one from the point's value but the branch
+    /// of orbits of twice the period that starts at its first period doubling (met on the way to
+    /// `to`), continued while the field stays within `|to − p_PD|` of the doubling's value `p_PD`,
+    /// on either side (absent: the branch from the point's value).
+    #[serde(default)]
+    switch: Option<Switch>,
+}
+
+/// Which branch a `periodic` block stores instead of the one from the point's value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Switch {
+    /// The branch of twice the period from the first period doubling.
+    PeriodDoubling,
 }
 
 /// A sweep's `periodic` block, checked.
@@ -72,6 +86,8 @@ pub struct PeriodicSpec {
     pub orbit: PeriodicOptions,
     /// How branches are continued.
     pub branch: BranchOptions,
+    /// The branch switched to at a bifurcation of the point's branch, when one is.
+    pub switch: Option<Switch>,
 }
 
 impl PeriodicSpec {
@@ -79,16 +95,37 @@ impl PeriodicSpec {
     pub fn describe(&self) -> String {
         use crate::error::number_text as num;
         format!(
-            "branches of periodic orbits continued in {} ({}) from its base value to {} {}, at most {} points each, {} drive period{} per orbit, tolerance {}",
+            "branches of periodic orbits continued in {} ({}) from its base value to {} {}{}, at most {} points each, {} drive period{} per orbit, tolerance {}",
             self.name,
             self.field,
             num(self.branch.to),
             self.units,
+            match self.switch {
+                None => "",
+                Some(Switch::PeriodDoubling) =>
+                    ", each switched at its first period doubling to the branch of twice the period",
+            },
             self.branch.max_points,
-            self.orbit.periods,
-            if self.orbit.periods == 1 { "" } else { "s" },
+            self.stored_orbit().periods,
+            if self.stored_orbit().periods == 1 {
+                ""
+            } else {
+                "s"
+            },
             num(self.orbit.tolerance)
         )
+    }
+
+    /// How the stored branch's orbits are found: [`PeriodicSpec::orbit`], of twice the drive
+    /// periods on a branch switched to at a period doubling.
+    pub fn stored_orbit(&self) -> PeriodicOptions {
+        match self.switch {
+            None => self.orbit,
+            Some(Switch::PeriodDoubling) => PeriodicOptions {
+                periods: 2 * self.orbit.periods,
+                ..self.orbit
+            },
+        }
     }
 
     /// The continued field's value in the grid point's scene `point` (the branch's start).
@@ -171,11 +208,21 @@ pub(super) fn parse(
         name,
         orbit,
         branch,
+        switch: f.switch,
     };
     let from = spec.start(base)?;
     orbit
         .validate()
         .map_err(|e| Error::input(e.field, e.message))?;
+    spec.stored_orbit().validate().map_err(|e| {
+        Error::input(
+            "periodic.periods",
+            format!(
+                "{} (the doubled branch's orbits span twice `periods`)",
+                e.message
+            ),
+        )
+    })?;
     spec.branch
         .validate(from)
         .map_err(|e| Error::input(e.field, e.message))?;

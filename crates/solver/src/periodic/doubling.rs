@@ -2,6 +2,8 @@
 //! orbits of twice the period that the doubling starts (the module docs of [`crate::periodic`]
 //! give the method).
 
+use std::sync::atomic::AtomicBool;
+
 use crate::integrate::IntegrationStats;
 use crate::periodic::branch::{Branch, BranchOptions, BranchPoint, Continuer, PointKind};
 use crate::periodic::dense::{self, is_real};
@@ -55,6 +57,20 @@ pub fn continue_period_doubled(
     point: &BranchPoint,
     periodic: &PeriodicOptions,
     options: &BranchOptions,
+    on_point: &mut dyn FnMut(&BranchPoint),
+) -> Result<Branch, SpecError> {
+    continue_period_doubled_stoppable(scene_at, point, periodic, options, None, on_point)
+}
+
+/// [`continue_period_doubled`], stopping after the point it is computing once `stop` is set: the
+/// branch then ends with [`Branch::stopped`], and [`resume_period_doubled`] goes on from its last
+/// accepted point.
+pub fn continue_period_doubled_stoppable(
+    scene_at: &dyn Fn(f64) -> Result<Scene, SpecError>,
+    point: &BranchPoint,
+    periodic: &PeriodicOptions,
+    options: &BranchOptions,
+    stop: Option<&AtomicBool>,
     on_point: &mut dyn FnMut(&BranchPoint),
 ) -> Result<Branch, SpecError> {
     if point.kind != PointKind::PeriodDoubling {
@@ -154,7 +170,14 @@ pub fn continue_period_doubled(
         let start = c
             .point(corrected, &direction, PointKind::Start, 0.0)
             .map_err(|e| spec_err("periodic", format!("at {p}: {e}")))?;
-        return Ok(c.follow(start, options, (from - range, from + range), on_point));
+        return Ok(c.follow_from(
+            start,
+            false,
+            options,
+            (from - range, from + range),
+            stop,
+            on_point,
+        ));
     }
     Err(spec_err(
         "periodic",
@@ -163,6 +186,50 @@ pub fn continue_period_doubled(
             failures.join("; ")
         ),
     ))
+}
+
+/// Goes on with the branch of [`continue_period_doubled`] (the same `scene_at`, `periodic` and
+/// `options`, from the period doubling at parameter `doubling`) from `last`, the last point it
+/// accepted as `on_point` gave it, exactly as the continuation would have gone on: the points
+/// after it are bitwise those an uninterrupted continuation gives (as [`resume_branch`] does for
+/// the branch of the single period). `last` is not given to `on_point` again.
+///
+/// [`resume_branch`]: crate::periodic::resume_branch
+pub fn resume_period_doubled(
+    scene_at: &dyn Fn(f64) -> Result<Scene, SpecError>,
+    doubling: f64,
+    periodic: &PeriodicOptions,
+    options: &BranchOptions,
+    last: &BranchPoint,
+    stop: Option<&AtomicBool>,
+    on_point: &mut dyn FnMut(&BranchPoint),
+) -> Result<Branch, SpecError> {
+    options.validate(doubling)?;
+    let doubled = PeriodicOptions {
+        periods: 2 * periodic.periods,
+        ..*periodic
+    };
+    doubled.validate()?;
+    let range = (options.to - doubling).abs();
+    let m = last.orbit.state.len();
+    if last.kind.is_special() || last.scales.len() != m + 1 || last.tangent.len() != m + 1 {
+        return Err(spec_err(
+            "periodic",
+            "a branch resumes from a start or stepped-to point as the continuation gave it",
+        ));
+    }
+    let mut c = Continuer {
+        scene_at,
+        options: &doubled,
+        scales: last.scales[..m].to_vec(),
+        parameter_scale: last.scales[m],
+        maps: last.progress.maps,
+        stats: IntegrationStats::default(),
+    };
+    let bounds = (doubling - range, doubling + range);
+    let mut branch = c.follow_from(last.clone(), true, options, bounds, stop, on_point);
+    branch.points.remove(0);
+    Ok(branch)
 }
 
 fn normalise(v: &mut [f64]) {

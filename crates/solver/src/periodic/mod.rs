@@ -84,7 +84,10 @@ pub use branch::{
     continue_branch, continue_branch_from, continue_branch_stoppable, resume_branch, Branch,
     BranchOptions, BranchPoint, PointKind, Progress,
 };
-pub use doubling::{continue_period_doubled, period_doubling_vector};
+pub use doubling::{
+    continue_period_doubled, continue_period_doubled_stoppable, period_doubling_vector,
+    resume_period_doubled,
+};
 pub use shooting::{MapOutput, Orbit, PeriodMap, ShootingError};
 
 /// How the monodromy matrix is computed.
