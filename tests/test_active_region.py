@@ -126,7 +126,8 @@ def test_the_store_says_how_much_of_each_chain_was_integrated(tmp_path):
         assert [d[0].name for d in n.dims] == ["/active_region", "/max_steps"]
         assert n.dims[0][0].name == "/active_region"
         assert n.attrs["units"] == "1"
-        assert n.attrs["long_name"].startswith("particles integrated at the end of the run")
+        assert n.attrs["long_name"] == "integrated particles"
+        assert n.attrs["comment"].startswith("particles integrated at the end of the run")
         assert n.attrs["_FillValue"] == -1
         flag = f["moving_part"]
         assert flag.dtype == np.uint8

@@ -199,6 +199,22 @@ def messages(report, category):
     return out
 
 
+def test_the_documented_cfchecker_command_runs_offline_and_finds_nothing(files, tmp_path):
+    """docs/REFERENCE.md's commands for checking a file with cfchecker, run verbatim (offline,
+    with the tables they write) on a plain grid's file: no error, no warning."""
+    import os
+
+    text = (REPO / "docs" / "REFERENCE.md").read_text()
+    block = next(b for b in re.findall(r"```sh\n(.*?)```", text, re.S) if "cfchecks -v auto" in b)
+    (tmp_path / "results").mkdir()
+    shutil.copy(files[next(iter(KINDS))], tmp_path / "results" / "mass-damping.h5")
+    env = dict(os.environ, PATH=f"{CFCHECKS.parent}:{os.environ['PATH']}")
+    r = subprocess.run(["sh", "-ec", block], cwd=tmp_path, capture_output=True, text=True, env=env, timeout=300)
+    report = r.stdout + r.stderr
+    assert r.returncode == 0, report
+    assert "ERRORS detected: 0" in report and "WARNINGS given: 0" in report, report
+
+
 @pytest.mark.parametrize("kind", list(KINDS))
 def test_cfchecker_finds_no_error_and_no_warning(files, tables, tmp_path, kind):
     r = cfchecks(files[kind], tables, tmp_path)

@@ -265,16 +265,18 @@ exec(compile(snippet, "snippet", "exec"), {"__name__": "__main__"})
 figures = {id(f): f for f in saved}
 figures.update({id(plt.figure(n)): plt.figure(n) for n in plt.get_fignums()})
 problems = []
+labels = []
 sys.path.insert(0, sys.argv[2])
 import chainplot  # the shipped figures' own check of texts past the edges
 for fig in figures.values():
     for ax in fig.axes:
         for what, text in (("x label", ax.xaxis.label), ("y label", ax.yaxis.label), ("title", ax.title)):
             s = text.get_text()
+            labels.append([what, s])
             if re.search(r"[a-z_]+\.[a-z_]+\.[a-z_]", s) or "probe_units" in s or "_strlen" in s:
                 problems.append(f"{what} {s!r} names the file's bookkeeping or a dotted path")
     problems += [f"{s!r} reaches past the figure's edge" for s in chainplot.texts_outside(fig)]
-print(json.dumps({"figures": len(figures), "problems": problems}))
+print(json.dumps({"figures": len(figures), "problems": problems, "labels": labels}))
 '''
 
 

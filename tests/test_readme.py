@@ -4,6 +4,7 @@ it names exists, and user docs name no internal issue numbers or commit hashes."
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import shlex
@@ -52,10 +53,22 @@ def test_first_sweep_runs_and_plots_as_written(tmp_path):
         assert status.shape == (15, 2) and (status == 1).all()
         lp = f["leading_peak"][()]
         assert np.isfinite(lp).all()
+    # The plot, run verbatim through the docs' label check: no dotted path, no file bookkeeping
+    # (`probe_units`) in a title or label, nothing past the figure's edges.
+    from test_docs import HARNESS
+
+    (tmp_path / "snippet.py").write_text(plot)
+    (tmp_path / "harness.py").write_text(HARNESS)
     env = dict(os.environ, MPLBACKEND="Agg")
-    r = subprocess.run([sys.executable, "-c", plot], cwd=tmp_path, capture_output=True, text=True, env=env,
-                       timeout=300)
+    r = subprocess.run([sys.executable, "harness.py", "snippet.py", str(REPO / "scripts")], cwd=tmp_path,
+                       capture_output=True, text=True, env=env, timeout=300)
     assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout.strip().splitlines()[-1])
+    assert report["figures"] == 1 and report["problems"] == [], report
+    # A ratio of two forces is labelled as one, without a unit of force.
+    labels = dict(report["labels"])
+    assert labels["y label"] == "F15 / F4 [1]" and labels["title"] == "", labels
+    assert labels["x label"] == "mass ratio [1]", labels
     assert (tmp_path / "my-sweep.png").stat().st_size > 10_000
 
 

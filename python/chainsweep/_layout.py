@@ -17,9 +17,11 @@ COLUMNS: dict[str, dict] = {c["name"]: c for c in _native.COLUMNS}
 
 
 def _label(c: dict) -> tuple[str | None, str]:
-    """(units, long_name) of a column; units None: none, or the probes' own unit."""
+    """(units, long_name) of a column; units None: none, or the probes' own unit. The long_name
+    is the column's short label (what a plot labels it by); the files hold its description as
+    the `comment`."""
     units = None if c["units"] in (None, "of_probes") else c["units"]
-    return units, c["description"]
+    return units, c["label"]
 
 
 def _flag_attrs(name: str) -> dict:
@@ -32,12 +34,12 @@ def _flag_attrs(name: str) -> dict:
 
 # `status`: 0 pending, 1 ok, 2 failed, 3 unsettled (the file's long_name, flag_values / flag_meanings).
 STATUS_PENDING, STATUS_OK, STATUS_FAILED, STATUS_UNSETTLED = COLUMNS["status"]["flag_values"]
-STATUS_ATTRS = {"long_name": COLUMNS["status"]["description"], **_flag_attrs("status")}
+STATUS_ATTRS = {"long_name": COLUMNS["status"]["label"], **_flag_attrs("status")}
 
 # The energy ledger's terms (`record.energy_ledger`), at the start and at the end: name → (units,
 # long_name), from the engine's table.
 LEDGER_COLUMNS: dict[str, tuple[str, str]] = {
-    n: (c["units"], c["description"]) for n, c in COLUMNS.items() if c["kind"] == "ledger"
+    n: (c["units"], c["label"]) for n, c in COLUMNS.items() if c["kind"] == "ledger"
 }
 
 #: Per-run float summaries: name -> (units, long_name) (the linear spectrum's apart).
@@ -90,12 +92,12 @@ PROBE_UNIT_COLUMNS: list[str] = [n for n, c in COLUMNS.items() if c["units"] == 
 #: `leading_pulse`: 0 no run, 1 passed, 2 had not passed the probe by the end of the run (its
 #: leading_peak and leading_peak_time_s are NaN, and this says why).
 PROBE_FLAGS: dict[str, tuple[str, dict]] = {
-    n: (c["description"], _flag_attrs(n)) for n, c in COLUMNS.items() if c["kind"] == "probe_flag"
+    n: (c["label"], _flag_attrs(n)) for n, c in COLUMNS.items() if c["kind"] == "probe_flag"
 }
 
 #: Per-run strings: name -> long_name.
 RUN_STRINGS: dict[str, str] = {
-    n: c["description"] for n, c in COLUMNS.items() if c["dtype"] == "str" and not c["per_probe"]
+    n: c["label"] for n, c in COLUMNS.items() if c["dtype"] == "str" and not c["per_probe"]
 }
 
 #: The runs' arrays (histories, minimum overlaps, fields, energy flow) and their coordinates, as
@@ -226,7 +228,8 @@ def split_by_unit(
         part[..., [k for k, x in enumerate(units) if x != u]] = np.nan
         attrs = {
             "units": u,
-            "long_name": f"{long_name} (the probes measured in {u}; NaN at the others)",
+            "long_name": long_name,
+            "comment": f"the probes measured in {u}; NaN at the others",
         }
         out[split_name(name, u)] = (dims, part, attrs)
     return out

@@ -673,7 +673,7 @@ def _join_units(data: dict[str, Any], grid: "_Grid") -> None:
     if L.probe_units(grid.probe_units) is not None:
         return
     for name in L.PROBE_UNIT_COLUMNS:
-        long_name = L.COLUMNS[name]["description"]
+        long_name = L.COLUMNS[name]["label"]
         parts = [L.split_name(name, u) for u in grid.probe_units]
         if name in data:  # layout 3
             dims, values, attrs = data[name]

@@ -138,7 +138,7 @@ def _dataset(a: dict[str, Any]) -> xr.Dataset:
     for name, c in L.STEADY_COLUMNS.items():
         if name not in a:
             continue
-        long_name = c["description"]
+        long_name = c["label"]
         dims = {"ok_f64": (), "steady_harmonic": ("probe", "harmonic")}.get(c["kind"], ("probe",))
         if c["kind"] == "steady_flag":
             attrs = {"long_name": long_name, **L._flag_attrs(name)}

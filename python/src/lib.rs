@@ -43,7 +43,7 @@ fn py_error(py: Python<'_>, e: &chainsweep::error::Error, context: &str) -> PyEr
 
 /// The runner's table of stored summary columns, for the package's labels: one dict per column
 /// (name, numpy dtype, per_probe, per_harmonic, units — `None` for none, `"of_probes"` for the probes' own —,
-/// description, long_name, flag_values, flag_meanings, written, kind).
+/// description, label (its short `long_name`), long_name, flag_values, flag_meanings, written, kind).
 fn column_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyList>> {
     use chainsweep::record::columns::{Units, COLUMNS};
     let rows = COLUMNS
@@ -63,6 +63,7 @@ fn column_table(py: Python<'_>) -> PyResult<Bound<'_, pyo3::types::PyList>> {
                 },
             )?;
             d.set_item("description", c.description)?;
+            d.set_item("label", c.label())?;
             d.set_item("long_name", c.long_name)?;
             let values = c
                 .flags

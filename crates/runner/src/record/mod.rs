@@ -5,6 +5,7 @@
 //! numerics compare it. [`columns`] is the one table of what the output file stores of it.
 
 pub mod columns;
+pub mod names;
 
 use chainsweep_solver::observe::flow::EnergyFlow;
 use chainsweep_solver::observe::probes::{Fields, History, ProbeSummary};

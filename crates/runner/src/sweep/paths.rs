@@ -37,42 +37,7 @@ pub(super) fn join_path(prefix: &str, path: &str) -> String {
     }
 }
 
-/// The unit suffixes of field names and the unit each says (longest first where one ends
-/// another: `_kg_s` before `_s`).
-const UNIT_SUFFIXES: &[(&str, &str)] = &[
-    ("_kg_m3", "kg/m^3"),
-    ("_m_s2", "m/s^2"),
-    ("_kg_s", "kg/s"),
-    ("_m_s", "m/s"),
-    ("_pa", "Pa"),
-    ("_hz", "Hz"),
-    ("_rad", "rad"),
-    ("_kg", "kg"),
-    ("_s", "s"),
-    ("_m", "m"),
-    ("_n", "N"),
-    ("_j", "J"),
-];
-
-/// Unit of a field from its name's suffix (`damping_kg_s` → `kg/s`, `frequency_hz` → `Hz`).
-pub fn units_of(field: &str) -> String {
-    let last = field.rsplit('.').next().unwrap_or(field);
-    UNIT_SUFFIXES
-        .iter()
-        .find(|(suffix, _)| last.ends_with(suffix))
-        .map_or("1", |(_, unit)| unit)
-        .to_string()
-}
-
-/// A coordinate's name as a plot labels it: its unit suffix left out (the unit is its own
-/// attribute) and words apart (`damping_kg_s` → `damping`, `mass_ratio` → `mass ratio`).
-pub fn human_name(name: &str) -> String {
-    let stem = UNIT_SUFFIXES
-        .iter()
-        .find_map(|(suffix, _)| name.strip_suffix(suffix).filter(|s| !s.is_empty()))
-        .unwrap_or(name);
-    stem.replace('_', " ")
-}
+pub use crate::record::names::{human_name, units_of};
 
 /// The name a field goes by where none is given: its path's last part that is not an index
 /// (`chain.mass_factors.3` → `mass_factors`).

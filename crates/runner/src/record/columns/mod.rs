@@ -339,9 +339,10 @@ pub struct Column {
     pub per_harmonic: bool,
     /// The `units` attribute.
     pub units: Units,
-    /// What it holds; written as the `long_name` attribute when `long_name` is set.
+    /// What it holds, in words: written as the `comment` attribute when `long_name` is set.
     pub description: &'static str,
-    /// Whether `description` is written as the `long_name` attribute.
+    /// Whether it has a `long_name` ([`Column::label`], what a plot labels it by) and a
+    /// `comment` (`description`).
     pub long_name: bool,
     /// `flag_values` and `flag_meanings` attributes of a flag.
     pub flags: Option<(&'static [u8], &'static str)>,
@@ -367,6 +368,13 @@ pub enum FillValue {
 }
 
 impl Column {
+    /// Its short name, the `long_name` a plot labels it by: its name without the unit suffix,
+    /// words apart (`leading_peak_time_s` → `leading peak time`); what it is, in words, is its
+    /// `description`.
+    pub fn label(&self) -> String {
+        crate::record::names::human_name(self.name)
+    }
+
     /// Whether a file of this `presence` has this column (files of layout 3 and later: earlier
     /// layouts lack the checksum columns, and their readers take absent columns as fills).
     pub fn is_written(&self, presence: Presence) -> bool {

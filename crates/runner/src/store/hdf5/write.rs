@@ -665,17 +665,19 @@ fn write_column(
             return Err(Error::Other(format!("column {name} has no unit")));
         }
     }
-    match unit {
-        Some(u) if split => attr_str(
-            &d,
-            "long_name",
-            &format!(
-                "{} (the probes measured in {u}; NaN at the others)",
-                c.description
-            ),
-        )?,
-        _ if c.long_name => attr_str(&d, "long_name", c.description)?,
-        _ => {}
+    if c.long_name {
+        attr_str(&d, "long_name", &c.label())?;
+        match unit {
+            Some(u) if split => attr_str(
+                &d,
+                "comment",
+                &format!(
+                    "{} (the probes measured in {u}; NaN at the others)",
+                    c.description
+                ),
+            )?,
+            _ => attr_str(&d, "comment", c.description)?,
+        }
     }
     Ok(d)
 }
