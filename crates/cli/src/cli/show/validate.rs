@@ -271,12 +271,27 @@ pub fn dry_run(
     );
     let (summary, history, fields) = (d.size.summary, d.size.history, d.size.fields);
     outln!(
-        "estimated output size: {} ({} per run: {} summaries{}{}); histories and fields are deflate-compressed, so usually less",
+        "estimated output size: {} ({} per run: {} summaries{}{}){}",
         human(d.size.total(points.len())),
         human(summary + history + fields),
         human(summary),
-        if history > 0.0 { format!(" + {} histories, uncompressed", human(history)) } else { String::new() },
-        if fields > 0.0 { format!(" + {} fields, uncompressed", human(fields)) } else { String::new() }
+        if history > 0.0 {
+            format!(" + {} histories", human(history))
+        } else {
+            String::new()
+        },
+        if fields > 0.0 {
+            format!(" + {} fields", human(fields))
+        } else {
+            String::new()
+        },
+        // Histories and fields are stored as they are (checksummed, not compressed); only
+        // histories split by unit (probes of mixed units) are deflated, their NaN runs to little.
+        if history + fields > 0.0 {
+            "; histories and fields are not compressed (split by unit: deflated, so less)"
+        } else {
+            ""
+        }
     );
     if let Some(c) = &d.cost {
         let how = if c.extrapolated > 0 {
