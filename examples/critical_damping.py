@@ -14,6 +14,7 @@ parallel like any sweep's: `chainsweep run sweeps/examples/critical-damping-root
 (docs/SEARCHES.md). This script shows the loop a search replaces.
 
     python examples/critical_damping.py
+    python -m chainsweep.example_scripts.critical_damping   # the copy installed with the package
 """
 
 from __future__ import annotations
@@ -21,13 +22,13 @@ from __future__ import annotations
 import copy
 import json
 import time
-from pathlib import Path
 
 from scipy.optimize import brentq
 
 import chainsweep
 
-SWEEP = Path(__file__).resolve().parent.parent / "sweeps" / "critical-damping.json"
+# The sweep file installed with the package (the repository's sweeps/critical-damping.json).
+SWEEP = chainsweep.example_path("critical-damping")
 
 
 def load_chains() -> tuple[dict, dict, dict, dict]:

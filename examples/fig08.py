@@ -5,8 +5,9 @@ The sweep is sweeps/fig08.json (50 cylinders, heavy cylinders m_c = m_s/ε, lead
 gravity on, 1.3 m/s) with ε every 0.05 instead of every 0.01, so that it runs in about a second.
 Running the script again resumes the sweep: it runs nothing and only draws.
 
-    python examples/fig08.py                      # -> results/fig08-python.h5, .png
+    python examples/fig08.py                      # -> results/fig08-python.h5, .png (here)
     python examples/fig08.py --output-dir /tmp/x  # elsewhere
+    python -m chainsweep.example_scripts.fig08    # the copy installed with the package
 """
 
 from __future__ import annotations
@@ -23,8 +24,6 @@ import numpy as np  # noqa: E402
 
 import chainsweep  # noqa: E402
 
-REPO = Path(__file__).resolve().parent.parent
-
 
 def minimum(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """The minimum of y(x): the vertex of the parabola through the smallest sample and its
@@ -39,12 +38,14 @@ def minimum(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--output-dir", type=Path, default=REPO / "results")
+    parser.add_argument("--output-dir", type=Path, default=Path("results"),
+                        help="where the file and the figure go (default: results/ here)")
     parser.add_argument("--step", type=float, default=0.05, help="mass-ratio step (default 0.05)")
     args = parser.parse_args()
     args.output_dir.mkdir(parents=True, exist_ok=True)
 
-    spec = json.loads((REPO / "sweeps" / "fig08.json").read_text())
+    # The sweep file installed with the package (the repository's sweeps/fig08.json).
+    spec = json.loads(chainsweep.example_path("fig08").read_text())
     spec["axes"][0]["range"] = {"start": 0.1, "stop": 1.0, "step": args.step}
     result = chainsweep.sweep(spec, args.output_dir / "fig08-python.h5", progress=False)
     print(f"sweep: {result.n_ok} runs ok, {result.n_failed} failed, {result.ran} run now "

@@ -5,6 +5,8 @@ git-ignored):
 - python/chainsweep/sweeps/: the example sweep files, sweeps/ as it is (``chainsweep.example_path``);
 - python/chainsweep/docs/: the user guides, docs/*.md and crates/runner/README-sweeps.md
   (``chainsweep.docs_path``);
+- python/chainsweep/example_scripts/: the example scripts, examples/*.py
+  (``python -m chainsweep.example_scripts.fig08``);
 - python/licenses/: the notices of the C libraries linked into the extension, HDF5's
   (COPYING, COPYING_LBNL_HDF5) and zlib's, taken from the sources Cargo builds them from
   (``cargo metadata``: hdf5-metno-src and libz-sys), so that they follow the versions built; the
@@ -135,6 +137,13 @@ def main() -> int:
     )
     docs = {Path(p.name): p for p in sorted((REPO / "docs").iterdir()) if p.suffix in (".md", ".json")}
     replace_tree(PACKAGE / "docs", docs)
+    # The example scripts, runnable from the package (`python -m chainsweep.example_scripts.fig08`);
+    # they find their sweeps with chainsweep.example_path.
+    scripts = {Path(p.name): p for p in sorted((REPO / "examples").glob("*.py"))}
+    init = REPO / "target" / "example_scripts__init__.py"
+    init.parent.mkdir(parents=True, exist_ok=True)
+    init.write_text('"""The example scripts of the repository\'s examples/, installed with the package."""\n')
+    replace_tree(PACKAGE / "example_scripts", {Path("__init__.py"): init, **scripts})
 
     meta = metadata(args.cargo)
     dirs = crate_dirs(meta)

@@ -161,7 +161,10 @@ def test_the_wheel_carries_the_command_licences_examples_and_guides(wheel):
         sweeps = {f"chainsweep/sweeps/{p.relative_to(REPO / 'sweeps').as_posix()}": p for p in (REPO / "sweeps").rglob("*.json")}
         docs = {f"chainsweep/docs/{p.name}": p for p in (REPO / "docs").glob("*.md")}
         assert "chainsweep/sweeps/mass-damping.json" in sweeps and "chainsweep/docs/PYTHON.md" in docs
-        for name, src in {**sweeps, **docs}.items():
+        scripts = {f"chainsweep/example_scripts/{p.name}": p for p in (REPO / "examples").glob("*.py")}
+        assert "chainsweep/example_scripts/fig08.py" in scripts
+        assert "chainsweep/example_scripts/__init__.py" in names
+        for name, src in {**sweeps, **docs, **scripts}.items():
             assert name in names, name
             assert read(name) == src.read_bytes(), f"{name} differs from {src.relative_to(REPO)}"
         shipped = {n for n in names if n.startswith(("chainsweep/sweeps/", "chainsweep/docs/")) and n.endswith((".json", ".md"))}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 from scenes import REPO
 
@@ -63,3 +64,24 @@ def test_fig08_from_sweep_and_open(tmp_path):
     again = example("fig08.py", "--output-dir", str(tmp_path))
     assert "38 runs ok, 0 failed, 0 run now" in again
     assert again.split("\n", 1)[1] == out.split("\n", 1)[1]
+
+
+def test_the_installed_scripts_run_anywhere_and_find_their_sweeps_in_the_package(tmp_path):
+    """The package carries the example scripts: run as modules from an empty folder (no source
+    tree), they find their sweep files through chainsweep.example_path and write into the folder
+    they run in."""
+    import chainsweep.example_scripts as scripts
+
+    assert sorted(p.name for p in Path(scripts.__file__).parent.glob("*.py") if p.name != "__init__.py") == sorted(
+        p.name for p in (REPO / "examples").glob("*.py")
+    )
+    r = subprocess.run(
+        [sys.executable, "-m", "chainsweep.example_scripts.fig08"],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert r.returncode == 0, r.stderr
+    assert "sweep: 38 runs ok, 0 failed, 38 run now" in r.stdout
+    assert (tmp_path / "results" / "fig08-python.png").stat().st_size > 10_000
