@@ -22,7 +22,7 @@ import pytest
 import xarray as xr
 
 import chainsweep
-from conftest import assert_files_equal, kill_at, run, segment_count, write_sweep
+from conftest import REPO, assert_files_equal, kill_at, run, segment_count, write_sweep
 
 TRUE_DAMPING = 6.0
 TRUE_VELOCITY = 1.06
@@ -329,6 +329,22 @@ def test_two_fields_the_data_cannot_tell_apart_are_unidentifiable(tmp_path):
 
 
 # (e) ----------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("bounds, bound", [((1.0, 5.0), 5.0), ((7.0, 12.0), 7.0)], ids=["upper", "lower"])
+def test_a_fit_pressing_on_a_bound_stops_there_and_says_so(tmp_path, bounds, bound):
+    """The paper's damping fit (best 6.07 kg/s) in an interval that excludes it: the fit ends on
+    the bound it presses on, exactly, flagged at the bound and warned, not reported as an interior
+    minimum (and not left a rounding error inside the bound, stalled and unflagged)."""
+    spec = json.loads((REPO / "sweeps" / "examples" / "fit-damping.json").read_text())
+    spec["search"]["fields"][0].update(min=bounds[0], max=bounds[1])
+    out = run_fit(tmp_path, spec)
+    ds = xr.open_dataset(out, engine="h5netcdf")
+    assert float(ds["fit_damping_kg_s"].values[0]) == bound
+    assert int(ds["fit_damping_kg_s_at_bound"]) == 1
+    r = run("status", out, "--json")
+    answer = json.dumps(json.loads(r.stdout))
+    assert "at a bound of its interval" in answer, answer
 
 
 def bad(edit, files=None):

@@ -7,7 +7,7 @@ use std::sync::Arc;
 use nalgebra::DVector;
 
 use super::super::{ItemStatus, Point, Streams};
-use super::{chi_square, lm, Ctx, FitEval, Residuals};
+use super::{at_lower, at_upper, chi_square, lm, snap_to_box, Ctx, FitEval, Residuals};
 
 /// Iterations of one Levenberg–Marquardt fit at most.
 const MAX_ITERATIONS: usize = 40;
@@ -137,7 +137,7 @@ pub(super) fn levenberg_marquardt(
             .iter()
             .enumerate()
             .filter(|&(i, &k)| {
-                !((u[k] <= 0.0 && g_all[i] > 0.0) || (u[k] >= 1.0 && g_all[i] < 0.0))
+                !((at_lower(u[k]) && g_all[i] > 0.0) || (at_upper(u[k]) && g_all[i] < 0.0))
             })
             .map(|(_, &k)| k)
             .collect();
@@ -155,7 +155,7 @@ pub(super) fn levenberg_marquardt(
         let d = lm::trust_step(&a, &g, radius);
         let mut trial = u.clone();
         for (i, &k) in act.iter().enumerate() {
-            trial[k] = (u[k] + d[i]).clamp(0.0, 1.0);
+            trial[k] = snap_to_box(u[k] + d[i]);
         }
         let dp = DVector::from_iterator(act.len(), act.iter().map(|&k| trial[k] - u[k]));
         let step_norm = dp.norm();

@@ -123,6 +123,34 @@ struct Ctx<'a> {
     stop_on_failure: bool,
 }
 
+/// A field within this fraction of its interval's width of a bound is at that bound: a step that
+/// would end closer is taken to the bound itself ([`snap_to_box`]), so that rounding never leaves
+/// a field a hair inside a bound it presses on (where it would neither be held at the bound nor
+/// move), and [`at_lower`] and [`at_upper`] say so.
+pub(super) const AT_BOUND: f64 = 1e-12;
+
+/// `u` (a field in units of its interval, 0 at `min` and 1 at `max`) within the box, on a bound
+/// when within [`AT_BOUND`] of it.
+pub(super) fn snap_to_box(u: f64) -> f64 {
+    if u <= AT_BOUND {
+        0.0
+    } else if u >= 1.0 - AT_BOUND {
+        1.0
+    } else {
+        u
+    }
+}
+
+/// Whether a field at unit coordinate `u` is at its lower bound.
+pub(super) fn at_lower(u: f64) -> bool {
+    u <= AT_BOUND
+}
+
+/// Whether a field at unit coordinate `u` is at its upper bound.
+pub(super) fn at_upper(u: f64) -> bool {
+    u >= 1.0 - AT_BOUND
+}
+
 impl Ctx<'_> {
     fn p(&self) -> usize {
         self.spec.fields.len()
@@ -390,7 +418,7 @@ fn run(cx: &Ctx, fit: &FitSpec, s: &mut Streams<Residuals>, known: &[Vec<Residua
         }
     }
     let st = FitStats::new(&jx, &best.eval.residual, p, cx.nuisances, cx.estimated);
-    let at_bound: Vec<bool> = best.u.iter().map(|&u| u <= 0.0 || u >= 1.0).collect();
+    let at_bound: Vec<bool> = best.u.iter().map(|&u| at_lower(u) || at_upper(u)).collect();
     let linear: Vec<[f64; 2]> = (0..p)
         .map(|k| {
             let (a, b) = st.linear_interval(k, x[k]);
