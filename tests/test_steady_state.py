@@ -20,7 +20,7 @@ import xarray as xr
 
 import chainsweep
 
-from conftest import assert_resume_and_merge_bitwise, run, write_sweep
+from conftest import REPO, assert_resume_and_merge_bitwise, run, write_sweep
 
 N = 5
 MASS_KG = 0.004
@@ -178,7 +178,7 @@ def test_h5py_reads_the_closed_forms_and_the_layout(swept):
 def test_an_unsettled_run_is_counted_apart_everywhere(swept, tmp_path):
     """`status` (text and --json), chainsweep.sweep and chainsweep.open count the run whose
     steady state did not settle apart from the ok ones, and a driven-free hint about leading
-    peaks is not printed for it; lengthening the settling makes a new, settled run."""
+    peaks is not printed for it."""
     path, out = swept
     r = run("status", out)
     assert r.returncode == 3, r.stdout + r.stderr
@@ -193,6 +193,27 @@ def test_an_unsettled_run_is_counted_apart_everywhere(swept, tmp_path):
     ds = chainsweep.open(out)
     assert ds.status.values.tolist() == [1, 3]
     assert ds.status.attrs["flag_meanings"] == "pending ok failed unsettled"
+
+
+def test_lengthening_the_settling_as_the_message_says_gives_a_settled_run_in_the_same_file(tmp_path):
+    """The remedy the message gives works: the damped, driven chain of driven-branches.json
+    measured after 3 periods has not settled (exit 3); after 150, in the same output file, the
+    run is new and ok (exit 0), and nothing else is counted."""
+    s = json.loads((REPO / "sweeps" / "examples" / "driven-branches.json").read_text())
+    del s["periodic"]
+    s["axes"][0]["values"] = [1e-10]
+    out = tmp_path / "out.h5"
+    for settle, code in ((3, 3), (150, 0)):
+        s["record"]["steady_state"] = {"window_periods": 2, "harmonics": 3, "settle_periods": settle}
+        s["base"]["duration_s"] = (settle + 22) / 2900.0 * 1.0001
+        r = run("run", write_sweep(tmp_path / f"s{settle}.json", s), "-o", out)
+        assert r.returncode == code, r.stderr
+        if code:
+            assert "lengthen record.steady_state.settle_periods" in r.stderr, r.stderr
+            assert "health: 1 unsettled;" in r.stderr, r.stderr
+    assert "1 runs: 1 ok, 0 failed" in r.stderr, r.stderr
+    with h5py.File(out) as f:
+        assert f["status"][()].tolist() == [1] and int(f["steady_settled"][()].min()) == 1
 
 
 @pytest.mark.parametrize("engine", ["h5netcdf", "netcdf4"])
