@@ -5,7 +5,8 @@ the damaged runs again, and no command discards a finished run it was not asked 
 Each test damages a real file the way a bad day would: a flipped byte in a summary, a history
 chunk, the superblock or an object header, a truncation, a symlink in the work directory; or
 misuses the commands: a shard run into a complete output, an edited sweep reverted. The last test
-flips 240 single bytes of a complete small result, one at a time, and counts what became of each.
+flips single bytes of complete small results of every kind, one at a time, and counts what became of each
+(a sample of 16 per kind on every `make test`, 120 per kind in `make test-system`).
 """
 
 import collections
@@ -646,21 +647,37 @@ def damage_sweeps():
 MODES = (False, True, "lazy")
 
 
-# The system tier (`make test-system`): hundreds of single-byte flips, each file checked.
+# The everyday tier (`make test`): a standing sample of flips of every kind of file, seeds of its
+# own; the system tier (`make test-system`): hundreds, each file checked.
+EVERYDAY_FLIPS = 16
+
+
+@pytest.mark.parametrize("kind", ["grid", "search", "continuation"])
+def test_a_sample_of_single_byte_flips_are_reported_or_harmless_never_served(tmp_path, binary, kind):
+    """The campaign below with a few flips of each kind of file, on every `make test`."""
+    flip_campaign(tmp_path, kind, EVERYDAY_FLIPS, {"grid": 32, "search": 33, "continuation": 34}[kind])
+
+
 @pytest.mark.system
 @pytest.mark.parametrize("kind", ["grid", "search", "continuation"])
 def test_random_single_byte_flips_are_reported_or_harmless_never_served(tmp_path, binary, kind):
     """For every flip: `status` and `chainsweep.open` (every `histories` mode) refuse, naming
     the damage, or serve exactly what the pristine file serves (never a changed value, never NaN
     for a number); the same `run` command then gives the pristine file back bitwise."""
+    flip_campaign(tmp_path, kind, FLIPS, {"grid": 22, "search": 23, "continuation": 24}[kind])
+
+
+def flip_campaign(tmp_path, kind, flips, seed):
+    """`flips` single-byte flips (from random seed `seed`) over a complete result of `kind`, each
+    checked as the tests above say; the counts printed and kept beside the test's folder."""
     path, pristine = complete(tmp_path, damage_sweeps()[kind], "pristine")
     truth = {mode: served(pristine, mode) for mode in MODES}
     assert all(isinstance(t, dict) for t in truth.values()), truth
     pristine_status = run("status", pristine).returncode
     size = pristine.stat().st_size
-    rng = random.Random({"grid": 22, "search": 23, "continuation": 24}[kind])
+    rng = random.Random(seed)
     counts = collections.Counter()
-    for n in range(FLIPS):
+    for n in range(flips):
         work = tmp_path / f"flip{n % 4}"
         shutil.rmtree(work, ignore_errors=True)
         work.mkdir()
@@ -696,8 +713,8 @@ def test_random_single_byte_flips_are_reported_or_harmless_never_served(tmp_path
         assert_files_equal(pristine, out)
         assert served(out, False) == truth[False]
     report = "\n".join(f"  {k}: {v}" for k, v in sorted(counts.items()))
-    print(f"\n{FLIPS} single-byte flips over a {size}-byte {kind} result:\n{report}")
-    (tmp_path.parent / f"damage_counts_{kind}.txt").write_text(report)
+    print(f"\n{flips} single-byte flips over a {size}-byte {kind} result:\n{report}")
+    (tmp_path.parent / f"damage_counts_{kind}_{flips}.txt").write_text(report)
 
 
 def test_an_output_moved_without_its_work_directory_is_said_to_keep_its_runs(tmp_path, binary):
