@@ -179,6 +179,12 @@ pub fn from_value_collecting<T: DeserializeOwned>(
                 at.push(Step::Key(key.to_string()));
             }
         }
+        // The same for a field of the wrong type: the field whose value the message describes.
+        if let Some(key) =
+            value_at(&value, &at).and_then(|v| super::paths::offending_key(v, &message))
+        {
+            at.push(Step::Key(key));
+        }
         let in_file = removed.original(&at);
         // A missing field is reported at the object that lacks it: that object goes.
         let caused_by_removal = missing_field(&message).is_some_and(|field| {

@@ -22,10 +22,60 @@ pub fn from_ref_at<'de, T: serde::de::Deserialize<'de>>(
         return Ok(t);
     }
     serde_path_to_error::deserialize::<_, T>(value).map_err(|e| {
-        let path = e.path().to_string();
-        let field = join_path(prefix, if path == "." { "" } else { &path });
-        Error::input(field, e.into_inner().to_string())
+        use serde_path_to_error::Segment;
+        let mut path = e.path().to_string();
+        if path == "." {
+            path.clear();
+        }
+        // Inside a tagged enum (an integrator, a probe) the path stops at the enum: the field
+        // whose value the message describes is named when it is the only one.
+        let mut at = Some(value);
+        for s in e.path().iter() {
+            at = match (at, s) {
+                (Some(Value::Object(m)), Segment::Map { key }) => m.get(key),
+                (Some(Value::Array(a)), Segment::Seq { index }) => a.get(*index),
+                _ => None,
+            };
+        }
+        let message = e.into_inner().to_string();
+        if let Some(key) = at.and_then(|v| offending_key(v, &message)) {
+            path = join_path(&path, &key);
+        }
+        Error::input(join_path(prefix, &path), message)
     })
+}
+
+/// The one field of the object `object` whose value a serde "invalid type" or "invalid value"
+/// `message` describes (`invalid type: string "x", expected f64` names the field holding `"x"`);
+/// `None` when the message is of another kind, or no field or several fit it.
+pub(super) fn offending_key(object: &Value, message: &str) -> Option<String> {
+    let Value::Object(fields) = object else {
+        return None;
+    };
+    let rest = message
+        .strip_prefix("invalid type: ")
+        .or_else(|| message.strip_prefix("invalid value: "))?;
+    let (unexpected, _) = rest.rsplit_once(", expected ")?;
+    let fits = |v: &Value| match v {
+        Value::String(s) => unexpected == format!("string {s:?}"),
+        Value::Bool(b) => unexpected == format!("boolean `{b}`"),
+        Value::Number(n) => {
+            let shown = unexpected
+                .strip_prefix("integer `")
+                .or_else(|| unexpected.strip_prefix("floating point `"))
+                .and_then(|t| t.strip_suffix('`'))
+                .and_then(|t| t.parse::<f64>().ok());
+            shown.is_some() && n.as_f64() == shown
+        }
+        Value::Array(_) => unexpected == "sequence",
+        Value::Object(_) => unexpected == "map",
+        Value::Null => unexpected == "null" || unexpected == "unit value",
+    };
+    let mut found = fields.iter().filter(|(_, v)| fits(v)).map(|(k, _)| k);
+    match (found.next(), found.next()) {
+        (Some(k), None) => Some(k.clone()),
+        _ => None,
+    }
 }
 
 pub(super) fn join_path(prefix: &str, path: &str) -> String {
