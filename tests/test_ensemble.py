@@ -258,6 +258,15 @@ def test_sobol_points_need_fewer_runs_than_monte_carlo(tmp_path):
         ),
         ([STIFFNESS], {"samples": 100}, "ensemble.samples"),
         ([STIFFNESS], {"design": "halton"}, "ensemble.design"),
+        # Sobol' indices and elementary effects assume independent inputs.
+        *[
+            (
+                [STIFFNESS, MASS],
+                {"design": design, "correlation": {"inputs": ["stiffness", "mass_kg"], "matrix": [[1.0, 0.5], [0.5, 1.0]]}},
+                "ensemble.correlation",
+            )
+            for design in ("saltelli", "morris")
+        ],
     ],
 )
 def test_bad_distributions_exit_2_naming_the_field(tmp_path, inputs, extra, field):
@@ -499,6 +508,11 @@ def test_an_adaptive_ensemble_resumes_round_by_round_and_refuses_shards(tmp_path
     assert "ended by every interval within its tolerance" in r.stdout, r.stdout
     s = run("run", path, "--shard", "1/2", "-o", tmp_path / "s.h5")
     assert s.returncode == 2 and "field `ensemble`" in s.stderr, s.stderr
+    # --dry-run states the runs of the first round (8 samples × 8 replicates) and the rule.
+    d = run("run", path, "--dry-run", "-o", tmp_path / "fresh.h5")
+    assert d.returncode == 0, d.stderr
+    assert "adaptive: 64 runs in round 0 (64 samples at each of 1 point(s)), doubling" in d.stdout, d.stdout
+    assert "budget of 65536 runs" in d.stdout, d.stdout
     # A budget ends it where its next round would pass it, and says so.
     ens["max_runs"] = 256
     _, out = ensemble_run(tmp_path, "budget", ens)
