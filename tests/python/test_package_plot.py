@@ -78,3 +78,48 @@ def test_an_ensemble_is_plotted_as_its_histogram_and_indices(tmp_path):
 def spec_probe(spec) -> str:
     p = spec["record"]["probes"][0]
     return f"{p['kind']}_cyl{p['cylinder']}"
+
+
+def test_searches_fits_and_branches_are_plotted_with_labels_inside_the_figure(tmp_path):
+    """A search's evaluations; a fit's data (±σ) against its best fit with the normalised
+    residuals, and each field's profile χ²; branches of periodic orbits, stable solid and
+    unstable dashed: every figure drawn, labelled without a dotted path or the file's
+    bookkeeping, and no text past its edges (the shipped figures' own check)."""
+    import json
+    import re
+    import sys
+
+    from scenes import REPO
+
+    sys.path.insert(0, str(REPO / "scripts"))
+    import chainplot
+
+    branches = json.loads(chainsweep.example_path("examples/driven-branches").read_text())
+    branches["axes"][0]["values"] = [1e-10, 6e-8]
+    cases = {
+        "fit-signal": (chainsweep.example_path("examples/fit-signal"), 4),
+        "fit-damping": (chainsweep.example_path("examples/fit-damping"), 3),
+        "dimer-minimum": (chainsweep.example_path("examples/dimer-minimum"), 1),
+        "driven-branches": (write(tmp_path / "branches.json", branches), 1),
+    }
+    for name, (path, expected) in cases.items():
+        out = tmp_path / f"{name}.h5"
+        assert cli("run", path, "-o", out, "--quiet").returncode == 0, name
+        figs = chainsweep.plot(chainsweep.open(out))
+        assert len(figs) == expected, (name, [f.axes[0].get_title() for f in figs])
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        for k, fig in enumerate(figs):
+            texts = [t for ax in fig.axes for t in (ax.get_xlabel(), ax.get_ylabel(), ax.get_title())]
+            assert any(ax.get_xlabel() for ax in fig.axes), (name, texts)
+            for t in texts:
+                assert not re.search(r"[a-z_]+\.[a-z_]+\.[a-z_]", t) and "probe_units" not in t, (name, t)
+            assert all(ax.lines or ax.collections or ax.patches for ax in fig.axes), (name, texts)
+            assert chainplot.texts_outside(fig) == [], (name, chainplot.texts_outside(fig))
+            fig.savefig(SHOTS / f"{name}-{k}.png", dpi=80)
+            plt.close(fig)
+    # The branches' figure: the large stroke's unstable part dashed between its two folds.
+    ds = chainsweep.open(tmp_path / "driven-branches.h5")
+    fig = chainsweep.plot(ds)[0]
+    styles = {line.get_linestyle() for line in fig.axes[0].lines}
+    assert {"-", "--"} <= styles, styles
+    plt.close(fig)
