@@ -174,6 +174,40 @@ def test_a_damaged_history_chunk_is_reported_and_only_its_runs_recomputed(tmp_pa
     assert run("status", out).returncode == 0
 
 
+@pytest.mark.parametrize("name", ["min_overlap_m", "energy_passed_max_j"])
+def test_a_damaged_per_run_array_of_a_history_sweep_is_reported_never_served_as_nan(tmp_path, binary, name):
+    """In a sweep recording histories, minimum overlaps and the energy flow, a flipped byte in a
+    chunk of the minimum overlaps or of the energy flow: `chainsweep.open` without the histories
+    refuses, naming the damage (it once served NaN for every run of the chunk, which reads as
+    "beyond the run's contacts"), or masks exactly the damaged runs when asked; `status` says so
+    (exit 3); `run` gives the file back bitwise."""
+    sweep = sweep_2x3(history=True)
+    sweep["record"]["min_overlap"] = True
+    sweep["record"]["energy_flow"] = True
+    path, out = complete(tmp_path, sweep)
+    reference = copy_output(out, tmp_path / "reference.h5")
+    pristine = chainsweep.open(reference)
+    with h5py.File(out, "r") as f:
+        d = f[name]
+        assert d.id.get_num_chunks() >= 1
+        info = d.id.get_chunk_info(0)
+    flip(out, info.byte_offset + info.size // 2)
+    with pytest.raises(chainsweep.DamagedFileError) as e:
+        chainsweep.open(out)
+    held = sorted({p[0] for p in e.value.damaged})
+    assert held, e.value
+    masked = chainsweep.open(out, damaged="mask")
+    flat = masked[name].values.reshape(6, -1)
+    good = [i for i in range(6) if i not in held]
+    assert np.isnan(flat[held]).all()
+    np.testing.assert_array_equal(flat[good], pristine[name].values.reshape(6, -1)[good])
+    r = run("status", out)
+    assert r.returncode == 3 and "damaged" in r.stdout + r.stderr, r.stdout
+    r = run("run", path, "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(reference, out)
+
+
 def test_merge_leaves_a_damaged_run_of_a_shard_pending_and_names_it(tmp_path, binary):
     path = write_sweep(tmp_path / "m.json", sweep_2x3(history=True))
     parts = []
