@@ -348,6 +348,32 @@ def test_a_damaged_object_header_is_reported_not_dropped(tmp_path, binary):
     assert_files_equal(reference, out)
 
 
+@pytest.mark.parametrize("where", ["probe_strlen header", "root attribute name"])
+def test_damage_a_reader_needs_is_reported_by_status_and_open(tmp_path, binary, where):
+    """Structures every reader needs, which no dataset checksum covers: the object header of
+    `probe_strlen` (a netCDF dimension without a variable; damaged, both xarray engines fail) and
+    the root's attributes beside `header_checksum` (damaged, a file once read as an old layout
+    without checksums). `status` and `chainsweep.open` report the damage, never a bare error or
+    "no checksums"; `run` gives the file back bitwise."""
+    path, out = complete(tmp_path, sweep_2x3())
+    reference = copy_output(out, tmp_path / "reference.h5")
+    if where == "probe_strlen header":
+        with h5py.File(out, "r") as f:
+            offset = h5py.h5o.get_info(f["probe_strlen"].id).addr + 2
+    else:
+        offset = out.read_bytes().index(b"header_checksum") + 4
+    flip(out, offset)
+    r = run("status", out)
+    said = r.stdout + r.stderr
+    assert r.returncode in (1, 3) and ("damaged" in said or "cannot be read" in said), said
+    assert "no checksums" not in said, said
+    with pytest.raises(chainsweep.DamagedFileError):
+        chainsweep.open(out)
+    r = run("run", path, "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(reference, out)
+
+
 def test_a_damaged_dimension_list_is_reported_not_left_to_a_reader(tmp_path, binary):
     """The scales that label a dataset's dimensions (its DIMENSION_LIST) lie in the file's global
     heap, which no HDF5 checksum covers, nor the file's own. A flipped byte there (a reference to
