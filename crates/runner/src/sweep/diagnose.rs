@@ -355,8 +355,9 @@ mod tests {
         assert_eq!(r.map(|r| r.probes.len()), Some(0));
         let f = fields(&errors);
         assert!(f.contains(&"record.probes[0].kind".to_string()), "{f:?}");
-        // (Within a probe, a tagged enum, a wrong type is named at the probe.)
-        assert!(f.contains(&"record.probes[1]".to_string()), "{f:?}");
+        // (Within a probe, a tagged enum, a wrong type is named at its field, the one holding
+        // the value the message describes.)
+        assert!(f.contains(&"record.probes[1].cylinder".to_string()), "{f:?}");
         // The removal of a required field is not reported as the file's missing field.
         assert!(errors
             .iter()

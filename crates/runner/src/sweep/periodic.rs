@@ -5,7 +5,9 @@
 use serde::Deserialize;
 use serde_json::Value;
 
-use chainsweep_solver::periodic::{BranchOptions, Monodromy, PeriodMap, PeriodicOptions};
+use chainsweep_solver::periodic::{
+    doubled_orbits, BranchOptions, Monodromy, PeriodMap, PeriodicOptions,
+};
 use chainsweep_solver::Scene;
 
 use super::paths::{check_settable, field_name, from_value_at, lookup, set_path, units_of};
@@ -121,10 +123,7 @@ impl PeriodicSpec {
     pub fn stored_orbit(&self) -> PeriodicOptions {
         match self.switch {
             None => self.orbit,
-            Some(Switch::PeriodDoubling) => PeriodicOptions {
-                periods: 2 * self.orbit.periods,
-                ..self.orbit
-            },
+            Some(Switch::PeriodDoubling) => doubled_orbits(&self.orbit),
         }
     }
 

@@ -572,6 +572,23 @@ pub fn resume_branch(
 ) -> Result<Branch, SpecError> {
     periodic.validate()?;
     options.validate(from)?;
+    let bounds = (from.min(options.to), from.max(options.to));
+    resume_within(scene_at, periodic, options, bounds, last, stop, on_point)
+}
+
+/// Goes on from `last` (a start or stepped-to point as `on_point` gave it) with the orbits of
+/// `periodic`, while the parameter stays within `bounds`: what [`resume_branch`] and
+/// [`crate::periodic::resume_period_doubled`] share. The scales and the count of period maps are
+/// `last`'s, so the points after it are bitwise those of the uninterrupted continuation.
+pub(super) fn resume_within(
+    scene_at: &dyn Fn(f64) -> Result<Scene, SpecError>,
+    periodic: &PeriodicOptions,
+    options: &BranchOptions,
+    bounds: (f64, f64),
+    last: &BranchPoint,
+    stop: Option<&AtomicBool>,
+    on_point: &mut dyn FnMut(&BranchPoint),
+) -> Result<Branch, SpecError> {
     let m = last.orbit.state.len();
     if last.kind.is_special() || last.scales.len() != m + 1 || last.tangent.len() != m + 1 {
         return Err(spec_err(
@@ -587,7 +604,6 @@ pub fn resume_branch(
         maps: last.progress.maps,
         stats: IntegrationStats::default(),
     };
-    let bounds = (from.min(options.to), from.max(options.to));
     let mut branch = c.follow_from(last.clone(), true, options, bounds, stop, on_point);
     branch.points.remove(0);
     Ok(branch)

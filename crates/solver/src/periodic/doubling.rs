@@ -5,7 +5,9 @@
 use std::sync::atomic::AtomicBool;
 
 use crate::integrate::IntegrationStats;
-use crate::periodic::branch::{Branch, BranchOptions, BranchPoint, Continuer, PointKind};
+use crate::periodic::branch::{
+    resume_within, Branch, BranchOptions, BranchPoint, Continuer, PointKind,
+};
 use crate::periodic::dense::{self, is_real};
 use crate::periodic::shooting::{Orbit, PeriodMap};
 use crate::periodic::PeriodicOptions;
@@ -84,11 +86,7 @@ pub fn continue_period_doubled_stoppable(
     }
     let from = point.parameter;
     options.validate(from)?;
-    let doubled = PeriodicOptions {
-        periods: 2 * periodic.periods,
-        ..*periodic
-    };
-    doubled.validate()?;
+    let doubled = doubled(periodic)?;
     let m = point.orbit.state.len();
     let (scales, parent_parameter_scale) = (&point.scales[..m], point.scales[m]);
     let v = period_doubling_vector(&point.orbit, scales).ok_or_else(|| {
@@ -205,31 +203,26 @@ pub fn resume_period_doubled(
     on_point: &mut dyn FnMut(&BranchPoint),
 ) -> Result<Branch, SpecError> {
     options.validate(doubling)?;
-    let doubled = PeriodicOptions {
+    let doubled = doubled(periodic)?;
+    let range = (options.to - doubling).abs();
+    let bounds = (doubling - range, doubling + range);
+    resume_within(scene_at, &doubled, options, bounds, last, stop, on_point)
+}
+
+/// The orbit options of the branch of twice the period that starts at a period doubling of a
+/// branch of `periodic`'s orbits: twice the drive periods per orbit, the rest the same.
+pub fn doubled_orbits(periodic: &PeriodicOptions) -> PeriodicOptions {
+    PeriodicOptions {
         periods: 2 * periodic.periods,
         ..*periodic
-    };
-    doubled.validate()?;
-    let range = (options.to - doubling).abs();
-    let m = last.orbit.state.len();
-    if last.kind.is_special() || last.scales.len() != m + 1 || last.tangent.len() != m + 1 {
-        return Err(spec_err(
-            "periodic",
-            "a branch resumes from a start or stepped-to point as the continuation gave it",
-        ));
     }
-    let mut c = Continuer {
-        scene_at,
-        options: &doubled,
-        scales: last.scales[..m].to_vec(),
-        parameter_scale: last.scales[m],
-        maps: last.progress.maps,
-        stats: IntegrationStats::default(),
-    };
-    let bounds = (doubling - range, doubling + range);
-    let mut branch = c.follow_from(last.clone(), true, options, bounds, stop, on_point);
-    branch.points.remove(0);
-    Ok(branch)
+}
+
+/// [`doubled_orbits`], checked.
+fn doubled(periodic: &PeriodicOptions) -> Result<PeriodicOptions, SpecError> {
+    let doubled = doubled_orbits(periodic);
+    doubled.validate()?;
+    Ok(doubled)
 }
 
 fn normalise(v: &mut [f64]) {

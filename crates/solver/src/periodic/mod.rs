@@ -85,8 +85,8 @@ pub use branch::{
     BranchOptions, BranchPoint, PointKind, Progress,
 };
 pub use doubling::{
-    continue_period_doubled, continue_period_doubled_stoppable, period_doubling_vector,
-    resume_period_doubled,
+    continue_period_doubled, continue_period_doubled_stoppable, doubled_orbits,
+    period_doubling_vector, resume_period_doubled,
 };
 pub use shooting::{MapOutput, Orbit, PeriodMap, ShootingError};
 
