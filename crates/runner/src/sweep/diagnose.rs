@@ -357,7 +357,10 @@ mod tests {
         assert!(f.contains(&"record.probes[0].kind".to_string()), "{f:?}");
         // (Within a probe, a tagged enum, a wrong type is named at its field, the one holding
         // the value the message describes.)
-        assert!(f.contains(&"record.probes[1].cylinder".to_string()), "{f:?}");
+        assert!(
+            f.contains(&"record.probes[1].cylinder".to_string()),
+            "{f:?}"
+        );
         // The removal of a required field is not reported as the file's missing field.
         assert!(errors
             .iter()
