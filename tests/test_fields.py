@@ -155,7 +155,7 @@ def test_dry_run_sizes_the_fields(swept, tmp_path):
     # other units' probes): the estimate is the file's size within a tenth.
     assert 0.9 * total < out.stat().st_size < 1.1 * total, (out.stat().st_size, total)
     text = run("run", path, "--dry-run", "-o", tmp_path / "new.h5")
-    assert "fields, uncompressed" in text.stdout + text.stderr
+    assert "fields); histories and fields are not compressed" in text.stdout + text.stderr
     assert "fields of contact_force, displacement, velocity every 1e-6 s" in text.stdout + text.stderr
 
 
