@@ -508,7 +508,7 @@ def test_an_adaptive_ensemble_resumes_round_by_round_and_refuses_shards(tmp_path
     assert "ended by every interval within its tolerance" in r.stdout, r.stdout
     s = run("run", path, "--shard", "1/2", "-o", tmp_path / "s.h5")
     assert s.returncode == 2 and "field `ensemble`" in s.stderr, s.stderr
-    # --dry-run states the runs of the first round (8 samples × 8 replicates) and the rule.
+    # --dry-run states the runs of round 0 (8 samples × 8 replicates) and the rule.
     d = run("run", path, "--dry-run", "-o", tmp_path / "fresh.h5")
     assert d.returncode == 0, d.stderr
     assert "adaptive: 64 runs in round 0 (64 samples at each of 1 point(s)), doubling" in d.stdout, d.stdout
