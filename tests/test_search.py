@@ -519,3 +519,16 @@ def test_status_gives_each_search_s_answer_and_a_round_under_way(tmp_path):
     assert "more run(s) have finished since the file was written" in r.stdout, r.stdout
     # The sweep stopped: no process writes the file, and status says it was interrupted.
     assert "the sweep was interrupted" in r.stdout, r.stdout
+
+
+def test_a_search_with_failed_runs_exits_3_from_run_as_status_does(tmp_path):
+    """A search whose runs fail (every run over an energy-drift limit no run can meet) is not a
+    success: `run` exits 3, as `status` does on the same file, and each search says why it ended."""
+    spec = example("dimer-minimum")
+    spec["limits"] = {"energy_drift_max": 1e-30}
+    path = write_sweep(tmp_path / "fail.json", spec)
+    out = tmp_path / "fail.h5"
+    r = run("run", path, "-o", out)
+    assert r.returncode == 3, r.stderr
+    assert "no run of the scan gave a number" in r.stderr, r.stderr
+    assert run("status", out).returncode == 3
