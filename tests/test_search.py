@@ -531,4 +531,9 @@ def test_a_search_with_failed_runs_exits_3_from_run_as_status_does(tmp_path):
     r = run("run", path, "-o", out)
     assert r.returncode == 3, r.stderr
     assert "no run of the scan gave a number" in r.stderr, r.stderr
-    assert run("status", out).returncode == 3
+    st = run("status", out)
+    assert st.returncode == 3
+    # Its text names the failed runs as the file indexes them (evaluations, not points of the
+    # outer grid) and ends with the health line, as a grid's does.
+    assert "  failed: evaluation 0: energy drift" in st.stdout, st.stdout
+    assert "health: 14 failed (14 over a limit);" in st.stdout, st.stdout

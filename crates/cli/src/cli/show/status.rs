@@ -102,18 +102,23 @@ pub fn file_status(file: &Path, s: &FileStatus) {
         );
     }
     // Points by their axis values, as `run` names them (by their indices where none was kept).
-    let label = |i: usize| {
-        s.labels
-            .get(&i)
-            .cloned()
-            .unwrap_or_else(|| index_text(&s.shape, i))
+    let label = |i: usize| match (&s.searches, s.labels.get(&i)) {
+        (Some(_), _) => format!("evaluation {i}"),
+        (None, Some(l)) => l.clone(),
+        (None, None) => index_text(&s.shape, i),
     };
     for (shown, (i, reason)) in s.failures.iter().enumerate() {
         if shown == LISTED_IN_STATUS {
             outln!("  …");
             break;
         }
-        outln!("  failed: point {i} ({}): {reason}", label(*i));
+        if s.searches.is_some() {
+            // A search file's points are its evaluations (the file's `evaluation` index), not
+            // points of the outer grid.
+            outln!("  failed: evaluation {i}: {reason}");
+        } else {
+            outln!("  failed: point {i} ({}): {reason}", label(*i));
+        }
     }
     if let Some(&i) = s.unpassed.first() {
         let first = format!("point {i} ({})", label(i));
@@ -126,9 +131,8 @@ pub fn file_status(file: &Path, s: &FileStatus) {
     }
     if let Some(lines) = &s.searches {
         search_lines(lines);
-    } else {
-        outln!("  {}", health_text(&s.health, label));
     }
+    outln!("  {}", health_text(&s.health, label));
     if let Some(e) = &s.ensemble {
         for line in ensemble_lines(e) {
             outln!("  {line}");
