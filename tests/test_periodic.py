@@ -36,6 +36,22 @@ def write(path, sweep):
     return path
 
 
+def kill_once_journaled(path, out, lines):
+    """Runs `path` into `out` and kills it (SIGKILL) once a branch's journal holds more than
+    `lines` lines, before the run ends."""
+    journals = out.parent / f"{out.name}.d" / "periodic"
+    p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", "1", "--quiet"])
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and p.poll() is None:
+        logs = list(journals.glob("*.log")) if journals.exists() else []
+        if any(len(f.read_bytes().splitlines()) > lines for f in logs):
+            break
+        time.sleep(0.002)
+    assert p.poll() is None, "the run ended before it could be killed"
+    p.send_signal(signal.SIGKILL)
+    p.wait()
+
+
 @pytest.fixture(scope="module")
 def branches(tmp_path_factory):
     d = tmp_path_factory.mktemp("periodic")
@@ -151,17 +167,8 @@ def test_a_killed_run_resumes_bitwise_from_its_last_orbit_and_past_a_damaged_jou
     path, reference = branches
     out = tmp_path / "killed.h5"
     journals = tmp_path / "killed.h5.d" / "periodic"
-    p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(out), "--jobs", "1", "--quiet"])
-    deadline = time.monotonic() + 60
     # Killed once the first branch's journal holds a few orbits, before the end.
-    while time.monotonic() < deadline and p.poll() is None:
-        logs = list(journals.glob("*.log")) if journals.exists() else []
-        if any(len(f.read_bytes().splitlines()) > 5 for f in logs):
-            break
-        time.sleep(0.002)
-    assert p.poll() is None, "the run ended before it could be killed"
-    p.send_signal(signal.SIGKILL)
-    p.wait()
+    kill_once_journaled(path, out, 5)
     assert not out.exists()
     killed = {f.name: f.read_bytes().splitlines()[:5] for f in journals.glob("*.log")}
     r = run("run", path, "-o", out, "--quiet")
@@ -328,17 +335,7 @@ def test_switch_at_a_period_doubling_stores_the_doubled_branch_and_resumes_bitwi
 
     # Killed during the run, then run again: the same file, bit for bit.
     killed = tmp_path / "killed.h5"
-    journals = tmp_path / "killed.h5.d" / "periodic"
-    p = subprocess.Popen([str(BIN), "run", str(path), "-o", str(killed), "--jobs", "1", "--quiet"])
-    deadline = time.monotonic() + 60
-    while time.monotonic() < deadline and p.poll() is None:
-        logs = list(journals.glob("*.log")) if journals.exists() else []
-        if any(len(f.read_bytes().splitlines()) > 6 for f in logs):
-            break
-        time.sleep(0.002)
-    assert p.poll() is None, "the run ended before it could be killed"
-    p.send_signal(signal.SIGKILL)
-    p.wait()
+    kill_once_journaled(path, killed, 6)
     assert run("run", path, "-o", killed, "--quiet").returncode == 0
     assert_files_equal(out, killed)
 

@@ -540,9 +540,9 @@ fn cmd_report(
         let p = if let Some(s) = periodic {
             // A periodic sweep's branches: a page of their curves (no histories to choose).
             let page = chainsweep::report::periodic::page(file, &s)?;
-            match format {
-                ReportFormat::Html => chainsweep::report::write_page(page, &out)?,
-                figures => chainsweep::report::write_figures_of(page, &out, figures.of_figures())?,
+            match format.of_figures() {
+                None => chainsweep::report::write_page(page, &out)?,
+                Some(figures) => chainsweep::report::write_figures_of(page, &out, figures)?,
             }
         } else {
             let s = status::of_file(file)?;
@@ -555,10 +555,10 @@ fn cmd_report(
                     ),
                 ));
             }
-            match format {
-                ReportFormat::Html => chainsweep::report::write(file, &s, points, &out)?,
-                figures => {
-                    chainsweep::report::write_figures(file, &s, points, &out, figures.of_figures())?
+            match format.of_figures() {
+                None => chainsweep::report::write(file, &s, points, &out)?,
+                Some(figures) => {
+                    chainsweep::report::write_figures(file, &s, points, &out, figures)?
                 }
             }
         };

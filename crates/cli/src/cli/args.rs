@@ -340,14 +340,14 @@ pub enum ReportFormat {
 }
 
 impl ReportFormat {
-    /// The format of each figure's file (not for `Html`, which writes one page).
-    pub fn of_figures(self) -> chainsweep::report::FigureFormat {
+    /// The format of each figure's file; `None` for `Html`, which writes one page.
+    pub fn of_figures(self) -> Option<chainsweep::report::FigureFormat> {
         use chainsweep::report::FigureFormat;
         match self {
-            ReportFormat::Html => unreachable!("an HTML report is one page, not figures"),
-            ReportFormat::Svg => FigureFormat::Svg,
-            ReportFormat::Pdf => FigureFormat::Pdf,
-            ReportFormat::Png => FigureFormat::Png,
+            ReportFormat::Html => None,
+            ReportFormat::Svg => Some(FigureFormat::Svg),
+            ReportFormat::Pdf => Some(FigureFormat::Pdf),
+            ReportFormat::Png => Some(FigureFormat::Png),
         }
     }
 }
