@@ -487,7 +487,7 @@ def test_an_ensemble_resumes_after_kill_and_runs_the_same_with_any_jobs(tmp_path
     assert_resume_and_merge_bitwise(path, ref, tmp_path)
 
 
-def test_an_adaptive_ensemble_resumes_round_by_round_and_refuses_shards(tmp_path):
+def test_an_adaptive_ensemble_resumes_round_by_round(tmp_path):
     ens = {
         "inputs": [STIFFNESS, MASS],
         "samples": 8,
@@ -506,8 +506,6 @@ def test_an_adaptive_ensemble_resumes_round_by_round_and_refuses_shards(tmp_path
     assert_files_equal(ref, out)
     r = run("status", path, "-o", out)
     assert "ended by every interval within its tolerance" in r.stdout, r.stdout
-    s = run("run", path, "--shard", "1/2", "-o", tmp_path / "s.h5")
-    assert s.returncode == 2 and "field `ensemble`" in s.stderr, s.stderr
     # --dry-run states the runs of round 0 (8 samples × 8 replicates) and the rule.
     d = run("run", path, "--dry-run", "-o", tmp_path / "fresh.h5")
     assert d.returncode == 0, d.stderr
@@ -519,3 +517,111 @@ def test_an_adaptive_ensemble_resumes_round_by_round_and_refuses_shards(tmp_path
     with h5py.File(out) as f:
         assert f.attrs["ensemble_stopped_by"] == "budget"
         assert int(f.attrs["ensemble_runs"]) <= 256
+
+
+def test_an_adaptive_ensemble_runs_in_shards_round_by_round_to_the_single_machine_s_answer(tmp_path):
+    """Each shard runs one round (`--ensemble-round`); the merge of every shard's file of that
+    round decides, as one machine does, whether another is due; the last merge is bitwise the
+    single machine's file."""
+    ens = {
+        "inputs": [STIFFNESS, MASS],
+        "samples": 8,
+        "replicates": 8,
+        "seed": 4,
+        "statistics": [dict(F1, tolerance={"mean": 1.0})],
+    }
+    path, ref = ensemble_run(tmp_path, "ad", ens)
+    with h5py.File(ref) as f:
+        last = int(f.attrs["ensemble_round"])
+        assert last >= 2 and f.attrs["ensemble_stopped_by"] == "tolerance"
+    n = 3
+    shards = [tmp_path / f"s{k}.h5" for k in range(1, n + 1)]
+    merged = tmp_path / "merged.h5"
+    stopped_by, rounds = "running", []
+    while stopped_by == "running":
+        k = len(rounds)
+        assert k <= last, f"the shards went past the single machine's last round {last}"
+        for i, s in enumerate(shards, 1):
+            r = run("run", path, "--shard", f"{i}/{n}", "--ensemble-round", k, "-o", s, "--quiet")
+            assert r.returncode == 0, r.stderr
+            with h5py.File(s) as f:
+                # A shard holds its part of the round: the round's statistics are not its own.
+                assert int(f.attrs["ensemble_round"]) == k
+                assert f.attrs["ensemble_stopped_by"] == "incomplete"
+        m = run("merge", "-o", merged, *shards)
+        assert m.returncode == 0, m.stdout + m.stderr
+        with h5py.File(merged) as f:
+            assert int(f.attrs["ensemble_round"]) == k
+            stopped_by = f.attrs["ensemble_stopped_by"]
+            rounds.append(int(f.attrs["ensemble_runs"]))
+    assert len(rounds) == last + 1 and stopped_by == "tolerance", (rounds, stopped_by)
+    assert rounds == [64 * 2**k for k in range(last + 1)], rounds
+    assert_files_equal(ref, merged)
+
+    # A shard left a round behind is named, with the round to run it at; nothing is merged.
+    behind = tmp_path / "behind"
+    behind.mkdir()
+    for i, s in enumerate(shards, 1):
+        k = 1 if i < n else 0
+        assert run("run", path, "--shard", f"{i}/{n}", "--ensemble-round", k, "-o", behind / s.name, "--quiet").returncode == 0
+    m = run("merge", "-o", tmp_path / "mixed.h5", *[behind / s.name for s in shards])
+    assert m.returncode == 1, m.stdout + m.stderr
+    assert f"{behind / shards[-1].name} (round 0)" in m.stderr and "--ensemble-round 1" in m.stderr, m.stderr
+    assert not (tmp_path / "mixed.h5").exists()
+
+    # The dry run of a shard states its round's runs.
+    d = run("run", path, "--shard", "2/3", "--ensemble-round", 2, "--dry-run", "-o", tmp_path / "d.h5")
+    assert d.returncode == 0, d.stderr
+    assert "adaptive: 256 runs in round 2 (256 samples at each of 1 point(s))" in d.stdout, d.stdout
+
+
+@pytest.mark.parametrize(
+    "args, says",
+    [
+        (["--ensemble-round", "1"], "give it with --shard"),
+        (["--shard", "1/2", "--ensemble-round", "3"], "round 3 would take 512 runs, over the ensemble's budget of 256"),
+    ],
+)
+def test_a_round_without_a_shard_or_past_the_budget_exits_2_naming_the_option(tmp_path, args, says):
+    ens = {
+        "inputs": [STIFFNESS, MASS],
+        "samples": 8,
+        "replicates": 8,
+        "seed": 4,
+        "max_runs": 256,
+        "statistics": [dict(F1, tolerance={"mean": 1.0})],
+    }
+    path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
+    r = run("run", path, "-o", tmp_path / "o.h5", *args)
+    assert r.returncode == 2 and "--ensemble-round" in r.stderr and says in r.stderr, r.stderr
+    assert not (tmp_path / "o.h5").exists()
+    # A fixed-size ensemble has no rounds.
+    fixed_ens = {k: v for k, v in ens.items() if k != "max_runs"}
+    fixed = write_sweep(tmp_path / "fixed.json", linear_chain({**fixed_ens, "statistics": [F1]}))
+    r = run("run", fixed, "--shard", "1/2", "--ensemble-round", "0", "-o", tmp_path / "f.h5")
+    assert r.returncode == 2 and "--ensemble-round" in r.stderr, r.stderr
+
+
+def test_chainsweep_sweep_runs_a_shard_s_round_as_the_command_line_does(tmp_path):
+    ens = {
+        "inputs": [STIFFNESS, MASS],
+        "samples": 8,
+        "replicates": 8,
+        "seed": 4,
+        "statistics": [dict(F1, tolerance={"mean": 1.0})],
+    }
+    path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
+    cli = tmp_path / "cli.h5"
+    r = run("run", path, "--shard", "1/2", "--ensemble-round", "1", "-o", cli, "--quiet")
+    assert r.returncode == 0, r.stderr
+    # Round 0, then round 1 into the same file: a sample keeps its shard as the samples double,
+    # so round 1 runs only the shard's new samples.
+    res = chainsweep.sweep(path, tmp_path / "py.h5", shard=(1, 2), ensemble_round=0, progress=False)
+    assert (res.exit_code, res.n_runs, res.ran) == (0, 32, 32), res
+    res = chainsweep.sweep(path, tmp_path / "py.h5", shard=(1, 2), ensemble_round=1, progress=False)
+    assert (res.exit_code, res.n_runs, res.ran) == (0, 64, 32), res
+    assert_files_equal(cli, tmp_path / "py.h5")
+    with pytest.raises(chainsweep.InputError) as e:
+        chainsweep.sweep(path, tmp_path / "no.h5", ensemble_round=1, progress=False)
+    assert e.value.field == "ensemble_round", e.value
+    assert not (tmp_path / "no.h5").exists()

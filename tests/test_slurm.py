@@ -131,3 +131,42 @@ def test_array_cancel_resubmit_merge_is_bitwise_a_single_run(slurm, tmp_path, bi
     assert r.returncode == 0, r.stderr
     assert_files_equal(single, out)
     print(f"SLURM test: {time.time() - t0:.1f} s")
+
+
+def test_an_adaptive_ensemble_s_rounds_follow_each_other_to_the_single_machine_s_answer(slurm, tmp_path, binary):
+    """An adaptive ensemble on SLURM: every array task runs the round its job folder names, and
+    each merge job, once its round is merged, submits the next round while the statistics are not
+    within their tolerances; the last merged file is bitwise the single machine's."""
+    from test_ensemble import F1, MASS, STIFFNESS, linear_chain
+
+    env = slurm
+    ens = {"inputs": [STIFFNESS, MASS], "samples": 8, "replicates": 8, "seed": 4,
+           "statistics": [dict(F1, tolerance={"mean": 1.0})]}
+    path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
+    out = tmp_path / "results" / "ad.h5"
+    r = run("slurm", path, "-o", out, "--shards", "2", "--cpus-per-task", "1", "--time", "0:10:00",
+            "--submit", env=env)
+    assert r.returncode == 0, r.stderr
+    job = out.parent / "ad.h5.slurm"
+    assert "--ensemble-round" in (job / "array.sh").read_text()
+    # Each merge job submits the next round before it ends: the queue empties only at the end.
+    wait_done(env, timeout=300)
+    with h5py.File(out) as f:
+        last = int(f.attrs["ensemble_round"])
+        assert f.attrs["ensemble_stopped_by"] == "tolerance"
+    assert last >= 2, last
+    assert (job / "ensemble-round").read_text() == f"{last}\n"
+    merges = sorted((job / "logs").glob("merge-*.out"), key=lambda p: int(p.stem.split("-")[1]))
+    assert len(merges) == last + 1, [p.name for p in merges]
+    for k, log in enumerate(merges[:-1]):
+        assert f"round {k + 1} submitted" in log.read_text(), log.read_text()
+    assert f"the ensemble ended after round {last}" in merges[-1].read_text(), merges[-1].read_text()
+    assert len(list((job / "logs").glob("array-*_*.out"))) == 2 * (last + 1)
+
+    single = tmp_path / "single.h5"
+    r = run("run", path, "-o", single, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(single, out)
+    # Asked again, the folder says how the ensemble ended and submits nothing.
+    r = run("slurm", path, "-o", out, "--shards", "2", "--next-round", env=env)
+    assert r.returncode == 0 and f"ended after round {last}" in r.stdout, r.stdout + r.stderr

@@ -224,6 +224,7 @@ def sweep(
     progress: bool | ProgressCallback = True,
     *,
     shard: str | tuple[int, int] | None = None,
+    ensemble_round: int | None = None,
     checkpoint_interval: float = _native.DEFAULT_CHECKPOINT_INTERVAL_S,
 ) -> SweepResult:
     """Runs a sweep into an HDF5 file, in this process, exactly as ``chainsweep run`` does.
@@ -236,7 +237,10 @@ def sweep(
     exactly the points whose scene changed. ``jobs``: parallel runs (default: ``SLURM_CPUS_PER_TASK``, else every CPU this process may use);
     ``verify``: the fraction of points re-run at a tighter setting (``--verify``);
     ``retry_failed``: run failed points again; ``shard``: ``(K, N)`` or ``"K/N"`` (K from 1), only
-    shard K of N (the engine's balanced assignment, as ``chainsweep run --shard K/N``); ``checkpoint_interval``: seconds between refreshes of the output file
+    shard K of N (the engine's balanced assignment, as ``chainsweep run --shard K/N``);
+    ``ensemble_round``: with ``shard``, the round of an adaptive ensemble that the shard runs
+    (``--ensemble-round``; default 0; the merge of every shard's file says whether another is
+    due); ``checkpoint_interval``: seconds between refreshes of the output file
     while the sweep runs (0: only at the end).
 
     ``progress=True`` shows a tqdm bar (a widget in a notebook, a bar in a terminal) when tqdm is
@@ -263,6 +267,10 @@ def sweep(
             raise InputError(name, f"must be a number, got {value!r}")
     if jobs is not None and (jobs != int(jobs) or jobs < 1):
         raise InputError("jobs", f"must be a whole number >= 1, got {jobs}")
+    if ensemble_round is not None and (
+        isinstance(ensemble_round, bool) or not isinstance(ensemble_round, (int, np.integer)) or ensemble_round < 0
+    ):
+        raise InputError("ensemble_round", f"must be a whole number >= 0, got {ensemble_round!r}")
     with tempfile.TemporaryDirectory(prefix="chainsweep-") as tmp:
         if isinstance(spec, Mapping):
             file = Path(tmp) / f"{output.stem}.json"
@@ -275,6 +283,7 @@ def sweep(
                 os.fspath(output),
                 jobs=None if jobs is None else int(jobs),
                 shard=shard_text,
+                ensemble_round=None if ensemble_round is None else int(ensemble_round),
                 retry_failed=bool(retry_failed),
                 verify=None if verify is None else float(verify),
                 checkpoint_interval=float(checkpoint_interval),

@@ -72,6 +72,7 @@ _OPTION_ARGUMENTS = {
     "--output": "output",
     "--jobs": "jobs",
     "--shard": "shard",
+    "--ensemble-round": "ensemble_round",
     "--verify": "verify",
     "--checkpoint-interval": "checkpoint_interval",
 }

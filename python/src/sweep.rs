@@ -154,7 +154,7 @@ const SIGNAL_INTERVAL: Duration = Duration::from_millis(100);
 /// cleanly and then raises `KeyboardInterrupt`; an exception raised by `progress` does the same
 /// with that exception.
 #[pyfunction]
-#[pyo3(signature = (file, output, jobs=None, shard=None, retry_failed=false, verify=None, checkpoint_interval=None, progress=None))]
+#[pyo3(signature = (file, output, jobs=None, shard=None, retry_failed=false, verify=None, checkpoint_interval=None, progress=None, ensemble_round=None))]
 #[allow(clippy::too_many_arguments)]
 pub fn run_sweep(
     py: Python<'_>,
@@ -166,11 +166,13 @@ pub fn run_sweep(
     verify: Option<f64>,
     checkpoint_interval: Option<f64>,
     progress: Option<Py<PyAny>>,
+    ensemble_round: Option<usize>,
 ) -> PyResult<(i32, usize)> {
     let req = RunRequest {
         output: Some(output),
         jobs,
         shard,
+        ensemble_round,
         retry_failed,
         verify,
         checkpoint_interval_s: checkpoint_interval.unwrap_or(run::DEFAULT_CHECKPOINT_INTERVAL_S),

@@ -234,6 +234,7 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
         output: args.output.clone(),
         jobs: args.jobs,
         shard: args.shard.clone(),
+        ensemble_round: args.ensemble_round,
         retry_failed: args.retry_failed,
         verify: args.verify,
         checkpoint_interval_s: args.checkpoint_interval,
@@ -270,6 +271,11 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
                 show::dry_run_search(&sweep, &grid, output, &d);
             }
             return Ok(EXIT_OK);
+        }
+        // A shard of an adaptive ensemble runs one round: the dry run states that round's runs.
+        if let Some(k) = engine::ensemble::shard_round(&sweep, &opts)? {
+            sweep = sweep.at_ensemble_round(k);
+            grid = chainsweep::grid::Grid::new(&sweep)?;
         }
         let points = shard::points(&sweep, &grid, shard);
         let d = inspect::dry_run(&sweep, &grid, &points, output)?;
@@ -333,7 +339,7 @@ impl StopOnSignal {
 fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
     // The scripts run on other machines, from another folder: every path absolute, and the sweep
     // file checked here.
-    engine::load(&args.file)?;
+    let (sweep, _) = engine::load(&args.file)?;
     let absolute = |p: &Path, what: &str| -> Result<PathBuf> {
         std::path::absolute(p).map_err(|e| Error::input(what, format!("{}: {e}", p.display())))
     };
@@ -369,7 +375,11 @@ fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
         account: args.account.clone(),
         sbatch_args: args.sbatch_arg.clone(),
         binary,
+        adaptive: sweep.ensemble.as_ref().is_some_and(|e| e.adaptive()),
     };
+    if args.next_round {
+        return cmd_slurm_next_round(&req);
+    }
     let files = slurm::write_job(&req)?;
     show::slurm_job(&req, &files);
     if args.submit {
@@ -377,6 +387,60 @@ fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
         show::submitted(&array, &merge, &files);
     }
     Ok(EXIT_OK)
+}
+
+/// `slurm --next-round`: the next round of an adaptive ensemble, when its merged file says one is
+/// due.
+fn cmd_slurm_next_round(req: &slurm::JobRequest) -> Result<i32> {
+    if !req.adaptive {
+        return Err(Error::input(
+            "--next-round",
+            "submits the next round of an adaptive ensemble (an ensemble with a tolerance); this sweep has none",
+        ));
+    }
+    let outcome = engine::ensemble::outcome_of(&req.output).ok_or_else(|| {
+        Error::Other(format!(
+            "{} holds no merged round of the ensemble: merge its shard files first (merge.sh)",
+            req.output.display()
+        ))
+    })?;
+    let files = slurm::job_files(&req.sweep, &req.output, req.shards);
+    match outcome.stopped_by {
+        "running" => {
+            let next = outcome.round + 1;
+            slurm::set_round(&files, next)?;
+            let (array, merge) = slurm::submit(&files)?;
+            println!(
+                "round {} of the ensemble ended with an interval {:.3} times its tolerance: round {next} submitted",
+                outcome.round,
+                outcome.worst_ratio
+            );
+            show::submitted(&array, &merge, &files);
+            Ok(EXIT_OK)
+        }
+        "incomplete" => {
+            println!(
+                "round {} of the ensemble is incomplete in {}: merge its shards again once their tasks have run",
+                outcome.round,
+                req.output.display()
+            );
+            Ok(EXIT_PARTIAL)
+        }
+        ended => {
+            println!(
+                "the ensemble ended after round {} ({}, {} runs): {} holds its statistics",
+                outcome.round,
+                match ended {
+                    "tolerance" => "every statistic within its tolerance",
+                    "budget" => "the next round would exceed ensemble.max_runs",
+                    _ => "a fixed size",
+                },
+                outcome.runs,
+                req.output.display()
+            );
+            Ok(EXIT_OK)
+        }
+    }
 }
 
 fn cmd_status(

@@ -141,6 +141,7 @@ fn options(output: &Path) -> RunOptions {
         output: output.to_path_buf(),
         jobs: 2,
         shard: None,
+        ensemble_round: None,
         retry_failed: false,
         checkpoint_interval: Duration::ZERO,
         verify_fraction: 0.0,

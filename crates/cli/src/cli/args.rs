@@ -235,6 +235,11 @@ pub struct RunArgs {
     /// file; `slurm/N`: shard SLURM_ARRAY_TASK_ID + 1 of N (array tasks count from 0).
     #[arg(long, value_name = "K/N|slurm/N")]
     pub shard: Option<String>,
+    /// With --shard, the round of an adaptive ensemble (a statistic with a tolerance) to run:
+    /// its rounds depend on every shard's samples, so each shard runs one round and `merge` of
+    /// all the shards' files says whether another is due [default: 0].
+    #[arg(long, value_name = "ROUND")]
+    pub ensemble_round: Option<usize>,
     /// Print the expanded grid and an estimate of the output size; run nothing.
     #[arg(long)]
     pub dry_run: bool,
@@ -292,6 +297,12 @@ pub struct SlurmArgs {
     /// Submit the array job, then the merge job after it (`sbatch`, which must be on PATH).
     #[arg(long)]
     pub submit: bool,
+    /// Of an adaptive ensemble whose round OUT holds (merged): submit the array and merge jobs of
+    /// the next round when the statistics are not yet within their tolerances and the budget
+    /// allows it, else say how the ensemble ended. The merge job of such an ensemble runs this
+    /// itself, so that the rounds follow each other until the ensemble ends. Writes no scripts.
+    #[arg(long, conflicts_with = "submit")]
+    pub next_round: bool,
 }
 
 /// Arguments of `chainsweep accuracy`.

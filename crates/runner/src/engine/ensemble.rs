@@ -422,12 +422,6 @@ pub fn run_rounds(
     ) -> Result<RunReport>,
 ) -> Result<(RunReport, Outcome)> {
     let e = sweep.ensemble.clone().expect("an ensemble");
-    if opts.shard.is_some() {
-        return Err(Error::input(
-            "ensemble",
-            "an adaptive ensemble (a statistic with a tolerance) runs in rounds that depend on all samples: run it on one node, or give it a fixed size (no tolerance) to shard it",
-        ));
-    }
     let mut k = 0;
     loop {
         let mut round = sweep.at_ensemble_round(k);
@@ -450,6 +444,76 @@ pub fn run_rounds(
         }
         k += 1;
     }
+}
+
+/// The round of an adaptive ensemble that a shard runs (`--shard` with `--ensemble-round`, round 0
+/// without it): whether another round is due depends on every shard's samples, so a shard runs
+/// one round and the merge of every shard's file decides (see [`Outcome`]). `None` where the run
+/// is not a shard of an adaptive ensemble; an input error naming `--ensemble-round` where it is
+/// given to any other run or names a round past the budget.
+pub fn shard_round(sweep: &Sweep, opts: &RunOptions) -> Result<Option<usize>> {
+    let adaptive = sweep.ensemble.as_ref().filter(|e| e.adaptive());
+    let (Some(e), Some(_)) = (adaptive, opts.shard) else {
+        return match opts.ensemble_round {
+            None => Ok(None),
+            Some(_) => Err(Error::input(
+                "--ensemble-round",
+                "names the round of an adaptive ensemble (an ensemble with a tolerance) that a shard runs: give it with --shard, to such an ensemble only",
+            )),
+        };
+    };
+    let k = opts.ensemble_round.unwrap_or(0);
+    let budget = e.max_runs.unwrap_or(0);
+    if k > 0 && e.round_runs(k) > budget {
+        let last = (0..k)
+            .rev()
+            .find(|&r| r == 0 || e.round_runs(r) <= budget)
+            .unwrap_or(0);
+        return Err(Error::input(
+            "--ensemble-round",
+            format!(
+                "round {k} would take {} runs, over the ensemble's budget of {budget} (ensemble.max_runs): its rounds are 0 to {last}",
+                e.round_runs(k)
+            ),
+        ));
+    }
+    Ok(Some(k))
+}
+
+/// The round of an adaptive ensemble that shard files hold, when they all hold the same one; an
+/// error naming the files of each round otherwise (the tasks behind are to be run again at the
+/// latest round). `None` for shards of any other sweep.
+pub fn round_of_shards(sweep: &Sweep, shards: &[std::path::PathBuf]) -> Result<Option<usize>> {
+    if !sweep.ensemble.as_ref().is_some_and(|e| e.adaptive()) {
+        return Ok(None);
+    }
+    let mut rounds: Vec<(usize, &std::path::PathBuf)> = Vec::new();
+    for s in shards {
+        let round = outcome_of(s).map(|o| o.round).ok_or_else(|| {
+            Error::Other(format!(
+                "{}: a shard file of an adaptive ensemble that does not record its round (ensemble_round): run its shard again",
+                s.display()
+            ))
+        })?;
+        rounds.push((round, s));
+    }
+    let latest = rounds.iter().map(|r| r.0).max().unwrap_or(0);
+    let behind: Vec<String> = rounds
+        .iter()
+        .filter(|r| r.0 != latest)
+        .map(|(r, s)| format!("{} (round {r})", s.display()))
+        .collect();
+    if !behind.is_empty() {
+        return Err(Error::Other(format!(
+            "the shard files hold different rounds of the adaptive ensemble: the latest is round {latest}, and {} {} behind it; run {} again with --ensemble-round {latest} (under `chainsweep slurm`, whose tasks run the round its job folder's {} file names: re-submit {}), then merge",
+            behind.join(", "),
+            if behind.len() == 1 { "is" } else { "are" },
+            if behind.len() == 1 { "its shard" } else { "their shards" },
+            super::slurm::ROUND_FILE,
+            if behind.len() == 1 { "its array task" } else { "their array tasks" },
+        )));
+    }
+    Ok(Some(latest))
 }
 
 /// The outcome an ensemble's output file records (`None`: not an ensemble's file, or unreadable).

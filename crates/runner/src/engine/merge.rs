@@ -61,6 +61,11 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
     let text = common_sweep_text(shards)?;
     let first = shards[0].display().to_string();
     let mut sweep = Sweep::parse(&text).map_err(|e| e.in_file(&first))?;
+    // Shards of an adaptive ensemble hold one round of it: the merge is of that round, and its
+    // file says whether another is due.
+    if let Some(k) = super::ensemble::round_of_shards(&sweep, shards)? {
+        sweep = sweep.at_ensemble_round(k);
+    }
     let mut grid = Grid::new(&sweep).map_err(|e| e.in_file(&first))?;
     auto::apply_from_shards(&mut sweep, &mut grid, shards)?;
     check_output(output, false)?;

@@ -48,6 +48,10 @@ pub struct RunOptions {
     pub jobs: usize,
     /// Run only this shard.
     pub shard: Option<Shard>,
+    /// The round of an adaptive ensemble a shard runs (`None`: round 0). Its rounds depend on
+    /// every sample, so a shard runs one round and `merge` of every shard's file decides whether
+    /// another is due (`chainsweep slurm` submits it).
+    pub ensemble_round: Option<usize>,
     /// Run again the points whose earlier run failed.
     pub retry_failed: bool,
     /// Time between refreshes of the output file while the sweep runs (zero: only at the end).
@@ -73,6 +77,8 @@ pub struct RunRequest {
     pub jobs: Option<usize>,
     /// `K/N` (or `slurm/N`): run only that shard.
     pub shard: Option<String>,
+    /// With `shard`, the round of an adaptive ensemble to run (`None`: round 0).
+    pub ensemble_round: Option<usize>,
     /// Run again the points whose earlier run failed.
     pub retry_failed: bool,
     /// Fraction of points re-run at a tighter setting (`None`: none).
@@ -91,6 +97,7 @@ impl RunRequest {
             output: None,
             jobs: None,
             shard: None,
+            ensemble_round: None,
             retry_failed: false,
             verify: None,
             checkpoint_interval_s: DEFAULT_CHECKPOINT_INTERVAL_S,
@@ -115,6 +122,7 @@ impl RunRequest {
                 .unwrap_or_else(|| super::default_output(&self.file, shard)),
             jobs,
             shard,
+            ensemble_round: self.ensemble_round,
             retry_failed: self.retry_failed,
             checkpoint_interval: Duration::from_secs_f64(self.checkpoint_interval_s),
             verify_fraction,
@@ -316,6 +324,12 @@ pub fn run_sweep(
     if sweep.search.is_some() {
         let r = super::search::run_search(sweep, grid, opts, sink, stop)?;
         return Ok(RunReport::of_search(r));
+    }
+    if let Some(k) = super::ensemble::shard_round(sweep, opts)? {
+        // One round of an adaptive ensemble, this shard's part of it.
+        *sweep = sweep.at_ensemble_round(k);
+        *grid = Grid::new(sweep)?;
+        return run_grid(sweep, grid, opts, sink, stop);
     }
     if sweep.ensemble.as_ref().is_some_and(|e| e.adaptive()) {
         check_output(&opts.output, opts.overwrite)?;

@@ -152,8 +152,15 @@ impl Assignment {
             },
             Some(Shard { n, .. }) => {
                 let costs = quantised_costs(sweep, grid);
+                let adaptive = sweep.ensemble.as_ref().is_some_and(|e| e.adaptive());
                 let shards = match sweep.continuation {
                     Some(c) => assign_lines(&grid.shape, &costs, n, c.dim),
+                    // A round of an adaptive ensemble keeps the last round's samples: the Latin
+                    // assignment gives each of them the shard it had (its grid index along the
+                    // samples does not change as they double), so a shard's own file holds its
+                    // earlier runs and it runs only the new samples. Costs may not choose: they
+                    // are relative to the round's costliest sample.
+                    None if adaptive => latin(&grid.shape, n),
                     None => assign(&grid.shape, &costs, n),
                 };
                 let shard_of = shards.into_iter().map(|s| s + 1).collect();

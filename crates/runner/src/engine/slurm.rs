@@ -12,6 +12,11 @@
 //!   `--dependency=afterany:` the array job, so that it runs whatever the tasks' outcome and says
 //!   which tasks to re-submit;
 //! - `logs/`, `shards/`: the jobs' logs and the shard files.
+//!
+//! An adaptive ensemble runs in rounds that depend on every sample: the array's tasks run the
+//! round that `OUT.h5.slurm/ensemble-round` names (`run --ensemble-round`), and `merge.sh`, after
+//! merging, runs `chainsweep slurm --next-round`, which submits the next round's array and merge
+//! jobs while the merged statistics are not within their tolerances and the budget allows.
 
 use std::path::{Path, PathBuf};
 
@@ -76,6 +81,23 @@ pub struct JobRequest {
     pub sbatch_args: Vec<String>,
     /// The `chainsweep` binary the jobs run (absolute).
     pub binary: PathBuf,
+    /// The sweep is an adaptive ensemble: the array job runs the round the job folder's
+    /// [`ROUND_FILE`] names, and the merge job submits the next round when one is due.
+    pub adaptive: bool,
+}
+
+/// The file of a job folder naming the round of an adaptive ensemble its array tasks run (one
+/// number; round 0 when absent). Written by `chainsweep slurm --next-round` before it submits a
+/// round, so that a task re-submitted by hand runs the round its shards are at.
+pub const ROUND_FILE: &str = "ensemble-round";
+
+/// Records that `files`' array tasks run round `round` of the ensemble (written whole, then
+/// renamed into place).
+pub fn set_round(files: &JobFiles, round: usize) -> Result<()> {
+    let path = files.dir.join(ROUND_FILE);
+    let tmp = files.dir.join(format!("{ROUND_FILE}.tmp"));
+    std::fs::write(&tmp, format!("{round}\n")).map_err(Error::io("write", &tmp))?;
+    std::fs::rename(&tmp, &path).map_err(Error::io("rename", &path))
 }
 
 /// The files of a job: scripts, folders, shard files.
@@ -225,8 +247,18 @@ pub fn array_script(r: &JobRequest, f: &JobFiles) -> String {
     s += "shard=$((task + 1))\n";
     s += "# On SIGTERM (time limit, scancel, preemption) chainsweep writes its file with every finished\n";
     s += "# run and exits 143; the parallel runs are SLURM_CPUS_PER_TASK (or the CPUs it may use).\n";
+    let mut round = String::new();
+    if r.adaptive {
+        s += "# An adaptive ensemble: every task runs the round its job folder names (merge.sh submits the\n";
+        s += "# next round while the statistics are not within their tolerances).\n";
+        s += &format!(
+            "round=$(cat {} 2>/dev/null || echo 0)\n",
+            q(&f.dir.join(ROUND_FILE))
+        );
+        round = " --ensemble-round \"$round\"".into();
+    }
     s += &format!(
-        "exec {} run {} --shard slurm/{n} -o {}/{}.shard-\"$shard\"-of-{n}.h5\n",
+        "exec {} run {}{round} --shard slurm/{n} -o {}/{}.shard-\"$shard\"-of-{n}.h5\n",
         q(&r.binary),
         q(&r.sweep),
         q(&f.shards_dir),
@@ -261,12 +293,30 @@ pub fn merge_script(r: &JobRequest, f: &JobFiles) -> String {
         s += "\n";
     }
     s += "set -eu\n";
-    s += &format!("exec {} merge -o {}", q(&r.binary), q(&r.output));
+    if r.adaptive {
+        s += "# An adaptive ensemble: the merged round says whether another is due; `--next-round` then\n";
+        s += "# submits it (array and merge jobs), or says how the ensemble ended.\n";
+    }
+    s += &format!(
+        "{}{} merge -o {}",
+        if r.adaptive { "" } else { "exec " },
+        q(&r.binary),
+        q(&r.output)
+    );
     for p in &f.shard_files {
         s += " \\\n    ";
         s += &q(p);
     }
     s += "\n";
+    if r.adaptive {
+        s += &format!(
+            "exec {} slurm {} -o {} --shards {} --next-round\n",
+            q(&r.binary),
+            q(&r.sweep),
+            q(&r.output),
+            r.shards
+        );
+    }
     s
 }
 
@@ -304,6 +354,11 @@ pub fn write_job(r: &JobRequest) -> Result<JobFiles> {
         text.push('\n');
     }
     std::fs::write(&manifest, text).map_err(Error::io("write", &manifest))?;
+    // An adaptive ensemble starts at round 0; a job folder that has gone further keeps its round
+    // (its shards hold it, and merge refuses shards of different rounds).
+    if r.adaptive && !f.dir.join(ROUND_FILE).exists() {
+        set_round(&f, 0)?;
+    }
     Ok(f)
 }
 
@@ -438,5 +493,54 @@ mod tests {
             resubmit_command(&[1, 3], &f.array_script, &f.merge_script),
             "jid=$(sbatch --parsable --array=1,3 /res/out.h5.slurm/array.sh) && sbatch --dependency=afterany:${jid%%;*} /res/out.h5.slurm/merge.sh"
         );
+        // Only an adaptive ensemble's scripts name a round or chain the next one.
+        assert!(!a.contains("round"), "{a}");
+        assert!(!m.contains("--next-round") && m.contains("exec /opt/bin/chainsweep merge"));
+    }
+
+    #[test]
+    fn an_adaptive_ensemble_s_tasks_run_the_folder_s_round_and_its_merge_submits_the_next() {
+        let r = JobRequest {
+            sweep: "/data/ens.json".into(),
+            output: "/res/out.h5".into(),
+            shards: 3,
+            binary: "/opt/bin/chainsweep".into(),
+            adaptive: true,
+            ..JobRequest::default()
+        };
+        let f = job_files(&r.sweep, &r.output, r.shards);
+        let a = array_script(&r, &f);
+        assert!(
+            a.contains("round=$(cat /res/out.h5.slurm/ensemble-round 2>/dev/null || echo 0)\n"),
+            "{a}"
+        );
+        assert!(
+            a.contains("exec /opt/bin/chainsweep run /data/ens.json --ensemble-round \"$round\" --shard slurm/3 -o "),
+            "{a}"
+        );
+        let m = merge_script(&r, &f);
+        // The merge must not `exec`: the next round is submitted after it, and only when it
+        // succeeded (`set -e`).
+        assert!(m.contains("set -eu\n"), "{m}");
+        assert!(
+            m.contains("\n/opt/bin/chainsweep merge -o /res/out.h5"),
+            "{m}"
+        );
+        assert!(
+            m.ends_with("exec /opt/bin/chainsweep slurm /data/ens.json -o /res/out.h5 --shards 3 --next-round\n"),
+            "{m}"
+        );
+        let dir = std::env::temp_dir().join(format!("chainsweep-round-{}", std::process::id()));
+        let f = JobFiles {
+            dir: dir.clone(),
+            ..f
+        };
+        std::fs::create_dir_all(&dir).unwrap();
+        set_round(&f, 4).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(dir.join(ROUND_FILE)).unwrap(),
+            "4\n"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

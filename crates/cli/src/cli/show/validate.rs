@@ -196,11 +196,13 @@ pub fn dry_run(
         }
     }
     if let Some(e) = &sweep.ensemble {
+        // A shard's sweep is at the round it runs (`--ensemble-round`); a whole run starts at 0.
+        let k = sweep.ensemble_round;
         let size = match e.max_runs {
             Some(m) => format!(
-                "adaptive: {} runs in round 0 ({} samples at each of {} point(s)), doubling until every statistic's interval is within its tolerance or the next round would pass the budget of {m} runs",
-                e.round_runs(0),
-                e.round_samples(0),
+                "adaptive: {} runs in round {k} ({} samples at each of {} point(s)), doubling until every statistic's interval is within its tolerance or the next round would pass the budget of {m} runs",
+                e.round_runs(k),
+                e.round_samples(k),
                 e.outer_points
             ),
             None => format!(
