@@ -33,7 +33,7 @@ import pytest
 import xarray as xr
 
 import chainsweep
-from conftest import assert_files_equal, assert_resume_and_merge_bitwise, kill_at, run, write_sweep
+from conftest import REPO, assert_files_equal, assert_resume_and_merge_bitwise, kill_at, run, write_sweep
 
 K_RANGE = (5e5, 2e6)
 M_RANGE = (1e-3, 4e-3)
@@ -566,7 +566,8 @@ def test_an_adaptive_ensemble_runs_in_shards_round_by_round_to_the_single_machin
         assert run("run", path, "--shard", f"{i}/{n}", "--ensemble-round", k, "-o", behind / s.name, "--quiet").returncode == 0
     m = run("merge", "-o", tmp_path / "mixed.h5", *[behind / s.name for s in shards])
     assert m.returncode == 1, m.stdout + m.stderr
-    assert f"{behind / shards[-1].name} (round 0)" in m.stderr and "--ensemble-round 1" in m.stderr, m.stderr
+    assert f"{behind / shards[-1].name} (round 0; shard 3/3, SLURM array task 2)" in m.stderr, m.stderr
+    assert "--ensemble-round 1" in m.stderr, m.stderr
     assert not (tmp_path / "mixed.h5").exists()
 
     # The dry run of a shard states its round's runs.
@@ -600,6 +601,12 @@ def test_a_round_without_a_shard_or_past_the_budget_exits_2_naming_the_option(tm
     fixed = write_sweep(tmp_path / "fixed.json", linear_chain({**fixed_ens, "statistics": [F1]}))
     r = run("run", fixed, "--shard", "1/2", "--ensemble-round", "0", "-o", tmp_path / "f.h5")
     assert r.returncode == 2 and "--ensemble-round" in r.stderr, r.stderr
+    # Nor has a search or a periodic block, in a run or a dry run.
+    for example in ("dimer-minimum.json", "driven-branches.json"):
+        for dry in ([], ["--dry-run"]):
+            r = run("run", REPO / "sweeps" / "examples" / example, "--ensemble-round", "0", "-o", tmp_path / "x.h5", *dry)
+            assert r.returncode == 2 and "--ensemble-round" in r.stderr, (example, dry, r.stderr)
+            assert not (tmp_path / "x.h5").exists()
 
 
 def test_chainsweep_sweep_runs_a_shard_s_round_as_the_command_line_does(tmp_path):
@@ -614,14 +621,53 @@ def test_chainsweep_sweep_runs_a_shard_s_round_as_the_command_line_does(tmp_path
     cli = tmp_path / "cli.h5"
     r = run("run", path, "--shard", "1/2", "--ensemble-round", "1", "-o", cli, "--quiet")
     assert r.returncode == 0, r.stderr
-    # Round 0, then round 1 into the same file: a sample keeps its shard as the samples double,
-    # so round 1 runs only the shard's new samples.
+    # Round 0, then round 1 into the same file: a sample keeps its shard as the samples double
+    # (in 3 shards too, though 3 divides no round's samples), so round 1 runs only the shard's
+    # new samples.
     res = chainsweep.sweep(path, tmp_path / "py.h5", shard=(1, 2), ensemble_round=0, progress=False)
     assert (res.exit_code, res.n_runs, res.ran) == (0, 32, 32), res
     res = chainsweep.sweep(path, tmp_path / "py.h5", shard=(1, 2), ensemble_round=1, progress=False)
     assert (res.exit_code, res.n_runs, res.ran) == (0, 64, 32), res
     assert_files_equal(cli, tmp_path / "py.h5")
+    for k in (1, 2, 3):
+        out = tmp_path / f"three-{k}.h5"
+        r0 = chainsweep.sweep(path, out, shard=(k, 3), ensemble_round=0, progress=False)
+        r1 = chainsweep.sweep(path, out, shard=(k, 3), ensemble_round=1, progress=False)
+        assert r1.ran == r1.n_runs - r0.n_runs and r0.n_runs in (21, 22), (k, r0, r1)
     with pytest.raises(chainsweep.InputError) as e:
         chainsweep.sweep(path, tmp_path / "no.h5", ensemble_round=1, progress=False)
     assert e.value.field == "ensemble_round", e.value
     assert not (tmp_path / "no.h5").exists()
+
+
+def test_next_round_submits_nothing_when_the_last_round_s_tasks_wrote_no_shard_or_for_another_sweep(tmp_path):
+    """`chainsweep slurm --next-round` (what an adaptive ensemble's merge job runs) without SLURM:
+    what it decides before it would submit."""
+    ens = {"inputs": [STIFFNESS, MASS], "samples": 8, "replicates": 8, "seed": 4,
+           "statistics": [dict(F1, tolerance={"mean": 1.0})]}
+    path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
+    out = tmp_path / "ad.h5"
+    r = run("slurm", path, "-o", out, "--shards", "2")
+    assert r.returncode == 0, r.stderr
+    job = tmp_path / "ad.h5.slurm"
+    assert (job / "ensemble-round").read_text() == "0\n"
+    shards = [job / "shards" / f"ad.shard-{k}-of-2.h5" for k in (1, 2)]
+    for k, s in enumerate(shards, 1):
+        assert run("run", path, "--shard", f"{k}/2", "-o", s, "--quiet").returncode == 0
+    assert run("merge", "-o", out, *shards).returncode == 0
+    with h5py.File(out) as f:
+        assert f.attrs["ensemble_stopped_by"] == "running"
+    # The folder says round 1 was given, but the shards hold round 0: the tasks of round 1 wrote
+    # nothing. Submitting round 1 again would loop; it says so, with the re-submit command.
+    (job / "ensemble-round").write_text("1\n")
+    r = run("slurm", path, "-o", out, "--shards", "2", "--next-round")
+    assert r.returncode == 3, r.stdout + r.stderr
+    assert "the job folder's round is 1 but" in r.stdout and "holds round 0" in r.stdout, r.stdout
+    assert "sbatch --parsable --array=0,1 " in r.stdout, r.stdout
+    # Written again, the job starts at round 0 (its tasks resume their stored runs).
+    assert run("slurm", path, "-o", out, "--shards", "2").returncode == 0
+    assert (job / "ensemble-round").read_text() == "0\n"
+    # A sweep without an adaptive ensemble has no next round.
+    fixed = write_sweep(tmp_path / "fixed.json", linear_chain({**ens, "statistics": [F1]}))
+    r = run("slurm", fixed, "-o", tmp_path / "f.h5", "--shards", "2", "--next-round")
+    assert r.returncode == 2 and "--next-round" in r.stderr, r.stderr

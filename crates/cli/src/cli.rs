@@ -251,6 +251,12 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
     let (output, shard) = (&opts.output, opts.shard);
     let mut sink = Terminal::new(args.quiet, Duration::from_secs_f64(args.progress_interval));
     if args.dry_run {
+        // A shard of an adaptive ensemble runs one round: the dry run states that round's runs
+        // (and `--ensemble-round` anywhere else is refused, as the run refuses it).
+        if let Some(k) = engine::ensemble::shard_round(&sweep, &opts)? {
+            sweep = sweep.at_ensemble_round(k);
+            grid = chainsweep::grid::Grid::new(&sweep)?;
+        }
         let pool = engine::thread_pool(opts.jobs)?;
         let work_dir = chainsweep::store::work_dir_of(output);
         engine::auto::resolve(&mut sweep, &mut grid, Some(&work_dir), &pool, &mut sink)?;
@@ -271,11 +277,6 @@ fn cmd_run(args: &RunArgs) -> Result<i32> {
                 show::dry_run_search(&sweep, &grid, output, &d);
             }
             return Ok(EXIT_OK);
-        }
-        // A shard of an adaptive ensemble runs one round: the dry run states that round's runs.
-        if let Some(k) = engine::ensemble::shard_round(&sweep, &opts)? {
-            sweep = sweep.at_ensemble_round(k);
-            grid = chainsweep::grid::Grid::new(&sweep)?;
         }
         let points = shard::points(&sweep, &grid, shard);
         let d = inspect::dry_run(&sweep, &grid, &points, output)?;
@@ -405,6 +406,21 @@ fn cmd_slurm_next_round(req: &slurm::JobRequest) -> Result<i32> {
         ))
     })?;
     let files = slurm::job_files(&req.sweep, &req.output, req.shards);
+    // The round the tasks were last given: when the merged file holds an earlier one, the tasks
+    // of that round wrote no shard file of it (killed before their first checkpoint, refused by a
+    // sweep file edited since), and submitting again would loop.
+    let given = slurm::folder_round(&files);
+    if given > outcome.round {
+        let tasks: Vec<usize> = (0..req.shards).collect();
+        println!(
+            "the job folder's round is {given} but {} holds round {}: the array tasks of round {given} wrote no shard file of it (see their logs in {}); nothing submitted. To run them again, then the merge:\n  {}",
+            req.output.display(),
+            outcome.round,
+            files.logs.display(),
+            slurm::resubmit_command(&tasks, &files.array_script, &files.merge_script)
+        );
+        return Ok(EXIT_PARTIAL);
+    }
     match outcome.stopped_by {
         "running" => {
             let next = outcome.round + 1;

@@ -77,3 +77,67 @@ fn shards_of_a_grid_whose_last_axis_is_a_multiple_of_n_cost_the_same_within_15_p
     // 20 mass ratios × 10 damping values, in 5 shards.
     check("mass-damping.json", &[5], 0.5);
 }
+
+/// A round of an adaptive ensemble keeps the earlier rounds' samples, and each keeps the shard it
+/// had, whatever the design and the number of shards: a shard's own file then holds its earlier
+/// runs, and it runs only its new samples. (A sample's index does not stay: a Sobol' design
+/// doubles the samples of every replicate, so a later replicate's samples move up.)
+#[test]
+fn an_adaptive_ensemble_s_samples_keep_their_shard_as_the_rounds_double() {
+    use chainsweep::grid::Grid;
+    use chainsweep::sweep::Sweep;
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../sweeps/examples/ensemble-tolerance.json");
+    let text = std::fs::read_to_string(&path).unwrap();
+    // (A Morris design computes no statistics, so it is never adaptive.)
+    for design in ["sobol", "monte_carlo", "latin_hypercube", "saltelli"] {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["ensemble"]["design"] = design.into();
+        v["ensemble"]["samples"] = 8.into();
+        if design == "saltelli" {
+            // Saltelli's intervals come from the bootstrap, not from replicates.
+            v["ensemble"].as_object_mut().unwrap().remove("replicates");
+        } else {
+            v["ensemble"]["replicates"] = 4.into();
+        }
+        let sweep = Sweep::parse_in(&v.to_string(), path.parent().unwrap())
+            .unwrap_or_else(|e| panic!("{design}: {e}"));
+        assert!(sweep.ensemble.as_ref().unwrap().adaptive());
+        for n in [2, 3, 5] {
+            for k in 0..3 {
+                let (a, b) = (sweep.at_ensemble_round(k), sweep.at_ensemble_round(k + 1));
+                let (ga, gb) = (Grid::new(&a).unwrap(), Grid::new(&b).unwrap());
+                let shard = Some(Shard { k: 1, n });
+                let (sa, sb) = (
+                    Assignment::new(&a, &ga, shard),
+                    Assignment::new(&b, &gb, shard),
+                );
+                let of_b: std::collections::HashMap<_, usize> = gb
+                    .hashes
+                    .iter()
+                    .enumerate()
+                    .map(|(i, h)| (*h, sb.shard_of(i)))
+                    .collect();
+                assert!(gb.len() == 2 * ga.len(), "{design}: round {k} doubles");
+                for (i, h) in ga.hashes.iter().enumerate() {
+                    assert_eq!(
+                        of_b.get(h),
+                        Some(&sa.shard_of(i)),
+                        "{design}, {n} shards: sample {i} of round {k}"
+                    );
+                }
+                // The samples are shared out evenly: no shard has more than its share and one.
+                let mut count = vec![0usize; n];
+                for i in 0..gb.len() {
+                    count[sb.shard_of(i) - 1] += 1;
+                }
+                let (lo, hi) = (count.iter().min().unwrap(), count.iter().max().unwrap());
+                assert!(
+                    hi - lo <= 1 + gb.len() / 50,
+                    "{design}, {n} shards, round {}: {count:?}",
+                    k + 1
+                );
+            }
+        }
+    }
+}

@@ -501,7 +501,15 @@ pub fn round_of_shards(sweep: &Sweep, shards: &[std::path::PathBuf]) -> Result<O
     let behind: Vec<String> = rounds
         .iter()
         .filter(|r| r.0 != latest)
-        .map(|(r, s)| format!("{} (round {r})", s.display()))
+        .map(|(r, s)| {
+            // Its shard and the SLURM array task that runs it (tasks count from 0).
+            let shard = crate::store::hdf5::fit::read_attrs(s, &["shard"])
+                .and_then(|a| crate::grid::Shard::parse(&a[0], "shard").ok())
+                .map_or(String::new(), |sh| {
+                    format!("; shard {sh}, SLURM array task {}", sh.k - 1)
+                });
+            format!("{} (round {r}{shard})", s.display())
+        })
         .collect();
     if !behind.is_empty() {
         return Err(Error::Other(format!(

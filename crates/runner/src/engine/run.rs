@@ -318,6 +318,9 @@ pub fn run_sweep(
     sink: &mut dyn ProgressSink,
     stop: &AtomicBool,
 ) -> Result<RunReport> {
+    // Checked first: `--ensemble-round` is refused for every sweep that is not an adaptive
+    // ensemble run in shards, a search's or a periodic block's too.
+    let shard_round = super::ensemble::shard_round(sweep, opts)?;
     if sweep.periodic.is_some() {
         return super::periodic::run_periodic(sweep, grid, opts, sink, stop);
     }
@@ -325,7 +328,7 @@ pub fn run_sweep(
         let r = super::search::run_search(sweep, grid, opts, sink, stop)?;
         return Ok(RunReport::of_search(r));
     }
-    if let Some(k) = super::ensemble::shard_round(sweep, opts)? {
+    if let Some(k) = shard_round {
         // One round of an adaptive ensemble, this shard's part of it.
         *sweep = sweep.at_ensemble_round(k);
         *grid = Grid::new(sweep)?;

@@ -67,6 +67,23 @@ pub fn latin(shape: &[usize], n: usize) -> Vec<usize> {
         .collect()
 }
 
+/// The Latin assignment of an ensemble's grid (its last dimension the samples) to `n` shards by
+/// each sample's key instead of its index (the ensemble's `member_keys`): point `(i₁, …, m)` goes
+/// to shard `(i₁ + … + key(m)) mod n`. A sample's key stays the same as the rounds double the
+/// samples, where its index does not (a Sobol' design doubles the samples of each replicate, so
+/// an earlier replicate's samples move up), so each sample stays in its shard.
+pub fn latin_by_keys(shape: &[usize], keys: &[usize], n: usize) -> Vec<usize> {
+    let n = n.max(1);
+    let len: usize = shape.iter().product();
+    let last = shape.len() - 1;
+    (0..len)
+        .map(|i| {
+            let m = multi_index(shape, i);
+            (m[..last].iter().sum::<usize>() + keys[m[last]]) % n
+        })
+        .collect()
+}
+
 /// Greedy longest-processing-time assignment of points of costs `costs` to `n` shards (from 0):
 /// the costliest point first (equal costs in grid order), each to the shard with the least cost
 /// so far (the lower shard on a tie).
@@ -152,16 +169,17 @@ impl Assignment {
             },
             Some(Shard { n, .. }) => {
                 let costs = quantised_costs(sweep, grid);
-                let adaptive = sweep.ensemble.as_ref().is_some_and(|e| e.adaptive());
-                let shards = match sweep.continuation {
-                    Some(c) => assign_lines(&grid.shape, &costs, n, c.dim),
-                    // A round of an adaptive ensemble keeps the last round's samples: the Latin
-                    // assignment gives each of them the shard it had (its grid index along the
-                    // samples does not change as they double), so a shard's own file holds its
+                let adaptive = sweep.ensemble.as_ref().filter(|e| e.adaptive());
+                let shards = match (sweep.continuation, adaptive) {
+                    (Some(c), _) => assign_lines(&grid.shape, &costs, n, c.dim),
+                    // A round of an adaptive ensemble keeps the last round's samples, and each
+                    // keeps its shard (see `latin_by_keys`), so a shard's own file holds its
                     // earlier runs and it runs only the new samples. Costs may not choose: they
                     // are relative to the round's costliest sample.
-                    None if adaptive => latin(&grid.shape, n),
-                    None => assign(&grid.shape, &costs, n),
+                    (None, Some(e)) => {
+                        latin_by_keys(&grid.shape, &e.member_keys(sweep.ensemble_round), n)
+                    }
+                    (None, None) => assign(&grid.shape, &costs, n),
                 };
                 let shard_of = shards.into_iter().map(|s| s + 1).collect();
                 Assignment { shard_of, costs }

@@ -299,7 +299,7 @@ pub fn merge_script(r: &JobRequest, f: &JobFiles) -> String {
     }
     s += &format!(
         "{}{} merge -o {}",
-        if r.adaptive { "" } else { "exec " },
+        if r.adaptive { "merged=0\n" } else { "exec " },
         q(&r.binary),
         q(&r.output)
     );
@@ -307,7 +307,14 @@ pub fn merge_script(r: &JobRequest, f: &JobFiles) -> String {
         s += " \\\n    ";
         s += &q(p);
     }
-    s += "\n";
+    if r.adaptive {
+        s += " || merged=$?\n";
+        s += "# 3: some runs failed or are pending. Failed runs are part of the round, as on one machine;\n";
+        s += "# --next-round submits nothing while runs are pending (it exits 3 too).\n";
+        s += "[ \"$merged\" -eq 0 ] || [ \"$merged\" -eq 3 ] || exit \"$merged\"\n";
+    } else {
+        s += "\n";
+    }
     if r.adaptive {
         s += &format!(
             "exec {} slurm {} -o {} --shards {} --next-round\n",
@@ -354,9 +361,11 @@ pub fn write_job(r: &JobRequest) -> Result<JobFiles> {
         text.push('\n');
     }
     std::fs::write(&manifest, text).map_err(Error::io("write", &manifest))?;
-    // An adaptive ensemble starts at round 0; a job folder that has gone further keeps its round
-    // (its shards hold it, and merge refuses shards of different rounds).
-    if r.adaptive && !f.dir.join(ROUND_FILE).exists() {
+    // An adaptive ensemble starts at round 0, also in a job folder that has gone further: its
+    // shards resume their stored runs round by round (cheaply) and end where one machine ends,
+    // whatever the sweep file now asks (a tolerance changed since would otherwise start at a
+    // round one machine never reaches).
+    if r.adaptive {
         set_round(&f, 0)?;
     }
     Ok(f)
@@ -400,9 +409,33 @@ pub fn submit(files: &JobFiles) -> Result<(String, String)> {
     Ok((array, merge))
 }
 
+/// The round the job folder's array tasks run (see [`ROUND_FILE`]; 0 when it names none).
+pub fn folder_round(files: &JobFiles) -> usize {
+    std::fs::read_to_string(files.dir.join(ROUND_FILE))
+        .ok()
+        .and_then(|t| t.trim().parse().ok())
+        .unwrap_or(0)
+}
+
+/// The environment variables `sbatch` must not inherit: a job submitted from inside another job
+/// (an adaptive ensemble's merge job submits the next round) would otherwise take that job's
+/// `SLURM_*` settings, its one CPU among them (`SLURM_CPUS_PER_TASK`, which the array's tasks
+/// read for their parallel runs), and its `SBATCH_*` ones. `SLURM_CONF` names the cluster and
+/// is kept.
+fn inherited_job_variables(names: impl Iterator<Item = String>) -> Vec<String> {
+    names
+        .filter(|n| (n.starts_with("SLURM_") || n.starts_with("SBATCH_")) && n != "SLURM_CONF")
+        .collect()
+}
+
 /// `sbatch --parsable ARGS SCRIPT`: the job id.
 fn sbatch(args: &[String], script: &Path) -> Result<String> {
-    let out = std::process::Command::new("sbatch")
+    let mut cmd = std::process::Command::new("sbatch");
+    let names = std::env::vars_os().filter_map(|(k, _)| k.into_string().ok());
+    for name in inherited_job_variables(names) {
+        cmd.env_remove(name);
+    }
+    let out = cmd
         .arg("--parsable")
         .args(args)
         .arg(script)
@@ -519,11 +552,16 @@ mod tests {
             "{a}"
         );
         let m = merge_script(&r, &f);
-        // The merge must not `exec`: the next round is submitted after it, and only when it
-        // succeeded (`set -e`).
+        // The merge must not `exec`: the next round is submitted after it, when it merged (0)
+        // or some runs failed or are pending (3), never after an error.
         assert!(m.contains("set -eu\n"), "{m}");
         assert!(
-            m.contains("\n/opt/bin/chainsweep merge -o /res/out.h5"),
+            m.contains("\nmerged=0\n/opt/bin/chainsweep merge -o /res/out.h5"),
+            "{m}"
+        );
+        assert!(m.contains("shard-3-of-3.h5 || merged=$?\n"), "{m}");
+        assert!(
+            m.contains("[ \"$merged\" -eq 0 ] || [ \"$merged\" -eq 3 ] || exit \"$merged\"\n"),
             "{m}"
         );
         assert!(
@@ -536,11 +574,29 @@ mod tests {
             ..f
         };
         std::fs::create_dir_all(&dir).unwrap();
+        assert_eq!(folder_round(&f), 0, "no file: round 0");
         set_round(&f, 4).unwrap();
         assert_eq!(
             std::fs::read_to_string(dir.join(ROUND_FILE)).unwrap(),
             "4\n"
         );
+        assert_eq!(folder_round(&f), 4);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_job_submitted_from_a_job_does_not_inherit_its_settings_but_the_cluster() {
+        let names = [
+            "SLURM_CPUS_PER_TASK",
+            "SLURM_JOB_ID",
+            "SBATCH_PARTITION",
+            "SLURM_CONF",
+            "PATH",
+            "MY_SLURM_X",
+        ];
+        assert_eq!(
+            inherited_job_variables(names.iter().map(|s| s.to_string())),
+            ["SLURM_CPUS_PER_TASK", "SLURM_JOB_ID", "SBATCH_PARTITION"]
+        );
     }
 }

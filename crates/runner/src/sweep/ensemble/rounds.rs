@@ -162,6 +162,24 @@ impl EnsembleSpec {
         }
     }
 
+    /// A number for each sample of round `k` that it keeps in every later round: its block
+    /// (replicate, Saltelli block, Morris trajectory) plus its place in the block (sample, row,
+    /// step). A round doubles the blocks or the samples in each, and keeps the earlier samples
+    /// where they were in their block, so that this sum — unlike the sample's index, which grows
+    /// with the blocks before it — is the same from round to round: what a stable shard
+    /// assignment needs.
+    pub fn member_keys(&self, k: usize) -> Vec<usize> {
+        match self.layout(k) {
+            Layout::Replicates { per, replicates } => {
+                (0..per * replicates).map(|m| m / per + m % per).collect()
+            }
+            Layout::Saltelli { n } => (0..n * (self.inputs.len() + 2))
+                .map(|m| m / n + m % n)
+                .collect(),
+            Layout::Morris(steps) => steps.iter().map(|s| s.trajectory + s.step).collect(),
+        }
+    }
+
     /// Where each sample of round `k` lies in the design.
     pub fn layout(&self, k: usize) -> Layout {
         let (n, r) = self.round_size(k);
