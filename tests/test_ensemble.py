@@ -487,14 +487,20 @@ def test_an_ensemble_resumes_after_kill_and_runs_the_same_with_any_jobs(tmp_path
     assert_resume_and_merge_bitwise(path, ref, tmp_path)
 
 
-def test_an_adaptive_ensemble_resumes_round_by_round(tmp_path):
-    ens = {
+def adaptive_ensemble(**extra) -> dict:
+    """Sobol' 8 × 8 over stiffness and mass, adaptive: the lowest frequency's mean within 1 Hz."""
+    return {
         "inputs": [STIFFNESS, MASS],
         "samples": 8,
         "replicates": 8,
         "seed": 4,
         "statistics": [dict(F1, tolerance={"mean": 1.0})],
+        **extra,
     }
+
+
+def test_an_adaptive_ensemble_resumes_round_by_round(tmp_path):
+    ens = adaptive_ensemble()
     path, ref = ensemble_run(tmp_path, "ad", ens)
     with h5py.File(ref) as f:
         rounds = int(f.attrs["ensemble_round"])
@@ -523,13 +529,7 @@ def test_an_adaptive_ensemble_runs_in_shards_round_by_round_to_the_single_machin
     """Each shard runs one round (`--ensemble-round`); the merge of every shard's file of that
     round decides, as one machine does, whether another is due; the last merge is bitwise the
     single machine's file."""
-    ens = {
-        "inputs": [STIFFNESS, MASS],
-        "samples": 8,
-        "replicates": 8,
-        "seed": 4,
-        "statistics": [dict(F1, tolerance={"mean": 1.0})],
-    }
+    ens = adaptive_ensemble()
     path, ref = ensemble_run(tmp_path, "ad", ens)
     with h5py.File(ref) as f:
         last = int(f.attrs["ensemble_round"])
@@ -584,14 +584,7 @@ def test_an_adaptive_ensemble_runs_in_shards_round_by_round_to_the_single_machin
     ],
 )
 def test_a_round_without_a_shard_or_past_the_budget_exits_2_naming_the_option(tmp_path, args, says):
-    ens = {
-        "inputs": [STIFFNESS, MASS],
-        "samples": 8,
-        "replicates": 8,
-        "seed": 4,
-        "max_runs": 256,
-        "statistics": [dict(F1, tolerance={"mean": 1.0})],
-    }
+    ens = adaptive_ensemble(max_runs=256)
     path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
     r = run("run", path, "-o", tmp_path / "o.h5", *args)
     assert r.returncode == 2 and "--ensemble-round" in r.stderr and says in r.stderr, r.stderr
@@ -610,13 +603,7 @@ def test_a_round_without_a_shard_or_past_the_budget_exits_2_naming_the_option(tm
 
 
 def test_chainsweep_sweep_runs_a_shard_s_round_as_the_command_line_does(tmp_path):
-    ens = {
-        "inputs": [STIFFNESS, MASS],
-        "samples": 8,
-        "replicates": 8,
-        "seed": 4,
-        "statistics": [dict(F1, tolerance={"mean": 1.0})],
-    }
+    ens = adaptive_ensemble()
     path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
     cli = tmp_path / "cli.h5"
     r = run("run", path, "--shard", "1/2", "--ensemble-round", "1", "-o", cli, "--quiet")
@@ -643,8 +630,7 @@ def test_chainsweep_sweep_runs_a_shard_s_round_as_the_command_line_does(tmp_path
 def test_next_round_submits_nothing_when_the_last_round_s_tasks_wrote_no_shard_or_for_another_sweep(tmp_path):
     """`chainsweep slurm --next-round` (what an adaptive ensemble's merge job runs) without SLURM:
     what it decides before it would submit."""
-    ens = {"inputs": [STIFFNESS, MASS], "samples": 8, "replicates": 8, "seed": 4,
-           "statistics": [dict(F1, tolerance={"mean": 1.0})]}
+    ens = adaptive_ensemble()
     path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
     out = tmp_path / "ad.h5"
     r = run("slurm", path, "-o", out, "--shards", "2")

@@ -137,11 +137,10 @@ def test_an_adaptive_ensemble_s_rounds_follow_each_other_to_the_single_machine_s
     """An adaptive ensemble on SLURM: every array task runs the round its job folder names, and
     each merge job, once its round is merged, submits the next round while the statistics are not
     within their tolerances; the last merged file is bitwise the single machine's."""
-    from test_ensemble import F1, MASS, STIFFNESS, linear_chain
+    from test_ensemble import adaptive_ensemble, linear_chain
 
     env = slurm
-    ens = {"inputs": [STIFFNESS, MASS], "samples": 8, "replicates": 8, "seed": 4,
-           "statistics": [dict(F1, tolerance={"mean": 1.0})]}
+    ens = adaptive_ensemble()
     path = write_sweep(tmp_path / "ad.json", linear_chain(ens))
     out = tmp_path / "results" / "ad.h5"
     r = run("slurm", path, "-o", out, "--shards", "2", "--cpus-per-task", "1", "--time", "0:10:00",
