@@ -376,10 +376,10 @@ fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
         account: args.account.clone(),
         sbatch_args: args.sbatch_arg.clone(),
         binary,
-        adaptive: sweep.ensemble.as_ref().is_some_and(|e| e.adaptive()),
+        adaptive: sweep.adaptive_ensemble().is_some(),
     };
     if args.next_round {
-        return cmd_slurm_next_round(&req);
+        return cmd_slurm_next_round(&req, &sweep);
     }
     let files = slurm::write_job(&req)?;
     show::slurm_job(&req, &files);
@@ -392,7 +392,7 @@ fn cmd_slurm(args: &SlurmArgs) -> Result<i32> {
 
 /// `slurm --next-round`: the next round of an adaptive ensemble, when its merged file says one is
 /// due.
-fn cmd_slurm_next_round(req: &slurm::JobRequest) -> Result<i32> {
+fn cmd_slurm_next_round(req: &slurm::JobRequest, sweep: &chainsweep::sweep::Sweep) -> Result<i32> {
     if !req.adaptive {
         return Err(Error::input(
             "--next-round",
@@ -442,18 +442,19 @@ fn cmd_slurm_next_round(req: &slurm::JobRequest) -> Result<i32> {
             );
             Ok(EXIT_PARTIAL)
         }
-        ended => {
+        _ => {
+            // How it ended, and its statistics, as `status` of the file gives them.
             println!(
-                "the ensemble ended after round {} ({}, {} runs): {} holds its statistics",
+                "the ensemble ended after round {}: {} holds its statistics",
                 outcome.round,
-                match ended {
-                    "tolerance" => "every statistic within its tolerance",
-                    "budget" => "the next round would exceed ensemble.max_runs",
-                    _ => "a fixed size",
-                },
-                outcome.runs,
                 req.output.display()
             );
+            let at_round = sweep.at_ensemble_round(outcome.round);
+            if let Some(e) = engine::status::ensemble_of(&req.output, &at_round) {
+                for line in show::ensemble_lines(&e) {
+                    println!("{line}");
+                }
+            }
             Ok(EXIT_OK)
         }
     }

@@ -452,8 +452,7 @@ pub fn run_rounds(
 /// is not a shard of an adaptive ensemble; an input error naming `--ensemble-round` where it is
 /// given to any other run or names a round past the budget.
 pub fn shard_round(sweep: &Sweep, opts: &RunOptions) -> Result<Option<usize>> {
-    let adaptive = sweep.ensemble.as_ref().filter(|e| e.adaptive());
-    let (Some(e), Some(_)) = (adaptive, opts.shard) else {
+    let (Some(e), Some(_)) = (sweep.adaptive_ensemble(), opts.shard) else {
         return match opts.ensemble_round {
             None => Ok(None),
             Some(_) => Err(Error::input(
@@ -484,7 +483,7 @@ pub fn shard_round(sweep: &Sweep, opts: &RunOptions) -> Result<Option<usize>> {
 /// error naming the files of each round otherwise (the tasks behind are to be run again at the
 /// latest round). `None` for shards of any other sweep.
 pub fn round_of_shards(sweep: &Sweep, shards: &[std::path::PathBuf]) -> Result<Option<usize>> {
-    if !sweep.ensemble.as_ref().is_some_and(|e| e.adaptive()) {
+    if sweep.adaptive_ensemble().is_none() {
         return Ok(None);
     }
     let mut rounds: Vec<(usize, &std::path::PathBuf)> = Vec::new();

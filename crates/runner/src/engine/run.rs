@@ -334,7 +334,7 @@ pub fn run_sweep(
         *grid = Grid::new(sweep)?;
         return run_grid(sweep, grid, opts, sink, stop);
     }
-    if sweep.ensemble.as_ref().is_some_and(|e| e.adaptive()) {
+    if sweep.adaptive_ensemble().is_some() {
         check_output(&opts.output, opts.overwrite)?;
         let (report, _) = super::ensemble::run_rounds(sweep, opts, sink, stop, run_grid)?;
         *grid = Grid::new(sweep)?;

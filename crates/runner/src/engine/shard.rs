@@ -169,8 +169,7 @@ impl Assignment {
             },
             Some(Shard { n, .. }) => {
                 let costs = quantised_costs(sweep, grid);
-                let adaptive = sweep.ensemble.as_ref().filter(|e| e.adaptive());
-                let shards = match (sweep.continuation, adaptive) {
+                let shards = match (sweep.continuation, sweep.adaptive_ensemble()) {
                     (Some(c), _) => assign_lines(&grid.shape, &costs, n, c.dim),
                     // A round of an adaptive ensemble keeps the last round's samples, and each
                     // keeps its shard (see `latin_by_keys`), so a shard's own file holds its

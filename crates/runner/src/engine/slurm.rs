@@ -312,10 +312,6 @@ pub fn merge_script(r: &JobRequest, f: &JobFiles) -> String {
         s += "# 3: some runs failed or are pending. Failed runs are part of the round, as on one machine;\n";
         s += "# --next-round submits nothing while runs are pending (it exits 3 too).\n";
         s += "[ \"$merged\" -eq 0 ] || [ \"$merged\" -eq 3 ] || exit \"$merged\"\n";
-    } else {
-        s += "\n";
-    }
-    if r.adaptive {
         s += &format!(
             "exec {} slurm {} -o {} --shards {} --next-round\n",
             q(&r.binary),
@@ -323,6 +319,8 @@ pub fn merge_script(r: &JobRequest, f: &JobFiles) -> String {
             q(&r.output),
             r.shards
         );
+    } else {
+        s += "\n";
     }
     s
 }

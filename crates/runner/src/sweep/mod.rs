@@ -672,6 +672,11 @@ impl Sweep {
         self.shape().iter().product()
     }
 
+    /// Its ensemble when that is adaptive (a statistic with a tolerance): it runs in rounds.
+    pub fn adaptive_ensemble(&self) -> Option<&ensemble::EnsembleSpec> {
+        self.ensemble.as_ref().filter(|e| e.adaptive())
+    }
+
     /// The sweep with its ensemble's samples of round `k` (itself when it has no ensemble).
     pub fn at_ensemble_round(&self, k: usize) -> Sweep {
         let mut s = self.clone();

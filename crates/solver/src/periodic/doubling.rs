@@ -172,7 +172,7 @@ pub fn continue_period_doubled_stoppable(
             start,
             false,
             options,
-            (from - range, from + range),
+            doubled_bounds(options, from),
             stop,
             on_point,
         ));
@@ -204,9 +204,16 @@ pub fn resume_period_doubled(
 ) -> Result<Branch, SpecError> {
     options.validate(doubling)?;
     let doubled = doubled(periodic)?;
-    let range = (options.to - doubling).abs();
-    let bounds = (doubling - range, doubling + range);
+    let bounds = doubled_bounds(options, doubling);
     resume_within(scene_at, &doubled, options, bounds, last, stop, on_point)
+}
+
+/// Where the branch of twice the period from the doubling at `at` may go: within `|to − at|` of
+/// it on either side. One definition for the continuation and its resume, which must agree to
+/// the bit.
+fn doubled_bounds(options: &BranchOptions, at: f64) -> (f64, f64) {
+    let range = (options.to - at).abs();
+    (at - range, at + range)
 }
 
 /// The orbit options of the branch of twice the period that starts at a period doubling of a
