@@ -263,7 +263,7 @@ RUN_PAPER_SWEEPS = mkdir -p results; partial=""; \
 # profiles; the ensembles' distribution and Sobol' indices. About a minute and a half on two cores.
 EXAMPLE_SWEEPS := trimer tapered disordered precompressed dimer-impulse \
   dimer-minimum critical-damping-root fig08-refined fig08-surface alternating-dimer-minimum \
-  plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down driven-branches \
+  plastic-impact dimer-bands colliding-waves between-walls driven-sweep-up-down driven-branches dimer-breathers \
   dimer-transmission load-cell-impact fit-damping fit-striker-velocity fit-signal fit-spectrum \
   ensemble-tolerance ensemble-tolerance-monte-carlo ensemble-sensitivity
 

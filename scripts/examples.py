@@ -6,6 +6,7 @@ roots they found marked with their uncertainty.
 Run by `make examples` after it has run the sweeps; `python examples.py NAME…` draws only those.
 """
 
+import json
 import sys
 
 import matplotlib
@@ -477,6 +478,50 @@ def driven_branches():
     savefig(fig, "examples/driven-branches")
 
 
+def dimer_breathers():
+    """Breathers of a precompressed dimer in its gap, free orbits continued in frequency: the
+    centre light sphere's fundamental amplitude against the frequency, stable orbits solid,
+    unstable dashed, the optical band's edge marked; and the profiles (each particle's
+    fundamental amplitude, on a log scale) of three orbits, falling from the centre by the
+    linear chain's evanescent factor."""
+    ds = chainsweep.open(EXAMPLES / "dimer-breathers.h5")
+    base = json.loads(ds.attrs["base_scene"])
+    force = base["physics"]["precompression_force_n"]
+    law = base["chain"]["contacts"][0]["law"]["power_law"]["coefficient"]
+    light = base["chain"]["particles"]["light"]["sphere"]["mass_kg"]
+    k = 1.5 * law ** (2 / 3) * force ** (1 / 3)
+    edge = np.sqrt(2 * k / light) / (2 * np.pi)
+    n = int(ds["branch_points"])
+    f = ds["frequency_hz"].values[:n] / 1e3
+    amplitude = ds["orbit_amplitude"].values[:n, :, 0]
+    stable = ds["stability"].values[:n] == 1
+    centre = int(np.argmax(amplitude[0]))
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11, 4.2))
+    a = amplitude[:, centre] * 1e9
+    edges = np.flatnonzero(np.diff(stable.astype(int))) + 1
+    for lo, hi in zip(np.r_[0, edges], np.r_[edges, n]):
+        seg = slice(lo, min(hi + 1, n))
+        ax.plot(f[seg], a[seg], color="C0", lw=1.6, ls="-" if stable[lo] else "--", marker="o", ms=3)
+    ax.plot([], [], color="C0", lw=1.6, label="stable orbits")
+    ax.plot([], [], color="C0", lw=1.6, ls="--", label="unstable orbits")
+    ax.axvline(edge / 1e3, color="C3", lw=1, label="optical band's lower edge")
+    ax.set_xlabel("breather frequency (kHz)")
+    ax.set_ylabel(f"particle {centre + 1}'s fundamental amplitude (nm)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    particle = np.arange(1, amplitude.shape[1] + 1)
+    for j, colour in zip((0, n // 2, n - 1), ("C0", "C1", "C2")):
+        bx.semilogy(particle, amplitude[j] * 1e9, "o-", color=colour, ms=3, lw=0.8,
+                    label=f"{f[j]:.2f} kHz")
+    bx.set_xlabel("particle (1 at the top, light spheres even)")
+    bx.set_ylabel("fundamental amplitude (nm)")
+    bx.legend(fontsize=8)
+    bx.grid(alpha=0.3)
+    fig.suptitle("Breathers of a 20-cell steel dimer under 10 N, continued into its band gap", fontsize=10)
+    fig.tight_layout()
+    savefig(fig, "examples/dimer-breathers")
+
+
 def dimer_transmission():
     """The transmission through a precompressed sphere–cylinder dimer from its steady state, against
     the drive frequency, one panel per precompression, with the band gap record.spectrum gives
@@ -652,6 +697,7 @@ PLOTS = {
     "between-walls": between_walls,
     "driven-sweep-up-down": driven_sweep_up_down,
     "driven-branches": driven_branches,
+    "dimer-breathers": dimer_breathers,
     "dimer-transmission": dimer_transmission,
     "load-cell-impact": load_cell_impact,
     **{n: (lambda n=n: fit_figure(n)) for n in ("fit-damping", "fit-striker-velocity", "fit-signal", "fit-spectrum")},

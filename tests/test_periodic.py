@@ -228,6 +228,8 @@ def chirp(s):
          "periodic.field"),
         (lambda s: s.update(continuation={"axis": "amplitude_m"}), "periodic"),
         (lambda s: chirp(s), "base.excitation.drive.actuator_m"),
+        (lambda s: s["periodic"].update({"from": 2900.0}), "periodic.from"),
+        (lambda s: s["periodic"].pop("field"), "periodic.field"),
     ],
 )
 def test_bad_periodic_blocks_exit_2_naming_the_field(tmp_path, change, field):
@@ -344,3 +346,183 @@ def test_switch_at_a_period_doubling_stores_the_doubled_branch_and_resumes_bitwi
     r = run("run", write(tmp_path / "none.json", none), "-o", tmp_path / "none.h5")
     assert r.returncode == 3, r.stderr
     assert "no period doubling to switch at" in r.stderr, r.stderr
+
+
+STEEL = {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.28}
+BREATHERS = REPO / "sweeps" / "examples" / "dimer-breathers.json"
+
+
+def pressed_sphere(displacement_m: float, periodic: dict) -> dict:
+    """A steel sphere pressed on a wall by 10 N, no gravity, no damping, displaced from its
+    static position by `displacement_m` towards the wall: free orbits of every amplitude."""
+    return {
+        "description": "a pressed sphere's backbone",
+        "base": {
+            "chain": {
+                "particles": {"ball": {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085, "material": STEEL}}},
+                "sequence": ["ball"],
+                "wall_material": STEEL,
+            },
+            "physics": {"gravity": False, "damping_kg_s": 0.0, "wall": True, "precompression_force_n": 10.0},
+            "excitation": {"initial_state": {"particles": [{"particle": 1, "displacement_m": displacement_m}]}},
+            "duration_s": 1.0,
+            "integrator": {"method": "dop853", "rtol": 1e-12},
+        },
+        "record": {"probes": [{"kind": "displacement", "particle": 1}, {"kind": "wall_force"}],
+                   "preload": "subtract"},
+        "periodic": {"autonomous": True, "tolerance": 1e-10, "max_iterations": 30, **periodic},
+    }
+
+
+def test_a_pressed_sphere_s_free_orbits_follow_the_weakly_nonlinear_backbone(tmp_path):
+    """`autonomous`: the free orbits of a sphere pressed on a wall, continued in their frequency
+    from about a fifth of the static overlap down towards the linear frequency. Each orbit's
+    frequency shift against its fundamental amplitude `a` is that of the weakly nonlinear
+    oscillator the Hertz force gives about the static overlap δ₀ (Lindstedt–Poincaré,
+    `ω − ω₀ = −ω₀ a²/(24 δ₀²)`, the test of the solver's backbone), to the order it holds: the
+    relative error within ε² = (a/δ₀)² and falling with it; every orbit periodic, stable, the
+    frequencies those asked for."""
+    base = pressed_sphere(1e-9, {})["base"]
+    f0 = chainsweep.spectrum(base)["frequency_hz"][0]
+    w0 = 2 * np.pi * f0
+    # K = m ω₀² = (3/2) F/δ₀ for a Hertz contact under F.
+    delta0 = 1.5 * 10.0 / (0.002085 * w0**2)
+    sweep = pressed_sphere(0.2 * delta0, {"from": 13084.0, "to": 13105.0, "step": 1.0})
+    out = tmp_path / "backbone.h5"
+    r = run("run", write(tmp_path / "backbone.json", sweep), "-o", out)
+    assert r.returncode == 0, r.stderr
+    ds = chainsweep.open(out)
+    n = int(ds["branch_points"])
+    f = ds["frequency_hz"].values[:n]
+    assert n == 22 and np.allclose(f, np.arange(13084.0, 13105.5, 1.0), rtol=1e-14, atol=0)
+    assert str(ds["branch_end"].values) == "reached the end of the range at 13105 Hz"
+    kinds = ds["point_kind"].attrs["flag_meanings"].split()
+    assert [kinds[k] for k in ds["point_kind"].values[:n][[0, 1, -1]]] == ["start", "regular", "end"]
+    assert np.all(ds["stability"].values[:n] == 1)
+    # One particle: only the pair at +1, which `largest_multiplier` leaves out.
+    assert np.all(ds["largest_multiplier"].values[:n] == 0)
+    assert np.nanmax(ds["orbit_settledness"].values[:n, 0]) < 1e-8
+    a = ds["orbit_amplitude_m"].values[:n, 0, 0]
+    eps = a / delta0
+    shift = 2 * np.pi * f - w0
+    error = (shift + w0 * a**2 / (24 * delta0**2)) / shift
+    assert eps[0] > 0.18 and eps[-1] < 0.04, eps
+    assert np.all(np.abs(error) < eps**2), np.c_[eps, error]
+    # It falls with the amplitude: a tenth of ε², a tenth of the error (within a factor 2).
+    assert abs(error[-1]) < 0.2 * abs(error[0]) * (eps[-1] / eps[0]) ** 2 * 10
+    # The stored turning point is the static position plus the orbit's peak, about a - a²/(12δ₀).
+    peak = ds["orbit_position_m"].values[:n, 0] - delta0
+    assert np.all(np.abs(peak / a - 1) < eps / 10 + 1e-3), peak / a
+
+
+def test_shooting_that_falls_back_onto_the_static_state_ends_the_family_saying_so(tmp_path):
+    """The static state is an orbit of every period: a guess far from any orbit at that
+    frequency (a small displacement, 9 kHz against the sphere's 13.1 kHz) converges to it, which
+    is refused, not stored as an orbit: no first orbit, the family fails naming why."""
+    sweep = pressed_sphere(2e-8, {"from": 9000.0, "to": 8800.0})
+    out = tmp_path / "static.h5"
+    r = run("run", write(tmp_path / "static.json", sweep), "-o", out)
+    assert r.returncode == 3, r.stderr
+    assert "no first orbit" in r.stderr and "static state" in r.stderr, r.stderr
+    ds = chainsweep.open(out)
+    assert int(ds["branch_points"]) == 0 and int(ds["branch_status"]) == 2
+
+
+def breathers(to_hz: float) -> dict:
+    s = json.loads(BREATHERS.read_text())
+    s["periodic"]["to"] = to_hz
+    return s
+
+
+@pytest.fixture(scope="module")
+def breather_family(tmp_path_factory):
+    d = tmp_path_factory.mktemp("breathers")
+    path = write(d / "breathers.json", breathers(34030.0))
+    out = d / "breathers.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    return path, out
+
+
+def test_a_dimer_s_breathers_are_localised_on_their_sphere_and_grow_into_the_gap(breather_family):
+    """The example's breathers of a precompressed dimer (20 cells of an 8 mm and a 5 mm steel
+    sphere under 10 N), from 35.83 kHz, just below the optical band's edge √(2K/m), into the gap
+    by 200 Hz: each in the gap, centred on the middle cell's light sphere (particle 22),
+    symmetric about it, its amplitude growing as the frequency moves into the gap and its tails
+    falling faster; far from the centre the light spheres' amplitudes fall from cell to cell by
+    the linear dimer's evanescent factor exp(−κ) at the breather's frequency (its dispersion
+    relation at q = π + iκ)."""
+    _, out = breather_family
+    ds = chainsweep.open(out)
+    n = int(ds["branch_points"])
+    f = ds["frequency_hz"].values[:n]
+    assert n == 10 and f[0] == 35830.0 and f[-1] == 34030.0
+    k = 1.5 * 8e9 ** (2 / 3) * 10.0 ** (1 / 3)
+    m_heavy, m_light = 2.085e-3, 0.5e-3
+    w = 2 * np.pi * f
+    assert np.all((w > np.sqrt(2 * k / m_heavy)) & (w < np.sqrt(2 * k / m_light)))
+    amplitude = ds["orbit_amplitude"].values[:n, :, 0]
+    assert np.all(np.argmax(amplitude, axis=1) == 21)
+    # Symmetric about it, but for the chain's ends, a wall below and a free top above: nearest
+    # the band edge the breather spreads to them (its two sides differ by a percent there), and
+    # it detaches from them as it localises deeper in the gap.
+    asymmetry = np.abs(np.array([amplitude[:, 21 - d] / amplitude[:, 21 + d] - 1 for d in (2, 4, 6, 8)]))
+    assert np.all(asymmetry[:, 0] < 3e-2) and np.all(asymmetry[:2, 1:] < 1e-3), asymmetry
+    assert np.all(np.diff(asymmetry, axis=1) < 0), asymmetry
+    centre = amplitude[:, 21]
+    assert np.all(np.diff(centre) > 0), centre
+    assert np.all(np.diff(amplitude[:, 29] / centre) < 0)
+    # The linear dimer in its gap: ω² = K(1/m + 1/M) ± K √((1/m + 1/M)² − 4 sin²(q/2)/(mM)),
+    # sin²(q/2) = cosh²(κ/2) at q = π + iκ.
+    s = 1 / m_light + 1 / m_heavy
+    cosh2 = m_light * m_heavy / (4 * k**2) * (k**2 * s**2 - (w**2 - k * s) ** 2)
+    decay = np.exp(-2 * np.arccosh(np.sqrt(cosh2)))
+    # Five and six cells from the centre (particles 32 and 34), four from the free top: the
+    # tail's nonlinear part and what the end reflects fall as the breather localises, so the
+    # ratio approaches the linear chain's from a few percent near the edge to below 1e-3 at
+    # 34 kHz.
+    deviation = np.abs(amplitude[:, 33] / amplitude[:, 31] / decay - 1)
+    assert deviation[0] < 5e-2 and deviation[-1] < 1e-3, deviation
+    assert np.all(np.diff(deviation) < 0), deviation
+    assert np.all(ds["orbit_settledness"].values[:n] < 1e-3)
+
+
+def test_a_killed_breather_family_resumes_bitwise(breather_family, tmp_path):
+    path, reference = breather_family
+    out = tmp_path / "killed.h5"
+    kill_once_journaled(path, out, 4)
+    assert not out.exists()
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(reference, out)
+    r = run("status", out)
+    assert r.returncode == 0 and "10 point(s)" in r.stdout, r.stdout
+    r = run("run", path, "-o", tmp_path / "dry.h5", "--dry-run")
+    assert r.returncode == 0 and "10 orbits" in r.stdout, r.stdout
+
+
+def drive(s):
+    s["base"]["excitation"] = {"drive": {"force_n": {"harmonic": {"amplitude": 1.0, "frequency_hz": 30000.0}}}}
+
+
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        (lambda s: s["periodic"].update(field="physics.precompression_force_n"), "periodic.field"),
+        (lambda s: s["periodic"].pop("from"), "periodic.from"),
+        (lambda s: s["periodic"].update(switch="period_doubling"), "periodic.switch"),
+        (lambda s: s["periodic"].update(settle_periods=10), "periodic.settle_periods"),
+        (lambda s: s["periodic"].update(step=5000.0), "periodic.step"),
+        (lambda s: s["periodic"].update(max_points=5), "periodic.step"),
+        (lambda s: s["periodic"].update(to=35830.0), "periodic.to"),
+        (lambda s: s["base"]["physics"].update(damping_kg_s=1.0), "base.physics.damping_kg_s"),
+        (lambda s: drive(s), "base.excitation"),
+    ],
+)
+def test_bad_autonomous_blocks_exit_2_naming_the_field(tmp_path, change, field):
+    s = breathers(34030.0)
+    change(s)
+    path = write(tmp_path / "bad.json", s)
+    r = run("validate", path)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"`{field}" in r.stderr, r.stderr

@@ -9,15 +9,17 @@
 //! root of the distance, time integration settling on the doubled orbit to 1e-8) and
 //! subcritically where it leaves; a precompressed dimer's breather in the gap, centred on a light
 //! sphere, has tails that fall by the linear chain's evanescent factor `exp(−Im q)` to 1e-3; a
-//! pressed sphere's backbone follows the normal form `ω₀ (1 − A²/(24 δ₀²))` to its order; bad
-//! options name the field.
+//! pressed sphere's backbone follows the normal form `ω₀ (1 − A²/(24 δ₀²))` to its order; a
+//! family of free orbits resumed from its journaled orbits is bitwise the uninterrupted one, and
+//! the static state is refused as an orbit; bad options name the field.
 
 use chainsweep_solver::chain::drive::{DriveSpec, Harmonic, Waveform};
 use chainsweep_solver::chain::model::{Chain, PhysicsSpec};
 use chainsweep_solver::chain::sequence::SequenceSpec;
 use chainsweep_solver::periodic::{
     continue_autonomous, continue_branch, continue_period_doubled, period_doubling_vector,
-    AutonomousMap, BranchOptions, Monodromy, PeriodMap, PeriodicOptions, PointKind,
+    resume_autonomous, AutonomousMap, BranchOptions, Monodromy, PeriodMap, PeriodicOptions,
+    PointKind, ShootingError,
 };
 use chainsweep_solver::problems::complex::solve;
 use chainsweep_solver::problems::{monodisperse, power_law};
@@ -905,4 +907,65 @@ fn a_stopped_branch_resumes_from_its_last_point_bitwise() {
     )
     .unwrap_err();
     assert_eq!(err.field, "periodic");
+}
+
+/// A family of free orbits resumed after its first two orbits (as a sweep's journal resumes it)
+/// is bitwise the family continued without a stop; a set stop flag stops it before any orbit;
+/// a guess that Newton's method takes onto the static state (an orbit of every period) is
+/// refused, not returned as an orbit.
+#[test]
+fn a_resumed_family_of_free_orbits_is_the_uninterrupted_one_and_the_static_state_is_refused() {
+    let cells = 20;
+    let centre = 2 * (cells / 2) + 2;
+    let delta0 = (DIMER_FORCE / DIMER_A).powf(2.0 / 3.0);
+    let (a, e) = (0.6 * delta0, 0.61);
+    let guess = [
+        (centre, a),
+        (centre - 2, -e * a),
+        (centre + 2, -e * a),
+        (centre - 4, e * e * a),
+        (centre + 4, e * e * a),
+    ];
+    let map = AutonomousMap::new(&dimer(cells, &guess)).unwrap();
+    let frequencies = [35_830.0, 35_630.0, 35_430.0, 35_230.0, 35_030.0];
+    let (whole, end) =
+        continue_autonomous(&map, map.first_guess(), &frequencies, 1e-9, 30, &mut |_| {});
+    assert!(end.is_none(), "{end:?}");
+    let mut seen = 0;
+    let resumed = resume_autonomous(
+        &map,
+        map.first_guess(),
+        &whole[..2],
+        &frequencies[2..],
+        1e-9,
+        30,
+        None,
+        &mut |_| seen += 1,
+    );
+    assert!(!resumed.stopped && resumed.end.is_none() && seen == 3);
+    for (a, b) in whole[2..].iter().zip(&resumed.orbits) {
+        assert_eq!(a.positions, b.positions);
+        assert_eq!(a.multipliers, b.multipliers);
+        assert_eq!(a.period_s, b.period_s);
+    }
+    let stop = std::sync::atomic::AtomicBool::new(true);
+    let stopped = resume_autonomous(
+        &map,
+        map.first_guess(),
+        &whole[..2],
+        &frequencies[2..],
+        1e-9,
+        30,
+        Some(&stop),
+        &mut |_| unreachable!("stopped before any orbit"),
+    );
+    assert!(stopped.stopped && stopped.orbits.is_empty());
+    // Far from any orbit of that frequency (a tenth of the amplitude, 0.8 of the band edge):
+    // the breather's guess falls onto the static state.
+    let small: Vec<(usize, f64)> = guess.iter().map(|&(p, d)| (p, 0.1 * d)).collect();
+    let map = AutonomousMap::new(&dimer(cells, &small)).unwrap();
+    match map.shoot(map.first_guess(), 1.0 / 29_000.0, 1e-9, 30) {
+        Err(ShootingError::StaticState { motion }) => assert!(motion <= 1e-9, "{motion}"),
+        other => panic!("{:?}", other.map(|o| o.positions)),
+    }
 }

@@ -270,7 +270,7 @@ fn check_sections(mut file: SweepFile, well_formed: bool, errors: &mut Vec<Error
     let Some((base, _, auto)) = base else {
         return;
     };
-    let has_search = file.search.is_some() || file.ensemble.is_some();
+    let has_search = file.search.is_some() || file.ensemble.is_some() || file.periodic.is_some();
     match super::parse_dims(file.axes, &base, auto.is_some(), has_search, true) {
         Ok(dims) => {
             if let Err(e) = super::check_names_and_fields(&dims) {
@@ -283,6 +283,10 @@ fn check_sections(mut file: SweepFile, well_formed: bool, errors: &mut Vec<Error
                 }
             } else if let Some(en) = file.ensemble {
                 if let Err(e) = super::ensemble::parse(en, &mut base.clone(), &mut dims.clone()) {
+                    errors.push(e);
+                }
+            } else if let Some(p) = file.periodic {
+                if let Err(e) = super::periodic::parse(Some(p), &mut base.clone(), &dims, None) {
                     errors.push(e);
                 }
             }

@@ -549,7 +549,7 @@ impl Sweep {
         } else {
             None
         };
-        let periodic = periodic::parse(file.periodic, &base, &dims, other_goal)?;
+        let periodic = periodic::parse(file.periodic, &mut base, &dims, other_goal)?;
         let ensemble = file
             .ensemble
             .map(|e| ensemble::parse(e, &mut base, &mut dims))

@@ -1,12 +1,13 @@
 //! `periodic`: at every point of the axes, the branch of periodic orbits of the driven scene,
 //! continued in one scene field from the point's own value to `to`, with its stability and
-//! bifurcations ([`chainsweep_solver::periodic`]).
+//! bifurcations ([`chainsweep_solver::periodic`]); or, with `autonomous`, the family of free
+//! orbits of the conservative scene (breathers, backbone curves) continued in their frequency.
 
 use serde::Deserialize;
 use serde_json::Value;
 
 use chainsweep_solver::periodic::{
-    doubled_orbits, BranchOptions, Monodromy, PeriodMap, PeriodicOptions,
+    doubled_orbits, AutonomousMap, BranchOptions, Monodromy, PeriodMap, PeriodicOptions,
 };
 use chainsweep_solver::Scene;
 
@@ -20,14 +21,27 @@ use crate::error::{Error, Result};
 pub(super) struct PeriodicFile {
     /// The scene field continued, as a dotted path
     /// (`excitation.drive.actuator_m.harmonic.frequency_hz`): each branch starts at the base
-    /// scene's value of it (at each point of the axes).
-    field: String,
-    /// Its name in the output (default: the field's last part).
+    /// scene's value of it (at each point of the axes). Left out with `autonomous`.
+    #[serde(default)]
+    field: Option<String>,
+    /// `true`: not a driven branch but the free orbits of the conservative chain (no drive, no
+    /// damping, elastic contacts), set in motion by `excitation.initial_state`, whose
+    /// displacements are the first orbit's guess of its turning point: breathers, backbone
+    /// curves. They are continued in their own frequency from `from` to `to` by `step` Hz, each
+    /// shot on time-reversal symmetry from the two before it.
+    #[serde(default)]
+    autonomous: bool,
+    /// With `autonomous`: the first orbit's frequency, Hz.
+    #[serde(default)]
+    from: Option<f64>,
+    /// Its name in the output (default: the field's last part; `frequency_hz` with
+    /// `autonomous`).
     #[serde(default)]
     name: Option<String>,
     /// The value the branch ends at.
     to: f64,
-    /// First step of the field (default a fiftieth of the range).
+    /// First step of the field (default a fiftieth of the range); with `autonomous`, the step
+    /// between orbits' frequencies, Hz.
     #[serde(default)]
     step: Option<f64>,
     /// Smallest step before a branch gives up (default a ten-thousandth of the first step).
@@ -90,12 +104,29 @@ pub struct PeriodicSpec {
     pub branch: BranchOptions,
     /// The branch switched to at a bifurcation of the point's branch, when one is.
     pub switch: Option<Switch>,
+    /// The frequencies of the free orbits, in order, when the block continues autonomous orbits
+    /// (`branch.to` is then the last frequency's target and `orbit` holds the shooting's
+    /// tolerance and iterations).
+    pub autonomous: Option<Vec<f64>>,
 }
+
+/// The continued field's name and text where a block continues free orbits in their frequency.
+pub const AUTONOMOUS_FIELD: &str = "the free orbit's frequency";
 
 impl PeriodicSpec {
     /// The block in a sentence.
     pub fn describe(&self) -> String {
         use crate::error::number_text as num;
+        if let Some(f) = &self.autonomous {
+            return format!(
+                "free (autonomous) orbits of the conservative chain continued in their frequency ({}) from {} to {} Hz, {} orbits each, tolerance {}",
+                self.name,
+                num(f[0]),
+                num(f[f.len() - 1]),
+                f.len(),
+                num(self.orbit.tolerance)
+            );
+        }
         format!(
             "branches of periodic orbits continued in {} ({}) from its base value to {} {}{}, at most {} points each, {} drive period{} per orbit, tolerance {}",
             self.name,
@@ -146,12 +177,17 @@ impl PeriodicSpec {
         set_path(&mut v, &self.field, Value::from(value));
         from_value_at::<Scene>(v, "base")
     }
+
+    /// The scene of grid point `point` (its JSON) as it is: an `autonomous` block's.
+    pub fn scene_of(&self, point: &Value) -> Result<Scene> {
+        from_value_at::<Scene>(point.clone(), "base")
+    }
 }
 
 /// Checks `periodic` against the base scene and the axes; errors name `periodic.…`.
 pub(super) fn parse(
     file: Option<PeriodicFile>,
-    base: &Value,
+    base: &mut Value,
     dims: &[Dim],
     other_goal: Option<&str>,
 ) -> Result<Option<PeriodicSpec>> {
@@ -166,25 +202,54 @@ pub(super) fn parse(
             ),
         ));
     }
-    check_settable(base, &f.field).map_err(|m| Error::input("periodic.field", m))?;
-    if let Some(axis) = dims
-        .iter()
-        .flat_map(|d| &d.axes)
-        .find(|a| a.field == f.field)
-    {
-        return Err(Error::input(
-            "periodic.field",
-            format!(
-                "{:?} is set by the axis {:?}: a branch continues the field itself, so it cannot also be an axis",
-                f.field, axis.name
-            ),
-        ));
+    let field = match (&f.field, f.autonomous) {
+        (Some(_), true) => {
+            return Err(Error::input(
+                "periodic.field",
+                "free (`autonomous`) orbits are continued in their own frequency, not in a scene field: leave out `field`",
+            ))
+        }
+        (None, true) => AUTONOMOUS_FIELD.to_string(),
+        (Some(field), false) => field.clone(),
+        (None, false) => {
+            return Err(Error::input(
+                "periodic.field",
+                "is required: the scene field a driven branch continues (a dotted path), or `\"autonomous\": true` for the free orbits of a conservative chain",
+            ))
+        }
+    };
+    if !f.autonomous {
+        check_settable(base, &field).map_err(|m| Error::input("periodic.field", m))?;
+        if let Some(axis) = dims.iter().flat_map(|d| &d.axes).find(|a| a.field == field) {
+            return Err(Error::input(
+                "periodic.field",
+                format!(
+                    "{:?} is set by the axis {:?}: a branch continues the field itself, so it cannot also be an axis",
+                    field, axis.name
+                ),
+            ));
+        }
     }
-    let name = f.name.unwrap_or_else(|| field_name(&f.field));
+    let name = f.name.clone().unwrap_or_else(|| {
+        if f.autonomous {
+            "frequency_hz".to_string()
+        } else {
+            field_name(&field)
+        }
+    });
     if dims.iter().any(|d| d.axes.iter().any(|a| a.name == name)) {
         return Err(Error::input(
             "periodic.name",
             format!("{name:?} is already the name of an axis"),
+        ));
+    }
+    if f.autonomous {
+        return parse_autonomous(f, base, field, name).map(Some);
+    }
+    if f.from.is_some() {
+        return Err(Error::input(
+            "periodic.from",
+            "a driven branch starts at the base scene's value of `field`; `from` is the first frequency of `autonomous` orbits",
         ));
     }
     let defaults = PeriodicOptions::default();
@@ -202,12 +267,13 @@ pub(super) fn parse(
     branch.max_points = f.max_points.unwrap_or(branch.max_points);
     branch.locate_tolerance = f.locate_tolerance.unwrap_or(branch.locate_tolerance);
     let spec = PeriodicSpec {
-        units: units_of(&f.field),
-        field: f.field,
+        units: units_of(&field),
+        field,
         name,
         orbit,
         branch,
         switch: f.switch,
+        autonomous: None,
     };
     let from = spec.start(base)?;
     orbit
@@ -237,4 +303,125 @@ pub(super) fn parse(
         Error::input(field, e.message)
     })?;
     Ok(Some(spec))
+}
+
+/// Most frequencies of free orbits a block may ask for: `max_points`' own bound for driven
+/// branches.
+const MAX_AUTONOMOUS_ORBITS: u32 = 100_000;
+
+/// A `periodic` block with `autonomous`: the frequencies `from`, `from ± step`, … up to `to`
+/// (the last one `to` itself), the shooting's options; the base scene checked to have free
+/// orbits (an initial state, no drive, no damping, elastic contacts). Errors name the field.
+fn parse_autonomous(
+    f: PeriodicFile,
+    base: &mut Value,
+    field: String,
+    name: String,
+) -> Result<PeriodicSpec> {
+    // What continues a driven branch by pseudo-arclength and has no meaning here.
+    for (given, key) in [
+        (f.min_step.is_some(), "min_step"),
+        (f.max_step.is_some(), "max_step"),
+        (f.locate_tolerance.is_some(), "locate_tolerance"),
+        (f.periods.is_some(), "periods"),
+        (f.settle_periods.is_some(), "settle_periods"),
+        (f.monodromy.is_some(), "monodromy"),
+        (f.switch.is_some(), "switch"),
+    ] {
+        if given {
+            return Err(Error::input(
+                format!("periodic.{key}"),
+                "applies to driven branches (pseudo-arclength continuation of a driven orbit); free (`autonomous`) orbits are shot at the frequencies from `from` to `to` by `step`, with `tolerance` and `max_iterations`: leave it out",
+            ));
+        }
+    }
+    let positive = |value: Option<f64>, key: &str| -> Result<f64> {
+        match value {
+            Some(v) if v.is_finite() && v > 0.0 => Ok(v),
+            Some(v) => Err(Error::input(
+                format!("periodic.{key}"),
+                format!("must be a positive frequency in Hz, got {v}"),
+            )),
+            None => Err(Error::input(
+                format!("periodic.{key}"),
+                "is required with `autonomous`: the first orbit's frequency, Hz",
+            )),
+        }
+    };
+    let from = positive(f.from, "from")?;
+    let to = positive(Some(f.to), "to")?;
+    if to == from {
+        return Err(Error::input(
+            "periodic.to",
+            format!("must differ from `from` ({from} Hz)"),
+        ));
+    }
+    let range = (to - from).abs();
+    let step = match f.step {
+        None => range / 50.0,
+        Some(s) if s.is_finite() && s > 0.0 && s <= range => s,
+        Some(s) => {
+            return Err(Error::input(
+                "periodic.step",
+                format!("must be a frequency step in (0, |to − from|] = (0, {range}] Hz, got {s}"),
+            ))
+        }
+    };
+    let max_points = f.max_points.unwrap_or(BranchOptions::new(to).max_points);
+    if !(1..=MAX_AUTONOMOUS_ORBITS).contains(&max_points) {
+        return Err(Error::input(
+            "periodic.max_points",
+            format!("must lie in 1..={MAX_AUTONOMOUS_ORBITS}, got {max_points}"),
+        ));
+    }
+    // `from + k·step` towards `to`, then `to` itself unless the last step reached it (to a
+    // millionth of a step).
+    let sign = (to - from).signum();
+    let whole = (range / step * (1.0 + 1e-12)).floor() as u64;
+    let count = whole + 1 + u64::from(range - whole as f64 * step > 1e-6 * step);
+    if count > u64::from(max_points) {
+        return Err(Error::input(
+            "periodic.step",
+            format!(
+                "from {from} to {to} Hz by {step} Hz is {count} orbits, more than max_points ({max_points}): take a larger step or raise max_points"
+            ),
+        ));
+    }
+    let mut frequencies: Vec<f64> = (0..=whole).map(|k| from + sign * k as f64 * step).collect();
+    if count > whole + 1 {
+        frequencies.push(to);
+    }
+    let defaults = PeriodicOptions::default();
+    let orbit = PeriodicOptions {
+        tolerance: f.tolerance.unwrap_or(defaults.tolerance),
+        max_iterations: f.max_iterations.unwrap_or(defaults.max_iterations),
+        ..defaults
+    };
+    orbit
+        .validate()
+        .map_err(|e| Error::input(e.field, e.message))?;
+    // Each orbit's probes are analysed at its own frequency (over two of its periods): a
+    // `record.steady_state` given for its harmonics needs no frequency of its own.
+    if let Some(steady) = base
+        .pointer_mut("/record/steady_state")
+        .and_then(Value::as_object_mut)
+    {
+        steady
+            .entry("frequency_hz")
+            .or_insert_with(|| Value::from(from));
+    }
+    let scene = from_value_at::<Scene>(base.clone(), "base")?;
+    AutonomousMap::new(&scene).map_err(|e| Error::input(format!("base.{}", e.field), e.message))?;
+    let mut branch = BranchOptions::new(to);
+    branch.step = Some(step);
+    branch.max_points = max_points;
+    Ok(PeriodicSpec {
+        units: "Hz".to_string(),
+        field,
+        name,
+        orbit,
+        branch,
+        switch: None,
+        autonomous: Some(frequencies),
+    })
 }

@@ -2,12 +2,15 @@
 //! oscillations of a backbone curve, found at a fixed period by shooting on time-reversal
 //! symmetry and continued in frequency (the module docs of [`crate::periodic`] give the method).
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::IntegrationStats;
+use crate::observe::steady::SteadyStateSpec;
 use crate::periodic::dense::{self, Multiplier};
 use crate::periodic::shooting::{has_jacobian, integrate_variational, ShootingError};
-use crate::scene::solve::{state_scales, RunError};
-use crate::scene::{Excitation, Scene};
+use crate::scene::solve::{run, state_scales, RunError, RunOutput};
+use crate::scene::{Continuation, Excitation, Scene};
 
 /// The flow of an undriven, undissipative chain from a turning point (every velocity zero,
 /// positions `x`) and its sensitivity to those positions.
@@ -25,7 +28,8 @@ pub struct AutonomousMap {
 
 /// A periodic orbit of a conservative chain, symmetric in time about its turning point at
 /// `t = 0`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct AutonomousOrbit {
     /// The period `T`, s.
     pub period_s: f64,
@@ -34,13 +38,18 @@ pub struct AutonomousOrbit {
     /// Positions and velocities at `T/2`, the other turning point (velocities zero to the
     /// tolerance).
     pub half: Vec<f64>,
-    /// The monodromy matrix over the whole period, row-major `2N × 2N`.
+    /// The monodromy matrix over the whole period, row-major `2N × 2N` (left out of its
+    /// serialisation: what is kept of an orbit is its multipliers).
+    #[cfg_attr(feature = "serde", serde(skip))]
     pub monodromy: Vec<f64>,
     /// Its eigenvalues, largest modulus first: two at `+1` (a shift along the orbit and a change
     /// of its energy, i.e. of its frequency, are not damped), the others in pairs `μ`, `1/μ̄`.
     pub multipliers: Vec<Multiplier>,
     /// Newton iterations taken.
     pub iterations: u32,
+    /// Flows integrated with their variational equations (half periods, and the whole period
+    /// of the monodromy).
+    pub flows: u32,
     /// `max_i |v_i(T/2)| / s_i` at the orbit.
     pub residual: f64,
     /// Steps and evaluations of all the integrations.
@@ -99,6 +108,24 @@ impl AutonomousOrbit {
     pub fn stable(&self, tolerance: f64) -> bool {
         self.largest_nontrivial_multiplier() <= 1.0 + tolerance
     }
+
+    /// Whether the orbit is stable to the accuracy of its monodromy: [`Self::stable`] within the
+    /// larger of 1e-6 and [`Self::trivial_pair_error`] (the splitting of the pair at `+1`, a
+    /// Jordan block, bounds how far rounding and the tolerance move a simple multiplier).
+    pub fn stable_to_its_accuracy(&self) -> bool {
+        self.stable(self.trivial_pair_error().max(1e-6))
+    }
+}
+
+/// Where a family of autonomous orbits ended.
+#[derive(Debug, Clone)]
+pub struct AutonomousFamily {
+    /// The orbits found, in the order of the frequencies.
+    pub orbits: Vec<AutonomousOrbit>,
+    /// Why it stopped before the last frequency (the frequency and shooting's error), if it did.
+    pub end: Option<String>,
+    /// Whether the stop flag stopped it (it can be resumed from its last orbits).
+    pub stopped: bool,
 }
 
 impl AutonomousMap {
@@ -173,6 +200,35 @@ impl AutonomousMap {
         &self.chain
     }
 
+    /// The run of `scene`'s record (its probes; no histories) over two periods of `orbit` from
+    /// its turning point, with the steady-state analysis at the orbit's frequency over both: its
+    /// probes' harmonics, and in their settledness how far the second period departs from the
+    /// first (rounding and the tolerance, for an orbit that is periodic).
+    pub fn orbit_run(&self, scene: &Scene, orbit: &AutonomousOrbit) -> Result<RunOutput, RunError> {
+        let mut s = self.scene.clone();
+        s.record = scene.record.clone();
+        s.record.history = false;
+        let f = orbit.frequency_hz();
+        let mut spec = s
+            .record
+            .steady_state
+            .clone()
+            .unwrap_or_else(|| SteadyStateSpec::new(None, 0, 2));
+        spec.frequency_hz = Some(f);
+        spec.settle_periods = 0;
+        spec.window_periods = 2;
+        s.record.steady_state = Some(spec);
+        s.duration_s = 2.0 * orbit.period_s;
+        let n = self.n_particles();
+        let mut start = self.start.clone();
+        start[..n].copy_from_slice(&orbit.positions);
+        start[n..2 * n].fill(0.0);
+        s.continuation = Some(Continuation {
+            start_state: Some(start),
+        });
+        run(&s)
+    }
+
     /// Positions and velocities at `t` from the turning point `x` (every velocity zero), and
     /// `Φ = ∂(x, v)(t)/∂(x, v)(0)`, row-major `2N × 2N`, by the variational equations.
     pub fn flow(
@@ -214,11 +270,20 @@ impl AutonomousMap {
         };
         let mut x = x0.to_vec();
         let (mut y, mut phi, mut stats) = self.flow(&x, half_period)?;
+        let mut flows = 1;
         let mut residual = residual_of(&y);
         for iteration in 0.. {
             if residual <= tolerance {
+                // The static state satisfies v(T/2) = 0 at every period: not the orbit sought.
+                let motion = (0..n)
+                    .map(|i| 0.5 * (x[i] - y[i]).abs() / self.scales[i])
+                    .fold(0.0, f64::max);
+                if motion <= tolerance {
+                    return Err(ShootingError::StaticState { motion });
+                }
                 let (_, monodromy, s) = self.flow(&x, period_s)?;
                 stats.add(&s);
+                flows += 1;
                 let multipliers =
                     dense::multipliers(&monodromy, 2 * n).ok_or(ShootingError::Multipliers)?;
                 return Ok(AutonomousOrbit {
@@ -228,6 +293,7 @@ impl AutonomousMap {
                     monodromy,
                     multipliers,
                     iterations: iteration,
+                    flows,
                     residual,
                     stats,
                 });
@@ -251,6 +317,7 @@ impl AutonomousMap {
                 let trial: Vec<f64> = x.iter().zip(&dx).map(|(x, d)| x + lambda * d).collect();
                 let (ty, tphi, s) = self.flow(&trial, half_period)?;
                 stats.add(&s);
+                flows += 1;
                 let r = residual_of(&ty);
                 if r < residual || lambda < 0.05 {
                     (x, y, phi, residual) = (trial, ty, tphi, r);
@@ -276,9 +343,45 @@ pub fn continue_autonomous(
     max_iterations: u32,
     on_orbit: &mut dyn FnMut(&AutonomousOrbit),
 ) -> (Vec<AutonomousOrbit>, Option<String>) {
+    let family = resume_autonomous(
+        map,
+        first_guess,
+        &[],
+        frequencies_hz,
+        tolerance,
+        max_iterations,
+        None,
+        on_orbit,
+    );
+    (family.orbits, family.end)
+}
+
+/// [`continue_autonomous`] going on after the orbits `before` (the family's orbits found so far,
+/// in order; only the last two are used), through `frequencies_hz` (those still to do), checking
+/// `stop` before each orbit: the guesses, and so the orbits, are those the uninterrupted
+/// continuation makes. The family returned holds the new orbits only.
+#[allow(clippy::too_many_arguments)]
+pub fn resume_autonomous(
+    map: &AutonomousMap,
+    first_guess: &[f64],
+    before: &[AutonomousOrbit],
+    frequencies_hz: &[f64],
+    tolerance: f64,
+    max_iterations: u32,
+    stop: Option<&AtomicBool>,
+    on_orbit: &mut dyn FnMut(&AutonomousOrbit),
+) -> AutonomousFamily {
+    let mut last: Vec<AutonomousOrbit> = before[before.len().saturating_sub(2)..].to_vec();
     let mut orbits: Vec<AutonomousOrbit> = Vec::new();
     for &f in frequencies_hz {
-        let guess = match orbits.as_slice() {
+        if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+            return AutonomousFamily {
+                orbits,
+                end: None,
+                stopped: true,
+            };
+        }
+        let guess = match last.as_slice() {
             [] => first_guess.to_vec(),
             [a] => a.positions.clone(),
             [.., a, b] => {
@@ -293,10 +396,24 @@ pub fn continue_autonomous(
         match map.shoot(&guess, 1.0 / f, tolerance, max_iterations) {
             Ok(orbit) => {
                 on_orbit(&orbit);
+                if last.len() == 2 {
+                    last.remove(0);
+                }
+                last.push(orbit.clone());
                 orbits.push(orbit);
             }
-            Err(e) => return (orbits, Some(format!("at {f} Hz: {e}"))),
+            Err(e) => {
+                return AutonomousFamily {
+                    orbits,
+                    end: Some(format!("at {f} Hz: {e}")),
+                    stopped: false,
+                }
+            }
         }
     }
-    (orbits, None)
+    AutonomousFamily {
+        orbits,
+        end: None,
+        stopped: false,
+    }
 }

@@ -79,7 +79,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::spec::{spec_err, SpecError};
 
-pub use autonomous::{continue_autonomous, AutonomousMap, AutonomousOrbit};
+pub use autonomous::{
+    continue_autonomous, resume_autonomous, AutonomousFamily, AutonomousMap, AutonomousOrbit,
+};
 pub use branch::{
     continue_branch, continue_branch_from, continue_branch_stoppable, resume_branch, Branch,
     BranchOptions, BranchPoint, PointKind, Progress,

@@ -543,6 +543,11 @@ pub enum ShootingError {
     Singular,
     /// The QR iteration for the multipliers did not converge.
     Multipliers,
+    /// A free orbit's shooting converged to the static state, which is an orbit of every period.
+    StaticState {
+        /// The orbit's largest motion, `max_i |x_i(0) − x_i(T/2)| / 2s_i`.
+        motion: f64,
+    },
 }
 
 impl std::fmt::Display for ShootingError {
@@ -564,6 +569,10 @@ impl std::fmt::Display for ShootingError {
             ShootingError::Multipliers => write!(
                 f,
                 "the QR iteration for the Floquet multipliers did not converge"
+            ),
+            ShootingError::StaticState { motion } => write!(
+                f,
+                "shooting converged to the static state, an orbit of every period (largest motion {motion:.1e} of the position scales): start from a guess nearer the orbit sought, a larger displacement or a frequency nearer the one of its amplitude"
             ),
         }
     }

@@ -87,6 +87,23 @@ pub fn dry_run_periodic(sweep: &Sweep, output: &Path, d: &PeriodicDryRun) {
         d.ended,
         output.display()
     );
+    if spec.autonomous.is_some() {
+        outln!(
+            "pilot at {} = {} Hz from the first guess: an orbit period {:.3e} s with its monodromy, {:.3e} s without",
+            spec.name,
+            num(d.from),
+            d.seconds_per_map.0,
+            d.seconds_per_map.1
+        );
+        outln!(
+            "estimated cost: about {:.3e} CPU-seconds for the {} famil{} left, each of {} orbits (less where shooting fails and a family ends early)",
+            d.most_cpu_seconds,
+            d.branches - d.ended,
+            if d.branches - d.ended == 1 { "y" } else { "ies" },
+            d.max_points
+        );
+        return;
+    }
     outln!(
         "pilot at {} = {} {}: settling the first guess {:.3e} s, a period map {:.3e} s with its monodromy ({}), {:.3e} s without",
         spec.name,

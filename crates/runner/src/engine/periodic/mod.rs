@@ -13,15 +13,17 @@
 //! orbit is a function of that orbit and the options alone, so the points it gives are bitwise
 //! those an uninterrupted run gives. The stop flag stops each branch after the orbit it is
 //! computing. The output file is written from the journals, to a temporary file renamed over it.
+//!
+//! A block with `autonomous` journals the free orbits of its family the same way, one line per
+//! orbit ([`Entry::Free`]); it goes on after the last two the journal holds
+//! ([`resume_autonomous`]), whose guess for the next orbit is made from them alone.
 
-use std::fs::{self, File, OpenOptions};
-use std::io::{BufRead, BufReader, Write};
+use std::fs::{self, OpenOptions};
+use std::io::Write;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
-use sha2::{Digest, Sha256};
 
 use chainsweep_solver::observe::steady::SteadyProbe;
 use chainsweep_solver::periodic::{
@@ -43,101 +45,11 @@ use crate::store::lock_work_dir;
 use crate::sweep::periodic::{PeriodicSpec, Switch};
 use crate::sweep::Sweep;
 
-/// One line of a branch's journal.
-#[derive(Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-enum Entry {
-    /// What the journal is the branch of.
-    Identity { hash: String },
-    /// An accepted orbit, with the run of two orbit periods from it (`None`: that run failed,
-    /// with why).
-    Point {
-        point: Box<BranchPoint>,
-        probes: Option<Vec<SteadyProbe>>,
-        max: Option<Vec<f64>>,
-        run_error: Option<String>,
-    },
-    /// How the branch ended.
-    End {
-        end: String,
-        warnings: Vec<String>,
-        maps: u64,
-    },
-    /// No first orbit: why.
-    Failed { reason: String },
-    /// Where the branch switched to starts (`switch: period_doubling`): the field's value at the
-    /// period doubling of the point's branch, located exactly as the continuation locates it.
-    Doubling { parameter: f64 },
-}
+mod free;
+mod journal;
 
-/// A branch as its journal holds it.
-#[derive(Default)]
-struct Journal {
-    doubling: Option<f64>,
-    points: Vec<Entry>,
-    end: Option<Entry>,
-}
-
-fn line_of(entry: &Entry) -> String {
-    let json = serde_json::to_string(entry).expect("a journal entry serialises");
-    format!("{} {json}\n", checksum(&json))
-}
-
-fn checksum(text: &str) -> String {
-    let sum = Sha256::digest(text.as_bytes());
-    sum[..8].iter().map(|b| format!("{b:02x}")).collect()
-}
-
-/// The journal at `path` if it is this branch's (`identity`): its lines up to the first that
-/// does not read back (a torn tail, a damaged line: what follows it is never read); `None` when
-/// absent or another sweep's.
-fn read_journal(path: &Path, identity: &str) -> Option<Journal> {
-    let file = File::open(path).ok()?;
-    let mut journal = Journal::default();
-    let mut first = true;
-    for line in BufReader::new(file).lines() {
-        let Some(entry) = line.ok().and_then(|line| {
-            let (sum, json) = line.split_once(' ')?;
-            (checksum(json) == sum)
-                .then(|| serde_json::from_str::<Entry>(json).ok())
-                .flatten()
-        }) else {
-            break;
-        };
-        match entry {
-            Entry::Identity { hash } => {
-                if !first || hash != identity {
-                    return None;
-                }
-            }
-            _ if first => return None,
-            Entry::Doubling { parameter } => journal.doubling = Some(parameter),
-            Entry::Point { .. } => journal.points.push(entry),
-            Entry::End { .. } | Entry::Failed { .. } => {
-                journal.end = Some(entry);
-                break;
-            }
-        }
-        first = false;
-    }
-    (!first).then_some(journal)
-}
-
-/// What identifies branch `index`: the sweep's text, the point's scene and the engine's versions.
-fn identity(sweep: &Sweep, grid: &Grid, index: usize) -> String {
-    let mut h = Sha256::new();
-    for part in [
-        sweep.text.as_str(),
-        &grid.point_value(sweep, index).to_string(),
-        crate::ENGINE_VERSION,
-        crate::SOLVER_VERSION,
-        &crate::NUMERICS_VERSION.to_string(),
-    ] {
-        h.update(part.as_bytes());
-        h.update([0]);
-    }
-    h.finalize().iter().map(|b| format!("{b:02x}")).collect()
-}
+use free::{dry_run_free, free_family, stored_free_point};
+use journal::{identity, line_of, read_journal, Entry, Journal};
 
 /// The journals' folder in the work directory.
 const JOURNALS: &str = "periodic";
@@ -163,7 +75,11 @@ fn compute(
     let keep = journal
         .points
         .iter()
-        .rposition(|e| matches!(e, Entry::Point { point, .. } if !point.kind.is_special()))
+        .rposition(|e| match e {
+            Entry::Point { point, .. } => !point.kind.is_special(),
+            Entry::Free { .. } => true,
+            _ => false,
+        })
         .map_or(0, |k| k + 1);
     journal.points.truncate(keep);
     journal.end = None;
@@ -192,6 +108,15 @@ fn compute(
         file.sync_data().map_err(io)
     };
     let point = grid.point_value(sweep, index);
+    if let Some(frequencies) = &spec.autonomous {
+        let Some(end) = free_family(spec, &point, frequencies, &mut journal, &mut write, stop)?
+        else {
+            return Ok(journal);
+        };
+        write(&end)?;
+        journal.end = Some(end);
+        return Ok(journal);
+    }
     let from = spec.start(&point)?;
     let scene_at = |p: f64| {
         spec.scene_at(&point, p).map_err(|e| match e {
@@ -485,7 +410,7 @@ pub fn run_periodic(
     let harmonics = sweep_harmonics(sweep);
     let branches: Vec<StoredBranch> = journals
         .iter()
-        .map(|j| stored_branch(j.as_ref(), grid.probes.len(), harmonics))
+        .map(|j| stored_branch(spec, j.as_ref(), grid.probes.len(), harmonics))
         .collect();
     let particles = branches
         .iter()
@@ -572,7 +497,12 @@ fn sweep_harmonics(sweep: &Sweep) -> usize {
 }
 
 /// A journal as stored (`None`: pending).
-fn stored_branch(j: Option<&Journal>, probes: usize, harmonics: usize) -> StoredBranch {
+fn stored_branch(
+    spec: &PeriodicSpec,
+    j: Option<&Journal>,
+    probes: usize,
+    harmonics: usize,
+) -> StoredBranch {
     let Some(j) = j else {
         return StoredBranch {
             status: BRANCH_PENDING,
@@ -592,6 +522,19 @@ fn stored_branch(j: Option<&Journal>, probes: usize, harmonics: usize) -> Stored
                 ..
             } => Some(stored_point(
                 point,
+                steady.as_deref(),
+                max.as_deref(),
+                probes,
+                harmonics,
+            )),
+            Entry::Free {
+                orbit,
+                probes: steady,
+                max,
+                ..
+            } => Some(stored_free_point(
+                spec,
+                orbit,
                 steady.as_deref(),
                 max.as_deref(),
                 probes,
@@ -637,7 +580,7 @@ fn stored_point(
 ) -> StoredPoint {
     let o = &p.orbit;
     let n = o.state.len() / 2;
-    let mut s = StoredPoint {
+    let s = StoredPoint {
         parameter: p.parameter,
         kind: 1 + p.kind.code(),
         stability: if o.stable() { 1 } else { 2 },
@@ -660,6 +603,16 @@ fn stored_point(
         max: max.map_or(vec![f64::NAN; probes], <[f64]>::to_vec),
         settledness: vec![f64::NAN; probes],
     };
+    with_probes(s, steady, probes, harmonics)
+}
+
+/// `s` with each probe's harmonics, mean, rms and settledness from the orbit's run.
+pub(super) fn with_probes(
+    mut s: StoredPoint,
+    steady: Option<&[SteadyProbe]>,
+    probes: usize,
+    harmonics: usize,
+) -> StoredPoint {
     if let Some(steady) = steady {
         for (i, q) in steady.iter().enumerate().take(probes) {
             for k in 0..harmonics.min(q.amplitude.len()) {
@@ -716,6 +669,9 @@ pub fn dry_run(sweep: &Sweep, grid: &Grid, output: &Path) -> Result<PeriodicDryR
         })
         .count();
     let point = grid.point_value(sweep, 0);
+    if let Some(frequencies) = &spec.autonomous {
+        return dry_run_free(spec, &point, frequencies, n, ended);
+    }
     let from = spec.start(&point)?;
     let scene = spec.scene_at(&point, from)?;
     let map = PeriodMap::new(&scene, &spec.orbit).map_err(|e| Error::input(e.field, e.message))?;

@@ -1,0 +1,229 @@
+//! An `autonomous` block's families: the free orbits of the conservative scene at each grid
+//! point, continued in their frequency ([`resume_autonomous`]), journaled one line per orbit, and
+//! stored in the driven branches' layout.
+
+use std::sync::atomic::AtomicBool;
+
+use chainsweep_solver::observe::steady::SteadyProbe;
+use chainsweep_solver::periodic::{
+    resume_autonomous, AutonomousMap, AutonomousOrbit, Monodromy, PointKind,
+};
+
+use super::journal::{Entry, Journal};
+use super::{with_probes, PeriodicDryRun};
+use crate::error::{Error, Result};
+use crate::store::hdf5::periodic::StoredPoint;
+use crate::sweep::periodic::PeriodicSpec;
+
+/// The family of free orbits of grid point `point` at `frequencies`, after those `journal` holds
+/// (each new one journaled by `write` and pushed onto it): how it ended, `None` when `stop`
+/// stopped it.
+pub(super) fn free_family(
+    spec: &PeriodicSpec,
+    point: &serde_json::Value,
+    frequencies: &[f64],
+    journal: &mut Journal,
+    write: &mut dyn FnMut(&Entry) -> Result<()>,
+    stop: &AtomicBool,
+) -> Result<Option<Entry>> {
+    let scene = spec.scene_of(point)?;
+    let map = match AutonomousMap::new(&scene) {
+        Ok(map) => map,
+        Err(e) => {
+            return Ok(Some(Entry::Failed {
+                reason: e.to_string(),
+            }))
+        }
+    };
+    let before: Vec<AutonomousOrbit> = journal
+        .points
+        .iter()
+        .filter_map(|e| match e {
+            Entry::Free { orbit, .. } => Some(orbit.as_ref().clone()),
+            _ => None,
+        })
+        .collect();
+    let mut failure: Option<Error> = None;
+    let family = resume_autonomous(
+        &map,
+        map.first_guess(),
+        &before,
+        &frequencies[before.len().min(frequencies.len())..],
+        spec.orbit.tolerance,
+        spec.orbit.max_iterations,
+        Some(stop),
+        &mut |orbit| {
+            if failure.is_some() {
+                return;
+            }
+            let entry = free_entry(&map, &scene, orbit);
+            if let Err(e) = write(&entry) {
+                failure = Some(e);
+            }
+            journal.points.push(entry);
+        },
+    );
+    if let Some(e) = failure {
+        return Err(e);
+    }
+    if family.stopped {
+        return Ok(None);
+    }
+    let orbits = journal.points.len();
+    // Flows of the orbits found, journaled or new: the same whether or not it was resumed.
+    let flows: u64 = journal
+        .points
+        .iter()
+        .map(|e| match e {
+            Entry::Free { orbit, .. } => u64::from(orbit.flows),
+            _ => 0,
+        })
+        .sum();
+    Ok(Some(match family.end {
+        None => Entry::End {
+            end: format!("reached the end of the range at {} Hz", spec.branch.to),
+            warnings: Vec::new(),
+            maps: flows,
+        },
+        Some(reason) if orbits == 0 => Entry::Failed {
+            reason: format!("no first orbit: shooting failed {reason}"),
+        },
+        Some(reason) => Entry::End {
+            end: format!("shooting failed {reason}: the family ends at the orbit before"),
+            warnings: Vec::new(),
+            maps: flows,
+        },
+    }))
+}
+
+/// The journal entry of a free orbit: the orbit and the run of two orbit periods from it.
+pub(super) fn free_entry(
+    map: &AutonomousMap,
+    scene: &chainsweep_solver::Scene,
+    orbit: &AutonomousOrbit,
+) -> Entry {
+    let mut kept = orbit.clone();
+    kept.monodromy = Vec::new();
+    match map.orbit_run(scene, orbit) {
+        Ok(out) => Entry::Free {
+            orbit: Box::new(kept),
+            probes: out.steady_state.map(|s| s.probes),
+            max: Some(out.probes.iter().map(|s| s.record_max).collect()),
+            run_error: None,
+        },
+        Err(e) => Entry::Free {
+            orbit: Box::new(kept),
+            probes: None,
+            max: None,
+            run_error: Some(e.to_string()),
+        },
+    }
+}
+
+/// A free orbit as stored: its kind by its place in the family (the first `start`, one at the
+/// last frequency `end`), its stability to the accuracy of its monodromy, and as its largest
+/// multiplier the largest but the pair at `+1` that every free orbit has; its arclength the
+/// distance in frequency from the first orbit over the range.
+pub(super) fn stored_free_point(
+    spec: &PeriodicSpec,
+    o: &AutonomousOrbit,
+    steady: Option<&[SteadyProbe]>,
+    max: Option<&[f64]>,
+    probes: usize,
+    harmonics: usize,
+) -> StoredPoint {
+    let frequencies = spec.autonomous.as_deref().unwrap_or_default();
+    let (first, last) = (
+        frequencies.first().copied().unwrap_or(f64::NAN),
+        frequencies.last().copied().unwrap_or(f64::NAN),
+    );
+    let f = o.frequency_hz();
+    // The frequency each orbit was shot at is 1/(1/f): the list's value to a rounding.
+    let at = |target: f64| (f - target).abs() <= 1e-12 * target;
+    let kind = if at(first) {
+        PointKind::Start
+    } else if at(last) {
+        PointKind::End
+    } else {
+        PointKind::Regular
+    };
+    let n = o.positions.len();
+    let s = StoredPoint {
+        parameter: f,
+        kind: 1 + kind.code(),
+        stability: if o.stable_to_its_accuracy() { 1 } else { 2 },
+        largest_multiplier: o.largest_nontrivial_multiplier(),
+        multipliers: o.multipliers.clone(),
+        position_m: o.positions.clone(),
+        velocity_m_s: vec![0.0; n],
+        arclength: (f - first).abs() / (last - first).abs(),
+        iterations: i64::from(o.iterations),
+        maps: i64::from(o.flows),
+        method: 1,
+        residual: o.residual,
+        amplitude: vec![f64::NAN; probes * harmonics],
+        phase_rad: vec![f64::NAN; probes * harmonics],
+        mean: vec![f64::NAN; probes],
+        rms: vec![f64::NAN; probes],
+        max: max.map_or(vec![f64::NAN; probes], <[f64]>::to_vec),
+        settledness: vec![f64::NAN; probes],
+    };
+    with_probes(s, steady, probes, harmonics)
+}
+
+/// Orbit periods a free orbit costs with its monodromy (about three Newton iterations of half a
+/// period, then the whole period) and without (the two periods of its run).
+const PERIODS_PER_FREE_ORBIT: (f64, f64) = (2.5, 2.0);
+
+/// The budget of an `autonomous` block's families: a pilot at the first frequency from the
+/// first guess (one period with its monodromy, two without), times the orbits of each family.
+pub(super) fn dry_run_free(
+    spec: &PeriodicSpec,
+    point: &serde_json::Value,
+    frequencies: &[f64],
+    branches: usize,
+    ended: usize,
+) -> Result<PeriodicDryRun> {
+    let scene = spec.scene_of(point)?;
+    let map = AutonomousMap::new(&scene)
+        .map_err(|e| Error::input(format!("base.{}", e.field), e.message))?;
+    let from = frequencies[0];
+    let period = 1.0 / from;
+    let pilot = |what: &str, e: &dyn std::fmt::Display| {
+        Error::input(
+            "periodic",
+            format!("{what} at {from} Hz from the first guess: {e}"),
+        )
+    };
+    let started = std::time::Instant::now();
+    map.flow(map.first_guess(), period)
+        .map_err(|e| pilot("the first orbit period with its monodromy", &e))?;
+    let mono = started.elapsed().as_secs_f64();
+    let guess = AutonomousOrbit {
+        period_s: period,
+        positions: map.first_guess().to_vec(),
+        half: Vec::new(),
+        monodromy: Vec::new(),
+        multipliers: Vec::new(),
+        iterations: 0,
+        flows: 0,
+        residual: f64::NAN,
+        stats: Default::default(),
+    };
+    let started = std::time::Instant::now();
+    map.orbit_run(&scene, &guess)
+        .map_err(|e| pilot("two orbit periods", &e))?;
+    let plain = 0.5 * started.elapsed().as_secs_f64();
+    let per_orbit = PERIODS_PER_FREE_ORBIT.0 * mono + PERIODS_PER_FREE_ORBIT.1 * plain;
+    Ok(PeriodicDryRun {
+        branches,
+        ended,
+        max_points: frequencies.len() as u32,
+        from,
+        to: spec.branch.to,
+        monodromy: Monodromy::Variational.name(),
+        seconds_per_map: (mono, plain),
+        settle_seconds: 0.0,
+        most_cpu_seconds: (branches - ended) as f64 * frequencies.len() as f64 * per_orbit,
+    })
+}
