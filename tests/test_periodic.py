@@ -415,15 +415,23 @@ def test_a_pressed_sphere_s_free_orbits_follow_the_weakly_nonlinear_backbone(tmp
     assert np.all(np.abs(peak / a - 1) < eps / 10 + 1e-3), peak / a
 
 
-def test_shooting_that_falls_back_onto_the_static_state_ends_the_family_saying_so(tmp_path):
-    """The static state is an orbit of every period: a guess far from any orbit at that
-    frequency (a small displacement, 9 kHz against the sphere's 13.1 kHz) converges to it, which
-    is refused, not stored as an orbit: no first orbit, the family fails naming why."""
-    sweep = pressed_sphere(2e-8, {"from": 9000.0, "to": 8800.0})
-    out = tmp_path / "static.h5"
-    r = run("run", write(tmp_path / "static.json", sweep), "-o", out)
+@pytest.mark.parametrize(
+    "displacement_m, from_hz, what",
+    [(2e-8, 9000.0, "static state"), (2.1e-7, 13084.0 / 3, "fraction of the period")],
+)
+def test_shooting_onto_the_static_state_or_a_faster_orbit_ends_the_family_saying_so(
+    tmp_path, displacement_m, from_hz, what
+):
+    """Two solutions of `v(T/2) = 0` are not free orbits of frequency 1/T: the static state, an
+    orbit of every period (a small displacement at 9 kHz, far from any orbit there: the sphere's
+    runs at 13.1 kHz), and an orbit of period T/3, which turns at T/2 too (the 13 084 Hz orbit
+    of a fifth of the static overlap, shot at a third of its frequency). Each is refused, not
+    stored as an orbit: no first orbit, the family fails naming why."""
+    sweep = pressed_sphere(displacement_m, {"from": from_hz, "to": from_hz - 200.0})
+    out = tmp_path / "refused.h5"
+    r = run("run", write(tmp_path / "refused.json", sweep), "-o", out)
     assert r.returncode == 3, r.stderr
-    assert "no first orbit" in r.stderr and "static state" in r.stderr, r.stderr
+    assert "no first orbit" in r.stderr and what in r.stderr, r.stderr
     ds = chainsweep.open(out)
     assert int(ds["branch_points"]) == 0 and int(ds["branch_status"]) == 2
 
@@ -514,6 +522,8 @@ def drive(s):
         (lambda s: s["periodic"].update(settle_periods=10), "periodic.settle_periods"),
         (lambda s: s["periodic"].update(step=5000.0), "periodic.step"),
         (lambda s: s["periodic"].update(max_points=5), "periodic.step"),
+        (lambda s: s["periodic"].update(step=1e-18), "periodic.step"),
+        (lambda s: s["periodic"].update(to=0.01, step=5000.0), "periodic.to"),
         (lambda s: s["periodic"].update(to=35830.0), "periodic.to"),
         (lambda s: s["base"]["physics"].update(damping_kg_s=1.0), "base.physics.damping_kg_s"),
         (lambda s: drive(s), "base.excitation"),

@@ -3,12 +3,15 @@
 //! bifurcations ([`chainsweep_solver::periodic`]); or, with `autonomous`, the family of free
 //! orbits of the conservative scene (breathers, backbone curves) continued in their frequency.
 
+use std::f64::consts::TAU;
+
 use serde::Deserialize;
 use serde_json::Value;
 
 use chainsweep_solver::periodic::{
     doubled_orbits, AutonomousMap, BranchOptions, Monodromy, PeriodMap, PeriodicOptions,
 };
+use chainsweep_solver::spectrum::LinearChain;
 use chainsweep_solver::Scene;
 
 use super::paths::{check_settable, field_name, from_value_at, lookup, set_path, units_of};
@@ -305,9 +308,13 @@ pub(super) fn parse(
     Ok(Some(spec))
 }
 
-/// Most frequencies of free orbits a block may ask for: `max_points`' own bound for driven
-/// branches.
-const MAX_AUTONOMOUS_ORBITS: u32 = 100_000;
+/// Most orbits of a family a block may ask for (`max_points`), as for a driven branch.
+const MAX_AUTONOMOUS_ORBITS: u32 = 20_000;
+
+/// The lowest frequency of a free orbit, relative to the chain's lowest linear frequency: an
+/// orbit slower than this is one of a chain flung far from its static state, and each of its
+/// periods would take millions of the chain's own steps.
+const MIN_FREE_FREQUENCY_RATIO: f64 = 1e-3;
 
 /// A `periodic` block with `autonomous`: the frequencies `from`, `from ± step`, … up to `to`
 /// (the last one `to` itself), the shooting's options; the base scene checked to have free
@@ -374,22 +381,36 @@ fn parse_autonomous(
             format!("must lie in 1..={MAX_AUTONOMOUS_ORBITS}, got {max_points}"),
         ));
     }
-    // `from + k·step` towards `to`, then `to` itself unless the last step reached it (to a
-    // millionth of a step).
+    // `from + k·step` towards `to`, the last one `to` itself (in place of `from + k·step` where
+    // that reaches it to a millionth of a step). Counted in floating point first: a tiny step
+    // would overflow an integer count.
     let sign = (to - from).signum();
-    let whole = (range / step * (1.0 + 1e-12)).floor() as u64;
-    let count = whole + 1 + u64::from(range - whole as f64 * step > 1e-6 * step);
-    if count > u64::from(max_points) {
+    let steps = (range / step * (1.0 + 1e-12)).floor();
+    if steps + 1.0 > f64::from(max_points) {
         return Err(Error::input(
             "periodic.step",
             format!(
-                "from {from} to {to} Hz by {step} Hz is {count} orbits, more than max_points ({max_points}): take a larger step or raise max_points"
+                "from {from} to {to} Hz by {step} Hz is more than max_points ({max_points}) orbits: take a larger step or raise max_points"
             ),
         ));
     }
-    let mut frequencies: Vec<f64> = (0..=whole).map(|k| from + sign * k as f64 * step).collect();
-    if count > whole + 1 {
+    let whole = steps as u32;
+    let mut frequencies: Vec<f64> = (0..=whole)
+        .map(|k| from + sign * f64::from(k) * step)
+        .collect();
+    if range - f64::from(whole) * step > 1e-6 * step {
         frequencies.push(to);
+    } else {
+        *frequencies.last_mut().expect("at least `from`") = to;
+    }
+    if frequencies.len() > max_points as usize {
+        return Err(Error::input(
+            "periodic.step",
+            format!(
+                "from {from} to {to} Hz by {step} Hz is {} orbits, more than max_points ({max_points}): take a larger step or raise max_points",
+                frequencies.len()
+            ),
+        ));
     }
     let defaults = PeriodicOptions::default();
     let orbit = PeriodicOptions {
@@ -411,7 +432,24 @@ fn parse_autonomous(
             .or_insert_with(|| Value::from(from));
     }
     let scene = from_value_at::<Scene>(base.clone(), "base")?;
-    AutonomousMap::new(&scene).map_err(|e| Error::input(format!("base.{}", e.field), e.message))?;
+    let map = AutonomousMap::new(&scene)
+        .map_err(|e| Error::input(format!("base.{}", e.field), e.message))?;
+    // A chain held by a static load has a lowest linear frequency to measure the range by.
+    if let Ok(linear) = LinearChain::of(map.chain()) {
+        let lowest = linear.spectrum_range(0, 1, false).angular_frequency_rad_s[0] / TAU;
+        let floor = MIN_FREE_FREQUENCY_RATIO * lowest;
+        if let Some((key, f)) = [("from", from), ("to", to)]
+            .into_iter()
+            .find(|&(_, f)| f < floor)
+        {
+            return Err(Error::input(
+                format!("periodic.{key}"),
+                format!(
+                    "{f} Hz is below {MIN_FREE_FREQUENCY_RATIO} of the chain's lowest linear frequency ({lowest:.6} Hz): a free orbit that slow flings the chain far from its static state, and its periods would take millions of steps"
+                ),
+            ));
+        }
+    }
     let mut branch = BranchOptions::new(to);
     branch.step = Some(step);
     branch.max_points = max_points;

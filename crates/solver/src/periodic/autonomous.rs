@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::IntegrationStats;
+use crate::observe::probes::Probe;
 use crate::observe::steady::SteadyStateSpec;
 use crate::periodic::dense::{self, Multiplier};
 use crate::periodic::shooting::{has_jacobian, integrate_variational, ShootingError};
@@ -116,6 +117,10 @@ impl AutonomousOrbit {
         self.stable(self.trivial_pair_error().max(1e-6))
     }
 }
+
+/// Below this share of its motion at the fundamental an orbit found at period `T` is one of
+/// period `T/k` (its fundamental vanishes but for the tolerance), not an orbit of that frequency.
+const MIN_FUNDAMENTAL_SHARE: f64 = 1e-3;
 
 /// Where a family of autonomous orbits ended.
 #[derive(Debug, Clone)]
@@ -229,6 +234,46 @@ impl AutonomousMap {
         run(&s)
     }
 
+    /// How much of the motion from the turning point `x` over two periods `period_s` is at the
+    /// fundamental `1/period_s`: the largest fundamental amplitude of a particle's displacement
+    /// over the largest amplitude `√2 σ` of one (σ its standard deviation), each in the
+    /// particle's position scale. About 1 for an orbit of period `period_s`; 0 for one of period
+    /// `period_s / k`, which repeats `k` times (sampled 64 times a period: a motion of many more
+    /// repeats aliases).
+    fn fundamental_share(&self, x: &[f64], period_s: f64) -> Result<f64, RunError> {
+        let n = self.n_particles();
+        let mut s = self.scene.clone();
+        s.record = Default::default();
+        s.record.probes = (1..=n)
+            .map(|particle| Probe::Displacement { particle })
+            .collect();
+        let mut spec = SteadyStateSpec::new(Some(1.0 / period_s), 0, 2);
+        spec.harmonics = 1;
+        s.record.steady_state = Some(spec);
+        s.duration_s = 2.0 * period_s;
+        let mut start = self.start.clone();
+        start[..n].copy_from_slice(x);
+        start[n..2 * n].fill(0.0);
+        s.continuation = Some(Continuation {
+            start_state: Some(start),
+        });
+        let out = run(&s)?;
+        let Some(steady) = out.steady_state else {
+            return Ok(1.0);
+        };
+        let (mut fundamental, mut motion) = (0.0f64, 0.0f64);
+        for (p, scale) in steady.probes.iter().zip(&self.scales) {
+            let sigma = (p.rms * p.rms - p.mean * p.mean).max(0.0).sqrt();
+            fundamental = fundamental.max(p.amplitude[0] / scale);
+            motion = motion.max(std::f64::consts::SQRT_2 * sigma / scale);
+        }
+        Ok(if motion > 0.0 {
+            fundamental / motion
+        } else {
+            0.0
+        })
+    }
+
     /// Positions and velocities at `t` from the turning point `x` (every velocity zero), and
     /// `Φ = ∂(x, v)(t)/∂(x, v)(0)`, row-major `2N × 2N`, by the variational equations.
     pub fn flow(
@@ -276,10 +321,16 @@ impl AutonomousMap {
             if residual <= tolerance {
                 // The static state satisfies v(T/2) = 0 at every period: not the orbit sought.
                 let motion = (0..n)
-                    .map(|i| 0.5 * (x[i] - y[i]).abs() / self.scales[i])
+                    .map(|i| (x[i] - self.start[i]).abs() / self.scales[i])
                     .fold(0.0, f64::max);
                 if motion <= tolerance {
                     return Err(ShootingError::StaticState { motion });
+                }
+                // Nor does an orbit of period T/k, which turns at T/2 too: its motion has no
+                // fundamental at 1/T.
+                let share = self.fundamental_share(&x, period_s)?;
+                if share < MIN_FUNDAMENTAL_SHARE {
+                    return Err(ShootingError::MultipleCover { share });
                 }
                 let (_, monodromy, s) = self.flow(&x, period_s)?;
                 stats.add(&s);

@@ -545,8 +545,14 @@ pub enum ShootingError {
     Multipliers,
     /// A free orbit's shooting converged to the static state, which is an orbit of every period.
     StaticState {
-        /// The orbit's largest motion, `max_i |x_i(0) − x_i(T/2)| / 2s_i`.
+        /// The turning point's largest distance from the static state, `max_i |x_i(0) − x̄_i| / s_i`.
         motion: f64,
+    },
+    /// A free orbit's shooting converged to an orbit of a fraction `T/k` of the period asked
+    /// for, which turns at `T/2` too.
+    MultipleCover {
+        /// The share of its motion at the fundamental `1/T`.
+        share: f64,
     },
 }
 
@@ -573,6 +579,10 @@ impl std::fmt::Display for ShootingError {
             ShootingError::StaticState { motion } => write!(
                 f,
                 "shooting converged to the static state, an orbit of every period (largest motion {motion:.1e} of the position scales): start from a guess nearer the orbit sought, a larger displacement or a frequency nearer the one of its amplitude"
+            ),
+            ShootingError::MultipleCover { share } => write!(
+                f,
+                "shooting converged to an orbit of a fraction of the period asked for, repeated within it (its fundamental {share:.1e} of its motion): no free orbit of this frequency was found near the guess; the family's frequencies have left the range its orbits reach"
             ),
         }
     }

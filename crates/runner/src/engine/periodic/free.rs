@@ -120,12 +120,13 @@ pub(super) fn free_entry(
     }
 }
 
-/// A free orbit as stored: its kind by its place in the family (the first `start`, one at the
-/// last frequency `end`), its stability to the accuracy of its monodromy, and as its largest
-/// multiplier the largest but the pair at `+1` that every free orbit has; its arclength the
-/// distance in frequency from the first orbit over the range.
+/// Free orbit `index` of its family as stored: its kind by its place (the first `start`, the one
+/// at the last frequency `end`), its stability to the accuracy of its monodromy, and as its
+/// largest multiplier the largest but the pair at `+1` that every free orbit has; its arclength
+/// the distance in frequency from the first orbit over the range.
 pub(super) fn stored_free_point(
     spec: &PeriodicSpec,
+    index: usize,
     o: &AutonomousOrbit,
     steady: Option<&[SteadyProbe]>,
     max: Option<&[f64]>,
@@ -138,11 +139,9 @@ pub(super) fn stored_free_point(
         frequencies.last().copied().unwrap_or(f64::NAN),
     );
     let f = o.frequency_hz();
-    // The frequency each orbit was shot at is 1/(1/f): the list's value to a rounding.
-    let at = |target: f64| (f - target).abs() <= 1e-12 * target;
-    let kind = if at(first) {
+    let kind = if index == 0 {
         PointKind::Start
-    } else if at(last) {
+    } else if index + 1 == frequencies.len() {
         PointKind::End
     } else {
         PointKind::Regular

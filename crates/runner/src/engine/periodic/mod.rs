@@ -511,6 +511,8 @@ fn stored_branch(
             points: Vec::new(),
         };
     };
+    // A free orbit's place in its family (its kind: the first one `start`, the last `end`).
+    let mut free = 0..;
     let points = j
         .points
         .iter()
@@ -534,6 +536,7 @@ fn stored_branch(
                 ..
             } => Some(stored_free_point(
                 spec,
+                free.next().expect("an endless count"),
                 orbit,
                 steady.as_deref(),
                 max.as_deref(),
