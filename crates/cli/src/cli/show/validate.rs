@@ -89,14 +89,14 @@ pub fn dry_run_periodic(sweep: &Sweep, output: &Path, d: &PeriodicDryRun) {
     );
     if spec.autonomous.is_some() {
         outln!(
-            "pilot at {} = {} Hz from the first guess: an orbit period {:.3e} s with its monodromy, {:.3e} s without",
+            "pilot at {} = {} Hz from the first guess: the first orbit shot in {:.3e} s, its two periods run in {:.3e} s",
             spec.name,
             num(d.from),
             d.seconds_per_map.0,
             d.seconds_per_map.1
         );
         outln!(
-            "estimated cost: about {:.3e} CPU-seconds for the {} famil{} left, each of {} orbits (less where shooting fails and a family ends early)",
+            "estimated cost: about {:.3e} CPU-seconds for the {} famil{} left, each of {} orbits at the first one's cost (an orbit's cost changes along a family with its amplitude; a family ends early where shooting fails)",
             d.most_cpu_seconds,
             d.branches - d.ended,
             if d.branches - d.ended == 1 { "y" } else { "ies" },

@@ -170,12 +170,9 @@ pub(super) fn stored_free_point(
     with_probes(s, steady, probes, harmonics)
 }
 
-/// Orbit periods a free orbit costs with its monodromy (about three Newton iterations of half a
-/// period, then the whole period) and without (the two periods of its run).
-const PERIODS_PER_FREE_ORBIT: (f64, f64) = (2.5, 2.0);
-
-/// The budget of an `autonomous` block's families: a pilot at the first frequency from the
-/// first guess (one period with its monodromy, two without), times the orbits of each family.
+/// The budget of an `autonomous` block's families: a pilot, the first family's first orbit
+/// shot and run as the block does, times the orbits of each family. `seconds_per_map` holds the pilot's shooting
+/// and its run of two periods.
 pub(super) fn dry_run_free(
     spec: &PeriodicSpec,
     point: &serde_json::Value,
@@ -187,33 +184,29 @@ pub(super) fn dry_run_free(
     let map = AutonomousMap::new(&scene)
         .map_err(|e| Error::input(format!("base.{}", e.field), e.message))?;
     let from = frequencies[0];
-    let period = 1.0 / from;
-    let pilot = |what: &str, e: &dyn std::fmt::Display| {
+    let started = std::time::Instant::now();
+    let orbit = map
+        .shoot(
+            map.first_guess(),
+            1.0 / from,
+            spec.orbit.tolerance,
+            spec.orbit.max_iterations,
+        )
+        .map_err(|e| {
+            Error::input(
+                "periodic",
+                format!("the first orbit at {from} Hz from the first guess: {e}"),
+            )
+        })?;
+    let shooting = started.elapsed().as_secs_f64();
+    let started = std::time::Instant::now();
+    map.orbit_run(&scene, &orbit).map_err(|e| {
         Error::input(
             "periodic",
-            format!("{what} at {from} Hz from the first guess: {e}"),
+            format!("two periods of the first orbit at {from} Hz: {e}"),
         )
-    };
-    let started = std::time::Instant::now();
-    map.flow(map.first_guess(), period)
-        .map_err(|e| pilot("the first orbit period with its monodromy", &e))?;
-    let mono = started.elapsed().as_secs_f64();
-    let guess = AutonomousOrbit {
-        period_s: period,
-        positions: map.first_guess().to_vec(),
-        half: Vec::new(),
-        monodromy: Vec::new(),
-        multipliers: Vec::new(),
-        iterations: 0,
-        flows: 0,
-        residual: f64::NAN,
-        stats: Default::default(),
-    };
-    let started = std::time::Instant::now();
-    map.orbit_run(&scene, &guess)
-        .map_err(|e| pilot("two orbit periods", &e))?;
-    let plain = 0.5 * started.elapsed().as_secs_f64();
-    let per_orbit = PERIODS_PER_FREE_ORBIT.0 * mono + PERIODS_PER_FREE_ORBIT.1 * plain;
+    })?;
+    let run = started.elapsed().as_secs_f64();
     Ok(PeriodicDryRun {
         branches,
         ended,
@@ -221,8 +214,8 @@ pub(super) fn dry_run_free(
         from,
         to: spec.branch.to,
         monodromy: Monodromy::Variational.name(),
-        seconds_per_map: (mono, plain),
+        seconds_per_map: (shooting, run),
         settle_seconds: 0.0,
-        most_cpu_seconds: (branches - ended) as f64 * frequencies.len() as f64 * per_orbit,
+        most_cpu_seconds: (branches - ended) as f64 * frequencies.len() as f64 * (shooting + run),
     })
 }
