@@ -264,6 +264,38 @@ def test_the_command_and_the_package_run_a_sweep_as_the_binary_does(venv, tmp_pa
     assert_files_equal(native, out, skip_attrs=VOLATILE_ATTRS | BUILD_ATTRS)
 
 
+def test_the_all_extra_gives_the_readers_the_guides_use(wheel, tmp_path):
+    """`pip install 'chainsweep[all]'` into a clean venv gives what the guides' reading code
+    imports: histories read lazily through dask (the same numbers as read whole), xarray's own
+    h5netcdf engine, matplotlib for `chainsweep.plot`, tqdm for progress bars."""
+    v = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(v)], check=True, env=clean_env(v))
+    r = subprocess.run(
+        [str(v / "bin" / "python"), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
+         "--only-binary", ":all:", f"{wheel}[all]"],
+        env=clean_env(v), capture_output=True, text=True, timeout=900,
+    )
+    assert r.returncode == 0, r.stdout + r.stderr
+    path = write_sweep(tmp_path / "histories.json", base_sweep(history=True))
+    out = tmp_path / "histories.h5"
+    r = in_venv(v, v / "bin" / "chainsweep", "run", path, "-o", out, "--quiet", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = in_venv(v, v / "bin" / "python", "-c", """if True:
+        import sys, dask.array, numpy as np, matplotlib, tqdm, xarray as xr, chainsweep
+        matplotlib.use("Agg")
+        lazy = chainsweep.open(sys.argv[1], histories="lazy")
+        whole = chainsweep.open(sys.argv[1], histories=True)
+        assert isinstance(lazy.history.data, dask.array.Array), type(lazy.history.data)
+        assert np.array_equal(lazy.history.values, whole.history.values, equal_nan=True)
+        with xr.open_dataset(sys.argv[1], engine="h5netcdf") as raw:
+            assert np.array_equal(raw.leading_peak.values, whole.leading_peak.values, equal_nan=True)
+        figures = chainsweep.plot(whole, variables=["leading_peak"])
+        print(len(figures), lazy.history.shape)
+        """, out)
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert int(r.stdout.split()[0]) >= 1, r.stdout
+
+
 def test_the_examples_and_guides_are_installed_and_every_example_validates(venv):
     r = in_venv(venv, venv / "bin" / "python", "-c", """if True:
         import json, chainsweep
