@@ -609,11 +609,28 @@ fn dimer(cells: usize, displacements: &[(usize, f64)]) -> Scene {
 const DIMER_A: f64 = 8e9;
 const DIMER_FORCE: f64 = 10.0;
 
+/// The first guess of a breather centred on the light sphere of the middle cell of a dimer of
+/// `cells` cells (its 1-based particle number, returned): that sphere displaced by 0.6 δ₀, the
+/// light spheres beside it back by 0.61 of that, the next ones forward by 0.61².
+fn breather_guess(cells: usize) -> (usize, [(usize, f64); 5]) {
+    let centre = 2 * (cells / 2) + 2;
+    let delta0 = (DIMER_FORCE / DIMER_A).powf(2.0 / 3.0);
+    let (a, e) = (0.6 * delta0, 0.61);
+    (
+        centre,
+        [
+            (centre, a),
+            (centre - 2, -e * a),
+            (centre + 2, -e * a),
+            (centre - 4, e * e * a),
+            (centre + 4, e * e * a),
+        ],
+    )
+}
+
 /// A breather of a precompressed dimer (60 cells of an 8 mm and a 5 mm steel sphere on a wall,
-/// no damping): found at 0.99 of the optical band's lower edge from a guess (the middle light
-/// sphere displaced by 0.7 δ₀, the light spheres of the cells beside it back by 0.6 of that, the
-/// next ones forward by 0.36) by shooting on time-reversal symmetry, continued in frequency up
-/// towards the edge and down into the gap between the acoustic and optical bands. Centred on the
+/// no damping): found at 0.99 of the optical band's lower edge from a guess (`breather_guess`)
+/// by shooting on time-reversal symmetry, continued in frequency up towards the edge and down into the gap between the acoustic and optical bands. Centred on the
 /// light sphere (its profile symmetric about it) and localised; its amplitude falls towards the
 /// edge (breathers bifurcate from the optical band's lower edge into the gap, as Theocharis et
 /// al., Phys. Rev. E 82, 056604, 2010, found); far from its centre its tails fall from cell to
@@ -623,16 +640,8 @@ const DIMER_FORCE: f64 = 10.0;
 fn a_dimer_s_breather_in_the_gap_decays_as_the_linear_chain_s_evanescent_wave() {
     let cells = 60;
     // The light sphere of cell 31 (1-based particle 62).
-    let centre = 2 * (cells / 2) + 2;
+    let (centre, guess) = breather_guess(cells);
     let delta0 = (DIMER_FORCE / DIMER_A).powf(2.0 / 3.0);
-    let (a, e) = (0.6 * delta0, 0.61);
-    let guess = [
-        (centre, a),
-        (centre - 2, -e * a),
-        (centre + 2, -e * a),
-        (centre - 4, e * e * a),
-        (centre + 4, e * e * a),
-    ];
     let map = AutonomousMap::new(&dimer(cells, &guess)).unwrap();
     let cell = LinearChain::of(map.chain())
         .unwrap()
@@ -916,32 +925,29 @@ fn a_stopped_branch_resumes_from_its_last_point_bitwise() {
 #[test]
 fn a_resumed_family_of_free_orbits_is_the_uninterrupted_one_and_the_static_state_is_refused() {
     let cells = 20;
-    let centre = 2 * (cells / 2) + 2;
-    let delta0 = (DIMER_FORCE / DIMER_A).powf(2.0 / 3.0);
-    let (a, e) = (0.6 * delta0, 0.61);
-    let guess = [
-        (centre, a),
-        (centre - 2, -e * a),
-        (centre + 2, -e * a),
-        (centre - 4, e * e * a),
-        (centre + 4, e * e * a),
-    ];
+    let (_, guess) = breather_guess(cells);
     let map = AutonomousMap::new(&dimer(cells, &guess)).unwrap();
     let frequencies = [35_830.0, 35_630.0, 35_430.0, 35_230.0, 35_030.0];
     let (whole, end) =
         continue_autonomous(&map, map.first_guess(), &frequencies, 1e-9, 30, &mut |_| {});
     assert!(end.is_none(), "{end:?}");
+    // After the first two orbits, through the other three.
+    let resume =
+        |stop: Option<&std::sync::atomic::AtomicBool>,
+         on_orbit: &mut dyn FnMut(&chainsweep_solver::periodic::AutonomousOrbit)| {
+            resume_autonomous(
+                &map,
+                map.first_guess(),
+                &whole[..2],
+                &frequencies[2..],
+                1e-9,
+                30,
+                stop,
+                on_orbit,
+            )
+        };
     let mut seen = 0;
-    let resumed = resume_autonomous(
-        &map,
-        map.first_guess(),
-        &whole[..2],
-        &frequencies[2..],
-        1e-9,
-        30,
-        None,
-        &mut |_| seen += 1,
-    );
+    let resumed = resume(None, &mut |_| seen += 1);
     assert!(!resumed.stopped && resumed.end.is_none() && seen == 3);
     for (a, b) in whole[2..].iter().zip(&resumed.orbits) {
         assert_eq!(a.positions, b.positions);
@@ -949,16 +955,9 @@ fn a_resumed_family_of_free_orbits_is_the_uninterrupted_one_and_the_static_state
         assert_eq!(a.period_s, b.period_s);
     }
     let stop = std::sync::atomic::AtomicBool::new(true);
-    let stopped = resume_autonomous(
-        &map,
-        map.first_guess(),
-        &whole[..2],
-        &frequencies[2..],
-        1e-9,
-        30,
-        Some(&stop),
-        &mut |_| unreachable!("stopped before any orbit"),
-    );
+    let stopped = resume(Some(&stop), &mut |_| {
+        unreachable!("stopped before any orbit")
+    });
     assert!(stopped.stopped && stopped.orbits.is_empty());
     // Far from any orbit of that frequency (a tenth of the amplitude, 0.8 of the band edge):
     // the breather's guess falls onto the static state.

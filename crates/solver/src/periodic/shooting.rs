@@ -8,6 +8,7 @@ use crate::integrate::{
     Adaptive, AdaptiveMethod, AdaptiveOptions, Control, DenseStep, IntegrationStats, Integrator,
     OdeSystem, OdeSystemDyn, StepObserver, Switch, Tridiagonal,
 };
+use crate::observe::probes::RecordSpec;
 use crate::observe::steady::SteadyStateSpec;
 use crate::periodic::dense::{self, Multiplier};
 use crate::periodic::{Monodromy, PeriodicOptions};
@@ -393,27 +394,12 @@ impl PeriodMap {
     /// definitions as every run's. The steady state's `settledness` compares the two periods, a
     /// check of periodicity.
     pub fn orbit_run(&self, scene: &Scene, x: &[f64]) -> Result<RunOutput, RunError> {
-        let mut s = self.scene.clone();
-        s.record = scene.record.clone();
-        s.record.history = false;
-        let f = self.drive_hz / f64::from(self.periods);
-        let mut spec = s
-            .record
-            .steady_state
-            .clone()
-            .unwrap_or_else(|| SteadyStateSpec::new(None, 0, 2));
-        spec.frequency_hz = Some(f);
-        spec.settle_periods = 0;
-        spec.window_periods = 2;
-        s.record.steady_state = Some(spec);
-        s.duration_s = 2.0 / f;
-        s.continuation = Some(Continuation {
-            start_state: Some(self.whole_state(x)),
-        });
-        if s.record.probes.is_empty() {
-            s.record.probes = scene.record.probes.clone();
-        }
-        run(&s)
+        two_period_run(
+            &self.scene,
+            scene.record.clone(),
+            self.drive_hz / f64::from(self.periods),
+            self.whole_state(x),
+        )
     }
 
     fn has_jacobian(&self, y0: &[f64]) -> bool {
@@ -458,6 +444,36 @@ impl PeriodMap {
     fn switches(&self) -> Vec<Switch> {
         crate::dispatch_chain_system!(&self.chain, |sys| switches_of(&mut sys))
     }
+}
+
+/// The run of `scene` (an orbit's, its drive if any unchanged) from the whole state `start`
+/// over two periods of `frequency_hz`, recording `record` (no histories) with its steady state
+/// over both periods at that frequency (its harmonics and sampling as `record` gives them): an
+/// orbit's amplitudes and harmonics per probe, by the same definitions as every run's, and in
+/// their settledness a check of its periodicity.
+pub(crate) fn two_period_run(
+    scene: &Scene,
+    record: RecordSpec,
+    frequency_hz: f64,
+    start: Vec<f64>,
+) -> Result<RunOutput, RunError> {
+    let mut s = scene.clone();
+    s.record = record;
+    s.record.history = false;
+    let mut spec = s
+        .record
+        .steady_state
+        .clone()
+        .unwrap_or_else(|| SteadyStateSpec::new(None, 0, 2));
+    spec.frequency_hz = Some(frequency_hz);
+    spec.settle_periods = 0;
+    spec.window_periods = 2;
+    s.record.steady_state = Some(spec);
+    s.duration_s = 2.0 / frequency_hz;
+    s.continuation = Some(Continuation {
+        start_state: Some(start),
+    });
+    run(&s)
 }
 
 /// Whether `chain` gives its acceleration Jacobian (at `y0`, `t = 0`).

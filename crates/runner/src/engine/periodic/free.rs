@@ -10,7 +10,7 @@ use chainsweep_solver::periodic::{
 };
 
 use super::journal::{Entry, Journal};
-use super::{with_probes, PeriodicDryRun};
+use super::{probe_values, PeriodicDryRun};
 use crate::error::{Error, Result};
 use crate::store::hdf5::periodic::StoredPoint;
 use crate::sweep::periodic::PeriodicSpec;
@@ -147,7 +147,7 @@ pub(super) fn stored_free_point(
         PointKind::Regular
     };
     let n = o.positions.len();
-    let s = StoredPoint {
+    StoredPoint {
         parameter: f,
         kind: 1 + kind.code(),
         stability: if o.stable_to_its_accuracy() { 1 } else { 2 },
@@ -160,14 +160,8 @@ pub(super) fn stored_free_point(
         maps: i64::from(o.flows),
         method: 1,
         residual: o.residual,
-        amplitude: vec![f64::NAN; probes * harmonics],
-        phase_rad: vec![f64::NAN; probes * harmonics],
-        mean: vec![f64::NAN; probes],
-        rms: vec![f64::NAN; probes],
-        max: max.map_or(vec![f64::NAN; probes], <[f64]>::to_vec),
-        settledness: vec![f64::NAN; probes],
-    };
-    with_probes(s, steady, probes, harmonics)
+        ..probe_values(steady, max, probes, harmonics)
+    }
 }
 
 /// The budget of an `autonomous` block's families: a pilot, the first family's first orbit

@@ -583,7 +583,7 @@ fn stored_point(
 ) -> StoredPoint {
     let o = &p.orbit;
     let n = o.state.len() / 2;
-    let s = StoredPoint {
+    StoredPoint {
         parameter: p.parameter,
         kind: 1 + p.kind.code(),
         stability: if o.stable() { 1 } else { 2 },
@@ -599,23 +599,27 @@ fn stored_point(
             _ => 1,
         },
         residual: o.residual,
+        ..probe_values(steady, max, probes, harmonics)
+    }
+}
+
+/// A stored point holding only what the orbit's run gives: each probe's harmonics, mean, RMS,
+/// largest value and settledness (NaN where the run failed or gave none).
+pub(super) fn probe_values(
+    steady: Option<&[SteadyProbe]>,
+    max: Option<&[f64]>,
+    probes: usize,
+    harmonics: usize,
+) -> StoredPoint {
+    let mut s = StoredPoint {
         amplitude: vec![f64::NAN; probes * harmonics],
         phase_rad: vec![f64::NAN; probes * harmonics],
         mean: vec![f64::NAN; probes],
         rms: vec![f64::NAN; probes],
         max: max.map_or(vec![f64::NAN; probes], <[f64]>::to_vec),
         settledness: vec![f64::NAN; probes],
+        ..StoredPoint::default()
     };
-    with_probes(s, steady, probes, harmonics)
-}
-
-/// `s` with each probe's harmonics, mean, rms and settledness from the orbit's run.
-pub(super) fn with_probes(
-    mut s: StoredPoint,
-    steady: Option<&[SteadyProbe]>,
-    probes: usize,
-    harmonics: usize,
-) -> StoredPoint {
     if let Some(steady) = steady {
         for (i, q) in steady.iter().enumerate().take(probes) {
             for k in 0..harmonics.min(q.amplitude.len()) {
