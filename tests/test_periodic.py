@@ -522,6 +522,7 @@ def drive(s):
         (lambda s: s["periodic"].update(settle_periods=10), "periodic.settle_periods"),
         (lambda s: s["periodic"].update(step=5000.0), "periodic.step"),
         (lambda s: s["periodic"].update(max_points=5), "periodic.step"),
+        (lambda s: s["periodic"].update(max_points=1), "periodic.max_points"),
         (lambda s: s["periodic"].update(step=1e-18), "periodic.step"),
         (lambda s: s["periodic"].update(to=0.01, step=5000.0), "periodic.to"),
         (lambda s: s["periodic"].update(to=35830.0), "periodic.to"),

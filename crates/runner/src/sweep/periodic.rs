@@ -375,10 +375,11 @@ fn parse_autonomous(
         }
     };
     let max_points = f.max_points.unwrap_or(BranchOptions::new(to).max_points);
-    if !(1..=MAX_AUTONOMOUS_ORBITS).contains(&max_points) {
+    // A family has at least its two ends.
+    if !(2..=MAX_AUTONOMOUS_ORBITS).contains(&max_points) {
         return Err(Error::input(
             "periodic.max_points",
-            format!("must lie in 1..={MAX_AUTONOMOUS_ORBITS}, got {max_points}"),
+            format!("must lie in 2..={MAX_AUTONOMOUS_ORBITS}, got {max_points}"),
         ));
     }
     // `from + k·step` towards `to`, the last one `to` itself (in place of `from + k·step` where

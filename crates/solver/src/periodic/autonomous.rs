@@ -6,12 +6,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::chain::model::{spec_err, Chain, SpecError};
 use crate::integrate::IntegrationStats;
-use crate::observe::probes::Probe;
+use crate::observe::probes::{Probe, RecordSpec};
 use crate::observe::steady::SteadyStateSpec;
 use crate::periodic::dense::{self, Multiplier};
-use crate::periodic::shooting::{has_jacobian, integrate_variational, ShootingError};
-use crate::scene::solve::{run, state_scales, RunError, RunOutput};
-use crate::scene::{Continuation, Excitation, Scene};
+use crate::periodic::shooting::{
+    has_jacobian, integrate_variational, two_period_run, ShootingError,
+};
+use crate::scene::solve::{state_scales, RunError, RunOutput};
+use crate::scene::{Excitation, Scene};
 
 /// The flow of an undriven, undissipative chain from a turning point (every velocity zero,
 /// positions `x`) and its sensitivity to those positions.
@@ -210,28 +212,21 @@ impl AutonomousMap {
     /// probes' harmonics, and in their settledness how far the second period departs from the
     /// first (rounding and the tolerance, for an orbit that is periodic).
     pub fn orbit_run(&self, scene: &Scene, orbit: &AutonomousOrbit) -> Result<RunOutput, RunError> {
-        let mut s = self.scene.clone();
-        s.record = scene.record.clone();
-        s.record.history = false;
-        let f = orbit.frequency_hz();
-        let mut spec = s
-            .record
-            .steady_state
-            .clone()
-            .unwrap_or_else(|| SteadyStateSpec::new(None, 0, 2));
-        spec.frequency_hz = Some(f);
-        spec.settle_periods = 0;
-        spec.window_periods = 2;
-        s.record.steady_state = Some(spec);
-        s.duration_s = 2.0 * orbit.period_s;
+        two_period_run(
+            &self.scene,
+            scene.record.clone(),
+            orbit.frequency_hz(),
+            self.turning_point(&orbit.positions),
+        )
+    }
+
+    /// The whole state at a turning point with positions `x`: every velocity zero.
+    fn turning_point(&self, x: &[f64]) -> Vec<f64> {
         let n = self.n_particles();
-        let mut start = self.start.clone();
-        start[..n].copy_from_slice(&orbit.positions);
-        start[n..2 * n].fill(0.0);
-        s.continuation = Some(Continuation {
-            start_state: Some(start),
-        });
-        run(&s)
+        let mut y = self.start.clone();
+        y[..n].copy_from_slice(x);
+        y[n..2 * n].fill(0.0);
+        y
     }
 
     /// How much of the motion from the turning point `x` over two periods `period_s` is at the
@@ -242,28 +237,27 @@ impl AutonomousMap {
     /// repeats aliases).
     fn fundamental_share(&self, x: &[f64], period_s: f64) -> Result<f64, RunError> {
         let n = self.n_particles();
-        let mut s = self.scene.clone();
-        s.record = Default::default();
-        s.record.probes = (1..=n)
-            .map(|particle| Probe::Displacement { particle })
-            .collect();
-        let mut spec = SteadyStateSpec::new(Some(1.0 / period_s), 0, 2);
-        spec.harmonics = 1;
-        s.record.steady_state = Some(spec);
-        s.duration_s = 2.0 * period_s;
-        let mut start = self.start.clone();
-        start[..n].copy_from_slice(x);
-        start[n..2 * n].fill(0.0);
-        s.continuation = Some(Continuation {
-            start_state: Some(start),
-        });
-        let out = run(&s)?;
+        let record = RecordSpec {
+            probes: (1..=n)
+                .map(|particle| Probe::Displacement { particle })
+                .collect(),
+            steady_state: Some(SteadyStateSpec {
+                harmonics: 1,
+                ..SteadyStateSpec::new(None, 0, 2)
+            }),
+            ..RecordSpec::default()
+        };
+        let out = two_period_run(&self.scene, record, 1.0 / period_s, self.turning_point(x))?;
         let Some(steady) = out.steady_state else {
             return Ok(1.0);
         };
         let (mut fundamental, mut motion) = (0.0f64, 0.0f64);
         for (p, scale) in steady.probes.iter().zip(&self.scales) {
             let sigma = (p.rms * p.rms - p.mean * p.mean).max(0.0).sqrt();
+            // An incomplete window (NaN) cannot tell: not refused.
+            if !(p.amplitude[0].is_finite() && sigma.is_finite()) {
+                return Ok(1.0);
+            }
             fundamental = fundamental.max(p.amplitude[0] / scale);
             motion = motion.max(std::f64::consts::SQRT_2 * sigma / scale);
         }
@@ -282,9 +276,7 @@ impl AutonomousMap {
         t: f64,
     ) -> Result<(Vec<f64>, Vec<f64>, IntegrationStats), RunError> {
         let n = self.n_particles();
-        let mut y0 = self.start.clone();
-        y0[..n].copy_from_slice(x);
-        y0[n..2 * n].fill(0.0);
+        let y0 = self.turning_point(x);
         let (mut y, phi, _, stats) =
             integrate_variational(&self.scene, &self.chain, &y0, &self.scales, t)?;
         y.truncate(2 * n);
