@@ -10,7 +10,7 @@ use chainsweep_solver::periodic::{
 };
 
 use super::journal::{Entry, Journal};
-use super::{probe_values, PeriodicDryRun};
+use super::{probe_values, run_parts, PeriodicDryRun};
 use crate::error::{Error, Result};
 use crate::store::hdf5::periodic::StoredPoint;
 use crate::sweep::periodic::PeriodicSpec;
@@ -35,20 +35,27 @@ pub(super) fn free_family(
             }))
         }
     };
-    let before: Vec<AutonomousOrbit> = journal
+    // The orbits journaled so far: their number says which frequencies are left, the last two
+    // make the next guess.
+    let journaled: Vec<&AutonomousOrbit> = journal
         .points
         .iter()
         .filter_map(|e| match e {
-            Entry::Free { orbit, .. } => Some(orbit.as_ref().clone()),
+            Entry::Free { orbit, .. } => Some(orbit.as_ref()),
             _ => None,
         })
+        .collect();
+    let done = journaled.len().min(frequencies.len());
+    let last_two: Vec<AutonomousOrbit> = journaled[journaled.len().saturating_sub(2)..]
+        .iter()
+        .map(|&o| o.clone())
         .collect();
     let mut failure: Option<Error> = None;
     let family = resume_autonomous(
         &map,
         map.first_guess(),
-        &before,
-        &frequencies[before.len().min(frequencies.len())..],
+        &last_two,
+        &frequencies[done..],
         spec.orbit.tolerance,
         spec.orbit.max_iterations,
         Some(stop),
@@ -104,19 +111,13 @@ pub(super) fn free_entry(
 ) -> Entry {
     let mut kept = orbit.clone();
     kept.monodromy = Vec::new();
-    match map.orbit_run(scene, orbit) {
-        Ok(out) => Entry::Free {
-            orbit: Box::new(kept),
-            probes: out.steady_state.map(|s| s.probes),
-            max: Some(out.probes.iter().map(|s| s.record_max).collect()),
-            run_error: None,
-        },
-        Err(e) => Entry::Free {
-            orbit: Box::new(kept),
-            probes: None,
-            max: None,
-            run_error: Some(e.to_string()),
-        },
+    let (probes, max, run_error) =
+        run_parts(map.orbit_run(scene, orbit).map_err(|e| e.to_string()));
+    Entry::Free {
+        orbit: Box::new(kept),
+        probes,
+        max,
+        run_error,
     }
 }
 

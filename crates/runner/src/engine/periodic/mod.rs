@@ -31,6 +31,7 @@ use chainsweep_solver::periodic::{
     resume_period_doubled, BranchPoint, Monodromy, PeriodMap, PointKind,
 };
 use chainsweep_solver::spec::SpecError;
+use chainsweep_solver::RunOutput;
 
 use super::run::{Failure, Health, RunOptions, RunReport, VerificationReport};
 use super::{check_output, thread_pool, DamageReport, ProgressSink, Start};
@@ -278,11 +279,8 @@ fn first_doubling(
 /// The journal entry of an accepted orbit: the point and the run of two orbit periods from it.
 fn orbit_entry(spec: &PeriodicSpec, point: &serde_json::Value, p: &BranchPoint) -> Entry {
     // What is journaled of an orbit: not its monodromy matrix ((2N)² numbers).
-    let kept = || {
-        let mut kept = p.clone();
-        kept.orbit.monodromy = Vec::new();
-        Box::new(kept)
-    };
+    let mut kept = p.clone();
+    kept.orbit.monodromy = Vec::new();
     let run = spec
         .scene_at(point, p.parameter)
         .map_err(|e| e.to_string())
@@ -291,19 +289,27 @@ fn orbit_entry(spec: &PeriodicSpec, point: &serde_json::Value, p: &BranchPoint) 
             map.orbit_run(&scene, &p.orbit.state)
                 .map_err(|e| e.to_string())
         });
+    let (probes, max, run_error) = run_parts(run);
+    Entry::Point {
+        point: Box::new(kept),
+        probes,
+        max,
+        run_error,
+    }
+}
+
+/// What an orbit's run of two periods leaves in its journal line: each probe's steady state and
+/// largest value, or why the run failed.
+pub(super) fn run_parts(
+    run: std::result::Result<RunOutput, String>,
+) -> (Option<Vec<SteadyProbe>>, Option<Vec<f64>>, Option<String>) {
     match run {
-        Ok(out) => Entry::Point {
-            point: kept(),
-            probes: out.steady_state.map(|s| s.probes),
-            max: Some(out.probes.iter().map(|s| s.record_max).collect()),
-            run_error: None,
-        },
-        Err(e) => Entry::Point {
-            point: kept(),
-            probes: None,
-            max: None,
-            run_error: Some(e),
-        },
+        Ok(out) => (
+            out.steady_state.map(|s| s.probes),
+            Some(out.probes.iter().map(|s| s.record_max).collect()),
+            None,
+        ),
+        Err(e) => (None, None, Some(e)),
     }
 }
 
