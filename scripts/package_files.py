@@ -3,7 +3,7 @@ each keeps one source in the repository (run by `make wheel` and `make python`; 
 git-ignored):
 
 - python/chainsweep/sweeps/: the example sweep files, sweeps/ as it is (``chainsweep.example_path``);
-- python/chainsweep/docs/: the user guides, docs/*.md and crates/runner/README-sweeps.md
+- python/chainsweep/docs/: the user guides, docs/*.md
   (``chainsweep.docs_path``);
 - python/chainsweep/example_scripts/: the example scripts, examples/*.py
   (``python -m chainsweep.example_scripts.fig08``);

@@ -163,7 +163,7 @@ fn _chainsweep(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ENGINE_VERSION", chainsweep::ENGINE_VERSION)?;
     m.add("SOLVER_VERSION", chainsweep::SOLVER_VERSION)?;
     m.add("NUMERICS_VERSION", chainsweep::NUMERICS_VERSION)?;
-    chainsweep::set_git_revision(chainsweep_cli::GIT_REVISION);
+    chainsweep::init(chainsweep_cli::GIT_REVISION);
     m.add("GIT_REVISION", chainsweep::git_revision())?;
     m.add("COLUMNS", column_table(m.py())?)?;
     m.add("ARRAYS", array_table(m.py())?)?;

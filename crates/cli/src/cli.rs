@@ -35,7 +35,7 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    chainsweep::set_git_revision(crate::GIT_REVISION);
+    chainsweep::init(crate::GIT_REVISION);
     let cli = match Cli::try_parse_from(args) {
         Ok(c) => c,
         Err(e) => {

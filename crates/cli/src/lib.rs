@@ -29,5 +29,5 @@ pub mod progress;
 
 /// Git revision the command line was built from (`unknown` outside a git checkout); the engine
 /// records it in every file it writes once [`cli::main_from`] has told it
-/// ([`chainsweep::set_git_revision`]).
+/// ([`chainsweep::init`]).
 pub const GIT_REVISION: &str = env!("CHAINSWEEP_GIT_REVISION");

@@ -8,7 +8,7 @@ use chainsweep::record::columns::{
 use chainsweep::sweep::Sweep;
 
 const BEGIN: &str =
-    "<!-- columns: generated from crates/runner/src/record/columns/; checked by crates/runner/tests/columns.rs -->\n";
+    "<!-- columns: generated from crates/sweep/src/record/columns/; checked by crates/runner/tests/columns.rs -->\n";
 const END: &str = "<!-- /columns -->";
 
 #[test]

@@ -1,6 +1,8 @@
-//! Keeps `ARCHITECTURE.md` true: every module of the runner imports exactly the modules the
-//! listing there says, and only modules listed before it (no module imports one above it, so
-//! there are no cycles).
+//! Keeps the `ARCHITECTURE.md` files true. Across crates: every crate of the workspace depends on
+//! exactly the chainsweep crates the top-level listing says, each listed before it, and only the
+//! store links HDF5. Within each crate: every module imports exactly the modules its listing
+//! says, and only modules listed before it (no module imports one above it, so there are no
+//! cycles).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -278,9 +280,125 @@ fn check_crate(dir: &str, skip_tests: bool, least: usize) {
     );
 }
 
+/// The top-level listing of crates: (package name, folder, the chainsweep crates it depends on).
+fn crate_listing(doc: &str) -> Vec<(String, String, BTreeSet<String>)> {
+    let start = doc
+        .find("<!-- crates -->")
+        .expect("ARCHITECTURE.md has a `<!-- crates -->` marker before the listing of crates");
+    let block = &doc[start..];
+    let open = block.find("```text\n").expect("a ```text block follows") + 8;
+    let close = block[open..].find("```").expect("the block is closed") + open;
+    block[open..close]
+        .lines()
+        .skip(1)
+        .filter_map(|line| {
+            let mut words = line.split_whitespace();
+            let name = words.next()?.to_string();
+            let folder = words.next()?.to_string();
+            let deps = words.filter(|w| *w != "-").map(String::from).collect();
+            Some((name, folder, deps))
+        })
+        .collect()
+}
+
+/// The package name of a Cargo.toml and the names of its `[dependencies]` (not dev- or build-).
+fn manifest(text: &str) -> (String, BTreeSet<String>) {
+    let mut name = String::new();
+    let mut deps = BTreeSet::new();
+    let mut section = "";
+    for line in text.lines() {
+        let l = line.trim();
+        if l.starts_with('[') {
+            section = l;
+            continue;
+        }
+        let key = l.split('=').next().unwrap_or("").trim();
+        if section == "[package]" && key == "name" {
+            name = l.split('"').nth(1).unwrap_or("").to_string();
+        } else if section == "[dependencies]" && !key.is_empty() && !key.starts_with('#') {
+            deps.insert(key.to_string());
+        }
+    }
+    (name, deps)
+}
+
 #[test]
-fn modules_import_only_what_the_listing_says_and_only_from_below() {
-    check_crate(".", false, 8);
+fn the_crates_depend_only_on_those_listed_before_them_and_only_the_store_links_hdf5() {
+    let root = Path::new(CRATE).join("../..");
+    let doc = std::fs::read_to_string(root.join("ARCHITECTURE.md")).unwrap();
+    let listing = crate_listing(&doc);
+    let workspace = std::fs::read_to_string(root.join("Cargo.toml")).unwrap();
+    let mut bad = Vec::new();
+    let mut seen: Vec<String> = Vec::new();
+    for (name, folder, listed) in &listing {
+        if !workspace.contains(&format!("\"{folder}\"")) {
+            bad.push(format!("{folder} is no member of the workspace"));
+        }
+        let text = std::fs::read_to_string(root.join(folder).join("Cargo.toml")).unwrap();
+        let (package, deps) = manifest(&text);
+        if &package != name {
+            bad.push(format!(
+                "{folder}/Cargo.toml names {package}, the listing {name}"
+            ));
+        }
+        let ours: BTreeSet<String> = deps
+            .iter()
+            .filter(|d| d.starts_with("chainsweep"))
+            .cloned()
+            .collect();
+        if &ours != listed {
+            bad.push(format!(
+                "{name} depends on {ours:?}, the listing says {listed:?}"
+            ));
+        }
+        for d in &ours {
+            if !seen.contains(d) {
+                bad.push(format!(
+                    "{name} depends on {d}, which is not listed before it"
+                ));
+            }
+        }
+        let links_hdf5 = deps.iter().any(|d| d.starts_with("hdf5"));
+        if links_hdf5 != (name == "chainsweep-store") {
+            bad.push(format!(
+                "{name}: links HDF5 {links_hdf5}, but only the store does"
+            ));
+        }
+        seen.push(name.clone());
+    }
+    for line in workspace
+        .lines()
+        .filter(|l| l.trim_start().starts_with("members"))
+    {
+        for member in line.split('"').skip(1).step_by(2) {
+            if !listing.iter().any(|(_, folder, _)| folder == member) {
+                bad.push(format!(
+                    "the workspace member {member} is not in the listing"
+                ));
+            }
+        }
+    }
+    assert!(listing.len() >= 7, "listing too short: {listing:?}");
+    assert!(
+        bad.is_empty(),
+        "ARCHITECTURE.md and the crates disagree:\n  {}",
+        bad.join("\n  ")
+    );
+}
+
+#[test]
+fn the_engines_modules_import_only_what_its_listing_says_and_only_from_below() {
+    check_crate(".", false, 4);
+}
+
+#[test]
+fn the_sweep_crates_modules_import_only_what_its_listing_says_and_only_from_below() {
+    check_crate("../sweep", false, 7);
+}
+
+#[test]
+fn the_stores_modules_import_only_what_its_listing_says_and_only_from_below() {
+    check_crate("../store", false, 6);
 }
 
 #[test]

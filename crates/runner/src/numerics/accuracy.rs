@@ -14,12 +14,11 @@
 use std::path::Path;
 
 use chainsweep_solver::{AdaptiveOptions, IntegratorSpec, Method, RunOutput, Scene};
-use hdf5::File;
 
 use super::{max_ignoring_nan, probe_errors, round3};
 use crate::error::{Error, Result};
 use crate::exec;
-use crate::store::hdf5::{attr_scalar, attr_str, dataset, str_dataset};
+use crate::store::hdf5::plain::PlainFile;
 use crate::sweep::auto::{adaptive, setting_of};
 
 /// Above this stiffness ratio `μ τ / m_min` a scene counts as damping-dominated: the reference
@@ -372,40 +371,34 @@ pub fn write_study(path: &Path, st: &Study, probe_names: &[String], source: &str
 }
 
 fn write_study_file(path: &Path, st: &Study, probe_names: &[String], source: &str) -> Result<()> {
-    let f = File::create(path)?;
-    attr_str(&f, "engine", "chainsweep accuracy")?;
-    attr_str(&f, "engine_version", crate::ENGINE_VERSION)?;
-    attr_str(&f, "git_revision", crate::git_revision())?;
-    attr_str(&f, "source", source)?;
-    attr_str(
-        &f,
+    let file = PlainFile::create(path)?;
+    let f = file.root();
+    f.attr_str("engine", "chainsweep accuracy")?;
+    f.attr_str("engine_version", crate::ENGINE_VERSION)?;
+    f.attr_str("git_revision", crate::git_revision())?;
+    f.attr_str("source", source)?;
+    f.attr_str(
         "scene",
         &serde_json::to_string(&st.scene).expect("Scene serialises"),
     )?;
-    attr_scalar(&f, "contact_time_s", st.scales.contact_time_s)?;
-    attr_scalar(&f, "stiffness_ratio", st.scales.stiffness_ratio)?;
+    f.attr("contact_time_s", st.scales.contact_time_s)?;
+    f.attr("stiffness_ratio", st.scales.stiffness_ratio)?;
     let ref_out = st.reference.out.as_ref().expect("reference ran");
     let (rs, rn) = setting_of(&st.reference.spec);
-    attr_str(
-        &f,
+    f.attr_str(
         "reference",
         &format!("{} {rn} {rs:.0e}", st.reference.spec.method_name()),
     )?;
     let (cs, cn) = setting_of(&st.confirmation.spec);
-    attr_str(
-        &f,
+    f.attr_str(
         "confirmation",
         &format!("{} {cn} {cs:.0e}", st.confirmation.spec.method_name()),
     )?;
-    attr_scalar(&f, "reference_agreement", st.agreement)?;
-    attr_scalar(&f, "reference_wall_time_s", st.reference.wall_median())?;
-    attr_scalar(&f, "reference_rhs_evals", ref_out.stats.rhs_evals as i64)?;
-    attr_scalar(&f, "reference_energy_drift", ref_out.energy_drift_max)?;
-    attr_str(
-        &f,
-        "probes",
-        &serde_json::to_string(probe_names).expect("json"),
-    )?;
+    f.attr("reference_agreement", st.agreement)?;
+    f.attr("reference_wall_time_s", st.reference.wall_median())?;
+    f.attr("reference_rhs_evals", ref_out.stats.rhs_evals as i64)?;
+    f.attr("reference_energy_drift", ref_out.energy_drift_max)?;
+    f.attr_str("probes", &serde_json::to_string(probe_names).expect("json"))?;
     let lp: Vec<f64> = ref_out.probes.iter().map(|p| p.leading_peak).collect();
     let lpt: Vec<f64> = ref_out
         .probes
@@ -413,20 +406,17 @@ fn write_study_file(path: &Path, st: &Study, probe_names: &[String], source: &st
         .map(|p| p.leading_peak_time_s)
         .collect();
     let np = lp.len();
-    let d = dataset(&f, "reference_leading_peak", &[np], &lp)?;
-    attr_str(&d, "units", "see probes")?;
-    let d = dataset(&f, "reference_leading_peak_time_s", &[np], &lpt)?;
-    attr_str(&d, "units", "s")?;
-    attr_str(
-        &f,
-        "error_definition",
+    let d = f.dataset("reference_leading_peak", &[np], &lp)?;
+    d.attr_str("units", "see probes")?;
+    let d = f.dataset("reference_leading_peak_time_s", &[np], &lpt)?;
+    d.attr_str("units", "s")?;
+    f.attr_str("error_definition",
         "error: largest relative error of the leading-peak force over the probes, against the reference",
     )?;
     for m in &st.methods {
-        let g = f.create_group(&m.method)?;
-        attr_str(&g, "setting_name", m.setting_name)?;
-        attr_str(
-            &g,
+        let g = f.group(&m.method)?;
+        g.attr_str("setting_name", m.setting_name)?;
+        g.attr_str(
             "setting_units",
             if m.setting_name == "rtol" { "1" } else { "s" },
         )?;
@@ -473,45 +463,39 @@ fn write_study_file(path: &Path, st: &Study, probe_names: &[String], source: &st
                 }
             }
         }
-        let d = dataset(&g, "setting", &[n], &setting)?;
-        attr_str(
-            &d,
-            "units",
-            if m.setting_name == "rtol" { "1" } else { "s" },
-        )?;
-        let d = dataset(&g, "error", &[n], &error)?;
-        attr_str(&d, "units", "1")?;
-        attr_str(
-            &d,
+        let d = g.dataset("setting", &[n], &setting)?;
+        d.attr_str("units", if m.setting_name == "rtol" { "1" } else { "s" })?;
+        let d = g.dataset("error", &[n], &error)?;
+        d.attr_str("units", "1")?;
+        d.attr_str(
             "long_name",
             "largest relative error of the leading-peak force over the probes",
         )?;
-        let d = dataset(&g, "error_leading_peak", &[n, np], &e_lp)?;
-        attr_str(&d, "units", "1")?;
-        let d = dataset(&g, "error_leading_peak_time", &[n, np], &e_lpt)?;
-        attr_str(&d, "units", "1")?;
-        attr_str(&d, "long_name", "relative error of the leading-peak time")?;
-        let d = dataset(&g, "energy_drift", &[n], &drift)?;
-        attr_str(&d, "units", "1")?;
-        attr_str(
-            &d,
+        let d = g.dataset("error_leading_peak", &[n, np], &e_lp)?;
+        d.attr_str("units", "1")?;
+        let d = g.dataset("error_leading_peak_time", &[n, np], &e_lpt)?;
+        d.attr_str("units", "1")?;
+        d.attr_str("long_name", "relative error of the leading-peak time")?;
+        let d = g.dataset("energy_drift", &[n], &drift)?;
+        d.attr_str("units", "1")?;
+        d.attr_str(
             "long_name",
             "largest energy-ledger drift relative to the impact energy",
         )?;
-        let d = dataset(&g, "wall_time", &[n], &wall)?;
-        attr_str(&d, "units", "s")?;
-        attr_str(&d, "long_name", "median wall time of the repeats")?;
-        let d = dataset(&g, "wall_times", &[n, reps], &walls)?;
-        attr_str(&d, "units", "s")?;
-        let d = dataset(&g, "rhs_evals", &[n], &rhs)?;
-        attr_str(&d, "units", "1")?;
-        let d = dataset(&g, "steps", &[n], &steps)?;
-        attr_str(&d, "units", "1")?;
-        dataset(&g, "ok", &[n], &ok)?;
-        str_dataset(&g, "reason", &[n], &reason)?;
-        dataset(&g, "skipped_settings", &[m.skipped.len()], &m.skipped)?;
+        let d = g.dataset("wall_time", &[n], &wall)?;
+        d.attr_str("units", "s")?;
+        d.attr_str("long_name", "median wall time of the repeats")?;
+        let d = g.dataset("wall_times", &[n, reps], &walls)?;
+        d.attr_str("units", "s")?;
+        let d = g.dataset("rhs_evals", &[n], &rhs)?;
+        d.attr_str("units", "1")?;
+        let d = g.dataset("steps", &[n], &steps)?;
+        d.attr_str("units", "1")?;
+        g.dataset("ok", &[n], &ok)?;
+        g.str_dataset("reason", &[n], &reason)?;
+        g.dataset("skipped_settings", &[m.skipped.len()], &m.skipped)?;
     }
-    f.close()?;
+    file.close()?;
     Ok(())
 }
 

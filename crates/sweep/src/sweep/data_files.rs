@@ -1,0 +1,45 @@
+//! The HDF5 files a sweep file names (recorded drives, fit data, a fit's result), read through a
+//! reader the front end registers: this crate links no HDF5 library. The store crate's reader
+//! (`chainsweep_store::hdf5::input`) is the one the command line and the Python package register,
+//! as `log` takes its logger: once, at start.
+
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// What reading a sweep file needs of an HDF5 file. Errors are the library's message, which the
+/// caller puts after the file's name and the field that named it.
+pub trait Hdf5Reader: Send + Sync {
+    /// Whether `name` (a path inside the file) is a group.
+    fn is_group(&self, path: &Path, name: &str) -> Result<bool, String>;
+    /// The shape of the dataset `name` (a path inside the file).
+    fn shape(&self, path: &Path, name: &str) -> Result<Vec<usize>, String>;
+    /// The values of the dataset `name`, in row-major order, converted to `f64`.
+    fn read_f64(&self, path: &Path, name: &str) -> Result<Vec<f64>, String>;
+    /// The string attribute `name` of the file's root group; `None` when it has none.
+    fn root_string_attribute(&self, path: &Path, name: &str) -> Result<Option<String>, String>;
+}
+
+static READER: OnceLock<&'static dyn Hdf5Reader> = OnceLock::new();
+
+/// Registers the reader of HDF5 files (once; later calls are ignored).
+pub fn set_hdf5_reader(reader: &'static dyn Hdf5Reader) {
+    let _ = READER.set(reader);
+}
+
+/// The registered reader, or why there is none.
+pub(crate) fn hdf5_reader() -> Result<&'static dyn Hdf5Reader, String> {
+    READER.get().copied().ok_or_else(|| {
+        "this program reads no HDF5 files (no HDF5 reader was registered: \
+         chainsweep::init, or chainsweep_sweep::sweep::data_files::set_hdf5_reader)"
+            .to_string()
+    })
+}
+
+/// Whether the file at `path` starts with HDF5's signature.
+pub(crate) fn is_hdf5(path: &Path) -> bool {
+    let mut head = [0u8; 8];
+    std::fs::File::open(path)
+        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+        .is_ok()
+        && head == *b"\x89HDF\r\n\x1a\n"
+}

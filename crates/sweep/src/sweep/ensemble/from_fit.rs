@@ -1,0 +1,120 @@
+//! `from_fit` inputs: a fit's output file read into the multivariate normal of its best values
+//! and covariance, written into the sweep file's text before it is parsed.
+
+use serde_json::{Map, Value};
+
+use super::dist::bad;
+use crate::error::Result;
+use crate::sweep::data_files::hdf5_reader;
+
+/// Reads `from_fit` inputs of the sweep file `text` (in folder `dir`) into the multivariate
+/// normals they name, so that the sweep's text holds the numbers its runs depend on (a later
+/// change of the fit's file changes nothing of a finished ensemble). `None`: nothing to read.
+pub(crate) fn inline_text(text: &str, dir: &std::path::Path) -> Result<Option<String>> {
+    let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let Ok(mut raw) = super::super::parse_without_duplicate_keys(stripped) else {
+        return Ok(None);
+    };
+    let Some(Value::Array(inputs)) = raw.pointer_mut("/ensemble/inputs") else {
+        return Ok(None);
+    };
+    let mut any = false;
+    for (i, input) in inputs.iter_mut().enumerate() {
+        let Some(Value::Object(m)) = Some(&*input) else {
+            continue;
+        };
+        let Some(path) = m.get("from_fit") else {
+            continue;
+        };
+        let at = format!("ensemble.inputs[{i}].from_fit");
+        let path = path
+            .as_str()
+            .ok_or_else(|| bad(&at, "must be the path of a fit's output file (a string)"))?;
+        if let Some(k) = m.keys().find(|k| *k != "from_fit" && *k != "name") {
+            return Err(bad(
+                format!("ensemble.inputs[{i}].{k}"),
+                "a from_fit input takes only a name beside it",
+            ));
+        }
+        let name = m.get("name").cloned();
+        let mv = read_fit(&dir.join(path), path, &at)?;
+        let mut out = Map::new();
+        let mut mv = mv;
+        if let (Some(n), Value::Object(o)) = (name, &mut mv) {
+            o.insert("name".into(), n);
+        }
+        out.insert("multivariate_normal".into(), mv);
+        *input = Value::Object(out);
+        any = true;
+    }
+    Ok(any.then(|| serde_json::to_string_pretty(&raw).expect("JSON")))
+}
+
+/// A fit's result as a multivariate normal: its fields' paths (from the fit's sweep), names,
+/// best values and covariance.
+fn read_fit(path: &std::path::Path, shown: &str, at: &str) -> Result<Value> {
+    let fail = |m: String| bad(at, format!("{shown}: {m}"));
+    let h5 = hdf5_reader().map_err(&fail)?;
+    let text: String = h5
+        .root_string_attribute(path, "sweep")
+        .map_err(|e| fail(format!("cannot be read as a fit's output file ({e})")))?
+        .ok_or_else(|| fail("is no chainsweep output file (it has no sweep attribute)".into()))?;
+    let sweep: Value = serde_json::from_str(&text)
+        .map_err(|e| fail(format!("its sweep text does not read ({e})")))?;
+    if sweep.pointer("/search/goal").and_then(Value::as_str) != Some("fit") {
+        return Err(fail(
+            "is not a fit's output file (its sweep has no search with goal fit)".into(),
+        ));
+    }
+    let fields: Vec<(String, String)> = sweep
+        .pointer("/search/fields")
+        .and_then(Value::as_array)
+        .map(|a| {
+            a.iter()
+                .filter_map(|f| {
+                    let field = f.get("field")?.as_str()?.to_string();
+                    let name = f
+                        .get("name")
+                        .and_then(Value::as_str)
+                        .map(str::to_string)
+                        .unwrap_or_else(|| super::super::field_name(&field));
+                    Some((field, name))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let k = fields.len();
+    let read = |name: &str| -> Result<Vec<f64>> {
+        h5.read_f64(path, name)
+            .map_err(|_| fail(format!("has no dataset `{name}` (a fit's result)")))
+    };
+    let cov = read("fit_covariance")?;
+    if cov.len() != k * k {
+        return Err(fail(format!(
+            "holds a fit over several points of its axes ({} covariance entries for {k} fields): an ensemble takes one fit's result",
+            cov.len()
+        )));
+    }
+    if cov.iter().any(|x| !x.is_finite()) {
+        return Err(fail(
+            "has no covariance (its data do not determine every fitted field)".into(),
+        ));
+    }
+    let mut mean = Vec::with_capacity(k);
+    for (_, name) in &fields {
+        let v = read(&format!("fit_{name}"))?;
+        match v.as_slice() {
+            [x] if x.is_finite() => mean.push(*x),
+            _ => return Err(fail(format!("gives no single best value of `{name}`"))),
+        }
+    }
+    let covariance: Vec<Value> = (0..k)
+        .map(|i| Value::from(cov[i * k..(i + 1) * k].to_vec()))
+        .collect();
+    Ok(serde_json::json!({
+        "fields": fields.iter().map(|f| f.0.clone()).collect::<Vec<_>>(),
+        "names": fields.iter().map(|f| f.1.clone()).collect::<Vec<_>>(),
+        "mean": mean,
+        "covariance": covariance,
+    }))
+}

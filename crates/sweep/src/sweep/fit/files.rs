@@ -1,0 +1,286 @@
+//! The data files a fit names by `path`, CSV or HDF5, read into the sweep file's text: their
+//! columns, checked, become the data themselves.
+
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::{bad, MAX_DATA, MAX_FILE_BYTES, MAX_FILE_LINES};
+use crate::error::Result;
+use crate::sweep::data_files::{hdf5_reader, is_hdf5};
+
+/// The sweep file's `text` with every data file a fit names by `path` read into its data
+/// (relative paths from `dir`), so that the output file keeps the data themselves. `None` when
+/// it names none.
+pub(crate) fn inline_text(text: &str, dir: &Path) -> Result<Option<String>> {
+    let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let Ok(mut raw) = super::super::parse_without_duplicate_keys(stripped) else {
+        return Ok(None);
+    };
+    let Some(search) = raw.get_mut("search").and_then(Value::as_object_mut) else {
+        return Ok(None);
+    };
+    let mut any = false;
+    let mut sets: Vec<(String, &mut Value)> = Vec::new();
+    if search.contains_key("data") {
+        sets.push((
+            "search.data".into(),
+            search.get_mut("data").expect("present"),
+        ));
+    } else if let Some(Value::Array(list)) = search.get_mut("data_sets") {
+        for (k, d) in list.iter_mut().enumerate() {
+            sets.push((format!("search.data_sets[{k}]"), d));
+        }
+    }
+    for (at, set) in sets {
+        let Some(items) = set.as_array_mut() else {
+            continue;
+        };
+        for (i, item) in items.iter_mut().enumerate() {
+            for kind in ["signal", "spectrum"] {
+                let Some(Value::Object(m)) = item.get_mut(kind) else {
+                    continue;
+                };
+                let Some(path) = m.get("path").cloned() else {
+                    continue;
+                };
+                let field = format!("{at}[{i}].{kind}");
+                let path = path.as_str().ok_or_else(|| {
+                    bad(format!("{field}.path"), "must be a file name (a string)")
+                })?;
+                let group = match m.get("dataset") {
+                    None => None,
+                    Some(Value::String(g)) => Some(g.clone()),
+                    Some(_) => return Err(bad(format!("{field}.dataset"), "must be a string")),
+                };
+                let columns: &[&str] = if kind == "signal" {
+                    &["time_s", "value", "sigma"]
+                } else {
+                    &[
+                        "frequency_hz",
+                        "amplitude",
+                        "sigma",
+                        "phase_rad",
+                        "phase_sigma_rad",
+                        "transmission_db",
+                    ]
+                };
+                let table = read_table(&dir.join(path), group.as_deref(), columns, &field)?;
+                for (name, _) in &table {
+                    if m.contains_key(name) {
+                        return Err(bad(
+                            format!("{field}.{name}"),
+                            format!("given both here and as a column of {path}: give it once"),
+                        ));
+                    }
+                }
+                m.remove("path");
+                m.remove("dataset");
+                for (name, values) in table {
+                    m.insert(name, values.into());
+                }
+                any = true;
+            }
+        }
+    }
+    Ok(any.then(|| serde_json::to_string_pretty(&raw).expect("a JSON value serialises")))
+}
+
+/// The named columns of a data file (CSV: a header line naming them, or the first columns in the
+/// order of `columns` without one; HDF5: a group, `group` or the root, holding one dataset per
+/// column).
+fn read_table(
+    path: &Path,
+    group: Option<&str>,
+    columns: &[&str],
+    field: &str,
+) -> Result<Vec<(String, Vec<f64>)>> {
+    let shown = path.display().to_string();
+    let pat = format!("{field}.path");
+    let meta = std::fs::metadata(path)
+        .map_err(|e| bad(&pat, format!("cannot read the data file {shown}: {e}")))?;
+    if !meta.is_file() {
+        return Err(bad(&pat, format!("{shown} is not a regular file")));
+    }
+    if meta.len() > MAX_FILE_BYTES {
+        return Err(bad(
+            &pat,
+            format!(
+                "{shown} holds {} bytes, more than {MAX_FILE_BYTES}",
+                meta.len()
+            ),
+        ));
+    }
+    let table = if is_hdf5(path) {
+        let hdf = |e: String| bad(&pat, format!("{shown}: {e}"));
+        let h5 = hdf5_reader().map_err(hdf)?;
+        let prefix = match group {
+            Some(g) => {
+                if !h5.is_group(path, g).map_err(hdf)? {
+                    return Err(bad(
+                        format!("{field}.dataset"),
+                        format!("{shown}: it has no group `{g}`"),
+                    ));
+                }
+                format!("{g}/")
+            }
+            None => String::new(),
+        };
+        let mut table = Vec::new();
+        for c in columns {
+            let at = format!("{prefix}{c}");
+            if let Ok(shape) = h5.shape(path, &at) {
+                let size: usize = shape.iter().product();
+                if size > MAX_DATA * 4 {
+                    return Err(bad(
+                        &pat,
+                        format!("{shown}: {c} holds {size} values, more than a fit takes"),
+                    ));
+                }
+                let values = h5.read_f64(path, &at).map_err(hdf)?;
+                if let Some(i) = values.iter().position(|x| !x.is_finite()) {
+                    return Err(bad(
+                        &pat,
+                        format!(
+                            "{shown}: {c}[{i}] is {}: every datum must be a finite number",
+                            values[i]
+                        ),
+                    ));
+                }
+                table.push((c.to_string(), values));
+            }
+        }
+        table
+    } else {
+        if group.is_some() {
+            return Err(bad(
+                format!("{field}.dataset"),
+                format!("{shown} is not an HDF5 file: a CSV file has no dataset"),
+            ));
+        }
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| bad(&pat, format!("cannot read the data file {shown}: {e}")))?;
+        read_csv_table(&text, columns, &pat, &shown)?
+    };
+    if table.is_empty() || table[0].1.is_empty() {
+        return Err(bad(
+            &pat,
+            format!("{shown} holds no data (columns: {})", columns.join(", ")),
+        ));
+    }
+    Ok(table)
+}
+
+fn read_csv_table(
+    text: &str,
+    columns: &[&str],
+    field: &str,
+    shown: &str,
+) -> Result<Vec<(String, Vec<f64>)>> {
+    let mut header: Option<Vec<String>> = None;
+    let mut rows: Vec<Vec<f64>> = Vec::new();
+    for (line_no, line, cells, numbers) in super::super::recording::csv_lines(text) {
+        match numbers {
+            Some(n) => {
+                if let Some(c) = n.iter().position(|x| !x.is_finite()) {
+                    let names = header.as_ref().map_or_else(
+                        || columns.iter().map(|c| c.to_string()).collect::<Vec<_>>(),
+                        Clone::clone,
+                    );
+                    return Err(bad(
+                        field,
+                        format!(
+                            "{shown}, line {line_no}: {} in column {}: every datum must be a finite number",
+                            n[c],
+                            names.get(c).map_or("?", String::as_str)
+                        ),
+                    ));
+                }
+                let want = header.as_ref().map_or(n.len(), Vec::len);
+                if n.len() != want || (header.is_none() && n.len() > columns.len()) {
+                    return Err(bad(
+                        field,
+                        format!(
+                            "{shown}, line {line_no}: {} numbers where the file's columns are {}",
+                            n.len(),
+                            header
+                                .as_ref()
+                                .map_or_else(|| columns.join(", "), |h| h.join(", "))
+                        ),
+                    ));
+                }
+                if header.is_none() && rows.is_empty() {
+                    header = Some(columns[..n.len()].iter().map(|c| c.to_string()).collect());
+                }
+                rows.push(n);
+            }
+            None if header.is_none() && rows.is_empty() => {
+                let names: Vec<String> = cells
+                    .iter()
+                    .map(|c| c.trim_matches('"').to_string())
+                    .collect();
+                if let Some(u) = names.iter().find(|n| !columns.contains(&n.as_str())) {
+                    return Err(bad(
+                        field,
+                        format!(
+                            "{shown}, line {line_no}: column `{u}` is none of {}",
+                            columns.join(", ")
+                        ),
+                    ));
+                }
+                header = Some(names);
+            }
+            None => {
+                return Err(bad(
+                    field,
+                    format!("{shown}, line {line_no}: want numbers, got {line:?}"),
+                ))
+            }
+        }
+        if rows.len() > MAX_FILE_LINES {
+            return Err(bad(
+                field,
+                format!("{shown} holds more than {MAX_FILE_LINES} lines of data"),
+            ));
+        }
+    }
+    let Some(header) = header else {
+        return Ok(Vec::new());
+    };
+    Ok(header
+        .iter()
+        .enumerate()
+        .map(|(c, name)| (name.clone(), rows.iter().map(|r| r[c]).collect()))
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_tables_with_and_without_a_header() {
+        let t = read_csv_table(
+            "# gauge 4\ntime_s,value\n0,1\n1e-6, 2\n",
+            &["time_s", "value", "sigma"],
+            "f",
+            "x",
+        )
+        .unwrap();
+        assert_eq!(t[0], ("time_s".into(), vec![0.0, 1e-6]));
+        assert_eq!(t[1], ("value".into(), vec![1.0, 2.0]));
+        let t = read_csv_table(
+            "0 1 0.1\n1 2 0.1\n",
+            &["time_s", "value", "sigma"],
+            "f",
+            "x",
+        )
+        .unwrap();
+        assert_eq!(t.len(), 3);
+        assert_eq!(t[2].1, vec![0.1, 0.1]);
+        let e = read_csv_table("time_s,volts\n0,1\n", &["time_s", "value"], "f", "x").unwrap_err();
+        assert!(e.to_string().contains("`volts` is none of"), "{e}");
+        let e = read_csv_table("0,1\n1\n", &["time_s", "value"], "f", "x").unwrap_err();
+        assert!(e.to_string().contains("line 2"), "{e}");
+    }
+}
