@@ -356,15 +356,32 @@ def bad(edit, files=None):
     return make
 
 
-def signal_spec(spec, tmp_path, text=None, **signal):
+def signal_spec(spec, tmp_path, text=None, h5=None, **signal):
+    """`text`: the data as a CSV file; `h5`: as an HDF5 file, bytes or a function of its path."""
     spec["record"] = impact_record(True, 1e-7)
     spec["base"]["duration_s"] = 2e-4
     s = {"probe": "gauge_force_cyl5", "sigma": 0.5}
     if text is not None:
         (tmp_path / "g.csv").write_text(text)
         s["path"] = "g.csv"
+    if h5 is not None:
+        if isinstance(h5, bytes):
+            (tmp_path / "g.h5").write_bytes(h5)
+        else:
+            h5(tmp_path / "g.h5")
+        s["path"] = "g.h5"
     s.update(signal)
     spec["search"]["data"] = [{"signal": s}]
+
+
+def signal_h5(path, group=None, times=(1e-5, 2e-5, 3e-5), values=(1.0, 2.0, 3.0)):
+    """A gauge recording in an HDF5 file: `time_s` and `value` datasets in `group` or the root."""
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        g = f.require_group(group) if group else f
+        g["time_s"] = np.array(times)
+        g["value"] = np.array(values)
 
 
 BAD_DATA = [
@@ -386,12 +403,53 @@ BAD_DATA = [
     ("an empty file", bad(lambda s, p: signal_spec(s, p, text="")), "search.data[0].signal.path", "no data"),
     ("a NaN in a file", bad(lambda s, p: signal_spec(s, p, text="time_s,value\n1e-5,1\n2e-5,nan\n3e-5,2\n")),
      "search.data[0].signal.path", "line 3"),
+    # The HDF5 library's own reason, not "no data", for a file that has HDF5's signature but will
+    # not open.
+    ("an HDF5 file that does not open", bad(lambda s, p: signal_spec(
+        s, p, h5=b"\x89HDF\r\n\x1a\n" + bytes(200))), "search.data[0].signal.path", "g.h5: "),
+    ("an HDF5 group that is not there", bad(lambda s, p: signal_spec(
+        s, p, h5=lambda f: signal_h5(f, "gauge"), dataset="gauge7")), "search.data[0].signal.dataset",
+     "no group `gauge7`"),
+    ("a NaN in an HDF5 file", bad(lambda s, p: signal_spec(
+        s, p, h5=lambda f: signal_h5(f, values=(1.0, float("nan"), 2.0)))), "search.data[0].signal.path",
+     "value[1] is NaN"),
     ("no data", bad(lambda s, p: s["search"].update(data=[])), "search.data", "empty"),
     ("fewer data than fields", bad(lambda s, p: s["search"].update(data=s["search"]["data"][:1])),
      "search.data", "cannot fit"),
     ("an objective beside data", bad(lambda s, p: s["search"].update(objective={"summary": "t_end_s"})),
      "search.objective", "fit"),
 ]
+
+
+@pytest.mark.parametrize("group", [None, "gauge"])
+def test_a_signal_read_from_hdf5_is_the_signal_read_from_csv(tmp_path, group):
+    """The same data from a CSV file and from an HDF5 file (at its root or in a group) give the
+    same fit: the data inlined into the sweep's text are the same numbers, and so is the answer."""
+    times = tuple(float(t) for t in np.linspace(2e-5, 1.2e-4, 12))
+    values = tuple(float(v) for v in 40.0 * np.sin(np.linspace(0.0, 3.0, 12)) ** 2)
+    outs = []
+    for kind in ("csv", "hdf5"):
+        spec = two_field_fit({"data": []})
+        if kind == "csv":
+            csv = "time_s,value\n" + "".join(f"{t!r},{v!r}\n" for t, v in zip(times, values))
+            signal_spec(spec, tmp_path, text=csv, sigma=2.0)
+        else:
+            signal_spec(spec, tmp_path, h5=lambda f: signal_h5(f, group, times, values), sigma=2.0,
+                        **({"dataset": group} if group else {}))
+        spec["search"]["data"].append({"summary": "leading_peak", "probe": "gauge_force_cyl5",
+                                       "value": 100.0, "sigma": 2.0})
+        path = write_sweep(tmp_path / f"{kind}.json", spec)
+        out = tmp_path / f"{kind}.h5"
+        r = run("run", path, "-o", out)
+        assert r.returncode in (0, 3), r.stderr
+        outs.append(out)
+    with xr.open_dataset(outs[0]) as a, xr.open_dataset(outs[1]) as b:
+        assert "g.csv" not in a.attrs["sweep"] and "g.h5" not in b.attrs["sweep"]
+        assert a.attrs["sweep"] == b.attrs["sweep"]
+        assert np.array_equal(a["signal_gauge_force_cyl5_data"].values, np.array(values))
+        for name in ("fit_damping_kg_s", "fit_chi_square"):
+            if name in a:
+                assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
 
 
 @pytest.mark.parametrize("what,make,field,words", BAD_DATA, ids=[b[0] for b in BAD_DATA])
@@ -406,6 +464,7 @@ def test_bad_data_exit_2_naming_the_field_and_write_nothing(tmp_path, what, make
     assert not out.exists()
     v = run("validate", path)
     assert v.returncode == 2 and field in v.stderr, (what, v.stderr)
+    assert words.lower() in v.stderr.lower(), (what, v.stderr)
 
 
 # (f) ----------------------------------------------------------------------------------------------

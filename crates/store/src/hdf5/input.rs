@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use chainsweep_sweep::sweep::data_files::{set_hdf5_reader, Hdf5Reader};
+use chainsweep_sweep::sweep::data_files::{set_hdf5_reader, Array, Hdf5Reader, Object};
 use hdf5::types::VarLenUnicode;
 
 /// This crate's HDF5 library, as the sweep crate's [`Hdf5Reader`].
@@ -21,20 +21,26 @@ fn open(path: &Path) -> Result<hdf5::File, String> {
 }
 
 impl Hdf5Reader for Input {
-    fn is_group(&self, path: &Path, name: &str) -> Result<bool, String> {
-        Ok(open(path)?.group(name).is_ok())
+    fn object(&self, path: &Path, name: &str) -> Result<Object, String> {
+        let file = open(path)?;
+        Ok(if file.group(name).is_ok() {
+            Object::Group
+        } else if file.dataset(name).is_ok() {
+            Object::Dataset
+        } else {
+            Object::Missing
+        })
     }
 
-    fn shape(&self, path: &Path, name: &str) -> Result<Vec<usize>, String> {
+    fn read_f64(&self, path: &Path, name: &str, max_values: usize) -> Result<Array, String> {
         let d = open(path)?.dataset(name).map_err(|e| e.to_string())?;
-        Ok(d.shape())
-    }
-
-    fn read_f64(&self, path: &Path, name: &str) -> Result<Vec<f64>, String> {
-        open(path)?
-            .dataset(name)
-            .and_then(|d| d.read_raw::<f64>())
-            .map_err(|e| e.to_string())
+        let shape = d.shape();
+        let values = if d.size() > max_values {
+            None
+        } else {
+            Some(d.read_raw::<f64>().map_err(|e| e.to_string())?)
+        };
+        Ok(Array { shape, values })
     }
 
     fn root_string_attribute(&self, path: &Path, name: &str) -> Result<Option<String>, String> {

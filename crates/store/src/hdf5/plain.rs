@@ -45,7 +45,8 @@ impl PlainFile {
         }
     }
 
-    /// Closes the file, every write on disk.
+    /// Closes this handle of the file; the file itself closes, its writes flushed, once the last
+    /// group of it ([`PlainFile::root`] and those made from it) is dropped too.
     pub fn close(self) -> Result<()> {
         self.file.close().map_err(crate::h5)
     }

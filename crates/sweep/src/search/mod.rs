@@ -3,7 +3,7 @@
 //!
 //! Every method here is a pure function of its evaluations. It is written as plain sequential
 //! code (a scan, then Brent's method in each bracket, …) that asks for the objective at batches
-//! of points through [`Streams::eval`]; the driver ([`crate::engine`]) answers from the runs
+//! of points through [`Streams::eval`]; the driver (the engine's `chainsweep::engine`) answers from the runs
 //! stored so far, and when a batch is not known yet the method returns what it has found so far
 //! with the batch as the next proposal. The driver runs the proposals (in parallel, stored as
 //! they finish, like any run) and calls the method again from the start: it replays the same

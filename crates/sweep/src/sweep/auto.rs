@@ -1,6 +1,6 @@
 //! `integrator: auto` as a sweep file states it ([`AutoSpec`]) and as it is resolved
 //! ([`AutoChoice`]): plain data. The resolution itself, a pilot on a few grid points, is
-//! [`crate::numerics::auto`].
+//! `chainsweep::numerics::auto` (in the engine).
 //!
 //! A sweep asks for it in its base scene:
 //!
@@ -162,9 +162,9 @@ impl Candidate {
 /// What `auto` chose, and the pilot it chose from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct AutoChoice {
-    /// The cache key of the unresolved sweep ([`crate::numerics::auto::cache_key`]).
+    /// The cache key of the unresolved sweep (the engine's `chainsweep::numerics::auto::cache_key`).
     pub key: String,
-    /// Version of the procedure that chose ([`crate::numerics::auto::AUTO_VERSION`]).
+    /// Version of the procedure that chose (the engine's `chainsweep::numerics::auto::AUTO_VERSION`).
     pub version: u32,
     /// The requested target relative error.
     pub target_rel_error: f64,

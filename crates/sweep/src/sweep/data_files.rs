@@ -6,15 +6,34 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
-/// What reading a sweep file needs of an HDF5 file. Errors are the library's message, which the
-/// caller puts after the file's name and the field that named it.
+/// What a path inside an HDF5 file names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Object {
+    /// A group.
+    Group,
+    /// A dataset.
+    Dataset,
+    /// Nothing (or something else: a named datatype).
+    Missing,
+}
+
+/// A dataset's shape, and its values unless it holds more than the reader was allowed to read.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Array {
+    /// Its shape.
+    pub shape: Vec<usize>,
+    /// Its values in row-major order, converted to `f64`; `None` when it holds more than asked.
+    pub values: Option<Vec<f64>>,
+}
+
+/// What reading a sweep file needs of an HDF5 file. Each call opens the file once; errors (the
+/// file cannot be opened, a dataset cannot be read as numbers) are the library's message, which
+/// the caller puts after the file's name and the field that named it.
 pub trait Hdf5Reader: Send + Sync {
-    /// Whether `name` (a path inside the file) is a group.
-    fn is_group(&self, path: &Path, name: &str) -> Result<bool, String>;
-    /// The shape of the dataset `name` (a path inside the file).
-    fn shape(&self, path: &Path, name: &str) -> Result<Vec<usize>, String>;
-    /// The values of the dataset `name`, in row-major order, converted to `f64`.
-    fn read_f64(&self, path: &Path, name: &str) -> Result<Vec<f64>, String>;
+    /// What `name` (a path inside the file) is.
+    fn object(&self, path: &Path, name: &str) -> Result<Object, String>;
+    /// The dataset `name`: its shape, and its values when it holds at most `max_values`.
+    fn read_f64(&self, path: &Path, name: &str, max_values: usize) -> Result<Array, String>;
     /// The string attribute `name` of the file's root group; `None` when it has none.
     fn root_string_attribute(&self, path: &Path, name: &str) -> Result<Option<String>, String>;
 }

@@ -217,6 +217,13 @@ pub fn from_value_collecting<T: DeserializeOwned>(
 /// parses ([`Sweep::parse_in`], the paths it names read from `dir`, the file's folder); its grid
 /// points are checked then ([`crate::grid`]).
 pub fn diagnose(text: &str, dir: &std::path::Path) -> Vec<Error> {
+    // The files the sweep names are read first, as `Sweep::parse_in` reads them: an error in one
+    // is the error to report (checked without them, the file's `path` keys would be unknown).
+    let inlined = match super::inline_files(text, dir) {
+        Ok(inlined) => inlined,
+        Err(e) => return vec![e],
+    };
+    let text = inlined.as_deref().unwrap_or(text);
     let stripped = text.strip_prefix('\u{feff}').unwrap_or(text);
     let raw = match super::parse_without_duplicate_keys(stripped) {
         Ok(raw) => raw,

@@ -500,6 +500,17 @@ fn parse_limits(limits: Option<LimitsFile>) -> Result<Limits> {
     })
 }
 
+/// `text` with the files it names read into it (recorded drives, fit data, a fit's result for an
+/// ensemble's inputs), their paths relative to `dir`; `None` when it names none.
+pub(crate) fn inline_files(text: &str, dir: &std::path::Path) -> Result<Option<String>> {
+    let inlined = recording::inline_text(text, dir)?;
+    let text_1 = inlined.as_deref().unwrap_or(text);
+    let with_data = fit::inline_text(text_1, dir)?;
+    let text_2 = with_data.as_deref().unwrap_or(text_1);
+    let with_fit = ensemble::inline_text(text_2, dir)?;
+    Ok(with_fit.or(with_data).or(inlined))
+}
+
 impl Sweep {
     /// Parses and checks a sweep file's text: syntax, unknown fields, types, axes. Grid points
     /// are checked by [`crate::grid::Grid::new`].
@@ -510,12 +521,8 @@ impl Sweep {
     /// [`Sweep::parse`] for a sweep file in folder `dir`, from which the relative paths it names
     /// (recorded drives) are read.
     pub fn parse_in(text: &str, dir: &std::path::Path) -> Result<Sweep> {
-        let inlined = recording::inline_text(text, dir)?;
+        let inlined = inline_files(text, dir)?;
         let text = inlined.as_deref().unwrap_or(text);
-        let with_data = fit::inline_text(text, dir)?;
-        let text = with_data.as_deref().unwrap_or(text);
-        let with_fit = ensemble::inline_text(text, dir)?;
-        let text = with_fit.as_deref().unwrap_or(text);
         let mut file = read_json(text)?;
         let derived = expr::extract(&mut file.base, &raw_axes(text))?;
         let (mut base, _, auto) = normalise_base(file.base, file.record, false).map_err(first)?;

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use super::data_files::{hdf5_reader, is_hdf5};
+use super::data_files::{hdf5_reader, is_hdf5, Object};
 use crate::error::{Error, Result};
 use chainsweep_solver::chain::drive::MAX_RECORDED_SAMPLES;
 
@@ -199,35 +199,33 @@ fn read_hdf5(path: &Path, dataset: Option<&str>, field: &str) -> Result<(Vec<f64
     let hdf = |e: String| input(&dataset_field, format!("{shown}: {e}"));
     let h5 = hdf5_reader().map_err(hdf)?;
     let too_many = |n: usize| {
-        (n > MAX_RECORDED_SAMPLES).then(|| {
-            input(
-                &dataset_field,
-                format!("{shown}:{name} holds {n} samples, more than {MAX_RECORDED_SAMPLES}"),
-            )
-        })
+        input(
+            &dataset_field,
+            format!("{shown}:{name} holds {n} samples, more than {MAX_RECORDED_SAMPLES}"),
+        )
     };
-    if h5.is_group(path, name).map_err(hdf)? {
+    if h5.object(path, name).map_err(hdf)? == Object::Group {
         let column = |c: &str| -> Result<Vec<f64>> {
-            let at = format!("{name}/{c}");
-            let size: usize = h5.shape(path, &at).map_err(hdf)?.iter().product();
-            if let Some(e) = too_many(size) {
-                return Err(e);
-            }
-            h5.read_f64(path, &at).map_err(hdf)
+            let a = h5
+                .read_f64(path, &format!("{name}/{c}"), MAX_RECORDED_SAMPLES)
+                .map_err(hdf)?;
+            a.values.ok_or_else(|| too_many(a.shape.iter().product()))
         };
         return Ok((column("times_s")?, column("values")?));
     }
-    let shape = h5.shape(path, name).map_err(hdf)?;
+    let a = h5
+        .read_f64(path, name, 2 * MAX_RECORDED_SAMPLES)
+        .map_err(hdf)?;
+    let shape = a.shape;
     if shape.len() != 2 || shape[1] != 2 {
         return Err(input(
             &dataset_field,
             format!("{shown}:{name} has shape {shape:?}: want (n, 2), time in s and value"),
         ));
     }
-    if let Some(e) = too_many(shape[0]) {
-        return Err(e);
-    }
-    let flat = h5.read_f64(path, name).map_err(hdf)?;
+    let Some(flat) = a.values else {
+        return Err(too_many(shape[0]));
+    };
     Ok((
         flat.iter().step_by(2).copied().collect(),
         flat.iter().skip(1).step_by(2).copied().collect(),

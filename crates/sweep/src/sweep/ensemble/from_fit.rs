@@ -85,8 +85,16 @@ fn read_fit(path: &std::path::Path, shown: &str, at: &str) -> Result<Value> {
         .unwrap_or_default();
     let k = fields.len();
     let read = |name: &str| -> Result<Vec<f64>> {
-        h5.read_f64(path, name)
-            .map_err(|_| fail(format!("has no dataset `{name}` (a fit's result)")))
+        // A fit's result is a few numbers a point (at most 6 fields): a larger dataset is none.
+        let a = h5
+            .read_f64(path, name, 1 << 16)
+            .map_err(|_| fail(format!("has no dataset `{name}` (a fit's result)")))?;
+        a.values.ok_or_else(|| {
+            let n: usize = a.shape.iter().product();
+            fail(format!(
+                "holds {n} values in `{name}`, more than a fit's result"
+            ))
+        })
     };
     let cov = read("fit_covariance")?;
     if cov.len() != k * k {

@@ -7,7 +7,7 @@ use serde_json::Value;
 
 use super::{bad, MAX_DATA, MAX_FILE_BYTES, MAX_FILE_LINES};
 use crate::error::Result;
-use crate::sweep::data_files::{hdf5_reader, is_hdf5};
+use crate::sweep::data_files::{hdf5_reader, is_hdf5, Object};
 
 /// The sweep file's `text` with every data file a fit names by `path` read into its data
 /// (relative paths from `dir`), so that the output file keeps the data themselves. `None` when
@@ -116,7 +116,7 @@ fn read_table(
         let h5 = hdf5_reader().map_err(hdf)?;
         let prefix = match group {
             Some(g) => {
-                if !h5.is_group(path, g).map_err(hdf)? {
+                if h5.object(path, g).map_err(hdf)? != Object::Group {
                     return Err(bad(
                         format!("{field}.dataset"),
                         format!("{shown}: it has no group `{g}`"),
@@ -124,20 +124,25 @@ fn read_table(
                 }
                 format!("{g}/")
             }
-            None => String::new(),
+            // Opened once here, so that a file that cannot be opened says why rather than
+            // holding none of the columns.
+            None => {
+                h5.object(path, "/").map_err(hdf)?;
+                String::new()
+            }
         };
         let mut table = Vec::new();
         for c in columns {
             let at = format!("{prefix}{c}");
-            if let Ok(shape) = h5.shape(path, &at) {
-                let size: usize = shape.iter().product();
-                if size > MAX_DATA * 4 {
+            if h5.object(path, &at).map_err(hdf)? == Object::Dataset {
+                let a = h5.read_f64(path, &at, MAX_DATA * 4).map_err(hdf)?;
+                let Some(values) = a.values else {
+                    let size: usize = a.shape.iter().product();
                     return Err(bad(
                         &pat,
                         format!("{shown}: {c} holds {size} values, more than a fit takes"),
                     ));
-                }
-                let values = h5.read_f64(path, &at).map_err(hdf)?;
+                };
                 if let Some(i) = values.iter().position(|x| !x.is_finite()) {
                     return Err(bad(
                         &pat,
