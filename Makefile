@@ -77,11 +77,14 @@ lint: venv
 # `cargo clippy -- -D warnings` passes them). The same units as `make lint`'s and the extension's
 # too, without a second pass over every dependency for clippy's metadata. Cargo keeps these
 # artefacts apart from a plain build's, so `make bin` or `make figures` afterwards compile the
-# workspace's crates once more, not the dependencies. lint-canary fails if the driver ever stopped
-# linting: a `&Vec` argument (clippy::ptr_arg) must be refused.
+# workspace's crates once more, not the dependencies. The driver is called through
+# scripts/lint_and_compile.sh, which compiles the workspace's crates with 16 codegen units (a third
+# less wall on two cores, the same numbers bit for bit; see there). lint-canary fails if the driver
+# ever stopped linting: a `&Vec` argument (clippy::ptr_arg) must be refused.
 CLIPPY_DRIVER := $(shell rustup which clippy-driver 2>/dev/null || command -v clippy-driver)
 CLIPPY_DENY := -D__CLIPPY_HACKERY__warnings__CLIPPY_HACKERY__
-test: export RUSTC_WORKSPACE_WRAPPER := $(CLIPPY_DRIVER)
+test: export CHAINSWEEP_CLIPPY_DRIVER := $(CLIPPY_DRIVER)
+test: export RUSTC_WORKSPACE_WRAPPER := $(CURDIR)/scripts/lint_and_compile.sh
 test: export CLIPPY_ARGS := $(CLIPPY_DENY)
 
 .PHONY: fmt-check lint-canary
@@ -91,7 +94,8 @@ fmt-check:
 lint-canary:
 	@test -n "$(CLIPPY_DRIVER)" || { echo "clippy-driver not found: rustup component add clippy"; exit 1; }
 	@dir=$$(mktemp -d); printf 'pub fn canary(x: &Vec<f64>) -> usize {\n    x.len()\n}\n' > $$dir/canary.rs; \
-	if CLIPPY_ARGS="$(CLIPPY_DENY)" $(CLIPPY_DRIVER) rustc --edition 2021 --crate-type lib \
+	if CLIPPY_ARGS="$(CLIPPY_DENY)" CHAINSWEEP_CLIPPY_DRIVER=$(CLIPPY_DRIVER) \
+	     scripts/lint_and_compile.sh rustc --edition 2021 --crate-type lib \
 	     --out-dir $$dir $$dir/canary.rs >/dev/null 2>&1; then \
 	  rm -rf $$dir; echo "clippy's driver did not refuse a lint: make test would not lint"; exit 1; fi; \
 	rm -rf $$dir

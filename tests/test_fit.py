@@ -248,7 +248,7 @@ def dimer_base(damping: float) -> dict:
 
 DIMER_RECORD = {
     "probes": [{"kind": "contact_force", "contact": 1}, {"kind": "contact_force", "contact": 8}],
-    "steady_state": {"settle_periods": 600, "window_periods": 10, "harmonics": 1},
+    "steady_state": {"settle_periods": 300, "window_periods": 10, "harmonics": 1},
 }
 FREQUENCIES = [2500.0 + 1000.0 * k for k in range(12)]
 
