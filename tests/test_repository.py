@@ -97,3 +97,15 @@ def test_the_residue_check_finds_issues_and_hashes_not_floats():
     assert residue("built at 1564ed6f2a3b")
     assert not residue('chain_098: mass 6dd27ce51d9316f5 stiffness')
     assert not residue("the tag first-release; 1200 runs; colour #1f77b4")
+
+
+def test_no_source_file_is_over_a_thousand_lines():
+    """A file is read whole: past a thousand lines it holds more than one thing, and is split
+    along its seams (tests and data tables included, none is that long today)."""
+    long = []
+    for path in committed_files():
+        if path.suffix in (".rs", ".py") and path.is_file():
+            n = path.read_bytes().count(b"\n")
+            if n > 1000:
+                long.append(f"{path.relative_to(REPO)}: {n} lines")
+    assert not long, long
