@@ -8,4 +8,4 @@
 # changes no result: the paper's bitwise tests run on this build); the shipped builds (`make bin`,
 # `make wheel`, `make figures`, `make bench`) keep one unit, the fastest code.
 # Cargo calls it as `lint_and_compile.sh RUSTC ARGS…`, as it would call clippy's driver.
-exec "$CHAINSWEEP_CLIPPY_DRIVER" "$@" -C codegen-units=16
+exec "${CHAINSWEEP_CLIPPY_DRIVER:?the path of clippy-driver, which make test sets}" "$@" -C codegen-units=16

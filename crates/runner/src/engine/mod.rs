@@ -229,7 +229,8 @@ pub fn input_errors(file: &Path, first: Error) -> Vec<Error> {
     let Ok(text) = crate::sweep::read_sweep_text(&name) else {
         return vec![first];
     };
-    // Paths the file names (recorded drives) are read from its folder, as `load` reads them.
+    // Paths the file names (recorded drives, fit data, a fit's result) are read from its
+    // folder, as `load` reads them.
     let dir = file
         .parent()
         .filter(|d| !d.as_os_str().is_empty())

@@ -32,13 +32,18 @@ impl Hdf5Reader for Input {
         })
     }
 
-    fn read_f64(&self, path: &Path, name: &str, max_values: usize) -> Result<Array, String> {
+    fn read_f64(
+        &self,
+        path: &Path,
+        name: &str,
+        wanted: &dyn Fn(&[usize]) -> bool,
+    ) -> Result<Array, String> {
         let d = open(path)?.dataset(name).map_err(|e| e.to_string())?;
         let shape = d.shape();
-        let values = if d.size() > max_values {
-            None
-        } else {
+        let values = if wanted(&shape) {
             Some(d.read_raw::<f64>().map_err(|e| e.to_string())?)
+        } else {
+            None
         };
         Ok(Array { shape, values })
     }

@@ -17,13 +17,22 @@ pub enum Object {
     Missing,
 }
 
-/// A dataset's shape, and its values unless it holds more than the reader was allowed to read.
+/// A dataset's shape, and its values when the reader was asked to read them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Array {
     /// Its shape.
     pub shape: Vec<usize>,
-    /// Its values in row-major order, converted to `f64`; `None` when it holds more than asked.
+    /// Its values in row-major order, converted to `f64`; `None` when its shape was refused.
     pub values: Option<Vec<f64>>,
+}
+
+/// The number of values of an array of `shape`; `usize::MAX` when that does not fit (a damaged
+/// or hostile file's dimensions), so that every limit refuses it.
+pub fn values_in(shape: &[usize]) -> usize {
+    shape
+        .iter()
+        .try_fold(1usize, |n, &d| n.checked_mul(d))
+        .unwrap_or(usize::MAX)
 }
 
 /// What reading a sweep file needs of an HDF5 file. Each call opens the file once; errors (the
@@ -32,8 +41,14 @@ pub struct Array {
 pub trait Hdf5Reader: Send + Sync {
     /// What `name` (a path inside the file) is.
     fn object(&self, path: &Path, name: &str) -> Result<Object, String>;
-    /// The dataset `name`: its shape, and its values when it holds at most `max_values`.
-    fn read_f64(&self, path: &Path, name: &str, max_values: usize) -> Result<Array, String>;
+    /// The dataset `name`: its shape, and its values when `wanted` accepts that shape (checked
+    /// before anything is read, so that a dataset too large or of the wrong shape costs nothing).
+    fn read_f64(
+        &self,
+        path: &Path,
+        name: &str,
+        wanted: &dyn Fn(&[usize]) -> bool,
+    ) -> Result<Array, String>;
     /// The string attribute `name` of the file's root group; `None` when it has none.
     fn root_string_attribute(&self, path: &Path, name: &str) -> Result<Option<String>, String>;
 }

@@ -519,7 +519,7 @@ impl Sweep {
     }
 
     /// [`Sweep::parse`] for a sweep file in folder `dir`, from which the relative paths it names
-    /// (recorded drives) are read.
+    /// (recorded drives, fit data, a fit's result for an ensemble) are read.
     pub fn parse_in(text: &str, dir: &std::path::Path) -> Result<Sweep> {
         let inlined = inline_files(text, dir)?;
         let text = inlined.as_deref().unwrap_or(text);

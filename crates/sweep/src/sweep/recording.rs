@@ -8,7 +8,7 @@ use std::path::Path;
 
 use serde_json::Value;
 
-use super::data_files::{hdf5_reader, is_hdf5, Object};
+use super::data_files::{hdf5_reader, is_hdf5, values_in, Object};
 use crate::error::{Error, Result};
 use chainsweep_solver::chain::drive::MAX_RECORDED_SAMPLES;
 
@@ -206,16 +206,16 @@ fn read_hdf5(path: &Path, dataset: Option<&str>, field: &str) -> Result<(Vec<f64
     };
     if h5.object(path, name).map_err(hdf)? == Object::Group {
         let column = |c: &str| -> Result<Vec<f64>> {
+            let fits = |s: &[usize]| values_in(s) <= MAX_RECORDED_SAMPLES;
             let a = h5
-                .read_f64(path, &format!("{name}/{c}"), MAX_RECORDED_SAMPLES)
+                .read_f64(path, &format!("{name}/{c}"), &fits)
                 .map_err(hdf)?;
-            a.values.ok_or_else(|| too_many(a.shape.iter().product()))
+            a.values.ok_or_else(|| too_many(values_in(&a.shape)))
         };
         return Ok((column("times_s")?, column("values")?));
     }
-    let a = h5
-        .read_f64(path, name, 2 * MAX_RECORDED_SAMPLES)
-        .map_err(hdf)?;
+    let is_recording = |s: &[usize]| s.len() == 2 && s[1] == 2 && s[0] <= MAX_RECORDED_SAMPLES;
+    let a = h5.read_f64(path, name, &is_recording).map_err(hdf)?;
     let shape = a.shape;
     if shape.len() != 2 || shape[1] != 2 {
         return Err(input(

@@ -5,7 +5,7 @@ use serde_json::{Map, Value};
 
 use super::dist::bad;
 use crate::error::Result;
-use crate::sweep::data_files::hdf5_reader;
+use crate::sweep::data_files::{hdf5_reader, values_in};
 
 /// Reads `from_fit` inputs of the sweep file `text` (in folder `dir`) into the multivariate
 /// normals they name, so that the sweep's text holds the numbers its runs depend on (a later
@@ -84,25 +84,22 @@ fn read_fit(path: &std::path::Path, shown: &str, at: &str) -> Result<Value> {
         })
         .unwrap_or_default();
     let k = fields.len();
-    let read = |name: &str| -> Result<Vec<f64>> {
-        // A fit's result is a few numbers a point (at most 6 fields): a larger dataset is none.
-        let a = h5
-            .read_f64(path, name, 1 << 16)
-            .map_err(|_| fail(format!("has no dataset `{name}` (a fit's result)")))?;
-        a.values.ok_or_else(|| {
-            let n: usize = a.shape.iter().product();
+    // `want` values of a dataset of the fit's result: its count when it holds another number
+    // (a fit over several points of its axes), read only when it holds that many.
+    let read = |name: &str, want: usize| -> Result<std::result::Result<Vec<f64>, usize>> {
+        let wanted = |s: &[usize]| values_in(s) == want;
+        let a = h5.read_f64(path, name, &wanted).map_err(|e| {
             fail(format!(
-                "holds {n} values in `{name}`, more than a fit's result"
+                "has no dataset `{name}` of numbers (a fit's result): {e}"
             ))
-        })
+        })?;
+        Ok(a.values.ok_or_else(|| values_in(&a.shape)))
     };
-    let cov = read("fit_covariance")?;
-    if cov.len() != k * k {
-        return Err(fail(format!(
-            "holds a fit over several points of its axes ({} covariance entries for {k} fields): an ensemble takes one fit's result",
-            cov.len()
-        )));
-    }
+    let cov = read("fit_covariance", k * k)?.map_err(|n| {
+        fail(format!(
+            "holds a fit over several points of its axes ({n} covariance entries for {k} fields): an ensemble takes one fit's result"
+        ))
+    })?;
     if cov.iter().any(|x| !x.is_finite()) {
         return Err(fail(
             "has no covariance (its data do not determine every fitted field)".into(),
@@ -110,7 +107,7 @@ fn read_fit(path: &std::path::Path, shown: &str, at: &str) -> Result<Value> {
     }
     let mut mean = Vec::with_capacity(k);
     for (_, name) in &fields {
-        let v = read(&format!("fit_{name}"))?;
+        let v = read(&format!("fit_{name}"), 1)?.unwrap_or_default();
         match v.as_slice() {
             [x] if x.is_finite() => mean.push(*x),
             _ => return Err(fail(format!("gives no single best value of `{name}`"))),

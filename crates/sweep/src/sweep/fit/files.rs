@@ -7,7 +7,7 @@ use serde_json::Value;
 
 use super::{bad, MAX_DATA, MAX_FILE_BYTES, MAX_FILE_LINES};
 use crate::error::Result;
-use crate::sweep::data_files::{hdf5_reader, is_hdf5, Object};
+use crate::sweep::data_files::{hdf5_reader, is_hdf5, values_in, Object};
 
 /// The sweep file's `text` with every data file a fit names by `path` read into its data
 /// (relative paths from `dir`), so that the output file keeps the data themselves. `None` when
@@ -135,9 +135,10 @@ fn read_table(
         for c in columns {
             let at = format!("{prefix}{c}");
             if h5.object(path, &at).map_err(hdf)? == Object::Dataset {
-                let a = h5.read_f64(path, &at, MAX_DATA * 4).map_err(hdf)?;
+                let fits = |s: &[usize]| values_in(s) <= MAX_DATA * 4;
+                let a = h5.read_f64(path, &at, &fits).map_err(hdf)?;
                 let Some(values) = a.values else {
-                    let size: usize = a.shape.iter().product();
+                    let size = values_in(&a.shape);
                     return Err(bad(
                         &pat,
                         format!("{shown}: {c} holds {size} values, more than a fit takes"),
