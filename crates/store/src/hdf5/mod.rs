@@ -700,6 +700,23 @@ pub(crate) fn dataset<T: H5Type>(
     Ok(d)
 }
 
+/// Creates (or truncates) an output file at `path`, in HDF5's 1.10 format: the library checksums
+/// its own metadata (superblock, object headers, chunk indexes), so damage to it is an error,
+/// never a misread (HDF5 1.10 readers, netCDF-C and h5py read it); without objects' times, so
+/// that the same runs give the same bytes.
+pub(crate) fn create_file(path: &Path) -> Result<File> {
+    File::with_options()
+        .with_fapl(|p| {
+            p.libver_bounds(
+                hdf5::file::LibraryVersion::V110,
+                hdf5::file::LibraryVersion::V110,
+            )
+        })
+        .with_fcpl(|p| p.obj_track_times(false))
+        .create(path)
+        .map_err(crate::h5)
+}
+
 /// Root attributes that vary between otherwise identical files.
 #[derive(Debug, Clone)]
 pub struct Provenance {

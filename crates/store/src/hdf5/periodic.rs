@@ -153,16 +153,7 @@ pub fn write_file(
     t: &PeriodicTables<'_>,
 ) -> Result<()> {
     let write = || -> Result<()> {
-        let file = File::with_options()
-            .with_fapl(|p| {
-                p.libver_bounds(
-                    hdf5::file::LibraryVersion::V110,
-                    hdf5::file::LibraryVersion::V110,
-                )
-            })
-            .with_fcpl(|p| p.obj_track_times(false))
-            .create(path)
-            .map_err(crate::h5)?;
+        let file = super::create_file(path)?;
         write_sweep_attrs(&file, sweep, grid, None, prov)?;
         attr_str(&file, "periodic", &t.description)?;
         attr_str(&file, "periodic_field", t.field)?;

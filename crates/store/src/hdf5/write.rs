@@ -72,19 +72,7 @@ pub fn write_file(
     ensemble: Option<&dyn Fn() -> super::fit::EnsembleTables>,
 ) -> Result<Written> {
     let write = move || -> Result<Written> {
-        // HDF5's 1.10 format: the library checksums its own metadata (superblock, object
-        // headers, chunk indexes), so damage to it is an error, never a misread. (HDF5 1.10
-        // readers, netCDF-C and h5py read it.)
-        let file = File::with_options()
-            .with_fapl(|p| {
-                p.libver_bounds(
-                    hdf5::file::LibraryVersion::V110,
-                    hdf5::file::LibraryVersion::V110,
-                )
-            })
-            .with_fcpl(|p| p.obj_track_times(false))
-            .create(path)
-            .map_err(crate::h5)?;
+        let file = super::create_file(path)?;
         write_sweep_attrs(&file, sweep, grid, shard, prov)?;
         let mut arrays = ArrayWriter::create(&file, grid)?;
         let table = fill_columns(grid, points, &mut arrays, get, get_verify)?;
