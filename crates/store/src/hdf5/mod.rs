@@ -42,6 +42,7 @@ pub mod search;
 mod text;
 pub mod write;
 
+pub use chainsweep_sweep::sweep::data_files::is_hdf5;
 pub use read::FileRecords;
 pub use text::TEXT_DEFLATE_LEVEL;
 pub(crate) use text::{char_dataset, read_chars, read_text, text_of, Text};
@@ -871,20 +872,6 @@ pub fn read_auto_choice(path: &Path) -> Result<Option<AutoChoice>> {
     };
     let text = read().map_err(|e| e.hdf5_context(|| format!("reading {}", path.display())))?;
     text.map(|t| AutoChoice::from_json(&t)).transpose()
-}
-
-/// Whether the file at `path` starts with the HDF5 signature.
-pub fn is_hdf5(path: &Path) -> bool {
-    use std::io::Read;
-    let mut magic = [0u8; 8];
-    // Only a regular file: opening a FIFO would wait for a writer.
-    if !path.is_file() {
-        return false;
-    }
-    std::fs::File::open(path)
-        .and_then(|mut f| f.read_exact(&mut magic))
-        .map(|_| &magic == b"\x89HDF\r\n\x1a\n")
-        .unwrap_or(false)
 }
 
 /// Reads the `sweep` root attribute of an HDF5 file made by chainsweep.

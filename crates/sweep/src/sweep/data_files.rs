@@ -69,11 +69,13 @@ pub(crate) fn hdf5_reader() -> Result<&'static dyn Hdf5Reader, String> {
     })
 }
 
-/// Whether the file at `path` starts with HDF5's signature.
-pub(crate) fn is_hdf5(path: &Path) -> bool {
+/// Whether `path` is a regular file that starts with HDF5's signature (only a regular file is
+/// opened: opening a FIFO would wait for a writer). The one test of it, the store's included.
+pub fn is_hdf5(path: &Path) -> bool {
     let mut head = [0u8; 8];
-    std::fs::File::open(path)
-        .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
-        .is_ok()
+    path.is_file()
+        && std::fs::File::open(path)
+            .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut head))
+            .is_ok()
         && head == *b"\x89HDF\r\n\x1a\n"
 }
