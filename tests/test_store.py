@@ -262,8 +262,11 @@ def test_few_files_and_a_small_work_directory(tmp_path, binary):
     path = write_sweep(tmp_path / "many.json", s)
     out = tmp_path / "many.h5"
     # Interrupted twice, then completed: three processes, never one file per run. What a killed
-    # process leaves: the lock, the snapshot, one log per process so far, and at most the two
-    # temporaries of a publish it was killed in (the next process removes them).
+    # process leaves: the lock, the snapshot, at most the two temporaries of a publish it was
+    # killed in (the next process removes them), and logs: each process adds at most two, its
+    # own and, once the sweep is complete and published, the one the kept (verification)
+    # records are compacted into. (A process killed between that log's rename and the removal
+    # of the older ones leaves them all; on a fast machine the second process gets that far.)
     for processes, delay in ((1, 0.3), (2, 0.6)):
         p = start(path, out, "--verify", "0.02", checkpoint="0.05")
         time.sleep(delay)
@@ -275,7 +278,7 @@ def test_few_files_and_a_small_work_directory(tmp_path, binary):
             kind = f.parent.name if f.parent.name in ("logs", "tmp") else f.name
             kinds[kind] = kinds.get(kind, 0) + 1
         assert set(kinds) <= {"lock", "snapshot", "logs", "tmp"}, files
-        assert kinds.get("logs", 0) <= processes and kinds.get("tmp", 0) <= 2, files
+        assert kinds.get("logs", 0) <= 2 * processes and kinds.get("tmp", 0) <= 2, files
     r = run("run", path, "-o", out, "--jobs", "2", "--verify", "0.02")
     assert r.returncode == 0, r.stderr
     assert "2000 runs: 2000 ok" in r.stderr
