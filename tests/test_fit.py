@@ -384,6 +384,21 @@ def signal_h5(path, group=None, times=(1e-5, 2e-5, 3e-5), values=(1.0, 2.0, 3.0)
         g["value"] = np.array(values)
 
 
+def spectrum_spec(tmp_path, text):
+    """A spectrum fit of the driven dimer whose data are the CSV file `text`."""
+    (tmp_path / "spectrum.csv").write_text(text)
+    return {
+        "description": "fit of the damping to a spectrum in a file",
+        "base": dimer_base(1.0),
+        "record": DIMER_RECORD,
+        "search": {
+            "goal": "fit",
+            "fields": [{"field": "physics.damping_kg_s", "min": 0.5, "max": 10.0}],
+            "data": [{"spectrum": {"probe": "contact_force_8", "path": "spectrum.csv"}}],
+        },
+    }
+
+
 BAD_DATA = [
     ("NaN value", bad(lambda s, p: s["search"]["data"][0].update(value="NaN")),
      "search.data[0].value", "finite"),
@@ -398,6 +413,23 @@ BAD_DATA = [
     ("a shift taking data beyond the run", bad(lambda s, p: signal_spec(
         s, p, time_s=[1e-5, 5e-5, 1e-4, 1.9e-4], value=[1, 2, 3, 4], time_shift_s={"min": 0, "max": 2e-5})),
      "search.data[0].signal.time_s", "time_shift_s"),
+    # 15 000 · 1e-8 s is past 1.5e-4 s in floating point: the history's last sample is one
+    # interval before duration_s, and data at duration_s are beyond it (every run was refused).
+    ("data at duration_s past the last sample", bad(lambda s, p: (
+        signal_spec(s, p, time_s=[5e-5, 1e-4, 1.5e-4], value=[1, 2, 3]),
+        s["base"].update(duration_s=1.5e-4), s["record"].update(history_interval_s=1e-8))),
+     "search.data[0].signal.time_s", "history_interval_s"),
+    ("a signal named so that a variable is a summary's", bad(lambda s, p: signal_spec(
+        s, p, time_s=[1e-5, 2e-5, 3e-5], value=[1, 2, 3], name="leading_peak")),
+     "search.data[0].signal.name", "leading_peak_time_s"),
+    ("two data giving one variable", bad(lambda s, p: (
+        signal_spec(s, p, time_s=[1e-5, 2e-5, 3e-5], value=[1, 2, 3], name="g"),
+        s["search"]["data"].append({"signal": dict(s["search"]["data"][0]["signal"], name="g_normalised")}))),
+     "search.data[1].signal.name", "g_normalised_residual"),
+    ("a spectrum file without a header", lambda p: spectrum_spec(p, "2500.0,7.97,0.5\n3500.0,4.1,0.5\n"),
+     "search.data[0].spectrum", "header"),
+    ("a negative amplitude", lambda p: spectrum_spec(p, "frequency_hz,amplitude,sigma\n2500.0,7.97,0.5\n3500.0,-0.72,0.5\n"),
+     "search.data[0].spectrum.amplitude[1]", "≥ 0"),
     ("a probe the sweep does not record", bad(lambda s, p: s["search"]["data"][0].update(probe="gauge_force_cyl7")),
      "search.data[0].probe", "gauge_force_cyl2"),
     ("an empty file", bad(lambda s, p: signal_spec(s, p, text="")), "search.data[0].signal.path", "no data"),

@@ -9,7 +9,7 @@ use crate::record::RunRecord;
 use crate::search::fit::model;
 use crate::store::hdf5::fit::{FitData, FitTables};
 use crate::store::RunStore;
-use crate::sweep::fit::{Datum, SigmaRule, SpectrumQuantity};
+use crate::sweep::fit::{Datum, SigmaRule, SpectrumQuantity, BLOCK_SUFFIXES, SCALAR_PREFIX};
 
 use super::search::{Driver, Search};
 
@@ -446,46 +446,23 @@ pub fn tables(
                 }
             })
             .collect();
-        t.var(
-            &format!("{prefix}_data"),
-            true,
-            &[dim],
-            FitData::F64(d),
-            units,
-            &format!("{what}: measured"),
-        );
-        t.var(
-            &format!("{prefix}_sigma"),
-            true,
-            &[dim],
-            FitData::F64(s),
-            units,
-            &format!("{what}: standard uncertainty of the measured values (NaN: estimated, fit_sigma_scale)"),
-        );
-        t.var(
-            &format!("{prefix}_model"),
-            true,
-            &[dim],
-            FitData::F64(m),
-            units,
-            &format!("{what}: the best fit's prediction"),
-        );
-        t.var(
-            &format!("{prefix}_residual"),
-            true,
-            &[dim],
-            FitData::F64(r),
-            units,
-            &format!("{what}: prediction less measured"),
-        );
-        t.var(
-            &format!("{prefix}_normalised_residual"),
-            true,
-            &[dim],
-            FitData::F64(nr),
-            Some("1"),
-            &format!("{what}: residual over its sigma (given or estimated)"),
-        );
+        let vars = [
+            (d, units, format!("{what}: measured")),
+            (s, units, format!("{what}: standard uncertainty of the measured values (NaN: estimated, fit_sigma_scale)")),
+            (m, units, format!("{what}: the best fit's prediction")),
+            (r, units, format!("{what}: prediction less measured")),
+            (nr, Some("1"), format!("{what}: residual over its sigma (given or estimated)")),
+        ];
+        for (suffix, (values, units, description)) in BLOCK_SUFFIXES.iter().zip(vars) {
+            t.var(
+                &format!("{prefix}_{suffix}"),
+                true,
+                &[dim],
+                FitData::F64(values),
+                units,
+                &description,
+            );
+        }
     };
     if !scalars.is_empty() {
         let dim = t.index_dim(
@@ -514,7 +491,15 @@ pub fn tables(
         let units = same
             .then_some(scalars[0].2.as_str())
             .filter(|u| !u.is_empty());
-        block(&mut t, "scalar", dim, &at, units, "measured scalars", false);
+        block(
+            &mut t,
+            SCALAR_PREFIX,
+            dim,
+            &at,
+            units,
+            "measured scalars",
+            false,
+        );
     }
     for d in &set0.data {
         match d {

@@ -129,6 +129,12 @@ impl<'a> Driver<'a> {
                 None => search::replay(self.spec, &s.known()),
             };
             s.outcome = outcome;
+            if s.outcome.status == SearchStatus::NotFound {
+                // The proposer sees only that no evaluation gave a number; the runs say why.
+                if let Some(why) = s.evals.iter().find_map(|e| e.no_value.as_deref()) {
+                    s.outcome.note = format!("{} (the first: {why})", s.outcome.note);
+                }
+            }
             if asked.is_empty() {
                 s.finished = true;
                 return Ok(());
@@ -191,24 +197,25 @@ impl<'a> Driver<'a> {
             for (x, hs) in points.into_iter().zip(hashes) {
                 let recs: Vec<Option<&RunRecord>> =
                     hs.iter().map(|h| records[h].as_ref()).collect();
-                let (value, residuals) = match &self.spec.fit {
+                let (value, residuals, no_value) = match &self.spec.fit {
                     Some(fit) => {
                         let set = &fit.sets[self.data_set(s.outer)];
                         match model::predict(fit, set, &recs) {
                             Ok(p) => {
                                 let chi2 = p.eval.residual.iter().map(|r| r * r).sum();
-                                (Some(chi2), Some(Arc::new(p.eval)))
+                                (Some(chi2), Some(Arc::new(p.eval)), None)
                             }
-                            Err(_) => (None, None),
+                            Err(why) => (None, None, Some(why)),
                         }
                     }
-                    None => (self.value(&recs), None),
+                    None => (self.value(&recs), None, None),
                 };
                 s.evals.push(Evaluation {
                     stream,
                     x,
                     value,
                     residuals,
+                    no_value,
                     hashes: hs,
                     round,
                 });

@@ -128,6 +128,9 @@ pub struct Evaluation {
     pub value: Value,
     /// A fit's residuals (`None` for other goals, or where a run failed).
     pub residuals: Residuals,
+    /// Why a fit's runs gave no residuals (a run failed, data beyond its history, a steady
+    /// state that did not settle): said in the note of a fit that found no start.
+    pub no_value: Option<String>,
     /// The round that proposed it.
     pub round: usize,
 }

@@ -1,13 +1,18 @@
 //! The data sets of a `fit` search read from the sweep file: each datum (a scalar, a signal, a
 //! spectrum) checked against the base scene's probes, with its uncertainties.
 
+use std::collections::HashMap;
+
 use serde_json::{Map, Value};
 
 use chainsweep_solver::Probe;
 
 use super::super::lookup;
 use super::super::search::parse_objective_at;
-use super::{bad, DataSet, Datum, Interval, Scalar, Signal, Spectrum, SpectrumQuantity, MAX_DATA};
+use super::{
+    bad, DataSet, Datum, Interval, Scalar, Signal, Spectrum, SpectrumQuantity, BLOCK_SUFFIXES,
+    MAX_DATA, SCALAR_PREFIX,
+};
 use crate::error::Result;
 
 /// The probes of the normalised base scene's record block.
@@ -432,6 +437,14 @@ fn parse_spectrum(v: &Value, at: &str, cx: &mut Context) -> Result<Spectrum> {
             format!("{} values for {} frequencies", value.len(), f.len()),
         ));
     }
+    if quantity == SpectrumQuantity::Amplitude {
+        if let Some((i, x)) = value.iter().enumerate().find(|(_, &x)| x < 0.0) {
+            return Err(bad(
+                format!("{vat}[{i}]"),
+                format!("an amplitude is ≥ 0, got {x} (a transmission in dB is given as transmission_db)"),
+            ));
+        }
+    }
     let sigma = m
         .get("sigma")
         .map(|s| sigmas(s, f.len(), &format!("{at}.sigma")))
@@ -576,20 +589,51 @@ pub(super) fn parse_set(v: &Value, at: &str, cx: &mut Context) -> Result<DataSet
             ),
         ));
     }
-    let mut names: Vec<&str> = Vec::new();
-    for d in &set.data {
-        let n = match d {
-            Datum::Signal(s) => &s.name,
-            Datum::Spectrum(s) => &s.name,
+    check_names(&set, at)?;
+    Ok(set)
+}
+
+/// No two signals or spectra share a name, and none of the output file's variables that one
+/// gives (`<name>_data`, `<name>_time_s`, …) takes the name of another's, of a summary column
+/// or array of the file (`leading_peak` would give `leading_peak_time_s`, a summary), of the
+/// scalars' block or of the fit's and search's own variables (`fit_…`, `search_…`): checked when
+/// the sweep is read, not when the file is written after every run.
+fn check_names(set: &DataSet, at: &str) -> Result<()> {
+    let reserved = crate::record::columns::reserved_names();
+    let scalar_block: Vec<String> = BLOCK_SUFFIXES
+        .iter()
+        .map(|s| format!("{SCALAR_PREFIX}_{s}"))
+        .collect();
+    let mut given: HashMap<String, usize> = HashMap::new();
+    for (i, d) in set.data.iter().enumerate() {
+        let (kind, name) = match d {
+            Datum::Signal(s) => ("signal", &s.name),
+            Datum::Spectrum(s) => ("spectrum", &s.name),
             Datum::Scalar(_) => continue,
         };
-        if names.contains(&n.as_str()) {
-            return Err(bad(
-                at,
-                format!("two signals or spectra are named `{n}`: give each its own `name`"),
-            ));
+        let field = format!("{at}[{i}].{kind}.name");
+        for v in d.variable_names() {
+            let clash = if let Some(&j) = given.get(&v) {
+                Some(format!("the variable `{v}` of data[{j}]"))
+            } else if reserved.contains(&v.as_str()) || scalar_block.contains(&v) {
+                Some(format!("`{v}`, a variable of every such file"))
+            } else if v.starts_with("fit_") || v.starts_with("search_") {
+                Some(format!(
+                    "`{v}`, a name the fit's own variables take (fit_…, search_…)"
+                ))
+            } else {
+                None
+            };
+            if let Some(clash) = clash {
+                return Err(bad(
+                    &field,
+                    format!(
+                        "`{name}` would name the output file's variable `{v}`, which clashes with {clash}: give this {kind} another `name`"
+                    ),
+                ));
+            }
+            given.insert(v, i);
         }
-        names.push(n);
     }
-    Ok(set)
+    Ok(())
 }

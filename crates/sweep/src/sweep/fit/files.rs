@@ -65,7 +65,14 @@ pub(crate) fn inline_text(text: &str, dir: &Path) -> Result<Option<String>> {
                         "transmission_db",
                     ]
                 };
-                let table = read_table(&dir.join(path), group.as_deref(), columns, &field)?;
+                // A spectrum's second column is its amplitude or its transmission in dB: a CSV
+                // file names which in its header (without one, dB would be read as amplitude).
+                let header = if kind == "signal" {
+                    Header::Optional
+                } else {
+                    Header::Required
+                };
+                let table = read_table(&dir.join(path), group.as_deref(), columns, header, &field)?;
                 for (name, _) in &table {
                     if m.contains_key(name) {
                         return Err(bad(
@@ -89,10 +96,20 @@ pub(crate) fn inline_text(text: &str, dir: &Path) -> Result<Option<String>> {
 /// The named columns of a data file (CSV: a header line naming them, or the first columns in the
 /// order of `columns` without one; HDF5: a group, `group` or the root, holding one dataset per
 /// column).
+/// Whether a CSV data file must name its columns in a header line.
+#[derive(Clone, Copy, PartialEq)]
+enum Header {
+    /// Without one, the columns are the listed ones, in order.
+    Optional,
+    /// Its columns could be read more than one way without one.
+    Required,
+}
+
 fn read_table(
     path: &Path,
     group: Option<&str>,
     columns: &[&str],
+    header_rule: Header,
     field: &str,
 ) -> Result<Vec<(String, Vec<f64>)>> {
     let shown = path.display().to_string();
@@ -166,7 +183,7 @@ fn read_table(
         }
         let text = std::fs::read_to_string(path)
             .map_err(|e| bad(&pat, format!("cannot read the data file {shown}: {e}")))?;
-        read_csv_table(&text, columns, &pat, &shown)?
+        read_csv_table(&text, columns, header_rule, &pat, &shown)?
     };
     if table.is_empty() || table[0].1.is_empty() {
         return Err(bad(
@@ -180,6 +197,7 @@ fn read_table(
 fn read_csv_table(
     text: &str,
     columns: &[&str],
+    header_rule: Header,
     field: &str,
     shown: &str,
 ) -> Result<Vec<(String, Vec<f64>)>> {
@@ -216,6 +234,15 @@ fn read_csv_table(
                     ));
                 }
                 if header.is_none() && rows.is_empty() {
+                    if header_rule == Header::Required {
+                        return Err(bad(
+                            field,
+                            format!(
+                                "{shown}, line {line_no}: numbers without a header line naming the columns ({}): a spectrum's second column could be either",
+                                columns.join(", ")
+                            ),
+                        ));
+                    }
                     header = Some(columns[..n.len()].iter().map(|c| c.to_string()).collect());
                 }
                 rows.push(n);
@@ -269,6 +296,7 @@ mod tests {
         let t = read_csv_table(
             "# gauge 4\ntime_s,value\n0,1\n1e-6, 2\n",
             &["time_s", "value", "sigma"],
+            Header::Optional,
             "f",
             "x",
         )
@@ -278,15 +306,39 @@ mod tests {
         let t = read_csv_table(
             "0 1 0.1\n1 2 0.1\n",
             &["time_s", "value", "sigma"],
+            Header::Optional,
             "f",
             "x",
         )
         .unwrap();
         assert_eq!(t.len(), 3);
         assert_eq!(t[2].1, vec![0.1, 0.1]);
-        let e = read_csv_table("time_s,volts\n0,1\n", &["time_s", "value"], "f", "x").unwrap_err();
+        let e = read_csv_table(
+            "time_s,volts\n0,1\n",
+            &["time_s", "value"],
+            Header::Optional,
+            "f",
+            "x",
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("`volts` is none of"), "{e}");
-        let e = read_csv_table("0,1\n1\n", &["time_s", "value"], "f", "x").unwrap_err();
+        let e = read_csv_table("0,1\n1\n", &["time_s", "value"], Header::Optional, "f", "x")
+            .unwrap_err();
         assert!(e.to_string().contains("line 2"), "{e}");
+        // A spectrum's columns are named in a header: without one its second column could be
+        // an amplitude or a transmission in dB.
+        let spectrum = ["frequency_hz", "amplitude", "sigma", "transmission_db"];
+        let e =
+            read_csv_table("2500,7.97,0.5\n", &spectrum, Header::Required, "f", "x").unwrap_err();
+        assert!(e.to_string().contains("without a header line"), "{e}");
+        let t = read_csv_table(
+            "frequency_hz,transmission_db,sigma\n2500,7.97,0.5\n",
+            &spectrum,
+            Header::Required,
+            "f",
+            "x",
+        )
+        .unwrap();
+        assert_eq!(t[1], ("transmission_db".into(), vec![7.97]));
     }
 }

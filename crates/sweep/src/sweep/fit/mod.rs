@@ -189,7 +189,43 @@ pub enum Datum {
     Spectrum(Spectrum),
 }
 
+/// The variables the output file holds for each block of data (a signal, a spectrum, a
+/// spectrum's phases, the scalars), `<prefix>_<suffix>`: the measured values, their sigma, the
+/// best fit's prediction, the residual and the normalised residual. One list for the file's
+/// writer and the check that no two variables share a name.
+pub const BLOCK_SUFFIXES: [&str; 5] = ["data", "sigma", "model", "residual", "normalised_residual"];
+
+/// The prefix of the scalars' block of variables (`scalar_data`, …).
+pub const SCALAR_PREFIX: &str = "scalar";
+
 impl Datum {
+    /// The names of the output file's variables and dimensions that a signal or spectrum gives
+    /// (empty for a scalar: the scalars share one block, [`SCALAR_PREFIX`]).
+    pub fn variable_names(&self) -> Vec<String> {
+        let block = |prefix: &str| BLOCK_SUFFIXES.map(|s| format!("{prefix}_{s}"));
+        let mut names = Vec::new();
+        match self {
+            Datum::Scalar(_) => {}
+            Datum::Signal(s) => {
+                names.extend(block(&s.name));
+                names.push(format!("{}_time_s", s.name));
+                names.push(format!("{}_interpolation_error", s.name));
+                for kind in s.nuisance_names() {
+                    names.push(format!("{}_{kind}", s.name));
+                    names.push(format!("{}_{kind}_standard_error", s.name));
+                }
+            }
+            Datum::Spectrum(s) => {
+                names.extend(block(&s.name));
+                names.push(format!("{}_frequency_hz", s.name));
+                if s.phase.is_some() {
+                    names.extend(block(&format!("{}_phase", s.name)));
+                }
+            }
+        }
+        names
+    }
+
     /// Whether it contributes no residual (never, once parsed).
     pub fn is_empty(&self) -> bool {
         self.len() == 0
