@@ -256,6 +256,10 @@ def test_sobol_points_need_fewer_runs_than_monte_carlo(tmp_path):
             },
             "ensemble.correlation.matrix",
         ),
+        # 30 % of the mass: positive at ±3 sd, negative at the −8.3 sd a design can draw (a
+        # later round of an adaptive ensemble did, and the sweep could never end).
+        ([{"field": "chain.particles.ball.sphere.mass_kg", "normal": {"mean": 0.002, "sd": 0.0006}}], {},
+         "ensemble.inputs[0]"),
         ([STIFFNESS], {"samples": 100}, "ensemble.samples"),
         ([STIFFNESS], {"design": "halton"}, "ensemble.design"),
         # Sobol' indices and elementary effects assume independent inputs.
@@ -281,18 +285,34 @@ def test_bad_distributions_exit_2_naming_the_field(tmp_path, inputs, extra, fiel
     assert v.returncode == 2 and f"`{field}`" in v.stdout + v.stderr
 
 
-def fake_fit_file(path: Path, covariance):
+def fake_fit_file(path: Path, covariance, status=1, p_value=0.5):
+    """A fit's result as the engine writes it: `status` its fit_status (1 converged, 3 at a
+    bound), `p_value` its fit_p_value."""
     sweep = {"search": {"goal": "fit", "fields": [{"field": "physics.damping_kg_s", "min": 0, "max": 10}]}}
     with h5py.File(path, "w") as f:
         f.attrs["sweep"] = json.dumps(sweep)
         f["fit_damping_kg_s"] = np.array([0.5])
+        f["fit_status"] = np.array([status], dtype=np.uint8)
+        f["fit_p_value"] = np.array([p_value])
         if covariance is not None:
             f["fit_covariance"] = np.array(covariance, dtype=float)
 
 
-@pytest.mark.parametrize("covariance, says", [(None, "fit_covariance"), ([[np.inf]], "no covariance")])
-def test_a_fit_file_without_a_covariance_exits_2(tmp_path, covariance, says):
-    fake_fit_file(tmp_path / "fit.h5", covariance)
+@pytest.mark.parametrize(
+    "covariance, status, p_value, says",
+    [
+        (None, 1, 0.5, "fit_covariance"),
+        ([[np.inf]], 1, 0.5, "no covariance"),
+        # A fit at a bound of its interval, or one that misses its data far beyond their
+        # sigma: its covariance does not describe the field's uncertainty.
+        ([[0.01]], 3, 0.5, "ended at_bound"),
+        ([[0.01]], 4, 0.5, "ended stalled"),
+        ([[0.01]], 1, 1e-9, "poor fit"),
+    ],
+    ids=["no covariance", "infinite covariance", "at a bound", "stalled", "poor fit"],
+)
+def test_a_fit_file_without_a_usable_covariance_exits_2(tmp_path, covariance, status, p_value, says):
+    fake_fit_file(tmp_path / "fit.h5", covariance, status, p_value)
     spec = linear_chain({"inputs": [STIFFNESS, {"from_fit": "fit.h5"}], "statistics": [F1]})
     path = write_sweep(tmp_path / "e.json", spec)
     r = run("run", path, "-o", tmp_path / "e.h5")
@@ -314,6 +334,37 @@ def test_a_fits_result_is_sampled_as_its_multivariate_normal(tmp_path):
         # The fit's numbers are part of the sweep's text: a later change of the fit's file
         # changes nothing of this ensemble.
         assert '"multivariate_normal"' in f.attrs["sweep"] and '"from_fit"' not in f.attrs["sweep"]
+
+
+def test_an_adaptive_ensemble_with_failed_samples_stops_saying_so(tmp_path):
+    """Samples that fail (here: the heavier chains run out of steps) leave statistics over the
+    others, biased where failing depends on the inputs: no tolerance vouches for them, and more
+    rounds would only add failures. The ensemble stops after the round, `failed`, and its
+    `_missing` counts them."""
+    spec = linear_chain(
+        {
+            "inputs": [MASS],
+            "samples": 8,
+            "replicates": 8,
+            "statistics": [{"name": "ov", "of": {"summary": "max_overlap_m"}, "tolerance": {"mean": 1.0}}],
+        }
+    )
+    spec["base"].update(duration_s=0.005, max_steps=341)
+    del spec["record"]
+    path = write_sweep(tmp_path / "f.json", spec)
+    out = tmp_path / "f.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 3, r.stderr
+    with h5py.File(out) as f:
+        assert f.attrs["ensemble_stopped_by"] == "failed"
+        assert int(f.attrs["ensemble_round"]) == 0
+        missing = int(np.ravel(f["ov_missing"][()])[0])
+        assert 0 < missing < 64
+        # A tolerance of 1 m: every interval is within it, which once ended it `tolerance`.
+        width = np.ravel(f["ov_mean_upper"][()])[0] - np.ravel(f["ov_mean_lower"][()])[0]
+        assert width < 1.0
+    status = run("status", out)
+    assert "failed" in status.stdout + status.stderr
 
 
 def test_a_gaussian_copula_gives_the_stated_correlation(tmp_path):

@@ -30,8 +30,9 @@ pub struct Outcome {
     /// Runs of the round over all points.
     pub runs: usize,
     /// `fixed` (no tolerance asked), `tolerance` (every interval within it), `budget` (the
-    /// next round would pass `max_runs`), `running` (another round is due) or `incomplete` (runs
-    /// of this round are missing).
+    /// next round would pass `max_runs`), `failed` (samples failed or gave no number: no
+    /// tolerance vouches for statistics over the others), `running` (another round is due) or
+    /// `incomplete` (runs of this round are missing).
     pub stopped_by: &'static str,
     /// The largest ratio of an interval's width to its tolerance (NaN: no tolerance, or no
     /// interval yet).
@@ -41,7 +42,7 @@ pub struct Outcome {
 impl Outcome {
     /// Whether no further round is due.
     pub fn done(&self) -> bool {
-        matches!(self.stopped_by, "fixed" | "tolerance" | "budget")
+        matches!(self.stopped_by, "fixed" | "tolerance" | "budget" | "failed")
     }
 }
 
@@ -109,6 +110,8 @@ pub fn tables(sweep: &Sweep, values: &[Vec<f64>], pending: usize) -> (EnsembleTa
     };
     let mut worst = f64::NAN;
     let mut all_within = true;
+    // Samples without a number (failed runs, summaries without a value) at some point.
+    let mut any_missing = false;
     for (s, stat) in e.statistics.iter().enumerate() {
         let vals = &values[s];
         let name = &stat.name;
@@ -240,6 +243,7 @@ pub fn tables(sweep: &Sweep, values: &[Vec<f64>], pending: usize) -> (EnsembleTa
         }
         // The adaptive rule: every asked width, at every point.
         let tol = stat.tolerance;
+        any_missing |= sums.iter().any(|sm| sm.missing > 0);
         for sm in &sums {
             let mut check = |w: f64, t: Option<f64>| {
                 if let Some(t) = t {
@@ -338,10 +342,16 @@ pub fn tables(sweep: &Sweep, values: &[Vec<f64>], pending: usize) -> (EnsembleTa
             _ => {}
         }
     }
+    // An adaptive ensemble with samples that failed or gave no number stops there: its statistics
+    // are over the samples that have one (biased where failing depends on the inputs), which no
+    // tolerance may vouch for and more rounds would not mend (and where every run fails, each
+    // round would only double the failures up to the budget).
     let stopped_by = if pending > 0 {
         "incomplete"
     } else if !e.adaptive() {
         "fixed"
+    } else if any_missing {
+        "failed"
     } else if all_within {
         "tolerance"
     } else if e.round_runs(k + 1) > e.max_runs.unwrap_or(0) {
@@ -535,9 +545,16 @@ pub fn outcome_of(path: &std::path::Path) -> Option<Outcome> {
             "ensemble_worst_ratio",
         ],
     )?;
-    let stopped_by = ["fixed", "tolerance", "budget", "running", "incomplete"]
-        .into_iter()
-        .find(|s| *s == a[3])?;
+    let stopped_by = [
+        "fixed",
+        "tolerance",
+        "budget",
+        "failed",
+        "running",
+        "incomplete",
+    ]
+    .into_iter()
+    .find(|s| *s == a[3])?;
     Some(Outcome {
         round: a[0].parse().ok()?,
         samples: a[1].parse().ok()?,

@@ -84,69 +84,9 @@ impl<'a, T: Clone> Streams<'a, T> {
     }
 }
 
-/// How a found item (a minimum, a root) stands.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum ItemStatus {
-    /// Located within the tolerance.
-    Converged,
-    /// Still being located (or stopped by the budget before it was).
-    Open,
-    /// At an end of the interval: the objective is lowest (highest) there in the scan.
-    AtBound,
-    /// No further progress possible within the tolerance (the objective's own noise, or the
-    /// search's points collapsed).
-    Stalled,
-    /// A run it needed failed (or gave no number) under the rule `failed: stop`.
-    Failed,
-    /// A fit whose data do not determine some combination of its fields.
-    Unidentifiable,
-}
-
-impl ItemStatus {
-    /// The status of a code in the output file ([`ItemStatus::code`]).
-    pub fn from_code(code: u8) -> Option<ItemStatus> {
-        [
-            ItemStatus::Converged,
-            ItemStatus::Open,
-            ItemStatus::AtBound,
-            ItemStatus::Stalled,
-            ItemStatus::Failed,
-            ItemStatus::Unidentifiable,
-        ]
-        .into_iter()
-        .find(|s| s.code() == code)
-    }
-
-    /// Its code in the output file.
-    pub fn code(self) -> u8 {
-        match self {
-            ItemStatus::Converged => 1,
-            ItemStatus::Open => 2,
-            ItemStatus::AtBound => 3,
-            ItemStatus::Stalled => 4,
-            ItemStatus::Failed => 5,
-            ItemStatus::Unidentifiable => 6,
-        }
-    }
-
-    /// Its name.
-    pub fn name(self) -> &'static str {
-        match self {
-            ItemStatus::Converged => "converged",
-            ItemStatus::Open => "open",
-            ItemStatus::AtBound => "at_bound",
-            ItemStatus::Stalled => "stalled",
-            ItemStatus::Failed => "failed_run",
-            ItemStatus::Unidentifiable => "unidentifiable",
-        }
-    }
-}
-
-/// The codes and names of [`ItemStatus`] (0: no item), for the file's `flag_values`.
-pub const ITEM_FLAGS: (&[u8], &str) = (
-    &[0, 1, 2, 3, 4, 5, 6],
-    "none converged open at_bound stalled failed_run unidentifiable",
-);
+// How a found item stands, and its codes in the output file: with the file's other status codes
+// (a fit's output file is read for them below this module, by an ensemble's `from_fit`).
+pub use crate::record::{ItemStatus, ITEM_FLAGS};
 
 /// A found minimum, maximum or root.
 #[derive(Debug, Clone, PartialEq)]

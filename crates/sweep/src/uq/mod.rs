@@ -26,10 +26,25 @@ pub fn hash(words: &[u64]) -> u64 {
     })
 }
 
-/// A number in (0, 1) from 64 random bits: the top 53 bits, offset by half a step, so that
-/// neither end is reached (a normal's quantile stays finite).
+/// A number in (0, 1) from 64 random bits: the top 53 bits, offset by half a step. (The
+/// largest, (2⁵³ − ½)/2⁵³, rounds to 1: [`clamp_unit`] keeps it, and any probability a design
+/// or the copula gives, within [`UNIT_LOWEST`, `UNIT_HIGHEST`].)
 pub fn unit(bits: u64) -> f64 {
     ((bits >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+}
+
+/// The least probability a distribution is drawn at: `unit(0)`, 2⁻⁵⁴ (a normal's −8.3 sd).
+pub const UNIT_LOWEST: f64 = 0.5 / 9_007_199_254_740_992.0;
+/// The greatest probability a distribution is drawn at: the largest number below 1, 1 − 2⁻⁵³ (a
+/// normal's +8.2 sd), where a normal's quantile is still finite.
+pub const UNIT_HIGHEST: f64 = 1.0 - 1.0 / 9_007_199_254_740_992.0;
+
+/// `u` within [`UNIT_LOWEST`, `UNIT_HIGHEST`]: every draw is a quantile at a probability there,
+/// so that checking a distribution at both ends when the sweep is read covers every value any
+/// design can draw (a stratum of a Latin hypercube or the copula's correlated scores could
+/// otherwise go further out, and 1 itself gives a normal's +∞).
+pub fn clamp_unit(u: f64) -> f64 {
+    u.clamp(UNIT_LOWEST, UNIT_HIGHEST)
 }
 
 /// A counter-based stream of random numbers: draw `k` of stream `key` is `hash(key ++ [k])`.

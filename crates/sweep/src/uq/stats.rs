@@ -10,7 +10,7 @@
 //! moment for the standard deviation, order statistics (distribution-free) for quantiles and
 //! Wilson's score interval for probabilities.
 
-use statrs::distribution::{ContinuousCDF, StudentsT};
+use statrs::distribution::{Beta, ContinuousCDF, StudentsT};
 
 /// The two-sided 95 % normal quantile.
 pub const Z95: f64 = 1.959963984540054;
@@ -127,12 +127,23 @@ fn bin_fractions(y: &[f64], edges: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-fn wilson(k: f64, n: f64) -> (f64, f64) {
-    let p = k / n;
-    let z2 = Z95 * Z95;
-    let c = (p + z2 / (2.0 * n)) / (1.0 + z2 / n);
-    let h = Z95 * (p * (1.0 - p) / n + z2 / (4.0 * n * n)).sqrt() / (1.0 + z2 / n);
-    ((c - h).max(0.0), (c + h).min(1.0))
+/// The 95 % interval of a probability from `k` hits in `n` draws: Clopper and Pearson's, from the
+/// binomial distribution itself, which covers at least its rate at any `n` and `p`. (Wilson's,
+/// used before, covers about 91 % of rare events hit about once in their draws: `k = 2` of 512
+/// puts its lower end above a probability of 0.001.)
+fn clopper_pearson(k: f64, n: f64) -> (f64, f64) {
+    let k = k.round().clamp(0.0, n);
+    let lower = if k <= 0.0 {
+        0.0
+    } else {
+        Beta::new(k, n - k + 1.0).map_or(0.0, |b| b.inverse_cdf(0.025))
+    };
+    let upper = if k >= n {
+        1.0
+    } else {
+        Beta::new(k + 1.0, n - k).map_or(1.0, |b| b.inverse_cdf(0.975))
+    };
+    (lower, upper)
 }
 
 /// The statistics of `values` (replicate-major: `replicates` blocks of equal length; NaN: a value
@@ -168,6 +179,19 @@ pub fn summarise(values: &[f64], replicates: usize, req: &Request) -> Summary {
                     .filter(|x| x.is_finite())
                     .collect();
                 let v = pooled[k];
+                // A probability (an exceedance, a histogram's fraction) that some replicate
+                // puts at 0 or 1 (a rare event none of its draws hit) has a spread over the
+                // replicates that says nothing of its error, down to an interval of width 0:
+                // the pooled draws' binomial interval instead.
+                if k >= 2 + k_q && v.is_finite() && th.iter().any(|&p| p == 0.0 || p == 1.0) {
+                    let (lower, upper) = clopper_pearson(v * n as f64, n as f64);
+                    *e = Estimate {
+                        value: v,
+                        lower,
+                        upper,
+                    };
+                    continue;
+                }
                 if th.len() >= 2 && v.is_finite() {
                     let se = mean_sd(&th).1 / (th.len() as f64).sqrt();
                     let t = if th.len() == replicates {
@@ -205,18 +229,30 @@ pub fn summarise(values: &[f64], replicates: usize, req: &Request) -> Summary {
                 lower: (s - Z95 * se_s).max(0.0),
                 upper: s + Z95 * se_s,
             };
+            // The order statistics of ranks ⌊np − z√(np(1−p))⌋ and ⌈np + z√(np(1−p))⌉; a rank
+            // outside 1..=n leaves that end open (−∞ or +∞): too few draws to bound the
+            // quantile there (the 1 % quantile of 8 draws), never a clamped rank that would
+            // give an interval far narrower than 95 %, even of width 0.
             for (j, &p) in req.quantiles.iter().enumerate() {
                 let c = nf * p;
                 let h = Z95 * (nf * p * (1.0 - p)).sqrt();
-                let rank = |r: f64| (r.clamp(1.0, nf) as usize) - 1;
+                let (lo, hi) = ((c - h).floor(), (c + h).ceil());
                 est[2 + j] = Estimate {
                     value: pooled[2 + j],
-                    lower: all[rank((c - h).floor())],
-                    upper: all[rank((c + h).ceil())],
+                    lower: if lo >= 1.0 {
+                        all[lo as usize - 1]
+                    } else {
+                        f64::NEG_INFINITY
+                    },
+                    upper: if hi <= nf {
+                        all[hi as usize - 1]
+                    } else {
+                        f64::INFINITY
+                    },
                 };
             }
             for k in 2 + k_q..stats {
-                let (lo, hi) = wilson(pooled[k] * nf, nf);
+                let (lo, hi) = clopper_pearson(pooled[k] * nf, nf);
                 est[k] = Estimate {
                     value: pooled[k],
                     lower: lo,
@@ -300,6 +336,66 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn tail_quantiles_cover_at_least_their_rate_and_open_where_the_draws_cannot_bound_them() {
+        // Few draws, tail quantiles: the distribution-free interval's ranks fall outside 1..=n,
+        // and that end is open. Over 2 000 seeds each of the 5 % and 95 % quantiles of 32
+        // uniform draws is covered in at least 93 % of them (a clamped rank covered 81 %).
+        let req = Request {
+            quantiles: vec![0.05, 0.95],
+            ..Request::default()
+        };
+        let seeds = 2000;
+        let mut cover = [0; 2];
+        for seed in 0..seeds {
+            let mut rng = Stream::new(&[seed, 7]);
+            let v: Vec<f64> = (0..32).map(|_| rng.uniform()).collect();
+            let s = summarise(&v, 1, &req);
+            for (k, p) in [0.05, 0.95].into_iter().enumerate() {
+                let e = s.quantiles[k];
+                cover[k] += (e.lower <= p && p <= e.upper) as usize;
+            }
+        }
+        for c in cover {
+            assert!(c >= 1860, "{c} of {seeds} cover");
+        }
+        // The 1 % quantile of 8 draws: no order statistic bounds it from below.
+        let v: Vec<f64> = (1..=8).map(f64::from).collect();
+        let s = summarise(
+            &v,
+            1,
+            &Request {
+                quantiles: vec![0.01],
+                ..Request::default()
+            },
+        );
+        assert_eq!(s.quantiles[0].lower, f64::NEG_INFINITY);
+        assert!(s.quantiles[0].width() > 1.0);
+    }
+
+    #[test]
+    fn a_rare_event_no_replicate_hits_has_the_pooled_draws_interval() {
+        // P = 0.001 from 8 replicates of 64: most replicates hit it never, and their spread
+        // (zero) says nothing of the error. Over 1 000 seeds the interval covers the truth in at
+        // least 93 % of them and is never of width 0 (the replicates' spread covered it only
+        // where some replicate hit).
+        let p = 0.001;
+        let req = Request {
+            exceed: vec![1.0 - p],
+            ..Request::default()
+        };
+        let seeds = 1000;
+        let mut covered = 0;
+        for seed in 0..seeds {
+            let mut rng = Stream::new(&[seed, 11]);
+            let v: Vec<f64> = (0..512).map(|_| rng.uniform()).collect();
+            let e = summarise(&v, 8, &req).exceed[0];
+            assert!(e.width() > 0.0, "seed {seed}: {e:?}");
+            covered += (e.lower <= p && p <= e.upper) as usize;
+        }
+        assert!(covered >= 930, "{covered} of {seeds} cover");
     }
 
     #[test]

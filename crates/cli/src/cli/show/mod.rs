@@ -137,6 +137,7 @@ pub fn ensemble_lines(e: &chainsweep::engine::status::EnsembleStatus) -> Vec<Str
             o.worst_ratio
         ),
         "running" => "another round is due (`run` goes on)".to_string(),
+        "failed" => "samples that failed or gave no number: the statistics are over the others only, which no tolerance vouches for (`<statistic>_missing` counts them; fix their cause, then `run --retry-failed`)".to_string(),
         _ => "runs of this round are missing (`run` goes on)".to_string(),
     };
     let mut out = vec![format!(

@@ -7,6 +7,10 @@ use super::dist::bad;
 use crate::error::Result;
 use crate::sweep::data_files::{hdf5_reader, values_in};
 
+/// The least p-value (of the fit's χ² at its degrees of freedom) of a fit an ensemble is drawn
+/// from.
+const MIN_P_VALUE: f64 = 1e-3;
+
 /// Reads `from_fit` inputs of the sweep file `text` (in folder `dir`) into the multivariate
 /// normals they name, so that the sweep's text holds the numbers its runs depend on (a later
 /// change of the fit's file changes nothing of a finished ensemble). `None`: nothing to read.
@@ -104,6 +108,32 @@ fn read_fit(path: &std::path::Path, shown: &str, at: &str) -> Result<Value> {
         return Err(fail(
             "has no covariance (its data do not determine every fitted field)".into(),
         ));
+    }
+    // Only a converged fit's covariance describes its fields' uncertainty: at a bound the best
+    // value may lie beyond it, a stalled or unidentifiable fit has no confident answer.
+    // (Each read where the file has it: files written before it was stored have not.)
+    let optional =
+        |name: &str| -> Vec<f64> { read(name, 1).ok().and_then(|r| r.ok()).unwrap_or_default() };
+    let status = optional("fit_status");
+    let converged = crate::record::ItemStatus::Converged.code();
+    if let [s] = status.as_slice() {
+        if *s != f64::from(converged) {
+            let name = (*s >= 0.0 && *s <= 255.0)
+                .then(|| crate::record::ItemStatus::from_code(*s as u8))
+                .flatten()
+                .map_or("of no known status", |st| st.name());
+            return Err(fail(format!(
+                "holds a fit that ended {name} (fit_status {s}), not converged: its covariance does not describe the fitted fields' uncertainty; fit again (a wider interval for a field at its bound, more or other data)"
+            )));
+        }
+    }
+    // A fit that misses its data far beyond their sigma: its covariance assumes it does not.
+    if let [p] = optional("fit_p_value").as_slice() {
+        if *p < MIN_P_VALUE {
+            return Err(fail(format!(
+                "holds a poor fit (fit_p_value {p:.3e}, below {MIN_P_VALUE}): the model misses the data beyond their sigma, and the covariance, which assumes it does not, understates the uncertainty; give the data's sigma as it is, or let the fit estimate it (sigma: estimated)"
+            )));
+        }
     }
     let mut mean = Vec::with_capacity(k);
     for (_, name) in &fields {

@@ -9,9 +9,11 @@ use chainsweep_solver::{Chain, Scene};
 
 use super::super::{from_ref_at, lookup, set_path, units_of};
 use super::dist::{bad, dist_of, numbers, DISTRIBUTIONS};
+use super::EnsembleSpec;
 use super::{Column, Input, InputKind};
 use crate::error::{Error, Result};
-use crate::uq::dist::cholesky;
+use crate::uq::dist::{cholesky, normal_quantile};
+use crate::uq::{UNIT_HIGHEST, UNIT_LOWEST};
 
 /// Which per-particle factor list of the chain an input draws.
 #[derive(Clone, Copy)]
@@ -49,7 +51,10 @@ fn nominal(base: &Value, field: &str) -> Option<f64> {
 
 /// Checks that `field` is a number of the scene that takes `value` (the scene built with it reads
 /// it back unchanged).
-fn check_number_field(base: &Value, field: &str, value: f64, at: &str) -> Result<()> {
+/// `field` of the base scene set to `value`, one the distribution of input `input` gives: an
+/// error at `at` (the input's field) where the field is none the scene has or takes as a number,
+/// at `input` (its distribution) where the scene refuses the value.
+fn check_number_field(base: &Value, field: &str, value: f64, at: &str, input: &str) -> Result<()> {
     let mut v = base.clone();
     if let Err(e) = super::super::check_settable(&v, field) {
         return Err(bad(at, e));
@@ -64,6 +69,22 @@ fn check_number_field(base: &Value, field: &str, value: f64, at: &str) -> Result
         ),
         other => other,
     })?;
+    // The scene's own checks too (a mass > 0 is the chain's, not the schema's), where the base
+    // scene passes them: what the base scene gets wrong is said of the base, when it is built.
+    if let Err(e) = scene.validate() {
+        let base_valid = from_ref_at::<Scene>(base, "")
+            .ok()
+            .is_some_and(|b| b.validate().is_ok());
+        if base_valid {
+            return Err(bad(
+                input,
+                format!(
+                    "its distribution reaches values the scene refuses (narrow or truncate it): `{field}` = {value}: `{}` {}",
+                    e.field, e.message
+                ),
+            ));
+        }
+    }
     let back = serde_json::to_value(&scene).expect("Scene serialises");
     let got = lookup(&back, field).ok().and_then(Value::as_f64);
     if got != Some(value) {
@@ -76,6 +97,96 @@ fn check_number_field(base: &Value, field: &str, value: f64, at: &str) -> Result
         ));
     }
     Ok(())
+}
+
+/// Most values (samples × columns) [`check_reach`] draws to find each column's extremes; beyond,
+/// it takes the farthest any design could draw.
+const MAX_REACH_VALUES: usize = 1 << 22;
+
+/// Every value the ensemble may draw is one the scene takes: its design's points of the last
+/// round it may run (round 0 of a fixed size; of an adaptive ensemble the last within
+/// `max_runs`, whose points hold every earlier round's and reach furthest into the tails), each
+/// column checked at its least and greatest value. Checked when the sweep is read, so that no
+/// later round stops the ensemble with a value the scene refuses (it could then never end).
+pub(super) fn check_reach(spec: &EnsembleSpec, base: &Value) -> Result<()> {
+    let d = spec.columns.len();
+    if d == 0 {
+        return Ok(());
+    }
+    let last = match spec.max_runs {
+        Some(m) => (0..41)
+            .take_while(|&k| spec.round_runs(k) <= m)
+            .last()
+            .unwrap_or(0),
+        None => 0,
+    };
+    let (lo, hi) = if spec.round_samples(last).saturating_mul(d) <= MAX_REACH_VALUES {
+        let (u, _) = spec.unit_points(last);
+        let mut lo = vec![f64::INFINITY; d];
+        let mut hi = vec![f64::NEG_INFINITY; d];
+        for row in u.chunks(d) {
+            for (c, x) in spec.values(row).into_iter().enumerate() {
+                lo[c] = lo[c].min(x);
+                hi[c] = hi[c].max(x);
+            }
+        }
+        (lo, hi)
+    } else {
+        farthest(spec)
+    };
+    for (i, input) in spec.inputs.iter().enumerate() {
+        let at = format!("ensemble.inputs[{i}]");
+        for c in input.columns.clone() {
+            let field = &spec.columns[c].field;
+            for x in [lo[c], hi[c]] {
+                if field.contains("_factors[") && !(x > 1e-3 && x < 1e3) {
+                    return Err(bad(
+                        &at,
+                        format!("draws the factor {x} for `{field}` (round {last}): a factor must lie in (1e-3, 1e3); take log_normal or truncated_normal"),
+                    ));
+                }
+                check_number_field(base, field, x, &at, &at)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Each column's least and greatest value over every point any design could draw (probabilities
+/// from [`UNIT_LOWEST`] to [`UNIT_HIGHEST`]; a multivariate normal's field `i` at its mean ± the
+/// farthest score times `Σⱼ |L_ij|`).
+fn farthest(spec: &EnsembleSpec) -> (Vec<f64>, Vec<f64>) {
+    let d = spec.columns.len();
+    let (mut lo, mut hi) = (vec![0.0; d], vec![0.0; d]);
+    let z = normal_quantile(UNIT_HIGHEST);
+    for input in &spec.inputs {
+        let cols = input.columns.clone();
+        match &input.kind {
+            InputKind::Independent(dists) => {
+                for (c, dist) in cols.zip(dists) {
+                    let (a, b) = (dist.quantile(UNIT_LOWEST), dist.quantile(UNIT_HIGHEST));
+                    (lo[c], hi[c]) = (a.min(b), a.max(b));
+                }
+            }
+            InputKind::Tied(dist) => {
+                let (a, b) = (dist.quantile(UNIT_LOWEST), dist.quantile(UNIT_HIGHEST));
+                for c in cols {
+                    (lo[c], hi[c]) = (a.min(b), a.max(b));
+                }
+            }
+            InputKind::Normal { mean, chol } => {
+                let k = mean.len();
+                for (i, c) in cols.enumerate() {
+                    let reach = z * chol[i * k..i * k + i + 1]
+                        .iter()
+                        .map(|x| x.abs())
+                        .sum::<f64>();
+                    (lo[c], hi[c]) = (mean[i] - reach, mean[i] + reach);
+                }
+            }
+        }
+    }
+    (lo, hi)
 }
 
 pub(super) struct Reader<'a> {
@@ -123,9 +234,11 @@ impl Reader<'_> {
             ));
         }
         let dist = dist_of(m, at, nominal(self.base, &fields[0]))?;
+        // A first look, at ±3.1 sd; [`check_reach`] checks every value the design draws.
         for f in &fields {
             for u in [0.001, 0.5, 0.999] {
-                check_number_field(self.base, f, dist.quantile(u), &format!("{at}.field"))?;
+                let x = dist.quantile(u);
+                check_number_field(self.base, f, x, &format!("{at}.field"), at)?;
             }
         }
         let name = match m.get("name") {
@@ -381,13 +494,14 @@ impl Reader<'_> {
             None => fields.iter().map(|f| super::super::field_name(f)).collect(),
         };
         for (i, f) in fields.iter().enumerate() {
+            // A first look, at ±3 sd; [`check_reach`] checks every value the design draws.
             let sd = chol[i * k..i * k + i + 1]
                 .iter()
                 .map(|x| x * x)
                 .sum::<f64>()
                 .sqrt();
-            for z in [-3.0, 0.0, 3.0] {
-                check_number_field(self.base, f, mean[i] + z * sd, &format!("{at}.fields[{i}]"))?;
+            for x in [mean[i] - 3.0 * sd, mean[i], mean[i] + 3.0 * sd] {
+                check_number_field(self.base, f, x, &format!("{at}.fields[{i}]"), at)?;
             }
         }
         let columns = fields

@@ -7,6 +7,7 @@ use serde_json::Value;
 
 use super::super::{Axis, Dim};
 use super::{Design, EnsembleSpec, InputKind, Layout};
+use crate::uq::clamp_unit;
 use crate::uq::design::{self, Kind};
 use crate::uq::dist::{correlate, lower_times, normal_quantile};
 
@@ -88,17 +89,20 @@ impl EnsembleSpec {
             match &input.kind {
                 InputKind::Independent(dists) => {
                     for (c, d) in cols.zip(dists) {
-                        out[c] = d.quantile(u[c]);
+                        out[c] = d.quantile(clamp_unit(u[c]));
                     }
                 }
                 InputKind::Tied(d) => {
-                    let x = d.quantile(u[cols.start]);
+                    let x = d.quantile(clamp_unit(u[cols.start]));
                     for c in cols {
                         out[c] = x;
                     }
                 }
                 InputKind::Normal { mean, chol } => {
-                    let z: Vec<f64> = cols.clone().map(|c| normal_quantile(u[c])).collect();
+                    let z: Vec<f64> = cols
+                        .clone()
+                        .map(|c| normal_quantile(clamp_unit(u[c])))
+                        .collect();
                     for ((c, m), x) in cols.zip(mean).zip(lower_times(chol, &z)) {
                         out[c] = m + x;
                     }
