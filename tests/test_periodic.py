@@ -10,6 +10,7 @@ is written again, never served; `status` and
 
 import copy
 import json
+import shutil
 import signal
 import subprocess
 import time
@@ -189,6 +190,65 @@ def test_a_killed_run_resumes_bitwise_from_its_last_orbit_and_past_a_damaged_jou
     assert_files_equal(reference, out)
 
 
+def test_an_end_point_whose_end_line_was_lost_is_stepped_to_again_not_repeated(branches, tmp_path):
+    """Killed between the journal's end point and its `end` line (or that line torn or damaged):
+    the branch goes on from the orbit before the end point, which gives the end point again,
+    and the file is the uninterrupted run's (the end point has no step to go on with: resumed
+    from it the branch repeated it up to max_points)."""
+    path, reference = branches
+    out = tmp_path / "torn.h5"
+    shutil.copy(reference, out)
+    shutil.copytree(reference.parent / f"{reference.name}.d", tmp_path / "torn.h5.d")
+    for cut in (None, 20):
+        for log in (tmp_path / "torn.h5.d" / "periodic").glob("*.log"):
+            lines = log.read_bytes().splitlines(keepends=True)
+            assert b' {"end":' in lines[-1], lines[-1][:80]
+            kept = b"".join(lines[:-1])
+            log.write_bytes(kept if cut is None else kept[:-cut])
+        r = run("run", path, "-o", out, "--quiet")
+        assert r.returncode == 0, r.stderr
+        assert_files_equal(reference, out)
+
+
+def test_an_undamped_chain_s_orbits_are_neutrally_stable_and_pass_no_bifurcation(tmp_path):
+    """Without dissipation every multiplier lies on the unit circle, to rounding: each orbit is
+    stable (perturbations do not grow), none is unstable by the last bit, and a linear
+    response passes no Neimark–Sacker point."""
+    s = example(strokes=(1e-10,))
+    s["base"]["physics"]["damping_kg_s"] = 0.0
+    s["periodic"].update(to=3100.0, step=10.0)
+    path = write(tmp_path / "undamped.json", s)
+    out = tmp_path / "undamped.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    with h5py.File(out) as f:
+        kinds = dict(zip(f["point_kind"].attrs["flag_meanings"].split(), f["point_kind"].attrs["flag_values"]))
+        kind = f["point_kind"][()]
+        real = kind > 0
+        assert real.sum() > 10
+        assert np.abs(f["largest_multiplier"][()][real] - 1.0).max() < 1e-9
+        assert (f["stability"][()][real] == 1).all(), f["stability"][()]
+        assert not (kind == kinds["neimark_sacker"]).any()
+
+
+def test_a_wall_on_a_spring_keeps_its_state_out_of_the_particles(tmp_path):
+    """The orbit's state of a chain on a mounted wall holds the wall's displacement and velocity
+    after the particles': `particle` counts the particles, their positions and velocities are
+    theirs (the wall's is its probe's)."""
+    s = example(strokes=(1.5e-9,))
+    s["base"]["chain"]["sequence"] = [{"repeat": 3, "of": ["ball"]}]
+    s["base"]["chain"]["wall_mount"] = {"mass_kg": 0.1, "stiffness_n_m": 2e8, "damping_kg_s": 50}
+    s["record"]["probes"].append({"kind": "mount_displacement"})
+    s["periodic"].update(to=3000.0, step=20.0, max_points=4)
+    path = write(tmp_path / "mount.json", s)
+    out = tmp_path / "mount.h5"
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    ds = chainsweep.open(out)
+    assert ds.sizes["particle"] == 3
+    assert np.isfinite(ds.orbit_velocity_m_s.where(ds.point_kind > 0, 0.0)).all()
+
+
 def test_a_damaged_output_is_reported_never_served_and_written_again(branches, tmp_path):
     path, reference = branches
     out = tmp_path / "damaged.h5"
@@ -230,6 +290,10 @@ def chirp(s):
         (lambda s: chirp(s), "base.excitation.drive.actuator_m"),
         (lambda s: s["periodic"].update({"from": 2900.0}), "periodic.from"),
         (lambda s: s["periodic"].pop("field"), "periodic.field"),
+        # A far end the scene refuses (no negative frequency), caught before a branch walks
+        # towards it for minutes.
+        (lambda s: s["periodic"].update(to=-100.0), "periodic.to"),
+        (lambda s: s["periodic"].update(settle_periods=0), "periodic.settle_periods"),
     ],
 )
 def test_bad_periodic_blocks_exit_2_naming_the_field(tmp_path, change, field):

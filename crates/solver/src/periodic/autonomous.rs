@@ -116,7 +116,7 @@ impl AutonomousOrbit {
     /// larger of 1e-6 and [`Self::trivial_pair_error`] (the splitting of the pair at `+1`, a
     /// Jordan block, bounds how far rounding and the tolerance move a simple multiplier).
     pub fn stable_to_its_accuracy(&self) -> bool {
-        self.stable(self.trivial_pair_error().max(1e-6))
+        self.stable(self.trivial_pair_error().max(dense::UNIT_CIRCLE_TOLERANCE))
     }
 }
 

@@ -175,14 +175,27 @@ pub fn is_real(m: Multiplier) -> bool {
     m.1.abs() <= REAL_TOLERANCE * m.0.hypot(m.1).max(f64::MIN_POSITIVE)
 }
 
-/// Multipliers outside the unit circle, by kind: `(real above +1, real below −1, complex)`.
+/// How far beyond the unit circle a multiplier must lie to count as outside it: the accuracy of
+/// a monodromy matrix integrated to a tolerance, which bounds where a multiplier on the circle (an
+/// undamped orbit's, or one at a fold) is found. Without it rounding alone (|μ| = 1 ± 1e-15)
+/// decided an undamped orbit's stability and placed Neimark–Sacker points on a linear response.
+/// (The autonomous orbits' check takes the same floor.)
+pub const UNIT_CIRCLE_TOLERANCE: f64 = 1e-6;
+
+/// Whether multiplier `m` lies outside the unit circle, beyond [`UNIT_CIRCLE_TOLERANCE`].
+pub fn outside(m: Multiplier) -> bool {
+    m.0.hypot(m.1) > 1.0 + UNIT_CIRCLE_TOLERANCE
+}
+
+/// Multipliers outside the unit circle ([`outside`]), by kind: `(real above +1, real below −1,
+/// complex)`.
 /// A change of the second between two orbits of a branch is a period doubling, of the third a
 /// Neimark–Sacker bifurcation (a change of the first, a fold or a branch point, shows in the
 /// tangent and the bordered determinant).
 pub fn outside_counts(w: &[Multiplier]) -> (usize, usize, usize) {
     let mut c = (0, 0, 0);
     for &m in w {
-        if m.0.hypot(m.1) <= 1.0 {
+        if !outside(m) {
             continue;
         }
         if !is_real(m) {

@@ -194,6 +194,12 @@ impl PeriodicOptions {
                 format!("must lie in 1..=100, got {}", self.max_iterations),
             ));
         }
+        if self.settle_periods == 0 {
+            return Err(spec_err(
+                "periodic.settle_periods",
+                "must be at least 1: the first orbit is guessed from the response after that many drive periods from rest",
+            ));
+        }
         Ok(())
     }
 }

@@ -94,9 +94,11 @@ impl Orbit {
         self.multipliers.first().map_or(0.0, |m| m.0.hypot(m.1))
     }
 
-    /// Whether every multiplier lies inside the unit circle: small perturbations decay.
+    /// Whether no multiplier lies outside the unit circle (beyond the accuracy of the monodromy,
+    /// [`dense::UNIT_CIRCLE_TOLERANCE`]): small perturbations do not grow (they decay where there
+    /// is dissipation; an undamped orbit's multipliers lie on the circle, neutrally stable).
     pub fn stable(&self) -> bool {
-        self.largest_multiplier() < 1.0
+        !self.multipliers.iter().any(|&m| dense::outside(m))
     }
 }
 

@@ -305,6 +305,22 @@ pub(super) fn parse(
         };
         Error::input(field, e.message)
     })?;
+    // The branch's far end is a scene too (a drive frequency of −100 Hz is none): refused now,
+    // not after the continuation walked to it.
+    let refused = |message: String| {
+        Error::input(
+            "periodic.to",
+            format!(
+                "{} = {} is refused by the scene: {message}",
+                spec.field, spec.branch.to
+            ),
+        )
+    };
+    let far = spec
+        .scene_at(base, spec.branch.to)
+        .map_err(|e| refused(e.to_string()))?;
+    far.validate()
+        .map_err(|e| refused(format!("`{}` {}", e.field, e.message)))?;
     Ok(Some(spec))
 }
 

@@ -71,13 +71,15 @@ fn compute(
 ) -> Result<Journal> {
     let io = |e: std::io::Error| Error::Other(format!("{}: {e}", path.display()));
     // What is kept: the points up to the last one the continuation stepped to (a special point
-    // located after it is located again, the same).
+    // located after it is located again, the same). Not an end point whose end line was lost
+    // (killed between the two, a torn or damaged last line): it has no step to go on with, and
+    // the step before it gives it again, the same.
     let mut journal = journal.unwrap_or_default();
     let keep = journal
         .points
         .iter()
         .rposition(|e| match e {
-            Entry::Point { point, .. } => !point.kind.is_special(),
+            Entry::Point { point, .. } => !point.kind.is_special() && point.kind != PointKind::End,
             Entry::Free { .. } => true,
             _ => false,
         })
@@ -416,7 +418,11 @@ pub fn run_periodic(
     let harmonics = sweep_harmonics(sweep);
     let branches: Vec<StoredBranch> = journals
         .iter()
-        .map(|j| stored_branch(spec, j.as_ref(), grid.probes.len(), harmonics))
+        .enumerate()
+        .map(|(i, j)| {
+            let particles = particles_at(sweep, grid, spec, i);
+            stored_branch(spec, j.as_ref(), grid.probes.len(), harmonics, particles)
+        })
         .collect();
     let particles = branches
         .iter()
@@ -502,12 +508,21 @@ fn sweep_harmonics(sweep: &Sweep) -> usize {
         .unwrap_or(3) as usize
 }
 
-/// A journal as stored (`None`: pending).
+/// The particles of the chain of branch `index` (`None`: its scene is refused; the branch then
+/// holds no orbit).
+fn particles_at(sweep: &Sweep, grid: &Grid, spec: &PeriodicSpec, index: usize) -> Option<usize> {
+    let point = grid.point_value(sweep, index);
+    let scene = spec.scene_at(&point, spec.start(&point).ok()?).ok()?;
+    scene.validate().ok().map(|chain| chain.n_particles())
+}
+
+/// A journal as stored (`None`: pending); `particles`: its chain's.
 fn stored_branch(
     spec: &PeriodicSpec,
     j: Option<&Journal>,
     probes: usize,
     harmonics: usize,
+    particles: Option<usize>,
 ) -> StoredBranch {
     let Some(j) = j else {
         return StoredBranch {
@@ -534,6 +549,7 @@ fn stored_branch(
                 max.as_deref(),
                 probes,
                 harmonics,
+                particles,
             )),
             Entry::Free {
                 orbit,
@@ -586,9 +602,14 @@ fn stored_point(
     max: Option<&[f64]>,
     probes: usize,
     harmonics: usize,
+    particles: Option<usize>,
 ) -> StoredPoint {
     let o = &p.orbit;
-    let n = o.state.len() / 2;
+    // The orbit's components: the particles' positions and velocities, then (a wall on a
+    // spring) the wall's displacement and velocity, which are not the particles'.
+    let n = particles
+        .filter(|&n| 2 * n <= o.state.len())
+        .unwrap_or(o.state.len() / 2);
     StoredPoint {
         parameter: p.parameter,
         kind: 1 + p.kind.code(),
