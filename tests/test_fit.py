@@ -399,6 +399,15 @@ def spectrum_spec(tmp_path, text):
     }
 
 
+def misnamed_h5(path):
+    """A recording whose values are in a dataset `values`, not `value`."""
+    import h5py
+
+    with h5py.File(path, "w") as f:
+        f["time_s"] = np.array([1e-5, 2e-5, 3e-5])
+        f["values"] = np.array([1.0, 2.0, 3.0])
+
+
 BAD_DATA = [
     ("NaN value", bad(lambda s, p: s["search"]["data"][0].update(value="NaN")),
      "search.data[0].value", "finite"),
@@ -445,6 +454,9 @@ BAD_DATA = [
     ("a NaN in an HDF5 file", bad(lambda s, p: signal_spec(
         s, p, h5=lambda f: signal_h5(f, values=(1.0, float("nan"), 2.0)))), "search.data[0].signal.path",
      "value[1] is NaN"),
+    # A dataset named otherwise than its column is said of the file, not of a key the sweep lacks.
+    ("an HDF5 file without a value column", bad(lambda s, p: signal_spec(
+        s, p, h5=lambda f: misnamed_h5(f))), "search.data[0].signal.path", "holds no value column"),
     ("no data", bad(lambda s, p: s["search"].update(data=[])), "search.data", "empty"),
     ("fewer data than fields", bad(lambda s, p: s["search"].update(data=s["search"]["data"][:1])),
      "search.data", "cannot fit"),
@@ -482,6 +494,24 @@ def test_a_signal_read_from_hdf5_is_the_signal_read_from_csv(tmp_path, group):
         for name in ("fit_damping_kg_s", "fit_chi_square"):
             if name in a:
                 assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def test_an_hdf5_sigma_of_one_number_is_every_datum_s(tmp_path):
+    """A scalar `sigma` dataset is one uncertainty for every datum, as one number in the sweep
+    is (it was read as a list of one, "1 uncertainties for 3 data")."""
+    import h5py
+
+    def recording(path):
+        signal_h5(path)
+        with h5py.File(path, "a") as f:
+            f["sigma"] = 0.5
+
+    spec = two_field_fit({"data": []})
+    signal_spec(spec, tmp_path, h5=recording)
+    del spec["search"]["data"][0]["signal"]["sigma"]
+    path = write_sweep(tmp_path / "scalar.json", spec)
+    r = run("validate", path)
+    assert r.returncode == 0, r.stdout + r.stderr
 
 
 @pytest.mark.parametrize("what,make,field,words", BAD_DATA, ids=[b[0] for b in BAD_DATA])

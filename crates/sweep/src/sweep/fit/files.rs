@@ -81,10 +81,33 @@ pub(crate) fn inline_text(text: &str, dir: &Path) -> Result<Option<String>> {
                         ));
                     }
                 }
+                // What the data need, from the file or beside it in the sweep: a missing column
+                // (a dataset named `values`) said of the file, not as a key the sweep lacks.
+                let needed: &[&[&str]] = if kind == "signal" {
+                    &[&["time_s"], &["value"]]
+                } else {
+                    &[&["frequency_hz"], &["amplitude", "transmission_db"]]
+                };
+                for any_of in needed {
+                    let given = |c: &&str| m.contains_key(*c) || table.iter().any(|(n, _)| n == c);
+                    if !any_of.iter().any(given) {
+                        let within = group
+                            .as_deref()
+                            .map_or(String::new(), |g| format!(" (group `{g}`)"));
+                        return Err(bad(
+                            format!("{field}.path"),
+                            format!(
+                                "{path}{within} holds no {} column (its columns are named {}), nor does the sweep give it",
+                                any_of.join(" or "),
+                                columns.join(", ")
+                            ),
+                        ));
+                    }
+                }
                 m.remove("path");
                 m.remove("dataset");
                 for (name, values) in table {
-                    m.insert(name, values.into());
+                    m.insert(name, values);
                 }
                 any = true;
             }
@@ -93,9 +116,6 @@ pub(crate) fn inline_text(text: &str, dir: &Path) -> Result<Option<String>> {
     Ok(any.then(|| serde_json::to_string_pretty(&raw).expect("a JSON value serialises")))
 }
 
-/// The named columns of a data file (CSV: a header line naming them, or the first columns in the
-/// order of `columns` without one; HDF5: a group, `group` or the root, holding one dataset per
-/// column).
 /// Whether a CSV data file must name its columns in a header line.
 #[derive(Clone, Copy, PartialEq)]
 enum Header {
@@ -105,13 +125,16 @@ enum Header {
     Required,
 }
 
+/// The named columns of a data file (CSV: a header line naming them, or the first columns in the
+/// order of `columns` without one; HDF5: a group, `group` or the root, holding one dataset per
+/// column, a scalar dataset one number for every datum, as a number in the sweep gives it).
 fn read_table(
     path: &Path,
     group: Option<&str>,
     columns: &[&str],
     header_rule: Header,
     field: &str,
-) -> Result<Vec<(String, Vec<f64>)>> {
+) -> Result<Vec<(String, Value)>> {
     let shown = path.display().to_string();
     let pat = format!("{field}.path");
     let meta = std::fs::metadata(path)
@@ -170,7 +193,12 @@ fn read_table(
                         ),
                     ));
                 }
-                table.push((c.to_string(), values));
+                // A scalar dataset: one number for every datum (a sigma).
+                let value = match (a.shape.is_empty(), values.as_slice()) {
+                    (true, [x]) => Value::from(*x),
+                    _ => Value::from(values),
+                };
+                table.push((c.to_string(), value));
             }
         }
         table
@@ -184,8 +212,12 @@ fn read_table(
         let text = std::fs::read_to_string(path)
             .map_err(|e| bad(&pat, format!("cannot read the data file {shown}: {e}")))?;
         read_csv_table(&text, columns, header_rule, &pat, &shown)?
+            .into_iter()
+            .map(|(c, v)| (c, Value::from(v)))
+            .collect()
     };
-    if table.is_empty() || table[0].1.is_empty() {
+    let empty = |v: &Value| v.as_array().is_some_and(Vec::is_empty);
+    if table.is_empty() || empty(&table[0].1) {
         return Err(bad(
             &pat,
             format!("{shown} holds no data (columns: {})", columns.join(", ")),
