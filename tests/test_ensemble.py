@@ -260,6 +260,8 @@ def test_sobol_points_need_fewer_runs_than_monte_carlo(tmp_path):
         # later round of an adaptive ensemble did, and the sweep could never end).
         ([{"field": "chain.particles.ball.sphere.mass_kg", "normal": {"mean": 0.002, "sd": 0.0006}}], {},
          "ensemble.inputs[0]"),
+        # The base scene's damping is 0: a fraction of it is no spread.
+        ([{"field": "physics.damping_kg_s", "normal": {"relative_sd": 0.1}}], {}, "ensemble.inputs[0].normal.relative_sd"),
         ([STIFFNESS], {"samples": 100}, "ensemble.samples"),
         ([STIFFNESS], {"design": "halton"}, "ensemble.design"),
         # Sobol' indices and elementary effects assume independent inputs.

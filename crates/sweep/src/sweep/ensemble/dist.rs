@@ -83,6 +83,11 @@ fn parse_dist(kind: &str, p: &Value, at: &str, nominal: Option<f64>) -> Result<D
     let sd = |mean: f64| -> Result<f64> {
         match (get("sd")?, get("relative_sd")?) {
             (Some(s), None) => Ok(s),
+            // A fraction of a mean of 0 is no spread: said of relative_sd, not as an sd of 0.
+            (None, Some(_)) if mean == 0.0 => Err(bad(
+                format!("{at}.relative_sd"),
+                format!("is a fraction of the mean, which is 0 here{}: give sd (in the field's unit)", if get("mean")?.is_none() { " (the base scene's value)" } else { "" }),
+            )),
             (None, Some(r)) => Ok(r * mean.abs()),
             _ => Err(bad(
                 format!("{at}.sd"),
