@@ -166,6 +166,77 @@ def test_searches_and_fits_are_drawn_with_their_data(tmp_path, example):
             assert name in html
 
 
+def three_spheres_driven(settle_periods: int) -> dict:
+    """Three spheres between two walls shaken by the top wall at five frequencies, their steady
+    state recorded after `settle_periods` drive periods (5, within the drive's ramp of 20: not
+    settled; 200: settled)."""
+    ball = {"sphere": {"diameter_m": 0.008, "mass_kg": 0.002085,
+                       "material": {"youngs_modulus_pa": 2e11, "poisson_ratio": 0.28}}}
+    steel = {"youngs_modulus_pa": 1.93e11, "poisson_ratio": 0.29}
+    return {
+        "description": "three spheres shaken between two walls",
+        "base": {
+            "chain": {"particles": {"ball": ball}, "sequence": [{"repeat": 3, "of": ["ball"]}],
+                      "wall_material": steel, "top_wall_material": steel},
+            "physics": {"gravity": False, "damping_kg_s": 3.0, "wall": True, "precompression_force_n": 2.0},
+            "excitation": {"drive": {"actuator_m": {"harmonic": {"amplitude": 1.5e-9, "frequency_hz": 2900.0,
+                                                                 "ramp_periods": 20}}}},
+            "duration_s": 0.2,
+            "integrator": {"method": "dop853", "rtol": 1e-9},
+        },
+        "record": {"probes": [{"kind": "wall_force"}], "preload": "subtract", "history": True,
+                   "history_interval_s": 1e-5,
+                   "steady_state": {"settle_periods": settle_periods, "window_periods": 4, "harmonics": 2}},
+        "axes": [{"field": "excitation.drive.actuator_m.harmonic.frequency_hz",
+                  "values": [2000.0, 2500.0, 3000.0, 3500.0, 4000.0]}],
+    }
+
+
+def test_steady_states_are_drawn_as_their_fundamental_and_unsettled_ones_never_as_numbers(tmp_path):
+    """A settled sweep's page draws the steady amplitude (its fundamental) against the drive's
+    frequency; an unsettled sweep's steady values are marked missing with the reason, never drawn
+    as numbers, while its histories (which show why) are still drawn."""
+    pages = {}
+    for settle in (200, 5):
+        s = three_spheres_driven(settle)
+        path = write_sweep(tmp_path / f"d{settle}.json", s)
+        out = tmp_path / f"d{settle}.h5"
+        r = run("run", path, "-o", out, "--quiet")
+        assert r.returncode == (0 if settle == 200 else 3), r.stderr
+        page = tmp_path / f"d{settle}.html"
+        r = run("report", out, "-o", page, "--point", "2")
+        assert r.returncode == 0, r.stderr
+        pages[settle] = page.read_text()
+    assert "steady_amplitude (fundamental) at wall_force" in pages[200]
+    assert "did not settle" not in pages[200]
+    unsettled = pages[5]
+    assert "steady_amplitude" not in unsettled and "steady_rms" not in unsettled
+    assert "no history" not in unsettled and "history at point 2" in unsettled
+
+
+def test_a_damaged_point_is_listed_and_never_drawn(tmp_path):
+    """A summary changed in the file (its checksum no longer matches): the page lists the point
+    under Health as damaged and marks it missing in every figure, never drawing its value."""
+    s = base_sweep()
+    s["record"]["history"] = False
+    path = write_sweep(tmp_path / "d.json", s)
+    out = tmp_path / "d.h5"
+    assert run("run", path, "-o", out, "--quiet").returncode == 0
+    with h5py.File(out, "r+") as f:
+        energy = f["impact_energy_j"][()]
+        energy.flat[2] = 123.0
+        f["impact_energy_j"][...] = energy
+    page = tmp_path / "d.html"
+    assert run("report", out, "-o", page).returncode == 0
+    html = page.read_text()
+    assert "Damaged runs" in html
+    assert "point 2: its stored values are damaged" in html
+    # The impact energy's figure spans the intact points' millijoules, not the 123 J put there.
+    figure = next(f for f in html.split("<figure")[1:] if "impact_energy_j against" in f)
+    ticks = [float(x) for x in re.findall(r'text-anchor="end">(-?[0-9.]+(?:e[-+]?[0-9]+)?)</text>', figure)]
+    assert ticks and max(ticks) < 1.0, ticks
+
+
 def test_histories_of_chosen_points(tmp_path):
     path = write_sweep(tmp_path / "h.json", base_sweep(history=True))
     out = tmp_path / "h.h5"
@@ -183,6 +254,12 @@ def test_histories_of_chosen_points(tmp_path):
     r = run("report", out, "-o", page, "--point", "6")
     assert r.returncode == 2 and "--point" in r.stderr and "0 to 5" in r.stderr, r.stderr
     assert not page.exists()
+    # A shard's file holds every point of the grid: --point takes any of them (its own runs
+    # are a third of them).
+    shard = tmp_path / "h.shard.h5"
+    assert run("run", path, "-o", shard, "--shard", "2/3", "--quiet").returncode == 0
+    r = run("report", shard, "-o", page, "--point", "5")
+    assert r.returncode == 0, r.stderr
 
 
 def test_figures_alone_as_svg_files(tmp_path):
@@ -211,6 +288,10 @@ def test_figures_alone_as_svg_files(tmp_path):
     # Again: the figures replaced, nothing left over; a folder with other files refused.
     assert run("report", out, "--format", "svg").returncode == 0
     assert sorted(folder.glob("*.svg")) == svgs
+    # Past 99 figures the names take three digits, and are still the report's own.
+    (folder / "100-a-figure.svg").write_text("<svg/>")
+    assert run("report", out, "--format", "svg").returncode == 0
+    assert not (folder / "100-a-figure.svg").exists()
     other = tmp_path / "other"
     other.mkdir()
     (other / "notes.txt").write_text("mine")
@@ -309,6 +390,29 @@ def test_bad_report_requests_exit_2_and_write_nothing(tmp_path):
     r = run("report", out, "-o", out)
     assert r.returncode == 2 and "--output" in r.stderr, r.stderr
     assert run("status", out).returncode == 0  # the output file is untouched
+    # Never over a file the report did not write (the sweep file given by mistake), a read-only
+    # page, or a directory: --output named, the file as it was, no temporary left.
+    text = sweep.read_text()
+    r = run("report", out, "-o", sweep)
+    assert r.returncode == 2 and "--output" in r.stderr and "not a report" in r.stderr, r.stderr
+    assert sweep.read_text() == text
+    page = tmp_path / "p.html"
+    assert run("report", out, "-o", page).returncode == 0
+    assert run("report", out, "-o", page).returncode == 0  # its own page: replaced
+    page.chmod(0o444)
+    r = run("report", out, "-o", page)
+    assert r.returncode == 2 and "read-only" in r.stderr, r.stderr
+    folder = tmp_path / "figs"
+    folder.mkdir()
+    r = run("report", out, "-o", folder)
+    assert r.returncode == 2 and "--output" in r.stderr and "directory" in r.stderr, r.stderr
+    assert not list(tmp_path.glob("*.tmp"))
+    # --watch of a file no sweep writes yet says it waits (it waited silently).
+    p = subprocess.Popen([str(BIN), "report", str(tmp_path / "later.h5"), "--watch"],
+                         stderr=subprocess.PIPE, text=True)
+    time.sleep(1.0)
+    p.terminate()
+    assert "waiting for" in p.communicate()[1]
 
 
 def test_watch_refreshes_the_page_until_the_sweep_ends(tmp_path):

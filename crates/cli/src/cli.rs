@@ -627,12 +627,14 @@ fn cmd_report(
             }
         } else {
             let s = status::of_file(file)?;
-            if let Some(&n) = points.iter().find(|&&n| n >= s.total) {
+            // Every point of the grid (a shard's file holds them all, its own runs among them).
+            let points_in_file: usize = s.shape.iter().product();
+            if let Some(&n) = points.iter().find(|&&n| n >= points_in_file) {
                 return Err(Error::input(
                     "--point",
                     format!(
                         "point {n} is not in the file: its points are 0 to {}",
-                        s.total.saturating_sub(1)
+                        points_in_file.saturating_sub(1)
                     ),
                 ));
             }
@@ -670,10 +672,22 @@ fn cmd_report(
         return Ok(EXIT_OK);
     }
     // Until the sweep writing into FILE has ended: a page every interval, then the last one.
+    // (A page is checked before the first wait, so that a bad --output is said at once.)
+    if matches!(format, ReportFormat::Html) {
+        chainsweep::report::check_page_output(&out)?;
+    }
+    let mut said = false;
     loop {
         let live = chainsweep::store::writer_of(file).is_some();
         if file.exists() {
             write_page()?;
+        } else if !said {
+            errln!(
+                "chainsweep: report: waiting for {} to be written{} (Ctrl-C stops)",
+                file.display(),
+                if live { "" } else { ": no sweep writes it yet" }
+            );
+            said = true;
         }
         if !live && file.exists() {
             return Ok(EXIT_OK);

@@ -4,7 +4,7 @@
 
 use super::svg::{self, Series};
 use super::{thin, Builder, MAX_LINE_POINTS, MAX_PROBES};
-use crate::record::STATUS_OK;
+use crate::record::{STATUS_OK, STATUS_UNSETTLED};
 use crate::store::hdf5::FileRecords;
 use crate::sweep::Sweep;
 
@@ -63,6 +63,11 @@ pub(super) fn section(
     points: &[usize],
     default: Option<usize>,
 ) {
+    // A run whose steady state did not settle recorded its history as any ok run does (the
+    // history shows why it did not settle); a damaged point's values are not served.
+    let has_history = |recs: &FileRecords, i: usize| {
+        matches!(recs.status(i), STATUS_OK | STATUS_UNSETTLED) && recs.damage(i).is_none()
+    };
     if !recorded(sweep) {
         return;
     }
@@ -72,7 +77,7 @@ pub(super) fn section(
     let sweep = &sweep;
     let chosen: Vec<usize> = if points.is_empty() {
         default
-            .or_else(|| (0..recs.len()).find(|&i| recs.status(i) == STATUS_OK))
+            .or_else(|| (0..recs.len()).find(|&i| has_history(recs, i)))
             .into_iter()
             .collect()
     } else {
@@ -96,12 +101,17 @@ pub(super) fn section(
     b.body.push_str("<div class=\"plots\">");
     for &i in chosen.iter().take(MAX_HISTORY_POINTS) {
         let label = grid.point_label(sweep, i);
-        if recs.status(i) != STATUS_OK {
+        if !has_history(recs, i) {
+            let why = recs.damage(i).map_or_else(
+                || "its run is not ok".to_string(),
+                |d| format!("its stored values are damaged ({d})"),
+            );
             let _ = std::fmt::Write::write_fmt(
                 &mut b.body,
                 format_args!(
-                    "<p class=\"bad\">point {i} ({}): no history, its run is not ok</p>",
-                    svg::esc(&label)
+                    "<p class=\"bad\">point {i} ({}): no history, {}</p>",
+                    svg::esc(&label),
+                    svg::esc(&why)
                 ),
             );
             continue;
@@ -134,6 +144,15 @@ pub(super) fn section(
         units.dedup();
         units.sort_unstable();
         units.dedup();
+        for unit in &units {
+            let of_unit = grid.probes.iter().filter(|p| p.unit() == *unit).count();
+            let note = format!(
+                "histories in {unit}: the first {MAX_PROBES} of {of_unit} probes (the file holds every probe's)"
+            );
+            if of_unit > MAX_PROBES && !b.thinned.contains(&note) {
+                b.thinned.push(note);
+            }
+        }
         for unit in units {
             let series: Vec<Series> = grid
                 .probes

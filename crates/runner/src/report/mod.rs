@@ -22,7 +22,7 @@ use crate::engine::status::{EnsembleStatus, FileStatus};
 use crate::error::{Error, Result};
 use crate::grid::multi_index;
 use crate::record::columns::{ColumnData, Fill, COLUMNS};
-use crate::record::{STATUS_FAILED, STATUS_PENDING};
+use crate::record::{STATUS_FAILED, STATUS_PENDING, STATUS_UNSETTLED};
 use crate::store::hdf5::FileRecords;
 use crate::sweep::{human_name, Sweep};
 pub use export::{FigureFormat, PNG_SCALE};
@@ -174,6 +174,42 @@ pre {{ background: #f6f6f6; padding: 0.6em; overflow-x: auto; font-size: 0.85em;
     }
 }
 
+/// What was found damaged in the file (its runs drawn as missing, never as numbers) and what the
+/// snapshot gave back; `chainsweep run` of the sweep repairs it.
+fn damage_lines(b: &mut Builder, d: &crate::engine::DamageReport) {
+    for (what, why) in [
+        ("the file", &d.file),
+        ("its header", &d.header),
+        ("its snapshot", &d.snapshot),
+    ] {
+        if let Some(why) = why {
+            let _ = write!(b.body, "<p class=\"bad\">Damaged: {what}: {}</p>", esc(why));
+        }
+    }
+    for (runs, says) in [
+        (&d.lost, "Damaged runs (drawn as missing; running the sweep again computes them):"),
+        (&d.restored, "Damaged runs the snapshot holds intact (running the sweep again restores them; drawn as missing here):"),
+    ] {
+        if runs.is_empty() {
+            continue;
+        }
+        let _ = write!(b.body, "<p class=\"bad\">{says}</p><table><tr><th>point</th><th>axis values</th><th>why</th></tr>");
+        for r in runs.iter().take(50) {
+            let point = r.point.map_or_else(|| "-".to_string(), |p| p.to_string());
+            let _ = write!(
+                b.body,
+                "<tr><td>{point}</td><td>{}</td><td>{}</td></tr>",
+                esc(&r.label),
+                esc(&r.why)
+            );
+        }
+        b.body.push_str("</table>");
+        if runs.len() > 50 {
+            let _ = write!(b.body, "<p class=\"note\">… and {} more (<code>chainsweep status</code> lists them).</p>", runs.len() - 50);
+        }
+    }
+}
+
 fn health_section(b: &mut Builder, s: &FileStatus) {
     let c = &s.counts;
     let _ = write!(
@@ -206,6 +242,7 @@ fn health_section(b: &mut Builder, s: &FileStatus) {
             let _ = write!(b.body, "<p class=\"note\">… and {} more (the file's <code>reason</code> dataset holds every one).</p>", s.failures.len() - 50);
         }
     }
+    damage_lines(b, &s.damage);
     if let Some(lines) = &s.searches {
         b.body.push_str("<h2>Searches</h2><ul>");
         for l in lines {
@@ -408,22 +445,48 @@ fn summaries_section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords) {
     let shape = sweep.shape();
     let n = recs.len();
     let why = |i: usize| -> String {
+        if let Some(d) = recs.damage(i) {
+            return format!("point {i}: its stored values are damaged ({d})");
+        }
         match recs.status(i) {
             STATUS_FAILED => format!("point {i} failed: {}", recs.reason(i)),
             STATUS_PENDING => format!("point {i} pending"),
+            STATUS_UNSETTLED => {
+                format!("point {i}: its steady state did not settle (steady_settled)")
+            }
             _ => format!("point {i}: the run gives no number here"),
         }
     };
+    // What is not drawn as a number: a damaged point's values (never served), and a steady-state
+    // column's at a point whose steady state did not settle (not a steady state).
+    let drawable = |c: &crate::record::columns::Column, mut v: Vec<f64>| -> Vec<f64> {
+        let steady = c.written == crate::record::columns::Written::WithSteadyState;
+        for (i, x) in v.iter_mut().enumerate() {
+            if recs.damage(i).is_some() || (steady && recs.status(i) == STATUS_UNSETTLED) {
+                *x = f64::NAN;
+            }
+        }
+        v
+    };
+    if probes.len() > MAX_PROBES {
+        b.thinned.push(format!(
+            "the summaries of the first {MAX_PROBES} of {} probes (the file holds every probe's)",
+            probes.len()
+        ));
+    }
     b.body.push_str("<h2>Summaries</h2><div class=\"plots\">");
     let mut drawn = 0;
     for c in COLUMNS {
         let result = matches!(
             c.fill,
-            Fill::ProbeF64 { .. } | Fill::SteadyF64 { .. } | Fill::OkF64 { .. }
+            Fill::ProbeF64 { .. }
+                | Fill::SteadyF64 { .. }
+                | Fill::SteadyHarmonic { .. }
+                | Fill::OkF64 { .. }
         );
         let about_the_run =
             RUN_COLUMNS.iter().any(|(n, _)| *n == c.name) || c.name == "energy_drift_final";
-        if !result || about_the_run || c.per_harmonic || table.get(c.name).is_none() {
+        if !result || about_the_run || table.get(c.name).is_none() {
             continue;
         }
         // A column's own unit, or its probe's (a force probe's peaks in N, their times in s).
@@ -449,16 +512,22 @@ fn summaries_section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords) {
             vec![(0, String::new(), fixed.unwrap_or_else(|| "1".into()))]
         };
         for (p, probe, units) in groups {
-            let Some(v) = column_values(table, c.name, p) else {
+            let Some(v) = column_values(table, c.name, p).map(|v| drawable(c, v)) else {
                 continue;
             };
             if !v.iter().any(|x| x.is_finite()) {
                 continue;
             }
-            let what = if probe.is_empty() {
-                c.name.to_string()
+            // (A steady amplitude's or phase's first harmonic: the drive's frequency.)
+            let name = if c.per_harmonic {
+                format!("{} (fundamental)", c.name)
             } else {
-                format!("{} at {probe}", c.name)
+                c.name.to_string()
+            };
+            let what = if probe.is_empty() {
+                name
+            } else {
+                format!("{name} at {probe}")
             };
             plot_over_axes(b, sweep, &shape, n, &v, &what, &units, &why);
             drawn += 1;
@@ -471,7 +540,11 @@ fn summaries_section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords) {
     }
     b.body.push_str("<h2>Runs</h2><div class=\"plots\">");
     for &(name, units) in RUN_COLUMNS {
-        if let Some(v) = column_values(table, name, 0).filter(|v| v.iter().any(|x| x.is_finite())) {
+        let column = crate::record::columns::column(name);
+        let values = column_values(table, name, 0)
+            .zip(column)
+            .map(|(v, c)| drawable(c, v));
+        if let Some(v) = values.filter(|v| v.iter().any(|x| x.is_finite())) {
             plot_over_axes(b, sweep, &shape, n, &v, name, units, &why);
         }
     }
@@ -680,17 +753,57 @@ pub fn write_figures(
     write_figures_of(page(file, status, points)?, dir, format)
 }
 
+/// Where a page may be written: a new file, or one a report wrote (its `generator` names
+/// chainsweep) that is not read-only. Never a directory, a file the user protected, or any other
+/// file (a sweep file given as `-o` by mistake): an input error naming `--output`.
+pub fn check_page_output(out: &Path) -> Result<()> {
+    let refuse = |why: String| {
+        Err(Error::input(
+            "--output",
+            format!("{}: {why}", out.display()),
+        ))
+    };
+    let Ok(meta) = std::fs::metadata(out) else {
+        return Ok(());
+    };
+    if meta.is_dir() {
+        return refuse("is a directory: give the page's file name (FILE.html)".into());
+    }
+    {
+        use std::os::unix::fs::PermissionsExt;
+        if meta.permissions().mode() & 0o222 == 0 {
+            return refuse(
+                "is read-only: not replaced (make it writable, or give another file)".into(),
+            );
+        }
+    }
+    let mut head = [0u8; 512];
+    let n = std::fs::File::open(out)
+        .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
+        .unwrap_or(0);
+    if !String::from_utf8_lossy(&head[..n])
+        .contains("<meta name=\"generator\" content=\"chainsweep")
+    {
+        return refuse(
+            "exists and is not a report's page: not replaced (remove it, or give another file)"
+                .into(),
+        );
+    }
+    Ok(())
+}
+
 /// [`write_figures`] of a page made already.
 pub fn write_figures_of(p: Page, dir: &Path, format: FigureFormat) -> Result<Page> {
     let io = |e: std::io::Error| Error::Other(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(io)?;
     for entry in std::fs::read_dir(dir).map_err(io)? {
         let path = entry.map_err(io)?.path();
-        // A figure's name as written below (`NN-words.svg|png|pdf`), or the captions.
+        // A figure's name as written below (`NN-words.svg|png|pdf`, `NNN-…` from the 100th), or
+        // the captions.
         let name = path.file_name().unwrap_or_default().to_string_lossy();
-        let figure = name.len() > 3
-            && name.as_bytes()[..2].iter().all(u8::is_ascii_digit)
-            && name.as_bytes()[2] == b'-'
+        let digits = name.bytes().take_while(u8::is_ascii_digit).count();
+        let figure = digits >= 2
+            && name.as_bytes().get(digits) == Some(&b'-')
             && [".svg", ".png", ".pdf"].iter().any(|x| name.ends_with(x));
         let ours = figure || name == "captions.txt";
         if !ours {
@@ -742,6 +855,7 @@ pub fn write(file: &Path, status: &FileStatus, points: &[usize], out: &Path) -> 
 
 /// [`write`] of a page made already.
 pub fn write_page(p: Page, out: &Path) -> Result<Page> {
+    check_page_output(out)?;
     let tmp = out.with_extension("html.tmp");
     std::fs::write(&tmp, &p.html).map_err(|e| Error::Other(format!("{}: {e}", tmp.display())))?;
     std::fs::rename(&tmp, out).map_err(|e| Error::Other(format!("{}: {e}", out.display())))?;

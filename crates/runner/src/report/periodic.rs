@@ -140,6 +140,11 @@ fn curve(
 fn curves_section(b: &mut Builder, t: &BranchTables, labels: &[String]) {
     let x_label = format!("{} [{}]", human_name(&t.name), t.units);
     let np = t.probes.len();
+    if np > MAX_PROBES {
+        b.thinned.push(format!(
+            "the curves of the first {MAX_PROBES} of {np} probes (the file holds every probe's)"
+        ));
+    }
     b.body
         .push_str("<h2>Frequency response</h2><div class=\"plots\">");
     for (p, (probe, unit)) in t.probes.iter().enumerate().take(MAX_PROBES) {
