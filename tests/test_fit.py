@@ -246,9 +246,12 @@ def dimer_base(damping: float) -> dict:
     }
 
 
+# Settled to 1e-2 of each probe's amplitude: the data's noise is 0.5 dB (6 %). (At 300 periods the
+# far contact's response in the gap, 34 dB down, still carries the other modes' transient at
+# about 1e-3 of it, which the default tolerance calls unsettled.)
 DIMER_RECORD = {
     "probes": [{"kind": "contact_force", "contact": 1}, {"kind": "contact_force", "contact": 8}],
-    "steady_state": {"settle_periods": 300, "window_periods": 10, "harmonics": 1},
+    "steady_state": {"settle_periods": 300, "window_periods": 10, "harmonics": 1, "settled_tolerance": 1e-2},
 }
 FREQUENCIES = [2500.0 + 1000.0 * k for k in range(12)]
 

@@ -43,7 +43,7 @@ pub const EXIT_PARTIAL: i32 = 3;
 /// Version of the runner's numerics: bump it whenever a change in the runner or the solver changes
 /// the numbers a scene produces (or what a run records), so that resumed sweeps recompute every run.
 /// Its history: CHANGELOG.md, "Numerics versions".
-pub const NUMERICS_VERSION: u32 = 9;
+pub const NUMERICS_VERSION: u32 = 10;
 
 /// Version of the engine (the workspace's version, which every crate of it shares).
 pub const ENGINE_VERSION: &str = env!("CARGO_PKG_VERSION");

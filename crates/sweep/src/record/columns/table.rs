@@ -597,7 +597,7 @@ pub const COLUMNS: &[Column] = &[
         per_probe: true,
         per_harmonic: false,
         units: Units::Fixed("1"),
-        description: "change of the fundamental's complex amplitude between the window's first and last halves, relative to the probe's amplitude (sqrt(2) times its standard deviation)",
+        description: "how far the steady state may be from settled, relative to the probe's amplitude (sqrt(2) times its standard deviation): the larger of the window's fundamental's distance from where it settles (its change over three segments at the window's end, read as a decaying transient) and the signal's distance from periodic at the drive's period",
         long_name: true,
         flags: None,
         note: "0 for a constant signal",
