@@ -27,11 +27,10 @@ pub struct VerifySource {
 }
 
 impl VerifySource {
-    /// Records point `i`'s verification run: its hash and its allowance, from its scene.
-    pub fn insert(&mut self, i: usize, tight: &chainsweep_solver::Scene, hash: RunHash) {
+    /// Records point `i`'s verification run: its hash and its allowance.
+    pub fn insert(&mut self, i: usize, hash: RunHash, allowance: verify::Allowance) {
         self.hashes.insert(i, hash);
-        self.allowances
-            .insert(i, verify::Allowance::of(&tight.integrator));
+        self.allowances.insert(i, allowance);
     }
 
     /// No verification outcome known yet; `fraction` is recorded.

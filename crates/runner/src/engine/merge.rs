@@ -129,11 +129,11 @@ pub fn merge(output: &Path, given: &[PathBuf], provenance: &Provenance) -> Resul
         if vsrc.given.contains_key(&i) {
             continue;
         }
-        let (tight, vh) = verify::point_verification(&sweep, &grid, i);
+        let (_, vh, allowance) = verify::point_verification(&sweep, &grid, i);
         if let Some(&ok) = index.get(&vh) {
             vsrc.done.insert(vh, ok);
         }
-        vsrc.insert(i, &tight, vh);
+        vsrc.insert(i, vh, allowance);
     }
     let counts = assemble(
         &work,

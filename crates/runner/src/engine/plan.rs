@@ -183,8 +183,8 @@ fn plan_verification(
         return Ok((source, sampled, pending, counts));
     }
     for &i in points {
-        let (tight, vh) = verify::point_verification(sweep, grid, i);
-        source.insert(i, &tight, vh);
+        let (_, vh, allowance) = verify::point_verification(sweep, grid, i);
+        source.insert(i, vh, allowance);
         let state = index.get(&vh).copied();
         if let Some(ok) = state {
             source.done.insert(vh, ok);

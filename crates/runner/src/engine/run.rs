@@ -750,6 +750,7 @@ fn verification_report(
         grid.min_overlap,
         grid.fields.is_some(),
         grid.spectrum,
+        grid.energy_ledger,
     ];
     report.not_verified = crate::numerics::verify::NOT_VERIFIED
         .iter()

@@ -220,7 +220,7 @@ impl Executor for SolverExecutor<'_> {
                 .expect("each point's task runs once");
         }
         if task.verification {
-            let (tight, vh) = verify::point_verification(sweep, grid, i);
+            let (tight, vh, _) = verify::point_verification(sweep, grid, i);
             debug_assert_eq!(vh, task.hash);
             exec::execute_verification(&tight, vh, &sweep.limits)
         } else {

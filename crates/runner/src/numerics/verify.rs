@@ -42,13 +42,17 @@ use crate::sweep::Sweep;
 
 /// What `--verify` does not compare, each with why: named by `run`'s report where a sweep records
 /// it.
-pub const NOT_VERIFIED: [(&str, &str); 4] = [
+pub const NOT_VERIFIED: [(&str, &str); 5] = [
     ("histories", "not recorded by verification runs"),
     ("minimum overlaps", "not recorded by verification runs"),
     ("space-time fields", "not recorded by verification runs"),
     (
         "the spectrum",
         "not integrated in time: the same at any tolerance (exact to rounding)",
+    ),
+    (
+        "the energy ledger's terms",
+        "not compared (the ledger's closure is `energy_drift_max`, which is)",
     ),
 ];
 
@@ -142,15 +146,24 @@ pub struct Allowance {
 }
 
 impl Allowance {
-    /// The allowance of a verification run under `tight`, the tightened integrator.
-    pub fn of(tight: &IntegratorSpec) -> Allowance {
-        match tight.adaptive_options() {
-            Some(o) => Allowance {
-                share: TIGHTER_ERROR_SHARE,
-                floor: TIGHTER_ERROR_FACTOR * o.rtol,
-            },
+    /// The allowance of a verification run under `tight`, the run's integrator `base`
+    /// tightened. An adaptive one's tolerance a hundred times tighter keeps at most
+    /// [`TIGHTER_ERROR_SHARE`] of the run's error; tightened less (the run's rtol below 1e-13,
+    /// the tighter one held at 1e-15), it keeps that share times how much less, and where that
+    /// reaches half the run's error (tightened less than twenty times: at rtol 1e-15 the same
+    /// run) nothing is bounded: the errors are NaN, not the floor of a run compared with itself.
+    pub fn of(base: &IntegratorSpec, tight: &IntegratorSpec) -> Allowance {
+        match (base.adaptive_options(), tight.adaptive_options()) {
+            (Some(b), Some(o)) => {
+                let tightened = b.rtol / o.rtol;
+                let share = TIGHTER_ERROR_SHARE * (100.0 / tightened).max(1.0);
+                Allowance {
+                    share: if share < 0.5 { share } else { f64::NAN },
+                    floor: TIGHTER_ERROR_FACTOR * o.rtol,
+                }
+            }
             // A fixed step of order p at a quarter of the step: 4^-p of the error.
-            None => Allowance {
+            _ => Allowance {
                 share: 0.25f64.powi(tight.method().order()),
                 floor: 0.0,
             },
@@ -221,12 +234,20 @@ pub fn compare(
 }
 
 /// The error of a probe's steady state against the tighter run's: the largest of each harmonic's
-/// complex amplitude `A_k e^{iφ_k}` against the fundamental's, and of the mean and the RMS against
-/// the RMS (a mean or a harmonic may be near zero, which a relative error of its own would inflate).
+/// complex amplitude `A_k e^{iφ_k}` against the fundamental's amplitude, and of the mean and the
+/// RMS against the RMS (a mean or a harmonic may be near zero, which a relative error of its own
+/// would inflate). (Harmonics against the RMS understated them where a probe carries a mean, a
+/// preload, far above its oscillation: 1e-5 reported, 4.5e-5 true.)
 fn steady_error(a: &SteadyProbe, r: &SteadyProbe) -> f64 {
-    let scale = r.amplitude.first().copied().unwrap_or(0.0).max(r.rms);
-    let against = |d: f64| if d == 0.0 { 0.0 } else { d / scale };
-    let mut worst = against((a.mean - r.mean).abs()).max(against((a.rms - r.rms).abs()));
+    let fundamental = r.amplitude.first().copied().unwrap_or(0.0);
+    let harmonic_scale = if fundamental > 0.0 {
+        fundamental
+    } else {
+        r.rms
+    };
+    let against = |d: f64, scale: f64| if d == 0.0 { 0.0 } else { d / scale };
+    let mut worst =
+        against((a.mean - r.mean).abs(), r.rms).max(against((a.rms - r.rms).abs(), r.rms));
     for k in 0..a.amplitude.len().min(r.amplitude.len()) {
         let (x, y) = (
             (
@@ -238,7 +259,7 @@ fn steady_error(a: &SteadyProbe, r: &SteadyProbe) -> f64 {
                 r.amplitude[k] * r.phase_rad[k].sin(),
             ),
         );
-        worst = worst.max(against((x.0 - y.0).hypot(x.1 - y.1)));
+        worst = worst.max(against((x.0 - y.0).hypot(x.1 - y.1), harmonic_scale));
     }
     worst
 }
@@ -267,12 +288,13 @@ fn flow_error(a: &EnergyFlow, r: &EnergyFlow) -> f64 {
     }
 }
 
-/// The verification scene and hash of point `i`.
-pub fn point_verification(sweep: &Sweep, grid: &Grid, i: usize) -> (Scene, RunHash) {
+/// The verification scene and hash of point `i`, and what its run's own error adds.
+pub fn point_verification(sweep: &Sweep, grid: &Grid, i: usize) -> (Scene, RunHash, Allowance) {
     let scene = grid.build(sweep, i).expect("every point was validated");
     let tight = tight_scene(&scene);
     let h = verify_hash(&grid.hashes[i], &tight);
-    (tight, h)
+    let allowance = Allowance::of(&scene.integrator, &tight.integrator);
+    (tight, h, allowance)
 }
 
 #[cfg(test)]
@@ -292,5 +314,39 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn a_tolerance_that_cannot_be_tightened_enough_bounds_nothing() {
+        let at = |rtol: f64| {
+            let mut base = IntegratorSpec::default();
+            base.adaptive_options_mut().expect("adaptive").rtol = rtol;
+            Allowance::of(&base, &tighten(base))
+        };
+        assert_eq!(at(1e-9).share, TIGHTER_ERROR_SHARE);
+        assert_eq!(at(1e-13).share, TIGHTER_ERROR_SHARE);
+        // Tightened 50 times (the tighter run held at 1e-15): twice the share.
+        assert!((at(5e-14).share - 2.0 * TIGHTER_ERROR_SHARE).abs() < 1e-12);
+        // Ten times, or not at all: the verification run is nearly or exactly the run itself.
+        for rtol in [1e-14, 1e-15] {
+            assert!(at(rtol).bound(1e-13).is_nan(), "{rtol}");
+        }
+    }
+
+    #[test]
+    fn a_steady_harmonics_error_is_against_the_fundamental_not_a_preload() {
+        // A contact under 20 N oscillating by 1e-3 N: a 4.5e-8 N error of the fundamental is
+        // 4.5e-5 of it, not 2e-9 of the RMS (the preload).
+        let probe = |a1: f64| SteadyProbe {
+            mean: 20.0,
+            rms: (400.0 + a1 * a1 / 2.0).sqrt(),
+            amplitude: vec![a1],
+            phase_rad: vec![0.0],
+            settledness: 0.0,
+            settled: true,
+            transmission_db: 0.0,
+        };
+        let e = steady_error(&probe(1e-3 + 4.5e-8), &probe(1e-3));
+        assert!((e - 4.5e-5).abs() < 1e-7, "{e}");
     }
 }

@@ -235,8 +235,8 @@ fn verify_searches(
         if !work.read(&grid.hashes[i])?.is_some_and(|r| r.ok) {
             continue;
         }
-        let (tight, vh) = verify::point_verification(sweep, grid, i);
-        vsrc.insert(i, &tight, vh);
+        let (tight, vh, allowance) = verify::point_verification(sweep, grid, i);
+        vsrc.insert(i, vh, allowance);
         if work.read(&vh)?.is_some() {
             vsrc.done.insert(vh, true);
             continue;
