@@ -237,6 +237,21 @@ def test_a_damaged_point_is_listed_and_never_drawn(tmp_path):
     assert ticks and max(ticks) < 1.0, ticks
 
 
+def test_points_verify_did_not_sample_are_said_to_be_so(tmp_path):
+    """The verified error's figure marks the points --verify did not sample as such, not as
+    runs that gave no number."""
+    s = base_sweep()
+    s["record"]["history"] = False
+    path = write_sweep(tmp_path / "v.json", s)
+    out = tmp_path / "v.h5"
+    assert run("run", path, "-o", out, "--quiet", "--verify", "0.4").returncode == 0
+    page = tmp_path / "v.html"
+    assert run("report", out, "-o", page).returncode == 0
+    figure = next(f for f in page.read_text().split("<figure")[1:] if "verify_rel_error_max against" in f)
+    assert re.search(r"not in --verify(&#x27;|')s sample", figure), figure[:2000]
+    assert "gives no number" not in figure
+
+
 def test_histories_of_chosen_points(tmp_path):
     path = write_sweep(tmp_path / "h.json", base_sweep(history=True))
     out = tmp_path / "h.h5"

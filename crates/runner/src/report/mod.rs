@@ -545,7 +545,23 @@ fn summaries_section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords) {
             .zip(column)
             .map(|(v, c)| drawable(c, v));
         if let Some(v) = values.filter(|v| v.iter().any(|x| x.is_finite())) {
-            plot_over_axes(b, sweep, &shape, n, &v, name, units, &why);
+            // A verified error is missing where --verify did not sample the point, not because
+            // its run gave no number.
+            let verified_why = |i: usize| -> String {
+                if recs.status(i) == crate::record::STATUS_OK
+                    && recs.verify_info(i).status == crate::record::VERIFY_NONE
+                {
+                    format!("point {i}: not in --verify's sample")
+                } else {
+                    why(i)
+                }
+            };
+            let why_here: &dyn Fn(usize) -> String = if name.starts_with("verify_") {
+                &verified_why
+            } else {
+                &why
+            };
+            plot_over_axes(b, sweep, &shape, n, &v, name, units, why_here);
         }
     }
     b.body.push_str("</div>");

@@ -77,12 +77,16 @@ pub fn ticks(lo: f64, hi: f64) -> Vec<f64> {
 
 /// A number as a tick label: short, exact enough.
 pub fn num(x: f64) -> String {
+    num_digits(x, 4)
+}
+
+/// `x` to `digits` significant digits, trailing zeros dropped (scientific outside 1e-3..1e5).
+fn num_digits(x: f64, digits: usize) -> String {
     let a = x.abs();
     if x == 0.0 {
         "0".into()
     } else if (1e-3..1e5).contains(&a) {
-        // Four significant digits, trailing zeros dropped.
-        let decimals = (3 - a.log10().floor() as i32).clamp(0, 10) as usize;
+        let decimals = (digits as i32 - 1 - a.log10().floor() as i32).clamp(0, 16) as usize;
         let s = format!("{x:.decimals$}");
         if s.contains('.') {
             s.trim_end_matches('0').trim_end_matches('.').to_string()
@@ -90,8 +94,27 @@ pub fn num(x: f64) -> String {
             s
         }
     } else {
-        format!("{x:.3e}")
+        format!("{x:.prec$e}", prec = digits - 1)
     }
+}
+
+/// Labels of the ticks `ts`, in as few significant digits (from four) as tell every one apart:
+/// an axis from 1.0 to 1.0003 reads 1, 1.0001, …, not "1" five times.
+pub fn tick_labels(ts: &[f64]) -> Vec<String> {
+    for digits in 4..=16 {
+        let labels: Vec<String> = ts.iter().map(|&t| num_digits(t, digits)).collect();
+        if labels.windows(2).all(|w| w[0] != w[1]) {
+            return labels;
+        }
+    }
+    ts.iter().map(|&t| num_digits(t, 17)).collect()
+}
+
+/// Ticks over `[lo, hi]` with their labels.
+fn labelled_ticks(lo: f64, hi: f64) -> Vec<(f64, String)> {
+    let ts = ticks(lo, hi);
+    let labels = tick_labels(&ts);
+    ts.into_iter().zip(labels).collect()
 }
 
 const PALETTE: [&str; 10] = [
@@ -180,7 +203,7 @@ fn axes(
             esc(text)
         );
     }
-    for y in ticks(f.y0, f.y1) {
+    for (y, label) in labelled_ticks(f.y0, f.y1) {
         let py = f.py(y);
         let _ = write!(
             out,
@@ -188,7 +211,7 @@ fn axes(
             l - 4.0,
             l - 6.0,
             py + 4.0,
-            num(y)
+            label
         );
     }
     let _ = write!(
@@ -267,7 +290,7 @@ pub fn lines(
             let (a, b) = (x0.log10().ceil() as i32, x1.log10().floor() as i32);
             (a..=b).map(|e| (10f64.powi(e), format!("1e{e}"))).collect()
         }
-        None => ticks(x0, x1).into_iter().map(|t| (t, num(t))).collect(),
+        None => labelled_ticks(x0, x1),
     };
     let mut out = String::new();
     axes(&mut out, &f, title, x_label, y_label, &x_ticks);
@@ -557,7 +580,7 @@ pub fn bars(
         right: RIGHT,
     };
     let x_ticks: Vec<(f64, String)> = match edges {
-        Some(_) => ticks(x0, x1).into_iter().map(|t| (t, num(t))).collect(),
+        Some(_) => labelled_ticks(x0, x1),
         None => bars
             .iter()
             .enumerate()
@@ -598,4 +621,24 @@ pub fn bars(
     }
     out.push_str("</svg>");
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_tell_every_tick_apart() {
+        let ts = ticks(1.0, 1.0003);
+        let labels = tick_labels(&ts);
+        assert_eq!(labels, ["1", "1.0001", "1.0002", "1.0003"]);
+        let ts = ticks(5.2536e-5, 5.2544e-5);
+        let labels = tick_labels(&ts);
+        assert!(labels.windows(2).all(|w| w[0] != w[1]), "{labels:?}");
+        // Coarse ticks keep their short labels.
+        assert_eq!(
+            tick_labels(&ticks(0.0, 10.0)),
+            ["0", "2", "4", "6", "8", "10"]
+        );
+    }
 }
