@@ -160,10 +160,12 @@ def test_searches_and_fits_are_drawn_with_their_data(tmp_path, example):
         assert "<h2>Histories</h2>" in html and f"history at point {best}" in html
         assert "The evaluation with the best objective" in html
     else:
-        # The three measured ratios, each named on the axis.
+        # The three measured ratios, each named on the axis, drawn against their measured values
+        # (scalars of any units and sizes on one axis).
         assert "measured scalars" in html
         for name in ("A5_over_A4", "A15_over_A4", "A21_over_A4"):
             assert name in html
+        assert "relative to the measured value" in html
 
 
 def three_spheres_driven(settle_periods: int) -> dict:

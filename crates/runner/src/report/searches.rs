@@ -153,7 +153,18 @@ fn data_and_model(
         ("rad", Some((r, _))) => data.iter().zip(&r).map(|(d, r)| d + r).collect(),
         _ => model,
     };
-    let sigma = first_fit(path, &format!("{prefix}_sigma"), n).map(|s| s.0);
+    let mut sigma = first_fit(path, &format!("{prefix}_sigma"), n).map(|s| s.0);
+    // Scalars (each its own quantity, in its own unit and size: a peak in N, a time in s)
+    // against their measured values: 1 ± σ/|measured| and the prediction over the measured
+    // value, not on one axis where the small ones sit on zero.
+    let relative = text_x.is_some() && data.iter().all(|d| d.is_finite() && *d != 0.0);
+    let (data, model, units) = if relative {
+        sigma = sigma.map(|s| s.iter().zip(&data).map(|(s, d)| s / d.abs()).collect());
+        let model = model.iter().zip(&data).map(|(m, d)| m / d).collect();
+        (vec![1.0; n], model, "1, relative to the measured value")
+    } else {
+        (data, model, units)
+    };
     let band: Vec<(f64, f64)> = match &sigma {
         Some(s) if s.iter().all(|s| s.is_finite()) => {
             data.iter().zip(s).map(|(d, s)| (d - s, d + s)).collect()
