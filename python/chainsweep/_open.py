@@ -303,7 +303,7 @@ def _same_file(path: str, identity: tuple[int, int, int, int]) -> None:
 
 
 def _lazy_histories(
-    path: str, grid: _Grid, masked: set[int]
+    path: str, grid: _Grid, masked: set[int], identity: tuple[int, int, int, int] | None = None
 ) -> tuple[dict[str, Any], dict[str, Any]] | None:
     """LAYOUT: every run's history as one dask array over (grid…, probe, time_s), read from the
     file block by block only when computed (a block: runs along the grid's last axis, about
@@ -319,7 +319,7 @@ def _lazy_histories(
         import dask.array as da
     except ImportError:
         return None
-    identity = _identity(path)
+    identity = identity or _identity(path)
     with h5py.File(path, "r") as f:
         if _has_arrays(f):
             return _lazy_arrays(path, f, grid, masked, identity)
@@ -549,7 +549,7 @@ def _stack_fields(
 
 
 def _lazy_fields(
-    path: str, grid: "_Grid", masked: set[int]
+    path: str, grid: "_Grid", masked: set[int], identity: tuple[int, int, int, int] | None = None
 ) -> tuple[dict[str, Any], dict[str, Any]] | None:
     """The space–time fields as dask arrays read from the file block by block only when
     computed (runs along the grid's last axis, about `_LAZY_BLOCK_BYTES`, whole chunks of the
@@ -557,7 +557,7 @@ def _lazy_fields(
     it is no longer the one checked."""
     import dask.array as da
 
-    identity = _identity(path)
+    identity = identity or _identity(path)
     with h5py.File(path, "r") as f:
         if not _has_arrays(f) or "field_samples" not in f:
             return None
@@ -718,11 +718,31 @@ def _open_periodic(path: str) -> xr.Dataset:
         return ds.load()
 
 
+class _Replaced(Exception):
+    """The file was published again while `chainsweep.open` read it (a running sweep's
+    checkpoint): read again."""
+
+
+# Reads of a file that a running sweep keeps publishing again before one is whole.
+_READ_ATTEMPTS = 5
+
+
 def open(  # noqa: A001 (chainsweep.open)
     path: PathLike, histories: bool | str = False, damaged: str = "raise"
 ) -> xr.Dataset:
     try:
-        return _open_file(path, histories, damaged)
+        for _ in range(_READ_ATTEMPTS):
+            try:
+                return _open_file(path, histories, damaged)
+            except _Replaced:
+                continue
+        fspath = os.fspath(path)
+        raise DamagedFileError(
+            fspath,
+            f"{fspath} was published again while it was read, {_READ_ATTEMPTS} times: a sweep "
+            "is checkpointing it; open it again, or after the sweep",
+            [],
+        )
     except Error:
         raise
     except (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError) as e:
@@ -801,7 +821,9 @@ def _open_file(
     variable saying which. A file whose header or coordinates are damaged always raises. Files of
     earlier versions carry no checksums and are served as they stand.
     """
-    fspath = os.fspath(path)
+    # Absolute: a lazy block reopens the file long after, wherever the working directory is then.
+    fspath = os.path.abspath(os.fspath(path))
+    path = fspath
     if histories not in (True, False, "lazy"):
         raise InputError("histories", f'must be True, False or "lazy", got {histories!r}')
     if _is_periodic(fspath):
@@ -816,6 +838,12 @@ def _open_file(
         names = set()
     heavy = {"history", "history_N", "history_m", "history_m_per_s", *_FIELD_NAMES}
     small_arrays = bool(names & {"min_overlap_m", *L.ENERGY_FLOW}) and not names & heavy
+    # The file as checked: a sweep publishing it again while it is read (its checkpoints) would
+    # otherwise give summaries of one version and lazy histories of the next.
+    try:
+        identity = _identity(fspath)
+    except OSError:
+        identity = None
     points, unreadable = _check(fspath, bool(histories) or small_arrays, damaged)
     unchecked = fspath if points else None
     _READING.damage = None
@@ -862,10 +890,12 @@ def _open_file(
                 data.update(extra[0])
                 coords.update(extra[1])
         attrs = _attrs(f)
+    if identity is not None and _identity(fspath) != identity:
+        raise _Replaced()
     if lazy:
         # (After the file is closed: HDF5 frees what it read of the run groups only then.)
-        extras.append(_lazy_histories(fspath, grid, {i for i, _, _ in points}))
-        extras.append(_lazy_fields(fspath, grid, {i for i, _, _ in points}))
+        extras.append(_lazy_histories(fspath, grid, {i for i, _, _ in points}, identity))
+        extras.append(_lazy_fields(fspath, grid, {i for i, _, _ in points}, identity))
     for extra in extras[-2:] if lazy else []:
         if extra is not None:
             data.update(extra[0])
@@ -882,7 +912,13 @@ def _open_file(
     _join_units(data, grid)
     noted, _READING.damage = _READING.damage, None
     known = {i for i, _, _ in points}
-    found = [(i, grid.label(i), why) for i, why in sorted(noted.points.items()) if i not in known]
+    # A chunk that fails its checksum spans several points: those with values in it are damaged,
+    # not a failed or pending point beside them, which has none there (its status and reason are
+    # intact).
+    status = np.ravel(data["status"][1]) if "status" in data else None
+    holds = (lambda i: status is None or status[i] not in (L.STATUS_PENDING, L.STATUS_FAILED))
+    found = [(i, grid.label(i), why) for i, why in sorted(noted.points.items())
+             if i not in known and holds(i)]
     if found:
         if damaged == "raise":
             listed = "; ".join(f"point {i} ({label}): {why}" for i, label, why in found[:_LISTED_DAMAGE])

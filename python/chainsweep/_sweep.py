@@ -81,6 +81,27 @@ class SweepResult:
         return os.fspath(self.path)
 
 
+
+# The most worker threads a sweep takes (the engine's own limit is far above any machine).
+_MOST_JOBS = 4096
+
+# Keys whose string values name files relative to the sweep file.
+_PATH_KEYS = ("path", "from_fit")
+
+
+def _paths_from(value: Any, base: Path) -> Any:
+    """`value` with every relative file name (a `path` or `from_fit` string) made absolute from
+    `base`."""
+    if isinstance(value, Mapping):
+        return {
+            k: str(base / v) if k in _PATH_KEYS and isinstance(v, str) and not os.path.isabs(v)
+            else _paths_from(v, base)
+            for k, v in value.items()
+        }
+    if isinstance(value, list):
+        return [_paths_from(v, base) for v in value]
+    return value
+
 def _duration(secs: float) -> str:
     if not np.isfinite(secs):
         return "?"
@@ -265,16 +286,19 @@ def sweep(
     for name, value in (("jobs", jobs), ("checkpoint_interval", checkpoint_interval), ("verify", verify)):
         if isinstance(value, bool) or (value is not None and not isinstance(value, (int, float, np.number))):
             raise InputError(name, f"must be a number, got {value!r}")
-    if jobs is not None and (jobs != int(jobs) or jobs < 1):
-        raise InputError("jobs", f"must be a whole number >= 1, got {jobs}")
+    if jobs is not None and (jobs != int(jobs) or not 1 <= jobs <= _MOST_JOBS):
+        raise InputError("jobs", f"must be a whole number from 1 to {_MOST_JOBS}, got {jobs}")
     if ensemble_round is not None and (
         isinstance(ensemble_round, bool) or not isinstance(ensemble_round, (int, np.integer)) or ensemble_round < 0
     ):
         raise InputError("ensemble_round", f"must be a whole number >= 0, got {ensemble_round!r}")
     with tempfile.TemporaryDirectory(prefix="chainsweep-") as tmp:
         if isinstance(spec, Mapping):
+            # Written into a temporary folder: the files it names by relative path (a fit's
+            # data, a recorded drive, a fit's result) are the working directory's, as run()
+            # and a sweep file in the working directory find them.
             file = Path(tmp) / f"{output.stem}.json"
-            file.write_text(dumps(dict(spec)) + "\n")
+            file.write_text(dumps(_paths_from(dict(spec), Path.cwd())) + "\n")
         else:
             file = Path(spec)
         try:

@@ -128,6 +128,19 @@ def test_lazy_histories_read_nothing_until_computed_and_equal_the_stacked_ones(f
         ds.history.values
     with pytest.raises(InputError):
         chainsweep.open(files["full"], histories="yes")
+    # Opened by a relative path, read after the working directory changed: the same file
+    # (the blocks reopened the path as given, and found none, or another).
+    here = os.getcwd()
+    try:
+        os.chdir(tmp_path)
+        ds = chainsweep.open("copy.h5", histories="lazy")
+        elsewhere = tmp_path / "elsewhere"
+        elsewhere.mkdir()
+        shutil.copyfile(files["full"], elsewhere / "copy.h5")
+        os.chdir(elsewhere)
+        assert ds.history.values.tobytes() == eager.history.values.tobytes()
+    finally:
+        os.chdir(here)
 
 
 WITHOUT_DASK = """

@@ -273,3 +273,29 @@ def test_ctrl_c_stops_cleanly_and_the_same_call_resumes(tmp_path):
     assert not list((Path(f"{out}.d") / "tmp").iterdir())
     rest = chainsweep.sweep(slow_spec(5e-3), out, jobs=2, progress=False)
     assert rest.complete and rest.ran == pending
+
+
+def test_a_sweep_given_as_a_dict_finds_its_files_from_the_working_directory(tmp_path, monkeypatch):
+    """A dict names its files (a fit's data, a recorded drive, a fit's result) relative to the
+    working directory, as run() and a sweep file there do (they were looked for in the temporary
+    folder the dict is written to)."""
+    monkeypatch.chdir(tmp_path)
+    with h5py.File("fit.h5", "w") as f:
+        f.attrs["sweep"] = json.dumps(
+            {"search": {"goal": "fit", "fields": [{"field": "physics.damping_kg_s", "min": 0, "max": 10}]}}
+        )
+        f["fit_damping_kg_s"] = np.array([0.5])
+        f["fit_covariance"] = np.array([[1e-4]])
+        f["fit_status"] = np.array([1], dtype=np.uint8)
+        f["fit_p_value"] = np.array([0.5])
+    spec = sweep_spec()
+    spec.pop("axes", None)
+    spec["ensemble"] = {
+        "inputs": [{"from_fit": "fit.h5"}],
+        "design": "monte_carlo",
+        "samples": 4,
+        "statistics": [{"name": "t", "of": {"summary": "t_end_s"}}],
+    }
+    r = chainsweep.sweep(spec, "e.h5", progress=False)
+    assert r.exit_code == 0 and r.n_runs == 4, r
+
