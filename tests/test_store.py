@@ -15,6 +15,7 @@ complete.
 - `gc` removes the runs an edited sweep no longer has, never one it needs.
 """
 
+import os
 import random
 import re
 import signal
@@ -366,6 +367,35 @@ def test_one_file_segments_of_earlier_versions_resume(references, tmp_path):
     assert_files_equal(references["summary"], out)
 
 
+def test_runs_retried_but_not_yet_published_reach_the_file_on_the_next_run(tmp_path, binary):
+    """`run --retry-failed` killed after some retried runs were stored but before the file was
+    published again: the next `run` writes them into the file. (It took the file, which held
+    every point with its old failure, for done: "nothing to do", exit 0, the failures kept.)"""
+    path = write_sweep(tmp_path / "r.json", no_history())
+    out = tmp_path / "r.h5"
+    failing = list(range(0, 40, 2))
+    env = dict(os.environ, CHAINSWEEP_INJECT_PANIC=",".join(map(str, failing)))
+    r = subprocess.run([str(BIN), "run", str(path), "-o", str(out), "--quiet"], env=env,
+                       capture_output=True, text=True)
+    assert r.returncode == 3, r.stderr
+    before = {h for _, h, _ in log_records(out)}
+    p = start(path, out, "--retry-failed", checkpoint="0")
+    wait_stored(out, len(before) + 5, p)
+    p.send_signal(signal.SIGKILL)
+    p.communicate()
+    with h5py.File(out, "r") as f:
+        assert int((f["status"][()] == 2).sum()) == len(failing)
+    r = run("run", path, "-o", out)
+    assert r.returncode == 3, r.stderr
+    assert "nothing to do" not in r.stderr, r.stderr
+    retried = {h for _, h, ok in log_records(out) if ok} - before
+    with h5py.File(out, "r") as f:
+        still_failed = int((f["status"][()] == 2).sum())
+    assert 0 < still_failed <= len(failing) - 5, (still_failed, len(retried))
+    status = run("status", path, "-o", out)
+    assert f"{still_failed} failed" in status.stdout, status.stdout
+
+
 def test_gc_removes_orphans_and_never_a_needed_run(tmp_path, binary):
     s = no_history()
     path = write_sweep(tmp_path / "g.json", s)
@@ -394,3 +424,12 @@ def test_gc_removes_orphans_and_never_a_needed_run(tmp_path, binary):
     # A second gc finds nothing to remove.
     r = run("gc", path, "-o", out)
     assert r.returncode == 0 and "removed 0 run" in r.stdout, r.stdout
+    # A `damaged` folder that is a link is never emptied through it (it emptied the folder it
+    # pointed to).
+    victim = tmp_path / "victim"
+    victim.mkdir()
+    (victim / "keep.txt").write_text("mine")
+    (tmp_path / "g.h5.d" / "damaged").symlink_to(victim)
+    r = run("gc", path, "-o", out)
+    assert r.returncode != 0 and "symbolic link" in r.stderr, r.stdout + r.stderr
+    assert (victim / "keep.txt").read_text() == "mine"

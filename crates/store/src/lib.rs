@@ -153,7 +153,7 @@ pub fn scan_segments(dir: &Path) -> Result<SegmentIndex> {
 /// `path` itself when it is not a symbolic link (or does not exist); an error naming it when it
 /// is one: the work directory's own paths are never followed through links (clearing `tmp/`
 /// through one would empty the folder it points to).
-fn no_link(path: &Path) -> Result<PathBuf> {
+pub fn no_link(path: &Path) -> Result<PathBuf> {
     match fs::symlink_metadata(path) {
         Ok(m) if m.file_type().is_symlink() => Err(Error::Other(format!(
             "{} is a symbolic link; chainsweep does not follow links inside a work directory (remove it, and the work directory is used as it is)",

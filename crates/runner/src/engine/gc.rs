@@ -69,7 +69,8 @@ pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path, dry_run: bool) -
     };
     let damage = DamageReport::new(output, &work.damage(), &sweep, &grid);
     let compaction = work.prune(&|h| needed.contains(h), dry_run)?;
-    let damaged_dir = dir.join(DAMAGED_DIR);
+    // Never through a link (the work directory's other paths are refused so too).
+    let damaged_dir = crate::store::no_link(&dir.join(DAMAGED_DIR))?;
     let mut damaged_files: Vec<PathBuf> = match std::fs::read_dir(&damaged_dir) {
         Ok(entries) => entries
             .filter_map(|e| e.ok())

@@ -489,6 +489,10 @@ pub fn run_points(
 /// verification run the plan samples, with its outcome), as written by this version (with its
 /// snapshot) and with `--verify` no larger than it was: then running again changes nothing.
 fn holds_every_run(work: &WorkDir, sweep: &Sweep, grid: &Grid, plan: &Plan) -> bool {
+    // (Taken first: the published file's guard below holds the work directory's state.)
+    let Ok(stored) = crate::store::RunStore::index(work) else {
+        return false;
+    };
     let Some(p) = work.published_file() else {
         return false;
     };
@@ -504,11 +508,14 @@ fn holds_every_run(work: &WorkDir, sweep: &Sweep, grid: &Grid, plan: &Plan) -> b
     // quantiles), not from its runs alone: an edited one is written again from the same runs.
     let same_tables =
         sweep.ensemble.is_none() || p.file().is_some_and(|f| f.sweep_text == sweep.text);
+    // Each run as the file holds it: a run computed again since (`--retry-failed` killed before
+    // it published) is in the logs with another outcome, and the file must be written again.
+    let as_stored = |h: &RunHash| stored.get(h).map_or(true, |&ok| p.ok(h) == Some(ok));
     current
         && same_tables
         && fraction_kept
         && same_grid
-        && grid.hashes.iter().all(|h| p.holds(h))
+        && grid.hashes.iter().all(|h| p.holds(h) && as_stored(h))
         && plan.points.iter().all(|&i| {
             !plan.sampled[i]
                 || p.verify_info(&grid.hashes[i])
