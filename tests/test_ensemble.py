@@ -561,6 +561,10 @@ def test_an_adaptive_ensemble_resumes_round_by_round(tmp_path):
     # A killed adaptive ensemble goes on from its stored runs to the same answer.
     out = tmp_path / "killed.h5"
     kill_at(path, out, (5, 200))
+    # gc keeps the later rounds' runs (it took round 0's for all the sweep needs, and removed
+    # the rest as "no longer" the sweep's).
+    g = run("gc", path, "-o", out)
+    assert g.returncode == 0 and "removed 0 run" in g.stdout, g.stdout + g.stderr
     assert run("run", path, "-o", out, "--quiet").returncode == 0
     assert_files_equal(ref, out)
     r = run("status", path, "-o", out)

@@ -65,7 +65,20 @@ pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path, dry_run: bool) -
         }
         needed
     } else {
-        needed_runs(&sweep, &grid)
+        let mut needed = needed_runs(&sweep, &grid);
+        // An adaptive ensemble's later rounds (each holding the ones before): a sweep stopped
+        // in round 6 has stored runs round 0 does not have, which resuming takes up.
+        if let Some(last) = sweep
+            .ensemble
+            .as_ref()
+            .map(|e| e.last_round())
+            .filter(|&k| k > 0)
+        {
+            let round = sweep.at_ensemble_round(last);
+            let round_grid = Grid::new(&round)?;
+            needed.extend(needed_runs(&round, &round_grid));
+        }
+        needed
     };
     let damage = DamageReport::new(output, &work.damage(), &sweep, &grid);
     let compaction = work.prune(&|h| needed.contains(h), dry_run)?;

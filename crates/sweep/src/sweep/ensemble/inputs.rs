@@ -113,13 +113,7 @@ pub(super) fn check_reach(spec: &EnsembleSpec, base: &Value) -> Result<()> {
     if d == 0 {
         return Ok(());
     }
-    let last = match spec.max_runs {
-        Some(m) => (0..41)
-            .take_while(|&k| spec.round_runs(k) <= m)
-            .last()
-            .unwrap_or(0),
-        None => 0,
-    };
+    let last = spec.last_round();
     let (lo, hi) = if spec.round_samples(last).saturating_mul(d) <= MAX_REACH_VALUES {
         let (u, _) = spec.unit_points(last);
         let mut lo = vec![f64::INFINITY; d];

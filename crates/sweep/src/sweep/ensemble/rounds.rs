@@ -40,6 +40,18 @@ impl EnsembleSpec {
         self.round_samples(k).saturating_mul(self.outer_points)
     }
 
+    /// The last round the ensemble may run: 0 of a fixed size; of an adaptive one the last
+    /// within `max_runs`, whose samples hold every earlier round's.
+    pub fn last_round(&self) -> usize {
+        match self.max_runs {
+            Some(m) => (0..41)
+                .take_while(|&k| self.round_runs(k) <= m)
+                .last()
+                .unwrap_or(0),
+            None => 0,
+        }
+    }
+
     /// Whether the ensemble grows until its statistics are within their tolerances.
     pub fn adaptive(&self) -> bool {
         self.max_runs.is_some()
