@@ -198,8 +198,15 @@ test: fmt-check lint-canary test-rust test-python
 # The system tier: the wheel built (zig, manylinux) and installed into a clean venv, a real SLURM
 # cluster, a full disk (a tmpfs: root), files of hundreds of MB, the random byte-flip campaign,
 # and clippy over every target. .ci/run runs both tiers.
-test-system: lint-all bin python ncdump wheel
+test-system: lint-all bin python ncdump wheel strace
 	$(PYTEST) -m system tests
+
+# strace (Debian's strace): tests/test_store.py fails one write of a publish with it (its fault
+# injection), as a failing disk would. Installed with apt-get when missing, as ncdump is.
+STRACE_PACKAGE := strace
+.PHONY: strace
+strace:
+	@command -v strace >/dev/null 2>&1 || { $(call apt_install,$(STRACE_PACKAGE)); }
 
 # The solver's bench at BENCH_BASE (built in a temporary git worktree) and at the working tree, run
 # alternately BENCH_ROUNDS times; medians side by side (scripts/bench_compare.py). After a merge,

@@ -254,6 +254,24 @@ def test_full_disk_is_a_clear_error_and_resumes(references, tmp_path):
         subprocess.run(["umount", str(disk)], check=True)
 
 
+# The system tier (`make test-system`): strace, which it installs, fails one write.
+@pytest.mark.system
+def test_a_write_that_fails_unseen_is_never_published(references, tmp_path):
+    """One write of the file fails (ENOSPC on the 25th pwrite64, as a failing disk would): HDF5
+    does not report a chunk it writes out when its dataset closes, and the file held fill values
+    where the runs' are, published with a snapshot that vouched for it ("10 ok", `run` nothing to
+    do, the logs compacted away). It is read back before it is published: the run exits with the
+    error, nothing damaged is published, and the same command writes the file whole."""
+    path = write_sweep(tmp_path / "w.json", no_history())
+    out = tmp_path / "w.h5"
+    r = subprocess.run(["strace", "-f", "-o", "/dev/null", "-e", "inject=pwrite64:error=ENOSPC:when=25",
+                        str(BIN), "run", str(path), "-o", str(out), "--quiet"], capture_output=True, text=True)
+    assert r.returncode == 1 and "does not read back whole" in r.stderr, r.stderr
+    r = run("run", path, "-o", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert_files_equal(references["summary"], out)
+
+
 def test_few_files_and_a_small_work_directory(tmp_path, binary):
     s = base_sweep(cylinders=4, duration_s=4e-5, history=True, probes=(1, 3))
     s["axes"] = [

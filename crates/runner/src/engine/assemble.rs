@@ -142,6 +142,34 @@ pub fn assemble(work: &WorkDir, a: &Assembly<'_>) -> Result<hdf5::Written> {
             return Err(e);
         }
     };
+    // Read back, every point's values against their checksums, before the snapshot vouches for
+    // the file (once published its values are not checked again): a write that failed unseen —
+    // a chunk HDF5 wrote out when its dataset was closed, on a full or failing disk — left fill
+    // values where the runs' are, and such a file is never published.
+    let whole = match hdf5::FileRecords::open(&tmp) {
+        Ok(r) => r
+            .header_damage
+            .clone()
+            .or_else(|| {
+                r.unreadable()
+                    .first()
+                    .map(|(name, why)| format!("{name}: {why}"))
+            })
+            .or_else(|| {
+                r.damaged()
+                    .next()
+                    .map(|(i, why)| format!("point {i}: {why}"))
+            })
+            .map_or(Ok(()), Err),
+        Err(e) => Err(e.to_string()),
+    };
+    if let Err(why) = whole {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(crate::error::Error::Other(format!(
+            "{}: the file just written does not read back whole ({why}): a write failed unseen (a full or failing disk?); nothing was published, the runs stay stored, and the same command writes it again",
+            tmp.display()
+        )));
+    }
     let shard = a.shard.unwrap_or(Shard { k: 1, n: 1 }).to_string();
     let Some(digest) = published::file_sha256(&tmp) else {
         let _ = std::fs::remove_file(&tmp);
