@@ -39,6 +39,11 @@ pub fn writer_of(output: &Path) -> Option<String> {
 /// Most bytes of a lock file read to name its holder (a pid).
 const LOCK_READ_BYTES: u64 = 64;
 
+/// Tries at the work directory's lock before another process is taken to hold it, and the wait
+/// between them (in all 100 ms: a probe's shared lock lasts microseconds).
+const LOCK_TRIES: u32 = 11;
+const LOCK_RETRY_WAIT: std::time::Duration = std::time::Duration::from_millis(10);
+
 /// Takes the lock of the work directory `dir` of `output`; an error naming the holder's pid when
 /// another process has it.
 pub(super) fn take_lock(dir: &Path, output: &Path) -> Result<File> {
@@ -50,9 +55,21 @@ pub(super) fn take_lock(dir: &Path, output: &Path) -> Result<File> {
         .truncate(false)
         .open(&lock_path)
         .map_err(Error::io("open", &lock_path))?;
-    let got = lock
-        .try_lock_exclusive()
-        .map_err(Error::io("lock", &lock_path))?;
+    // A probe (`writer_of`: `status`, `report --watch`) holds a shared lock for an instant: a
+    // few tries over a little while tell it from a process working on the output, which a
+    // starting run would otherwise report as another process working (naming a dead pid).
+    let mut got = false;
+    for attempt in 0..LOCK_TRIES {
+        got = lock
+            .try_lock_exclusive()
+            .map_err(Error::io("lock", &lock_path))?;
+        if got {
+            break;
+        }
+        if attempt + 1 < LOCK_TRIES {
+            std::thread::sleep(LOCK_RETRY_WAIT);
+        }
+    }
     if !got {
         // The holder's pid: a few bytes (never read a damaged, huge lock file whole).
         let mut holder = String::new();
@@ -71,4 +88,34 @@ pub(super) fn take_lock(dir: &Path, output: &Path) -> Result<File> {
         .and_then(|()| lock.flush())
         .map_err(Error::io("write", &lock_path))?;
     Ok(lock)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_probe_s_instant_shared_lock_does_not_refuse_a_starting_run() {
+        let dir = std::env::temp_dir().join(format!("chainsweep-lock-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let output = dir.join("out.h5");
+        let lock_path = dir.join("lock");
+        fs::write(&lock_path, "").unwrap();
+        // A probe holds a shared lock for 30 ms, as `status` does for an instant.
+        let probe = File::open(&lock_path).unwrap();
+        assert!(fs4::fs_std::FileExt::try_lock_shared(&probe).unwrap());
+        let release = std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_millis(30));
+            drop(probe);
+        });
+        let taken = take_lock(&dir, &output);
+        release.join().unwrap();
+        assert!(taken.is_ok(), "{:?}", taken.err());
+        // A process that keeps it is still refused, naming it.
+        let other = File::open(&lock_path).unwrap();
+        drop(taken);
+        assert!(fs4::fs_std::FileExt::try_lock_shared(&other).unwrap());
+        assert!(take_lock(&dir, &output).is_err());
+        let _ = fs::remove_dir_all(&dir);
+    }
 }
