@@ -277,6 +277,15 @@ def chirp(s):
     s["periodic"]["field"] = "excitation.drive.actuator_m.chirp.start_hz"
 
 
+def test_a_far_end_is_checked_as_the_continuation_builds_its_scene(tmp_path):
+    """The far end's scene is the continuation's (its own record and duration): 60 Hz, whose
+    steady-state window would not fit the base scene's duration, is a branch's end all the same."""
+    s = example()
+    s["periodic"]["to"] = 60.0
+    r = run("validate", write(tmp_path / "far.json", s))
+    assert r.returncode == 0, r.stdout + r.stderr
+
+
 @pytest.mark.parametrize(
     "change, field",
     [

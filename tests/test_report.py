@@ -213,6 +213,8 @@ def test_steady_states_are_drawn_as_their_fundamental_and_unsettled_ones_never_a
     assert "did not settle" not in pages[200]
     unsettled = pages[5]
     assert "steady_amplitude" not in unsettled and "steady_rms" not in unsettled
+    # How far from settled is itself drawn.
+    assert "steady_settledness at wall_force" in unsettled
     assert "no history" not in unsettled and "history at point 2" in unsettled
 
 
@@ -414,6 +416,7 @@ def test_bad_report_requests_exit_2_and_write_nothing(tmp_path):
     assert r.returncode == 2 and "--output" in r.stderr and "not a report" in r.stderr, r.stderr
     assert sweep.read_text() == text
     page = tmp_path / "p.html"
+    page.write_text("")  # an empty file (mktemp's) holds nothing to lose
     assert run("report", out, "-o", page).returncode == 0
     assert run("report", out, "-o", page).returncode == 0  # its own page: replaced
     page.chmod(0o444)

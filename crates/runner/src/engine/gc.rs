@@ -81,9 +81,10 @@ pub fn collect(mut sweep: Sweep, mut grid: Grid, output: &Path, dry_run: bool) -
         needed
     };
     let damage = DamageReport::new(output, &work.damage(), &sweep, &grid);
-    let compaction = work.prune(&|h| needed.contains(h), dry_run)?;
-    // Never through a link (the work directory's other paths are refused so too).
+    // Never through a link (the work directory's other paths are refused so too): refused before
+    // anything is removed.
     let damaged_dir = crate::store::no_link(&dir.join(DAMAGED_DIR))?;
+    let compaction = work.prune(&|h| needed.contains(h), dry_run)?;
     let mut damaged_files: Vec<PathBuf> = match std::fs::read_dir(&damaged_dir) {
         Ok(entries) => entries
             .filter_map(|e| e.ok())

@@ -213,6 +213,7 @@ pub fn load_showing(
 ) -> Result<(Sweep, Grid)> {
     let name = file.display().to_string();
     let sweep = Sweep::load(&name)?;
+    sweep.check_draws().map_err(|e| e.in_file(&name))?;
     let n = sweep.n_points();
     let grid = Grid::expand(&sweep, &|done| progress(done, n)).map_err(|e| e.in_file(&name))?;
     search::check_intervals(&sweep, &grid).map_err(|e| e.in_file(&name))?;

@@ -239,12 +239,11 @@ pub fn compare(
 /// would inflate). (Harmonics against the RMS understated them where a probe carries a mean, a
 /// preload, far above its oscillation: 1e-5 reported, 4.5e-5 true.)
 fn steady_error(a: &SteadyProbe, r: &SteadyProbe) -> f64 {
+    // The oscillation's amplitude, √2 σ, where the fundamental is rounding (a node, a
+    // response at 2f): the harmonics' errors are not divided by nothing.
+    let oscillation = (2.0 * (r.rms * r.rms - r.mean * r.mean)).max(0.0).sqrt();
     let fundamental = r.amplitude.first().copied().unwrap_or(0.0);
-    let harmonic_scale = if fundamental > 0.0 {
-        fundamental
-    } else {
-        r.rms
-    };
+    let harmonic_scale = fundamental.max(oscillation);
     let against = |d: f64, scale: f64| if d == 0.0 { 0.0 } else { d / scale };
     let mut worst =
         against((a.mean - r.mean).abs(), r.rms).max(against((a.rms - r.rms).abs(), r.rms));
@@ -348,5 +347,17 @@ mod tests {
         };
         let e = steady_error(&probe(1e-3 + 4.5e-8), &probe(1e-3));
         assert!((e - 4.5e-5).abs() < 1e-7, "{e}");
+        // A fundamental that is rounding (a probe responding at 2f): against the oscillation.
+        let at_2f = |a2: f64| SteadyProbe {
+            mean: 0.0,
+            rms: a2 / 2f64.sqrt(),
+            amplitude: vec![1e-20, a2],
+            phase_rad: vec![0.0, 0.0],
+            settledness: 0.0,
+            settled: true,
+            transmission_db: 0.0,
+        };
+        let e = steady_error(&at_2f(1.0 + 1e-9), &at_2f(1.0));
+        assert!(e < 1e-8, "{e}");
     }
 }

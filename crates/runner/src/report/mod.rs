@@ -460,7 +460,9 @@ fn summaries_section(b: &mut Builder, sweep: &Sweep, recs: &FileRecords) {
     // What is not drawn as a number: a damaged point's values (never served), and a steady-state
     // column's at a point whose steady state did not settle (not a steady state).
     let drawable = |c: &crate::record::columns::Column, mut v: Vec<f64>| -> Vec<f64> {
-        let steady = c.written == crate::record::columns::Written::WithSteadyState;
+        // (The settledness itself says how far from settled: drawn everywhere.)
+        let steady = c.written == crate::record::columns::Written::WithSteadyState
+            && c.name != "steady_settledness";
         for (i, x) in v.iter_mut().enumerate() {
             if recs.damage(i).is_some() || (steady && recs.status(i) == STATUS_UNSETTLED) {
                 *x = f64::NAN;
@@ -797,8 +799,10 @@ pub fn check_page_output(out: &Path) -> Result<()> {
     let n = std::fs::File::open(out)
         .and_then(|mut f| std::io::Read::read(&mut f, &mut head))
         .unwrap_or(0);
-    if !String::from_utf8_lossy(&head[..n])
-        .contains("<meta name=\"generator\" content=\"chainsweep")
+    // (An empty file, one `mktemp` made, holds nothing to lose.)
+    if meta.len() > 0
+        && !String::from_utf8_lossy(&head[..n])
+            .contains("<meta name=\"generator\" content=\"chainsweep")
     {
         return refuse(
             "exists and is not a report's page: not replaced (remove it, or give another file)"

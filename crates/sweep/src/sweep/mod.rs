@@ -655,6 +655,16 @@ impl Sweep {
         self.auto_choice = Some(choice);
     }
 
+    /// The checks of a sweep read to be run that its parse leaves out, as they may take a while
+    /// (and a file's stored sweep text, read back by `status` or `report`, was checked when it
+    /// ran): every value an ensemble may draw is one the scene takes.
+    pub fn check_draws(&self) -> Result<()> {
+        match &self.ensemble {
+            Some(e) => e.check_reach(&self.base),
+            None => Ok(()),
+        }
+    }
+
     /// Reads and parses a sweep file (through [`read_sweep_text`]: a regular file of at most
     /// [`MAX_SWEEP_FILE_BYTES`]).
     pub fn load(path: &str) -> Result<Sweep> {

@@ -319,8 +319,8 @@ pub(super) fn parse(
     let far = spec
         .scene_at(base, spec.branch.to)
         .map_err(|e| refused(e.to_string()))?;
-    far.validate()
-        .map_err(|e| refused(format!("`{}` {}", e.field, e.message)))?;
+    // As the continuation builds it (its record and duration its own), not the raw scene.
+    PeriodMap::new(&far, &orbit).map_err(|e| refused(format!("`{}` {}", e.field, e.message)))?;
     Ok(Some(spec))
 }
 

@@ -137,7 +137,7 @@ pub fn ensemble_lines(e: &chainsweep::engine::status::EnsembleStatus) -> Vec<Str
             o.worst_ratio
         ),
         "running" => "another round is due (`run` goes on)".to_string(),
-        "failed" => "samples that failed or gave no number: the statistics are over the others only, which no tolerance vouches for (`<statistic>_missing` counts them; fix their cause, then `run --retry-failed`)".to_string(),
+        "failed" => "samples that failed or whose statistic has no value: the statistics are over the others only, which no tolerance vouches for (`<statistic>_missing` counts them; failed runs: fix their cause, then `run --retry-failed`; a statistic without a value at some samples, a leading peak that had not passed, is no adaptive ensemble's)".to_string(),
         _ => "runs of this round are missing (`run` goes on)".to_string(),
     };
     let mut out = vec![format!(

@@ -133,7 +133,7 @@ pub(super) fn check_reach(spec: &EnsembleSpec, base: &Value) -> Result<()> {
         for c in input.columns.clone() {
             let field = &spec.columns[c].field;
             for x in [lo[c], hi[c]] {
-                if field.contains("_factors[") && !(x > 1e-3 && x < 1e3) {
+                if field.contains("_factors.") && !(x > 1e-3 && x < 1e3) {
                     return Err(bad(
                         &at,
                         format!("draws the factor {x} for `{field}` (round {last}): a factor must lie in (1e-3, 1e3); take log_normal or truncated_normal"),
@@ -152,7 +152,7 @@ pub(super) fn check_reach(spec: &EnsembleSpec, base: &Value) -> Result<()> {
 fn farthest(spec: &EnsembleSpec) -> (Vec<f64>, Vec<f64>) {
     let d = spec.columns.len();
     let (mut lo, mut hi) = (vec![0.0; d], vec![0.0; d]);
-    let z = normal_quantile(UNIT_HIGHEST);
+    let (z_lo, z_hi) = (normal_quantile(UNIT_LOWEST), normal_quantile(UNIT_HIGHEST));
     for input in &spec.inputs {
         let cols = input.columns.clone();
         match &input.kind {
@@ -171,11 +171,11 @@ fn farthest(spec: &EnsembleSpec) -> (Vec<f64>, Vec<f64>) {
             InputKind::Normal { mean, chol } => {
                 let k = mean.len();
                 for (i, c) in cols.enumerate() {
-                    let reach = z * chol[i * k..i * k + i + 1]
+                    let spread = chol[i * k..i * k + i + 1]
                         .iter()
                         .map(|x| x.abs())
                         .sum::<f64>();
-                    (lo[c], hi[c]) = (mean[i] - reach, mean[i] + reach);
+                    (lo[c], hi[c]) = (mean[i] + z_lo * spread, mean[i] + z_hi * spread);
                 }
             }
         }

@@ -696,7 +696,6 @@ pub(super) fn parse(
             ));
         }
     }
-    inputs::check_reach(&spec, base)?;
     dims.push(spec.dim(0));
     Ok(spec)
 }

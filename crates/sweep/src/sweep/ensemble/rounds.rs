@@ -40,6 +40,13 @@ impl EnsembleSpec {
         self.round_samples(k).saturating_mul(self.outer_points)
     }
 
+    /// Every value the ensemble may draw is one the scene (`base`, the sweep's normalised base)
+    /// takes: an input error naming the input otherwise ([`inputs::check_reach`]). Checked where
+    /// a sweep is read to be run, not each time a file's stored sweep text is read back.
+    pub fn check_reach(&self, base: &Value) -> crate::error::Result<()> {
+        super::inputs::check_reach(self, base)
+    }
+
     /// The last round the ensemble may run: 0 of a fixed size; of an adaptive one the last
     /// within `max_runs`, whose samples hold every earlier round's.
     pub fn last_round(&self) -> usize {
