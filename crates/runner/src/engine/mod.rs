@@ -285,6 +285,13 @@ pub fn check_output_folder(output: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Whether a file is read-only by its permission bits (no one may write it; root may anyway):
+/// someone protected it, and no output replaces it.
+pub fn read_only(meta: &std::fs::Metadata) -> bool {
+    use std::os::unix::fs::PermissionsExt;
+    meta.permissions().mode() & 0o222 == 0
+}
+
 /// Checks that `output` can be written without clobbering a file chainsweep did not make
 /// (unless `overwrite`).
 pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
@@ -298,8 +305,7 @@ pub fn check_output(output: &Path, overwrite: bool) -> Result<()> {
     // Read-only by its permission bits (root may write anyway): someone protected it, and
     // publishing a new file would silently replace it by a writable one.
     if let Ok(meta) = std::fs::metadata(output) {
-        use std::os::unix::fs::PermissionsExt;
-        if meta.is_file() && meta.permissions().mode() & 0o222 == 0 {
+        if meta.is_file() && read_only(&meta) {
             return Err(Error::input(
                 "--output",
                 format!(

@@ -787,13 +787,10 @@ pub fn check_page_output(out: &Path) -> Result<()> {
     if meta.is_dir() {
         return refuse("is a directory: give the page's file name (FILE.html)".into());
     }
-    {
-        use std::os::unix::fs::PermissionsExt;
-        if meta.permissions().mode() & 0o222 == 0 {
-            return refuse(
-                "is read-only: not replaced (make it writable, or give another file)".into(),
-            );
-        }
+    if crate::engine::read_only(&meta) {
+        return refuse(
+            "is read-only: not replaced (make it writable, or give another file)".into(),
+        );
     }
     let mut head = [0u8; 512];
     let n = std::fs::File::open(out)
